@@ -1,0 +1,254 @@
+//! The banded LCSS engine shared by every LCSS form in trajdb.
+//!
+//! All LCSS variants here are the classical recurrence (Cormen et al.; thesis eq. 2.9;
+//! Buzan eq. 4.2 / A.1)
+//!
+//! ```text
+//! C[i][j] = 0                               if i = 0 or j = 0
+//!         = C[i-1][j-1] + 1                 if a_i matches b_j
+//!         = max(C[i-1][j], C[i][j-1])       otherwise
+//! ```
+//!
+//! where a match is only possible inside a *band*: for row `i` the candidate columns form
+//! one contiguous range `lo_i..hi_i`, and both `lo_i` and `hi_i` are non-decreasing in `i`.
+//! The time-window form (|t_a - t_b| < T, both sides sorted by t) and the index-window form
+//! (|i - j| <= δ) both have this shape.
+//!
+//! # Why cells outside the band need no work
+//! Buzan's appendix proves this for the diagonal band; the argument holds for any monotone
+//! band. For `j < lo_i`, `a_i` can match nothing in `B[..j]`, so `C[i][j] = C[i-1][j]`.
+//! For `j > hi_i`, `C[i][j] = max(C[i-1][j], C[i][hi_i]) = C[i][hi_i]`, because by induction
+//! `C[i-1][j]` equals a value of an earlier row at a column `<= hi_i`, which is bounded by
+//! `C[i][hi_i]` (rows and columns are monotone). So one row array updated only inside the
+//! band, plus a "tail" value for the columns right of the last band, is the whole table.
+//!
+//! # Complexity
+//! [`lcss_len`]: O(n + m + Σ_i w_i) time, where `w_i = hi_i - lo_i`, and O(m) memory.
+//! [`BandTable`] (for backtracking): same time, O(n + Σ w_i) memory, and
+//! O((n + m) log n) for the backtrack itself.
+
+/// Checks, in debug builds, the band contract: ranges inside `0..=m` and monotone.
+#[inline]
+fn debug_check(prev: &mut (usize, usize), lo: usize, hi: usize, m: usize) {
+    debug_assert!(hi <= m, "band hi {hi} > m {m}");
+    debug_assert!(lo >= prev.0 && hi >= prev.1, "band not monotone: {prev:?} then {:?}", (lo, hi));
+    *prev = (lo, hi);
+}
+
+/// Length of the banded LCSS of `n` rows against `m` columns.
+///
+/// `band(i)` gives the half-open, 0-based column range of row `i`; it is called once per row
+/// in increasing order and must be monotone. `is_match(i, j)` is only called inside the band.
+pub fn lcss_len<B, M>(n: usize, m: usize, mut band: B, mut is_match: M) -> usize
+where
+    B: FnMut(usize) -> (usize, usize),
+    M: FnMut(usize, usize) -> bool,
+{
+    if n == 0 || m == 0 {
+        return 0;
+    }
+    // row[c] = C[i][c] for c <= filled (1-based columns); C[i][c] = row[filled] for c > filled.
+    let mut row = vec![0u32; m + 1];
+    let mut filled = 0usize;
+    let mut prev = (0, 0);
+    for i in 0..n {
+        let (lo, hi) = band(i);
+        debug_check(&mut prev, lo, hi, m);
+        if lo >= hi {
+            continue;
+        }
+        if filled < hi {
+            let tail = row[filled];
+            row[filled + 1..=hi].fill(tail);
+            filled = hi;
+        }
+        let mut diag = row[lo];
+        let mut left = row[lo];
+        for c in lo + 1..=hi {
+            let up = row[c];
+            let v = if is_match(i, c - 1) { diag + 1 } else { up.max(left) };
+            diag = up;
+            row[c] = v;
+            left = v;
+        }
+    }
+    row[filled] as usize
+}
+
+/// The band cells of the LCSS table, kept for backtracking.
+#[derive(Debug)]
+pub struct BandTable {
+    lo: Vec<usize>,
+    hi: Vec<usize>,
+    off: Vec<usize>,
+    vals: Vec<u32>,
+    /// `ne[r]` = nearest row `<= r` (1-based) whose band is non-empty, 0 if none.
+    ne: Vec<usize>,
+}
+
+impl BandTable {
+    /// Fills the band cells; same contract as [`lcss_len`].
+    pub fn build<B, M>(n: usize, m: usize, mut band: B, mut is_match: M) -> Self
+    where
+        B: FnMut(usize) -> (usize, usize),
+        M: FnMut(usize, usize) -> bool,
+    {
+        let mut t = BandTable {
+            lo: Vec::with_capacity(n),
+            hi: Vec::with_capacity(n),
+            off: Vec::with_capacity(n),
+            vals: Vec::new(),
+            ne: vec![0; n + 1],
+        };
+        let mut row = vec![0u32; m + 1];
+        let mut filled = 0usize;
+        let mut prev = (0, 0);
+        for i in 0..n {
+            let (lo, hi) = if m == 0 { (0, 0) } else { band(i) };
+            debug_check(&mut prev, lo, hi, m);
+            t.lo.push(lo);
+            t.hi.push(hi);
+            t.off.push(t.vals.len());
+            t.ne[i + 1] = if lo < hi { i + 1 } else { t.ne[i] };
+            if lo >= hi {
+                continue;
+            }
+            if filled < hi {
+                let tail = row[filled];
+                row[filled + 1..=hi].fill(tail);
+                filled = hi;
+            }
+            let mut diag = row[lo];
+            let mut left = row[lo];
+            for c in lo + 1..=hi {
+                let up = row[c];
+                let v = if is_match(i, c - 1) { diag + 1 } else { up.max(left) };
+                diag = up;
+                row[c] = v;
+                left = v;
+                t.vals.push(v);
+            }
+        }
+        t
+    }
+
+    /// `C[i][j]` for 1-based `i`, `j` (0 when either is 0). O(log n).
+    pub fn get(&self, i: usize, j: usize) -> u32 {
+        if i == 0 || j == 0 {
+            return 0;
+        }
+        // Rows whose band starts left of column j form a prefix (lo is monotone); rows below
+        // that prefix have C[r][j] = C[r-1][j].
+        let p = self.lo.partition_point(|&l| l < j);
+        let r = self.ne[i.min(p)];
+        if r == 0 {
+            return 0;
+        }
+        let (lo, hi) = (self.lo[r - 1], self.hi[r - 1]);
+        let c = j.min(hi);
+        self.vals[self.off[r - 1] + (c - lo - 1)]
+    }
+
+    /// Backtracks one longest common subsequence from `C[n][m]`, returning 0-based pairs
+    /// `(i, j)` in increasing order. Ties prefer the latest diagonal match, then moving up.
+    pub fn backtrack<M>(&self, m: usize, mut is_match: M) -> Vec<(usize, usize)>
+    where
+        M: FnMut(usize, usize) -> bool,
+    {
+        let n = self.lo.len();
+        let mut out = Vec::new();
+        let (mut i, mut j) = (n, m);
+        while i > 0 && j > 0 {
+            let c = self.get(i, j);
+            if c == 0 {
+                break;
+            }
+            let in_band = self.lo[i - 1] < j && j <= self.hi[i - 1];
+            if in_band && is_match(i - 1, j - 1) && self.get(i - 1, j - 1) + 1 == c {
+                out.push((i - 1, j - 1));
+                i -= 1;
+                j -= 1;
+            } else if self.get(i - 1, j) == c {
+                i -= 1;
+            } else {
+                j -= 1;
+            }
+        }
+        out.reverse();
+        out
+    }
+}
+
+#[cfg(test)]
+pub(crate) mod naive {
+    //! Slow, obviously correct references used by the property tests of every LCSS form.
+
+    /// Full O(n·m) table of the recurrence, with `allowed(i, j)` gating matches.
+    pub fn table<F: Fn(usize, usize) -> bool>(n: usize, m: usize, matches: F) -> Vec<Vec<u32>> {
+        let mut c = vec![vec![0u32; m + 1]; n + 1];
+        for i in 1..=n {
+            for j in 1..=m {
+                c[i][j] = if matches(i - 1, j - 1) {
+                    c[i - 1][j - 1] + 1
+                } else {
+                    c[i - 1][j].max(c[i][j - 1])
+                };
+            }
+        }
+        c
+    }
+
+    /// The textbook recursion of eq. 2.9, memo-free: exponential, only for tiny inputs.
+    pub fn recursive<F: Fn(usize, usize) -> bool + Copy>(n: usize, m: usize, matches: F) -> u32 {
+        if n == 0 || m == 0 {
+            return 0;
+        }
+        if matches(n - 1, m - 1) {
+            1 + recursive(n - 1, m - 1, matches)
+        } else {
+            recursive(n - 1, m, matches).max(recursive(n, m - 1, matches))
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn index_band(m: usize, d: usize) -> impl FnMut(usize) -> (usize, usize) {
+        move |i| (i.saturating_sub(d).min(m), (i + d + 1).min(m))
+    }
+
+    proptest! {
+        #[test]
+        fn banded_equals_full_table(a in prop::collection::vec(0u8..4, 0..12),
+                                    b in prop::collection::vec(0u8..4, 0..12),
+                                    d in 0usize..6) {
+            let allowed = |i: usize, j: usize| i.abs_diff(j) <= d && a[i] == b[j];
+            let full = naive::table(a.len(), b.len(), allowed);
+            let want = full[a.len()][b.len()];
+            let got = lcss_len(a.len(), b.len(), index_band(b.len(), d), allowed);
+            prop_assert_eq!(got as u32, want);
+            if a.len() <= 7 && b.len() <= 7 {
+                prop_assert_eq!(naive::recursive(a.len(), b.len(), allowed), want);
+            }
+            let t = BandTable::build(a.len(), b.len(), index_band(b.len(), d), allowed);
+            for i in 0..=a.len() { for j in 0..=b.len() {
+                prop_assert_eq!(t.get(i, j), full[i][j], "cell {} {}", i, j);
+            }}
+            let path = t.backtrack(b.len(), allowed);
+            prop_assert_eq!(path.len() as u32, want);
+            for w in path.windows(2) { prop_assert!(w[0].0 < w[1].0 && w[0].1 < w[1].1); }
+            for &(i, j) in &path { prop_assert!(allowed(i, j)); }
+        }
+    }
+
+    #[test]
+    fn empty_inputs() {
+        assert_eq!(lcss_len(0, 5, |_| (0, 5), |_, _| true), 0);
+        assert_eq!(lcss_len(5, 0, |_| (0, 0), |_, _| true), 0);
+        let t = BandTable::build(3, 0, |_| (0, 0), |_, _| true);
+        assert!(t.backtrack(0, |_, _| true).is_empty());
+    }
+}

@@ -1,0 +1,18 @@
+//! Pure-Rust algorithms behind trajdb. Nothing in this module imports DuckDB:
+//! it builds and tests with `cargo test --release --no-default-features --lib`.
+//!
+//! | file | what |
+//! |---|---|
+//! | [`traj`] | trajectory views, validation, speeds, WKT |
+//! | [`band`] | the banded LCSS dynamic-programming engine shared by every LCSS form |
+//! | [`lcss`] | time-window LCSS (thesis eq. 2.9, 2.10, Alg. 1), 2-D points and 1-D series |
+//! | [`lcss_index`] | index-window LCSS of Buzan def. 4.1/4.2 (δ, ε, ρ, S1) |
+//! | [`lcss_translate`] | translation-invariant S2 of Buzan def. 4.3, appendix / lemma 4.2 |
+//! | [`region`] | polygon regions from WKT/WKB and point-in-polygon |
+
+pub mod band;
+pub mod lcss;
+pub mod lcss_index;
+pub mod lcss_translate;
+pub mod region;
+pub mod traj;

@@ -1,0 +1,237 @@
+//! Trajectories: borrowed column views, validation and simple derived values.
+//!
+//! A trajectory is a time-ordered sequence of points `(t, x, y)` with `t` in
+//! seconds. In SQL it is `STRUCT(t DOUBLE, x DOUBLE, y DOUBLE)[]`; here it is a
+//! struct-of-arrays view ([`Traj`]) so that DuckDB's column buffers can be
+//! borrowed without copying.
+//!
+//! # Input policy (decided once, used by every function)
+//! - every `t`, `x`, `y` must be finite: NaN or ±inf is an error ([`TrajError::NotFinite`]);
+//! - `t` must be non-decreasing ([`TrajError::Unsorted`]); duplicate timestamps are allowed;
+//! - an empty trajectory is valid.
+
+use std::fmt;
+
+/// A borrowed 2-D trajectory in struct-of-arrays form. All three slices have the same length.
+#[derive(Clone, Copy, Debug)]
+pub struct Traj<'a> {
+    pub t: &'a [f64],
+    pub x: &'a [f64],
+    pub y: &'a [f64],
+}
+
+/// A borrowed 1-D series `(t, v)`, for example speeds from [`speeds`].
+#[derive(Clone, Copy, Debug)]
+pub struct Series<'a> {
+    pub t: &'a [f64],
+    pub v: &'a [f64],
+}
+
+/// An owned trajectory, used where points are filtered or produced.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct OwnedTraj {
+    pub t: Vec<f64>,
+    pub x: Vec<f64>,
+    pub y: Vec<f64>,
+}
+
+impl OwnedTraj {
+    pub fn view(&self) -> Traj<'_> {
+        Traj { t: &self.t, x: &self.x, y: &self.y }
+    }
+    pub fn push(&mut self, t: f64, x: f64, y: f64) {
+        self.t.push(t);
+        self.x.push(x);
+        self.y.push(y);
+    }
+}
+
+impl<'a> Traj<'a> {
+    /// Builds a view; panics if the slices differ in length (a programming error, not input).
+    pub fn new(t: &'a [f64], x: &'a [f64], y: &'a [f64]) -> Self {
+        assert!(t.len() == x.len() && t.len() == y.len(), "Traj::new: column lengths differ");
+        Traj { t, x, y }
+    }
+    pub fn len(&self) -> usize {
+        self.t.len()
+    }
+    pub fn is_empty(&self) -> bool {
+        self.t.is_empty()
+    }
+    /// Checks the input policy of this module.
+    pub fn validate(&self) -> Result<(), TrajError> {
+        check_finite("t", self.t)?;
+        check_finite("x", self.x)?;
+        check_finite("y", self.y)?;
+        check_sorted(self.t)
+    }
+}
+
+impl<'a> Series<'a> {
+    pub fn new(t: &'a [f64], v: &'a [f64]) -> Self {
+        assert!(t.len() == v.len(), "Series::new: column lengths differ");
+        Series { t, v }
+    }
+    pub fn len(&self) -> usize {
+        self.t.len()
+    }
+    pub fn is_empty(&self) -> bool {
+        self.t.is_empty()
+    }
+    pub fn validate(&self) -> Result<(), TrajError> {
+        check_finite("t", self.t)?;
+        check_finite("v", self.v)?;
+        check_sorted(self.t)
+    }
+}
+
+/// Why a trajectory was rejected. Indices are 0-based here; the SQL layer prints them 1-based.
+#[derive(Clone, Debug, PartialEq)]
+pub enum TrajError {
+    NotFinite { index: usize, field: &'static str, value: f64 },
+    Unsorted { index: usize, prev: f64, t: f64 },
+}
+
+impl TrajError {
+    /// Formats the error for a trajectory argument called `param`, with 1-based SQL indices.
+    pub fn describe(&self, param: &str) -> String {
+        match self {
+            TrajError::NotFinite { index, field, value } => {
+                format!("{param}[{}].{field} must be finite, got {value}", index + 1)
+            }
+            TrajError::Unsorted { index, prev, t } => format!(
+                "{param} must be ordered by t, but {param}[{}].t = {t} follows {param}[{}].t = {prev} \
+                 (build it with list({{'t': t, 'x': x, 'y': y}} ORDER BY t))",
+                index + 1,
+                index
+            ),
+        }
+    }
+}
+
+impl fmt::Display for TrajError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&self.describe("trajectory"))
+    }
+}
+impl std::error::Error for TrajError {}
+
+fn check_finite(field: &'static str, v: &[f64]) -> Result<(), TrajError> {
+    match v.iter().position(|a| !a.is_finite()) {
+        None => Ok(()),
+        Some(index) => Err(TrajError::NotFinite { index, field, value: v[index] }),
+    }
+}
+
+fn check_sorted(t: &[f64]) -> Result<(), TrajError> {
+    match t.windows(2).position(|w| w[1] < w[0]) {
+        None => Ok(()),
+        Some(k) => Err(TrajError::Unsorted { index: k + 1, prev: t[k], t: t[k + 1] }),
+    }
+}
+
+/// `last.t - first.t`; `None` for an empty trajectory, `0` for one point. O(1).
+pub fn duration(t: &[f64]) -> Option<f64> {
+    Some(t.last()? - t.first()?)
+}
+
+/// `(first.t, last.t)`; `None` for an empty trajectory. O(1).
+pub fn time_range(t: &[f64]) -> Option<(f64, f64)> {
+    Some((*t.first()?, *t.last()?))
+}
+
+/// Speeds by forward finite differences: for consecutive points `p_k, p_{k+1}` with
+/// `dt = t_{k+1} - t_k > 0`, emits `(t_{k+1}, |p_{k+1} - p_k| / dt)`.
+///
+/// The sample is stamped at the later point, so the output has `n - 1` samples for `n`
+/// points with distinct timestamps. Pairs with `dt == 0` (duplicate timestamps) are
+/// skipped: a speed over zero time is undefined. O(n).
+pub fn speeds(tr: Traj<'_>) -> (Vec<f64>, Vec<f64>) {
+    let n = tr.len();
+    let mut ts = Vec::with_capacity(n.saturating_sub(1));
+    let mut vs = Vec::with_capacity(n.saturating_sub(1));
+    let mut k = 0;
+    for j in 1..n {
+        let dt = tr.t[j] - tr.t[k];
+        if dt > 0.0 {
+            let d = (tr.x[j] - tr.x[k]).hypot(tr.y[j] - tr.y[k]);
+            ts.push(tr.t[j]);
+            vs.push(d / dt);
+            k = j;
+        }
+    }
+    (ts, vs)
+}
+
+/// WKT for GIS tools: `LINESTRING (x y, ...)` for two or more points, `POINT (x y)` for one,
+/// `LINESTRING EMPTY` for none. Coordinates use Rust's shortest round-trip formatting. O(n).
+pub fn to_wkt(tr: Traj<'_>) -> String {
+    use std::fmt::Write;
+    match tr.len() {
+        0 => "LINESTRING EMPTY".to_string(),
+        1 => format!("POINT ({} {})", tr.x[0], tr.y[0]),
+        n => {
+            let mut s = String::with_capacity(16 + n * 24);
+            s.push_str("LINESTRING (");
+            for k in 0..n {
+                if k > 0 {
+                    s.push_str(", ");
+                }
+                let _ = write!(s, "{} {}", tr.x[k], tr.y[k]);
+            }
+            s.push(')');
+            s
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn validate_rejects_nan_inf_and_unsorted() {
+        let t = [0.0, 1.0, 2.0];
+        let x = [0.0, f64::NAN, 1.0];
+        let y = [0.0; 3];
+        let e = Traj::new(&t, &x, &y).validate().unwrap_err();
+        assert_eq!(e.describe("a"), "a[2].x must be finite, got NaN");
+        let t2 = [0.0, 2.0, 1.0];
+        let e = Traj::new(&t2, &y, &y).validate().unwrap_err();
+        assert!(e.describe("b").starts_with("b must be ordered by t, but b[3].t = 1 follows b[2].t = 2"));
+        let t3 = [0.0, f64::INFINITY, 1.0];
+        assert!(Traj::new(&t3, &y, &y).validate().is_err());
+    }
+
+    #[test]
+    fn duplicates_and_empty_are_valid() {
+        let t = [0.0, 0.0, 1.0];
+        let z = [0.0; 3];
+        assert!(Traj::new(&t, &z, &z).validate().is_ok());
+        assert!(Traj::new(&[], &[], &[]).validate().is_ok());
+    }
+
+    #[test]
+    fn speeds_skip_zero_dt() {
+        let t = [0.0, 1.0, 1.0, 3.0];
+        let x = [0.0, 3.0, 9.0, 3.0];
+        let y = [0.0, 4.0, 9.0, 8.0];
+        let (ts, vs) = speeds(Traj::new(&t, &x, &y));
+        assert_eq!(ts, vec![1.0, 3.0]);
+        assert_eq!(vs, vec![5.0, 2.0]);
+        assert_eq!(speeds(Traj::new(&[1.0], &[1.0], &[1.0])).0.len(), 0);
+    }
+
+    #[test]
+    fn wkt_forms() {
+        assert_eq!(to_wkt(Traj::new(&[], &[], &[])), "LINESTRING EMPTY");
+        assert_eq!(to_wkt(Traj::new(&[0.0], &[1.5], &[2.0])), "POINT (1.5 2)");
+        assert_eq!(
+            to_wkt(Traj::new(&[0.0, 1.0], &[1.0, 3.0], &[2.0, -4.25])),
+            "LINESTRING (1 2, 3 -4.25)"
+        );
+        assert_eq!(duration(&[1.0, 4.5]), Some(3.5));
+        assert_eq!(duration(&[]), None);
+        assert_eq!(time_range(&[1.0, 4.5]), Some((1.0, 4.5)));
+    }
+}

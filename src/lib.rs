@@ -1,1 +1,33 @@
+//! trajdb: multi-camera traffic-trajectory analysis as DuckDB SQL functions.
+//!
+//! - [`algo`]: pure Rust, no DuckDB (builds with `--no-default-features`).
+//! - `sql`: the DuckDB registration layer, compiled with either the `bundled` or the
+//!   `extension` feature.
+//! - The loadable-extension entry point (`trajdb_init_c_api`) with feature `extension`.
+
 pub mod algo;
+
+#[cfg(any(feature = "bundled", feature = "extension"))]
+pub mod sql;
+
+#[cfg(all(feature = "bundled", feature = "extension"))]
+compile_error!("features `bundled` and `extension` must not be enabled together: build the extension with --no-default-features --features extension");
+
+/// Entry point of `trajdb.duckdb_extension` (C API v1.2.0, ABI C_STRUCT).
+#[cfg(feature = "extension")]
+#[duckdb::duckdb_entrypoint_c_api(ext_name = "trajdb", min_duckdb_version = "v1.2.0")]
+pub unsafe fn extension_entrypoint(con: duckdb::Connection) -> Result<(), Box<dyn std::error::Error>> {
+    sql::register_all(&con)?;
+    Ok(())
+}
+
+/// Opens a connection (in memory, or on `path`) with every trajdb function registered.
+#[cfg(feature = "bundled")]
+pub fn open(path: Option<&str>) -> duckdb::Result<duckdb::Connection> {
+    let con = match path {
+        Some(p) => duckdb::Connection::open(p)?,
+        None => duckdb::Connection::open_in_memory()?,
+    };
+    sql::register_all(&con)?;
+    Ok(con)
+}

@@ -1,0 +1,378 @@
+//! The only place that touches DuckDB vectors: SQL types, column readers, output writers,
+//! and the NULL policy.
+//!
+//! # NULL policy (every trajdb scalar function)
+//! - A NULL argument (a NULL list, a NULL number, a NULL region) gives a NULL result for
+//!   that row.
+//! - A NULL *inside* a trajectory (a NULL point, or a NULL t, x or y) is an error that names
+//!   the function, the argument and the 1-based position: dropping the point silently would
+//!   change lengths and similarities.
+//! - NaN or infinite coordinates and unsorted timestamps are errors too (see
+//!   [`crate::algo::traj`]). An empty list is a valid, empty trajectory.
+
+use crate::algo::region::Region;
+use crate::algo::traj::{Series, Traj};
+use duckdb::core::{DataChunkHandle, FlatVector, Inserter, ListVector, LogicalTypeHandle, LogicalTypeId, StructVector};
+use duckdb::types::DuckString;
+use duckdb::vscalar::ScalarFunctionSignature;
+use duckdb::ffi::duckdb_string_t;
+use std::cell::RefCell;
+use std::error::Error;
+
+pub type FnResult = Result<(), Box<dyn Error>>;
+
+// ---------------------------------------------------------------- types
+
+pub fn double() -> LogicalTypeHandle {
+    LogicalTypeId::Double.into()
+}
+pub fn bigint() -> LogicalTypeHandle {
+    LogicalTypeId::Bigint.into()
+}
+pub fn integer() -> LogicalTypeHandle {
+    LogicalTypeId::Integer.into()
+}
+pub fn varchar() -> LogicalTypeHandle {
+    LogicalTypeId::Varchar.into()
+}
+pub fn blob() -> LogicalTypeHandle {
+    LogicalTypeId::Blob.into()
+}
+/// `STRUCT(t DOUBLE, x DOUBLE, y DOUBLE)[]`, the trajectory type.
+pub fn traj_type() -> LogicalTypeHandle {
+    LogicalTypeHandle::list(&LogicalTypeHandle::struct_type(&[("t", double()), ("x", double()), ("y", double())]))
+}
+/// `STRUCT(t DOUBLE, v DOUBLE)[]`, a 1-D series such as speeds.
+pub fn series_type() -> LogicalTypeHandle {
+    LogicalTypeHandle::list(&LogicalTypeHandle::struct_type(&[("t", double()), ("v", double())]))
+}
+/// `STRUCT(i INTEGER, j INTEGER)[]`, matched index pairs (1-based).
+pub fn pairs_type() -> LogicalTypeHandle {
+    LogicalTypeHandle::list(&LogicalTypeHandle::struct_type(&[("i", integer()), ("j", integer())]))
+}
+pub fn struct_of(fields: &[(&str, LogicalTypeHandle)]) -> LogicalTypeHandle {
+    LogicalTypeHandle::struct_type(fields)
+}
+pub fn sig(params: Vec<LogicalTypeHandle>, ret: LogicalTypeHandle) -> ScalarFunctionSignature {
+    ScalarFunctionSignature::exact(params, ret)
+}
+
+// ---------------------------------------------------------------- errors
+
+/// `"<function>: <message>"`, the form of every trajdb error.
+pub fn err(function: &str, msg: impl std::fmt::Display) -> Box<dyn Error> {
+    format!("{function}: {msg}").into()
+}
+
+// ---------------------------------------------------------------- readers
+
+/// A column of lists of structs whose fields are all DOUBLE (trajectories or series).
+pub struct ListOfStructCol<'a> {
+    lists: ListVector<'a>,
+    pts: StructVector<'a>,
+    fields: Vec<FlatVector<'a>>,
+    names: &'static [&'static str],
+    total: usize,
+}
+
+impl<'a> ListOfStructCol<'a> {
+    fn new(input: &'a DataChunkHandle, col: usize, names: &'static [&'static str]) -> Self {
+        let lists = input.list_vector(col);
+        let total = lists.len();
+        let pts = lists.struct_child(total);
+        let fields = (0..names.len()).map(|k| pts.child(k, total)).collect();
+        ListOfStructCol { lists, pts, fields, names, total }
+    }
+
+    /// The raw field slices and the `(offset, len)` of `row`, or `None` for a NULL list.
+    /// Errors on a NULL point or NULL field inside the list.
+    fn entry(&self, row: usize, function: &str, param: &str) -> Result<Option<(usize, usize)>, Box<dyn Error>> {
+        if self.lists.row_is_null(row as u64) {
+            return Ok(None);
+        }
+        let (off, len) = self.lists.get_entry(row);
+        for k in off..off + len {
+            if self.pts.row_is_null(k as u64) {
+                return Err(err(function, format!("{param}[{}] is NULL; filter NULL points out first", k - off + 1)));
+            }
+            for (f, v) in self.fields.iter().enumerate() {
+                if v.row_is_null(k as u64) {
+                    return Err(err(
+                        function,
+                        format!("{param}[{}].{} is NULL; filter NULL points out first", k - off + 1, self.names[f]),
+                    ));
+                }
+            }
+        }
+        Ok(Some((off, len)))
+    }
+
+    fn field(&self, k: usize) -> &[f64] {
+        // SAFETY: the child vector holds `total` DOUBLE values (the list's child size).
+        unsafe { self.fields[k].as_slice_with_len::<f64>(self.total) }
+    }
+
+    /// Number of points of a row without validating them (NULL list → `None`).
+    pub fn raw_len(&self, row: usize) -> Option<usize> {
+        if self.lists.row_is_null(row as u64) {
+            None
+        } else {
+            Some(self.lists.get_entry(row).1)
+        }
+    }
+}
+
+/// Reads a trajectory argument (`STRUCT(t, x, y)[]`).
+pub struct TrajCol<'a>(ListOfStructCol<'a>);
+
+impl<'a> TrajCol<'a> {
+    pub fn new(input: &'a DataChunkHandle, col: usize) -> Self {
+        TrajCol(ListOfStructCol::new(input, col, &["t", "x", "y"]))
+    }
+    /// The validated trajectory of `row`, `None` when the list is NULL.
+    pub fn get(&self, row: usize, function: &str, param: &str) -> Result<Option<Traj<'_>>, Box<dyn Error>> {
+        let Some((off, len)) = self.0.entry(row, function, param)? else { return Ok(None) };
+        let r = off..off + len;
+        let tr = Traj::new(&self.0.field(0)[r.clone()], &self.0.field(1)[r.clone()], &self.0.field(2)[r]);
+        tr.validate().map_err(|e| err(function, e.describe(param)))?;
+        Ok(Some(tr))
+    }
+    pub fn raw_len(&self, row: usize) -> Option<usize> {
+        self.0.raw_len(row)
+    }
+}
+
+/// Reads a series argument (`STRUCT(t, v)[]`).
+pub struct SeriesCol<'a>(ListOfStructCol<'a>);
+
+impl<'a> SeriesCol<'a> {
+    pub fn new(input: &'a DataChunkHandle, col: usize) -> Self {
+        SeriesCol(ListOfStructCol::new(input, col, &["t", "v"]))
+    }
+    pub fn get(&self, row: usize, function: &str, param: &str) -> Result<Option<Series<'_>>, Box<dyn Error>> {
+        let Some((off, len)) = self.0.entry(row, function, param)? else { return Ok(None) };
+        let r = off..off + len;
+        let s = Series::new(&self.0.field(0)[r.clone()], &self.0.field(1)[r]);
+        s.validate().map_err(|e| err(function, e.describe(param)))?;
+        Ok(Some(s))
+    }
+}
+
+/// A flat column of a fixed-width primitive (DOUBLE → f64, BIGINT → i64).
+pub struct PrimCol<'a> {
+    v: FlatVector<'a>,
+    n: usize,
+}
+
+impl<'a> PrimCol<'a> {
+    pub fn new(input: &'a DataChunkHandle, col: usize) -> Self {
+        PrimCol { v: input.flat_vector(col), n: input.len() }
+    }
+    pub fn f64(&self, row: usize) -> Option<f64> {
+        if self.v.row_is_null(row as u64) {
+            None
+        } else {
+            // SAFETY: the signature declares this column DOUBLE; `row < n`.
+            Some(unsafe { self.v.as_slice_with_len::<f64>(self.n) }[row])
+        }
+    }
+    pub fn i64(&self, row: usize) -> Option<i64> {
+        if self.v.row_is_null(row as u64) {
+            None
+        } else {
+            // SAFETY: the signature declares this column BIGINT; `row < n`.
+            Some(unsafe { self.v.as_slice_with_len::<i64>(self.n) }[row])
+        }
+    }
+}
+
+/// A polygon argument given as WKT (VARCHAR) or WKB (BLOB). The parsed region of the last
+/// distinct value is cached, so a constant region is parsed once per chunk, not per row.
+pub struct RegionCol<'a> {
+    v: FlatVector<'a>,
+    n: usize,
+    is_text: bool,
+    cache: RefCell<Option<(Vec<u8>, std::rc::Rc<Region>)>>,
+}
+
+impl<'a> RegionCol<'a> {
+    pub fn new(input: &'a DataChunkHandle, col: usize) -> Self {
+        let v = input.flat_vector(col);
+        let is_text = matches!(v.logical_type().id(), LogicalTypeId::Varchar);
+        RegionCol { v, n: input.len(), is_text, cache: RefCell::new(None) }
+    }
+    pub fn get(&self, row: usize, function: &str, param: &str) -> Result<Option<std::rc::Rc<Region>>, Box<dyn Error>> {
+        if self.v.row_is_null(row as u64) {
+            return Ok(None);
+        }
+        // SAFETY: VARCHAR and BLOB columns both store duckdb_string_t.
+        let s = unsafe { self.v.as_slice_with_len::<duckdb_string_t>(self.n) }[row];
+        let mut s = s;
+        let bytes = DuckString::new(&mut s).as_bytes();
+        if let Some((k, r)) = self.cache.borrow().as_ref() {
+            if k.as_slice() == bytes {
+                return Ok(Some(r.clone()));
+            }
+        }
+        let region = if self.is_text {
+            let text = std::str::from_utf8(bytes).map_err(|_| err(function, format!("{param} is not valid UTF-8")))?;
+            Region::from_wkt(text)
+        } else {
+            Region::from_wkb(bytes)
+        }
+        .map_err(|e| err(function, format!("{param} {e}")))?;
+        let region = std::rc::Rc::new(region);
+        *self.cache.borrow_mut() = Some((bytes.to_vec(), region.clone()));
+        Ok(Some(region))
+    }
+}
+
+// ---------------------------------------------------------------- writers
+
+/// Runs `f` for every row and collects the results; the first error aborts the query.
+pub fn map_rows<T>(
+    n: usize,
+    mut f: impl FnMut(usize) -> Result<Option<T>, Box<dyn Error>>,
+) -> Result<Vec<Option<T>>, Box<dyn Error>> {
+    (0..n).map(&mut f).collect()
+}
+
+/// Writes a column of `f64`/`i64`/... with NULLs.
+pub fn write_flat<T: Copy>(out: &mut FlatVector<'_>, vals: &[Option<T>]) {
+    {
+        // SAFETY: the output vector has the declared fixed-width type and capacity >= rows.
+        let dst = unsafe { out.as_mut_slice_with_len::<T>(vals.len()) };
+        for (d, v) in dst.iter_mut().zip(vals) {
+            if let Some(v) = v {
+                *d = *v;
+            }
+        }
+    }
+    for (row, v) in vals.iter().enumerate() {
+        if v.is_none() {
+            out.set_null(row);
+        }
+    }
+}
+
+pub fn write_varchar(out: &mut FlatVector<'_>, vals: &[Option<String>]) {
+    for (row, v) in vals.iter().enumerate() {
+        match v {
+            Some(s) => out.insert(row, s.as_str()),
+            None => out.set_null(row),
+        }
+    }
+}
+
+/// Writes a column of structs whose fields are all `f64`, one `Vec` per row.
+pub fn write_struct_f64(out: &mut StructVector<'_>, nfields: usize, vals: &[Option<Vec<f64>>]) {
+    let n = vals.len();
+    for f in 0..nfields {
+        let mut c = out.child(f, n);
+        // SAFETY: every field of this struct type is DOUBLE.
+        let dst = unsafe { c.as_mut_slice_with_len::<f64>(n) };
+        for (row, v) in vals.iter().enumerate() {
+            if let Some(v) = v {
+                dst[row] = v[f];
+            }
+        }
+    }
+    for (row, v) in vals.iter().enumerate() {
+        if v.is_none() {
+            out.set_null(row);
+        }
+    }
+}
+
+/// Writes a column of lists of 2-field structs. Each row is `None` (NULL) or two equally long
+/// columns of field values.
+pub fn write_list_of_pairs<A: Copy, B: Copy>(out: &mut ListVector<'_>, vals: &[Option<(Vec<A>, Vec<B>)>]) {
+    let total: usize = vals.iter().flatten().map(|(a, _)| a.len()).sum();
+    {
+        let child = out.struct_child(total);
+        let mut c0 = child.child(0, total);
+        let mut c1 = child.child(1, total);
+        // SAFETY: capacity `total` was reserved by `struct_child`; field types are A and B.
+        let d0 = unsafe { c0.as_mut_slice_with_len::<A>(total) };
+        let d1 = unsafe { c1.as_mut_slice_with_len::<B>(total) };
+        let mut off = 0;
+        for (a, b) in vals.iter().flatten() {
+            d0[off..off + a.len()].copy_from_slice(a);
+            d1[off..off + b.len()].copy_from_slice(b);
+            off += a.len();
+        }
+    }
+    let mut off = 0;
+    for (row, v) in vals.iter().enumerate() {
+        match v {
+            Some((a, _)) => {
+                out.set_entry(row, off, a.len());
+                off += a.len();
+            }
+            None => out.set_null(row),
+        }
+    }
+    out.set_len(total);
+}
+
+/// Writes a column of trajectories (`STRUCT(t, x, y)[]`).
+pub fn write_trajs(out: &mut ListVector<'_>, vals: &[Option<crate::algo::traj::OwnedTraj>]) {
+    let total: usize = vals.iter().flatten().map(|t| t.t.len()).sum();
+    {
+        let child = out.struct_child(total);
+        let mut cols: Vec<FlatVector<'_>> = (0..3).map(|k| child.child(k, total)).collect();
+        let mut off = 0;
+        for tr in vals.iter().flatten() {
+            let len = tr.t.len();
+            for (k, src) in [&tr.t, &tr.x, &tr.y].into_iter().enumerate() {
+                // SAFETY: capacity `total` was reserved; fields are DOUBLE.
+                let d = unsafe { cols[k].as_mut_slice_with_len::<f64>(total) };
+                d[off..off + len].copy_from_slice(src);
+            }
+            off += len;
+        }
+    }
+    let mut off = 0;
+    for (row, v) in vals.iter().enumerate() {
+        match v {
+            Some(tr) => {
+                out.set_entry(row, off, tr.t.len());
+                off += tr.t.len();
+            }
+            None => out.set_null(row),
+        }
+    }
+    out.set_len(total);
+}
+
+/// Documentation attached to every registered function; `trajdb_functions()` and
+/// `docs/functions.md` are generated from these.
+#[derive(Clone, Copy, Debug)]
+pub struct FnDoc {
+    pub name: &'static str,
+    /// One line per overload, e.g. `lcss_length(a TRAJ, b TRAJ, epsilon DOUBLE, time_window DOUBLE) -> BIGINT`.
+    pub signatures: &'static str,
+    pub description: &'static str,
+    pub example: &'static str,
+}
+
+/// Declares a unit struct implementing `VScalar` whose `invoke` calls `$body`.
+macro_rules! scalar_fn {
+    ($ty:ident, $sigs:expr, $body:expr) => {
+        pub struct $ty;
+        impl duckdb::vscalar::VScalar for $ty {
+            type State = ();
+            fn invoke(
+                _: &(),
+                input: &mut duckdb::core::DataChunkHandle,
+                output: &mut dyn duckdb::vtab::arrow::WritableVector,
+            ) -> Result<(), Box<dyn std::error::Error>> {
+                $body(input, output)
+            }
+            fn signatures() -> Vec<duckdb::vscalar::ScalarFunctionSignature> {
+                $sigs
+            }
+        }
+    };
+}
+pub(crate) use scalar_fn;

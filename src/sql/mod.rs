@@ -1,0 +1,27 @@
+//! The SQL layer: thin wrappers that turn DuckDB vectors into slices (see [`convert`]), call
+//! [`crate::algo`], and write the results back. One file per function family. The same
+//! [`register_all`] runs in the embedded build and in the loadable extension.
+
+pub mod convert;
+pub mod lcss;
+pub mod meta;
+pub mod traj;
+
+use duckdb::Connection;
+
+/// Every documented function, in reference order.
+pub fn docs() -> Vec<convert::FnDoc> {
+    let mut v = Vec::new();
+    v.extend_from_slice(traj::DOCS);
+    v.extend_from_slice(lcss::DOCS);
+    v.extend_from_slice(meta::DOCS);
+    v
+}
+
+/// Registers every trajdb function on `con`.
+pub fn register_all(con: &Connection) -> duckdb::Result<()> {
+    traj::register(con)?;
+    lcss::register(con)?;
+    meta::register(con)?;
+    Ok(())
+}

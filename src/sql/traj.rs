@@ -1,0 +1,104 @@
+//! SQL: trajectory helpers (`traj_length`, `traj_duration`, `traj_speeds`, `traj_time_range`,
+//! `traj_to_wkt`).
+
+use super::convert::*;
+use crate::algo::traj;
+use duckdb::core::DataChunkHandle;
+use duckdb::vtab::arrow::WritableVector;
+use duckdb::Connection;
+
+pub const DOCS: &[FnDoc] = &[
+    FnDoc {
+        name: "traj_length",
+        signatures: "traj_length(traj STRUCT(t, x, y)[]) -> BIGINT",
+        description: "Number of points in the trajectory (no validation; NULL for a NULL list).",
+        example: "SELECT traj_length([{'t': 0, 'x': 0, 'y': 0}, {'t': 1, 'x': 3, 'y': 4}]); -- 2",
+    },
+    FnDoc {
+        name: "traj_duration",
+        signatures: "traj_duration(traj STRUCT(t, x, y)[]) -> DOUBLE",
+        description: "Last t minus first t in seconds; 0 for one point, NULL for an empty or NULL trajectory.",
+        example: "SELECT traj_duration([{'t': 0, 'x': 0, 'y': 0}, {'t': 2.5, 'x': 3, 'y': 4}]); -- 2.5",
+    },
+    FnDoc {
+        name: "traj_time_range",
+        signatures: "traj_time_range(traj STRUCT(t, x, y)[]) -> STRUCT(t_start DOUBLE, t_end DOUBLE)",
+        description: "First and last timestamp; NULL for an empty or NULL trajectory.",
+        example: "SELECT traj_time_range([{'t': 1, 'x': 0, 'y': 0}, {'t': 4, 'x': 3, 'y': 4}]); -- {'t_start': 1.0, 't_end': 4.0}",
+    },
+    FnDoc {
+        name: "traj_speeds",
+        signatures: "traj_speeds(traj STRUCT(t, x, y)[]) -> STRUCT(t DOUBLE, v DOUBLE)[]",
+        description: "Speed by forward finite differences, |p[k+1] - p[k]| / (t[k+1] - t[k]), stamped at t[k+1]; \
+                      n points give n-1 samples. Pairs with equal timestamps are skipped (speed over zero time is undefined). \
+                      The result feeds lcss_series_similarity (the thesis's speed pre-match).",
+        example: "SELECT traj_speeds([{'t': 0, 'x': 0, 'y': 0}, {'t': 1, 'x': 3, 'y': 4}]); -- [{'t': 1.0, 'v': 5.0}]",
+    },
+    FnDoc {
+        name: "traj_to_wkt",
+        signatures: "traj_to_wkt(traj STRUCT(t, x, y)[]) -> VARCHAR",
+        description: "WKT for GIS tools: LINESTRING for two or more points, POINT for one, LINESTRING EMPTY for none. \
+                      Time is dropped. ST_GeomFromText (DuckDB spatial) reads it.",
+        example: "SELECT traj_to_wkt([{'t': 0, 'x': 0, 'y': 0}, {'t': 1, 'x': 3, 'y': 4}]); -- LINESTRING (0 0, 3 4)",
+    },
+];
+
+fn length(input: &mut DataChunkHandle, output: &mut dyn WritableVector) -> FnResult {
+    let a = TrajCol::new(input, 0);
+    let vals: Vec<Option<i64>> = (0..input.len()).map(|r| a.raw_len(r).map(|n| n as i64)).collect();
+    write_flat(&mut output.flat_vector(), &vals);
+    Ok(())
+}
+
+fn duration(input: &mut DataChunkHandle, output: &mut dyn WritableVector) -> FnResult {
+    const F: &str = "traj_duration";
+    let a = TrajCol::new(input, 0);
+    let vals = map_rows(input.len(), |r| Ok(a.get(r, F, "traj")?.and_then(|t| traj::duration(t.t))))?;
+    write_flat(&mut output.flat_vector(), &vals);
+    Ok(())
+}
+
+fn time_range(input: &mut DataChunkHandle, output: &mut dyn WritableVector) -> FnResult {
+    const F: &str = "traj_time_range";
+    let a = TrajCol::new(input, 0);
+    let vals = map_rows(input.len(), |r| {
+        Ok(a.get(r, F, "traj")?.and_then(|t| traj::time_range(t.t)).map(|(s, e)| vec![s, e]))
+    })?;
+    write_struct_f64(&mut output.struct_vector(), 2, &vals);
+    Ok(())
+}
+
+fn speeds(input: &mut DataChunkHandle, output: &mut dyn WritableVector) -> FnResult {
+    const F: &str = "traj_speeds";
+    let a = TrajCol::new(input, 0);
+    let vals = map_rows(input.len(), |r| Ok(a.get(r, F, "traj")?.map(traj::speeds)))?;
+    write_list_of_pairs::<f64, f64>(&mut output.list_vector(), &vals);
+    Ok(())
+}
+
+fn to_wkt(input: &mut DataChunkHandle, output: &mut dyn WritableVector) -> FnResult {
+    const F: &str = "traj_to_wkt";
+    let a = TrajCol::new(input, 0);
+    let vals = map_rows(input.len(), |r| Ok(a.get(r, F, "traj")?.map(traj::to_wkt)))?;
+    write_varchar(&mut output.flat_vector(), &vals);
+    Ok(())
+}
+
+scalar_fn!(TrajLength, vec![sig(vec![traj_type()], bigint())], length);
+scalar_fn!(TrajDuration, vec![sig(vec![traj_type()], double())], duration);
+scalar_fn!(
+    TrajTimeRange,
+    vec![sig(vec![traj_type()], struct_of(&[("t_start", double()), ("t_end", double())]))],
+    time_range
+);
+scalar_fn!(TrajSpeeds, vec![sig(vec![traj_type()], series_type())], speeds);
+scalar_fn!(TrajToWkt, vec![sig(vec![traj_type()], varchar())], to_wkt);
+
+pub fn register(con: &Connection) -> duckdb::Result<()> {
+    con.register_scalar_function::<TrajLength>("traj_length")?;
+    con.register_scalar_function::<TrajDuration>("traj_duration")?;
+    con.register_scalar_function::<TrajTimeRange>("traj_time_range")?;
+    con.register_scalar_function::<TrajSpeeds>("traj_speeds")?;
+    con.register_scalar_function::<TrajToWkt>("traj_to_wkt")?;
+    Ok(())
+}

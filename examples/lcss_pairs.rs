@@ -53,6 +53,10 @@ fn main() {
             let tp = TimeWindowParams::new(args[4].parse().unwrap(), args[5].parse().unwrap(), 0).unwrap();
             Box::new(move |a, b| lcss::length(a.view(), b.view(), &tp) as f64)
         }
+        "prefilter" => {
+            let (e, t): (f64, f64) = (args[4].parse().unwrap(), args[5].parse().unwrap());
+            Box::new(move |a, b| lcss::may_match(a.view(), b.view(), e, t) as u8 as f64)
+        }
         m => panic!("unknown mode {m}"),
     };
     // Best of 5 repetitions, single thread then all cores.

@@ -49,12 +49,26 @@ where
     }
     // row[c] = C[i][c] for c <= filled (1-based columns); C[i][c] = row[filled] for c > filled.
     let mut row = vec![0u32; m + 1];
+    let mut hits: Vec<bool> = Vec::new();
     let mut filled = 0usize;
     let mut prev = (0, 0);
     for i in 0..n {
         let (lo, hi) = band(i);
         debug_check(&mut prev, lo, hi, m);
         if lo >= hi {
+            continue;
+        }
+        // Match tests first, branch-free (vectorisable). A row without any match leaves the
+        // table unchanged (C[i][j] = C[i-1][j] for all j), so it is skipped: on real data most
+        // rows of most pairs are skipped here.
+        hits.clear();
+        let mut any = false;
+        for j in lo..hi {
+            let h = is_match(i, j);
+            any |= h;
+            hits.push(h);
+        }
+        if !any {
             continue;
         }
         if filled < hi {
@@ -64,9 +78,9 @@ where
         }
         let mut diag = row[lo];
         let mut left = row[lo];
-        for c in lo + 1..=hi {
+        for (c, &h) in (lo + 1..=hi).zip(&hits) {
             let up = row[c];
-            let v = if is_match(i, c - 1) { diag + 1 } else { up.max(left) };
+            let v = if h { diag + 1 } else { up.max(left) };
             diag = up;
             row[c] = v;
             left = v;

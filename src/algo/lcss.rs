@@ -31,6 +31,8 @@ pub enum LcssError {
     MinPoints(i64),
     Delta(i64),
     Rho(f64),
+    /// The translation search of S2 would need more candidates than the limit.
+    TooLarge { candidates: usize, limit: usize },
 }
 
 impl fmt::Display for LcssError {
@@ -41,6 +43,10 @@ impl fmt::Display for LcssError {
             LcssError::MinPoints(v) => write!(f, "min_points must be >= 0, got {v}"),
             LcssError::Delta(v) => write!(f, "delta must be >= 0, got {v}"),
             LcssError::Rho(v) => write!(f, "rho must be in (0, 1], got {v}"),
+            LcssError::TooLarge { candidates, limit } => write!(
+                f,
+                "delta is too large for these trajectories: {candidates} candidate translations (limit {limit}); reduce delta"
+            ),
         }
     }
 }
@@ -102,13 +108,84 @@ pub(crate) fn time_band<'a>(a_t: &'a [f64], b_t: &'a [f64], tw: f64) -> impl FnM
     }
 }
 
+/// Half-open index range of the sorted times `t` that lie in `(lo, hi)`.
+fn open_range(t: &[f64], lo: f64, hi: f64) -> (usize, usize) {
+    let s = t.partition_point(|&v| !(v > lo));
+    let e = t.partition_point(|&v| v < hi);
+    (s, e.max(s))
+}
+
+/// Axis-aligned bounding box `(min_x, max_x, min_y, max_y)` of points `r` of `tr`.
+fn bbox(tr: Traj<'_>, r: (usize, usize)) -> (f64, f64, f64, f64) {
+    let mut b = (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY);
+    for k in r.0..r.1 {
+        b.0 = b.0.min(tr.x[k]);
+        b.1 = b.1.max(tr.x[k]);
+        b.2 = b.2.min(tr.y[k]);
+        b.3 = b.3.max(tr.y[k]);
+    }
+    b
+}
+
+/// O(n + m) exact pre-check: can any point pair match at all? Only points of A within T of
+/// B's time span (and vice versa) can match, and only if their bounding boxes come within ε
+/// on both axes (`|dx| >= ε` already rules out `‖a − b‖ < ε`). Most time-overlapping pairs of
+/// unrelated road users are rejected here without touching the band.
+pub fn may_match(a: Traj<'_>, b: Traj<'_>, eps: f64, tw: f64) -> bool {
+    let (Some(&b0), Some(&b1), Some(&a0), Some(&a1)) = (b.t.first(), b.t.last(), a.t.first(), a.t.last()) else {
+        return false;
+    };
+    let ra = open_range(a.t, b0 - tw, b1 + tw);
+    let rb = open_range(b.t, a0 - tw, a1 + tw);
+    if ra.0 == ra.1 || rb.0 == rb.1 {
+        return false;
+    }
+    let (ba, bb) = (bbox(a, ra), bbox(b, rb));
+    !(ba.0 - bb.1 >= eps || bb.0 - ba.1 >= eps || ba.2 - bb.3 >= eps || bb.2 - ba.3 >= eps)
+}
+
+/// Rows per block in [`pruned_bands`].
+const BLOCK: usize = 8;
+
+/// The time band of every row of A, with whole blocks of [`BLOCK`] rows emptied when they
+/// cannot match anything: the bounding box of the block's points and the bounding box of the
+/// B blocks its band touches are more than ε apart on some axis. An emptied row is exactly a
+/// row without matches, which leaves the LCSS table unchanged, so the result is identical;
+/// the bands stay monotone (an emptied row becomes `(lo, lo)`). O(n + m).
+fn pruned_bands(a: Traj<'_>, b: Traj<'_>, eps: f64, tw: f64) -> Vec<(usize, usize)> {
+    let (n, m) = (a.len(), b.len());
+    let mut band = time_band(a.t, b.t, tw);
+    let mut bands: Vec<(usize, usize)> = (0..n).map(&mut band).collect();
+    let bboxes: Vec<(f64, f64, f64, f64)> =
+        (0..m.div_ceil(BLOCK)).map(|k| bbox(b, (k * BLOCK, ((k + 1) * BLOCK).min(m)))).collect();
+    for r0 in (0..n).step_by(BLOCK) {
+        let r1 = (r0 + BLOCK).min(n);
+        let (lo, hi) = (bands[r0].0, bands[r1 - 1].1);
+        if lo >= hi {
+            continue;
+        }
+        let mut bb = (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY);
+        for q in &bboxes[lo / BLOCK..=(hi - 1) / BLOCK] {
+            bb = (bb.0.min(q.0), bb.1.max(q.1), bb.2.min(q.2), bb.3.max(q.3));
+        }
+        let ba = bbox(a, (r0, r1));
+        if ba.0 - bb.1 >= eps || bb.0 - ba.1 >= eps || ba.2 - bb.3 >= eps || bb.2 - ba.3 >= eps {
+            for row in &mut bands[r0..r1] {
+                row.1 = row.0;
+            }
+        }
+    }
+    bands
+}
+
 /// `L_{ε,T,ξ}(A, B)` of eq. 2.9. Inputs must satisfy [`Traj::validate`].
 pub fn length(a: Traj<'_>, b: Traj<'_>, p: &TimeWindowParams) -> usize {
-    if p.too_short(a.len(), b.len()) {
+    if p.too_short(a.len(), b.len()) || !may_match(a, b, p.epsilon, p.time_window) {
         return 0;
     }
     let e2 = p.epsilon * p.epsilon;
-    lcss_len(a.len(), b.len(), time_band(a.t, b.t, p.time_window), |i, j| {
+    let bands = pruned_bands(a, b, p.epsilon, p.time_window);
+    lcss_len(a.len(), b.len(), |i| bands[i], |i, j| {
         let (dx, dy) = (a.x[i] - b.x[j], a.y[i] - b.y[j]);
         dx * dx + dy * dy < e2
     })
@@ -126,7 +203,7 @@ pub fn similarity(a: Traj<'_>, b: Traj<'_>, p: &TimeWindowParams) -> f64 {
 
 /// The matched pairs `(i, j)` (0-based, increasing) of one longest common subsequence.
 pub fn matches(a: Traj<'_>, b: Traj<'_>, p: &TimeWindowParams) -> Vec<(usize, usize)> {
-    if p.too_short(a.len(), b.len()) {
+    if p.too_short(a.len(), b.len()) || !may_match(a, b, p.epsilon, p.time_window) {
         return Vec::new();
     }
     let e2 = p.epsilon * p.epsilon;
@@ -134,7 +211,8 @@ pub fn matches(a: Traj<'_>, b: Traj<'_>, p: &TimeWindowParams) -> Vec<(usize, us
         let (dx, dy) = (a.x[i] - b.x[j], a.y[i] - b.y[j]);
         dx * dx + dy * dy < e2
     };
-    let table = BandTable::build(a.len(), b.len(), time_band(a.t, b.t, p.time_window), is_match);
+    let bands = pruned_bands(a, b, p.epsilon, p.time_window);
+    let table = BandTable::build(a.len(), b.len(), |i| bands[i], is_match);
     table.backtrack(b.len(), is_match)
 }
 
@@ -224,6 +302,41 @@ mod tests {
             let l2 = length(Traj::new(&at, &ax, &zeros_a), Traj::new(&bt, &bx, &zeros_b), &p);
             prop_assert_eq!(l1, l2);
             prop_assert_eq!(series_matches(Series::new(&at, &ax), Series::new(&bt, &bx), &p).len(), l1);
+        }
+    }
+
+    /// Longer random walks so that the block pruning of `pruned_bands` empties some blocks.
+    fn walk(max: usize) -> impl Strategy<Value = (Vec<f64>, Vec<f64>, Vec<f64>)> {
+        prop::collection::vec((0u8..3, -2i8..=2, -2i8..=2), 0..max).prop_map(|steps| {
+            let (mut t, mut x, mut y) = (0.0, 0.0, 0.0);
+            let (mut ts, mut xs, mut ys) = (vec![], vec![], vec![]);
+            for (dt, dx, dy) in steps {
+                t += dt as f64 * 0.25;
+                x += dx as f64;
+                y += dy as f64;
+                ts.push(t);
+                xs.push(x);
+                ys.push(y);
+            }
+            (ts, xs, ys)
+        })
+    }
+
+    proptest! {
+        #[test]
+        fn pruned_long_walks_match_naive((at, ax, ay) in walk(60), (bt, bx, by) in walk(60),
+                                         eps in prop::sample::select(vec![0.5, 1.5, 3.0]),
+                                         tw in prop::sample::select(vec![0.3, 1.0, 4.0])) {
+            let p = TimeWindowParams::new(eps, tw, 0).unwrap();
+            let ok = |i: usize, j: usize| {
+                (ax[i] - bx[j]).hypot(ay[i] - by[j]) < eps && (at[i] - bt[j]).abs() < tw
+            };
+            let want = naive::table(at.len(), bt.len(), ok)[at.len()][bt.len()];
+            let (a, b) = (Traj::new(&at, &ax, &ay), Traj::new(&bt, &bx, &by));
+            prop_assert_eq!(length(a, b, &p) as u32, want);
+            let m = matches(a, b, &p);
+            prop_assert_eq!(m.len() as u32, want);
+            for &(i, j) in &m { prop_assert!(ok(i, j)); }
         }
     }
 

@@ -89,7 +89,7 @@ pub fn s1(a: Traj<'_>, b: Traj<'_>, p: &IndexParams) -> S1 {
 
 /// Banded LCSS with a joint Euclidean match `‖a_i − b_j‖ < ε` and `|i − j| ≤ δ`.
 pub fn joint_length(a: Traj<'_>, b: Traj<'_>, p: &IndexParams) -> usize {
-    if p.rejects(a.len(), b.len()) {
+    if p.rejects(a.len(), b.len()) || !boxes_within(a, b, p.epsilon) {
         return 0;
     }
     let e2 = p.epsilon * p.epsilon;
@@ -97,6 +97,17 @@ pub fn joint_length(a: Traj<'_>, b: Traj<'_>, p: &IndexParams) -> usize {
         let (dx, dy) = (a.x[i] - b.x[j], a.y[i] - b.y[j]);
         dx * dx + dy * dy < e2
     })
+}
+
+/// Exact O(n + m) pre-check: the ε-inflated bounding boxes of the two point sets intersect.
+fn boxes_within(a: Traj<'_>, b: Traj<'_>, eps: f64) -> bool {
+    let bb = |x: &[f64], y: &[f64]| {
+        let f = |v: &[f64]| v.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &q| (lo.min(q), hi.max(q)));
+        (f(x), f(y))
+    };
+    let ((ax0, ax1), (ay0, ay1)) = bb(a.x, a.y);
+    let ((bx0, bx1), (by0, by1)) = bb(b.x, b.y);
+    !(ax0 - bx1 >= eps || bx0 - ax1 >= eps || ay0 - by1 >= eps || by0 - ay1 >= eps)
 }
 
 /// `joint_length / min(n, m)`.

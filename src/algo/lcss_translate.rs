@@ -19,8 +19,10 @@
 //!
 //! # Complexity
 //! O(K log K) to sort the K = O(δ·(n+m)) endpoints, then O(δ·(n+m)) per evaluated cell;
-//! O(K) memory.
+//! O(K) memory. Inputs of [`PARALLEL_MIN_POINTS`] points or more evaluate cells on all cores;
+//! more than [`MAX_CANDIDATES`] candidates is an error ([`check_size`]).
 
+use super::lcss::LcssError;
 use super::lcss_index::{axis_length, IndexParams};
 use super::traj::Traj;
 
@@ -80,17 +82,48 @@ pub fn best_axis_translation(a: &[f64], b: &[f64], delta: usize, epsilon: f64) -
     let mut cells = candidate_cells(a, b, delta, epsilon);
     cells.sort_by(|p, q| q.0.cmp(&p.0).then(p.1.total_cmp(&q.1)));
     let (mut best, mut best_c) = (0usize, 0.0);
-    for (bound, c) in cells {
-        if (bound as usize) <= best {
-            break;
+    // Small inputs: one cell at a time. Large inputs: evaluate the next batch of cells on all
+    // cores; the batch is taken in the same order and ties resolve to the earliest cell, so
+    // the answer is the same as the sequential one.
+    let batch = if a.len() + b.len() >= PARALLEL_MIN_POINTS { rayon::current_num_threads().max(1) * 2 } else { 1 };
+    let mut k = 0;
+    while k < cells.len() && (cells[k].0 as usize) > best {
+        let end = (k + batch).min(cells.len());
+        let todo: Vec<(u32, f64)> = cells[k..end].iter().copied().filter(|c| c.0 as usize > best).collect();
+        let lens: Vec<usize> = if batch > 1 {
+            use rayon::prelude::*;
+            todo.par_iter().map(|&(_, c)| axis_length(a, b, delta, epsilon, c)).collect()
+        } else {
+            todo.iter().map(|&(_, c)| axis_length(a, b, delta, epsilon, c)).collect()
+        };
+        for (&(_, c), l) in todo.iter().zip(lens) {
+            if l > best {
+                best = l;
+                best_c = c;
+            }
         }
-        let l = axis_length(a, b, delta, epsilon, c);
-        if l > best {
-            best = l;
-            best_c = c;
-        }
+        k = end;
     }
     (best, best_c)
+}
+
+/// Inputs with at least this many points (n + m) search translations on all cores.
+pub const PARALLEL_MIN_POINTS: usize = 4096;
+
+/// Upper limit on the candidate translations of one axis (2 per banded pair), about 800 MB
+/// of work space; larger inputs are rejected with [`LcssError::TooLarge`] rather than
+/// exhausting memory.
+pub const MAX_CANDIDATES: usize = 50_000_000;
+
+/// Checks the size of the candidate set before [`s2`] allocates it.
+pub fn check_size(n: usize, m: usize, p: &IndexParams) -> Result<(), LcssError> {
+    let per_row = (2 * p.delta() + 1).min(m);
+    let k = n.saturating_mul(per_row).saturating_mul(2);
+    if k > MAX_CANDIDATES {
+        Err(LcssError::TooLarge { candidates: k, limit: MAX_CANDIDATES })
+    } else {
+        Ok(())
+    }
 }
 
 /// `S2_2D(δ, ε, A, B)` with the ρ test of definition 4.1.
@@ -129,6 +162,27 @@ mod tests {
             for s in shifts { prop_assert!(axis_length(&a, &b, d, eps, s) <= got); }
             prop_assert!(axis_length(&a, &b, d, eps, 0.0) <= got);
         }
+    }
+
+    #[test]
+    fn large_inputs_use_the_parallel_path_and_agree() {
+        let n = PARALLEL_MIN_POINTS;
+        let a: Vec<f64> = (0..n).map(|k| ((k * 7919) % 101) as f64 * 0.1).collect();
+        let b: Vec<f64> = (0..n).map(|k| ((k * 104729) % 97) as f64 * 0.1 + 3.0).collect();
+        let (l, c) = best_axis_translation(&a, &b, 1, 0.05);
+        // Sequential evaluation of the same ordered cells gives the same answer.
+        let mut cells = candidate_cells(&a, &b, 1, 0.05);
+        cells.sort_by(|p, q| q.0.cmp(&p.0).then(p.1.total_cmp(&q.1)));
+        let mut best = (0, 0.0);
+        for (bound, cc) in cells {
+            if bound as usize <= best.0 { break; }
+            let v = axis_length(&a, &b, 1, 0.05, cc);
+            if v > best.0 { best = (v, cc); }
+        }
+        assert_eq!((l, c), best);
+        let p = IndexParams::new(100_000, 1.0, None).unwrap();
+        assert!(check_size(10_000, 10_000, &p).is_err());
+        assert!(check_size(100, 100, &p).is_ok());
     }
 
     #[test]

@@ -15,7 +15,7 @@ use crate::algo::traj::{Series, Traj};
 use duckdb::core::{DataChunkHandle, FlatVector, Inserter, ListVector, LogicalTypeHandle, LogicalTypeId, StructVector};
 use duckdb::types::DuckString;
 use duckdb::vscalar::ScalarFunctionSignature;
-use duckdb::ffi::duckdb_string_t;
+use duckdb::ffi::{self, duckdb_string_t};
 use std::cell::RefCell;
 use std::error::Error;
 
@@ -66,58 +66,106 @@ pub fn err(function: &str, msg: impl std::fmt::Display) -> Box<dyn Error> {
 
 // ---------------------------------------------------------------- readers
 
+/// Validity mask of one vector, read once per chunk (NULL pointer = all rows valid).
+#[derive(Clone, Copy)]
+struct Validity(*mut u64);
+
+impl Validity {
+    fn of(v: ffi::duckdb_vector) -> Self {
+        // SAFETY: `v` is a live vector of the current chunk.
+        Validity(unsafe { ffi::duckdb_vector_get_validity(v) })
+    }
+    #[inline]
+    fn is_null(&self, row: usize) -> bool {
+        // SAFETY: the mask covers every row of its vector; `row` is within it.
+        !self.0.is_null() && unsafe { *self.0.add(row / 64) >> (row % 64) & 1 == 0 }
+    }
+    fn all_valid(&self) -> bool {
+        self.0.is_null()
+    }
+}
+
 /// A column of lists of structs whose fields are all DOUBLE (trajectories or series).
+///
+/// Reads DuckDB's buffers directly (list entries, field data, validity masks), fetched once
+/// per chunk: per-element FFI calls cost more than the LCSS itself on short tracks.
 pub struct ListOfStructCol<'a> {
-    lists: ListVector<'a>,
-    pts: StructVector<'a>,
-    fields: Vec<FlatVector<'a>>,
+    entries: &'a [ffi::duckdb_list_entry],
+    list_validity: Validity,
+    pts_validity: Validity,
+    field_validity: Vec<Validity>,
+    fields: Vec<&'a [f64]>,
     names: &'static [&'static str],
-    total: usize,
 }
 
 impl<'a> ListOfStructCol<'a> {
     fn new(input: &'a DataChunkHandle, col: usize, names: &'static [&'static str]) -> Self {
-        let lists = input.list_vector(col);
-        let total = lists.len();
-        let pts = lists.struct_child(total);
-        let fields = (0..names.len()).map(|k| pts.child(k, total)).collect();
-        ListOfStructCol { lists, pts, fields, names, total }
+        let n = input.len();
+        // SAFETY: `col` is a LIST(STRUCT(DOUBLE, ...)) column of this chunk (fixed by the
+        // registered signature); its child has `duckdb_list_vector_get_size` elements and each
+        // struct field is a flat DOUBLE vector of that size. DuckDB flattens scalar-function
+        // inputs, so entries are indexed by row.
+        unsafe {
+            let lv = ffi::duckdb_data_chunk_get_vector(input.get_ptr(), col as u64);
+            let total = ffi::duckdb_list_vector_get_size(lv) as usize;
+            let child = ffi::duckdb_list_vector_get_child(lv);
+            let entries = std::slice::from_raw_parts(ffi::duckdb_vector_get_data(lv) as *const ffi::duckdb_list_entry, n);
+            let mut fields = Vec::with_capacity(names.len());
+            let mut field_validity = Vec::with_capacity(names.len());
+            for k in 0..names.len() {
+                let fv = ffi::duckdb_struct_vector_get_child(child, k as u64);
+                let data = ffi::duckdb_vector_get_data(fv) as *const f64;
+                fields.push(if total == 0 { &[][..] } else { std::slice::from_raw_parts(data, total) });
+                field_validity.push(Validity::of(fv));
+            }
+            ListOfStructCol {
+                entries,
+                list_validity: Validity::of(lv),
+                pts_validity: Validity::of(child),
+                field_validity,
+                fields,
+                names,
+            }
+        }
     }
 
-    /// The raw field slices and the `(offset, len)` of `row`, or `None` for a NULL list.
-    /// Errors on a NULL point or NULL field inside the list.
+    /// `(offset, len)` of `row`, or `None` for a NULL list. Errors on a NULL point or NULL
+    /// field inside the list.
     fn entry(&self, row: usize, function: &str, param: &str) -> Result<Option<(usize, usize)>, Box<dyn Error>> {
-        if self.lists.row_is_null(row as u64) {
+        if self.list_validity.is_null(row) {
             return Ok(None);
         }
-        let (off, len) = self.lists.get_entry(row);
-        for k in off..off + len {
-            if self.pts.row_is_null(k as u64) {
+        let e = self.entries[row];
+        let (off, len) = (e.offset as usize, e.length as usize);
+        if !self.pts_validity.all_valid() {
+            if let Some(k) = (off..off + len).find(|&k| self.pts_validity.is_null(k)) {
                 return Err(err(function, format!("{param}[{}] is NULL; filter NULL points out first", k - off + 1)));
             }
-            for (f, v) in self.fields.iter().enumerate() {
-                if v.row_is_null(k as u64) {
-                    return Err(err(
-                        function,
-                        format!("{param}[{}].{} is NULL; filter NULL points out first", k - off + 1, self.names[f]),
-                    ));
-                }
+        }
+        for (f, v) in self.field_validity.iter().enumerate() {
+            if v.all_valid() {
+                continue;
+            }
+            if let Some(k) = (off..off + len).find(|&k| v.is_null(k)) {
+                return Err(err(
+                    function,
+                    format!("{param}[{}].{} is NULL; filter NULL points out first", k - off + 1, self.names[f]),
+                ));
             }
         }
         Ok(Some((off, len)))
     }
 
-    fn field(&self, k: usize) -> &[f64] {
-        // SAFETY: the child vector holds `total` DOUBLE values (the list's child size).
-        unsafe { self.fields[k].as_slice_with_len::<f64>(self.total) }
+    fn field(&self, k: usize) -> &'a [f64] {
+        self.fields[k]
     }
 
     /// Number of points of a row without validating them (NULL list → `None`).
     pub fn raw_len(&self, row: usize) -> Option<usize> {
-        if self.lists.row_is_null(row as u64) {
+        if self.list_validity.is_null(row) {
             None
         } else {
-            Some(self.lists.get_entry(row).1)
+            Some(self.entries[row].length as usize)
         }
     }
 }

@@ -286,10 +286,18 @@ fn s1(input: &mut DataChunkHandle, output: &mut dyn WritableVector) -> FnResult 
 }
 
 fn s2(input: &mut DataChunkHandle, output: &mut dyn WritableVector) -> FnResult {
+    let mut too_large = None;
     let vals = index_rows(input, "lcss_s2", |a, b, p| {
+        if let Err(e) = lcss_translate::check_size(a.len(), b.len(), p) {
+            too_large = Some(e);
+            return vec![0.0; 4];
+        }
         let r = lcss_translate::s2(a, b, p);
         vec![r.sx, r.sy, r.cx, r.cy]
     })?;
+    if let Some(e) = too_large {
+        return Err(err("lcss_s2", e));
+    }
     write_struct_f64(&mut output.struct_vector(), 4, &vals);
     Ok(())
 }

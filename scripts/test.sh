@@ -1,0 +1,30 @@
+#!/usr/bin/env bash
+# Every test of trajdb, from a clean clone: `scripts/test.sh`
+#   1. algo unit + property tests without DuckDB (--no-default-features)
+#   2. embedded build: unit tests, CLI tests, tests/sql/*.slt through the sqllogictest crate
+#   3. the function reference docs/functions.md is up to date
+#   4. loadable extension: build, footer, and the same .slt files in stock DuckDB (PyPI duckdb)
+# Needs: cargo, python3 (with venv/pip, PyPI reachable). The first run compiles DuckDB (~50 CPU-min).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+export CARGO_TARGET_DIR="${CARGO_TARGET_DIR:-$HOME/.cache/trajdb-target}"
+VENV="${TRAJDB_VENV:-$HOME/.cache/trajdb-venv}"
+
+echo "== 1/4 algo tests (no DuckDB)"
+cargo test --release --no-default-features --lib
+
+echo "== 2/4 embedded build: unit, CLI and sqllogictest tests"
+cargo test --release
+
+echo "== 3/4 function reference is generated from the registered descriptions"
+"$CARGO_TARGET_DIR/release/trajdb" functions --markdown > "$CARGO_TARGET_DIR/functions.md"
+if ! diff -u docs/functions.md "$CARGO_TARGET_DIR/functions.md"; then
+  echo "docs/functions.md is stale: run  $CARGO_TARGET_DIR/release/trajdb functions --markdown > docs/functions.md" >&2
+  exit 1
+fi
+
+echo "== 4/4 loadable extension in stock DuckDB"
+scripts/build_extension.sh
+if [ ! -x "$VENV/bin/python" ]; then python3 -m venv "$VENV"; fi
+"$VENV/bin/pip" install -q -r requirements-test.txt
+"$VENV/bin/python" tests/run_slt_python.py trajdb.duckdb_extension

@@ -1,0 +1,79 @@
+//! The `trajdb` command: sql / run / stdin, --db, --csv / --json, demo, functions.
+
+use std::io::Write;
+use std::process::{Command, Stdio};
+
+fn trajdb(args: &[&str], stdin: Option<&str>) -> (bool, String, String) {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_trajdb"))
+        .args(args)
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    if let Some(s) = stdin {
+        c.stdin.take().unwrap().write_all(s.as_bytes()).unwrap();
+    }
+    drop(c.stdin.take());
+    let o = c.wait_with_output().unwrap();
+    (o.status.success(), String::from_utf8_lossy(&o.stdout).into(), String::from_utf8_lossy(&o.stderr).into())
+}
+
+const Q: &str = "SELECT lcss_length([{'t': 0, 'x': 0, 'y': 0}], [{'t': 0.1, 'x': 0.2, 'y': 0}], 1.0, 0.5) AS l";
+
+#[test]
+fn sql_table_csv_json() {
+    let (ok, out, _) = trajdb(&["sql", Q], None);
+    assert!(ok && out.contains("| l |") && out.contains("| 1 |"), "{out}");
+    let (ok, out, _) = trajdb(&["--csv", "sql", Q], None);
+    assert!(ok);
+    assert_eq!(out, "l\n1\n");
+    let (ok, out, _) = trajdb(&["--json", "sql", Q], None);
+    assert!(ok);
+    assert_eq!(out.trim(), r#"[{"l":1}]"#);
+}
+
+#[test]
+fn stdin_and_run_file_and_persistent_db() {
+    let dir = std::env::temp_dir().join(format!("trajdb-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let db = dir.join("t.duckdb");
+    let db = db.to_str().unwrap();
+    let (ok, _, err) = trajdb(&["--db", db], Some("CREATE TABLE t AS SELECT 42 AS v; -- comment; with semicolon\n"));
+    assert!(ok, "{err}");
+    let script = dir.join("q.sql");
+    std::fs::write(&script, "SELECT v FROM t;\nSELECT 'a;b' AS s;").unwrap();
+    let (ok, out, err) = trajdb(&["--db", db, "--csv", "run", script.to_str().unwrap()], None);
+    assert!(ok, "{err}");
+    assert_eq!(out, "v\n42\ns\na;b\n");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn errors_exit_nonzero_with_the_message() {
+    let (ok, _, err) = trajdb(&["sql", "SELECT lcss_similarity([], [], -1, 1)"], None);
+    assert!(!ok);
+    assert!(err.contains("lcss_similarity: epsilon must be > 0, got -1"), "{err}");
+    let (ok, _, err) = trajdb(&["bogus"], None);
+    assert!(!ok && err.contains("unknown command"));
+}
+
+#[test]
+fn demo_runs_and_finds_the_shared_objects() {
+    let (ok, out, err) = trajdb(&["--csv", "demo"], None);
+    assert!(ok, "{err}");
+    // First result: candidate_pairs,above_threshold,correct,objects_seen_by_both,...
+    let row: Vec<&str> = out.lines().nth(1).unwrap().split(',').collect();
+    let (above, correct, both): (i64, i64, i64) = (row[1].parse().unwrap(), row[2].parse().unwrap(), row[3].parse().unwrap());
+    assert_eq!(above, correct, "every pair above the threshold is the same object");
+    assert_eq!(correct, both, "every object seen by both cameras is found");
+}
+
+#[test]
+fn functions_reference_lists_every_function() {
+    let (ok, out, _) = trajdb(&["functions", "--markdown"], None);
+    assert!(ok);
+    for f in ["lcss_similarity", "lcss_s2", "traj_speeds", "trajdb_functions"] {
+        assert!(out.contains(&format!("## `{f}`")), "{f}");
+    }
+}

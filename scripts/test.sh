@@ -27,4 +27,5 @@ echo "== 4/4 loadable extension in stock DuckDB"
 scripts/build_extension.sh
 if [ ! -x "$VENV/bin/python" ]; then python3 -m venv "$VENV"; fi
 "$VENV/bin/pip" install -q -r requirements-test.txt
+python3 tests/test_footer.py && python3 tests/test_footer.py trajdb.duckdb_extension
 "$VENV/bin/python" tests/run_slt_python.py trajdb.duckdb_extension

@@ -124,7 +124,7 @@ def main():
         else:
             failed += 1
             print(f"FAIL {os.path.basename(f)}\n{err}")
-    print(f"sqllogictest (loadable extension): {passed} passed, {failed} failed")
+    print(f"loadable-extension: {passed} passed, {failed} failed")
     sys.exit(1 if failed or not passed else 0)
 
 

@@ -88,7 +88,7 @@ fn main() {
             }
         }
     }
-    println!("sqllogictest (bundled DuckDB): {passed} passed, {failed} failed");
+    println!("sqllogictest: {passed} passed, {failed} failed");
     if failed > 0 || passed == 0 {
         std::process::exit(1);
     }

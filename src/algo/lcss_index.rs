@@ -9,6 +9,8 @@
 //! [`joint_length`] is the same banded recurrence with one 2-D match `‖a_i − b_j‖ < ε`: the
 //! form tslearn's `lcss(…, eps, global_constraint="sakoe_chiba", sakoe_chiba_radius=δ)`
 //! computes (tslearn tests `≤ ε`; on real-valued data the two differ only on exact ties).
+//! One exception: for δ = 0 tslearn 0.10.0 returns only the trailing run of diagonal matches
+//! (its out-of-band cells stay 0, so a non-match resets the count); we return the true LCSS.
 //!
 //! Notes on the source: definition 4.1 writes `|n − m| ≤ δ` while appendix eq. A.1 writes
 //! `|i − j| < δ`. We follow definition 4.1 and Vlachos et al.: `|i − j| ≤ δ`, so δ = 0 means
@@ -154,6 +156,33 @@ mod tests {
                 prop_assert_eq!((r.lx, r.ly), (nx, ny));
                 prop_assert_eq!(joint_length(Traj::new(&at, &ax, &ay), Traj::new(&bt, &bx, &by), &p), nj);
             }
+        }
+    }
+
+    /// Expected values from tslearn 0.10.0:
+    /// `tslearn.metrics.lcss(a, b, eps=e, global_constraint="sakoe_chiba", sakoe_chiba_radius=d)`
+    /// with `a[k] = (3 sin(0.7k), 0.5k)`, `b[k] = (3 sin(0.7k + 0.4), 0.5k + 0.3)`, k = 0..12.
+    #[test]
+    fn pinned_against_tslearn_0_10_0() {
+        let ax: Vec<f64> = (0..12).map(|k| (k as f64 * 0.7).sin() * 3.0).collect();
+        let ay: Vec<f64> = (0..12).map(|k| k as f64 * 0.5).collect();
+        let bx: Vec<f64> = (0..12).map(|k| (k as f64 * 0.7 + 0.4).sin() * 3.0).collect();
+        let by: Vec<f64> = (0..12).map(|k| k as f64 * 0.5 + 0.3).collect();
+        let t = vec![0.0; 12];
+        let (a, b) = (Traj::new(&t, &ax, &ay), Traj::new(&t, &bx, &by));
+        // δ = 0 is the one place we differ on purpose: tslearn gives 1/12 (0.0833) there,
+        // because it leaves cells outside the band at 0 instead of carrying C[i-1][j], so with
+        // a one-cell band a non-match resets the count. The true banded LCSS counts the 3
+        // diagonal matches: 3/12 (checked against the full table in the property test above).
+        let p0 = IndexParams::new(0, 0.5, None).unwrap();
+        assert_eq!(joint_similarity(a, b, &p0), 0.25);
+        for (d, e, want) in [
+            (1, 0.5, 0.3333333333333333),
+            (2, 1.0, 0.9166666666666666),
+            (3, 0.25, 0.08333333333333333),
+        ] {
+            let p = IndexParams::new(d, e, None).unwrap();
+            assert_eq!(joint_similarity(a, b, &p), want, "delta {d} eps {e}");
         }
     }
 

@@ -72,7 +72,7 @@ pub const DOCS: &[FnDoc] = &[
         signatures: "lcss_index_similarity(a TRAJ, b TRAJ, delta BIGINT, epsilon DOUBLE [, rho DOUBLE]) -> DOUBLE",
         description: "Index-window LCSS with one 2-D match: ||a_i - b_j|| < epsilon and |i - j| <= delta (list positions, t unused), \
                       divided by min(n, m); 0 when min(n,m) < rho*max(n,m). Equals tslearn's lcss(a, b, eps, sakoe_chiba_radius=delta) \
-                      on equal-length inputs. O(delta*(n+m)) (Buzan lemma 4.1).",
+                      on equal-length inputs for delta >= 1 (for delta = 0 tslearn 0.10 returns only the trailing run of matches; this is the true LCSS). O(delta*(n+m)) (Buzan lemma 4.1).",
         example: "SELECT lcss_index_similarity([{'t':0,'x':0,'y':0},{'t':1,'x':1,'y':0}], [{'t':0,'x':0.1,'y':0},{'t':1,'x':5,'y':0}], 1, 0.5); -- 0.5",
     },
     FnDoc {

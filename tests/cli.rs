@@ -77,3 +77,23 @@ fn functions_reference_lists_every_function() {
         assert!(out.contains(&format!("## `{f}`")), "{f}");
     }
 }
+
+/// Every registered example runs, and where its comment gives the result, it matches.
+#[test]
+fn every_documented_example_runs_and_matches_its_comment() {
+    let con = trajdb::open(None).unwrap();
+    for d in trajdb::sql::docs() {
+        let (sql, expected) = match d.example.split_once("; --") {
+            Some((s, e)) => (s, Some(e.trim())),
+            None => (d.example.trim_end_matches(';'), None),
+        };
+        let wrapped = format!("SELECT COLUMNS(*)::VARCHAR FROM ({sql}) AS q");
+        let mut stmt = con.prepare(&wrapped).unwrap_or_else(|e| panic!("{}: {e}\n{sql}", d.name));
+        let mut rows = stmt.query([]).unwrap();
+        let row = rows.next().unwrap().unwrap_or_else(|| panic!("{}: no rows", d.name));
+        let got: Option<String> = row.get(0).unwrap();
+        if let Some(e) = expected.filter(|e| !e.contains('~')) {
+            assert_eq!(got.as_deref(), Some(e), "{}: {sql}", d.name);
+        }
+    }
+}

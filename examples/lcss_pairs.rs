@@ -59,16 +59,17 @@ fn main() {
         }
         m => panic!("unknown mode {m}"),
     };
-    // Best of 5 repetitions, single thread then all cores.
+    // One warm-up pass (page faults, CPU clock ramp), then the best of 10 repetitions, single
+    // thread then all cores.
+    let mut out: Vec<f64> = pairs.iter().map(|(a, b)| f(a, b)).collect();
     let mut best1 = f64::INFINITY;
-    let mut out = Vec::new();
-    for _ in 0..5 {
+    for _ in 0..10 {
         let t0 = Instant::now();
         out = pairs.iter().map(|(a, b)| f(a, b)).collect::<Vec<f64>>();
         best1 = best1.min(t0.elapsed().as_secs_f64());
     }
     let mut bestn = f64::INFINITY;
-    for _ in 0..5 {
+    for _ in 0..10 {
         let t0 = Instant::now();
         let par: Vec<f64> = pairs.par_iter().map(|(a, b)| f(a, b)).collect();
         bestn = bestn.min(t0.elapsed().as_secs_f64());

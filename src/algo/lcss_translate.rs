@@ -39,32 +39,53 @@ pub struct S2 {
 }
 
 /// Candidate cells on one axis: `(bound, representative translation)`, with bound > 0.
+///
+/// The bound of a cell is `min(#distinct i, #distinct j)` over the intervals covering it: an
+/// LCSS uses each point at most once, so this is an upper bound on the LCSS of any translation
+/// in the cell, and far tighter than the raw number of covering intervals (which counts up to
+/// 2δ+1 intervals per point).
 pub(crate) fn candidate_cells(a: &[f64], b: &[f64], delta: usize, epsilon: f64) -> Vec<(u32, f64)> {
     let m = b.len();
-    let mut ev: Vec<(f64, i32)> = Vec::new();
+    // (position, +1 start / -1 end, i, j)
+    let mut ev: Vec<(f64, i8, u32, u32)> = Vec::new();
     for (i, &ai) in a.iter().enumerate() {
         let lo = i.saturating_sub(delta).min(m);
         let hi = i.saturating_add(delta).saturating_add(1).min(m);
-        for &bj in &b[lo..hi] {
+        for (j, &bj) in b.iter().enumerate().take(hi).skip(lo) {
             let d = ai - bj;
-            ev.push((d - epsilon, 1));
-            ev.push((d + epsilon, -1));
+            ev.push((d - epsilon, 1, i as u32, j as u32));
+            ev.push((d + epsilon, -1, i as u32, j as u32));
         }
     }
     // Open intervals: at equal positions process ends (-1) before starts (+1).
-    ev.sort_by(|p, q| p.0.total_cmp(&q.0).then(p.1.cmp(&q.1)));
+    ev.sort_unstable_by(|p, q| p.0.total_cmp(&q.0).then(p.1.cmp(&q.1)));
+    let mut cnt_i = vec![0u32; a.len()];
+    let mut cnt_j = vec![0u32; m];
+    let (mut di, mut dj) = (0u32, 0u32);
     let mut cells = Vec::new();
-    let mut count: i64 = 0;
     let mut k = 0;
     while k < ev.len() {
         let x = ev[k].0;
         while k < ev.len() && ev[k].0 == x {
-            count += ev[k].1 as i64;
+            let (_, s, i, j) = ev[k];
+            let (ci, cj) = (&mut cnt_i[i as usize], &mut cnt_j[j as usize]);
+            if s > 0 {
+                di += (*ci == 0) as u32;
+                dj += (*cj == 0) as u32;
+                *ci += 1;
+                *cj += 1;
+            } else {
+                *ci -= 1;
+                *cj -= 1;
+                di -= (*ci == 0) as u32;
+                dj -= (*cj == 0) as u32;
+            }
             k += 1;
         }
-        if count > 0 && k < ev.len() {
+        let bound = di.min(dj);
+        if bound > 0 && k < ev.len() {
             let next = ev[k].0;
-            cells.push((count as u32, x + (next - x) / 2.0));
+            cells.push((bound, x + (next - x) / 2.0));
         }
     }
     cells

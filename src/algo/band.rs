@@ -35,32 +35,26 @@ fn debug_check(prev: &mut (usize, usize), lo: usize, hi: usize, m: usize) {
     *prev = (lo, hi);
 }
 
-/// Length of the banded LCSS of `n` rows against `m` columns.
-///
-/// `band(i)` gives the half-open, 0-based column range of row `i`; it is called once per row
-/// in increasing order and must be monotone. `is_match(i, j)` is only called inside the band.
-pub fn lcss_len<B, M>(n: usize, m: usize, mut band: B, mut is_match: M) -> usize
+/// Runs the banded recurrence row by row. For every row `i`, `visit(i, lo, hi, cells)` gets the
+/// row's effective band and, when it is non-empty, the new values of columns `lo+1..=hi`
+/// (1-based). Rows whose band holds no match are reported with `hi = lo`: they leave the
+/// table unchanged (C[i][j] = C[i-1][j] for all j), so they are skipped. Returns `C[n][m]`.
+fn run_rows<B, M, V>(n: usize, m: usize, mut band: B, mut is_match: M, mut visit: V) -> usize
 where
     B: FnMut(usize) -> (usize, usize),
     M: FnMut(usize, usize) -> bool,
+    V: FnMut(usize, usize, usize, &[u32]),
 {
-    if n == 0 || m == 0 {
-        return 0;
-    }
     // row[c] = C[i][c] for c <= filled (1-based columns); C[i][c] = row[filled] for c > filled.
     let mut row = vec![0u32; m + 1];
     let mut hits: Vec<bool> = Vec::new();
     let mut filled = 0usize;
     let mut prev = (0, 0);
     for i in 0..n {
-        let (lo, hi) = band(i);
+        let (lo, hi) = if m == 0 { (0, 0) } else { band(i) };
         debug_check(&mut prev, lo, hi, m);
-        if lo >= hi {
-            continue;
-        }
-        // Match tests first, branch-free (vectorisable). A row without any match leaves the
-        // table unchanged (C[i][j] = C[i-1][j] for all j), so it is skipped: on real data most
-        // rows of most pairs are skipped here.
+        // Match tests first, branch-free (vectorisable); on real data most rows of most pairs
+        // have none and are skipped here.
         hits.clear();
         let mut any = false;
         for j in lo..hi {
@@ -69,6 +63,7 @@ where
             hits.push(h);
         }
         if !any {
+            visit(i, lo, lo, &[]);
             continue;
         }
         if filled < hi {
@@ -85,8 +80,24 @@ where
             row[c] = v;
             left = v;
         }
+        visit(i, lo, hi, &row[lo + 1..=hi]);
     }
     row[filled] as usize
+}
+
+/// Length of the banded LCSS of `n` rows against `m` columns.
+///
+/// `band(i)` gives the half-open, 0-based column range of row `i`; it is called once per row
+/// in increasing order and must be monotone. `is_match(i, j)` is only called inside the band.
+pub fn lcss_len<B, M>(n: usize, m: usize, band: B, is_match: M) -> usize
+where
+    B: FnMut(usize) -> (usize, usize),
+    M: FnMut(usize, usize) -> bool,
+{
+    if n == 0 || m == 0 {
+        return 0;
+    }
+    run_rows(n, m, band, is_match, |_, _, _, _| {})
 }
 
 /// The band cells of the LCSS table, kept for backtracking.
@@ -101,8 +112,9 @@ pub struct BandTable {
 }
 
 impl BandTable {
-    /// Fills the band cells; same contract as [`lcss_len`].
-    pub fn build<B, M>(n: usize, m: usize, mut band: B, mut is_match: M) -> Self
+    /// Fills the band cells; same contract as [`lcss_len`]. Rows without a match are stored
+    /// as empty bands, which is exact (see [`run_rows`]).
+    pub fn build<B, M>(n: usize, m: usize, band: B, is_match: M) -> Self
     where
         B: FnMut(usize) -> (usize, usize),
         M: FnMut(usize, usize) -> bool,
@@ -114,35 +126,13 @@ impl BandTable {
             vals: Vec::new(),
             ne: vec![0; n + 1],
         };
-        let mut row = vec![0u32; m + 1];
-        let mut filled = 0usize;
-        let mut prev = (0, 0);
-        for i in 0..n {
-            let (lo, hi) = if m == 0 { (0, 0) } else { band(i) };
-            debug_check(&mut prev, lo, hi, m);
+        run_rows(n, m, band, is_match, |i, lo, hi, cells| {
             t.lo.push(lo);
             t.hi.push(hi);
             t.off.push(t.vals.len());
             t.ne[i + 1] = if lo < hi { i + 1 } else { t.ne[i] };
-            if lo >= hi {
-                continue;
-            }
-            if filled < hi {
-                let tail = row[filled];
-                row[filled + 1..=hi].fill(tail);
-                filled = hi;
-            }
-            let mut diag = row[lo];
-            let mut left = row[lo];
-            for c in lo + 1..=hi {
-                let up = row[c];
-                let v = if is_match(i, c - 1) { diag + 1 } else { up.max(left) };
-                diag = up;
-                row[c] = v;
-                left = v;
-                t.vals.push(v);
-            }
-        }
+            t.vals.extend_from_slice(cells);
+        });
         t
     }
 

@@ -191,14 +191,18 @@ pub fn length(a: Traj<'_>, b: Traj<'_>, p: &TimeWindowParams) -> usize {
     })
 }
 
-/// η of eq. 2.10: `L / min(|A|, |B|)`, 0 for an empty side or one shorter than ξ.
-pub fn similarity(a: Traj<'_>, b: Traj<'_>, p: &TimeWindowParams) -> f64 {
-    let l = length(a, b, p);
+/// `l / min(n, m)`, and 0 when `l` is 0 (which covers empty sides).
+pub fn ratio(l: usize, n: usize, m: usize) -> f64 {
     if l == 0 {
         0.0
     } else {
-        l as f64 / a.len().min(b.len()) as f64
+        l as f64 / n.min(m) as f64
     }
+}
+
+/// η of eq. 2.10: `L / min(|A|, |B|)`, 0 for an empty side or one shorter than ξ.
+pub fn similarity(a: Traj<'_>, b: Traj<'_>, p: &TimeWindowParams) -> f64 {
+    ratio(length(a, b, p), a.len(), b.len())
 }
 
 /// The matched pairs `(i, j)` (0-based, increasing) of one longest common subsequence.
@@ -227,12 +231,7 @@ pub fn series_length(a: Series<'_>, b: Series<'_>, p: &TimeWindowParams) -> usiz
 
 /// 1-D η: `series_length / min(|A|, |B|)`.
 pub fn series_similarity(a: Series<'_>, b: Series<'_>, p: &TimeWindowParams) -> f64 {
-    let l = series_length(a, b, p);
-    if l == 0 {
-        0.0
-    } else {
-        l as f64 / a.len().min(b.len()) as f64
-    }
+    ratio(series_length(a, b, p), a.len(), b.len())
 }
 
 /// Matched pairs of the 1-D form.

@@ -114,12 +114,7 @@ fn boxes_within(a: Traj<'_>, b: Traj<'_>, eps: f64) -> bool {
 
 /// `joint_length / min(n, m)`.
 pub fn joint_similarity(a: Traj<'_>, b: Traj<'_>, p: &IndexParams) -> f64 {
-    let l = joint_length(a, b, p);
-    if l == 0 {
-        0.0
-    } else {
-        l as f64 / a.len().min(b.len()) as f64
-    }
+    super::lcss::ratio(joint_length(a, b, p), a.len(), b.len())
 }
 
 #[cfg(test)]

@@ -406,6 +406,10 @@ pub struct FnDoc {
 
 /// Declares a unit struct implementing `VScalar` whose `invoke` calls `$body`.
 macro_rules! scalar_fn {
+    // A shared implementation `$body(input, output, $arg...)`.
+    ($ty:ident, $sigs:expr, $body:path, $($arg:expr),+) => {
+        scalar_fn!($ty, $sigs, |i: &mut duckdb::core::DataChunkHandle, o: &mut dyn duckdb::vtab::arrow::WritableVector| $body(i, o, $($arg),+));
+    };
     ($ty:ident, $sigs:expr, $body:expr) => {
         pub struct $ty;
         impl duckdb::vscalar::VScalar for $ty {

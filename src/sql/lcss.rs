@@ -132,26 +132,41 @@ enum Val {
     P(Vec<i32>, Vec<i32>),
 }
 
-fn time_window(input: &mut DataChunkHandle, output: &mut dyn WritableVector, f: &str, out: Out) -> FnResult {
-    let ncol = input.num_columns();
-    let a = TrajCol::new(input, 0);
-    let b = TrajCol::new(input, 1);
-    let eps = PrimCol::new(input, 2);
-    let tw = PrimCol::new(input, 3);
-    let xi = (ncol > 4).then(|| PrimCol::new(input, 4));
-    let region = (ncol > 5).then(|| RegionCol::new(input, 5));
-    let vals = map_rows(input.len(), |r| -> Result<Option<Val>, Box<dyn Error>> {
-        let (Some(a), Some(b), Some(eps), Some(tw)) = (a.get(r, f, "a")?, b.get(r, f, "b")?, eps.f64(r), tw.f64(r)) else {
-            return Ok(None);
-        };
-        let xi = match &xi {
+/// The `epsilon, time_window [, min_points]` arguments (columns 2, 3 and optionally 4) of the
+/// time-window and series forms, checked once per row; `Ok(None)` when one is NULL.
+struct TwArgs<'a> {
+    eps: PrimCol<'a>,
+    tw: PrimCol<'a>,
+    xi: Option<PrimCol<'a>>,
+}
+
+impl<'a> TwArgs<'a> {
+    fn new(input: &'a DataChunkHandle) -> Self {
+        let xi = (input.num_columns() > 4).then(|| PrimCol::new(input, 4));
+        TwArgs { eps: PrimCol::new(input, 2), tw: PrimCol::new(input, 3), xi }
+    }
+    fn get(&self, r: usize, f: &str) -> Result<Option<TimeWindowParams>, Box<dyn Error>> {
+        let (Some(eps), Some(tw)) = (self.eps.f64(r), self.tw.f64(r)) else { return Ok(None) };
+        let xi = match &self.xi {
             None => 0,
             Some(c) => match c.i64(r) {
                 None => return Ok(None),
                 Some(v) => v,
             },
         };
-        let p = TimeWindowParams::new(eps, tw, xi).map_err(|e| err(f, e))?;
+        TimeWindowParams::new(eps, tw, xi).map(Some).map_err(|e| err(f, e))
+    }
+}
+
+fn time_window(input: &mut DataChunkHandle, output: &mut dyn WritableVector, f: &str, out: Out) -> FnResult {
+    let a = TrajCol::new(input, 0);
+    let b = TrajCol::new(input, 1);
+    let args = TwArgs::new(input);
+    let region = (input.num_columns() > 5).then(|| RegionCol::new(input, 5));
+    let vals = map_rows(input.len(), |r| -> Result<Option<Val>, Box<dyn Error>> {
+        let (Some(a), Some(b), Some(p)) = (a.get(r, f, "a")?, b.get(r, f, "b")?, args.get(r, f)?) else {
+            return Ok(None);
+        };
         let reg = match &region {
             None => None,
             Some(c) => match c.get(r, f, "region")? {
@@ -206,24 +221,13 @@ fn write_vals(output: &mut dyn WritableVector, vals: Vec<Option<Val>>, out: Out)
 }
 
 fn series(input: &mut DataChunkHandle, output: &mut dyn WritableVector, f: &str, out: Out) -> FnResult {
-    let ncol = input.num_columns();
     let a = SeriesCol::new(input, 0);
     let b = SeriesCol::new(input, 1);
-    let eps = PrimCol::new(input, 2);
-    let tw = PrimCol::new(input, 3);
-    let xi = (ncol > 4).then(|| PrimCol::new(input, 4));
+    let args = TwArgs::new(input);
     let vals = map_rows(input.len(), |r| -> Result<Option<Val>, Box<dyn Error>> {
-        let (Some(a), Some(b), Some(eps), Some(tw)) = (a.get(r, f, "a")?, b.get(r, f, "b")?, eps.f64(r), tw.f64(r)) else {
+        let (Some(a), Some(b), Some(p)) = (a.get(r, f, "a")?, b.get(r, f, "b")?, args.get(r, f)?) else {
             return Ok(None);
         };
-        let xi = match &xi {
-            None => 0,
-            Some(c) => match c.i64(r) {
-                None => return Ok(None),
-                Some(v) => v,
-            },
-        };
-        let p = TimeWindowParams::new(eps, tw, xi).map_err(|e| err(f, e))?;
         Ok(Some(match out {
             Out::Length => Val::I(lcss::series_length(a, b, &p) as i64),
             Out::Similarity => Val::F(lcss::series_similarity(a, b, &p)),
@@ -323,48 +327,13 @@ fn s2_type() -> LogicalTypeHandle {
     struct_of(&[("sx", double()), ("sy", double()), ("cx", double()), ("cy", double())])
 }
 
-scalar_fn!(LcssLength, tw_signatures(bigint), |i: &mut DataChunkHandle, o: &mut dyn WritableVector| time_window(
-    i,
-    o,
-    "lcss_length",
-    Out::Length
-));
-scalar_fn!(LcssSimilarity, tw_signatures(double), |i: &mut DataChunkHandle, o: &mut dyn WritableVector| time_window(
-    i,
-    o,
-    "lcss_similarity",
-    Out::Similarity
-));
-scalar_fn!(LcssDistance, tw_signatures(double), |i: &mut DataChunkHandle, o: &mut dyn WritableVector| time_window(
-    i,
-    o,
-    "lcss_distance",
-    Out::Distance
-));
-scalar_fn!(LcssMatches, tw_signatures(pairs_type), |i: &mut DataChunkHandle, o: &mut dyn WritableVector| time_window(
-    i,
-    o,
-    "lcss_matches",
-    Out::Matches
-));
-scalar_fn!(LcssSeriesLength, series_signatures(bigint), |i: &mut DataChunkHandle, o: &mut dyn WritableVector| series(
-    i,
-    o,
-    "lcss_series_length",
-    Out::Length
-));
-scalar_fn!(LcssSeriesSimilarity, series_signatures(double), |i: &mut DataChunkHandle, o: &mut dyn WritableVector| series(
-    i,
-    o,
-    "lcss_series_similarity",
-    Out::Similarity
-));
-scalar_fn!(LcssSeriesMatches, series_signatures(pairs_type), |i: &mut DataChunkHandle, o: &mut dyn WritableVector| series(
-    i,
-    o,
-    "lcss_series_matches",
-    Out::Matches
-));
+scalar_fn!(LcssLength, tw_signatures(bigint), time_window, "lcss_length", Out::Length);
+scalar_fn!(LcssSimilarity, tw_signatures(double), time_window, "lcss_similarity", Out::Similarity);
+scalar_fn!(LcssDistance, tw_signatures(double), time_window, "lcss_distance", Out::Distance);
+scalar_fn!(LcssMatches, tw_signatures(pairs_type), time_window, "lcss_matches", Out::Matches);
+scalar_fn!(LcssSeriesLength, series_signatures(bigint), series, "lcss_series_length", Out::Length);
+scalar_fn!(LcssSeriesSimilarity, series_signatures(double), series, "lcss_series_similarity", Out::Similarity);
+scalar_fn!(LcssSeriesMatches, series_signatures(pairs_type), series, "lcss_series_matches", Out::Matches);
 scalar_fn!(LcssIndexSimilarity, index_signatures(double), index_similarity);
 scalar_fn!(LcssS1, index_signatures(s1_type), s1);
 scalar_fn!(

@@ -9,10 +9,14 @@
 //! | [`lcss_index`] | index-window LCSS of Buzan def. 4.1/4.2 (δ, ε, ρ, S1) |
 //! | [`lcss_translate`] | translation-invariant S2 of Buzan def. 4.3, appendix / lemma 4.2 |
 //! | [`region`] | polygon regions from WKT/WKB and point-in-polygon |
+//! | [`rigid`] | 2-D similarity transforms, Umeyama/Kabsch fit, trimmed robust fit |
+//! | [`cpd`] | rigid TimeCPD (thesis eq. 2.7/2.8, Alg. 5–8) with a sparse time-windowed E-step |
 
 pub mod band;
+pub mod cpd;
 pub mod lcss;
 pub mod lcss_index;
 pub mod lcss_translate;
 pub mod region;
+pub mod rigid;
 pub mod traj;

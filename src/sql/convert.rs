@@ -160,6 +160,17 @@ impl<'a> ListOfStructCol<'a> {
         self.fields[k]
     }
 
+    /// Public constructor for other list-of-DOUBLE-struct arguments.
+    pub fn new_pub(input: &'a DataChunkHandle, col: usize, names: &'static [&'static str]) -> Self {
+        Self::new(input, col, names)
+    }
+
+    /// The field slices of `row` (NULL list → `None`; NULL inside → error).
+    pub fn row_fields(&self, row: usize, function: &str, param: &str) -> Result<Option<Vec<&'a [f64]>>, Box<dyn Error>> {
+        let Some((off, len)) = self.entry(row, function, param)? else { return Ok(None) };
+        Ok(Some(self.fields.iter().map(|f| &f[off..off + len]).collect()))
+    }
+
     /// Number of points of a row without validating them (NULL list → `None`).
     pub fn raw_len(&self, row: usize) -> Option<usize> {
         if self.list_validity.is_null(row) {
@@ -206,6 +217,50 @@ impl<'a> SeriesCol<'a> {
     }
 }
 
+/// `STRUCT(theta DOUBLE, tx DOUBLE, ty DOUBLE, scale DOUBLE)`, the 2-D transform type.
+pub fn transform_type() -> LogicalTypeHandle {
+    LogicalTypeHandle::struct_type(&[("theta", double()), ("tx", double()), ("ty", double()), ("scale", double())])
+}
+
+/// Reads a column of structs whose fields are all DOUBLE (e.g. transforms), straight from
+/// DuckDB's buffers. A NULL struct gives `None`; a NULL field is an error.
+pub struct StructF64Col<'a> {
+    validity: Validity,
+    fields: Vec<(&'a [f64], Validity)>,
+    names: &'static [&'static str],
+}
+
+impl<'a> StructF64Col<'a> {
+    pub fn new(input: &'a DataChunkHandle, col: usize, names: &'static [&'static str]) -> Self {
+        let n = input.len();
+        // SAFETY: `col` is a STRUCT of DOUBLE fields (fixed by the signature), flattened.
+        unsafe {
+            let v = ffi::duckdb_data_chunk_get_vector(input.get_ptr(), col as u64);
+            let fields = (0..names.len())
+                .map(|k| {
+                    let fv = ffi::duckdb_struct_vector_get_child(v, k as u64);
+                    let data = ffi::duckdb_vector_get_data(fv) as *const f64;
+                    (if n == 0 { &[][..] } else { std::slice::from_raw_parts(data, n) }, Validity::of(fv))
+                })
+                .collect();
+            StructF64Col { validity: Validity::of(v), fields, names }
+        }
+    }
+    pub fn get(&self, row: usize, function: &str, param: &str) -> Result<Option<Vec<f64>>, Box<dyn Error>> {
+        if self.validity.is_null(row) {
+            return Ok(None);
+        }
+        let mut out = Vec::with_capacity(self.fields.len());
+        for (k, (data, v)) in self.fields.iter().enumerate() {
+            if v.is_null(row) {
+                return Err(err(function, format!("{param}.{} is NULL", self.names[k])));
+            }
+            out.push(data[row]);
+        }
+        Ok(Some(out))
+    }
+}
+
 /// A flat column of a fixed-width primitive (DOUBLE → f64, BIGINT → i64).
 pub struct PrimCol<'a> {
     v: FlatVector<'a>,
@@ -222,6 +277,14 @@ impl<'a> PrimCol<'a> {
         } else {
             // SAFETY: the signature declares this column DOUBLE; `row < n`.
             Some(unsafe { self.v.as_slice_with_len::<f64>(self.n) }[row])
+        }
+    }
+    pub fn bool(&self, row: usize) -> Option<bool> {
+        if self.v.row_is_null(row as u64) {
+            None
+        } else {
+            // SAFETY: the signature declares this column BOOLEAN (one byte, 0 or 1); `row < n`.
+            Some(unsafe { self.v.as_slice_with_len::<u8>(self.n) }[row] != 0)
         }
     }
     pub fn i64(&self, row: usize) -> Option<i64> {
@@ -322,6 +385,39 @@ pub fn write_struct_f64(out: &mut StructVector<'_>, nfields: usize, vals: &[Opti
         for (row, v) in vals.iter().enumerate() {
             if let Some(v) = v {
                 dst[row] = v[f];
+            }
+        }
+    }
+    for (row, v) in vals.iter().enumerate() {
+        if v.is_none() {
+            out.set_null(row);
+        }
+    }
+}
+
+/// One field value of a struct row for [`write_struct`].
+#[derive(Clone, Copy, Debug)]
+pub enum Field {
+    F(f64),
+    I(i64),
+    B(bool),
+}
+
+/// Writes a column of structs with mixed DOUBLE / BIGINT / BOOLEAN fields; every row has the
+/// same field kinds in the declared order.
+pub fn write_struct(out: &mut StructVector<'_>, nfields: usize, vals: &[Option<Vec<Field>>]) {
+    let n = vals.len();
+    for f in 0..nfields {
+        let mut c = out.child(f, n);
+        for (row, v) in vals.iter().enumerate() {
+            let Some(v) = v else { continue };
+            // SAFETY: the declared field type matches the variant written (see callers).
+            unsafe {
+                match v[f] {
+                    Field::F(x) => c.as_mut_slice_with_len::<f64>(n)[row] = x,
+                    Field::I(x) => c.as_mut_slice_with_len::<i64>(n)[row] = x,
+                    Field::B(x) => c.as_mut_slice_with_len::<bool>(n)[row] = x,
+                }
             }
         }
     }

@@ -2,6 +2,7 @@
 //! [`crate::algo`], and write the results back. One file per function family. The same
 //! [`register_all`] runs in the embedded build and in the loadable extension.
 
+pub mod align;
 pub mod convert;
 pub mod lcss;
 pub mod meta;
@@ -14,6 +15,7 @@ pub fn docs() -> Vec<convert::FnDoc> {
     let mut v = Vec::new();
     v.extend_from_slice(traj::DOCS);
     v.extend_from_slice(lcss::DOCS);
+    v.extend_from_slice(align::DOCS);
     v.extend_from_slice(meta::DOCS);
     v
 }
@@ -22,6 +24,7 @@ pub fn docs() -> Vec<convert::FnDoc> {
 pub fn register_all(con: &Connection) -> duckdb::Result<()> {
     traj::register(con)?;
     lcss::register(con)?;
+    align::register(con)?;
     meta::register(con)?;
     Ok(())
 }

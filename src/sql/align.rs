@@ -1,0 +1,296 @@
+//! SQL: camera alignment: `cpd_align` (rigid TimeCPD), `rigid_fit`, and the transform helpers
+//! `transform_apply`, `transform_compose`, `transform_invert`.
+
+use super::convert::*;
+use crate::algo::cpd::{self, CpdParams};
+use crate::algo::rigid::{self, Transform2};
+use crate::algo::traj::OwnedTraj;
+use duckdb::core::{DataChunkHandle, LogicalTypeHandle, LogicalTypeId};
+use duckdb::vscalar::ScalarFunctionSignature;
+use duckdb::vtab::arrow::WritableVector;
+use duckdb::Connection;
+use std::error::Error;
+
+pub const DOCS: &[FnDoc] = &[
+    FnDoc {
+        name: "cpd_align",
+        signatures: "cpd_align(fixed TRAJ, moving TRAJ, w DOUBLE [, tau DOUBLE [, max_iter BIGINT, tol DOUBLE [, with_scale BOOLEAN, starts BIGINT]]]) -> STRUCT(theta, tx, ty, scale, r11, r12, r21, r22, sigma2, iterations, converged, q, log_likelihood, inlier_fraction, rms, start_theta, pairs_in_band)",
+        description: "Rigid TimeCPD (thesis eq. 2.7/2.8, Alg. 5-8): the transform p_fixed = scale*R(theta)*p_moving + (tx, ty) that best explains the \
+                      fixed points (x, y, t) as noisy copies of the moving ones, with outlier weight w in [0, 1) and time standard deviation tau (s). \
+                      Without tau, or tau = 'inf', it is plain rigid CPD (Myronenko & Song); a NULL tau gives NULL like any NULL argument. \
+                      The E-step only visits pairs with |t - s| <= 7.43*tau (time weight < 1e-12) and runs on all cores. \
+                      Defaults: max_iter 100, tol 1e-5, with_scale false, starts 8 (EM from 8 rotations 2*pi*k/8, the best log-likelihood after 15 \
+                      iterations continues; starts = 1 is the thesis's R = I start). converged = false when max_iter ran out (the estimate is still returned).",
+        example: "SELECT round(degrees(cpd_align(a, b, 0.0, 1.0).theta)) FROM (SELECT [{'t':0,'x':0,'y':0},{'t':1,'x':4,'y':0},{'t':2,'x':4,'y':3}] AS a, [{'t':0,'x':0,'y':0},{'t':1,'x':0,'y':-4},{'t':2,'x':3,'y':-4}] AS b); -- 90.0",
+    },
+    FnDoc {
+        name: "rigid_fit",
+        signatures: "rigid_fit(pairs STRUCT(fx, fy, mx, my)[] [, trim DOUBLE [, with_scale BOOLEAN]]) -> STRUCT(theta, tx, ty, scale, rms, inliers BIGINT, n BIGINT)",
+        description: "Least-squares transform from known correspondences (Umeyama/Kabsch; closed form in 2-D): p_fixed = scale*R(theta)*p_moving + (tx, ty) \
+                      for pairs (fx, fy) <- (mx, my). With trim in [0, 1), least trimmed squares: refit on the best (1 - trim) share of pairs until the kept \
+                      set is stable (robust to wrong correspondences). Needs 2 pairs that are not all at one point; otherwise an error.",
+        example: "SELECT round(degrees(rigid_fit([{'fx':0,'fy':0,'mx':0,'my':0},{'fx':0,'fy':1,'mx':1,'my':0}]).theta)); -- 90.0",
+    },
+    FnDoc {
+        name: "transform_apply",
+        signatures: "transform_apply(traj TRAJ, tf STRUCT(theta, tx, ty, scale)) -> TRAJ",
+        description: "Maps every point of the trajectory with p' = scale*R(theta)*p + (tx, ty); t is unchanged. Use it to bring a camera's tracks into the fixed frame.",
+        example: "SELECT transform_apply([{'t':0,'x':1,'y':0}], {'theta': pi()/2, 'tx': 10, 'ty': 0, 'scale': 1})[1].x; -- 10.0",
+    },
+    FnDoc {
+        name: "transform_compose",
+        signatures: "transform_compose(a STRUCT(theta, tx, ty, scale), b STRUCT(theta, tx, ty, scale)) -> STRUCT(theta, tx, ty, scale)",
+        description: "a after b: transform_apply(p, transform_compose(a, b)) = transform_apply(transform_apply(p, b), a). To chain camera k -> l -> ref use \
+                      transform_compose(l_to_ref, k_to_l). theta is wrapped to (-pi, pi].",
+        example: "SELECT transform_compose({'theta': 0, 'tx': 1, 'ty': 0, 'scale': 1}, {'theta': 0, 'tx': 0, 'ty': 2, 'scale': 1}); -- {'theta': 0.0, 'tx': 1.0, 'ty': 2.0, 'scale': 1.0}",
+    },
+    FnDoc {
+        name: "transform_invert",
+        signatures: "transform_invert(tf STRUCT(theta, tx, ty, scale)) -> STRUCT(theta, tx, ty, scale)",
+        description: "The inverse transform (fixed frame back to moving frame); transform_compose(tf, transform_invert(tf)) is the identity.",
+        example: "SELECT transform_invert({'theta': 0, 'tx': 3, 'ty': -1, 'scale': 2}); -- {'theta': -0.0, 'tx': -1.5, 'ty': 0.5, 'scale': 0.5}",
+    },
+];
+
+fn boolean() -> LogicalTypeHandle {
+    LogicalTypeId::Boolean.into()
+}
+
+fn cpd_result_type() -> LogicalTypeHandle {
+    let d = double;
+    LogicalTypeHandle::struct_type(&[
+        ("theta", d()),
+        ("tx", d()),
+        ("ty", d()),
+        ("scale", d()),
+        ("r11", d()),
+        ("r12", d()),
+        ("r21", d()),
+        ("r22", d()),
+        ("sigma2", d()),
+        ("iterations", bigint()),
+        ("converged", boolean()),
+        ("q", d()),
+        ("log_likelihood", d()),
+        ("inlier_fraction", d()),
+        ("rms", d()),
+        ("start_theta", d()),
+        ("pairs_in_band", bigint()),
+    ])
+}
+
+fn cpd_signatures() -> Vec<ScalarFunctionSignature> {
+    let mut v = vec![sig(vec![traj_type(), traj_type(), double()], cpd_result_type())];
+    v.push(sig(vec![traj_type(), traj_type(), double(), double()], cpd_result_type()));
+    v.push(sig(vec![traj_type(), traj_type(), double(), double(), bigint(), double()], cpd_result_type()));
+    v.push(sig(
+        vec![traj_type(), traj_type(), double(), double(), bigint(), double(), boolean(), bigint()],
+        cpd_result_type(),
+    ));
+    v
+}
+
+fn cpd_align(input: &mut DataChunkHandle, output: &mut dyn WritableVector) -> FnResult {
+    const F: &str = "cpd_align";
+    let nc = input.num_columns();
+    let a = TrajCol::new(input, 0);
+    let b = TrajCol::new(input, 1);
+    let w = PrimCol::new(input, 2);
+    let tau = (nc > 3).then(|| PrimCol::new(input, 3));
+    let max_iter = (nc > 4).then(|| PrimCol::new(input, 4));
+    let tol = (nc > 5).then(|| PrimCol::new(input, 5));
+    let scale = (nc > 6).then(|| PrimCol::new(input, 6));
+    let starts = (nc > 7).then(|| PrimCol::new(input, 7));
+    let vals = map_rows(input.len(), |r| -> Result<Option<Vec<Field>>, Box<dyn Error>> {
+        let (Some(a), Some(b), Some(w)) = (a.get(r, F, "fixed")?, b.get(r, F, "moving")?, w.f64(r)) else {
+            return Ok(None);
+        };
+        macro_rules! opt {
+            ($c:expr, $get:ident, $default:expr) => {
+                match &$c {
+                    None => $default,
+                    Some(c) => match c.$get(r) {
+                        None => return Ok(None),
+                        Some(v) => v,
+                    },
+                }
+            };
+        }
+        let tau = opt!(tau, f64, f64::INFINITY);
+        let max_iter = opt!(max_iter, i64, 100);
+        let tol = opt!(tol, f64, 1e-5);
+        let with_scale = opt!(scale, bool, false);
+        let starts = opt!(starts, i64, 8);
+        let p = CpdParams::new(w, Some(tau), max_iter, tol, with_scale, starts).map_err(|e| err(F, e))?;
+        let res = cpd::align((a.x, a.y, a.t), (b.x, b.y, b.t), &p).map_err(|e| err(F, e))?;
+        let t = res.transform;
+        let m = Transform2 { scale: 1.0, ..t }.matrix();
+        Ok(Some(vec![
+            Field::F(t.theta),
+            Field::F(t.tx),
+            Field::F(t.ty),
+            Field::F(t.scale),
+            Field::F(m[0][0]),
+            Field::F(m[0][1]),
+            Field::F(m[1][0]),
+            Field::F(m[1][1]),
+            Field::F(res.sigma2),
+            Field::I(res.iterations as i64),
+            Field::B(res.converged),
+            Field::F(res.q),
+            Field::F(res.log_likelihood),
+            Field::F(res.inlier_fraction),
+            Field::F(res.rms),
+            Field::F(res.start_theta),
+            Field::I(res.pairs_in_band as i64),
+        ]))
+    })?;
+    write_struct(&mut output.struct_vector(), 17, &vals);
+    Ok(())
+}
+
+fn pairs_col_type() -> LogicalTypeHandle {
+    LogicalTypeHandle::list(&LogicalTypeHandle::struct_type(&[("fx", double()), ("fy", double()), ("mx", double()), ("my", double())]))
+}
+
+fn rigid_fit_type() -> LogicalTypeHandle {
+    LogicalTypeHandle::struct_type(&[
+        ("theta", double()),
+        ("tx", double()),
+        ("ty", double()),
+        ("scale", double()),
+        ("rms", double()),
+        ("inliers", bigint()),
+        ("n", bigint()),
+    ])
+}
+
+fn rigid_fit(input: &mut DataChunkHandle, output: &mut dyn WritableVector) -> FnResult {
+    const F: &str = "rigid_fit";
+    let nc = input.num_columns();
+    let pairs = FourCol::new(input, 0);
+    let trim = (nc > 1).then(|| PrimCol::new(input, 1));
+    let scale = (nc > 2).then(|| PrimCol::new(input, 2));
+    let vals = map_rows(input.len(), |r| -> Result<Option<Vec<Field>>, Box<dyn Error>> {
+        let Some(cols) = pairs.get(r, F, "pairs")? else { return Ok(None) };
+        let trim = match &trim {
+            None => 0.0,
+            Some(c) => match c.f64(r) {
+                None => return Ok(None),
+                Some(v) => v,
+            },
+        };
+        let with_scale = match &scale {
+            None => false,
+            Some(c) => match c.bool(r) {
+                None => return Ok(None),
+                Some(v) => v,
+            },
+        };
+        let f = rigid::fit_trimmed(cols[0], cols[1], cols[2], cols[3], trim, with_scale).map_err(|e| err(F, e))?;
+        let t = f.transform;
+        let kept = f.inliers.iter().filter(|&&b| b).count();
+        Ok(Some(vec![
+            Field::F(t.theta),
+            Field::F(t.tx),
+            Field::F(t.ty),
+            Field::F(t.scale),
+            Field::F(f.rms),
+            Field::I(kept as i64),
+            Field::I(f.inliers.len() as i64),
+        ]))
+    })?;
+    write_struct(&mut output.struct_vector(), 7, &vals);
+    Ok(())
+}
+
+fn transform_arg(c: &StructF64Col<'_>, r: usize, f: &str, param: &str) -> Result<Option<Transform2>, Box<dyn Error>> {
+    let Some(v) = c.get(r, f, param)? else { return Ok(None) };
+    let t = Transform2::new(v[0], v[1], v[2], v[3]);
+    t.validate().map_err(|e| err(f, format!("{param}: {e}")))?;
+    Ok(Some(t))
+}
+
+const TF_FIELDS: &[&str] = &["theta", "tx", "ty", "scale"];
+
+fn tf_vals(t: Transform2) -> Vec<f64> {
+    vec![t.theta, t.tx, t.ty, t.scale]
+}
+
+fn apply(input: &mut DataChunkHandle, output: &mut dyn WritableVector) -> FnResult {
+    const F: &str = "transform_apply";
+    let a = TrajCol::new(input, 0);
+    let tf = StructF64Col::new(input, 1, TF_FIELDS);
+    let vals = map_rows(input.len(), |r| -> Result<Option<OwnedTraj>, Box<dyn Error>> {
+        let (Some(a), Some(t)) = (a.get(r, F, "traj")?, transform_arg(&tf, r, F, "tf")?) else { return Ok(None) };
+        let mut o = OwnedTraj::default();
+        for k in 0..a.len() {
+            let (x, y) = t.apply(a.x[k], a.y[k]);
+            o.push(a.t[k], x, y);
+        }
+        Ok(Some(o))
+    })?;
+    write_trajs(&mut output.list_vector(), &vals);
+    Ok(())
+}
+
+fn compose(input: &mut DataChunkHandle, output: &mut dyn WritableVector) -> FnResult {
+    const F: &str = "transform_compose";
+    let a = StructF64Col::new(input, 0, TF_FIELDS);
+    let b = StructF64Col::new(input, 1, TF_FIELDS);
+    let vals = map_rows(input.len(), |r| {
+        let (Some(a), Some(b)) = (transform_arg(&a, r, F, "a")?, transform_arg(&b, r, F, "b")?) else { return Ok(None) };
+        Ok(Some(tf_vals(a.compose(&b))))
+    })?;
+    write_struct_f64(&mut output.struct_vector(), 4, &vals);
+    Ok(())
+}
+
+fn invert(input: &mut DataChunkHandle, output: &mut dyn WritableVector) -> FnResult {
+    const F: &str = "transform_invert";
+    let a = StructF64Col::new(input, 0, TF_FIELDS);
+    let vals = map_rows(input.len(), |r| Ok(transform_arg(&a, r, F, "tf")?.map(|t| tf_vals(t.invert()))))?;
+    write_struct_f64(&mut output.struct_vector(), 4, &vals);
+    Ok(())
+}
+
+/// The `pairs STRUCT(fx, fy, mx, my)[]` argument of `rigid_fit`: four DOUBLE columns per row.
+struct FourCol<'a>(ListOfStructCol<'a>);
+
+impl<'a> FourCol<'a> {
+    fn new(input: &'a DataChunkHandle, col: usize) -> Self {
+        FourCol(ListOfStructCol::new_pub(input, col, &["fx", "fy", "mx", "my"]))
+    }
+    fn get(&self, row: usize, f: &str, param: &str) -> Result<Option<[&'a [f64]; 4]>, Box<dyn Error>> {
+        let Some(cols) = self.0.row_fields(row, f, param)? else { return Ok(None) };
+        for (k, c) in cols.iter().enumerate() {
+            if let Some(i) = c.iter().position(|v| !v.is_finite()) {
+                return Err(err(f, format!("{param}[{}].{} must be finite, got {}", i + 1, ["fx", "fy", "mx", "my"][k], c[i])));
+            }
+        }
+        Ok(Some([cols[0], cols[1], cols[2], cols[3]]))
+    }
+}
+
+scalar_fn!(CpdAlign, cpd_signatures(), cpd_align);
+scalar_fn!(
+    RigidFit,
+    vec![
+        sig(vec![pairs_col_type()], rigid_fit_type()),
+        sig(vec![pairs_col_type(), double()], rigid_fit_type()),
+        sig(vec![pairs_col_type(), double(), boolean()], rigid_fit_type()),
+    ],
+    rigid_fit
+);
+scalar_fn!(TransformApply, vec![sig(vec![traj_type(), transform_type()], traj_type())], apply);
+scalar_fn!(TransformCompose, vec![sig(vec![transform_type(), transform_type()], transform_type())], compose);
+scalar_fn!(TransformInvert, vec![sig(vec![transform_type()], transform_type())], invert);
+
+pub fn register(con: &Connection) -> duckdb::Result<()> {
+    con.register_scalar_function::<CpdAlign>("cpd_align")?;
+    con.register_scalar_function::<RigidFit>("rigid_fit")?;
+    con.register_scalar_function::<TransformApply>("transform_apply")?;
+    con.register_scalar_function::<TransformCompose>("transform_compose")?;
+    con.register_scalar_function::<TransformInvert>("transform_invert")?;
+    Ok(())
+}

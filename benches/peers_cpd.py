@@ -76,6 +76,8 @@ def main():
         "ty": abs(r["ty"] - t_p[1]),
         "scale": abs(r["scale"] - s_p),
     }
+    if r["iterations"] != reg.iteration:
+        print(f"warning: iterations differ (pycpd {reg.iteration}, trajdb {r['iterations']})")
     print(f"\n== rigid CPD with scale, {a.n} x {a.n} points, w={w}, tol={tol}, max_iter={iters}, start R = I")
     print(f"pycpd RigidRegistration: {t_pycpd:8.3f} s  iterations {reg.iteration}  theta {math.degrees(th_p):.6f} deg  t ({t_p[0]:.6f}, {t_p[1]:.6f})  s {s_p:.8f}")
     print(f"trajdb cpd_align (SQL):  {t_ours:8.3f} s  iterations {r['iterations']}  theta {math.degrees(r['theta']):.6f} deg  t ({r['tx']:.6f}, {r['ty']:.6f})  s {r['scale']:.8f}")
@@ -86,8 +88,8 @@ def main():
     fixed, moving = make(a.big, s=1.0)
     to_sql("fb", fixed)
     to_sql("mb", moving)
-    for tau, starts in [(0.5, 1), (0.5, 8)]:
-        q = f"SELECT cpd_align(f.p, m.p, 0.1, {tau}, 100, 1e-6, false, {starts}) FROM fb_l f, mb_l m"
+    for tau, starts in [(0.1, 1), (0.1, 8)]:
+        q = f"SELECT cpd_align(f.p, m.p, 0.1, {tau}, 100, 1e-5, false, {starts}) FROM fb_l f, mb_l m"
         t0 = time.perf_counter()
         r = con.execute(q).fetchone()[0]
         el = time.perf_counter() - t0

@@ -223,7 +223,10 @@ impl Problem<'_> {
                     for j in lo..hi {
                         let (dx, dy) = (xi - ty[j].0, yi - ty[j].1);
                         let dt = ti - self.mv.t[j];
-                        let e = (-(dx * dx + dy * dy) * inv_2s2 - dt * dt * self.inv_2tau2).exp();
+                        let arg = (dx * dx + dy * dy) * inv_2s2 + dt * dt * self.inv_2tau2;
+                        // exp(-arg) is exactly 0.0 in f64 beyond 745.2: skipping it changes
+                        // nothing and saves most of the work once σ² is small.
+                        let e = if arg > 745.5 { 0.0 } else { (-arg).exp() };
                         buf.push(e);
                         den += e;
                     }
@@ -379,7 +382,16 @@ pub fn align(
         band.push((lo as u32, hi as u32));
     }
     let pb = Problem { fx: &fxc, mv: &mvc, band, inv_2tau2, log_tau_norm };
-    let start = |k: usize| Transform2 { theta: 2.0 * std::f64::consts::PI * k as f64 / p.starts as f64, ..Transform2::default() };
+    // Start k: rotation 2πk/starts about the centroids (the centred sets share their origin).
+    // With one start we reproduce pycpd exactly: R = I and t = 0 in the caller's frames,
+    // i.e. t' = c_m − c_f in the centred frames.
+    let start = |k: usize| {
+        if p.starts == 1 {
+            Transform2 { tx: cmx - cfx, ty: cmy - cfy, ..Transform2::default() }
+        } else {
+            Transform2 { theta: 2.0 * std::f64::consts::PI * k as f64 / p.starts as f64, ..Transform2::default() }
+        }
+    };
     let best = if p.starts == 1 {
         let s0 = start(0);
         run(&pb, s0, p, p.max_iter, sigma2_init(&fxc, &mvc, &s0))

@@ -10,9 +10,11 @@
 //! | [`lcss_translate`] | translation-invariant S2 of Buzan def. 4.3, appendix / lemma 4.2 |
 //! | [`region`] | polygon regions from WKT/WKB and point-in-polygon |
 //! | [`rigid`] | 2-D similarity transforms, Umeyama/Kabsch fit, trimmed robust fit |
+//! | [`correspond`] | time-interpolated point pairs between two tracks (transform hypotheses) |
 //! | [`cpd`] | rigid TimeCPD (thesis eq. 2.7/2.8, Alg. 5–8) with a sparse time-windowed E-step |
 
 pub mod band;
+pub mod correspond;
 pub mod cpd;
 pub mod lcss;
 pub mod lcss_index;

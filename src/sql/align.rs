@@ -32,6 +32,15 @@ pub const DOCS: &[FnDoc] = &[
         example: "SELECT round(degrees(rigid_fit([{'fx':0,'fy':0,'mx':0,'my':0},{'fx':0,'fy':1,'mx':1,'my':0}]).theta)); -- 90.0",
     },
     FnDoc {
+        name: "traj_correspond",
+        signatures: "traj_correspond(fixed TRAJ, moving TRAJ [, max_gap DOUBLE]) -> STRUCT(fx, fy, mx, my)[]",
+        description: "Point pairs for rigid_fit from two tracks of (presumably) the same road user in two cameras with synchronised clocks: for each \
+                      fixed point inside the moving track's time span, the moving track interpolated linearly at that time (not across gaps longer \
+                      than max_gap seconds, default 0.5). rigid_fit(traj_correspond(a, b)) is one transform hypothesis, found in closed form, with no \
+                      initial rotation needed. O(n + m).",
+        example: "SELECT traj_correspond([{'t':1,'x':0,'y':0}], [{'t':0,'x':0,'y':0},{'t':2,'x':4,'y':2}], 3.0); -- [{'fx': 0.0, 'fy': 0.0, 'mx': 2.0, 'my': 1.0}]",
+    },
+    FnDoc {
         name: "transform_apply",
         signatures: "transform_apply(traj TRAJ, tf STRUCT(theta, tx, ty, scale)) -> TRAJ",
         description: "Maps every point of the trajectory with p' = scale*R(theta)*p + (tx, ty); t is unchanged. Use it to bring a camera's tracks into the fixed frame.",
@@ -272,7 +281,68 @@ impl<'a> FourCol<'a> {
     }
 }
 
+fn correspond(input: &mut DataChunkHandle, output: &mut dyn WritableVector) -> FnResult {
+    const F: &str = "traj_correspond";
+    let a = TrajCol::new(input, 0);
+    let b = TrajCol::new(input, 1);
+    let gap = (input.num_columns() > 2).then(|| PrimCol::new(input, 2));
+    let vals = map_rows(input.len(), |r| -> Result<Option<crate::algo::correspond::Pairs>, Box<dyn Error>> {
+        let (Some(a), Some(b)) = (a.get(r, F, "fixed")?, b.get(r, F, "moving")?) else { return Ok(None) };
+        let g = match &gap {
+            None => 0.5,
+            Some(c) => match c.f64(r) {
+                None => return Ok(None),
+                Some(v) => v,
+            },
+        };
+        if !(g > 0.0) {
+            return Err(err(F, format!("max_gap must be > 0, got {g}")));
+        }
+        Ok(Some(crate::algo::correspond::correspond(a, b, g)))
+    })?;
+    write_pairs4(&mut output.list_vector(), &vals);
+    Ok(())
+}
+
+/// Writes `STRUCT(fx, fy, mx, my)[]` rows.
+fn write_pairs4(out: &mut duckdb::core::ListVector<'_>, vals: &[Option<crate::algo::correspond::Pairs>]) {
+    let total: usize = vals.iter().flatten().map(|p| p.t.len()).sum();
+    {
+        let child = out.struct_child(total);
+        let mut cols: Vec<duckdb::core::FlatVector<'_>> = (0..4).map(|k| child.child(k, total)).collect();
+        let mut off = 0;
+        for p in vals.iter().flatten() {
+            let len = p.t.len();
+            for (k, src) in [&p.fx, &p.fy, &p.mx, &p.my].into_iter().enumerate() {
+                // SAFETY: capacity `total` was reserved by `struct_child`; fields are DOUBLE.
+                let d = unsafe { cols[k].as_mut_slice_with_len::<f64>(total) };
+                d[off..off + len].copy_from_slice(src);
+            }
+            off += len;
+        }
+    }
+    let mut off = 0;
+    for (row, v) in vals.iter().enumerate() {
+        match v {
+            Some(p) => {
+                out.set_entry(row, off, p.t.len());
+                off += p.t.len();
+            }
+            None => out.set_null(row),
+        }
+    }
+    out.set_len(total);
+}
+
 scalar_fn!(CpdAlign, cpd_signatures(), cpd_align);
+scalar_fn!(
+    TrajCorrespond,
+    vec![
+        sig(vec![traj_type(), traj_type()], pairs_col_type()),
+        sig(vec![traj_type(), traj_type(), double()], pairs_col_type())
+    ],
+    correspond
+);
 scalar_fn!(
     RigidFit,
     vec![
@@ -289,6 +359,7 @@ scalar_fn!(TransformInvert, vec![sig(vec![transform_type()], transform_type())],
 pub fn register(con: &Connection) -> duckdb::Result<()> {
     con.register_scalar_function::<CpdAlign>("cpd_align")?;
     con.register_scalar_function::<RigidFit>("rigid_fit")?;
+    con.register_scalar_function::<TrajCorrespond>("traj_correspond")?;
     con.register_scalar_function::<TransformApply>("transform_apply")?;
     con.register_scalar_function::<TransformCompose>("transform_compose")?;
     con.register_scalar_function::<TransformInvert>("transform_invert")?;

@@ -1,0 +1,158 @@
+#!/usr/bin/env python3
+"""Accuracy of camera alignment on the real-trajectory scenarios (ground truth from cameras.csv,
+read only here, never by the pipeline).
+
+For every camera pair (a, b) it compares the estimated transform a-local -> b-local with the
+truth T_b^-1 o T_a: rotation error in degrees and the RMS displacement of a's points that lie
+in the true overlap of the two views (the convention of shared/data/README.md).
+
+Methods:
+  trajdb      sql/align.sql (hypotheses from track pairs, voting, trimmed refit, spanning tree)
+  timecpd8    cpd_align on all points of both cameras, tau = 0.5 s, 8 starts
+  cpd_RI      plain rigid CPD (tau = inf) from R = I only (the thesis's start)
+  timecpd_RI  TimeCPD (tau = 0.5 s) from R = I only
+
+usage: python3 benches/accuracy_align.py --ext trajdb.duckdb_extension [--scenario DIR ...] [--no-cpd]
+"""
+import argparse
+import csv
+import math
+import os
+import sys
+import time
+
+import duckdb
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+DATA = os.path.join(HERE, "..", "..", "shared", "data")
+
+
+def tf_apply(tf, x, y):
+    th, tx, ty, s = tf
+    c, si = math.cos(th), math.sin(th)
+    return s * (c * x - si * y) + tx, s * (si * x + c * y) + ty
+
+
+def tf_compose(a, b):  # a after b
+    tx, ty = tf_apply(a, b[1], b[2])
+    return (a[0] + b[0], tx, ty, a[3] * b[3])
+
+
+def tf_invert(t):
+    th, tx, ty, s = t
+    inv = (-th, 0.0, 0.0, 1.0 / s)
+    x, y = tf_apply(inv, -tx, -ty)
+    return (-th, x, y, 1.0 / s)
+
+
+def wrap_deg(a):
+    return (a + 180.0) % 360.0 - 180.0
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--ext", required=True)
+    ap.add_argument("--scenario", action="append")
+    ap.add_argument("--no-cpd", action="store_true")
+    a = ap.parse_args()
+    scenarios = a.scenario or [os.path.join(DATA, "dut_intersection_3cam"), os.path.join(DATA, "dut_roundabout_2cam")]
+    align_sql = open(os.path.join(HERE, "..", "sql", "align.sql")).read()
+    worst = (0.0, 0.0)
+    for sc in scenarios:
+        con = duckdb.connect(config={"allow_unsigned_extensions": "true"})
+        con.execute(f"LOAD '{os.path.abspath(a.ext)}'")
+        pq = os.path.abspath(os.path.join(sc, "points.parquet"))
+        con.execute(f"CREATE TABLE points AS SELECT * FROM read_parquet('{pq}')")
+        t0 = time.perf_counter()
+        con.execute(align_sql)
+        el = time.perf_counter() - t0
+        frames = {r[0]: (r[1], r[2], r[3], r[4]) for r in con.execute(
+            "SELECT camera, to_reference.theta, to_reference.tx, to_reference.ty, to_reference.scale FROM align_frames").fetchall()}
+        support = {(r[0], r[1]): r[2] for r in con.execute("SELECT cam_fixed, cam_moving, support FROM align_pairs").fetchall()}
+        truth = {}
+        with open(os.path.join(sc, "cameras.csv")) as f:
+            for row in csv.DictReader(f):
+                truth[int(row["camera"])] = ((float(row["theta_rad"]), float(row["tx"]), float(row["ty"]), 1.0), row["view_wkt_world"])
+        cams = sorted(truth)
+        print(f"\n== {os.path.basename(sc)}: {len(cams)} cameras; sql/align.sql ran in {el:.2f} s; pair support {support}")
+
+        def errors(est_ab, ca, cb):
+            """rotation error (deg) and RMS displacement over a's points in the true overlap."""
+            true_ab = tf_compose(tf_invert(truth[cb][0]), truth[ca][0])
+            # overlap test in world coordinates (true views), plain point-in-polygon
+            wa = truth[ca][0]
+            rows = con.execute(f"SELECT x, y FROM points WHERE camera = {ca} AND estimated = 0").fetchall()
+            ov = overlap_polys[(ca, cb)]
+            sq, n = 0.0, 0
+            for x, y in rows:
+                wx, wy = tf_apply(wa, x, y)
+                if not (inside(ov[0], wx, wy) and inside(ov[1], wx, wy)):
+                    continue
+                ex, ey = tf_apply(est_ab, x, y)
+                tx_, ty_ = tf_apply(true_ab, x, y)
+                sq += (ex - tx_) ** 2 + (ey - ty_) ** 2
+                n += 1
+            rot = abs(wrap_deg(math.degrees(est_ab[0] - true_ab[0])))
+            return rot, math.sqrt(sq / n) if n else float("nan"), n
+
+        overlap_polys = {}
+        for ca in cams:
+            for cb in cams:
+                if ca != cb:
+                    overlap_polys[(ca, cb)] = (parse_poly(truth[ca][1]), parse_poly(truth[cb][1]))
+
+        methods = {"trajdb": {}}
+        for ca in cams:
+            for cb in cams:
+                if ca < cb and ca in frames and cb in frames:
+                    methods["trajdb"][(ca, cb)] = tf_compose(tf_invert(frames[cb]), frames[ca])
+        if not a.no_cpd:
+            for name, tau, starts in [("timecpd8", "0.5", 8), ("cpd_RI", "'inf'", 1), ("timecpd_RI", "0.5", 1)]:
+                methods[name] = {}
+                for ca in cams:
+                    for cb in cams:
+                        if ca < cb:
+                            r = con.execute(f"""
+                                WITH s AS (SELECT camera, list({{'t': t, 'x': x, 'y': y}} ORDER BY t) AS p
+                                           FROM points WHERE estimated = 0 AND camera IN ({ca}, {cb}) GROUP BY camera)
+                                SELECT cpd_align(b.p, a.p, 0.1, {tau}, 100, 1e-6, false, {starts})
+                                FROM s a, s b WHERE a.camera = {ca} AND b.camera = {cb}""").fetchone()[0]
+                            methods[name][(ca, cb)] = (r["theta"], r["tx"], r["ty"], r["scale"])
+        print(f"{'pair':8s} " + " ".join(f"{m:>24s}" for m in methods))
+        for ca in cams:
+            for cb in cams:
+                if ca >= cb:
+                    continue
+                cells = []
+                for m, est in methods.items():
+                    if (ca, cb) not in est:
+                        cells.append(f"{'unsolved':>24s}")
+                        continue
+                    rot, rms, n = errors(est[(ca, cb)], ca, cb)
+                    ok = rot <= 0.5 and rms <= 0.3
+                    if m == "trajdb":
+                        worst = (max(worst[0], rot), max(worst[1], rms))
+                    cells.append(f"{rot:8.3f} deg {rms:7.3f} m {'ok' if ok else '--':>2s}")
+                print(f"{ca}-{cb:<6d} " + " ".join(cells))
+        print("(columns: rotation error, RMS over a's points in the true overlap; ok = within 0.5 deg and 0.3 m)")
+    print(f"\ntrajdb worst pair: {worst[0]:.3f} deg, {worst[1]:.3f} m")
+    return 0
+
+
+def parse_poly(wkt):
+    body = wkt[wkt.index("((") + 2: wkt.index("))")]
+    return [tuple(float(v) for v in p.split()) for p in body.split(",")]
+
+
+def inside(poly, x, y):
+    c = False
+    for i in range(len(poly)):
+        x1, y1 = poly[i]
+        x2, y2 = poly[(i + 1) % len(poly)]
+        if (y1 > y) != (y2 > y) and x < (x2 - x1) * (y - y1) / (y2 - y1) + x1:
+            c = not c
+    return c
+
+
+if __name__ == "__main__":
+    sys.exit(main())

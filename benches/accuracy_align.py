@@ -8,7 +8,7 @@ in the true overlap of the two views (the convention of shared/data/README.md).
 
 Methods:
   trajdb      sql/align.sql (hypotheses from track pairs, voting, trimmed refit, spanning tree)
-  timecpd8    cpd_align on all points of both cameras, tau = 0.5 s, 8 starts
+  timecpd8    cpd_align on all points of both cameras (a fixed 1/8 sample), tau = 0.5 s, 8 starts
   cpd_RI      plain rigid CPD (tau = inf) from R = I only (the thesis's start)
   timecpd_RI  TimeCPD (tau = 0.5 s) from R = I only
 
@@ -114,7 +114,7 @@ def main():
                         if ca < cb:
                             r = con.execute(f"""
                                 WITH s AS (SELECT camera, list({{'t': t, 'x': x, 'y': y}} ORDER BY t) AS p
-                                           FROM points WHERE estimated = 0 AND camera IN ({ca}, {cb}) GROUP BY camera)
+                                           FROM points WHERE estimated = 0 AND camera IN ({ca}, {cb}) AND hash(track_id, t) % 8 = 0 GROUP BY camera)
                                 SELECT cpd_align(b.p, a.p, 0.1, {tau}, 100, 1e-6, false, {starts})
                                 FROM s a, s b WHERE a.camera = {ca} AND b.camera = {cb}""").fetchone()[0]
                             methods[name][(ca, cb)] = (r["theta"], r["tx"], r["ty"], r["scale"])

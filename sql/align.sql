@@ -95,4 +95,7 @@ FROM walk w
 WHERE w.node = (SELECT camera FROM ref)
 QUALIFY row_number() OVER (PARTITION BY w.camera ORDER BY w.bottleneck DESC, w.hops) = 1;
 
-SELECT * FROM align_frames ORDER BY camera;
+SELECT camera, reference, round(degrees(to_reference.theta), 3) AS theta_deg,
+       round(to_reference.tx, 3) AS tx, round(to_reference.ty, 3) AS ty, hops,
+       bottleneck_support::BIGINT AS support
+FROM align_frames ORDER BY camera;

@@ -62,8 +62,15 @@ fn errors_exit_nonzero_with_the_message() {
 fn demo_runs_and_finds_the_shared_objects() {
     let (ok, out, err) = trajdb(&["--csv", "demo"], None);
     assert!(ok, "{err}");
-    // First result: candidate_pairs,above_threshold,correct,objects_seen_by_both,...
-    let row: Vec<&str> = out.lines().nth(1).unwrap().split(',').collect();
+    // Results: align_frames (from sql/align.sql), then the
+    // summary candidate_pairs,above_threshold,correct,objects_seen_by_both,...
+    let lines: Vec<&str> = out.lines().collect();
+    let k = lines.iter().position(|l| l.starts_with("candidate_pairs")).expect(&out);
+    let row: Vec<&str> = lines[k + 1].split(',').collect();
+    // camera 2 was generated rotated by 120 degrees: its transform to camera 1 is found
+    let cam2 = lines.iter().find(|l| l.starts_with("2,1,")).expect(&out);
+    let theta: f64 = cam2.split(',').nth(2).unwrap().parse().unwrap();
+    assert!((theta - 120.0).abs() < 0.5, "{cam2}");
     let (above, correct, both): (i64, i64, i64) = (row[1].parse().unwrap(), row[2].parse().unwrap(), row[3].parse().unwrap());
     assert_eq!(above, correct, "every pair above the threshold is the same object");
     assert_eq!(correct, both, "every object seen by both cameras is found");

@@ -14,7 +14,12 @@ use std::process::ExitCode;
 
 const USAGE: &str = "usage: trajdb [--db FILE] [--csv|--json] (sql \"<query>\" | run FILE.sql | demo | functions [--markdown])\n       SQL is read from stdin when no command is given.";
 
-const DEMO_SQL: &str = include_str!("../../sql/demo.sql");
+/// The embedded demo: generate two cameras (each in its own frame), align them, match tracks.
+const DEMO_SQL: [&str; 3] = [
+    include_str!("../../sql/demo.sql"),
+    include_str!("../../sql/align.sql"),
+    include_str!("../../sql/demo_match.sql"),
+];
 
 #[derive(Clone, Copy, PartialEq)]
 enum Format {
@@ -67,7 +72,7 @@ fn real_main() -> Result<(), Box<dyn std::error::Error>> {
             let f = rest.get(1).ok_or("run needs a file")?;
             std::fs::read_to_string(f).map_err(|e| format!("cannot read {f}: {e}"))?
         }
-        Some("demo") => DEMO_SQL.to_string(),
+        Some("demo") => DEMO_SQL.join("\n;\n"),
         Some("functions") => {
             print_functions(markdown);
             return Ok(());

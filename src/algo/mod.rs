@@ -4,6 +4,7 @@
 //! | file | what |
 //! |---|---|
 //! | [`traj`] | trajectory views, validation, speeds, WKT |
+//! | [`assign`] | sparse maximum-weight one-to-one assignment (components + scipy's LSAP via `lsap`) |
 //! | [`band`] | the banded LCSS dynamic-programming engine shared by every LCSS form |
 //! | [`lcss`] | time-window LCSS (thesis eq. 2.9, 2.10, Alg. 1), 2-D points and 1-D series |
 //! | [`lcss_index`] | index-window LCSS of Buzan def. 4.1/4.2 (δ, ε, ρ, S1) |
@@ -13,6 +14,7 @@
 //! | [`correspond`] | time-interpolated point pairs between two tracks (transform hypotheses) |
 //! | [`cpd`] | rigid TimeCPD (thesis eq. 2.7/2.8, Alg. 5–8) with a sparse time-windowed E-step |
 
+pub mod assign;
 pub mod band;
 pub mod correspond;
 pub mod cpd;

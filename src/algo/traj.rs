@@ -163,6 +163,35 @@ pub fn speeds(tr: Traj<'_>) -> (Vec<f64>, Vec<f64>) {
     (ts, vs)
 }
 
+/// Turn rate (rad/s), a rotation- and translation-invariant signature of a track.
+///
+/// The track is cut into displacement segments of at least `min_step` metres (consecutive
+/// points are accumulated until the chord reaches it, which keeps position noise from
+/// dominating the heading of slow road users). The heading of each segment is the direction
+/// of its chord; the turn rate between two consecutive segments is the wrapped heading change
+/// divided by the time between their ends, stamped at the later end. Fewer than two segments
+/// give no samples. O(n).
+pub fn turn_rates(tr: Traj<'_>, min_step: f64) -> (Vec<f64>, Vec<f64>) {
+    let mut ends: Vec<(f64, f64)> = Vec::new(); // (t, heading)
+    let mut k = 0;
+    for j in 1..tr.len() {
+        let (dx, dy) = (tr.x[j] - tr.x[k], tr.y[j] - tr.y[k]);
+        if dx.hypot(dy) >= min_step && tr.t[j] > tr.t[k] {
+            ends.push((tr.t[j], dy.atan2(dx)));
+            k = j;
+        }
+    }
+    let mut ts = Vec::with_capacity(ends.len().saturating_sub(1));
+    let mut vs = Vec::with_capacity(ends.len().saturating_sub(1));
+    for w in ends.windows(2) {
+        let mut d = w[1].1 - w[0].1;
+        d = (d + std::f64::consts::PI).rem_euclid(2.0 * std::f64::consts::PI) - std::f64::consts::PI;
+        ts.push(w[1].0);
+        vs.push(d / (w[1].0 - w[0].0));
+    }
+    (ts, vs)
+}
+
 /// WKT for GIS tools: `LINESTRING (x y, ...)` for two or more points, `POINT (x y)` for one,
 /// `LINESTRING EMPTY` for none. Coordinates use Rust's shortest round-trip formatting. O(n).
 pub fn to_wkt(tr: Traj<'_>) -> String {
@@ -220,6 +249,21 @@ mod tests {
         assert_eq!(ts, vec![1.0, 3.0]);
         assert_eq!(vs, vec![5.0, 2.0]);
         assert_eq!(speeds(Traj::new(&[1.0], &[1.0], &[1.0])).0.len(), 0);
+    }
+
+    #[test]
+    fn turn_rates_are_rotation_invariant() {
+        // A quarter circle of radius 10 m in 10 s: 0.157 rad/s everywhere.
+        let t: Vec<f64> = (0..=100).map(|k| k as f64 * 0.1).collect();
+        let x: Vec<f64> = t.iter().map(|t| 10.0 * (t * 0.157).cos()).collect();
+        let y: Vec<f64> = t.iter().map(|t| 10.0 * (t * 0.157).sin()).collect();
+        let (rx, ry): (Vec<f64>, Vec<f64>) = x.iter().zip(&y).map(|(&a, &b)| (a * 0.3f64.cos() - b * 0.3f64.sin() + 5.0, a * 0.3f64.sin() + b * 0.3f64.cos())).unzip();
+        let (t1, v1) = turn_rates(Traj::new(&t, &x, &y), 1.0);
+        let (t2, v2) = turn_rates(Traj::new(&t, &rx, &ry), 1.0);
+        assert_eq!(t1, t2);
+        assert!(v1.iter().zip(&v2).all(|(a, b)| (a - b).abs() < 1e-9));
+        assert!(v1.iter().all(|v| (v - 0.157).abs() < 0.01), "{v1:?}");
+        assert!(turn_rates(Traj::new(&[0.0], &[0.0], &[0.0]), 1.0).0.is_empty());
     }
 
     #[test]

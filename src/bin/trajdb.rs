@@ -139,7 +139,7 @@ fn run_statement(con: &duckdb::Connection, sql: &str, format: Format, out: &mut 
         Format::Csv => {
             let mut w = arrow::csv::WriterBuilder::new().with_header(true).build(&mut *out);
             for b in &batches {
-                w.write(b)?;
+                w.write(&flatten_nested(b)?)?;
             }
         }
         Format::Json => {
@@ -151,6 +151,28 @@ fn run_statement(con: &duckdb::Connection, sql: &str, format: Format, out: &mut 
         }
     }
     Ok(())
+}
+
+/// CSV has no nested values: lists and structs are written as their display text.
+fn flatten_nested(b: &RecordBatch) -> Result<RecordBatch, Box<dyn std::error::Error>> {
+    use arrow::array::{ArrayRef, StringArray};
+    use arrow::datatypes::{DataType, Field, Schema};
+    use arrow::util::display::{ArrayFormatter, FormatOptions};
+    use std::sync::Arc;
+    let mut cols: Vec<ArrayRef> = Vec::new();
+    let mut fields = Vec::new();
+    for (f, c) in b.schema().fields().iter().zip(b.columns()) {
+        if f.data_type().is_nested() {
+            let fmt = ArrayFormatter::try_new(c.as_ref(), &FormatOptions::default().with_null("NULL"))?;
+            let s: StringArray = (0..c.len()).map(|i| if c.is_null(i) { None } else { Some(fmt.value(i).to_string()) }).collect();
+            cols.push(Arc::new(s));
+            fields.push(Field::new(f.name(), DataType::Utf8, true));
+        } else {
+            cols.push(c.clone());
+            fields.push(f.as_ref().clone());
+        }
+    }
+    Ok(RecordBatch::try_new(Arc::new(Schema::new(fields)), cols)?)
 }
 
 /// Splits a script into statements at `;`, ignoring semicolons inside quotes and comments.

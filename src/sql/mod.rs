@@ -3,6 +3,7 @@
 //! [`register_all`] runs in the embedded build and in the loadable extension.
 
 pub mod align;
+pub mod assign;
 pub mod convert;
 pub mod lcss;
 pub mod meta;
@@ -16,6 +17,7 @@ pub fn docs() -> Vec<convert::FnDoc> {
     v.extend_from_slice(traj::DOCS);
     v.extend_from_slice(lcss::DOCS);
     v.extend_from_slice(align::DOCS);
+    v.extend_from_slice(assign::DOCS);
     v.extend_from_slice(meta::DOCS);
     v
 }
@@ -25,6 +27,7 @@ pub fn register_all(con: &Connection) -> duckdb::Result<()> {
     traj::register(con)?;
     lcss::register(con)?;
     align::register(con)?;
+    assign::register(con)?;
     meta::register(con)?;
     Ok(())
 }

@@ -35,6 +35,14 @@ pub const DOCS: &[FnDoc] = &[
         example: "SELECT traj_speeds([{'t': 0, 'x': 0, 'y': 0}, {'t': 1, 'x': 3, 'y': 4}]); -- [{'t': 1.0, 'v': 5.0}]",
     },
     FnDoc {
+        name: "traj_turn_rates",
+        signatures: "traj_turn_rates(traj STRUCT(t, x, y)[] [, min_step DOUBLE]) -> STRUCT(t DOUBLE, v DOUBLE)[]",
+        description: "Turn rate in rad/s, which does not change under rotation or translation: a coordinate-free signature for matching tracks \
+                      across cameras (with traj_speeds). The track is cut into chords of at least min_step metres (default 1.0) to keep \
+                      position noise out of the heading; each sample is the wrapped heading change between consecutive chords over their time difference.",
+        example: "SELECT traj_turn_rates([{'t':0,'x':0,'y':0},{'t':1,'x':2,'y':0},{'t':2,'x':2,'y':2}]); -- [{'t': 2.0, 'v': 1.5707963267948966}]",
+    },
+    FnDoc {
         name: "traj_to_wkt",
         signatures: "traj_to_wkt(traj STRUCT(t, x, y)[]) -> VARCHAR",
         description: "WKT for GIS tools: LINESTRING for two or more points, POINT for one, LINESTRING EMPTY for none. \
@@ -76,6 +84,28 @@ fn speeds(input: &mut DataChunkHandle, output: &mut dyn WritableVector) -> FnRes
     Ok(())
 }
 
+fn turn_rates(input: &mut DataChunkHandle, output: &mut dyn WritableVector) -> FnResult {
+    const F: &str = "traj_turn_rates";
+    let a = TrajCol::new(input, 0);
+    let step = (input.num_columns() > 1).then(|| PrimCol::new(input, 1));
+    let vals = map_rows(input.len(), |r| {
+        let Some(t) = a.get(r, F, "traj")? else { return Ok(None) };
+        let s = match &step {
+            None => 1.0,
+            Some(c) => match c.f64(r) {
+                None => return Ok(None),
+                Some(v) => v,
+            },
+        };
+        if !(s > 0.0 && s.is_finite()) {
+            return Err(err(F, format!("min_step must be > 0, got {s}")));
+        }
+        Ok(Some(traj::turn_rates(t, s)))
+    })?;
+    write_list_of_pairs::<f64, f64>(&mut output.list_vector(), &vals);
+    Ok(())
+}
+
 fn to_wkt(input: &mut DataChunkHandle, output: &mut dyn WritableVector) -> FnResult {
     const F: &str = "traj_to_wkt";
     let a = TrajCol::new(input, 0);
@@ -92,6 +122,11 @@ scalar_fn!(
     time_range
 );
 scalar_fn!(TrajSpeeds, vec![sig(vec![traj_type()], series_type())], speeds);
+scalar_fn!(
+    TrajTurnRates,
+    vec![sig(vec![traj_type()], series_type()), sig(vec![traj_type(), double()], series_type())],
+    turn_rates
+);
 scalar_fn!(TrajToWkt, vec![sig(vec![traj_type()], varchar())], to_wkt);
 
 pub fn register(con: &Connection) -> duckdb::Result<()> {
@@ -99,6 +134,7 @@ pub fn register(con: &Connection) -> duckdb::Result<()> {
     con.register_scalar_function::<TrajDuration>("traj_duration")?;
     con.register_scalar_function::<TrajTimeRange>("traj_time_range")?;
     con.register_scalar_function::<TrajSpeeds>("traj_speeds")?;
+    con.register_scalar_function::<TrajTurnRates>("traj_turn_rates")?;
     con.register_scalar_function::<TrajToWkt>("traj_to_wkt")?;
     Ok(())
 }

@@ -11,6 +11,12 @@ Methods:
   timecpd8    cpd_align on all points of both cameras (a fixed 1/8 sample), tau = 0.5 s, 8 starts
   cpd_RI      plain rigid CPD (tau = inf) from R = I only (the thesis's start)
   timecpd_RI  TimeCPD (tau = 0.5 s) from R = I only
+  thesis      the thesis pipeline: speed-LCSS pre-match (eps 2 m/s, T 1 s, eta >= 0.8), Hungarian
+              (assign_pairs), TimeCPD from R = I on the matched points
+The purity of each pre-match (share of kept pairs that are the same object, from truth.csv)
+is printed too: the thesis's speed pre-match, a tighter coordinate-free signature (1 Hz speeds
+within 0.3 m/s and turn rates within 0.15 rad/s, Hungarian), and trajdb's consensus pairs
+(align_support: track pairs whose closed-form transform agrees with the winning vote).
 
 usage: python3 benches/accuracy_align.py --ext trajdb.duckdb_extension [--scenario DIR ...] [--no-cpd]
 """
@@ -118,6 +124,8 @@ def main():
                                 SELECT cpd_align(b.p, a.p, 0.1, {tau}, 100, 1e-6, false, {starts})
                                 FROM s a, s b WHERE a.camera = {ca} AND b.camera = {cb}""").fetchone()[0]
                             methods[name][(ca, cb)] = (r["theta"], r["tx"], r["ty"], r["scale"])
+        if not a.no_cpd:
+            prematch(con, sc, cams, methods)
         print(f"{'pair':8s} " + " ".join(f"{m:>24s}" for m in methods))
         for ca in cams:
             for cb in cams:
@@ -137,6 +145,72 @@ def main():
         print("(columns: rotation error, RMS over a's points in the true overlap; ok = within 0.5 deg and 0.3 m)")
     print(f"\ntrajdb worst pair: {worst[0]:.3f} deg, {worst[1]:.3f} m")
     return 0
+
+
+def prematch(con, sc, cams, methods):
+    """Coordinate-free pre-matching, thesis-style and with our signature; purity from truth.csv."""
+    con.execute(f"CREATE OR REPLACE TABLE truth AS SELECT * FROM read_csv('{os.path.join(os.path.abspath(sc), 'truth.csv')}')")
+    con.execute("""
+        CREATE OR REPLACE TABLE pm_tracks AS
+        SELECT camera, track_id, class, traj, t0, t1, traj_speeds(traj) AS sp, traj_turn_rates(traj, 1.5) AS tu
+        FROM align_tracks""")
+    con.execute("""
+        CREATE OR REPLACE TABLE pm_cand AS
+        SELECT a.camera AS ca, b.camera AS cb, a.track_id AS ta, b.track_id AS tb,
+               lcss_series_similarity(a.sp, b.sp, 2.0, 1.0) AS eta_thesis,
+               least(lcss_series_similarity(traj_speeds(list_filter(a.traj, lambda p, i: i % 10 = 1)),
+                                            traj_speeds(list_filter(b.traj, lambda p, i: i % 10 = 1)), 0.3, 0.6, 4),
+                     lcss_series_similarity(a.tu, b.tu, 0.15, 0.6, 3)) AS eta_sig
+        FROM pm_tracks a JOIN pm_tracks b
+          ON a.camera < b.camera AND a.class = b.class AND a.t0 <= b.t1 - 2 AND b.t0 <= a.t1 - 2""")
+    sup = con.execute("""
+        SELECT s.cam_fixed, s.cam_moving, count(*), count(*) FILTER (WHERE x.object_id = y.object_id AND x.object_id >= 0)
+        FROM align_support s JOIN truth x ON x.camera = s.cam_fixed AND x.track_id = s.track_fixed
+                             JOIN truth y ON y.camera = s.cam_moving AND y.track_id = s.track_moving
+        GROUP BY ALL ORDER BY ALL""").fetchall()
+    print("pre-match trajdb   : " + ", ".join(f"{ca}-{cb}: {same}/{kept} pure ({100.0 * same / kept:.0f}%)" for ca, cb, kept, same in sup))
+    for name, col, thr in [("thesis", "eta_thesis", 0.8), ("signature", "eta_sig", 0.6)]:
+        con.execute(f"""
+            CREATE OR REPLACE TABLE pm_{name} AS
+            SELECT ca, cb, p.a AS ta, p.b AS tb FROM (
+                SELECT ca, cb, unnest(assign_pairs(list({{'a': ta, 'b': tb, 'w': {col}}}))) AS p
+                FROM pm_cand WHERE {col} >= {thr} GROUP BY ca, cb)""")
+        pur = con.execute(f"""
+            SELECT k.ca, k.cb, count(*) AS kept, count(*) FILTER (WHERE x.object_id = y.object_id AND x.object_id >= 0) AS same
+            FROM pm_{name} k JOIN truth x ON x.camera = k.ca AND x.track_id = k.ta
+                             JOIN truth y ON y.camera = k.cb AND y.track_id = k.tb
+            GROUP BY ALL ORDER BY ALL""").fetchall()
+        print(f"pre-match {name:9s}: " + ", ".join(f"{ca}-{cb}: {same}/{kept} pure ({100.0 * same / kept:.0f}%)" for ca, cb, kept, same in pur))
+        if name != "thesis":
+            continue
+        methods[name] = {}
+        for ca in cams:
+            for cb in cams:
+                if ca >= cb:
+                    continue
+                # matched points of the kept pairs (speed sample i is stamped at point i + 1)
+                pts = f"""
+                    SELECT a.traj[m.i + 1] AS pa, b.traj[m.j + 1] AS pb
+                    FROM pm_{name} k
+                    JOIN pm_tracks a ON a.camera = k.ca AND a.track_id = k.ta
+                    JOIN pm_tracks b ON b.camera = k.cb AND b.track_id = k.tb,
+                    LATERAL (SELECT unnest(lcss_series_matches(a.sp, b.sp, {'2.0, 1.0' if name == 'thesis' else '0.3, 0.1'})) AS m)
+                    WHERE k.ca = {ca} AND k.cb = {cb}"""
+                n = con.execute(f"SELECT count(*) FROM ({pts})").fetchone()[0]
+                if n < 3:
+                    continue
+                try:
+                    if name == "thesis":
+                        r = con.execute(f"""
+                            WITH p AS ({pts})
+                            SELECT cpd_align(list(pb ORDER BY pb.t), list(pa ORDER BY pa.t), 0.1, 0.5, 100, 1e-6, false, 1) FROM p""").fetchone()[0]
+                    else:
+                        r = con.execute(f"""
+                            WITH p AS ({pts})
+                            SELECT rigid_fit(list({{'fx': pb.x, 'fy': pb.y, 'mx': pa.x, 'my': pa.y}}), 0.2) FROM p""").fetchone()[0]
+                    methods[name][(ca, cb)] = (r["theta"], r["tx"], r["ty"], r["scale"])
+                except duckdb.Error as e:
+                    print(f"  {name} {ca}-{cb}: {e}")
 
 
 def parse_poly(wkt):

@@ -51,16 +51,36 @@ WHERE f.rms < 0.5
 GROUP BY cam_fixed, cam_moving, theta_deg, tx, ty
 QUALIFY row_number() OVER (PARTITION BY cam_fixed, cam_moving ORDER BY votes DESC, theta_deg, tx, ty) = 1;
 
--- 3. refit on the agreeing hypotheses (angle difference wrapped to [-180, 180))
-CREATE OR REPLACE TEMP TABLE align_pairs AS
-SELECT h.cam_fixed, h.cam_moving,
-       rigid_fit(flatten(list(h.pairs)), 0.1) AS fit,
-       count(*) AS support
+-- 3. the agreeing hypotheses (angle difference wrapped to [-180, 180)) are the pre-matched
+--    track pairs: same road user in both cameras, found without any coordinates in common.
+CREATE OR REPLACE TEMP TABLE align_support AS
+SELECT h.cam_fixed, h.cam_moving, h.track_fixed, h.track_moving, h.pairs
 FROM align_hyp h JOIN align_best b USING (cam_fixed, cam_moving)
 WHERE h.f.rms < 0.5
   AND abs(((degrees(h.f.theta) - b.theta_deg + 540) % 360) - 180) <= 3
-  AND abs(h.f.tx - b.tx) <= 2 AND abs(h.f.ty - b.ty) <= 2
-GROUP BY h.cam_fixed, h.cam_moving
+  AND abs(h.f.tx - b.tx) <= 2 AND abs(h.f.ty - b.ty) <= 2;
+
+--    refit on all their point pairs together, trimming the worst 10 %
+CREATE OR REPLACE TEMP TABLE align_pairs AS
+SELECT cam_fixed, cam_moving, rigid_fit(flatten(list(pairs)), 0.1) AS fit, count(*) AS support
+FROM align_support
+GROUP BY cam_fixed, cam_moving
+HAVING count(*) >= 3;
+
+--    second pass: keep the track pairs whose own points sit within 0.3 m RMS of that fit
+--    (road users walking side by side agree with the vote to within a metre or two, but not
+--    to 0.3 m), and refit on those: this is the final pre-match and the final transform.
+CREATE OR REPLACE TEMP TABLE align_support AS
+SELECT s.*
+FROM align_support s JOIN align_pairs a USING (cam_fixed, cam_moving)
+WHERE sqrt(list_avg([(p.fx - (a.fit.scale * (cos(a.fit.theta) * p.mx - sin(a.fit.theta) * p.my) + a.fit.tx)) ** 2
+                   + (p.fy - (a.fit.scale * (sin(a.fit.theta) * p.mx + cos(a.fit.theta) * p.my) + a.fit.ty)) ** 2
+                     FOR p IN s.pairs])) < 0.3;
+
+CREATE OR REPLACE TEMP TABLE align_pairs AS
+SELECT cam_fixed, cam_moving, rigid_fit(flatten(list(pairs)), 0.1) AS fit, count(*) AS support
+FROM align_support
+GROUP BY cam_fixed, cam_moving
 HAVING count(*) >= 3;
 
 -- 4. spanning tree: widest path from every camera to the reference camera (the one with the

@@ -306,32 +306,9 @@ fn correspond(input: &mut DataChunkHandle, output: &mut dyn WritableVector) -> F
 
 /// Writes `STRUCT(fx, fy, mx, my)[]` rows.
 fn write_pairs4(out: &mut duckdb::core::ListVector<'_>, vals: &[Option<crate::algo::correspond::Pairs>]) {
-    let total: usize = vals.iter().flatten().map(|p| p.t.len()).sum();
-    {
-        let child = out.struct_child(total);
-        let mut cols: Vec<duckdb::core::FlatVector<'_>> = (0..4).map(|k| child.child(k, total)).collect();
-        let mut off = 0;
-        for p in vals.iter().flatten() {
-            let len = p.t.len();
-            for (k, src) in [&p.fx, &p.fy, &p.mx, &p.my].into_iter().enumerate() {
-                // SAFETY: capacity `total` was reserved by `struct_child`; fields are DOUBLE.
-                let d = unsafe { cols[k].as_mut_slice_with_len::<f64>(total) };
-                d[off..off + len].copy_from_slice(src);
-            }
-            off += len;
-        }
-    }
-    let mut off = 0;
-    for (row, v) in vals.iter().enumerate() {
-        match v {
-            Some(p) => {
-                out.set_entry(row, off, p.t.len());
-                off += p.t.len();
-            }
-            None => out.set_null(row),
-        }
-    }
-    out.set_len(total);
+    let cols: Vec<Option<Vec<&[f64]>>> =
+        vals.iter().map(|v| v.as_ref().map(|p| vec![&p.fx[..], &p.fy[..], &p.mx[..], &p.my[..]])).collect();
+    write_list_struct_f64(out, 4, &cols);
 }
 
 scalar_fn!(CpdAlign, cpd_signatures(), cpd_align);

@@ -459,17 +459,18 @@ pub fn write_list_of_pairs<A: Copy, B: Copy>(out: &mut ListVector<'_>, vals: &[O
     out.set_len(total);
 }
 
-/// Writes a column of trajectories (`STRUCT(t, x, y)[]`).
-pub fn write_trajs(out: &mut ListVector<'_>, vals: &[Option<crate::algo::traj::OwnedTraj>]) {
-    let total: usize = vals.iter().flatten().map(|t| t.t.len()).sum();
+/// Writes a column of lists of structs whose fields are all DOUBLE. Each row is `None` (NULL)
+/// or one equally long column per field.
+pub fn write_list_struct_f64(out: &mut ListVector<'_>, nfields: usize, vals: &[Option<Vec<&[f64]>>]) {
+    let total: usize = vals.iter().flatten().map(|cols| cols[0].len()).sum();
     {
         let child = out.struct_child(total);
-        let mut cols: Vec<FlatVector<'_>> = (0..3).map(|k| child.child(k, total)).collect();
+        let mut cols: Vec<FlatVector<'_>> = (0..nfields).map(|k| child.child(k, total)).collect();
         let mut off = 0;
-        for tr in vals.iter().flatten() {
-            let len = tr.t.len();
-            for (k, src) in [&tr.t, &tr.x, &tr.y].into_iter().enumerate() {
-                // SAFETY: capacity `total` was reserved; fields are DOUBLE.
+        for row in vals.iter().flatten() {
+            let len = row[0].len();
+            for (k, src) in row.iter().enumerate() {
+                // SAFETY: capacity `total` was reserved by `struct_child`; fields are DOUBLE.
                 let d = unsafe { cols[k].as_mut_slice_with_len::<f64>(total) };
                 d[off..off + len].copy_from_slice(src);
             }
@@ -479,14 +480,21 @@ pub fn write_trajs(out: &mut ListVector<'_>, vals: &[Option<crate::algo::traj::O
     let mut off = 0;
     for (row, v) in vals.iter().enumerate() {
         match v {
-            Some(tr) => {
-                out.set_entry(row, off, tr.t.len());
-                off += tr.t.len();
+            Some(cols) => {
+                out.set_entry(row, off, cols[0].len());
+                off += cols[0].len();
             }
             None => out.set_null(row),
         }
     }
     out.set_len(total);
+}
+
+/// Writes a column of trajectories (`STRUCT(t, x, y)[]`).
+pub fn write_trajs(out: &mut ListVector<'_>, vals: &[Option<crate::algo::traj::OwnedTraj>]) {
+    let cols: Vec<Option<Vec<&[f64]>>> =
+        vals.iter().map(|v| v.as_ref().map(|t| vec![&t.t[..], &t.x[..], &t.y[..]])).collect();
+    write_list_struct_f64(out, 3, &cols);
 }
 
 /// Documentation attached to every registered function; `trajdb_functions()` and

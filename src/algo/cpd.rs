@@ -221,14 +221,72 @@ unsafe fn row_weights_avx2(p: (f64, f64, f64), band: (&[f64], &[f64], &[f64]), i
 fn row_weights(p: (f64, f64, f64), band: (&[f64], &[f64], &[f64]), inv: (f64, f64), buf: &mut [f64]) -> f64 {
     #[cfg(target_arch = "x86_64")]
     {
-        use std::sync::OnceLock;
-        static AVX2: OnceLock<bool> = OnceLock::new();
-        if *AVX2.get_or_init(|| is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma")) {
-            // SAFETY: the CPU supports AVX2 and FMA (checked above).
+        if has_avx2() {
+            // SAFETY: the CPU supports AVX2 and FMA (checked in `has_avx2`).
             return unsafe { row_weights_avx2(p, band, inv, buf) };
         }
     }
     row_weights_generic(p, band, inv, buf)
+}
+
+/// P-weighted moments of one fixed point over its band, with `p_k = buf[k] · inv`:
+/// `(Σ p, Σ p·y_x, Σ p·y_y, Σ p‖y‖², Σ p‖x − T y‖²)`. Four-lane accumulators, no branches.
+#[inline(always)]
+fn row_moments_generic(x: (f64, f64), inv: f64, buf: &[f64], y: (&[f64], &[f64]), ty: (&[f64], &[f64])) -> (f64, f64, f64, f64, f64) {
+    let n = buf.len().min(y.0.len()).min(y.1.len()).min(ty.0.len()).min(ty.1.len());
+    let mut acc = [[0.0f64; 4]; 5];
+    let mut k = 0;
+    while k + 4 <= n {
+        for l in 0..4 {
+            let p = buf[k + l] * inv;
+            let (mx, my) = (y.0[k + l], y.1[k + l]);
+            let (dx, dy) = (x.0 - ty.0[k + l], x.1 - ty.1[k + l]);
+            acc[0][l] += p;
+            acc[1][l] += p * mx;
+            acc[2][l] += p * my;
+            acc[3][l] += p * (mx * mx + my * my);
+            acc[4][l] += p * (dx * dx + dy * dy);
+        }
+        k += 4;
+    }
+    while k < n {
+        let p = buf[k] * inv;
+        let (mx, my) = (y.0[k], y.1[k]);
+        let (dx, dy) = (x.0 - ty.0[k], x.1 - ty.1[k]);
+        acc[0][0] += p;
+        acc[1][0] += p * mx;
+        acc[2][0] += p * my;
+        acc[3][0] += p * (mx * mx + my * my);
+        acc[4][0] += p * (dx * dx + dy * dy);
+        k += 1;
+    }
+    let r = |a: [f64; 4]| (a[0] + a[1]) + (a[2] + a[3]);
+    (r(acc[0]), r(acc[1]), r(acc[2]), r(acc[3]), r(acc[4]))
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn row_moments_avx2(x: (f64, f64), inv: f64, buf: &[f64], y: (&[f64], &[f64]), ty: (&[f64], &[f64])) -> (f64, f64, f64, f64, f64) {
+    row_moments_generic(x, inv, buf, y, ty)
+}
+
+#[inline]
+fn row_moments(x: (f64, f64), inv: f64, buf: &[f64], y: (&[f64], &[f64]), ty: (&[f64], &[f64])) -> (f64, f64, f64, f64, f64) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        if has_avx2() {
+            // SAFETY: the CPU supports AVX2 and FMA (checked in `has_avx2`).
+            return unsafe { row_moments_avx2(x, inv, buf, y, ty) };
+        }
+    }
+    row_moments_generic(x, inv, buf, y, ty)
+}
+
+#[cfg(target_arch = "x86_64")]
+fn has_avx2() -> bool {
+    use std::sync::OnceLock;
+    static AVX2: OnceLock<bool> = OnceLock::new();
+    *AVX2.get_or_init(|| is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma"))
 }
 
 /// Sum with four independent accumulators (breaks the add latency chain).
@@ -325,21 +383,14 @@ impl Problem<'_> {
                     let den = den.max(f64::EPSILON) + c;
                     st.log_den += den.ln();
                     let inv = 1.0 / den;
-                    let mut pt1 = 0.0;
-                    let (mut sy0, mut sy1, mut syy) = (0.0, 0.0, 0.0);
-                    for (k, j) in (lo..hi).enumerate() {
-                        let p = buf[k] * inv;
-                        if p == 0.0 {
-                            continue;
-                        }
-                        pt1 += p;
-                        let (mx, my) = (self.mv.x[j], self.mv.y[j]);
-                        sy0 += p * mx;
-                        sy1 += p * my;
-                        syy += p * (mx * mx + my * my);
-                        let (dx, dy) = (xi - tyx[j], yi - tyy[j]);
-                        st.resid += p * (dx * dx + dy * dy);
-                    }
+                    let (pt1, sy0, sy1, syy, resid) = row_moments(
+                        (xi, yi),
+                        inv,
+                        &buf,
+                        (&self.mv.x[lo..hi], &self.mv.y[lo..hi]),
+                        (&tyx[lo..hi], &tyy[lo..hi]),
+                    );
+                    st.resid += resid;
                     st.np += pt1;
                     st.sx[0] += pt1 * xi;
                     st.sx[1] += pt1 * yi;

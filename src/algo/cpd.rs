@@ -68,7 +68,7 @@ impl fmt::Display for CpdError {
             CpdError::Tol(v) => write!(f, "tol must be >= 0, got {v}"),
             CpdError::MaxIter(v) => write!(f, "max_iter must be >= 1, got {v}"),
             CpdError::Starts(v) => write!(f, "starts must be between 1 and 360, got {v}"),
-            CpdError::TooFew { which, got } => write!(f, "{which} needs at least 2 points, got {got}"),
+            CpdError::TooFew { which, got } => write!(f, "{which} has too few points: got {got}, needs 2 (3 in 3-D)"),
             CpdError::NotFinite { which, index } => write!(f, "{which}[{}] has a NaN or infinite value", index + 1),
         }
     }
@@ -192,6 +192,12 @@ pub(crate) fn exp_neg(x: f64) -> f64 {
     } else {
         v
     }
+}
+
+/// [`exp_neg`] for the 3-D module.
+#[inline(always)]
+pub(crate) fn exp_neg_pub(x: f64) -> f64 {
+    exp_neg(x)
 }
 
 /// Unnormalised posteriors of one fixed point against its band: `buf[k] = exp(−arg_k)`;

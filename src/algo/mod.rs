@@ -12,12 +12,14 @@
 //! | [`region`] | polygon regions from WKT/WKB and point-in-polygon |
 //! | [`rigid`] | 2-D similarity transforms, Umeyama/Kabsch fit, trimmed robust fit |
 //! | [`correspond`] | time-interpolated point pairs between two tracks (transform hypotheses) |
+//! | [`cpd3`] | the same TimeCPD in 3-D (rotation by SVD, nalgebra) |
 //! | [`cpd`] | rigid TimeCPD (thesis eq. 2.7/2.8, Alg. 5–8) with a sparse time-windowed E-step |
 
 pub mod assign;
 pub mod band;
 pub mod correspond;
 pub mod cpd;
+pub mod cpd3;
 pub mod lcss;
 pub mod lcss_index;
 pub mod lcss_translate;

@@ -14,13 +14,14 @@ use std::error::Error;
 pub const DOCS: &[FnDoc] = &[
     FnDoc {
         name: "cpd_align",
-        signatures: "cpd_align(fixed TRAJ, moving TRAJ, w DOUBLE [, tau DOUBLE [, max_iter BIGINT, tol DOUBLE [, with_scale BOOLEAN, starts BIGINT]]]) -> STRUCT(theta, tx, ty, scale, r11, r12, r21, r22, sigma2, iterations, converged, q, log_likelihood, inlier_fraction, rms, start_theta, pairs_in_band)",
+        signatures: "cpd_align(fixed TRAJ, moving TRAJ, w DOUBLE [, tau DOUBLE [, max_iter BIGINT, tol DOUBLE [, with_scale BOOLEAN, starts BIGINT]]]) -> STRUCT(theta, tx, ty, scale, r11, r12, r21, r22, sigma2, iterations, converged, q, log_likelihood, inlier_fraction, rms, start_theta, pairs_in_band)\ncpd_align(fixed STRUCT(t, x, y, z)[], moving STRUCT(t, x, y, z)[], w [, ...same options]) -> STRUCT(r11..r33, tx, ty, tz, scale, sigma2, iterations, converged, q, log_likelihood, inlier_fraction, rms, pairs_in_band)",
         description: "Rigid TimeCPD (thesis eq. 2.7/2.8, Alg. 5-8): the transform p_fixed = scale*R(theta)*p_moving + (tx, ty) that best explains the \
                       fixed points (x, y, t) as noisy copies of the moving ones, with outlier weight w in [0, 1) and time standard deviation tau (s). \
                       Without tau, or tau = 'inf', it is plain rigid CPD (Myronenko & Song); a NULL tau gives NULL like any NULL argument. \
                       The E-step only visits pairs with |t - s| <= 7.43*tau (time weight < 1e-12) and runs on all cores. \
                       Defaults: max_iter 100, tol 1e-5, with_scale false, starts 8 (EM from 8 rotations 2*pi*k/8, the best log-likelihood after 15 \
-                      iterations continues; starts = 1 is the thesis's R = I start). converged = false when max_iter ran out (the estimate is still returned).",
+                      iterations continues; starts = 1 is the thesis's R = I start). converged = false when max_iter ran out (the estimate is still returned). \
+                      With STRUCT(t, x, y, z)[] inputs it runs in 3-D (rotation from the SVD of the 3x3 cross-covariance; starts rotate about z).",
         example: "SELECT round(degrees(cpd_align(a, b, 0.0, 1.0).theta)) FROM (SELECT [{'t':0,'x':0,'y':0},{'t':1,'x':4,'y':0},{'t':2,'x':4,'y':3}] AS a, [{'t':0,'x':0,'y':0},{'t':1,'x':0,'y':-4},{'t':2,'x':3,'y':-4}] AS b); -- 90.0",
     },
     FnDoc {
@@ -88,6 +89,33 @@ fn cpd_result_type() -> LogicalTypeHandle {
     ])
 }
 
+fn cpd3_result_type() -> LogicalTypeHandle {
+    let d = double;
+    LogicalTypeHandle::struct_type(&[
+        ("r11", d()),
+        ("r12", d()),
+        ("r13", d()),
+        ("r21", d()),
+        ("r22", d()),
+        ("r23", d()),
+        ("r31", d()),
+        ("r32", d()),
+        ("r33", d()),
+        ("tx", d()),
+        ("ty", d()),
+        ("tz", d()),
+        ("scale", d()),
+        ("sigma2", d()),
+        ("iterations", bigint()),
+        ("converged", boolean()),
+        ("q", d()),
+        ("log_likelihood", d()),
+        ("inlier_fraction", d()),
+        ("rms", d()),
+        ("pairs_in_band", bigint()),
+    ])
+}
+
 fn cpd_signatures() -> Vec<ScalarFunctionSignature> {
     let mut v = vec![sig(vec![traj_type(), traj_type(), double()], cpd_result_type())];
     v.push(sig(vec![traj_type(), traj_type(), double(), double()], cpd_result_type()));
@@ -96,11 +124,80 @@ fn cpd_signatures() -> Vec<ScalarFunctionSignature> {
         vec![traj_type(), traj_type(), double(), double(), bigint(), double(), boolean(), bigint()],
         cpd_result_type(),
     ));
+    // 3-D overloads: STRUCT(t, x, y, z)[] inputs.
+    let t3 = traj3_type;
+    v.push(sig(vec![t3(), t3(), double()], cpd3_result_type()));
+    v.push(sig(vec![t3(), t3(), double(), double()], cpd3_result_type()));
+    v.push(sig(vec![t3(), t3(), double(), double(), bigint(), double()], cpd3_result_type()));
+    v.push(sig(vec![t3(), t3(), double(), double(), bigint(), double(), boolean(), bigint()], cpd3_result_type()));
     v
+}
+
+/// The optional `tau, max_iter, tol, with_scale, starts` arguments (columns 3..7), defaulted.
+fn cpd_params(input: &DataChunkHandle) -> impl Fn(usize, f64) -> Result<Option<CpdParams>, Box<dyn Error>> + '_ {
+    let nc = input.num_columns();
+    let tau = (nc > 3).then(|| PrimCol::new(input, 3));
+    let max_iter = (nc > 4).then(|| PrimCol::new(input, 4));
+    let tol = (nc > 5).then(|| PrimCol::new(input, 5));
+    let scale = (nc > 6).then(|| PrimCol::new(input, 6));
+    let starts = (nc > 7).then(|| PrimCol::new(input, 7));
+    move |r, w| {
+        macro_rules! opt {
+            ($c:expr, $get:ident, $default:expr) => {
+                match &$c {
+                    None => $default,
+                    Some(c) => match c.$get(r) {
+                        None => return Ok(None),
+                        Some(v) => v,
+                    },
+                }
+            };
+        }
+        let p = CpdParams::new(
+            w,
+            Some(opt!(tau, f64, f64::INFINITY)),
+            opt!(max_iter, i64, 100),
+            opt!(tol, f64, 1e-5),
+            opt!(scale, bool, false),
+            opt!(starts, i64, 8),
+        )
+        .map_err(|e| err("cpd_align", e))?;
+        Ok(Some(p))
+    }
+}
+
+fn is_3d(input: &DataChunkHandle) -> bool {
+    input.flat_vector(0).logical_type().child(0).num_children() == 4
+}
+
+fn cpd_align3(input: &mut DataChunkHandle, output: &mut dyn WritableVector) -> FnResult {
+    const F: &str = "cpd_align";
+    let a = Traj3Col::new(input, 0);
+    let b = Traj3Col::new(input, 1);
+    let w = PrimCol::new(input, 2);
+    let params = cpd_params(input);
+    let vals = map_rows(input.len(), |r| -> Result<Option<Vec<Field>>, Box<dyn Error>> {
+        let (Some(a), Some(b), Some(w)) = (a.get(r, F, "fixed")?, b.get(r, F, "moving")?, w.f64(r)) else {
+            return Ok(None);
+        };
+        let Some(p) = params(r, w)? else { return Ok(None) };
+        let res = crate::algo::cpd3::align3((a.1, a.2, a.3, a.0), (b.1, b.2, b.3, b.0), &p).map_err(|e| err(F, e))?;
+        let t = res.transform;
+        let mut v: Vec<Field> = t.r.iter().flat_map(|row| row.iter().map(|&x| Field::F(x))).collect();
+        v.extend([Field::F(t.t[0]), Field::F(t.t[1]), Field::F(t.t[2]), Field::F(t.scale), Field::F(res.sigma2)]);
+        v.extend([Field::I(res.iterations as i64), Field::B(res.converged), Field::F(res.q), Field::F(res.log_likelihood)]);
+        v.extend([Field::F(res.inlier_fraction), Field::F(res.rms), Field::I(res.pairs_in_band as i64)]);
+        Ok(Some(v))
+    })?;
+    write_struct(&mut output.struct_vector(), 21, &vals);
+    Ok(())
 }
 
 fn cpd_align(input: &mut DataChunkHandle, output: &mut dyn WritableVector) -> FnResult {
     const F: &str = "cpd_align";
+    if is_3d(input) {
+        return cpd_align3(input, output);
+    }
     let nc = input.num_columns();
     let a = TrajCol::new(input, 0);
     let b = TrajCol::new(input, 1);

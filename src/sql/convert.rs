@@ -201,6 +201,33 @@ impl<'a> TrajCol<'a> {
     }
 }
 
+/// `STRUCT(t DOUBLE, x DOUBLE, y DOUBLE, z DOUBLE)[]`, a 3-D trajectory.
+pub fn traj3_type() -> LogicalTypeHandle {
+    LogicalTypeHandle::list(&LogicalTypeHandle::struct_type(&[("t", double()), ("x", double()), ("y", double()), ("z", double())]))
+}
+
+/// Reads a 3-D trajectory argument (`STRUCT(t, x, y, z)[]`): `(t, x, y, z)` slices.
+pub struct Traj3Col<'a>(ListOfStructCol<'a>);
+
+impl<'a> Traj3Col<'a> {
+    pub fn new(input: &'a DataChunkHandle, col: usize) -> Self {
+        Traj3Col(ListOfStructCol::new(input, col, &["t", "x", "y", "z"]))
+    }
+    #[allow(clippy::type_complexity)]
+    pub fn get(&self, row: usize, function: &str, param: &str) -> Result<Option<(&'a [f64], &'a [f64], &'a [f64], &'a [f64])>, Box<dyn Error>> {
+        let Some(c) = self.0.row_fields(row, function, param)? else { return Ok(None) };
+        for (k, name) in ["t", "x", "y", "z"].iter().enumerate() {
+            if let Some(i) = c[k].iter().position(|v| !v.is_finite()) {
+                return Err(err(function, format!("{param}[{}].{name} must be finite, got {}", i + 1, c[k][i])));
+            }
+        }
+        if let Some(i) = c[0].windows(2).position(|w| w[1] < w[0]) {
+            return Err(err(function, format!("{param} must be ordered by t, but {param}[{}].t follows a later t", i + 2)));
+        }
+        Ok(Some((c[0], c[1], c[2], c[3])))
+    }
+}
+
 /// Reads a series argument (`STRUCT(t, v)[]`).
 pub struct SeriesCol<'a>(ListOfStructCol<'a>);
 

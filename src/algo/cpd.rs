@@ -161,6 +161,7 @@ fn prepare(which: &'static str, x: &[f64], y: &[f64], t: &[f64]) -> Result<Set, 
 /// for `x > 708` it returns 0 (the true value is below 1e-307, which changes no posterior
 /// that has `den ≥ f64::EPSILON`).
 #[inline(always)]
+#[allow(clippy::excessive_precision)] // the ln 2 split constants are the standard fdlibm values
 pub(crate) fn exp_neg(x: f64) -> f64 {
     const INV_LN2: f64 = std::f64::consts::LOG2_E;
     const LN2_HI: f64 = 6.931_471_803_691_238_164_9e-1;

@@ -36,6 +36,8 @@ pub struct Cpd3Result {
 }
 
 type P3 = (Vec<Vector3<f64>>, Vec<f64>);
+/// One EM run's outcome: R, t, s, σ², iterations, converged, q, log-likelihood, last sums.
+type Run3 = (Matrix3<f64>, Vector3<f64>, f64, f64, usize, bool, f64, f64, St);
 
 fn prepare(which: &'static str, c: (&[f64], &[f64], &[f64], &[f64])) -> Result<P3, CpdError> {
     let (x, y, z, t) = c;
@@ -196,7 +198,7 @@ pub fn align3(
         for k in 0..p.starts {
             let r0 = zrot(2.0 * std::f64::consts::PI * k as f64 / p.starts as f64);
             let out = run(r0, Vector3::zeros(), probe, None);
-            if best.as_ref().is_none_or(|b: &(Matrix3<f64>, Vector3<f64>, f64, f64, usize, bool, f64, f64, St)| out.7 > b.7) {
+            if best.as_ref().is_none_or(|b: &Run3| out.7 > b.7) {
                 best = Some(out);
             }
         }

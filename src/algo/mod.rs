@@ -15,6 +15,9 @@
 //! | [`cpd3`] | the same TimeCPD in 3-D (rotation by SVD, nalgebra) |
 //! | [`cpd`] | rigid TimeCPD (thesis eq. 2.7/2.8, Alg. 5–8) with a sparse time-windowed E-step |
 
+// `!(x > 0.0)` is used on purpose throughout: unlike `x <= 0.0` it also rejects NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 pub mod assign;
 pub mod band;
 pub mod correspond;

@@ -198,36 +198,15 @@ fn cpd_align(input: &mut DataChunkHandle, output: &mut dyn WritableVector) -> Fn
     if is_3d(input) {
         return cpd_align3(input, output);
     }
-    let nc = input.num_columns();
     let a = TrajCol::new(input, 0);
     let b = TrajCol::new(input, 1);
     let w = PrimCol::new(input, 2);
-    let tau = (nc > 3).then(|| PrimCol::new(input, 3));
-    let max_iter = (nc > 4).then(|| PrimCol::new(input, 4));
-    let tol = (nc > 5).then(|| PrimCol::new(input, 5));
-    let scale = (nc > 6).then(|| PrimCol::new(input, 6));
-    let starts = (nc > 7).then(|| PrimCol::new(input, 7));
+    let params = cpd_params(input);
     let vals = map_rows(input.len(), |r| -> Result<Option<Vec<Field>>, Box<dyn Error>> {
         let (Some(a), Some(b), Some(w)) = (a.get(r, F, "fixed")?, b.get(r, F, "moving")?, w.f64(r)) else {
             return Ok(None);
         };
-        macro_rules! opt {
-            ($c:expr, $get:ident, $default:expr) => {
-                match &$c {
-                    None => $default,
-                    Some(c) => match c.$get(r) {
-                        None => return Ok(None),
-                        Some(v) => v,
-                    },
-                }
-            };
-        }
-        let tau = opt!(tau, f64, f64::INFINITY);
-        let max_iter = opt!(max_iter, i64, 100);
-        let tol = opt!(tol, f64, 1e-5);
-        let with_scale = opt!(scale, bool, false);
-        let starts = opt!(starts, i64, 8);
-        let p = CpdParams::new(w, Some(tau), max_iter, tol, with_scale, starts).map_err(|e| err(F, e))?;
+        let Some(p) = params(r, w)? else { return Ok(None) };
         let res = cpd::align((a.x, a.y, a.t), (b.x, b.y, b.t), &p).map_err(|e| err(F, e))?;
         let t = res.transform;
         let m = Transform2 { scale: 1.0, ..t }.matrix();

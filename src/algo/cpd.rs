@@ -369,6 +369,11 @@ impl Problem<'_> {
                 (mat[0][0] * x + mat[0][1] * y + tf.tx, mat[1][0] * x + mat[1][1] * y + tf.ty)
             })
             .unzip();
+        if self.inv_2tau2 == 0.0 {
+            if let Some(st) = self.e_step_grid(&tyx, &tyy, inv_2s2, c) {
+                return st;
+            }
+        }
         const CHUNK: usize = 512;
         (0..self.fx.x.len())
             .into_par_iter()
@@ -398,24 +403,128 @@ impl Problem<'_> {
                         (&tyx[lo..hi], &tyy[lo..hi]),
                     );
                     st.resid += resid;
-                    st.np += pt1;
-                    st.sx[0] += pt1 * xi;
-                    st.sx[1] += pt1 * yi;
-                    st.sy[0] += sy0;
-                    st.sy[1] += sy1;
-                    st.sxy[0][0] += xi * sy0;
-                    st.sxy[0][1] += xi * sy1;
-                    st.sxy[1][0] += yi * sy0;
-                    st.sxy[1][1] += yi * sy1;
-                    st.sxx += pt1 * (xi * xi + yi * yi);
-                    st.syy += syy;
-                    st.inliers += (pt1 > 0.5) as usize;
+                    accumulate(&mut st, xi, yi, pt1, sy0, sy1, syy);
                     (st, buf)
                 },
             )
             .map(|(s, _)| s)
             .reduce(Stats::default, Stats::add)
     }
+}
+
+impl Problem<'_> {
+    /// Plain CPD (no time term) once σ is small: pairs farther apart than
+    /// `r = sqrt(2σ² · EXP_ZERO)` have `exp(−d²/2σ²) = 0` exactly in [`exp_neg`], so only the
+    /// transformed moving points in the 3×3 grid cells (side ≥ r) around each fixed point are
+    /// visited. The posteriors are the same; only the order of the sums differs. Returns `None`
+    /// when the grid would not save work (r large against the extent of the points).
+    fn e_step_grid(&self, tyx: &[f64], tyy: &[f64], inv_2s2: f64, c: f64) -> Option<Stats> {
+        const EXP_ZERO: f64 = 708.0;
+        let r = (EXP_ZERO / inv_2s2).sqrt();
+        let (mut x0, mut x1, mut y0, mut y1) = (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY);
+        for k in 0..tyx.len() {
+            x0 = x0.min(tyx[k]);
+            x1 = x1.max(tyx[k]);
+            y0 = y0.min(tyy[k]);
+            y1 = y1.max(tyy[k]);
+        }
+        let (nx, ny) = (((x1 - x0) / r).floor() as usize + 1, ((y1 - y0) / r).floor() as usize + 1);
+        if !(r > 0.0) || nx * ny < 16 || nx * ny > 4 * tyx.len() + 16 {
+            return None;
+        }
+        let cell = |x: f64, y: f64| (((x - x0) / r) as usize).min(nx - 1) + nx * (((y - y0) / r) as usize).min(ny - 1);
+        // Counting sort of the moving points by cell; cell-ordered copies keep each cell contiguous.
+        let mut start = vec![0usize; nx * ny + 1];
+        for k in 0..tyx.len() {
+            start[cell(tyx[k], tyy[k]) + 1] += 1;
+        }
+        for k in 0..nx * ny {
+            start[k + 1] += start[k];
+        }
+        let mut fill = start.clone();
+        let mut order = vec![0usize; tyx.len()];
+        for k in 0..tyx.len() {
+            let cidx = cell(tyx[k], tyy[k]);
+            order[fill[cidx]] = k;
+            fill[cidx] += 1;
+        }
+        let g = |v: &[f64]| order.iter().map(|&k| v[k]).collect::<Vec<f64>>();
+        let (gx, gy, gmx, gmy) = (g(tyx), g(tyy), g(&self.mv.x), g(&self.mv.y));
+        let zeros = vec![0.0; gx.len()];
+        let st = (0..self.fx.x.len())
+            .into_par_iter()
+            .with_min_len(512)
+            .fold(
+                || (Stats::default(), Vec::<f64>::new(), Vec::<(usize, usize)>::new()),
+                |(mut st, mut buf, mut runs), i| {
+                    let (xi, yi) = (self.fx.x[i], self.fx.y[i]);
+                    let cx = ((xi - x0) / r).floor();
+                    let cy = ((yi - y0) / r).floor();
+                    runs.clear();
+                    for dy in -1..=1 {
+                        let yy = cy + dy as f64;
+                        if yy < 0.0 || yy >= ny as f64 {
+                            continue;
+                        }
+                        let (xa, xb) = ((cx - 1.0).max(0.0), (cx + 1.0).min(nx as f64 - 1.0));
+                        if xa > xb {
+                            continue;
+                        }
+                        let row = yy as usize * nx;
+                        // the cells of one grid row are contiguous in the cell order
+                        let (a, b) = (start[row + xa as usize], start[row + xb as usize + 1]);
+                        if a < b {
+                            runs.push((a, b));
+                        }
+                    }
+                    let total: usize = runs.iter().map(|&(a, b)| b - a).sum();
+                    buf.clear();
+                    buf.resize(total, 0.0);
+                    let mut den = 0.0;
+                    let mut off = 0;
+                    for &(a, b) in &runs {
+                        den += row_weights((xi, yi, 0.0), (&gx[a..b], &gy[a..b], &zeros[a..b]), (inv_2s2, 0.0), &mut buf[off..off + b - a]);
+                        off += b - a;
+                    }
+                    let den = den.max(f64::EPSILON) + c;
+                    st.log_den += den.ln();
+                    let inv = 1.0 / den;
+                    let (mut pt1, mut sy0, mut sy1, mut syy) = (0.0, 0.0, 0.0, 0.0);
+                    let mut off = 0;
+                    for &(a, b) in &runs {
+                        let mm = row_moments((xi, yi), inv, &buf[off..off + b - a], (&gmx[a..b], &gmy[a..b]), (&gx[a..b], &gy[a..b]));
+                        pt1 += mm.0;
+                        sy0 += mm.1;
+                        sy1 += mm.2;
+                        syy += mm.3;
+                        st.resid += mm.4;
+                        off += b - a;
+                    }
+                    accumulate(&mut st, xi, yi, pt1, sy0, sy1, syy);
+                    (st, buf, runs)
+                },
+            )
+            .map(|(s, _, _)| s)
+            .reduce(Stats::default, Stats::add);
+        Some(st)
+    }
+}
+
+/// Adds one fixed point's P-weighted sums to the E-step statistics.
+#[inline]
+fn accumulate(st: &mut Stats, xi: f64, yi: f64, pt1: f64, sy0: f64, sy1: f64, syy: f64) {
+    st.np += pt1;
+    st.sx[0] += pt1 * xi;
+    st.sx[1] += pt1 * yi;
+    st.sy[0] += sy0;
+    st.sy[1] += sy1;
+    st.sxy[0][0] += xi * sy0;
+    st.sxy[0][1] += xi * sy1;
+    st.sxy[1][0] += yi * sy0;
+    st.sxy[1][1] += yi * sy1;
+    st.sxx += pt1 * (xi * xi + yi * yi);
+    st.syy += syy;
+    st.inliers += (pt1 > 0.5) as usize;
 }
 
 /// One EM run from `init`. Returns the result and whether it converged.
@@ -633,6 +742,38 @@ mod tests {
         let p = CpdParams::new(0.0, None, 300, 1e-10, true, 1).unwrap();
         let r = align((&fixed.0, &fixed.1, &fixed.2), (&mv.0, &mv.1, &mv.2), &p).unwrap();
         assert!((r.transform.scale - 1.5).abs() < 1e-4 && wrap_angle(r.transform.theta - 0.3).abs() < 1e-4, "{r:?}");
+    }
+
+    #[test]
+    fn grid_e_step_equals_the_dense_one() {
+        let f = scene(10);
+        let fx = prepare("fixed", &f.0, &f.1, &f.2).unwrap();
+        let mv = prepare("moving", &f.1, &f.0, &f.2).unwrap();
+        let pb = make_problem(&fx, &mv, None);
+        let tf = Transform2::new(0.3, 1.0, -2.0, 1.0);
+        let mat = tf.matrix();
+        let (tyx, tyy): (Vec<f64>, Vec<f64>) =
+            (0..mv.x.len()).map(|k| (mat[0][0] * mv.x[k] + mat[0][1] * mv.y[k] + tf.tx, mat[1][0] * mv.x[k] + mat[1][1] * mv.y[k] + tf.ty)).unzip();
+        for sigma2 in [0.01, 0.1] {
+            let inv = 1.0 / (2.0 * sigma2);
+            let g = pb.e_step_grid(&tyx, &tyy, inv, 1e-3).expect("grid applies at small sigma");
+            // dense reference: every pair, with std's exp
+            let dense = {
+                let mut st = Stats::default();
+                for i in 0..fx.x.len() {
+                    let w: Vec<f64> = (0..mv.x.len()).map(|j| (-(((fx.x[i] - tyx[j]).powi(2) + (fx.y[i] - tyy[j]).powi(2)) * inv)).exp()).collect();
+                    let den = w.iter().sum::<f64>().max(f64::EPSILON) + 1e-3;
+                    let pt1: f64 = w.iter().sum::<f64>() / den;
+                    st.np += pt1;
+                    st.sxx += pt1 * (fx.x[i] * fx.x[i] + fx.y[i] * fx.y[i]);
+                    st.log_den += den.ln();
+                }
+                st
+            };
+            assert!((g.np - dense.np).abs() <= 1e-9 * dense.np.max(1.0), "{} {}", g.np, dense.np);
+            assert!((g.sxx - dense.sxx).abs() <= 1e-9 * dense.sxx.max(1.0));
+            assert!((g.log_den - dense.log_den).abs() <= 1e-9 * dense.log_den.abs().max(1.0));
+        }
     }
 
     #[test]

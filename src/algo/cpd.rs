@@ -111,10 +111,11 @@ impl CpdParams {
     }
 }
 
-/// The outcome of [`align`]. `transform` maps moving into fixed.
+/// The outcome of [`align`] (and, with `T = Transform3`, of [`crate::algo::cpd3::align3`]).
+/// `transform` maps moving into fixed.
 #[derive(Clone, Debug, PartialEq)]
-pub struct CpdResult {
-    pub transform: Transform2,
+pub struct CpdResult<T = Transform2> {
+    pub transform: T,
     pub sigma2: f64,
     pub iterations: usize,
     pub converged: bool,
@@ -126,7 +127,7 @@ pub struct CpdResult {
     pub inlier_fraction: f64,
     /// sqrt(Σ P‖x − T y‖² / Σ P).
     pub rms: f64,
-    /// The start rotation that won.
+    /// The start rotation that won (about z in 3-D).
     pub start_theta: f64,
     /// Pairs visited per E-step (N·M for plain CPD).
     pub pairs_in_band: usize,

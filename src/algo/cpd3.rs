@@ -21,19 +21,8 @@ pub struct Transform3 {
     pub scale: f64,
 }
 
-/// Outcome of [`align3`].
-#[derive(Clone, Debug, PartialEq)]
-pub struct Cpd3Result {
-    pub transform: Transform3,
-    pub sigma2: f64,
-    pub iterations: usize,
-    pub converged: bool,
-    pub q: f64,
-    pub log_likelihood: f64,
-    pub inlier_fraction: f64,
-    pub rms: f64,
-    pub pairs_in_band: usize,
-}
+/// Outcome of [`align3`]: the shared result type with a 3-D transform.
+pub type Cpd3Result = super::cpd::CpdResult<Transform3>;
 
 type P3 = (Vec<Vector3<f64>>, Vec<f64>);
 /// One EM run's outcome: R, t, s, σ², iterations, converged, q, log-likelihood, last sums.
@@ -190,19 +179,21 @@ pub fn align3(
         (r, tv, s, sigma2, it, diff <= p.tol, q, ll, last)
     };
     let zrot = |a: f64| Matrix3::new(a.cos(), -a.sin(), 0.0, a.sin(), a.cos(), 0.0, 0.0, 0.0, 1.0);
+    let mut start_theta = 0.0;
     let res = if p.starts == 1 {
         run(Matrix3::identity(), cm - cf, p.max_iter, None)
     } else {
         let probe = PROBE_ITERATIONS.min(p.max_iter);
-        let mut best = None;
+        let mut best: Option<(f64, Run3)> = None;
         for k in 0..p.starts {
-            let r0 = zrot(2.0 * std::f64::consts::PI * k as f64 / p.starts as f64);
-            let out = run(r0, Vector3::zeros(), probe, None);
-            if best.as_ref().is_none_or(|b: &Run3| out.7 > b.7) {
-                best = Some(out);
+            let yaw = 2.0 * std::f64::consts::PI * k as f64 / p.starts as f64;
+            let out = run(zrot(yaw), Vector3::zeros(), probe, None);
+            if best.as_ref().is_none_or(|b| out.7 > b.1 .7) {
+                best = Some((yaw, out));
             }
         }
-        let b = best.expect("starts >= 1");
+        let (yaw, b) = best.expect("starts >= 1");
+        start_theta = yaw;
         let mut out = run(b.0, b.1, p.max_iter.saturating_sub(b.4).max(1), Some(b.3));
         out.4 += b.4;
         out
@@ -225,6 +216,7 @@ pub fn align3(
         log_likelihood: ll,
         inlier_fraction: last.inliers as f64 / n,
         rms: if last.np > 0.0 { (last.resid / last.np).sqrt() } else { f64::NAN },
+        start_theta,
         pairs_in_band: band.iter().map(|&(a, b)| b - a).sum(),
     })
 }

@@ -170,27 +170,43 @@ fn is_3d(input: &DataChunkHandle) -> bool {
     input.flat_vector(0).logical_type().child(0).num_children() == 4
 }
 
+/// The shared row loop of both `cpd_align` forms: reads (fixed, moving) with `read`, w and the
+/// options, and turns each solved row into struct fields with `solve`.
+fn cpd_rows<P>(
+    input: &DataChunkHandle,
+    nfields: usize,
+    output: &mut dyn WritableVector,
+    read: impl Fn(usize) -> Result<Option<(P, P)>, Box<dyn Error>>,
+    solve: impl Fn(P, P, &CpdParams) -> Result<Vec<Field>, Box<dyn Error>>,
+) -> FnResult {
+    let w = PrimCol::new(input, 2);
+    let params = cpd_params(input);
+    let vals = map_rows(input.len(), |r| -> Result<Option<Vec<Field>>, Box<dyn Error>> {
+        let (Some((a, b)), Some(w)) = (read(r)?, w.f64(r)) else { return Ok(None) };
+        let Some(p) = params(r, w)? else { return Ok(None) };
+        Ok(Some(solve(a, b, &p)?))
+    })?;
+    write_struct(&mut output.struct_vector(), nfields, &vals);
+    Ok(())
+}
+
 fn cpd_align3(input: &mut DataChunkHandle, output: &mut dyn WritableVector) -> FnResult {
     const F: &str = "cpd_align";
     let a = Traj3Col::new(input, 0);
     let b = Traj3Col::new(input, 1);
-    let w = PrimCol::new(input, 2);
-    let params = cpd_params(input);
-    let vals = map_rows(input.len(), |r| -> Result<Option<Vec<Field>>, Box<dyn Error>> {
-        let (Some(a), Some(b), Some(w)) = (a.get(r, F, "fixed")?, b.get(r, F, "moving")?, w.f64(r)) else {
-            return Ok(None);
-        };
-        let Some(p) = params(r, w)? else { return Ok(None) };
-        let res = crate::algo::cpd3::align3((a.1, a.2, a.3, a.0), (b.1, b.2, b.3, b.0), &p).map_err(|e| err(F, e))?;
+    let read = |r| -> Result<_, Box<dyn Error>> {
+        let (Some(a), Some(b)) = (a.get(r, F, "fixed")?, b.get(r, F, "moving")?) else { return Ok(None) };
+        Ok(Some((a, b)))
+    };
+    cpd_rows(input, 21, output, read, |a, b, p| {
+        let res = crate::algo::cpd3::align3((a.1, a.2, a.3, a.0), (b.1, b.2, b.3, b.0), p).map_err(|e| err(F, e))?;
         let t = res.transform;
         let mut v: Vec<Field> = t.r.iter().flat_map(|row| row.iter().map(|&x| Field::F(x))).collect();
         v.extend([Field::F(t.t[0]), Field::F(t.t[1]), Field::F(t.t[2]), Field::F(t.scale), Field::F(res.sigma2)]);
         v.extend([Field::I(res.iterations as i64), Field::B(res.converged), Field::F(res.q), Field::F(res.log_likelihood)]);
         v.extend([Field::F(res.inlier_fraction), Field::F(res.rms), Field::I(res.pairs_in_band as i64)]);
-        Ok(Some(v))
-    })?;
-    write_struct(&mut output.struct_vector(), 21, &vals);
-    Ok(())
+        Ok(v)
+    })
 }
 
 fn cpd_align(input: &mut DataChunkHandle, output: &mut dyn WritableVector) -> FnResult {
@@ -200,17 +216,15 @@ fn cpd_align(input: &mut DataChunkHandle, output: &mut dyn WritableVector) -> Fn
     }
     let a = TrajCol::new(input, 0);
     let b = TrajCol::new(input, 1);
-    let w = PrimCol::new(input, 2);
-    let params = cpd_params(input);
-    let vals = map_rows(input.len(), |r| -> Result<Option<Vec<Field>>, Box<dyn Error>> {
-        let (Some(a), Some(b), Some(w)) = (a.get(r, F, "fixed")?, b.get(r, F, "moving")?, w.f64(r)) else {
-            return Ok(None);
-        };
-        let Some(p) = params(r, w)? else { return Ok(None) };
-        let res = cpd::align((a.x, a.y, a.t), (b.x, b.y, b.t), &p).map_err(|e| err(F, e))?;
+    let read = |r| -> Result<_, Box<dyn Error>> {
+        let (Some(a), Some(b)) = (a.get(r, F, "fixed")?, b.get(r, F, "moving")?) else { return Ok(None) };
+        Ok(Some((a, b)))
+    };
+    cpd_rows(input, 17, output, read, |a, b, p| {
+        let res = cpd::align((a.x, a.y, a.t), (b.x, b.y, b.t), p).map_err(|e| err(F, e))?;
         let t = res.transform;
         let m = Transform2 { scale: 1.0, ..t }.matrix();
-        Ok(Some(vec![
+        Ok(vec![
             Field::F(t.theta),
             Field::F(t.tx),
             Field::F(t.ty),
@@ -228,10 +242,8 @@ fn cpd_align(input: &mut DataChunkHandle, output: &mut dyn WritableVector) -> Fn
             Field::F(res.rms),
             Field::F(res.start_theta),
             Field::I(res.pairs_in_band as i64),
-        ]))
-    })?;
-    write_struct(&mut output.struct_vector(), 17, &vals);
-    Ok(())
+        ])
+    })
 }
 
 fn pairs_col_type() -> LogicalTypeHandle {

@@ -9,7 +9,9 @@
 //! | [`lcss`] | time-window LCSS (thesis eq. 2.9, 2.10, Alg. 1), 2-D points and 1-D series |
 //! | [`lcss_index`] | index-window LCSS of Buzan def. 4.1/4.2 (δ, ε, ρ, S1) |
 //! | [`lcss_translate`] | translation-invariant S2 of Buzan def. 4.3, appendix / lemma 4.2 |
-//! | [`region`] | polygon regions from WKT/WKB and point-in-polygon |
+//! | [`region`] | polygon regions from WKT/WKB, validation, prepared point-in-polygon |
+//! | [`hull`] | view polygons `P^k`: convex / concave hull with a density rule |
+//! | [`polygon`] | overlaps, unions, area, WKB/WKT output |
 //! | [`rigid`] | 2-D similarity transforms, Umeyama/Kabsch fit, trimmed robust fit |
 //! | [`correspond`] | time-interpolated point pairs between two tracks (transform hypotheses) |
 //! | [`cpd3`] | the same TimeCPD in 3-D (rotation by SVD, nalgebra) |
@@ -26,6 +28,8 @@ pub mod cpd3;
 pub mod lcss;
 pub mod lcss_index;
 pub mod lcss_translate;
+pub mod hull;
+pub mod polygon;
 pub mod region;
 pub mod rigid;
 pub mod traj;

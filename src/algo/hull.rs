@@ -33,8 +33,6 @@ use std::fmt;
 #[derive(Clone, Debug, PartialEq)]
 pub enum HullError {
     UnknownMethod(String),
-    /// `param` given for a method that takes none.
-    UnexpectedParam(&'static str),
     Concavity(f64),
     Radius(f64),
     MinNeighbours(i64),
@@ -46,7 +44,6 @@ impl fmt::Display for HullError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             HullError::UnknownMethod(m) => write!(f, "method must be 'convex' or 'concave', got '{m}'"),
-            HullError::UnexpectedParam(m) => write!(f, "param must be NULL or omitted for method '{m}'"),
             HullError::Concavity(c) => write!(f, "param (concavity) must be > 0, got {c}"),
             HullError::Radius(r) => write!(f, "radius must be > 0 and finite, got {r}"),
             HullError::MinNeighbours(k) => write!(f, "min_neighbours must be >= 0, got {k}"),
@@ -84,15 +81,11 @@ pub const DEFAULT_CONCAVITY: f64 = 2.0;
 
 impl HullParams {
     /// `method` is `'convex'` or `'concave'` (case-insensitive); `param` is the concavity of
-    /// the concave hull (default 2, `+∞` = convex) and must be absent for `'convex'`.
+    /// the concave hull (default 2, `+∞` = convex); `'convex'` ignores it (so that the robust
+    /// form, which needs a value in that position, works for both methods).
     pub fn new(method: &str, param: Option<f64>) -> Result<Self, HullError> {
         let method = match method.trim().to_ascii_lowercase().as_str() {
-            "convex" => {
-                if param.is_some() {
-                    return Err(HullError::UnexpectedParam("convex"));
-                }
-                HullMethod::Convex
-            }
+            "convex" => HullMethod::Convex,
             "concave" => {
                 let c = param.unwrap_or(DEFAULT_CONCAVITY);
                 if !(c > 0.0) {
@@ -285,7 +278,7 @@ mod tests {
     #[test]
     fn bad_parameters() {
         assert_eq!(HullParams::new("star", None), Err(HullError::UnknownMethod("star".into())));
-        assert!(matches!(HullParams::new("convex", Some(1.0)), Err(HullError::UnexpectedParam(_))));
+        assert_eq!(HullParams::new("convex", Some(1.0)).unwrap().method, HullMethod::Convex);
         assert!(matches!(HullParams::new("concave", Some(0.0)), Err(HullError::Concavity(_))));
         assert!(matches!(HullParams::new("concave", Some(f64::NAN)), Err(HullError::Concavity(_))));
         let p = HullParams::new("Convex", None).unwrap();

@@ -38,6 +38,9 @@ pub fn varchar() -> LogicalTypeHandle {
 pub fn blob() -> LogicalTypeHandle {
     LogicalTypeId::Blob.into()
 }
+pub fn boolean() -> LogicalTypeHandle {
+    LogicalTypeId::Boolean.into()
+}
 /// `STRUCT(t DOUBLE, x DOUBLE, y DOUBLE)[]`, the trajectory type.
 pub fn traj_type() -> LogicalTypeHandle {
     LogicalTypeHandle::list(&LogicalTypeHandle::struct_type(&[("t", double()), ("x", double()), ("y", double())]))

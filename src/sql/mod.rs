@@ -7,6 +7,7 @@ pub mod assign;
 pub mod convert;
 pub mod lcss;
 pub mod meta;
+pub mod polygon;
 pub mod traj;
 
 use duckdb::Connection;
@@ -17,6 +18,7 @@ pub fn docs() -> Vec<convert::FnDoc> {
     v.extend_from_slice(traj::DOCS);
     v.extend_from_slice(lcss::DOCS);
     v.extend_from_slice(align::DOCS);
+    v.extend_from_slice(polygon::DOCS);
     v.extend_from_slice(assign::DOCS);
     v.extend_from_slice(meta::DOCS);
     v
@@ -27,6 +29,7 @@ pub fn register_all(con: &Connection) -> duckdb::Result<()> {
     traj::register(con)?;
     lcss::register(con)?;
     align::register(con)?;
+    polygon::register(con)?;
     assign::register(con)?;
     meta::register(con)?;
     Ok(())

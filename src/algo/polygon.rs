@@ -13,7 +13,7 @@
 //! Intersection and union are O((V + k) log V) for V input vertices and k edge crossings;
 //! [`area`] is O(V); [`to_wkb`] and [`to_wkt`] are O(V).
 
-use geo::{unary_union, Area, BooleanOps, Coord, LineString, MultiPolygon, Polygon};
+use geo::{unary_union, Area, BooleanOps, Buffer, Coord, LineString, MultiPolygon, Polygon};
 use std::fmt::Write;
 
 /// `a ∩ b`.
@@ -40,6 +40,16 @@ pub fn overlap_with_union<'a>(
     next: &MultiPolygon<f64>,
 ) -> MultiPolygon<f64> {
     overlap(&union_all(merged), next)
+}
+
+/// Offsets the boundary by `distance` (> 0 grows, < 0 shrinks, 0 is the identity), with
+/// round joins, like `ST_Buffer` (geo's `Buffer`, the `i_overlay` outline). `distance` finite.
+/// O((V + k) log V) plus the arc vertices of the round joins.
+pub fn buffer(p: &MultiPolygon<f64>, distance: f64) -> MultiPolygon<f64> {
+    if p.0.is_empty() || distance == 0.0 {
+        return p.clone();
+    }
+    p.buffer(distance)
 }
 
 /// Unsigned area (holes subtracted).
@@ -143,6 +153,17 @@ mod tests {
         let two = overlap(&bar, &union_all([&square(0.0, 0.0, 5.0), &square(10.0, 0.0, 5.0)]));
         assert_eq!(two.0.len(), 2);
         assert!(to_wkt(&two).starts_with("MULTIPOLYGON ((("));
+    }
+
+    #[test]
+    fn buffer_grows_and_shrinks() {
+        let a = square(0.0, 0.0, 10.0);
+        assert!((area(&buffer(&a, -1.0)) - 64.0).abs() < 1e-6);
+        let grown = area(&buffer(&a, 1.0));
+        // 100 + perimeter * 1 + pi (round corners, polygonised)
+        assert!(grown > 143.0 && grown <= 140.0 + std::f64::consts::PI + 1e-9, "{grown}");
+        assert!(buffer(&a, -6.0).0.is_empty());
+        assert!(buffer(&MultiPolygon(vec![]), 1.0).0.is_empty());
     }
 
     #[test]

@@ -1,5 +1,5 @@
 //! SQL: view polygons and overlaps (`view_polygon`, `polygon_overlap`, `polygon_union`,
-//! `polygon_area`, `polygon_contains`, `polygon_to_wkt`, `traj_clip`, `traj_points_inside`).
+//! `polygon_buffer`, `polygon_area`, `polygon_contains`, `polygon_to_wkt`, `traj_clip`, `traj_points_inside`).
 //!
 //! Geometry arguments are WKT `VARCHAR` or WKB `BLOB`; geometry results are little-endian WKB
 //! `BLOB`s that DuckDB spatial's `ST_GeomFromWKB` reads. A polygon argument is parsed,
@@ -50,6 +50,14 @@ pub const DOCS: &[FnDoc] = &[
         signatures: "polygon_union(polygons VARCHAR[] | BLOB[]) -> BLOB (WKB)",
         description: "The union of a list of polygons (use list(p) to aggregate). An empty list gives POLYGON EMPTY; a NULL element is an error.",
         example: "SELECT polygon_area(polygon_union(['POLYGON ((0 0, 4 0, 4 4, 0 4, 0 0))', 'POLYGON ((2 2, 6 2, 6 6, 2 6, 2 2))'])); -- 28.0",
+    },
+    FnDoc {
+        name: "polygon_buffer",
+        signatures: "polygon_buffer(p VARCHAR|BLOB, distance DOUBLE) -> BLOB (WKB)",
+        description: "Moves the boundary outward by distance (> 0) or inward (< 0), with round joins, like ST_Buffer on a polygon. \
+                      sql/overlap.sql shrinks each view polygon by the camera's measured position noise, because the hull of noisy \
+                      points overshoots the true view edge. Shrinking past the middle gives POLYGON EMPTY. distance must be finite.",
+        example: "SELECT polygon_area(polygon_buffer('POLYGON ((0 0, 10 0, 10 10, 0 10, 0 0))', -1)); -- 64.0",
     },
     FnDoc {
         name: "polygon_area",
@@ -196,6 +204,21 @@ fn area_fn(input: &mut DataChunkHandle, output: &mut dyn WritableVector) -> FnRe
     let p = RegionCol::new(input, 0);
     let vals = map_rows(input.len(), |r| Ok(p.get(r, F, "p")?.map(|p| polygon::area(p.polygons()))))?;
     write_flat(&mut output.flat_vector(), &vals);
+    Ok(())
+}
+
+fn buffer_fn(input: &mut DataChunkHandle, output: &mut dyn WritableVector) -> FnResult {
+    const F: &str = "polygon_buffer";
+    let p = RegionCol::new(input, 0);
+    let d = PrimCol::new(input, 1);
+    let vals = map_rows(input.len(), |r| {
+        let (Some(p), Some(d)) = (p.get(r, F, "p")?, d.f64(r)) else { return Ok(None) };
+        if !d.is_finite() {
+            return Err(err(F, format!("distance must be finite, got {d}")));
+        }
+        Ok(Some(polygon::to_wkb(&polygon::buffer(p.polygons(), d))))
+    })?;
+    write_blobs(output, &vals);
     Ok(())
 }
 
@@ -351,6 +374,7 @@ scalar_fn!(
     geometry_types().into_iter().map(|g| sig(vec![duckdb::core::LogicalTypeHandle::list(&g())], blob())).collect(),
     union_fn
 );
+scalar_fn!(PolygonBuffer, geom_sigs(&[double], blob), buffer_fn);
 scalar_fn!(PolygonArea, geom_sigs(&[], double), area_fn);
 scalar_fn!(PolygonContains, geom_sigs(&[double, double], boolean), contains_fn);
 scalar_fn!(PolygonToWkt, geom_sigs(&[], varchar), to_wkt_fn);
@@ -369,6 +393,7 @@ pub fn register(con: &Connection) -> duckdb::Result<()> {
     con.register_scalar_function::<ViewPolygon>("view_polygon")?;
     con.register_scalar_function::<PolygonOverlap>("polygon_overlap")?;
     con.register_scalar_function::<PolygonUnion>("polygon_union")?;
+    con.register_scalar_function::<PolygonBuffer>("polygon_buffer")?;
     con.register_scalar_function::<PolygonArea>("polygon_area")?;
     con.register_scalar_function::<PolygonContains>("polygon_contains")?;
     con.register_scalar_function::<PolygonToWkt>("polygon_to_wkt")?;

@@ -1,0 +1,89 @@
+-- trajdb: camera view polygons and their overlaps, per class, in the common frame
+-- (thesis 2.3: P^k, P^{k∩l}, and (P^{k1} ∪ … ∪ P^{k(i-1)}) ∩ P^{ki} for a merge order).
+--
+-- Input: `points(camera, track_id, class, t, x, y, estimated)` in camera-local frames and
+-- `align_frames(camera, reference, to_reference, ...)` from sql/align.sql.
+-- Output tables (polygons are WKB BLOBs; polygon_to_wkt() reads them, and DuckDB spatial's
+-- ST_GeomFromWKB() takes them as they are):
+--   view_polygons(camera, class, polygon, area_m2, n_points)        P^k; class '*' = all classes
+--   view_overlaps(class, cam_a, cam_b, polygon, area_m2)            P^a ∩ P^b, a < b
+--   view_overlaps_chain(class, merged, camera, polygon, area_m2)    (∪ P^merged) ∩ P^camera
+--                                                                   along the merge order
+-- Cameras that align.sql could not place are left out (they have no row in align_frames).
+--
+-- Parameters (edit here):
+--   hull method 'convex' (default: a camera's field of view is convex) or 'concave' + concavity;
+--   robust rule: estimated points are dropped, and a point counts only with >= 3 other points
+--   within 2 m (spurious detections are isolated; 10 Hz tracks leave dense trails);
+--   noise correction: the hull of noisy points overshoots the true view edge, so each P^k is
+--   shrunk by overlap_shrink_sigmas x the camera's position noise, measured from its own tracks
+--   (table view_noise; 0 switches the correction off);
+--   merge order: ascending camera id (the table view_merge_order can be replaced).
+SET VARIABLE overlap_method = 'convex';
+SET VARIABLE overlap_concavity = 2.0;
+SET VARIABLE overlap_radius_m = 2.0;
+SET VARIABLE overlap_min_neighbours = 3;
+SET VARIABLE overlap_shrink_sigmas = 1.0;
+
+-- Position noise per camera, coordinate-free: for evenly sampled smooth motion the second
+-- difference p[k+1] - 2 p[k] + p[k-1] is noise with variance 6 sigma^2 per axis, so its squared
+-- length is 6 sigma^2 chi2(2), whose median is 6 sigma^2 * 2 ln 2 (robust to manoeuvres).
+CREATE OR REPLACE TEMP TABLE view_noise AS
+WITH d AS (
+    SELECT camera,
+           x - 2 * lag(x) OVER w + lag(x, 2) OVER w AS ax, y - 2 * lag(y) OVER w + lag(y, 2) OVER w AS ay,
+           t - lag(t) OVER w AS dt1, lag(t) OVER w - lag(t, 2) OVER w AS dt2
+    FROM points WHERE estimated = 0
+    WINDOW w AS (PARTITION BY camera, track_id ORDER BY t)
+)
+SELECT camera, sqrt(median(ax * ax + ay * ay) / (12 * ln(2))) AS sigma_m, count(*) AS n_triples
+FROM d WHERE abs(dt1 - dt2) <= 1e-3 * dt1
+GROUP BY camera;
+
+CREATE OR REPLACE TEMP TABLE view_points AS
+SELECT p.camera, p.class,
+       f.to_reference.scale * (cos(f.to_reference.theta) * p.x - sin(f.to_reference.theta) * p.y) + f.to_reference.tx AS x,
+       f.to_reference.scale * (sin(f.to_reference.theta) * p.x + cos(f.to_reference.theta) * p.y) + f.to_reference.ty AS y
+FROM points p JOIN align_frames f USING (camera)
+WHERE p.estimated = 0;
+
+CREATE OR REPLACE TEMP TABLE view_polygons AS
+SELECT *, polygon_area(polygon) AS area_m2 FROM (
+SELECT h.camera, h.class,
+       polygon_buffer(h.hull, -getvariable('overlap_shrink_sigmas') * coalesce(n.sigma_m, 0)) AS polygon, h.n_points
+FROM (
+    SELECT camera, coalesce(class, '*') AS class,
+           view_polygon(list({'x': x, 'y': y}), getvariable('overlap_method'), getvariable('overlap_concavity'),
+                        getvariable('overlap_radius_m'), getvariable('overlap_min_neighbours')) AS hull,
+           count(*) AS n_points
+    FROM view_points
+    GROUP BY GROUPING SETS ((camera, class), (camera))
+) h LEFT JOIN view_noise n USING (camera));
+
+CREATE OR REPLACE TEMP TABLE view_overlaps AS
+SELECT *, polygon_area(polygon) AS area_m2 FROM (
+SELECT a.class, a.camera AS cam_a, b.camera AS cam_b, polygon_overlap(a.polygon, b.polygon) AS polygon
+FROM view_polygons a JOIN view_polygons b ON a.class = b.class AND a.camera < b.camera);
+
+-- The merge order Ω (thesis Alg. 3/4): position -> camera. Replace to merge in another order.
+CREATE OR REPLACE TEMP TABLE view_merge_order AS
+SELECT row_number() OVER (ORDER BY camera) AS position, camera
+FROM (SELECT DISTINCT camera FROM view_polygons);
+
+CREATE OR REPLACE TEMP TABLE view_overlaps_chain AS
+SELECT *, polygon_area(polygon) AS area_m2 FROM (
+SELECT nxt.class,
+       list(prev.camera ORDER BY po.position) AS merged,
+       nxt.camera,
+       polygon_overlap(polygon_union(list(prev.polygon)), any_value(nxt.polygon)) AS polygon
+FROM view_polygons nxt
+JOIN view_merge_order no ON no.camera = nxt.camera
+JOIN view_merge_order po ON po.position < no.position
+JOIN view_polygons prev ON prev.camera = po.camera AND prev.class = nxt.class
+GROUP BY nxt.class, nxt.camera);
+
+SELECT class, cam_a, cam_b, round(area_m2, 1) AS overlap_m2,
+       round(area_m2 / least((SELECT area_m2 FROM view_polygons v WHERE v.camera = cam_a AND v.class = o.class),
+                             (SELECT area_m2 FROM view_polygons v WHERE v.camera = cam_b AND v.class = o.class)), 3) AS share_of_smaller
+FROM view_overlaps o
+ORDER BY class, cam_a, cam_b;

@@ -4,28 +4,35 @@
 #   2. embedded build: unit tests, CLI tests, tests/sql/*.slt through the sqllogictest crate
 #   3. the function reference docs/functions.md is up to date
 #   4. loadable extension: build, footer, and the same .slt files in stock DuckDB (PyPI duckdb)
+#   5. round trip with DuckDB spatial (PyPI duckdb 1.5.5 + duckdb-extension-spatial, own venv)
 # Needs: cargo, python3 (with venv/pip, PyPI reachable). The first run compiles DuckDB (~50 CPU-min).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 export CARGO_TARGET_DIR="${CARGO_TARGET_DIR:-$HOME/.cache/trajdb-target}"
 VENV="${TRAJDB_VENV:-$HOME/.cache/trajdb-venv}"
+SPATIAL_VENV="${TRAJDB_SPATIAL_VENV:-$HOME/.cache/trajdb-spatial-venv}"
 
-echo "== 1/4 algo tests (no DuckDB)"
+echo "== 1/5 algo tests (no DuckDB)"
 cargo test --release --no-default-features --lib
 
-echo "== 2/4 embedded build: unit, CLI and sqllogictest tests"
+echo "== 2/5 embedded build: unit, CLI and sqllogictest tests"
 cargo test --release
 
-echo "== 3/4 function reference is generated from the registered descriptions"
+echo "== 3/5 function reference is generated from the registered descriptions"
 "$CARGO_TARGET_DIR/release/trajdb" functions --markdown > "$CARGO_TARGET_DIR/functions.md"
 if ! diff -u docs/functions.md "$CARGO_TARGET_DIR/functions.md"; then
   echo "docs/functions.md is stale: run  $CARGO_TARGET_DIR/release/trajdb functions --markdown > docs/functions.md" >&2
   exit 1
 fi
 
-echo "== 4/4 loadable extension in stock DuckDB"
+echo "== 4/5 loadable extension in stock DuckDB"
 scripts/build_extension.sh
 if [ ! -x "$VENV/bin/python" ]; then python3 -m venv "$VENV"; fi
 "$VENV/bin/pip" install -q -r requirements-test.txt
 python3 tests/test_footer.py && python3 tests/test_footer.py trajdb.duckdb_extension
 "$VENV/bin/python" tests/run_slt_python.py trajdb.duckdb_extension
+
+echo "== 5/5 WKB round trip with DuckDB spatial"
+if [ ! -x "$SPATIAL_VENV/bin/python" ]; then python3 -m venv "$SPATIAL_VENV"; fi
+"$SPATIAL_VENV/bin/pip" install -q -r requirements-spatial.txt
+"$SPATIAL_VENV/bin/python" tests/test_spatial_roundtrip.py trajdb.duckdb_extension

@@ -333,14 +333,19 @@ pub struct RegionCol<'a> {
     v: FlatVector<'a>,
     n: usize,
     is_text: bool,
-    cache: RefCell<Option<(Vec<u8>, std::rc::Rc<Region>)>>,
+    /// The last few distinct polygons of this chunk, parsed, validated and indexed: a polygon
+    /// repeated over rows (one overlap per class or camera pair) is prepared once per chunk.
+    cache: RefCell<Vec<(Vec<u8>, std::rc::Rc<Region>)>>,
 }
+
+/// How many distinct polygons [`RegionCol`] keeps prepared per chunk.
+const REGION_CACHE: usize = 8;
 
 impl<'a> RegionCol<'a> {
     pub fn new(input: &'a DataChunkHandle, col: usize) -> Self {
         let v = input.flat_vector(col);
         let is_text = matches!(v.logical_type().id(), LogicalTypeId::Varchar);
-        RegionCol { v, n: input.len(), is_text, cache: RefCell::new(None) }
+        RegionCol { v, n: input.len(), is_text, cache: RefCell::new(Vec::new()) }
     }
     pub fn get(&self, row: usize, function: &str, param: &str) -> Result<Option<std::rc::Rc<Region>>, Box<dyn Error>> {
         if self.v.row_is_null(row as u64) {
@@ -350,10 +355,8 @@ impl<'a> RegionCol<'a> {
         let s = unsafe { self.v.as_slice_with_len::<duckdb_string_t>(self.n) }[row];
         let mut s = s;
         let bytes = DuckString::new(&mut s).as_bytes();
-        if let Some((k, r)) = self.cache.borrow().as_ref() {
-            if k.as_slice() == bytes {
-                return Ok(Some(r.clone()));
-            }
+        if let Some((_, r)) = self.cache.borrow().iter().find(|(k, _)| k.as_slice() == bytes) {
+            return Ok(Some(r.clone()));
         }
         let region = if self.is_text {
             let text = std::str::from_utf8(bytes).map_err(|_| err(function, format!("{param} is not valid UTF-8")))?;
@@ -363,7 +366,11 @@ impl<'a> RegionCol<'a> {
         }
         .map_err(|e| err(function, format!("{param} {e}")))?;
         let region = std::rc::Rc::new(region);
-        *self.cache.borrow_mut() = Some((bytes.to_vec(), region.clone()));
+        let mut cache = self.cache.borrow_mut();
+        if cache.len() == REGION_CACHE {
+            cache.remove(0);
+        }
+        cache.push((bytes.to_vec(), region.clone()));
         Ok(Some(region))
     }
 }

@@ -4,6 +4,7 @@
 //! | file | what |
 //! |---|---|
 //! | [`traj`] | trajectory views, validation, speeds, WKT |
+//! | [`hungarian`] | sparse rectangular optimal assignment (scipy semantics; components, lsap or sparse JV) |
 //! | [`assign`] | sparse maximum-weight one-to-one assignment (components + scipy's LSAP via `lsap`) |
 //! | [`band`] | the banded LCSS dynamic-programming engine shared by every LCSS form |
 //! | [`lcss`] | time-window LCSS (thesis eq. 2.9, 2.10, Alg. 1), 2-D points and 1-D series |
@@ -29,6 +30,7 @@ pub mod lcss;
 pub mod lcss_index;
 pub mod lcss_translate;
 pub mod hull;
+pub mod hungarian;
 pub mod polygon;
 pub mod region;
 pub mod rigid;

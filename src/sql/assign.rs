@@ -1,20 +1,68 @@
-//! SQL: `assign_pairs`, one-to-one selection of candidate pairs (Hungarian step).
+//! SQL: one-to-one selection of candidate pairs (the Hungarian step of thesis Alg. 2–4):
+//! `hungarian_match` (optimal assignment, absent pairs forbidden: scipy semantics) and
+//! `assign_pairs` (maximum total weight, the thesis's dense-with-zeros variant).
 
 use super::convert::*;
-use crate::algo::assign;
+use crate::algo::{assign, hungarian};
 use duckdb::core::{DataChunkHandle, LogicalTypeHandle};
 use duckdb::vtab::arrow::WritableVector;
 use duckdb::Connection;
 use std::error::Error;
 
-pub const DOCS: &[FnDoc] = &[FnDoc {
+pub const DOCS: &[FnDoc] = &[
+FnDoc {
+    name: "hungarian_match",
+    signatures: "hungarian_match(pairs STRUCT(a BIGINT, b BIGINT, score DOUBLE)[] [, maximize BOOLEAN [, min_score DOUBLE]]) -> STRUCT(a BIGINT, b BIGINT, score DOUBLE)[]",
+    description: "Optimal one-to-one assignment over a sparse, possibly rectangular list of candidate pairs; pairs not in the list can never be matched. \
+                  It matches as many pairs as possible and, among those, maximises (maximize = true, the default: similarities) or minimises (costs) the total, \
+                  exactly like scipy.optimize.linear_sum_assignment on the dense matrix with absent pairs forbidden (rows that cannot be matched stay unmatched \
+                  instead of raising). min_score removes candidates before solving: with maximize, pairs scoring below it; with costs, pairs above it. \
+                  Duplicate (a, b) pairs keep their best score; ties are broken the same way whatever the list order; the result is sorted by (a, b). \
+                  Connected components of the candidate graph are solved separately (in parallel), dense ones with lsap (scipy's LSAP), sparse ones with a sparse \
+                  shortest-augmenting-path solver. NULL or NaN scores are errors; an empty list gives an empty list.",
+    example: "SELECT hungarian_match([{'a': 1, 'b': 10, 'score': 0.9}, {'a': 1, 'b': 20, 'score': 0.8}, {'a': 2, 'b': 10, 'score': 0.8}], true, 0.5); -- [{'a': 1, 'b': 20, 'score': 0.8}, {'a': 2, 'b': 10, 'score': 0.8}]",
+},
+FnDoc {
     name: "assign_pairs",
     signatures: "assign_pairs(edges STRUCT(a BIGINT, b BIGINT, w DOUBLE)[]) -> STRUCT(a BIGINT, b BIGINT, w DOUBLE)[]",
     description: "Maximum-weight one-to-one matching of candidate pairs (a, b) with weights w >= 0, e.g. track pairs and their LCSS \
                   similarity: list the candidates with list({'a': ..., 'b': ..., 'w': ...}) and unnest the result. The graph is split into \
                   connected components and each is solved exactly (scipy's LSAP algorithm via the lsap crate). Pairs of weight 0 are never chosen.",
     example: "SELECT assign_pairs([{'a': 1, 'b': 10, 'w': 0.9}, {'a': 1, 'b': 20, 'w': 0.8}, {'a': 2, 'b': 10, 'w': 0.8}, {'a': 2, 'b': 20, 'w': 0.1}]); -- [{'a': 1, 'b': 20, 'w': 0.8}, {'a': 2, 'b': 10, 'w': 0.8}]",
-}];
+},
+];
+
+fn pair_type() -> LogicalTypeHandle {
+    LogicalTypeHandle::list(&LogicalTypeHandle::struct_type(&[("a", bigint()), ("b", bigint()), ("score", double())]))
+}
+
+fn hungarian_match_fn(input: &mut DataChunkHandle, output: &mut dyn WritableVector) -> FnResult {
+    const F: &str = "hungarian_match";
+    let col = EdgeCol::new(input, 0, "pairs", ["a", "b", "score"]);
+    let maximize = (input.num_columns() > 1).then(|| PrimCol::new(input, 1));
+    let min_score = (input.num_columns() > 2).then(|| PrimCol::new(input, 2));
+    let vals = map_rows(input.len(), |r| -> Result<Option<Vec<(i64, i64, f64)>>, Box<dyn Error>> {
+        let Some(pairs) = col.get(r, F)? else { return Ok(None) };
+        let mx = match &maximize {
+            None => true,
+            Some(c) => match c.bool(r) {
+                None => return Ok(None),
+                Some(v) => v,
+            },
+        };
+        let t = match &min_score {
+            None => None,
+            Some(c) => match c.f64(r) {
+                None => return Ok(None),
+                v => v,
+            },
+        };
+        let params = hungarian::MatchParams::new(mx, t).map_err(|e| err(F, e))?;
+        Ok(Some(hungarian::hungarian_match(&pairs, &params).map_err(|e| err(F, e))?))
+    })?;
+    write_edges(&mut output.list_vector(), &vals);
+    Ok(())
+}
 
 fn edge_type() -> LogicalTypeHandle {
     LogicalTypeHandle::list(&LogicalTypeHandle::struct_type(&[("a", bigint()), ("b", bigint()), ("w", double())]))
@@ -23,7 +71,7 @@ fn edge_type() -> LogicalTypeHandle {
 fn assign_pairs(input: &mut DataChunkHandle, output: &mut dyn WritableVector) -> FnResult {
     const F: &str = "assign_pairs";
     // The struct has BIGINT fields; read it as three columns through the generic list reader.
-    let col = EdgeCol::new(input, 0);
+    let col = EdgeCol::new(input, 0, "edges", ["a", "b", "w"]);
     let vals = map_rows(input.len(), |r| -> Result<Option<Vec<(i64, i64, f64)>>, Box<dyn Error>> {
         let Some(edges) = col.get(r, F)? else { return Ok(None) };
         let chosen = assign::assign_max(&edges).map_err(|e| err(F, format!("edges {e}")))?;
@@ -42,6 +90,8 @@ struct EdgeCol<'a> {
     b: &'a [i64],
     w: &'a [f64],
     field_valid: [*mut u64; 3],
+    param: &'static str,
+    names: [&'static str; 3],
 }
 
 fn is_null(mask: *mut u64, row: usize) -> bool {
@@ -50,7 +100,7 @@ fn is_null(mask: *mut u64, row: usize) -> bool {
 }
 
 impl<'a> EdgeCol<'a> {
-    fn new(input: &'a DataChunkHandle, col: usize) -> Self {
+    fn new(input: &'a DataChunkHandle, col: usize, param: &'static str, names: [&'static str; 3]) -> Self {
         use duckdb::ffi;
         // SAFETY: the signature fixes the column type; DuckDB flattens scalar inputs.
         unsafe {
@@ -71,6 +121,8 @@ impl<'a> EdgeCol<'a> {
                     ffi::duckdb_vector_get_validity(f(1)),
                     ffi::duckdb_vector_get_validity(f(2)),
                 ],
+                param,
+                names,
             }
         }
     }
@@ -83,11 +135,11 @@ impl<'a> EdgeCol<'a> {
         let mut out = Vec::with_capacity(len);
         for k in off..off + len {
             if is_null(self.pts_valid, k) {
-                return Err(err(f, format!("edges[{}] is NULL", k - off + 1)));
+                return Err(err(f, format!("{}[{}] is NULL", self.param, k - off + 1)));
             }
-            for (i, name) in ["a", "b", "w"].iter().enumerate() {
+            for (i, name) in self.names.iter().enumerate() {
                 if is_null(self.field_valid[i], k) {
-                    return Err(err(f, format!("edges[{}].{name} is NULL", k - off + 1)));
+                    return Err(err(f, format!("{}[{}].{name} is NULL", self.param, k - off + 1)));
                 }
             }
             out.push((self.a[k], self.b[k], self.w[k]));
@@ -133,7 +185,17 @@ fn write_edges(out: &mut duckdb::core::ListVector<'_>, vals: &[Option<Vec<(i64, 
 }
 
 scalar_fn!(AssignPairs, vec![sig(vec![edge_type()], edge_type())], assign_pairs);
+scalar_fn!(
+    HungarianMatch,
+    vec![
+        sig(vec![pair_type()], pair_type()),
+        sig(vec![pair_type(), boolean()], pair_type()),
+        sig(vec![pair_type(), boolean(), double()], pair_type()),
+    ],
+    hungarian_match_fn
+);
 
 pub fn register(con: &Connection) -> duckdb::Result<()> {
+    con.register_scalar_function::<HungarianMatch>("hungarian_match")?;
     con.register_scalar_function::<AssignPairs>("assign_pairs")
 }

@@ -103,13 +103,20 @@ pub struct ListOfStructCol<'a> {
 
 impl<'a> ListOfStructCol<'a> {
     fn new(input: &'a DataChunkHandle, col: usize, names: &'static [&'static str]) -> Self {
-        let n = input.len();
         // SAFETY: `col` is a LIST(STRUCT(DOUBLE, ...)) column of this chunk (fixed by the
-        // registered signature); its child has `duckdb_list_vector_get_size` elements and each
-        // struct field is a flat DOUBLE vector of that size. DuckDB flattens scalar-function
-        // inputs, so entries are indexed by row.
+        // registered signature). DuckDB flattens scalar-function inputs, so entries are indexed
+        // by row.
         unsafe {
             let lv = ffi::duckdb_data_chunk_get_vector(input.get_ptr(), col as u64);
+            Self::from_list_vector(lv, input.len(), names)
+        }
+    }
+
+    /// # Safety
+    /// `lv` is a live LIST(STRUCT(8-byte fields...)) vector with at least `n` entries; its child
+    /// has `duckdb_list_vector_get_size` elements and each struct field is a flat vector of that size.
+    unsafe fn from_list_vector(lv: ffi::duckdb_vector, n: usize, names: &'static [&'static str]) -> Self {
+        unsafe {
             let total = ffi::duckdb_list_vector_get_size(lv) as usize;
             let child = ffi::duckdb_list_vector_get_child(lv);
             let entries = std::slice::from_raw_parts(ffi::duckdb_vector_get_data(lv) as *const ffi::duckdb_list_entry, n);
@@ -182,6 +189,64 @@ impl<'a> ListOfStructCol<'a> {
             Some(self.entries[row].length as usize)
         }
     }
+}
+
+/// Reads a list of trajectories (`STRUCT(t, x, y)[][]`) straight from DuckDB's buffers.
+pub struct TrajListCol<'a> {
+    outer: &'a [ffi::duckdb_list_entry],
+    outer_validity: Validity,
+    inner_validity: Validity,
+    inner: ListOfStructCol<'a>,
+}
+
+impl<'a> TrajListCol<'a> {
+    pub fn new(input: &'a DataChunkHandle, col: usize) -> Self {
+        // SAFETY: `col` is a LIST(LIST(STRUCT(t, x, y DOUBLE))) column (fixed by the signature);
+        // the inner list vector is the outer one's child, holding `duckdb_list_vector_get_size`
+        // entries.
+        unsafe {
+            let lv = ffi::duckdb_data_chunk_get_vector(input.get_ptr(), col as u64);
+            let n_inner = ffi::duckdb_list_vector_get_size(lv) as usize;
+            let inner_lv = ffi::duckdb_list_vector_get_child(lv);
+            let outer = std::slice::from_raw_parts(ffi::duckdb_vector_get_data(lv) as *const ffi::duckdb_list_entry, input.len());
+            TrajListCol {
+                outer,
+                outer_validity: Validity::of(lv),
+                inner_validity: Validity::of(inner_lv),
+                inner: ListOfStructCol::from_list_vector(inner_lv, n_inner, &["t", "x", "y"]),
+            }
+        }
+    }
+
+    /// The validated trajectories of `row`; a NULL element is an error naming its position.
+    pub fn get(&self, row: usize, function: &str, param: &str) -> Result<Option<Vec<Traj<'a>>>, Box<dyn Error>> {
+        if self.outer_validity.is_null(row) {
+            return Ok(None);
+        }
+        let e = self.outer[row];
+        let mut out = Vec::with_capacity(e.length as usize);
+        for k in e.offset as usize..(e.offset + e.length) as usize {
+            let name = format!("{param}[{}]", k - e.offset as usize + 1);
+            if self.inner_validity.is_null(k) {
+                return Err(err(function, format!("{name} is NULL; filter NULL trajectories out first")));
+            }
+            let (off, len) = self.inner.entry(k, function, &name)?.expect("checked non-NULL");
+            let r = off..off + len;
+            let tr = Traj::new(&self.inner.field(0)[r.clone()], &self.inner.field(1)[r.clone()], &self.inner.field(2)[r]);
+            tr.validate().map_err(|e| err(function, e.describe(&name)))?;
+            out.push(tr);
+        }
+        Ok(Some(out))
+    }
+}
+
+/// An `i64` stored in a DOUBLE-typed 8-byte slot (for BIGINT struct fields read or written
+/// through the DOUBLE-field helpers: DuckDB only sees the bytes).
+pub fn i64_bits(v: f64) -> i64 {
+    v.to_bits() as i64
+}
+pub fn bits_i64(v: i64) -> f64 {
+    f64::from_bits(v as u64)
 }
 
 /// Reads a trajectory argument (`STRUCT(t, x, y)[]`).

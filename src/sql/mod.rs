@@ -6,6 +6,7 @@ pub mod align;
 pub mod assign;
 pub mod convert;
 pub mod lcss;
+pub mod merge;
 pub mod meta;
 pub mod polygon;
 pub mod traj;
@@ -20,6 +21,7 @@ pub fn docs() -> Vec<convert::FnDoc> {
     v.extend_from_slice(align::DOCS);
     v.extend_from_slice(polygon::DOCS);
     v.extend_from_slice(assign::DOCS);
+    v.extend_from_slice(merge::DOCS);
     v.extend_from_slice(meta::DOCS);
     v
 }
@@ -31,6 +33,7 @@ pub fn register_all(con: &Connection) -> duckdb::Result<()> {
     align::register(con)?;
     polygon::register(con)?;
     assign::register(con)?;
+    merge::register(con)?;
     meta::register(con)?;
     Ok(())
 }

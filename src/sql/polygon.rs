@@ -250,7 +250,7 @@ fn contains_fn(input: &mut DataChunkHandle, output: &mut dyn WritableVector) -> 
 // ---------------------------------------------------------------- polygon_union(list)
 
 /// A `VARCHAR[]` or `BLOB[]` column of polygons.
-struct RegionListCol<'a> {
+pub(crate) struct RegionListCol<'a> {
     list: duckdb::core::ListVector<'a>,
     child: duckdb::core::FlatVector<'a>,
     total: usize,
@@ -258,7 +258,7 @@ struct RegionListCol<'a> {
 }
 
 impl<'a> RegionListCol<'a> {
-    fn new(input: &'a DataChunkHandle, col: usize) -> Self {
+    pub(crate) fn new(input: &'a DataChunkHandle, col: usize) -> Self {
         let list = input.list_vector(col);
         let total = list.len();
         let child = list.child(total);
@@ -266,7 +266,7 @@ impl<'a> RegionListCol<'a> {
         RegionListCol { list, child, total, is_text }
     }
 
-    fn get(&self, row: usize, function: &str, param: &str) -> Result<Option<Vec<Region>>, Box<dyn Error>> {
+    pub(crate) fn get(&self, row: usize, function: &str, param: &str) -> Result<Option<Vec<Region>>, Box<dyn Error>> {
         if self.list.row_is_null(row as u64) {
             return Ok(None);
         }

@@ -1,0 +1,277 @@
+//! Merging matched trajectories (thesis eq. 2.11, Alg. 3 and 4) and grouping matched tracks
+//! into road users without contradictions.
+//!
+//! # Θ(A, B), eq. 2.11
+//! The LCSS (eq. 2.9, restricted to the overlap polygon as in eq. 2.10) pairs points of A and
+//! B; a matched pair becomes one point at the midpoint of the two, at their mid time
+//! `min(a_t, b_t) + |a_t − b_t| / 2`; unmatched points of both are kept; the result is sorted by
+//! t (stable: on equal t, merged points, then A's, then B's, each in input order). LCSS matches
+//! increase in both indices, so merged times never go backwards.
+//!
+//! # Several cameras: φ_i = Θ(φ_{i−1}, A^{k_i})
+//! The thesis takes the plain midpoint at every step, so in a three-camera merge the last
+//! camera weighs 1/2 and the first two 1/4 each. That is an artefact of the recursion, not a
+//! modelling choice; we carry a weight (the number of original points averaged into each point)
+//! and average with it, which is exactly eq. 2.11 for two trajectories and gives every camera
+//! the same say for more.
+//!
+//! # Consistent groups (Alg. 4's "remove duplicates", and its false links)
+//! [`consistent_groups`] applies links (track pairs judged to be the same road user) in the
+//! given order with union–find, and refuses a link that would put two tracks of the same camera
+//! that overlap in time into one road user (a camera cannot see one road user twice at once).
+//! Two pieces of a track that one camera split (disjoint in time) may both join the same road
+//! user: this is how a split track is matched as a whole although the assignment is one-to-one
+//! per camera pair. Every track ends in exactly one group, so a road user is listed once and
+//! φ_ij never survives next to a φ_ijk that contains it.
+//!
+//! # Complexity
+//! [`merge_pair`]: the LCSS of [`crate::algo::lcss`] plus O((n + m) log(n + m)) for the sort.
+//! [`consistent_groups`]: O(L log L + L · g²) for L links and groups of at most g tracks.
+
+use crate::algo::lcss::{self, TimeWindowParams};
+use crate::algo::region::{inside_indices, Region};
+use crate::algo::traj::{OwnedTraj, Traj};
+use std::collections::HashMap;
+use std::fmt;
+
+/// A trajectory whose points carry the number of original points averaged into them.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Weighted {
+    pub t: Vec<f64>,
+    pub x: Vec<f64>,
+    pub y: Vec<f64>,
+    pub w: Vec<f64>,
+}
+
+impl Weighted {
+    pub fn from_traj(a: Traj<'_>) -> Self {
+        Weighted { t: a.t.to_vec(), x: a.x.to_vec(), y: a.y.to_vec(), w: vec![1.0; a.len()] }
+    }
+    pub fn view(&self) -> Traj<'_> {
+        Traj::new(&self.t, &self.x, &self.y)
+    }
+    pub fn into_traj(self) -> OwnedTraj {
+        OwnedTraj { t: self.t, x: self.x, y: self.y }
+    }
+}
+
+/// LCSS matches of `a` and `b` (0-based into the full lists), counting only points inside
+/// `region` when one is given (eq. 2.10: ξ and the lengths apply inside the overlap).
+pub fn matches_in(a: Traj<'_>, b: Traj<'_>, p: &TimeWindowParams, region: Option<&Region>) -> Vec<(usize, usize)> {
+    match region {
+        None => lcss::matches(a, b, p),
+        Some(r) => {
+            let (ia, ib) = (inside_indices(a.x, a.y, r), inside_indices(b.x, b.y, r));
+            let pick = |tr: Traj<'_>, ix: &[usize]| OwnedTraj {
+                t: ix.iter().map(|&k| tr.t[k]).collect(),
+                x: ix.iter().map(|&k| tr.x[k]).collect(),
+                y: ix.iter().map(|&k| tr.y[k]).collect(),
+            };
+            let (sa, sb) = (pick(a, &ia), pick(b, &ib));
+            lcss::matches(sa.view(), sb.view(), p).into_iter().map(|(i, j)| (ia[i], ib[j])).collect()
+        }
+    }
+}
+
+/// Θ(a, b) of eq. 2.11 given the matched pairs, with weights (see module docs).
+pub fn merge_pair(a: &Weighted, b: &Weighted, matches: &[(usize, usize)]) -> Weighted {
+    let mut used_a = vec![false; a.t.len()];
+    let mut used_b = vec![false; b.t.len()];
+    // (t, kind, order, x, y, w): kind 0 = merged, 1 = a, 2 = b
+    let mut pts: Vec<(f64, u8, usize, f64, f64, f64)> = Vec::with_capacity(a.t.len() + b.t.len());
+    for (k, &(i, j)) in matches.iter().enumerate() {
+        used_a[i] = true;
+        used_b[j] = true;
+        let (wa, wb) = (a.w[i], b.w[j]);
+        let w = wa + wb;
+        let avg = |p: f64, q: f64| (wa * p + wb * q) / w;
+        pts.push((avg(a.t[i], b.t[j]), 0, k, avg(a.x[i], b.x[j]), avg(a.y[i], b.y[j]), w));
+    }
+    for i in (0..a.t.len()).filter(|&i| !used_a[i]) {
+        pts.push((a.t[i], 1, i, a.x[i], a.y[i], a.w[i]));
+    }
+    for j in (0..b.t.len()).filter(|&j| !used_b[j]) {
+        pts.push((b.t[j], 2, j, b.x[j], b.y[j], b.w[j]));
+    }
+    pts.sort_by(|p, q| p.0.total_cmp(&q.0).then(p.1.cmp(&q.1)).then(p.2.cmp(&q.2)));
+    Weighted {
+        t: pts.iter().map(|p| p.0).collect(),
+        x: pts.iter().map(|p| p.3).collect(),
+        y: pts.iter().map(|p| p.4).collect(),
+        w: pts.iter().map(|p| p.5).collect(),
+    }
+}
+
+/// φ_{N−1}: merges `trajs` in the given order, step i (i ≥ 1) restricted to `regions[i − 1]`
+/// when given. Returns the merged trajectory and the number of matched pairs at each step.
+pub fn merge_chain(trajs: &[Traj<'_>], p: &TimeWindowParams, regions: &[Option<&Region>]) -> (OwnedTraj, Vec<usize>) {
+    let Some(first) = trajs.first() else { return (OwnedTraj::default(), vec![]) };
+    let mut phi = Weighted::from_traj(*first);
+    let mut counts = Vec::with_capacity(trajs.len().saturating_sub(1));
+    for (k, next) in trajs.iter().enumerate().skip(1) {
+        let region = regions.get(k - 1).copied().flatten();
+        let m = matches_in(phi.view(), *next, p, region);
+        counts.push(m.len());
+        phi = merge_pair(&phi, &Weighted::from_traj(*next), &m);
+    }
+    (phi.into_traj(), counts)
+}
+
+/// Why grouping failed.
+#[derive(Clone, Debug, PartialEq)]
+pub enum GroupError {
+    /// A link names a track that is not in the track list (1-based link index).
+    UnknownTrack { link: usize, id: i64 },
+    /// The same track id is listed twice.
+    DuplicateTrack(i64),
+    /// A track's time range is NaN or reversed.
+    TimeRange { id: i64 },
+}
+
+impl fmt::Display for GroupError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            GroupError::UnknownTrack { link, id } => write!(f, "links[{link}] names track {id}, which is not in tracks"),
+            GroupError::DuplicateTrack(id) => write!(f, "tracks lists id {id} twice"),
+            GroupError::TimeRange { id } => write!(f, "track {id} needs finite t0 <= t1"),
+        }
+    }
+}
+impl std::error::Error for GroupError {}
+
+/// One track: a unique id (e.g. `camera * 1e9 + track_id`), its camera and time range.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Span {
+    pub id: i64,
+    pub camera: i64,
+    pub t0: f64,
+    pub t1: f64,
+}
+
+fn root(p: &mut [usize], mut x: usize) -> usize {
+    while p[x] != x {
+        p[x] = p[p[x]];
+        x = p[x];
+    }
+    x
+}
+
+/// Groups tracks into road users by applying `links` in order (see module docs). Returns, for
+/// every track in input order, its group: the smallest track id in the group. `accepted[k]`
+/// tells whether link k was applied (false when it contradicted the group or was redundant).
+pub fn consistent_groups(tracks: &[Span], links: &[(i64, i64)]) -> Result<(Vec<i64>, Vec<bool>), GroupError> {
+    let mut index: HashMap<i64, usize> = HashMap::with_capacity(tracks.len());
+    for (k, s) in tracks.iter().enumerate() {
+        if !(s.t0 <= s.t1) || !s.t0.is_finite() || !s.t1.is_finite() {
+            return Err(GroupError::TimeRange { id: s.id });
+        }
+        if index.insert(s.id, k).is_some() {
+            return Err(GroupError::DuplicateTrack(s.id));
+        }
+    }
+    let mut parent: Vec<usize> = (0..tracks.len()).collect();
+    let mut members: Vec<Vec<usize>> = (0..tracks.len()).map(|k| vec![k]).collect();
+    let mut accepted = vec![false; links.len()];
+    for (l, &(a, b)) in links.iter().enumerate() {
+        let ia = *index.get(&a).ok_or(GroupError::UnknownTrack { link: l + 1, id: a })?;
+        let ib = *index.get(&b).ok_or(GroupError::UnknownTrack { link: l + 1, id: b })?;
+        let (ra, rb) = (root(&mut parent, ia), root(&mut parent, ib));
+        if ra == rb {
+            continue;
+        }
+        let clash = members[ra].iter().any(|&x| {
+            members[rb].iter().any(|&y| {
+                let (p, q) = (&tracks[x], &tracks[y]);
+                p.camera == q.camera && p.t0 <= q.t1 && q.t0 <= p.t1
+            })
+        });
+        if clash {
+            continue;
+        }
+        let (big, small) = if members[ra].len() >= members[rb].len() { (ra, rb) } else { (rb, ra) };
+        parent[small] = big;
+        let moved = std::mem::take(&mut members[small]);
+        members[big].extend(moved);
+        accepted[l] = true;
+    }
+    let mut label: HashMap<usize, i64> = HashMap::new();
+    for k in 0..tracks.len() {
+        let r = root(&mut parent, k);
+        let e = label.entry(r).or_insert(tracks[k].id);
+        *e = (*e).min(tracks[k].id);
+    }
+    let groups = (0..tracks.len()).map(|k| label[&root(&mut parent, k)]).collect();
+    Ok((groups, accepted))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn line(t0: f64, n: usize, y: f64) -> OwnedTraj {
+        OwnedTraj { t: (0..n).map(|k| t0 + k as f64 * 0.1).collect(), x: (0..n).map(|k| (t0 + k as f64 * 0.1) * 10.0).collect(), y: vec![y; n] }
+    }
+
+    #[test]
+    fn eq_2_11_midpoints_and_kept_points() {
+        // A: t 0..0.9, B: t 0.5..1.4 shifted 0.2 m in y; overlap t 0.5..0.9 matches
+        let (a, b) = (line(0.0, 10, 0.0), line(0.5, 10, 0.2));
+        let p = TimeWindowParams::new(0.5, 0.05, 1).unwrap();
+        let m = matches_in(a.view(), b.view(), &p, None);
+        assert_eq!(m.len(), 5);
+        let merged = merge_pair(&Weighted::from_traj(a.view()), &Weighted::from_traj(b.view()), &m).into_traj();
+        assert_eq!(merged.t.len(), 15); // 10 + 10 - 5
+        assert!(merged.t.windows(2).all(|w| w[0] <= w[1]));
+        let k = merged.t.iter().position(|&t| (t - 0.6).abs() < 1e-9).unwrap();
+        assert!((merged.y[k] - 0.1).abs() < 1e-12, "midpoint");
+        assert!(merged.y[..5].iter().all(|&y| y == 0.0) && merged.y[10..].iter().all(|&y| y == 0.2));
+        // eq. 2.11's time: min + |dt| / 2, here with a time offset
+        let c = OwnedTraj { t: vec![1.0], x: vec![0.0], y: vec![0.0] };
+        let d = OwnedTraj { t: vec![1.4], x: vec![2.0], y: vec![0.0] };
+        let r = merge_pair(&Weighted::from_traj(c.view()), &Weighted::from_traj(d.view()), &[(0, 0)]);
+        assert_eq!((r.t[0], r.x[0], r.w[0]), (1.2, 1.0, 2.0));
+    }
+
+    #[test]
+    fn chain_weights_every_camera_equally() {
+        let p = TimeWindowParams::new(1.0, 0.05, 1).unwrap();
+        let (a, b, c) = (line(0.0, 5, 0.0), line(0.0, 5, 0.3), line(0.0, 5, 0.9));
+        let (m, counts) = merge_chain(&[a.view(), b.view(), c.view()], &p, &[]);
+        assert_eq!(counts, vec![5, 5]);
+        assert!(m.y.iter().all(|&y| (y - 0.4).abs() < 1e-12), "mean of 0, 0.3, 0.9 (the thesis's recursion would give 0.6)");
+        // regions restrict each step
+        let r = Region::from_wkt("POLYGON ((-1 -1, 2.5 -1, 2.5 2, -1 2, -1 -1))").unwrap();
+        let (m2, counts2) = merge_chain(&[a.view(), b.view()], &p, &[Some(&r)]);
+        assert_eq!(counts2, vec![3]); // x = 0, 1, 2 inside
+        assert_eq!(m2.t.len(), 7);
+        assert_eq!(merge_chain(&[], &p, &[]).0.t.len(), 0);
+        assert_eq!(merge_chain(&[a.view()], &p, &[]).0, a);
+    }
+
+    #[test]
+    fn no_matches_keeps_everything_sorted() {
+        let p = TimeWindowParams::new(0.01, 0.01, 1).unwrap();
+        let (a, b) = (line(0.0, 3, 0.0), line(0.05, 3, 50.0));
+        let m = merge_chain(&[a.view(), b.view()], &p, &[]).0;
+        assert_eq!(m.t, vec![0.0, 0.05, 0.1, 0.15000000000000002, 0.2, 0.25]);
+    }
+
+    #[test]
+    fn groups_refuse_same_camera_overlaps_and_accept_split_tracks() {
+        let s = |id, camera, t0, t1| Span { id, camera, t0, t1 };
+        // camera 1: track 10; camera 2: a split track 20 (t 0..5) + 21 (t 6..10), and 22 which
+        // overlaps 20 in time (a pedestrian walking alongside)
+        let tracks = [s(10, 1, 0.0, 10.0), s(20, 2, 0.0, 5.0), s(21, 2, 6.0, 10.0), s(22, 2, 1.0, 4.0)];
+        let (g, acc) = consistent_groups(&tracks, &[(10, 20), (10, 21), (10, 22)]).unwrap();
+        assert_eq!(g, vec![10, 10, 10, 22]);
+        assert_eq!(acc, vec![true, true, false]);
+        // transitive chains across three cameras
+        let tracks = [s(1, 1, 0.0, 1.0), s(2, 2, 0.0, 1.0), s(3, 3, 0.0, 1.0), s(4, 3, 0.5, 2.0)];
+        let (g, acc) = consistent_groups(&tracks, &[(1, 2), (2, 3), (1, 4), (2, 3)]).unwrap();
+        assert_eq!(g, vec![1, 1, 1, 4]);
+        assert_eq!(acc, vec![true, true, false, false]);
+        assert_eq!(consistent_groups(&tracks, &[(1, 9)]).unwrap_err(), GroupError::UnknownTrack { link: 1, id: 9 });
+        assert_eq!(consistent_groups(&[s(1, 1, 0.0, 1.0), s(1, 2, 0.0, 1.0)], &[]).unwrap_err(), GroupError::DuplicateTrack(1));
+        assert!(consistent_groups(&[s(1, 1, 2.0, 1.0)], &[]).is_err());
+    }
+}

@@ -15,11 +15,12 @@ use std::process::ExitCode;
 const USAGE: &str = "usage: trajdb [--db FILE] [--csv|--json] (sql \"<query>\" | run FILE.sql | demo | functions [--markdown])\n       SQL is read from stdin when no command is given.";
 
 /// The embedded demo: generate two cameras (each in its own frame), align them, build the
-/// view polygons and overlaps, match tracks.
-const DEMO_SQL: [&str; 4] = [
+/// view polygons and overlaps, merge the tracks into road users, and check the matches.
+const DEMO_SQL: [&str; 5] = [
     include_str!("../../sql/demo.sql"),
     include_str!("../../sql/align.sql"),
     include_str!("../../sql/overlap.sql"),
+    include_str!("../../sql/merge.sql"),
     include_str!("../../sql/demo_match.sql"),
 ];
 

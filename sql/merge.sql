@@ -1,0 +1,87 @@
+-- trajdb: one row per road user across N cameras (thesis Alg. 2-4 and eq. 2.11).
+--
+-- Input: `points(camera, track_id, class, t, x, y, estimated)`, plus `align_frames` from
+-- sql/align.sql and `view_overlaps` / `view_merge_order` from sql/overlap.sql.
+-- Output (the defaults below were chosen on benches/accuracy_merge.py, see the parameters):
+--   merge_tracks(camera, track_id, class, uid, traj, t0, t1)   tracks in the common frame
+--   merge_scores(uid_a, uid_b, camera_a, camera_b, eta)        LCSS similarity inside P^{a∩b} (eq. 2.10)
+--   merge_links(uid_a, uid_b, eta, kind)                       'hungarian' (one-to-one per camera pair) or
+--                                                              'split' (a second piece of a split track)
+--   merge_groups(uid, road_user)                               consistent groups (merge_groups())
+--   merged(road_user, class, sources, n_tracks, traj)          the merged trajectories; sources lists the
+--                                                              (camera, track_id) pairs it came from
+--
+-- How Alg. 4 is carried out, and where it deviates (see docs in src/algo/merge.rs):
+--  * every camera pair whose views overlap for the class is scored (the overlap graph prunes the
+--    pairs; no merge-order permutations are tried: groups make the order irrelevant for *which*
+--    tracks belong together, the order only fixes how points are averaged);
+--  * Hungarian per camera pair keeps pairs with eta >= eta_bar (hungarian_match, threshold first);
+--  * links become road users with merge_groups(), which refuses any link that would give a road
+--    user two time-overlapping tracks of one camera (false links across many cameras), and
+--    accepts a second, time-disjoint piece of a track that one camera split (the 'split' links,
+--    applied after all Hungarian links);
+--  * each road user is merged with trajectory_merge() in the merge order (view_merge_order), so
+--    duplicates (phi_ij next to phi_ijk) cannot arise.
+--
+-- Parameters (edit here). The thesis used eps = 1 m, T = 0.5 s, xi = 5, eta_bar = 0.35-0.5. With an
+-- accurate alignment, eps should be a few times the cameras' combined position noise (view_noise:
+-- 0.06-0.13 m on the benchmark scenes), not the width of a lane: at eps = 1 m pedestrians walking
+-- side by side score eta = 1 against each other and Hungarian swaps them (pair precision 0.82 on
+-- dut_intersection_3cam); at eps = 0.5 m it is 1.00 (benches/accuracy_merge.py). T = 0.25 s is
+-- 2.5 sample periods at 10 Hz; xi = 3 points keeps short overlaps.
+SET VARIABLE merge_epsilon = 0.5;
+SET VARIABLE merge_time_window = 0.25;
+SET VARIABLE merge_min_points = 3;
+SET VARIABLE merge_eta = 0.5;
+
+CREATE OR REPLACE TEMP TABLE merge_tracks AS
+SELECT p.camera, p.track_id, p.class, p.camera * 1000000000 + p.track_id AS uid,
+       transform_apply(list({'t': p.t, 'x': p.x, 'y': p.y} ORDER BY p.t), any_value(f.to_reference)) AS traj,
+       min(p.t) AS t0, max(p.t) AS t1
+FROM points p JOIN align_frames f USING (camera)
+WHERE p.estimated = 0
+GROUP BY p.camera, p.track_id, p.class;
+
+CREATE OR REPLACE TEMP TABLE merge_scores AS
+SELECT a.uid AS uid_a, b.uid AS uid_b, a.camera AS camera_a, b.camera AS camera_b,
+       lcss_similarity(a.traj, b.traj, getvariable('merge_epsilon'), getvariable('merge_time_window'),
+                       getvariable('merge_min_points'), o.polygon) AS eta
+FROM merge_tracks a
+JOIN merge_tracks b
+  ON a.camera < b.camera AND a.class = b.class
+ AND a.t0 <= b.t1 + getvariable('merge_time_window') AND b.t0 <= a.t1 + getvariable('merge_time_window')
+JOIN view_overlaps o ON o.class = a.class AND o.cam_a = a.camera AND o.cam_b = b.camera AND o.area_m2 > 0;
+
+CREATE OR REPLACE TEMP TABLE merge_links AS
+WITH h AS (
+    SELECT unnest(hungarian_match(list({'a': uid_a, 'b': uid_b, 'score': eta}), true, getvariable('merge_eta'))) AS m
+    FROM merge_scores WHERE eta >= getvariable('merge_eta')
+    GROUP BY camera_a, camera_b
+)
+SELECT m.a AS uid_a, m.b AS uid_b, m.score AS eta, 'hungarian' AS kind FROM h
+UNION ALL
+SELECT s.uid_a, s.uid_b, s.eta, 'split'
+FROM merge_scores s
+WHERE s.eta >= getvariable('merge_eta')
+  AND NOT EXISTS (SELECT 1 FROM h WHERE h.m.a = s.uid_a AND h.m.b = s.uid_b);
+
+CREATE OR REPLACE TEMP TABLE merge_groups AS
+SELECT g.id AS uid, g.grp AS road_user
+FROM (
+    SELECT unnest(merge_groups(
+        (SELECT list({'id': uid, 'camera': camera, 't0': t0, 't1': t1}) FROM merge_tracks),
+        (SELECT coalesce(list({'a': uid_a, 'b': uid_b} ORDER BY kind = 'split', eta DESC, uid_a, uid_b), [])
+         FROM merge_links))) AS g
+);
+
+CREATE OR REPLACE TEMP TABLE merged AS
+SELECT g.road_user, any_value(t.class) AS class,
+       list({'camera': t.camera, 'track_id': t.track_id} ORDER BY o.position, t.t0) AS sources,
+       count(*) AS n_tracks,
+       trajectory_merge(list(t.traj ORDER BY o.position, t.t0), getvariable('merge_epsilon'), getvariable('merge_time_window')) AS traj
+FROM merge_tracks t
+JOIN merge_groups g USING (uid)
+JOIN view_merge_order o USING (camera)
+GROUP BY g.road_user;
+
+SELECT n_tracks, count(*) AS road_users FROM merged GROUP BY n_tracks ORDER BY n_tracks;

@@ -379,8 +379,8 @@ fn components(canon: &[(i64, i64, f64)]) -> Graph {
     let mut comp_id = vec![NONE; na + nb];
     let mut comp_of = Vec::with_capacity(m);
     let mut ncomp = 0u32;
-    for k in 0..m {
-        let r = find(&mut parent, a_of[k]) as usize;
+    for &ak in &a_of {
+        let r = find(&mut parent, ak) as usize;
         if comp_id[r] == NONE {
             comp_id[r] = ncomp;
             ncomp += 1;

@@ -195,10 +195,10 @@ pub fn consistent_groups(tracks: &[Span], links: &[(i64, i64)]) -> Result<(Vec<i
         accepted[l] = true;
     }
     let mut label: HashMap<usize, i64> = HashMap::new();
-    for k in 0..tracks.len() {
+    for (k, t) in tracks.iter().enumerate() {
         let r = root(&mut parent, k);
-        let e = label.entry(r).or_insert(tracks[k].id);
-        *e = (*e).min(tracks[k].id);
+        let e = label.entry(r).or_insert(t.id);
+        *e = (*e).min(t.id);
     }
     let groups = (0..tracks.len()).map(|k| label[&root(&mut parent, k)]).collect();
     Ok((groups, accepted))

@@ -6,6 +6,7 @@
 //! | [`traj`] | trajectory views, validation, speeds, WKT |
 //! | [`hungarian`] | sparse rectangular optimal assignment (scipy semantics; components, lsap or sparse JV) |
 //! | [`assign`] | sparse maximum-weight one-to-one assignment (components + scipy's LSAP via `lsap`) |
+//! | [`cluster`] | agglomerative clustering with cannot-link pairs (kodama linkage, scipy-style cuts) |
 //! | [`band`] | the banded LCSS dynamic-programming engine shared by every LCSS form |
 //! | [`lcss`] | time-window LCSS (thesis eq. 2.9, 2.10, Alg. 1), 2-D points and 1-D series |
 //! | [`lcss_index`] | index-window LCSS of Buzan def. 4.1/4.2 (δ, ε, ρ, S1) |
@@ -24,6 +25,7 @@
 
 pub mod assign;
 pub mod band;
+pub mod cluster;
 pub mod correspond;
 pub mod cpd;
 pub mod cpd3;

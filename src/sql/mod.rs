@@ -4,6 +4,7 @@
 
 pub mod align;
 pub mod assign;
+pub mod cluster;
 pub mod convert;
 pub mod lcss;
 pub mod merge;
@@ -22,6 +23,7 @@ pub fn docs() -> Vec<convert::FnDoc> {
     v.extend_from_slice(polygon::DOCS);
     v.extend_from_slice(assign::DOCS);
     v.extend_from_slice(merge::DOCS);
+    v.extend_from_slice(cluster::DOCS);
     v.extend_from_slice(meta::DOCS);
     v
 }
@@ -34,6 +36,7 @@ pub fn register_all(con: &Connection) -> duckdb::Result<()> {
     polygon::register(con)?;
     assign::register(con)?;
     merge::register(con)?;
+    cluster::register(con)?;
     meta::register(con)?;
     Ok(())
 }

@@ -145,9 +145,38 @@ pub fn dendrogram(pairs: &[(i64, i64, f64)], method: Linkage) -> Result<Dendrogr
             return Err(ClusterError::SelfPair { index: k + 1, id: a });
         }
     }
-    let mut ids: Vec<i64> = pairs.iter().flat_map(|p| [p.0, p.1]).collect();
-    ids.sort_unstable();
-    ids.dedup();
+    // Item ids -> dense indices: a lookup table when the ids span a small range (row numbers,
+    // track ids), otherwise a sorted, deduplicated copy and a hash map.
+    let (lo, hi) = pairs.iter().fold((i64::MAX, i64::MIN), |(l, h), p| (l.min(p.0.min(p.1)), h.max(p.0.max(p.1))));
+    let span = if pairs.is_empty() { 0u128 } else { (hi as i128 - lo as i128) as u128 + 1 };
+    if span <= 4 * pairs.len() as u128 + 1024 {
+        let mut slot = vec![u32::MAX; span as usize];
+        for p in pairs {
+            slot[(p.0 - lo) as usize] = 0;
+            slot[(p.1 - lo) as usize] = 0;
+        }
+        let mut ids = Vec::new();
+        for (k, s) in slot.iter_mut().enumerate() {
+            if *s == 0 {
+                *s = ids.len() as u32;
+                ids.push(lo + k as i64);
+            }
+        }
+        finish(pairs, ids, |id| slot[(id - lo) as usize] as usize, method)
+    } else {
+        let mut ids: Vec<i64> = pairs.iter().flat_map(|p| [p.0, p.1]).collect();
+        ids.sort_unstable();
+        ids.dedup();
+        let index: HashMap<i64, usize> = ids.iter().enumerate().map(|(k, &id)| (id, k)).collect();
+        finish(pairs, ids, |id| index[&id], method)
+    }
+}
+
+/// Fills the condensed matrix (in parallel: non-negative f64 order equals their bit order, so
+/// duplicates keep the minimum with an atomic `fetch_min`) and runs the linkage.
+fn finish(pairs: &[(i64, i64, f64)], ids: Vec<i64>, lookup: impl Fn(i64) -> usize + Sync, method: Linkage) -> Result<Dendrogram, ClusterError> {
+    use rayon::prelude::*;
+    use std::sync::atomic::{AtomicU64, Ordering};
     let n = ids.len();
     if n > MAX_ITEMS {
         return Err(ClusterError::TooMany(n));
@@ -155,16 +184,27 @@ pub fn dendrogram(pairs: &[(i64, i64, f64)], method: Linkage) -> Result<Dendrogr
     if n < 2 {
         return Ok(Dendrogram { ids, merges: vec![] });
     }
-    let index: HashMap<i64, usize> = ids.iter().enumerate().map(|(k, &id)| (id, k)).collect();
     // Condensed upper triangle, row-major: (i, j), i < j at i*n - i(i+1)/2 + j - i - 1.
-    let mut m = vec![f64::INFINITY; n * (n - 1) / 2];
-    let at = |i: usize, j: usize| i * n - i * (i + 1) / 2 + j - i - 1;
-    for &(a, b, d) in pairs {
-        let (i, j) = (index[&a], index[&b]);
-        let (i, j) = (i.min(j), i.max(j));
-        let c = &mut m[at(i, j)];
-        *c = c.min(d);
+    let len = n * (n - 1) / 2;
+    let mut bits: Vec<u64> = vec![f64::INFINITY.to_bits(); len];
+    {
+        // SAFETY: AtomicU64 has the same size, alignment and bit validity as u64.
+        let cells: &[AtomicU64] = unsafe { std::slice::from_raw_parts(bits.as_mut_ptr() as *const AtomicU64, len) };
+        let at = |i: usize, j: usize| i * n - i * (i + 1) / 2 + j - i - 1;
+        pairs.par_chunks(1 << 16).for_each(|chunk| {
+            for &(a, b, d) in chunk {
+                let (i, j) = (lookup(a), lookup(b));
+                let (i, j) = (i.min(j), i.max(j));
+                cells[at(i, j)].fetch_min(d.to_bits(), Ordering::Relaxed);
+            }
+        });
     }
+    // SAFETY: u64 and f64 have the same size and alignment; every bit pattern written is a
+    // non-negative f64 or +inf.
+    let mut m: Vec<f64> = unsafe {
+        let mut b = std::mem::ManuallyDrop::new(bits);
+        Vec::from_raw_parts(b.as_mut_ptr() as *mut f64, b.len(), b.capacity())
+    };
     if method == Linkage::Ward {
         if let Some(k) = m.iter().position(|d| d.is_infinite()) {
             // Recover (i, j) of condensed index k.

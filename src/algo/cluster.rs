@@ -41,8 +41,11 @@
 //! fall on a tie). The pinned fixtures use distances without ties.
 //!
 //! # Complexity
-//! O(n²) memory: one condensed matrix of n(n−1)/2 `f64` (24 GiB holds n ≈ 80,000); time
-//! O(n²) for single, O(n²) for the chain methods (NN-chain), plus O(P) to read P pairs.
+//! O(n²) memory: one condensed matrix of n(n−1)/2 `f64`; 24 GiB holds n ≈ 80,000 (the cap
+//! [`MAX_ITEMS`]). Through SQL the list of pairs is the larger cost (24 bytes per pair in the
+//! list, plus DuckDB's own copy), so about n ≈ 25,000 with all pairs fits in 24 GiB; sparse pair
+//! lists (cannot-links left out) reach further. Time O(n²) for single (MST) and the chain
+//! methods (NN-chain, O(n²) for these reducible methods), plus O(P) to read P pairs (parallel).
 
 use std::collections::HashMap;
 use std::fmt;

@@ -21,10 +21,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut tracks: BTreeMap<(String, i64, i64), Vec<(f64, f64)>> = BTreeMap::new();
     let mut sizes: BTreeMap<(String, i64), i64> = BTreeMap::new();
     let mut stmt = con.prepare(
-        "SELECT a.class, a.cluster, a.track_id, p.x, p.y, s.n_tracks
+        "SELECT a.class, a.cluster, a.track_id, p.x, p.y, s.n_tracks, p.t
          FROM cluster_assign a JOIN cluster_tracks t USING (class, track_id)
          JOIN cluster_summary s USING (class, cluster), unnest(t.traj) AS u(p)
-         ORDER BY a.class, a.cluster, a.track_id",
+         ORDER BY a.class, a.cluster, a.track_id, p.t",
     )?;
     let mut rows = stmt.query([])?;
     while let Some(r) = rows.next()? {

@@ -11,6 +11,7 @@
 //! | [`lcss`] | time-window LCSS (thesis eq. 2.9, 2.10, Alg. 1), 2-D points and 1-D series |
 //! | [`lcss_index`] | index-window LCSS of Buzan def. 4.1/4.2 (δ, ε, ρ, S1) |
 //! | [`lcss_translate`] | translation-invariant S2 of Buzan def. 4.3, appendix / lemma 4.2 |
+//! | [`events`] | broken / split / merge events of tracks within one camera (endpoints) |
 //! | [`merge`] | trajectory merge (eq. 2.11, Alg. 3/4) and consistent road-user groups |
 //! | [`region`] | polygon regions from WKT/WKB, validation, prepared point-in-polygon |
 //! | [`hull`] | view polygons `P^k`: convex / concave hull with a density rule |
@@ -33,6 +34,7 @@ pub mod lcss;
 pub mod lcss_index;
 pub mod lcss_translate;
 pub mod merge;
+pub mod events;
 pub mod hull;
 pub mod hungarian;
 pub mod polygon;

@@ -6,6 +6,7 @@ pub mod align;
 pub mod assign;
 pub mod cluster;
 pub mod convert;
+pub mod events;
 pub mod lcss;
 pub mod merge;
 pub mod meta;
@@ -24,6 +25,7 @@ pub fn docs() -> Vec<convert::FnDoc> {
     v.extend_from_slice(assign::DOCS);
     v.extend_from_slice(merge::DOCS);
     v.extend_from_slice(cluster::DOCS);
+    v.extend_from_slice(events::DOCS);
     v.extend_from_slice(meta::DOCS);
     v
 }
@@ -37,6 +39,7 @@ pub fn register_all(con: &Connection) -> duckdb::Result<()> {
     assign::register(con)?;
     merge::register(con)?;
     cluster::register(con)?;
+    events::register(con)?;
     meta::register(con)?;
     Ok(())
 }

@@ -1,0 +1,120 @@
+//! SQL: `traj_events`, broken / split / merge events of tracks within one camera (Zhao et al.,
+//! section III.A), list in, list out.
+
+use super::convert::*;
+use crate::algo::events::{self, EventParams};
+use duckdb::core::{DataChunkHandle, Inserter, LogicalTypeHandle};
+use duckdb::vtab::arrow::WritableVector;
+use duckdb::Connection;
+use std::error::Error;
+
+pub const DOCS: &[FnDoc] = &[FnDoc {
+    name: "traj_events",
+    signatures: "traj_events(tracks STRUCT(id BIGINT, t0, x0, y0, t1, x1, y1, vx1, vy1 DOUBLE)[], max_gap DOUBLE, max_dist DOUBLE [, interior VARCHAR|BLOB]) -> STRUCT(kind VARCHAR, from_id BIGINT, to_id BIGINT, gap DOUBLE, distance DOUBLE)[]",
+    description: "Events between the tracks of one camera, from their endpoints (first point, last point, velocity at the end): for a track a \
+                  that ends and a track b that starts within max_gap seconds after it, b is near a when b's first point lies within max_dist metres \
+                  of a's end moved on at a's final velocity for the gap. 'broken' a -> b: b is the only start near a's end and a the only end near \
+                  b's start; 'split': several starts near one end; 'merge': several ends near one start. With interior (the view polygon shrunk by \
+                  an inset, e.g. polygon_buffer(view_polygon(...), -3)), only endpoints inside it count: objects enter and leave at the margins. \
+                  sql/quality.sql builds the endpoints and links broken tracks.",
+    example: "SELECT traj_events([{'id': 1, 't0': 0, 'x0': 0, 'y0': 0, 't1': 10, 'x1': 10, 'y1': 0, 'vx1': 1, 'vy1': 0}, {'id': 2, 't0': 11.5, 'x0': 11.6, 'y0': 0, 't1': 20, 'x1': 20, 'y1': 0, 'vx1': 1, 'vy1': 0}], 2, 1); -- [{'kind': broken, 'from_id': 1, 'to_id': 2, 'gap': 1.5, 'distance': 0.09999999999999964}]",
+}];
+
+const FIELDS: &[&str] = &["id", "t0", "x0", "y0", "t1", "x1", "y1", "vx1", "vy1"];
+
+fn endpoints_type() -> LogicalTypeHandle {
+    let fields: Vec<(&str, LogicalTypeHandle)> = FIELDS.iter().map(|&f| (f, if f == "id" { bigint() } else { double() })).collect();
+    LogicalTypeHandle::list(&struct_of(&fields))
+}
+fn events_type() -> LogicalTypeHandle {
+    LogicalTypeHandle::list(&struct_of(&[("kind", varchar()), ("from_id", bigint()), ("to_id", bigint()), ("gap", double()), ("distance", double())]))
+}
+
+fn write_events(out: &mut duckdb::core::ListVector<'_>, vals: &[Option<Vec<events::Event>>]) {
+    let total: usize = vals.iter().flatten().map(|v| v.len()).sum();
+    {
+        let child = out.struct_child(total);
+        let kind = child.child(0, total);
+        let (mut from, mut to, mut gap, mut dist) = (child.child(1, total), child.child(2, total), child.child(3, total), child.child(4, total));
+        // SAFETY: capacity `total` reserved; field types BIGINT, BIGINT, DOUBLE, DOUBLE.
+        let (df, dt, dg, dd) = unsafe {
+            (
+                from.as_mut_slice_with_len::<i64>(total),
+                to.as_mut_slice_with_len::<i64>(total),
+                gap.as_mut_slice_with_len::<f64>(total),
+                dist.as_mut_slice_with_len::<f64>(total),
+            )
+        };
+        let mut off = 0;
+        for e in vals.iter().flatten().flatten() {
+            kind.insert(off, e.kind.as_str());
+            df[off] = e.from;
+            dt[off] = e.to;
+            dg[off] = e.gap;
+            dd[off] = e.dist;
+            off += 1;
+        }
+    }
+    let mut off = 0;
+    for (row, v) in vals.iter().enumerate() {
+        match v {
+            Some(v) => {
+                out.set_entry(row, off, v.len());
+                off += v.len();
+            }
+            None => out.set_null(row),
+        }
+    }
+    out.set_len(total);
+}
+
+fn traj_events_fn(input: &mut DataChunkHandle, output: &mut dyn WritableVector) -> FnResult {
+    const F: &str = "traj_events";
+    let tracks = ListOfStructCol::new_pub(input, 0, FIELDS);
+    let (gap, dist) = (PrimCol::new(input, 1), PrimCol::new(input, 2));
+    let interior = (input.num_columns() > 3).then(|| RegionCol::new(input, 3));
+    let vals = map_rows(input.len(), |r| -> Result<Option<Vec<events::Event>>, Box<dyn Error>> {
+        let Some(f) = tracks.row_fields(r, F, "tracks")? else { return Ok(None) };
+        let (Some(g), Some(d)) = (gap.f64(r), dist.f64(r)) else { return Ok(None) };
+        let p = EventParams::new(g, d).map_err(|e| err(F, e))?;
+        let region = match &interior {
+            None => None,
+            Some(c) => match c.get(r, F, "interior")? {
+                None => return Ok(None),
+                v => v,
+            },
+        };
+        let eps: Vec<events::Endpoints> = (0..f[0].len())
+            .map(|k| events::Endpoints {
+                id: i64_bits(f[0][k]),
+                t0: f[1][k],
+                x0: f[2][k],
+                y0: f[3][k],
+                t1: f[4][k],
+                x1: f[5][k],
+                y1: f[6][k],
+                vx1: f[7][k],
+                vy1: f[8][k],
+            })
+            .collect();
+        Ok(Some(events::events(&eps, region.as_deref(), &p).map_err(|e| err(F, e))?))
+    })?;
+    write_events(&mut output.list_vector(), &vals);
+    Ok(())
+}
+
+scalar_fn!(
+    TrajEvents,
+    {
+        let mut v = vec![sig(vec![endpoints_type(), double(), double()], events_type())];
+        for g in [varchar as fn() -> LogicalTypeHandle, blob] {
+            v.push(sig(vec![endpoints_type(), double(), double(), g()], events_type()));
+        }
+        v
+    },
+    traj_events_fn
+);
+
+pub fn register(con: &Connection) -> duckdb::Result<()> {
+    con.register_scalar_function::<TrajEvents>("traj_events")
+}

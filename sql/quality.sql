@@ -8,7 +8,8 @@
 --   quality_views(camera, interior)                   the camera's convex view shrunk by the inset
 --   quality_events(camera, class, ev)                 traj_events(): kind, from_id, to_id, gap, distance
 --   quality_links(camera, track_id, linked_id)        every track and the id of its linked chain
---   quality_flags(camera, track_id, flag)             'split' / 'merge' participants (possible fragments / groups)
+--   quality_flags(camera, track_id, flag)             'split' / 'merge' participants
+--   quality_labels(camera, track_id, label, coherence) object / fragment / group (traj_labels, motion coherency)
 --   points_linked                                     points with track_id replaced by linked_id
 --
 -- Parameters (edit here): a piece may resume up to 2.5 s later, within 2 m of where the track
@@ -35,6 +36,10 @@ WITH t AS (
 SELECT camera, track_id, class,
        {'id': track_id, 't0': traj[1].t, 'x0': traj[1].x, 'y0': traj[1].y,
         't1': traj[-1].t, 'x1': traj[-1].x, 'y1': traj[-1].y,
+        'vx0': CASE WHEN len(traj) < 2 THEN 0 ELSE (traj[least(5, len(traj))].x - traj[1].x)
+                    / greatest(traj[least(5, len(traj))].t - traj[1].t, 1e-3) END,
+        'vy0': CASE WHEN len(traj) < 2 THEN 0 ELSE (traj[least(5, len(traj))].y - traj[1].y)
+                    / greatest(traj[least(5, len(traj))].t - traj[1].t, 1e-3) END,
         'vx1': CASE WHEN len(traj) < 2 THEN 0 ELSE (traj[-1].x - traj[greatest(len(traj) - 4, 1)].x)
                     / greatest(traj[-1].t - traj[greatest(len(traj) - 4, 1)].t, 1e-3) END,
         'vy1': CASE WHEN len(traj) < 2 THEN 0 ELSE (traj[-1].y - traj[greatest(len(traj) - 4, 1)].y)
@@ -46,11 +51,22 @@ SELECT camera, polygon_buffer(view_polygon(list({'x': x, 'y': y}), 'convex'), -g
 FROM points WHERE estimated = 0
 GROUP BY camera;
 
+-- traj_events takes the endpoints without the starting velocity
 CREATE OR REPLACE TEMP TABLE quality_events AS
 SELECT q.camera, q.class,
-       unnest(traj_events(list(q.e), getvariable('quality_max_gap'), getvariable('quality_max_dist'), any_value(v.interior))) AS ev
+       unnest(traj_events(list({'id': e.id, 't0': e.t0, 'x0': e.x0, 'y0': e.y0, 't1': e.t1, 'x1': e.x1, 'y1': e.y1, 'vx1': e.vx1, 'vy1': e.vy1}),
+                          getvariable('quality_max_gap'), getvariable('quality_max_dist'), any_value(v.interior))) AS ev
 FROM quality_endpoints q JOIN quality_views v USING (camera)
 GROUP BY q.camera, q.class;
+
+CREATE OR REPLACE TEMP TABLE quality_labels AS
+SELECT camera, class, l.id AS track_id, l.label, l.coherence
+FROM (
+    SELECT q.camera, q.class,
+           unnest(traj_labels(list(q.e), getvariable('quality_max_gap'), getvariable('quality_max_dist'), any_value(v.interior))) AS l
+    FROM quality_endpoints q JOIN quality_views v USING (camera)
+    GROUP BY q.camera, q.class
+);
 
 -- Chains of broken pieces: merge_groups() joins them and refuses any link that would put two
 -- time-overlapping pieces of the camera into one track.
@@ -76,3 +92,4 @@ SELECT p.* REPLACE (coalesce(l.linked_id, p.track_id) AS track_id)
 FROM points p LEFT JOIN quality_links l USING (camera, track_id);
 
 SELECT ev.kind, count(*) AS events FROM quality_events GROUP BY ev.kind ORDER BY ev.kind;
+SELECT label, count(*) AS tracks FROM quality_labels GROUP BY label ORDER BY label;

@@ -23,6 +23,8 @@ use std::fmt;
 #[derive(Clone, Debug, PartialEq)]
 pub enum EventError {
     Param(&'static str, f64),
+    Positive(&'static str, f64),
+    Threshold(f64),
     /// 1-based index, field name.
     NotFinite { index: usize, field: &'static str },
     Reversed { index: usize },
@@ -32,6 +34,8 @@ impl fmt::Display for EventError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             EventError::Param(name, v) => write!(f, "{name} must be >= 0 and finite, got {v}"),
+            EventError::Positive(name, v) => write!(f, "{name} must be > 0 and finite, got {v}"),
+            EventError::Threshold(v) => write!(f, "threshold must be in [0, 1], got {v}"),
             EventError::NotFinite { index, field } => write!(f, "tracks[{index}].{field} must be finite"),
             EventError::Reversed { index } => write!(f, "tracks[{index}] ends before it starts (t1 < t0)"),
         }
@@ -163,6 +167,155 @@ pub fn events(tracks: &[Endpoints], interior: Option<&Region>, p: &EventParams) 
     Ok(out)
 }
 
+/// Motion at a track's ends: speed (m/s) and heading (rad) at the start and at the end.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Motion {
+    pub id: i64,
+    pub v0: f64,
+    pub h0: f64,
+    pub v1: f64,
+    pub h1: f64,
+}
+
+/// Motion-coherency parameters of eq. 3–5: the speed / heading differences of fragments of one
+/// object are zero-mean Gaussian with σ_s, σ_d; those of different objects with τ_s, τ_d; a set
+/// of tracks is coherent when the minimum pairwise posterior is at least `threshold`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LabelParams {
+    pub sigma_speed: f64,
+    pub sigma_heading: f64,
+    pub tau_speed: f64,
+    pub tau_heading: f64,
+    pub threshold: f64,
+}
+
+impl Default for LabelParams {
+    /// σ_s = 0.5 m/s, σ_d = 0.25 rad, τ_s = 3 m/s, τ_d = 1.5 rad, threshold 0.7 (the paper's).
+    fn default() -> Self {
+        LabelParams { sigma_speed: 0.5, sigma_heading: 0.25, tau_speed: 3.0, tau_heading: 1.5, threshold: 0.7 }
+    }
+}
+
+impl LabelParams {
+    pub fn new(sigma_speed: f64, sigma_heading: f64, tau_speed: f64, tau_heading: f64, threshold: f64) -> Result<Self, EventError> {
+        for (name, v) in [("sigma_speed", sigma_speed), ("sigma_heading", sigma_heading), ("tau_speed", tau_speed), ("tau_heading", tau_heading)] {
+            if !(v > 0.0 && v.is_finite()) {
+                return Err(EventError::Positive(name, v));
+            }
+        }
+        if !(0.0..=1.0).contains(&threshold) {
+            return Err(EventError::Threshold(threshold));
+        }
+        Ok(LabelParams { sigma_speed, sigma_heading, tau_speed, tau_heading, threshold })
+    }
+
+    /// Eq. 3 / (eq. 3 + eq. 4): posterior that two motions belong to one object (equal priors).
+    pub fn coherence(&self, ds: f64, dh: f64) -> f64 {
+        let n = |x: f64, s: f64| (-0.5 * (x / s).powi(2)).exp() / s;
+        let yes = n(ds, self.sigma_speed) * n(dh, self.sigma_heading);
+        let no = n(ds, self.tau_speed) * n(dh, self.tau_heading);
+        if yes + no > 0.0 {
+            yes / (yes + no)
+        } else {
+            0.0
+        }
+    }
+}
+
+/// Trajectory labels of section IV.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Label {
+    Object,
+    Fragment,
+    Group,
+}
+
+impl Label {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Label::Object => "object",
+            Label::Fragment => "fragment",
+            Label::Group => "group",
+        }
+    }
+}
+
+fn wrap(a: f64) -> f64 {
+    let t = std::f64::consts::TAU;
+    (a + std::f64::consts::PI).rem_euclid(t) - std::f64::consts::PI
+}
+
+/// Labels every track (section IV, motion coherency only): the interaction graph has an edge
+/// parent → child for every split (the splitting track → the new ones) and merge (the merged
+/// track → the merging ones) event; broken events link pieces of one target and add no edge.
+/// For a parent with children c_1..c_k the children are compared pairwise (eq. 5, the
+/// minimum of eq. 3 normalised against eq. 4; split children by their starting motion, merging
+/// tracks by their final motion): coherent children are fragments of one object (rule a),
+/// incoherent ones are objects and the parent a group (rule b); a parent of an object or group
+/// is a group (rule d); roots labelled fragment become objects, and every track in no event is
+/// an object. Shape coherency (eq. 1–2) needs object extents, which these tracks do not carry,
+/// so it is skipped. Returns (label, coherence of the children set the track belongs to, 1 if
+/// none) in `tracks` order.
+pub fn labels(tracks: &[Motion], events: &[Event], p: &LabelParams) -> Vec<(Label, f64)> {
+    use std::collections::HashMap;
+    let index: HashMap<i64, usize> = tracks.iter().enumerate().map(|(k, t)| (t.id, k)).collect();
+    // parent -> (children, children use start motion?)
+    let mut kids: HashMap<usize, (Vec<usize>, bool)> = HashMap::new();
+    for e in events {
+        let (Some(&a), Some(&b)) = (index.get(&e.from), index.get(&e.to)) else { continue };
+        match e.kind {
+            EventKind::Split => kids.entry(a).or_insert((Vec::new(), true)).0.push(b),
+            EventKind::Merge => kids.entry(b).or_insert((Vec::new(), false)).0.push(a),
+            EventKind::Broken => {}
+        }
+    }
+    let mut label: Vec<Option<Label>> = vec![None; tracks.len()];
+    let mut coh = vec![1.0f64; tracks.len()];
+    let mut parents: Vec<usize> = kids.keys().copied().collect();
+    parents.sort_unstable();
+    let mut is_child = vec![false; tracks.len()];
+    for &par in &parents {
+        let (cs, at_start) = &kids[&par];
+        let motion = |k: usize| if *at_start { (tracks[k].v0, tracks[k].h0) } else { (tracks[k].v1, tracks[k].h1) };
+        let mut pmin = 1.0f64;
+        for i in 0..cs.len() {
+            for j in i + 1..cs.len() {
+                let (a, b) = (motion(cs[i]), motion(cs[j]));
+                pmin = pmin.min(p.coherence(a.0 - b.0, wrap(a.1 - b.1)));
+            }
+        }
+        let coherent = pmin >= p.threshold;
+        for &c in cs {
+            is_child[c] = true;
+            coh[c] = coh[c].min(pmin);
+            let l = if coherent { Label::Fragment } else { Label::Object };
+            // a track that is a group elsewhere stays a group
+            if label[c] != Some(Label::Group) {
+                label[c] = Some(l);
+            }
+        }
+        if !coherent {
+            label[par] = Some(Label::Group);
+        }
+    }
+    // rule d: a parent of an object or group is a group
+    for &par in &parents {
+        if kids[&par].0.iter().any(|&c| matches!(label[c], Some(Label::Object) | Some(Label::Group))) && label[par] != Some(Label::Group) {
+            label[par] = Some(Label::Group);
+        }
+    }
+    (0..tracks.len())
+        .map(|k| {
+            let l = match label[k] {
+                Some(Label::Fragment) if !is_child[k] => Label::Object, // a root fragment is an object
+                Some(l) => l,
+                None => Label::Object,
+            };
+            (l, coh[k])
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -208,6 +361,30 @@ mod tests {
         assert!(events(&[a, b], Some(&r), &p).unwrap().is_empty());
         let r2 = Region::from_wkt("POLYGON ((2 -5, 18 -5, 18 5, 2 5, 2 -5))").unwrap();
         assert_eq!(events(&[a, b], Some(&r2), &p).unwrap().len(), 1);
+    }
+
+    #[test]
+    fn labels_by_motion_coherency() {
+        let m = |id, v, h| Motion { id, v0: v, h0: h, v1: v, h1: h };
+        let ev = |kind, from, to| Event { kind, from, to, gap: 0.5, dist: 0.1 };
+        let p = LabelParams::default();
+        // 1 splits into 2 and 3 moving alike: fragments of one object
+        let t = [m(1, 5.0, 0.0), m(2, 5.1, 0.05), m(3, 4.9, -0.05)];
+        let l = labels(&t, &[ev(EventKind::Split, 1, 2), ev(EventKind::Split, 1, 3)], &p);
+        assert_eq!(l.iter().map(|x| x.0).collect::<Vec<_>>(), vec![Label::Object, Label::Fragment, Label::Fragment]);
+        assert!(l[1].1 > 0.9);
+        // 4 splits into 5 and 6 going different ways: a group of two objects
+        let t = [m(4, 1.2, 0.0), m(5, 1.3, 1.2), m(6, 1.1, -1.3)];
+        let l = labels(&t, &[ev(EventKind::Split, 4, 5), ev(EventKind::Split, 4, 6)], &p);
+        assert_eq!(l.iter().map(|x| x.0).collect::<Vec<_>>(), vec![Label::Group, Label::Object, Label::Object]);
+        // merge: 7 and 8 (different speeds) merge into 9 -> 9 is a group
+        let t = [m(7, 1.0, 0.0), m(8, 6.0, 0.0), m(9, 3.0, 0.0), m(10, 2.0, 2.0)];
+        let l = labels(&t, &[ev(EventKind::Merge, 7, 9), ev(EventKind::Merge, 8, 9)], &p);
+        assert_eq!(l.iter().map(|x| x.0).collect::<Vec<_>>(), vec![Label::Object, Label::Object, Label::Group, Label::Object]);
+        // heading wraps around ±π
+        assert!(p.coherence(0.0, wrap(3.1 - -3.1)) > 0.9);
+        assert!(LabelParams::new(0.0, 1.0, 1.0, 1.0, 0.5).is_err());
+        assert!(LabelParams::new(1.0, 1.0, 1.0, 1.0, 1.5).is_err());
     }
 
     #[test]

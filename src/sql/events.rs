@@ -1,5 +1,5 @@
-//! SQL: `traj_events`, broken / split / merge events of tracks within one camera (Zhao et al.,
-//! section III.A), list in, list out.
+//! SQL: `traj_events` (broken / split / merge events of tracks within one camera, Zhao et al.
+//! section III.A) and `traj_labels` (object / fragment / group, section IV), list in, list out.
 
 use super::convert::*;
 use crate::algo::events::{self, EventParams};
@@ -8,7 +8,8 @@ use duckdb::vtab::arrow::WritableVector;
 use duckdb::Connection;
 use std::error::Error;
 
-pub const DOCS: &[FnDoc] = &[FnDoc {
+pub const DOCS: &[FnDoc] = &[
+FnDoc {
     name: "traj_events",
     signatures: "traj_events(tracks STRUCT(id BIGINT, t0, x0, y0, t1, x1, y1, vx1, vy1 DOUBLE)[], max_gap DOUBLE, max_dist DOUBLE [, interior VARCHAR|BLOB]) -> STRUCT(kind VARCHAR, from_id BIGINT, to_id BIGINT, gap DOUBLE, distance DOUBLE)[]",
     description: "Events between the tracks of one camera, from their endpoints (first point, last point, velocity at the end): for a track a \
@@ -18,7 +19,105 @@ pub const DOCS: &[FnDoc] = &[FnDoc {
                   an inset, e.g. polygon_buffer(view_polygon(...), -3)), only endpoints inside it count: objects enter and leave at the margins. \
                   sql/quality.sql builds the endpoints and links broken tracks.",
     example: "SELECT traj_events([{'id': 1, 't0': 0, 'x0': 0, 'y0': 0, 't1': 10, 'x1': 10, 'y1': 0, 'vx1': 1, 'vy1': 0}, {'id': 2, 't0': 11.5, 'x0': 11.6, 'y0': 0, 't1': 20, 'x1': 20, 'y1': 0, 'vx1': 1, 'vy1': 0}], 2, 1); -- [{'kind': broken, 'from_id': 1, 'to_id': 2, 'gap': 1.5, 'distance': 0.09999999999999964}]",
-}];
+},
+FnDoc {
+    name: "traj_labels",
+    signatures: "traj_labels(tracks STRUCT(id BIGINT, t0, x0, y0, t1, x1, y1, vx1, vy1, vx0, vy0 DOUBLE)[], max_gap DOUBLE, max_dist DOUBLE [, interior VARCHAR|BLOB [, sigma_speed, sigma_heading, tau_speed, tau_heading, threshold DOUBLE]]) -> STRUCT(id BIGINT, label VARCHAR, coherence DOUBLE)[]",
+    description: "Labels each track object, fragment or group (Zhao et al. IV) on the interaction graph of traj_events (same first arguments, plus the \
+                  starting velocity vx0, vy0): the tracks a split produces (or the tracks that merge) are compared pairwise by motion coherency, eq. 3-5 \
+                  (speed and heading differences, zero-mean Gaussians with sigma for one object and tau for different objects; defaults 0.5 m/s, \
+                  0.25 rad, 3 m/s, 1.5 rad, threshold 0.7): coherent ones are fragments of one object, otherwise they are objects and their parent a \
+                  group; tracks in no split or merge are objects. Shape coherency (eq. 1-2) needs object extents, which tracks do not carry: skipped. \
+                  coherence is the minimum pairwise posterior of the set the track belongs to (1 if none).",
+    example: "SELECT traj_labels([{'id': 1, 't0': 0, 'x0': 0, 'y0': 0, 't1': 10, 'x1': 10, 'y1': 0, 'vx1': 1, 'vy1': 0, 'vx0': 1, 'vy0': 0}, {'id': 2, 't0': 10.5, 'x0': 10.5, 'y0': 0.5, 't1': 20, 'x1': 20, 'y1': 9, 'vx1': 1, 'vy1': 1, 'vx0': 1, 'vy0': 1}, {'id': 3, 't0': 10.5, 'x0': 10.5, 'y0': -0.5, 't1': 20, 'x1': 20, 'y1': -9, 'vx1': 1, 'vy1': -1, 'vx0': 1, 'vy0': -1}], 2, 1); -- [{'id': 1, 'label': group, 'coherence': 1.0}, {'id': 2, 'label': object, 'coherence': 1.6664855972319293e-07}, {'id': 3, 'label': object, 'coherence': 1.6664855972319293e-07}]",
+},
+];
+
+const LABEL_FIELDS: &[&str] = &["id", "t0", "x0", "y0", "t1", "x1", "y1", "vx1", "vy1", "vx0", "vy0"];
+
+fn labels_input_type() -> LogicalTypeHandle {
+    let fields: Vec<(&str, LogicalTypeHandle)> = LABEL_FIELDS.iter().map(|&f| (f, if f == "id" { bigint() } else { double() })).collect();
+    LogicalTypeHandle::list(&struct_of(&fields))
+}
+fn labels_type() -> LogicalTypeHandle {
+    LogicalTypeHandle::list(&struct_of(&[("id", bigint()), ("label", varchar()), ("coherence", double())]))
+}
+
+fn traj_labels_fn(input: &mut DataChunkHandle, output: &mut dyn WritableVector) -> FnResult {
+    const F: &str = "traj_labels";
+    let tracks = ListOfStructCol::new_pub(input, 0, LABEL_FIELDS);
+    let (gap, dist) = (PrimCol::new(input, 1), PrimCol::new(input, 2));
+    let interior = (input.num_columns() > 3).then(|| RegionCol::new(input, 3));
+    let extra: Vec<PrimCol<'_>> = (4..input.num_columns()).map(|c| PrimCol::new(input, c)).collect();
+    let vals = map_rows(input.len(), |r| -> Result<Option<Vec<(i64, events::Label, f64)>>, Box<dyn Error>> {
+        let Some(f) = tracks.row_fields(r, F, "tracks")? else { return Ok(None) };
+        let (Some(g), Some(d)) = (gap.f64(r), dist.f64(r)) else { return Ok(None) };
+        let p = EventParams::new(g, d).map_err(|e| err(F, e))?;
+        let lp = if extra.is_empty() {
+            events::LabelParams::default()
+        } else {
+            let v: Option<Vec<f64>> = extra.iter().map(|c| c.f64(r)).collect();
+            let Some(v) = v else { return Ok(None) };
+            events::LabelParams::new(v[0], v[1], v[2], v[3], v[4]).map_err(|e| err(F, e))?
+        };
+        let region = match &interior {
+            None => None,
+            Some(c) => match c.get(r, F, "interior")? {
+                None => return Ok(None),
+                v => v,
+            },
+        };
+        let n = f[0].len();
+        for k in 0..n {
+            if !(f[9][k].is_finite() && f[10][k].is_finite()) {
+                return Err(err(F, format!("tracks[{}].vx0/vy0 must be finite", k + 1)));
+            }
+        }
+        let eps: Vec<events::Endpoints> = (0..n)
+            .map(|k| events::Endpoints { id: i64_bits(f[0][k]), t0: f[1][k], x0: f[2][k], y0: f[3][k], t1: f[4][k], x1: f[5][k], y1: f[6][k], vx1: f[7][k], vy1: f[8][k] })
+            .collect();
+        let ev = events::events(&eps, region.as_deref(), &p).map_err(|e| err(F, e))?;
+        let motion: Vec<events::Motion> = (0..n)
+            .map(|k| events::Motion {
+                id: i64_bits(f[0][k]),
+                v0: f[9][k].hypot(f[10][k]),
+                h0: f[10][k].atan2(f[9][k]),
+                v1: f[7][k].hypot(f[8][k]),
+                h1: f[8][k].atan2(f[7][k]),
+            })
+            .collect();
+        let l = events::labels(&motion, &ev, &lp);
+        Ok(Some(motion.iter().zip(l).map(|(m, (lab, c))| (m.id, lab, c)).collect()))
+    })?;
+    let mut out = output.list_vector();
+    let total: usize = vals.iter().flatten().map(|v| v.len()).sum();
+    {
+        let child = out.struct_child(total);
+        let label = child.child(1, total);
+        let (mut id, mut coh) = (child.child(0, total), child.child(2, total));
+        // SAFETY: capacity `total` reserved; field types BIGINT and DOUBLE.
+        let (di, dc) = unsafe { (id.as_mut_slice_with_len::<i64>(total), coh.as_mut_slice_with_len::<f64>(total)) };
+        let mut off = 0;
+        for (i, l, c) in vals.iter().flatten().flatten() {
+            di[off] = *i;
+            label.insert(off, l.as_str());
+            dc[off] = *c;
+            off += 1;
+        }
+    }
+    let mut off = 0;
+    for (row, v) in vals.iter().enumerate() {
+        match v {
+            Some(v) => {
+                out.set_entry(row, off, v.len());
+                off += v.len();
+            }
+            None => out.set_null(row),
+        }
+    }
+    out.set_len(total);
+    Ok(())
+}
 
 const FIELDS: &[&str] = &["id", "t0", "x0", "y0", "t1", "x1", "y1", "vx1", "vy1"];
 
@@ -115,6 +214,20 @@ scalar_fn!(
     traj_events_fn
 );
 
+scalar_fn!(
+    TrajLabels,
+    {
+        let mut v = vec![sig(vec![labels_input_type(), double(), double()], labels_type())];
+        for g in [varchar as fn() -> LogicalTypeHandle, blob] {
+            v.push(sig(vec![labels_input_type(), double(), double(), g()], labels_type()));
+            v.push(sig(vec![labels_input_type(), double(), double(), g(), double(), double(), double(), double(), double()], labels_type()));
+        }
+        v
+    },
+    traj_labels_fn
+);
+
 pub fn register(con: &Connection) -> duckdb::Result<()> {
-    con.register_scalar_function::<TrajEvents>("traj_events")
+    con.register_scalar_function::<TrajEvents>("traj_events")?;
+    con.register_scalar_function::<TrajLabels>("traj_labels")
 }

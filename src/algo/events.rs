@@ -387,6 +387,43 @@ mod tests {
         assert!(LabelParams::new(1.0, 1.0, 1.0, 1.0, 1.5).is_err());
     }
 
+    use proptest::prelude::*;
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(200))]
+        /// The time-window search equals the O(n²) definition: every (end, start) pair tested.
+        #[test]
+        fn equals_brute_force(raw in prop::collection::vec((0u32..50, 0u32..20, 0u32..40, 0u32..40, -20i32..20), 0..25)) {
+            let tracks: Vec<Endpoints> = raw.iter().enumerate().map(|(k, &(t0, dur, x0, x1, v))| Endpoints {
+                id: k as i64, t0: t0 as f64 * 0.5, x0: x0 as f64 * 0.5, y0: 0.0,
+                t1: (t0 + dur) as f64 * 0.5, x1: x1 as f64 * 0.5, y1: 0.3, vx1: v as f64 * 0.1, vy1: 0.0,
+            }).collect();
+            let p = EventParams::new(2.0, 1.5).unwrap();
+            let got = events(&tracks, None, &p).unwrap();
+            let mut near = vec![];
+            for (a, ta) in tracks.iter().enumerate() {
+                for (b, tb) in tracks.iter().enumerate() {
+                    let gap = tb.t0 - ta.t1;
+                    if a == b || gap < 0.0 || gap > p.max_gap { continue; }
+                    let d = ((tb.x0 - (ta.x1 + ta.vx1 * gap)).powi(2) + (tb.y0 - (ta.y1 + ta.vy1 * gap)).powi(2)).sqrt();
+                    if d <= p.max_dist { near.push((a, b)); }
+                }
+            }
+            let ns = |a: usize| near.iter().filter(|x| x.0 == a).count();
+            let ne = |b: usize| near.iter().filter(|x| x.1 == b).count();
+            let mut want = vec![];
+            for &(a, b) in &near {
+                if ns(a) == 1 && ne(b) == 1 { want.push((a as i64, b as i64, EventKind::Broken as u8)); }
+                if ns(a) >= 2 { want.push((a as i64, b as i64, EventKind::Split as u8)); }
+                if ne(b) >= 2 { want.push((a as i64, b as i64, EventKind::Merge as u8)); }
+            }
+            want.sort();
+            let mut g: Vec<(i64, i64, u8)> = got.iter().map(|e| (e.from, e.to, e.kind as u8)).collect();
+            g.sort();
+            prop_assert_eq!(g, want);
+        }
+    }
+
     #[test]
     fn bad_input() {
         assert!(EventParams::new(-1.0, 1.0).is_err());

@@ -10,6 +10,10 @@ pub mod algo;
 #[cfg(any(feature = "bundled", feature = "extension"))]
 pub mod sql;
 
+/// The whole pipeline run embedded (`trajdb pipeline`).
+#[cfg(feature = "bundled")]
+pub mod pipeline;
+
 #[cfg(all(feature = "bundled", feature = "extension"))]
 compile_error!("features `bundled` and `extension` must not be enabled together: build the extension with --no-default-features --features extension");
 

@@ -104,3 +104,40 @@ fn every_documented_example_runs_and_matches_its_comment() {
         }
     }
 }
+
+/// `trajdb pipeline` on the demo's two synthetic cameras (written to Parquet and to CSV first):
+/// every result file is written, the transforms cover both directions, and unknown parameters
+/// are rejected.
+#[test]
+fn pipeline_writes_results() {
+    let dir = std::env::temp_dir().join(format!("trajdb-pipeline-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let pq = dir.join("points.parquet");
+    let csv = dir.join("points.csv");
+    let script = format!(
+        "{}\n;\nCOPY (SELECT camera, track_id, class, t, x, y, estimated FROM points) TO '{}' (FORMAT parquet);\nCOPY (SELECT camera, track_id, class, t, x, y, estimated FROM points) TO '{}' (HEADER);",
+        include_str!("../sql/demo.sql"),
+        pq.display(),
+        csv.display()
+    );
+    let (ok, _, err) = trajdb(&[], Some(&script));
+    assert!(ok, "{err}");
+    for (input, out) in [(&pq, dir.join("out_pq")), (&csv, dir.join("out_csv"))] {
+        let (ok, _, err) = trajdb(
+            &["pipeline", "--input", input.to_str().unwrap(), "--out", out.to_str().unwrap(), "--param", "merge_eta=0.4"],
+            None,
+        );
+        assert!(ok, "{err}");
+        assert!(err.contains("[trajdb] align") && err.contains("[trajdb] total"), "progress: {err}");
+        let transforms = std::fs::read_to_string(out.join("transforms.csv")).unwrap();
+        assert_eq!(transforms.lines().count(), 3, "{transforms}");
+        assert!(std::fs::read_to_string(out.join("matches.csv")).unwrap().lines().count() > 10);
+        assert!(std::fs::metadata(out.join("merged.parquet")).unwrap().len() > 0);
+        assert!(out.join("clusters.csv").exists());
+    }
+    let (ok, _, err) = trajdb(&["pipeline", "--input", pq.to_str().unwrap(), "--out", dir.join("x").to_str().unwrap(), "--param", "nope=1"], None);
+    assert!(!ok && err.contains("unknown parameter \"nope\""), "{err}");
+    let (ok, _, err) = trajdb(&["pipeline", "--out", "x"], None);
+    assert!(!ok && err.contains("--input"), "{err}");
+    std::fs::remove_dir_all(&dir).ok();
+}

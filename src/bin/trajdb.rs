@@ -12,7 +12,7 @@ use arrow::record_batch::RecordBatch;
 use std::io::{Read, Write};
 use std::process::ExitCode;
 
-const USAGE: &str = "usage: trajdb [--db FILE] [--csv|--json] (sql \"<query>\" | run FILE.sql | demo | functions [--markdown])\n       SQL is read from stdin when no command is given.";
+const USAGE: &str = "usage: trajdb [--db FILE] [--csv|--json] (sql \"<query>\" | run FILE.sql | demo | functions [--markdown])\n       trajdb pipeline --input points.parquet|points.csv --out DIR [--param name=value ...]\n       SQL is read from stdin when no command is given.";
 
 /// The embedded demo: generate two cameras (each in its own frame), align them, build the
 /// view polygons and overlaps, merge the tracks into road users, and check the matches.
@@ -76,6 +76,27 @@ fn real_main() -> Result<(), Box<dyn std::error::Error>> {
             std::fs::read_to_string(f).map_err(|e| format!("cannot read {f}: {e}"))?
         }
         Some("demo") => DEMO_SQL.join("\n;\n"),
+        Some("pipeline") => {
+            let (mut input, mut out, mut params) = (None, None, Vec::new());
+            let mut it = rest.iter().skip(1);
+            while let Some(a) = it.next() {
+                match a.as_str() {
+                    "--input" => input = it.next().cloned(),
+                    "--out" => out = it.next().cloned(),
+                    "--param" => {
+                        let p = it.next().ok_or("--param needs name=value")?;
+                        let (k, v) = p.split_once('=').ok_or_else(|| format!("--param needs name=value, got {p:?}"))?;
+                        params.push((k.trim().to_string(), v.trim().to_string()));
+                    }
+                    other => return Err(format!("pipeline: unknown option {other:?}\n{USAGE}").into()),
+                }
+            }
+            let input = input.ok_or("pipeline needs --input FILE")?;
+            let out = out.ok_or("pipeline needs --out DIR")?;
+            let con = trajdb::open(db.as_deref())?;
+            trajdb::pipeline::run(&con, &input, std::path::Path::new(&out), &params)?;
+            return Ok(());
+        }
         Some("functions") => {
             print_functions(markdown);
             return Ok(());

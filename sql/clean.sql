@@ -1,0 +1,26 @@
+-- trajdb pipeline, stage 2: clean the loaded `points` table in place.
+--  * drop a track whose last xi points are all estimated (the thesis, section 4: a track that
+--    ends in a coasting tail of extrapolated positions is not trusted);
+--  * drop tracks with fewer than clean_min_points real points.
+SET VARIABLE clean_xi = 3;
+SET VARIABLE clean_min_points = 5;
+
+CREATE OR REPLACE TEMP TABLE clean_dropped AS
+WITH r AS (
+    SELECT camera, track_id, estimated,
+           row_number() OVER (PARTITION BY camera, track_id ORDER BY t DESC) AS back
+    FROM points
+)
+SELECT camera, track_id, 'estimated tail' AS reason
+FROM r WHERE back <= getvariable('clean_xi')
+GROUP BY camera, track_id
+HAVING count(*) = getvariable('clean_xi') AND bool_and(estimated = 1)
+UNION ALL
+SELECT camera, track_id, 'too short'
+FROM points GROUP BY camera, track_id
+HAVING count(*) FILTER (WHERE estimated = 0) < getvariable('clean_min_points');
+
+CREATE OR REPLACE TEMP TABLE points AS
+SELECT p.* FROM points p ANTI JOIN clean_dropped d USING (camera, track_id);
+
+SELECT reason, count(*) AS tracks_dropped FROM clean_dropped GROUP BY reason ORDER BY reason;

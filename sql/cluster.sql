@@ -24,7 +24,8 @@ SET VARIABLE cluster_threshold = 0.5;
 SET VARIABLE cluster_translation_invariant = false;
 
 CREATE OR REPLACE TEMP TABLE cluster_tracks AS
-SELECT track_id, class, list({'t': t, 'x': x, 'y': y} ORDER BY t) AS traj
+SELECT track_id, class, list({'t': t, 'x': x, 'y': y} ORDER BY t) AS traj,
+       min(x) AS x0, max(x) AS x1, min(y) AS y0, max(y) AS y1
 FROM (
     SELECT *, row_number() OVER (PARTITION BY track_id ORDER BY t) AS k
     FROM points WHERE camera = getvariable('cluster_camera') AND estimated = 0 AND class IN ('car', 'pedestrian')
@@ -40,7 +41,14 @@ FROM (
            CASE WHEN getvariable('cluster_translation_invariant')
                 THEN lcss_s2(p.traj, q.traj, getvariable('cluster_delta'), getvariable('cluster_epsilon'), getvariable('cluster_rho'))::STRUCT(sx DOUBLE, sy DOUBLE)
                 ELSE lcss_s1(p.traj, q.traj, getvariable('cluster_delta'), getvariable('cluster_epsilon'), getvariable('cluster_rho')) END AS s
-    FROM cluster_tracks p JOIN cluster_tracks q ON p.class = q.class AND p.track_id < q.track_id
+    FROM cluster_tracks p JOIN cluster_tracks q
+      ON p.class = q.class AND p.track_id < q.track_id
+     -- S1_x > 0 needs the x ranges within epsilon of each other, S1_y > 0 the y ranges: an exact
+     -- pre-filter (a range join) that skips pairs whose distance would be 1 anyway (not for S2,
+     -- which translates)
+     AND (getvariable('cluster_translation_invariant')
+          OR (p.x0 < q.x1 + getvariable('cluster_epsilon') AND q.x0 < p.x1 + getvariable('cluster_epsilon')
+              AND p.y0 < q.y1 + getvariable('cluster_epsilon') AND q.y0 < p.y1 + getvariable('cluster_epsilon')))
 )
 WHERE least(s.sx, s.sy) > 0;
 

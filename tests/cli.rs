@@ -141,3 +141,27 @@ fn pipeline_writes_results() {
     assert!(!ok && err.contains("--input"), "{err}");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// `sql/pipeline.sql` (with `.read` includes, as in the DuckDB CLI) runs through `trajdb run`.
+#[test]
+fn pipeline_sql_runs_with_read_includes() {
+    let dir = std::env::temp_dir().join(format!("trajdb-pipesql-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let pq = dir.join("points.parquet");
+    let script = format!(
+        "{}\n;\nCOPY (SELECT camera, track_id, class, t, x, y, estimated FROM points) TO '{}' (FORMAT parquet);",
+        include_str!("../sql/demo.sql"),
+        pq.display()
+    );
+    assert!(trajdb(&[], Some(&script)).0);
+    let run = format!(
+        "SET VARIABLE pipeline_input = '{}';\n.read sql/pipeline.sql\nSELECT count(*) > 10 AS ok FROM merged WHERE n_tracks = 2;",
+        pq.display()
+    );
+    let (ok, out, err) = trajdb(&["--csv"], Some(&run));
+    assert!(ok, "{err}");
+    assert!(out.trim_end().ends_with("ok\ntrue"), "{out}");
+    let (ok, _, err) = trajdb(&[], Some(".read no/such/file.sql\n"));
+    assert!(!ok && err.contains(".read no/such/file.sql"), "{err}");
+    std::fs::remove_dir_all(&dir).ok();
+}

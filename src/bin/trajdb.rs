@@ -103,6 +103,7 @@ fn real_main() -> Result<(), Box<dyn std::error::Error>> {
         }
         Some(other) => return Err(format!("unknown command {other:?}\n{USAGE}").into()),
     };
+    let sql = expand_reads(&sql, 0)?;
     let con = trajdb::open(db.as_deref())?;
     let mut out = std::io::stdout().lock();
     for stmt in split_statements(&sql) {
@@ -144,6 +145,30 @@ fn returns_rows(stmt: &str) -> bool {
         first.as_str(),
         "SELECT" | "WITH" | "FROM" | "VALUES" | "TABLE" | "PRAGMA" | "DESCRIBE" | "SHOW" | "SUMMARIZE" | "EXPLAIN" | "CALL"
     ) || stmt.trim_start().starts_with('(')
+}
+
+/// Replaces every line `.read FILE` (the DuckDB CLI's include, path relative to the working
+/// directory) by the file's contents, so that `sql/pipeline.sql` runs in both tools.
+fn expand_reads(sql: &str, depth: usize) -> Result<String, Box<dyn std::error::Error>> {
+    if depth > 16 {
+        return Err(".read nested more than 16 levels".into());
+    }
+    let mut out = String::with_capacity(sql.len());
+    for line in sql.lines() {
+        match line.trim().strip_prefix(".read ") {
+            Some(f) => {
+                let f = f.trim().trim_matches(|c| c == '\'' || c == '"');
+                let text = std::fs::read_to_string(f).map_err(|e| format!(".read {f}: {e}"))?;
+                out.push_str(&expand_reads(&text, depth + 1)?);
+                out.push_str("\n;\n");
+            }
+            None => {
+                out.push_str(line);
+                out.push('\n');
+            }
+        }
+    }
+    Ok(out)
 }
 
 fn run_statement(con: &duckdb::Connection, sql: &str, format: Format, out: &mut impl Write) -> Result<(), Box<dyn std::error::Error>> {

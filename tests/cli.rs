@@ -165,3 +165,26 @@ fn pipeline_sql_runs_with_read_includes() {
     assert!(!ok && err.contains(".read no/such/file.sql"), "{err}");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// `trajdb score` on a shared scenario (skipped when ../shared/data is not beside the clone):
+/// the pipeline's transforms are within 0.5 degrees and 0.3 m, and match F1 is at least 0.95.
+#[test]
+fn score_on_shared_scenario() {
+    let sc = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data/dut_roundabout_2cam");
+    if !sc.join("truth.csv").exists() {
+        eprintln!("skipped: {} not found", sc.display());
+        return;
+    }
+    let out = std::env::temp_dir().join(format!("trajdb-score-{}", std::process::id()));
+    let (ok, _, err) = trajdb(&["pipeline", "--input", sc.join("points.parquet").to_str().unwrap(), "--out", out.to_str().unwrap()], None);
+    assert!(ok, "{err}");
+    let (ok, text, err) = trajdb(&["score", sc.to_str().unwrap(), "--results", out.to_str().unwrap()], None);
+    assert!(ok, "{err}");
+    let worst: Vec<f64> = text.lines().next().unwrap().split_whitespace().filter_map(|w| w.parse().ok()).collect();
+    assert!(worst[0] <= 0.5 && worst[1] <= 0.3, "{text}");
+    let f1: f64 = text.lines().last().unwrap().split_whitespace().nth(3).unwrap().parse().unwrap();
+    assert!(f1 >= 0.95, "{text}");
+    let (ok, _, err) = trajdb(&["score", "/no/such/dir", "--results", out.to_str().unwrap()], None);
+    assert!(!ok && err.contains("no/such/dir"), "{err}");
+    std::fs::remove_dir_all(&out).ok();
+}

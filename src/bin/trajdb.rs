@@ -12,7 +12,7 @@ use arrow::record_batch::RecordBatch;
 use std::io::{Read, Write};
 use std::process::ExitCode;
 
-const USAGE: &str = "usage: trajdb [--db FILE] [--csv|--json] (sql \"<query>\" | run FILE.sql | demo | functions [--markdown])\n       trajdb pipeline --input points.parquet|points.csv --out DIR [--param name=value ...]\n       SQL is read from stdin when no command is given.";
+const USAGE: &str = "usage: trajdb [--db FILE] [--csv|--json] (sql \"<query>\" | run FILE.sql | demo | functions [--markdown])\n       trajdb pipeline --input points.parquet|points.csv --out DIR [--param name=value ...]\n       trajdb score SCENARIO_DIR --results DIR\n       SQL is read from stdin when no command is given.";
 
 /// The embedded demo: generate two cameras (each in its own frame), align them, build the
 /// view polygons and overlaps, merge the tracks into road users, and check the matches.
@@ -76,6 +76,21 @@ fn real_main() -> Result<(), Box<dyn std::error::Error>> {
             std::fs::read_to_string(f).map_err(|e| format!("cannot read {f}: {e}"))?
         }
         Some("demo") => DEMO_SQL.join("\n;\n"),
+        Some("score") => {
+            let scenario = rest.get(1).ok_or("score needs a scenario directory")?;
+            let mut results = None;
+            let mut it = rest.iter().skip(2);
+            while let Some(a) = it.next() {
+                match a.as_str() {
+                    "--results" => results = it.next().cloned(),
+                    other => return Err(format!("score: unknown option {other:?}\n{USAGE}").into()),
+                }
+            }
+            let results = results.ok_or("score needs --results DIR (the output of trajdb pipeline)")?;
+            let con = trajdb::open(db.as_deref())?;
+            trajdb::pipeline::score(&con, std::path::Path::new(scenario), std::path::Path::new(&results))?;
+            return Ok(());
+        }
         Some("pipeline") => {
             let (mut input, mut out, mut params) = (None, None, Vec::new());
             let mut it = rest.iter().skip(1);

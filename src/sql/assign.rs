@@ -171,17 +171,7 @@ fn write_edges(out: &mut duckdb::core::ListVector<'_>, vals: &[Option<Vec<(i64, 
             }
         }
     }
-    let mut off = 0;
-    for (row, v) in vals.iter().enumerate() {
-        match v {
-            Some(v) => {
-                out.set_entry(row, off, v.len());
-                off += v.len();
-            }
-            None => out.set_null(row),
-        }
-    }
-    out.set_len(total);
+    write_list_entries(out, vals.iter().map(|v| v.as_ref().map(Vec::len)));
 }
 
 scalar_fn!(AssignPairs, vec![sig(vec![edge_type()], edge_type())], assign_pairs);

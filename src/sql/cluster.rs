@@ -4,8 +4,6 @@
 use super::convert::*;
 use crate::algo::cluster::{self, Cut, Linkage};
 use duckdb::core::{DataChunkHandle, LogicalTypeHandle};
-use duckdb::ffi::duckdb_string_t;
-use duckdb::types::DuckString;
 use duckdb::vtab::arrow::WritableVector;
 use duckdb::Connection;
 use std::error::Error;
@@ -51,20 +49,10 @@ fn dendrogram_type() -> LogicalTypeHandle {
     LogicalTypeHandle::list(&struct_of(&[("left", bigint()), ("right", bigint()), ("distance", double()), ("size", bigint())]))
 }
 
-fn varchar_at(input: &DataChunkHandle, col: usize, row: usize) -> Option<String> {
-    let v = input.flat_vector(col);
-    if v.row_is_null(row as u64) {
-        return None;
-    }
-    // SAFETY: the column is VARCHAR (fixed by the signature); `row` < chunk length.
-    let mut s = unsafe { v.as_slice_with_len::<duckdb_string_t>(input.len()) }[row];
-    Some(DuckString::new(&mut s).as_str().to_string())
-}
-
 /// Reads the pairs and the method of a row, and builds its dendrogram.
-fn dendrogram_of(input: &DataChunkHandle, pairs: &ListOfStructCol<'_>, row: usize, f: &str) -> Result<Option<cluster::Dendrogram>, Box<dyn Error>> {
+fn dendrogram_of(pairs: &ListOfStructCol<'_>, methods: &VarcharCol<'_>, row: usize, f: &str) -> Result<Option<cluster::Dendrogram>, Box<dyn Error>> {
     let Some(fields) = pairs.row_fields(row, f, "pairs")? else { return Ok(None) };
-    let Some(method) = varchar_at(input, 1, row) else { return Ok(None) };
+    let Some(method) = methods.get(row) else { return Ok(None) };
     let method = Linkage::parse(&method).map_err(|e| err(f, e))?;
     let p: Vec<(i64, i64, f64)> = (0..fields[0].len()).map(|k| (i64_bits(fields[0][k]), i64_bits(fields[1][k]), fields[2][k])).collect();
     Ok(Some(cluster::dendrogram(&p, method).map_err(|e| err(f, e))?))
@@ -86,22 +74,13 @@ fn write_assignments(out: &mut duckdb::core::ListVector<'_>, vals: &[Option<(Vec
             }
         }
     }
-    let mut off = 0;
-    for (row, v) in vals.iter().enumerate() {
-        match v {
-            Some((ids, _)) => {
-                out.set_entry(row, off, ids.len());
-                off += ids.len();
-            }
-            None => out.set_null(row),
-        }
-    }
-    out.set_len(total);
+    write_list_entries(out, vals.iter().map(|v| v.as_ref().map(|(ids, _)| ids.len())));
 }
 
 fn cluster_fn(input: &mut DataChunkHandle, output: &mut dyn WritableVector, by_k: bool) -> FnResult {
     let f = if by_k { "agglomerative_cluster_k" } else { "agglomerative_cluster" };
     let pairs = ListOfStructCol::new_pub(input, 0, &["a", "b", "distance"]);
+    let methods = VarcharCol::new(input, 1);
     let arg = PrimCol::new(input, 2);
     let vals = map_rows(input.len(), |r| {
         let cut = if by_k {
@@ -117,7 +96,7 @@ fn cluster_fn(input: &mut DataChunkHandle, output: &mut dyn WritableVector, by_k
             }
             Cut::Threshold(t)
         };
-        let Some(d) = dendrogram_of(input, &pairs, r, f)? else { return Ok(None) };
+        let Some(d) = dendrogram_of(&pairs, &methods, r, f)? else { return Ok(None) };
         let labels = cluster::flat(&d, cut);
         Ok(Some((d.ids, labels)))
     })?;
@@ -128,8 +107,9 @@ fn cluster_fn(input: &mut DataChunkHandle, output: &mut dyn WritableVector, by_k
 fn dendrogram_fn(input: &mut DataChunkHandle, output: &mut dyn WritableVector) -> FnResult {
     const F: &str = "agglomerative_dendrogram";
     let pairs = ListOfStructCol::new_pub(input, 0, &["a", "b", "distance"]);
+    let methods = VarcharCol::new(input, 1);
     let vals = map_rows(input.len(), |r| {
-        let Some(d) = dendrogram_of(input, &pairs, r, F)? else { return Ok(None) };
+        let Some(d) = dendrogram_of(&pairs, &methods, r, F)? else { return Ok(None) };
         let col = |g: &dyn Fn(&cluster::Merge) -> f64| d.merges.iter().map(g).collect::<Vec<f64>>();
         Ok(Some([
             col(&|m| bits_i64(m.left as i64)),

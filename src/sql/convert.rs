@@ -191,6 +191,27 @@ impl<'a> ListOfStructCol<'a> {
     }
 }
 
+/// A VARCHAR argument, its vector fetched once per chunk.
+pub struct VarcharCol<'a> {
+    v: FlatVector<'a>,
+    n: usize,
+}
+
+impl<'a> VarcharCol<'a> {
+    pub fn new(input: &'a DataChunkHandle, col: usize) -> Self {
+        VarcharCol { v: input.flat_vector(col), n: input.len() }
+    }
+    /// The text of `row`, `None` when NULL.
+    pub fn get(&self, row: usize) -> Option<String> {
+        if self.v.row_is_null(row as u64) {
+            return None;
+        }
+        // SAFETY: the column is VARCHAR (fixed by the signature); `row` < chunk length.
+        let mut s = unsafe { self.v.as_slice_with_len::<duckdb_string_t>(self.n) }[row];
+        Some(DuckString::new(&mut s).as_str().to_string())
+    }
+}
+
 /// Reads a list of trajectories (`STRUCT(t, x, y)[][]`) straight from DuckDB's buffers.
 pub struct TrajListCol<'a> {
     outer: &'a [ffi::duckdb_list_entry],
@@ -450,6 +471,22 @@ pub fn map_rows<T>(
     (0..n).map(&mut f).collect()
 }
 
+/// Sets the list entries of a list column whose child already holds the rows' elements back
+/// to back: `lens[row]` elements for each row, `None` = NULL row.
+pub fn write_list_entries(out: &mut ListVector<'_>, lens: impl IntoIterator<Item = Option<usize>>) {
+    let mut off = 0;
+    for (row, len) in lens.into_iter().enumerate() {
+        match len {
+            Some(len) => {
+                out.set_entry(row, off, len);
+                off += len;
+            }
+            None => out.set_null(row),
+        }
+    }
+    out.set_len(off);
+}
+
 /// Writes a column of `f64`/`i64`/... with NULLs.
 pub fn write_flat<T: Copy>(out: &mut FlatVector<'_>, vals: &[Option<T>]) {
     {
@@ -548,17 +585,7 @@ pub fn write_list_of_pairs<A: Copy, B: Copy>(out: &mut ListVector<'_>, vals: &[O
             off += a.len();
         }
     }
-    let mut off = 0;
-    for (row, v) in vals.iter().enumerate() {
-        match v {
-            Some((a, _)) => {
-                out.set_entry(row, off, a.len());
-                off += a.len();
-            }
-            None => out.set_null(row),
-        }
-    }
-    out.set_len(total);
+    write_list_entries(out, vals.iter().map(|v| v.as_ref().map(|(a, _)| a.len())));
 }
 
 /// Writes a column of lists of structs whose fields are all DOUBLE. Each row is `None` (NULL)
@@ -579,17 +606,7 @@ pub fn write_list_struct_f64(out: &mut ListVector<'_>, nfields: usize, vals: &[O
             off += len;
         }
     }
-    let mut off = 0;
-    for (row, v) in vals.iter().enumerate() {
-        match v {
-            Some(cols) => {
-                out.set_entry(row, off, cols[0].len());
-                off += cols[0].len();
-            }
-            None => out.set_null(row),
-        }
-    }
-    out.set_len(total);
+    write_list_entries(out, vals.iter().map(|v| v.as_ref().map(|cols| cols[0].len())));
 }
 
 /// Writes a column of trajectories (`STRUCT(t, x, y)[]`).

@@ -33,6 +33,40 @@ FnDoc {
 },
 ];
 
+/// The endpoints of one row's tracks (the first nine fields of both track types).
+fn decode_endpoints(f: &[&[f64]]) -> Vec<events::Endpoints> {
+    (0..f[0].len())
+        .map(|k| events::Endpoints { id: i64_bits(f[0][k]), t0: f[1][k], x0: f[2][k], y0: f[3][k], t1: f[4][k], x1: f[5][k], y1: f[6][k], vx1: f[7][k], vy1: f[8][k] })
+        .collect()
+}
+
+/// The `max_gap`, `max_dist` and optional `interior` arguments (columns 1, 2, 3) of both functions.
+struct EventArgs<'a> {
+    gap: PrimCol<'a>,
+    dist: PrimCol<'a>,
+    interior: Option<RegionCol<'a>>,
+}
+
+impl<'a> EventArgs<'a> {
+    fn new(input: &'a DataChunkHandle) -> Self {
+        EventArgs { gap: PrimCol::new(input, 1), dist: PrimCol::new(input, 2), interior: (input.num_columns() > 3).then(|| RegionCol::new(input, 3)) }
+    }
+    /// Validated parameters and the interior polygon of `row`; `None` when an argument is NULL.
+    #[allow(clippy::type_complexity)]
+    fn get(&self, r: usize, f: &str) -> Result<Option<(EventParams, Option<std::rc::Rc<crate::algo::region::Region>>)>, Box<dyn Error>> {
+        let (Some(g), Some(d)) = (self.gap.f64(r), self.dist.f64(r)) else { return Ok(None) };
+        let p = EventParams::new(g, d).map_err(|e| err(f, e))?;
+        let region = match &self.interior {
+            None => None,
+            Some(c) => match c.get(r, f, "interior")? {
+                None => return Ok(None),
+                v => v,
+            },
+        };
+        Ok(Some((p, region)))
+    }
+}
+
 const LABEL_FIELDS: &[&str] = &["id", "t0", "x0", "y0", "t1", "x1", "y1", "vx1", "vy1", "vx0", "vy0"];
 
 fn labels_input_type() -> LogicalTypeHandle {
@@ -46,13 +80,11 @@ fn labels_type() -> LogicalTypeHandle {
 fn traj_labels_fn(input: &mut DataChunkHandle, output: &mut dyn WritableVector) -> FnResult {
     const F: &str = "traj_labels";
     let tracks = ListOfStructCol::new_pub(input, 0, LABEL_FIELDS);
-    let (gap, dist) = (PrimCol::new(input, 1), PrimCol::new(input, 2));
-    let interior = (input.num_columns() > 3).then(|| RegionCol::new(input, 3));
+    let args = EventArgs::new(input);
     let extra: Vec<PrimCol<'_>> = (4..input.num_columns()).map(|c| PrimCol::new(input, c)).collect();
     let vals = map_rows(input.len(), |r| -> Result<Option<Vec<(i64, events::Label, f64)>>, Box<dyn Error>> {
         let Some(f) = tracks.row_fields(r, F, "tracks")? else { return Ok(None) };
-        let (Some(g), Some(d)) = (gap.f64(r), dist.f64(r)) else { return Ok(None) };
-        let p = EventParams::new(g, d).map_err(|e| err(F, e))?;
+        let Some((p, region)) = args.get(r, F)? else { return Ok(None) };
         let lp = if extra.is_empty() {
             events::LabelParams::default()
         } else {
@@ -60,22 +92,13 @@ fn traj_labels_fn(input: &mut DataChunkHandle, output: &mut dyn WritableVector) 
             let Some(v) = v else { return Ok(None) };
             events::LabelParams::new(v[0], v[1], v[2], v[3], v[4]).map_err(|e| err(F, e))?
         };
-        let region = match &interior {
-            None => None,
-            Some(c) => match c.get(r, F, "interior")? {
-                None => return Ok(None),
-                v => v,
-            },
-        };
         let n = f[0].len();
         for k in 0..n {
             if !(f[9][k].is_finite() && f[10][k].is_finite()) {
                 return Err(err(F, format!("tracks[{}].vx0/vy0 must be finite", k + 1)));
             }
         }
-        let eps: Vec<events::Endpoints> = (0..n)
-            .map(|k| events::Endpoints { id: i64_bits(f[0][k]), t0: f[1][k], x0: f[2][k], y0: f[3][k], t1: f[4][k], x1: f[5][k], y1: f[6][k], vx1: f[7][k], vy1: f[8][k] })
-            .collect();
+        let eps = decode_endpoints(&f);
         let ev = events::events(&eps, region.as_deref(), &p).map_err(|e| err(F, e))?;
         let motion: Vec<events::Motion> = (0..n)
             .map(|k| events::Motion {
@@ -105,17 +128,7 @@ fn traj_labels_fn(input: &mut DataChunkHandle, output: &mut dyn WritableVector) 
             off += 1;
         }
     }
-    let mut off = 0;
-    for (row, v) in vals.iter().enumerate() {
-        match v {
-            Some(v) => {
-                out.set_entry(row, off, v.len());
-                off += v.len();
-            }
-            None => out.set_null(row),
-        }
-    }
-    out.set_len(total);
+    write_list_entries(&mut out, vals.iter().map(|v| v.as_ref().map(Vec::len)));
     Ok(())
 }
 
@@ -154,49 +167,17 @@ fn write_events(out: &mut duckdb::core::ListVector<'_>, vals: &[Option<Vec<event
             off += 1;
         }
     }
-    let mut off = 0;
-    for (row, v) in vals.iter().enumerate() {
-        match v {
-            Some(v) => {
-                out.set_entry(row, off, v.len());
-                off += v.len();
-            }
-            None => out.set_null(row),
-        }
-    }
-    out.set_len(total);
+    write_list_entries(out, vals.iter().map(|v| v.as_ref().map(Vec::len)));
 }
 
 fn traj_events_fn(input: &mut DataChunkHandle, output: &mut dyn WritableVector) -> FnResult {
     const F: &str = "traj_events";
     let tracks = ListOfStructCol::new_pub(input, 0, FIELDS);
-    let (gap, dist) = (PrimCol::new(input, 1), PrimCol::new(input, 2));
-    let interior = (input.num_columns() > 3).then(|| RegionCol::new(input, 3));
+    let args = EventArgs::new(input);
     let vals = map_rows(input.len(), |r| -> Result<Option<Vec<events::Event>>, Box<dyn Error>> {
         let Some(f) = tracks.row_fields(r, F, "tracks")? else { return Ok(None) };
-        let (Some(g), Some(d)) = (gap.f64(r), dist.f64(r)) else { return Ok(None) };
-        let p = EventParams::new(g, d).map_err(|e| err(F, e))?;
-        let region = match &interior {
-            None => None,
-            Some(c) => match c.get(r, F, "interior")? {
-                None => return Ok(None),
-                v => v,
-            },
-        };
-        let eps: Vec<events::Endpoints> = (0..f[0].len())
-            .map(|k| events::Endpoints {
-                id: i64_bits(f[0][k]),
-                t0: f[1][k],
-                x0: f[2][k],
-                y0: f[3][k],
-                t1: f[4][k],
-                x1: f[5][k],
-                y1: f[6][k],
-                vx1: f[7][k],
-                vy1: f[8][k],
-            })
-            .collect();
-        Ok(Some(events::events(&eps, region.as_deref(), &p).map_err(|e| err(F, e))?))
+        let Some((p, region)) = args.get(r, F)? else { return Ok(None) };
+        Ok(Some(events::events(&decode_endpoints(&f), region.as_deref(), &p).map_err(|e| err(F, e))?))
     })?;
     write_events(&mut output.list_vector(), &vals);
     Ok(())

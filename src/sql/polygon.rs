@@ -113,21 +113,11 @@ fn xy_type() -> duckdb::core::LogicalTypeHandle {
     duckdb::core::LogicalTypeHandle::list(&struct_of(&[("x", double()), ("y", double())]))
 }
 
-/// Reads one VARCHAR argument of a row (NULL → None).
-fn varchar_at(input: &DataChunkHandle, col: usize, row: usize) -> Option<String> {
-    let v = input.flat_vector(col);
-    if v.row_is_null(row as u64) {
-        return None;
-    }
-    // SAFETY: the column is VARCHAR (fixed by the signature); `row` < chunk length.
-    let mut s = unsafe { v.as_slice_with_len::<duckdb_string_t>(input.len()) }[row];
-    Some(DuckString::new(&mut s).as_str().to_string())
-}
-
 fn view_polygon_fn(input: &mut DataChunkHandle, output: &mut dyn WritableVector, with_t: bool) -> FnResult {
     const F: &str = "view_polygon";
     let names: &'static [&'static str] = if with_t { &["t", "x", "y"] } else { &["x", "y"] };
     let pts = ListOfStructCol::new_pub(input, 0, names);
+    let methods = VarcharCol::new(input, 1);
     let off = usize::from(with_t);
     let ncol = input.num_columns();
     let param = (ncol > 2).then(|| PrimCol::new(input, 2));
@@ -136,7 +126,7 @@ fn view_polygon_fn(input: &mut DataChunkHandle, output: &mut dyn WritableVector,
     let mut cache: Option<((String, Option<f64>, Option<f64>, Option<i64>), hull::HullParams)> = None;
     let vals = map_rows(input.len(), |r| {
         let Some(fields) = pts.row_fields(r, F, "points")? else { return Ok(None) };
-        let Some(method) = varchar_at(input, 1, r) else { return Ok(None) };
+        let Some(method) = methods.get(r) else { return Ok(None) };
         let p = match &param {
             None => None,
             Some(c) => match c.f64(r) {

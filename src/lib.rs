@@ -10,9 +10,16 @@ pub mod algo;
 #[cfg(any(feature = "bundled", feature = "extension"))]
 pub mod sql;
 
+/// Synthetic multi-camera intersection traffic with ground truth (`trajdb simulate`); pure Rust.
+pub mod simulate;
+
 /// The whole pipeline run embedded (`trajdb pipeline`).
 #[cfg(feature = "bundled")]
 pub mod pipeline;
+
+/// The pipeline's QA report (`report.html`).
+#[cfg(feature = "bundled")]
+pub mod report;
 
 #[cfg(all(feature = "bundled", feature = "extension"))]
 compile_error!("features `bundled` and `extension` must not be enabled together: build the extension with --no-default-features --features extension");

@@ -51,6 +51,7 @@ fn sql_string(s: &str) -> String {
 /// Runs the pipeline on `input` (Parquet or CSV with camera, track_id, class, t, x, y,
 /// estimated) and writes the result files into `out`. Progress goes to stderr.
 pub fn run(con: &Connection, input: &str, out: &Path, params: &[(String, String)]) -> Result<(), Box<dyn Error>> {
+    let mut timings: Vec<(String, f64)> = Vec::new();
     let stages = with_params(params)?;
     std::fs::create_dir_all(out)?;
     let t_all = Instant::now();
@@ -62,6 +63,7 @@ pub fn run(con: &Connection, input: &str, out: &Path, params: &[(String, String)
     ))?;
     let n: i64 = con.query_row("SELECT count(*) FROM points", [], |r| r.get(0))?;
     eprintln!("[trajdb] load     {:>7.2} s  {n} points", t.elapsed().as_secs_f64());
+    timings.push(("load".into(), t.elapsed().as_secs_f64()));
     for (name, sql) in &stages {
         let t = Instant::now();
         con.execute_batch(sql)?;
@@ -69,6 +71,7 @@ pub fn run(con: &Connection, input: &str, out: &Path, params: &[(String, String)
             con.execute_batch("CREATE OR REPLACE TEMP TABLE points AS SELECT * FROM points_linked")?;
         }
         eprintln!("[trajdb] {name:<8} {:>7.2} s", t.elapsed().as_secs_f64());
+        timings.push((name.to_string(), t.elapsed().as_secs_f64()));
     }
     let t = Instant::now();
     let path = |f: &str| sql_string(&out.join(f).to_string_lossy());
@@ -96,6 +99,10 @@ pub fn run(con: &Connection, input: &str, out: &Path, params: &[(String, String)
         path("links.csv"),
     ))?;
     eprintln!("[trajdb] write    {:>7.2} s  -> {}", t.elapsed().as_secs_f64(), out.display());
+    timings.push(("write".into(), t.elapsed().as_secs_f64()));
+    let t = Instant::now();
+    crate::report::write(con, out, input, &timings)?;
+    eprintln!("[trajdb] report   {:>7.2} s  -> {}", t.elapsed().as_secs_f64(), out.join("report.html").display());
     eprintln!("[trajdb] total    {:>7.2} s", t_all.elapsed().as_secs_f64());
     Ok(())
 }

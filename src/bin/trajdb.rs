@@ -12,7 +12,7 @@ use arrow::record_batch::RecordBatch;
 use std::io::{Read, Write};
 use std::process::ExitCode;
 
-const USAGE: &str = "usage: trajdb [--db FILE] [--csv|--json] (sql \"<query>\" | run FILE.sql | demo | functions [--markdown])\n       trajdb pipeline --input points.parquet|points.csv --out DIR [--param name=value ...]\n       trajdb score SCENARIO_DIR --results DIR\n       SQL is read from stdin when no command is given.";
+const USAGE: &str = "usage: trajdb [--db FILE] [--csv|--json] (sql \"<query>\" | run FILE.sql | demo | functions [--markdown])\n       trajdb pipeline --input points.parquet|points.csv --out DIR [--param name=value ...]\n       trajdb score SCENARIO_DIR --results DIR\n       trajdb simulate --cameras N --minutes M --seed S --out DIR [--rate-hz R] [--traffic X]\n       SQL is read from stdin when no command is given.";
 
 /// The embedded demo: generate two cameras (each in its own frame), align them, build the
 /// view polygons and overlaps, merge the tracks into road users, and check the matches.
@@ -112,6 +112,11 @@ fn real_main() -> Result<(), Box<dyn std::error::Error>> {
             trajdb::pipeline::run(&con, &input, std::path::Path::new(&out), &params)?;
             return Ok(());
         }
+        Some("simulate") => {
+            let (params, out) = parse_simulate(&rest[1..])?;
+            simulate(db.as_deref(), &params, &out, &rest.join(" "))?;
+            return Ok(());
+        }
         Some("functions") => {
             print_functions(markdown);
             return Ok(());
@@ -124,6 +129,57 @@ fn real_main() -> Result<(), Box<dyn std::error::Error>> {
     for stmt in split_statements(&sql) {
         run_statement(&con, &stmt, format, &mut out)?;
     }
+    Ok(())
+}
+
+/// `simulate` options: --cameras N --minutes M --seed S --out DIR [--rate-hz R] [--traffic X]
+/// [--noise-tracks-per-min K] [--clock-offset-max S] [--world-rate-hz R (0: no world.csv)].
+fn parse_simulate(args: &[String]) -> Result<(trajdb::simulate::SimParams, String), Box<dyn std::error::Error>> {
+    let mut p = trajdb::simulate::SimParams::default();
+    let mut out = None;
+    let mut it = args.iter();
+    while let Some(a) = it.next() {
+        let mut val = |name: &str| -> Result<String, Box<dyn std::error::Error>> { it.next().cloned().ok_or_else(|| format!("simulate: {name} needs a value").into()) };
+        let num = |name: &str, v: String| -> Result<f64, Box<dyn std::error::Error>> { v.parse::<f64>().map_err(|_| format!("simulate: {name} must be a number, got {v:?}").into()) };
+        match a.as_str() {
+            "--cameras" => p.cameras = num(a, val(a)?)? as usize,
+            "--minutes" => p.minutes = num(a, val(a)?)?,
+            "--seed" => p.seed = val(a)?.parse().map_err(|_| "simulate: --seed must be a non-negative integer")?,
+            "--rate-hz" => p.rate_hz = num(a, val(a)?)?,
+            "--traffic" => p.traffic = num(a, val(a)?)?,
+            "--noise-tracks-per-min" => p.noise_tracks_per_min = num(a, val(a)?)?,
+            "--clock-offset-max" => p.clock_offset_max = num(a, val(a)?)?,
+            "--world-rate-hz" => p.world_rate_hz = num(a, val(a)?)?,
+            "--out" => out = Some(val(a)?),
+            other => return Err(format!("simulate: unknown option {other:?}\n{USAGE}").into()),
+        }
+    }
+    Ok((p, out.ok_or("simulate needs --out DIR")?))
+}
+
+/// Simulates a scenario into `out` (CSV files by the simulator, points.parquet through DuckDB).
+fn simulate(db: Option<&str>, p: &trajdb::simulate::SimParams, out: &str, command: &str) -> Result<(), Box<dyn std::error::Error>> {
+    let t = std::time::Instant::now();
+    let s = trajdb::simulate::simulate(p)?;
+    let dir = std::path::Path::new(out);
+    s.write(dir, &format!("trajdb {command}"))?;
+    let con = trajdb::open(db)?;
+    let q = |f: &str| format!("'{}'", dir.join(f).to_string_lossy().replace('\'', "''"));
+    con.execute_batch(&format!(
+        "COPY (SELECT camera::INTEGER AS camera, track_id::BIGINT AS track_id, class::VARCHAR AS class, t::DOUBLE AS t,
+                      x::DOUBLE AS x, y::DOUBLE AS y, speed::DOUBLE AS speed, estimated::INTEGER AS estimated
+               FROM read_csv({}, header = true)) TO {} (FORMAT parquet)",
+        q("points.csv"),
+        q("points.parquet")
+    ))?;
+    eprintln!(
+        "[trajdb] simulate {:>7.2} s  {} objects, {} cameras, {} tracks, {} points -> {out}",
+        t.elapsed().as_secs_f64(),
+        s.objects.len(),
+        s.cameras.len(),
+        s.truth.len(),
+        s.points.len()
+    );
     Ok(())
 }
 

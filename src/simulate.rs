@@ -1,0 +1,787 @@
+//! `trajdb simulate`: synthetic multi-camera traffic at a four-arm intersection, with exact
+//! ground truth, written in the format of the shared benchmark scenarios (`../shared/data`):
+//! points.csv (+ points.parquet, written by the caller), cameras.csv, truth.csv, world.csv,
+//! objects.csv and README.txt.
+//!
+//! Pure Rust (no DuckDB). Deterministic for a seed (ChaCha8).
+//!
+//! # The world
+//! - Two straight roads cross at the origin: arms E (+x), N (+y), W (−x), S (−y), 70 m long,
+//!   one 3.5 m lane per direction, driving on the right; bike lanes 5 m from the centre line;
+//!   sidewalks 8 m from it, crosswalks 10 m from the centre on every arm.
+//! - Cars, heavy vehicles and cyclists enter on one arm and leave on another (straight, left,
+//!   right; no U-turns). The turn is a quadratic Bézier between the lane lines. Speeds follow a
+//!   profile along the path: cruise speed, a lower curve speed in turns, acceleration and braking
+//!   limits, and (sometimes) a stop of a few seconds at the stop line (12 m from the centre).
+//! - Pedestrians walk the sidewalks, cross 1–2 crosswalks (sometimes waiting at the curb), and
+//!   sometimes walk in pairs side by side (0.7 m apart): the hard case for matching.
+//! - Arrivals are Poisson per class (per minute: car 10, heavy vehicle 1, cyclist 2,
+//!   pedestrian 3, times `traffic`). A vehicle entering a lane less than 2.5 s behind the
+//!   previous one on that lane waits, and never cruises faster than it (no driving through).
+//!
+//! # The cameras
+//! N rotated rectangular views (48 m × 36 m) around the centre, long axis pointing at it, so that
+//! neighbours overlap over the junction. Each camera has a random rigid frame
+//! (p_local = R(−θ)(p − t)), its own sampling phase at `rate_hz`, Gaussian noise σ drawn from
+//! `noise_sigma`, and an optional clock offset. Then the degradations of the shared scenarios:
+//! track breaks (a gap of 0.5–2 s, both parts ≥ 1 s, two ids), coasting tails (2–5 extrapolated
+//! points, estimated = 1), spurious tracks (3–8 points, estimated = 1, object −1), fresh track
+//! ids increasing with start time, and speed by finite differences.
+//!
+//! Cost: O(objects × samples) time and memory; a 12-hour day of 2 cameras (≈ 12k objects) takes
+//! a few seconds.
+
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, Exp, Normal};
+use std::fmt::Write as _;
+use std::io::{BufWriter, Write};
+use std::path::Path;
+
+/// Simulation parameters (validated by [`SimParams::validate`]).
+#[derive(Clone, Debug)]
+pub struct SimParams {
+    pub cameras: usize,
+    pub minutes: f64,
+    pub seed: u64,
+    /// Camera sampling rate (Hz).
+    pub rate_hz: f64,
+    /// Traffic volume multiplier (1 = the default arrival rates).
+    pub traffic: f64,
+    /// Camera position noise σ is drawn uniformly from this range (m).
+    pub noise_sigma: (f64, f64),
+    pub p_break: f64,
+    pub p_est: f64,
+    /// Spurious tracks per camera and minute.
+    pub noise_tracks_per_min: f64,
+    /// Camera clocks are offset by a uniform draw in ±this (s).
+    pub clock_offset_max: f64,
+    /// Sampling rate of world.csv (Hz); 0 skips world.csv.
+    pub world_rate_hz: f64,
+}
+
+impl Default for SimParams {
+    fn default() -> Self {
+        SimParams {
+            cameras: 3,
+            minutes: 5.0,
+            seed: 1,
+            rate_hz: 10.0,
+            traffic: 1.0,
+            noise_sigma: (0.05, 0.15),
+            p_break: 0.1,
+            p_est: 0.1,
+            noise_tracks_per_min: 1.0,
+            clock_offset_max: 0.0,
+            world_rate_hz: 10.0,
+        }
+    }
+}
+
+/// Errors of the simulator.
+#[derive(Debug)]
+pub enum SimError {
+    Param(String),
+    Io(std::io::Error),
+}
+
+impl std::fmt::Display for SimError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            SimError::Param(s) => write!(f, "simulate: {s}"),
+            SimError::Io(e) => write!(f, "simulate: {e}"),
+        }
+    }
+}
+impl std::error::Error for SimError {}
+impl From<std::io::Error> for SimError {
+    fn from(e: std::io::Error) -> Self {
+        SimError::Io(e)
+    }
+}
+
+impl SimParams {
+    pub fn validate(&self) -> Result<(), SimError> {
+        let bad = |s: String| Err(SimError::Param(s));
+        if !(1..=16).contains(&self.cameras) {
+            return bad(format!("cameras must be in 1..=16, got {}", self.cameras));
+        }
+        if !(self.minutes.is_finite() && self.minutes > 0.0 && self.minutes <= 24.0 * 60.0) {
+            return bad(format!("minutes must be in (0, 1440], got {}", self.minutes));
+        }
+        if !(self.rate_hz.is_finite() && self.rate_hz > 0.0 && self.rate_hz <= 100.0) {
+            return bad(format!("rate_hz must be in (0, 100], got {}", self.rate_hz));
+        }
+        if !(self.traffic.is_finite() && self.traffic > 0.0 && self.traffic <= 50.0) {
+            return bad(format!("traffic must be in (0, 50], got {}", self.traffic));
+        }
+        let (lo, hi) = self.noise_sigma;
+        if !(lo.is_finite() && hi.is_finite() && lo >= 0.0 && hi >= lo) {
+            return bad(format!("noise_sigma must be 0 <= lo <= hi, got {lo}..{hi}"));
+        }
+        for (n, p) in [("p_break", self.p_break), ("p_est", self.p_est)] {
+            if !(0.0..=1.0).contains(&p) {
+                return bad(format!("{n} must be in [0, 1], got {p}"));
+            }
+        }
+        if !(self.noise_tracks_per_min.is_finite() && self.noise_tracks_per_min >= 0.0) {
+            return bad(format!("noise_tracks_per_min must be >= 0, got {}", self.noise_tracks_per_min));
+        }
+        if !(self.clock_offset_max.is_finite() && self.clock_offset_max >= 0.0) {
+            return bad(format!("clock_offset_max must be >= 0, got {}", self.clock_offset_max));
+        }
+        if !(self.world_rate_hz.is_finite() && self.world_rate_hz >= 0.0) {
+            return bad(format!("world_rate_hz must be >= 0, got {}", self.world_rate_hz));
+        }
+        Ok(())
+    }
+}
+
+/// Road-user classes, as written in the `class` column.
+pub const CLASSES: [&str; 4] = ["car", "heavy_vehicle", "cyclist", "pedestrian"];
+
+/// One road user: its class, route and noise-free trajectory (t, x, y) at 20 Hz.
+#[derive(Clone, Debug)]
+pub struct Object {
+    pub id: i64,
+    pub class: &'static str,
+    pub route: String,
+    pub samples: Vec<[f64; 3]>,
+}
+
+/// One camera: local→world transform (p_world = R(θ) p_local + t), view rectangle (world).
+#[derive(Clone, Debug)]
+pub struct Camera {
+    pub id: i64,
+    pub theta: f64,
+    pub tx: f64,
+    pub ty: f64,
+    pub view_world: [[f64; 2]; 4],
+    pub clock_offset: f64,
+    pub sigma: f64,
+    pub rate_hz: f64,
+    pub phase: f64,
+}
+
+impl Camera {
+    fn to_local(&self, x: f64, y: f64) -> (f64, f64) {
+        let (s, c) = self.theta.sin_cos();
+        let (dx, dy) = (x - self.tx, y - self.ty);
+        (c * dx + s * dy, -s * dx + c * dy)
+    }
+    fn sees(&self, x: f64, y: f64) -> bool {
+        // convex quadrilateral, counter-clockwise
+        (0..4).all(|i| {
+            let a = self.view_world[i];
+            let b = self.view_world[(i + 1) % 4];
+            (b[0] - a[0]) * (y - a[1]) - (b[1] - a[1]) * (x - a[0]) >= 0.0
+        })
+    }
+}
+
+/// One observed point, in the camera's frame and clock.
+#[derive(Clone, Debug)]
+pub struct PointRow {
+    pub camera: i64,
+    pub track_id: i64,
+    pub class: &'static str,
+    pub t: f64,
+    pub x: f64,
+    pub y: f64,
+    pub speed: f64,
+    pub estimated: bool,
+}
+
+/// A simulated scenario.
+#[derive(Debug)]
+pub struct Scenario {
+    pub params: SimParams,
+    pub objects: Vec<Object>,
+    pub cameras: Vec<Camera>,
+    pub points: Vec<PointRow>,
+    /// (camera, track_id, object_id or −1, is_noise)
+    pub truth: Vec<(i64, i64, i64, bool)>,
+}
+
+const ROAD: f64 = 70.0;
+const LANE: f64 = 1.75;
+const BIKE: f64 = 5.0;
+const WALK: f64 = 8.0;
+const CROSS: f64 = 10.0;
+const STOP: f64 = 12.0;
+const WORLD_DT: f64 = 0.05;
+const DS: f64 = 0.25;
+
+fn arm(a: usize) -> [f64; 2] {
+    [[1.0, 0.0], [0.0, 1.0], [-1.0, 0.0], [0.0, -1.0]][a % 4]
+}
+fn add(p: [f64; 2], q: [f64; 2], s: f64) -> [f64; 2] {
+    [p[0] + s * q[0], p[1] + s * q[1]]
+}
+fn dist(p: [f64; 2], q: [f64; 2]) -> f64 {
+    ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2)).sqrt()
+}
+
+/// Resamples a polyline every DS metres (keeping the end point).
+fn resample(poly: &[[f64; 2]]) -> Vec<[f64; 2]> {
+    let mut out = vec![poly[0]];
+    let mut carry = 0.0;
+    for w in poly.windows(2) {
+        let l = dist(w[0], w[1]);
+        if l == 0.0 {
+            continue;
+        }
+        let mut s = DS - carry;
+        while s <= l {
+            let f = s / l;
+            out.push([w[0][0] + f * (w[1][0] - w[0][0]), w[0][1] + f * (w[1][1] - w[0][1])]);
+            s += DS;
+        }
+        carry = l - (s - DS);
+    }
+    if dist(*out.last().unwrap(), *poly.last().unwrap()) > 1e-9 {
+        out.push(*poly.last().unwrap());
+    }
+    out
+}
+
+/// A vehicle path from arm `a` to arm `b` at lateral offset `off` (lane or bike lane), with
+/// the index ranges of the turn and the stop-line position.
+fn vehicle_path(a: usize, b: usize, off: f64) -> (Vec<[f64; 2]>, f64, (f64, f64)) {
+    let (ua, ub) = (arm(a), arm(b));
+    let r_in = [-ua[1], ua[0]]; // right of the inbound direction −ua
+    let r_out = [ub[1], -ub[0]]; // right of the outbound direction ub
+    let box_d = 8.0;
+    let p_start = add([ROAD * ua[0], ROAD * ua[1]], r_in, off);
+    let p_in = add([box_d * ua[0], box_d * ua[1]], r_in, off);
+    let p_out = add([box_d * ub[0], box_d * ub[1]], r_out, off);
+    let p_end = add([ROAD * ub[0], ROAD * ub[1]], r_out, off);
+    let mut poly = vec![p_start, p_in];
+    if (b + 4 - a) % 4 != 2 {
+        // control point: where the inbound lane line meets the outbound lane line
+        // p_in + s (−ua) = p_out − u ub  →  solve the 2×2 system
+        let (d1, d2) = ([-ua[0], -ua[1]], [ub[0], ub[1]]);
+        let det = d1[0] * (-d2[1]) - d1[1] * (-d2[0]);
+        let rx = p_out[0] - p_in[0];
+        let ry = p_out[1] - p_in[1];
+        let s = (rx * (-d2[1]) - ry * (-d2[0])) / det;
+        let c = add(p_in, d1, s);
+        for k in 1..20 {
+            let f = k as f64 / 20.0;
+            let g = 1.0 - f;
+            poly.push([
+                g * g * p_in[0] + 2.0 * g * f * c[0] + f * f * p_out[0],
+                g * g * p_in[1] + 2.0 * g * f * c[1] + f * f * p_out[1],
+            ]);
+        }
+    }
+    poly.push(p_out);
+    poly.push(p_end);
+    let turn_start = ROAD - box_d;
+    let turn_len: f64 = poly[1..poly.len() - 1].windows(2).map(|w| dist(w[0], w[1])).sum();
+    (resample(&poly), ROAD - STOP, (turn_start, turn_start + turn_len))
+}
+
+/// Speed profile along a resampled path: cruise speed, capped speed in `slow` ranges,
+/// acceleration `acc` and braking `brake` limits, a stop of `dwell` s at arc length `stop`.
+/// Returns the time at each path point, starting at `t0`.
+#[allow(clippy::too_many_arguments)]
+fn time_along(n: usize, v0: f64, slow: &[(f64, f64, f64)], stop: Option<(f64, f64)>, acc: f64, brake: f64, t0: f64) -> Vec<f64> {
+    let mut vmax: Vec<f64> = (0..n)
+        .map(|i| {
+            let s = i as f64 * DS;
+            slow.iter().filter(|(a, b, _)| s >= *a && s <= *b).fold(v0, |v, (_, _, c)| v.min(*c))
+        })
+        .collect();
+    let stop_i = stop.map(|(s, _)| ((s / DS) as usize).min(n - 1));
+    if let Some(i) = stop_i {
+        vmax[i] = 0.0;
+    }
+    for i in (0..n - 1).rev() {
+        vmax[i] = vmax[i].min((vmax[i + 1].powi(2) + 2.0 * brake * DS).sqrt());
+    }
+    for i in 1..n {
+        vmax[i] = vmax[i].min((vmax[i - 1].powi(2) + 2.0 * acc * DS).sqrt());
+    }
+    let mut t = vec![t0; n];
+    for i in 1..n {
+        let v = (vmax[i - 1] + vmax[i]) / 2.0;
+        // a step from or into v = 0 (the stop): constant acceleration over DS
+        let dt = if v > 1e-9 { DS / v } else { (2.0 * DS / acc).sqrt() };
+        t[i] = t[i - 1] + dt + if Some(i) == stop_i { stop.unwrap().1 } else { 0.0 };
+    }
+    t
+}
+
+/// Samples a timed path every WORLD_DT seconds (linear interpolation); adds `lateral` metres to
+/// the left of the direction of travel.
+fn sample_world(path: &[[f64; 2]], times: &[f64], lateral: f64) -> Vec<[f64; 3]> {
+    let mut out = Vec::new();
+    let t_end = *times.last().unwrap();
+    let mut t = (times[0] / WORLD_DT).ceil() * WORLD_DT;
+    let mut j = 0;
+    while t <= t_end {
+        while j + 1 < times.len() - 1 && times[j + 1] < t {
+            j += 1;
+        }
+        let (ta, tb) = (times[j], times[j + 1]);
+        let f = if tb > ta { ((t - ta) / (tb - ta)).clamp(0.0, 1.0) } else { 0.0 };
+        let (a, b) = (path[j], path[j + 1]);
+        let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+        let l = (dx * dx + dy * dy).sqrt().max(1e-12);
+        out.push([t, a[0] + f * dx - lateral * dy / l, a[1] + f * dy + lateral * dx / l]);
+        t += WORLD_DT;
+    }
+    out
+}
+
+fn uniform(rng: &mut ChaCha8Rng, lo: f64, hi: f64) -> f64 {
+    if hi > lo {
+        rng.gen_range(lo..hi)
+    } else {
+        lo
+    }
+}
+
+/// Generates the road users.
+fn objects(p: &SimParams, rng: &mut ChaCha8Rng) -> Vec<Object> {
+    let horizon = p.minutes * 60.0;
+    let rates = [10.0, 1.0, 2.0, 3.0];
+    let mut out = Vec::new();
+    // per entry lane (arm, kind 0 = road, 1 = bike): the last vehicle's (entry time, cruise
+    // speed, time it leaves the stop line)
+    let mut lane_last: [[(f64, f64, f64); 2]; 4] = [[(-1e9, f64::INFINITY, -1e9); 2]; 4];
+    let mut arrivals: Vec<(f64, usize)> = Vec::new();
+    for (c, r) in rates.iter().enumerate() {
+        let exp = Exp::new(r * p.traffic / 60.0).unwrap();
+        let mut t = exp.sample(rng);
+        while t < horizon {
+            arrivals.push((t, c));
+            t += exp.sample(rng);
+        }
+    }
+    arrivals.sort_by(|a, b| a.0.total_cmp(&b.0));
+    for (t_arr, c) in arrivals {
+        let class = CLASSES[c];
+        if c < 3 {
+            let a = rng.gen_range(0..4);
+            let turn = rng.gen_range(0..10); // 0..5 straight, 5..7 left, 7..10 right
+            let b = match turn {
+                0..=4 => (a + 2) % 4,
+                5..=6 => (a + 3) % 4, // from E heading west, a left turn goes south
+                _ => (a + 1) % 4,
+            };
+            let kind = usize::from(c == 2);
+            let off = if c == 2 { BIKE } else { LANE };
+            let (path, stop_s, turn_rng) = vehicle_path(a, b, off);
+            let (mut v, v_turn, acc) = match c {
+                0 => (uniform(rng, 9.0, 14.0), if turn >= 7 { uniform(rng, 4.5, 6.0) } else { uniform(rng, 6.0, 8.0) }, 2.0),
+                1 => (uniform(rng, 7.0, 10.0), if turn >= 7 { uniform(rng, 3.5, 4.5) } else { uniform(rng, 4.5, 6.0) }, 1.2),
+                _ => (uniform(rng, 3.5, 6.5), uniform(rng, 3.0, 4.5), 1.0),
+            };
+            let (last_t, last_v, last_pass) = lane_last[a][kind];
+            let t0 = t_arr.max(last_t + 2.5);
+            if t0 - last_t < 15.0 {
+                v = v.min(last_v);
+            }
+            let slow = if (b + 4 - a) % 4 == 2 { vec![] } else { vec![(turn_rng.0, turn_rng.1, v_turn.min(v))] };
+            let mut stop = if rng.gen_bool(if c == 2 { 0.2 } else { 0.35 }) { Some((stop_s, uniform(rng, 1.0, 8.0))) } else { None };
+            let stop_i = ((stop_s / DS) as usize).min(path.len() - 1);
+            let mut times = time_along(path.len(), v, &slow, stop, acc, 3.0, t0);
+            // a queue: never pass the stop line less than 2 s after the vehicle ahead
+            if times[stop_i] < last_pass + 2.0 {
+                let dwell = stop.map_or(0.0, |s| s.1) + last_pass + 2.0 - times[stop_i] + 1.0;
+                stop = Some((stop_s, dwell));
+                times = time_along(path.len(), v, &slow, stop, acc, 3.0, t0);
+            }
+            lane_last[a][kind] = (t0, v, times[stop_i]);
+            let names = ["E", "N", "W", "S"];
+            out.push(Object {
+                id: 0,
+                class,
+                route: format!("{class}:{}->{}", names[a], names[b]),
+                samples: sample_world(&path, &times, 0.0),
+            });
+        } else {
+            // pedestrian: sidewalk graph; node (arm, side) is the curb point at CROSS metres
+            let (mut a, mut side) = (rng.gen_range(0..4usize), if rng.gen_bool(0.5) { 1.0 } else { -1.0 });
+            let jitter = uniform(rng, -0.8, 0.8);
+            let w = WALK + jitter;
+            let sw = |a: usize, side: f64, d: f64| -> [f64; 2] {
+                let u = arm(a);
+                let n = [-u[1], u[0]];
+                [d * u[0] + side * w * n[0], d * u[1] + side * w * n[1]]
+            };
+            let mut poly = vec![sw(a, side, 50.0), sw(a, side, CROSS)];
+            let mut waits = Vec::new();
+            let hops = rng.gen_range(1..=3);
+            let mut crossed = false;
+            for h in 0..hops {
+                if !crossed && (h == 0 || rng.gen_bool(0.5)) {
+                    // cross arm a
+                    let s_before: f64 = poly.windows(2).map(|q| dist(q[0], q[1])).sum();
+                    if rng.gen_bool(0.3) {
+                        waits.push((s_before, uniform(rng, 2.0, 10.0)));
+                    }
+                    side = -side;
+                    poly.push(sw(a, side, CROSS));
+                    crossed = true;
+                } else {
+                    // round the corner to the neighbouring arm on this side
+                    let b = if side > 0.0 { (a + 1) % 4 } else { (a + 3) % 4 };
+                    let u = arm(a);
+                    let ub = arm(b);
+                    poly.push([w * u[0] + w * ub[0], w * u[1] + w * ub[1]]);
+                    side = -side;
+                    a = b;
+                    poly.push(sw(a, side, CROSS));
+                    crossed = false;
+                }
+            }
+            poly.push(sw(a, side, 50.0));
+            let path = resample(&poly);
+            let v = uniform(rng, 1.0, 1.6);
+            let times = time_along(path.len(), v, &[], waits.first().copied(), 0.8, 1.0, t_arr);
+            let samples = sample_world(&path, &times, 0.0);
+            let pair = rng.gen_bool(0.15);
+            out.push(Object { id: 0, class, route: format!("pedestrian:{hops} hops"), samples });
+            if pair {
+                let samples = sample_world(&path, &times, 0.7);
+                out.push(Object { id: 0, class, route: format!("pedestrian:{hops} hops, walking in a pair"), samples });
+            }
+        }
+    }
+    for (i, o) in out.iter_mut().enumerate() {
+        o.id = i as i64;
+    }
+    out
+}
+
+fn place_cameras(p: &SimParams, rng: &mut ChaCha8Rng) -> Vec<Camera> {
+    let base = uniform(rng, 0.0, std::f64::consts::TAU);
+    (0..p.cameras)
+        .map(|k| {
+            let phi = base + std::f64::consts::TAU * k as f64 / p.cameras as f64 + uniform(rng, -0.2, 0.2);
+            let r = uniform(rng, 14.0, 20.0);
+            let c = [r * phi.cos(), r * phi.sin()];
+            let ang = phi + uniform(rng, -0.15, 0.15);
+            let (u, v) = ([ang.cos(), ang.sin()], [-ang.sin(), ang.cos()]);
+            let (hl, hw) = (24.0, 18.0);
+            let corner = |a: f64, b: f64| [c[0] + a * hl * u[0] + b * hw * v[0], c[1] + a * hl * u[1] + b * hw * v[1]];
+            Camera {
+                id: k as i64,
+                theta: uniform(rng, 0.0, std::f64::consts::TAU),
+                tx: uniform(rng, -60.0, 60.0),
+                ty: uniform(rng, -60.0, 60.0),
+                view_world: [corner(-1.0, -1.0), corner(1.0, -1.0), corner(1.0, 1.0), corner(-1.0, 1.0)],
+                clock_offset: uniform(rng, -p.clock_offset_max, p.clock_offset_max),
+                sigma: uniform(rng, p.noise_sigma.0, p.noise_sigma.1),
+                rate_hz: p.rate_hz,
+                phase: uniform(rng, 0.0, 1.0 / p.rate_hz),
+            }
+        })
+        .collect()
+}
+
+/// Interpolated world position of `o` at time t (None outside its lifetime).
+fn at(o: &Object, t: f64) -> Option<(f64, f64)> {
+    let s = &o.samples;
+    if s.is_empty() || t < s[0][0] || t > s[s.len() - 1][0] {
+        return None;
+    }
+    let j = (((t - s[0][0]) / WORLD_DT) as usize).min(s.len().saturating_sub(2));
+    if s.len() == 1 {
+        return Some((s[0][1], s[0][2]));
+    }
+    let (a, b) = (s[j], s[j + 1]);
+    let f = ((t - a[0]) / (b[0] - a[0])).clamp(0.0, 1.0);
+    Some((a[1] + f * (b[1] - a[1]), a[2] + f * (b[2] - a[2])))
+}
+
+/// Runs the simulation.
+pub fn simulate(p: &SimParams) -> Result<Scenario, SimError> {
+    p.validate()?;
+    let mut rng = ChaCha8Rng::seed_from_u64(p.seed);
+    let objects = objects(p, &mut rng);
+    let cameras = place_cameras(p, &mut rng);
+    let mut points = Vec::new();
+    let mut truth = Vec::new();
+    for cam in &cameras {
+        let dt = 1.0 / cam.rate_hz;
+        let noise = Normal::new(0.0, cam.sigma.max(1e-12)).unwrap();
+        // (object id or −1, class, world samples (t, x, y, estimated))
+        let mut tracks: Vec<(i64, &'static str, Vec<(f64, f64, f64, bool)>)> = Vec::new();
+        for o in &objects {
+            let (t0, t1) = (o.samples[0][0], o.samples[o.samples.len() - 1][0]);
+            let mut k = ((t0 - cam.phase) / dt).ceil() as i64;
+            let mut run: Vec<(f64, f64, f64, bool)> = Vec::new();
+            let mut runs = Vec::new();
+            loop {
+                let t = cam.phase + k as f64 * dt;
+                if t > t1 {
+                    break;
+                }
+                k += 1;
+                match at(o, t) {
+                    Some((x, y)) if cam.sees(x, y) => run.push((t, x, y, false)),
+                    _ => {
+                        if !run.is_empty() {
+                            runs.push(std::mem::take(&mut run));
+                        }
+                    }
+                }
+            }
+            if !run.is_empty() {
+                runs.push(run);
+            }
+            for r in runs.into_iter().filter(|r| r.len() >= 3) {
+                // a break: a gap of 0.5–2 s, both parts >= 1 s
+                let dur = r[r.len() - 1].0 - r[0].0;
+                if rng.gen_bool(p.p_break) && dur > 2.0 + 2.0 {
+                    let gap = uniform(&mut rng, 0.5, 2.0);
+                    let cut = r[0].0 + uniform(&mut rng, 1.0, dur - 1.0 - gap);
+                    let first: Vec<_> = r.iter().copied().filter(|q| q.0 < cut).collect();
+                    let second: Vec<_> = r.iter().copied().filter(|q| q.0 > cut + gap).collect();
+                    for part in [first, second] {
+                        if part.len() >= 3 {
+                            tracks.push((o.id, o.class, part));
+                        }
+                    }
+                } else {
+                    tracks.push((o.id, o.class, r));
+                }
+            }
+        }
+        // coasting tails
+        for (_, _, tr) in tracks.iter_mut() {
+            if tr.len() >= 2 && rng.gen_bool(p.p_est) {
+                let (a, b) = (tr[tr.len() - 2], tr[tr.len() - 1]);
+                let (vx, vy) = ((b.1 - a.1) / dt, (b.2 - a.2) / dt);
+                for j in 1..=rng.gen_range(2..=5) {
+                    let h = j as f64 * dt;
+                    tr.push((b.0 + h, b.1 + vx * h, b.2 + vy * h, true));
+                }
+            }
+        }
+        // spurious tracks, inside the view
+        let n_noise = (p.noise_tracks_per_min * p.minutes).round() as usize;
+        for _ in 0..n_noise {
+            let (fa, fb) = (uniform(&mut rng, 0.1, 0.9), uniform(&mut rng, 0.1, 0.9));
+            let v = cam.view_world;
+            let x = v[0][0] + fa * (v[1][0] - v[0][0]) + fb * (v[3][0] - v[0][0]);
+            let y = v[0][1] + fa * (v[1][1] - v[0][1]) + fb * (v[3][1] - v[0][1]);
+            let (sp, hd) = (uniform(&mut rng, 0.0, 2.0), uniform(&mut rng, 0.0, std::f64::consts::TAU));
+            let t0 = cam.phase + (uniform(&mut rng, 0.0, p.minutes * 60.0) / dt).floor() * dt;
+            let n = rng.gen_range(3..=8);
+            let pts = (0..n).map(|j| (t0 + j as f64 * dt, x + sp * hd.cos() * j as f64 * dt, y + sp * hd.sin() * j as f64 * dt, true)).collect();
+            tracks.push((-1, CLASSES[rng.gen_range(0..4)], pts));
+        }
+        // fresh ids increasing with start time
+        tracks.sort_by(|a, b| a.2[0].0.total_cmp(&b.2[0].0));
+        let mut id = rng.gen_range(1000..5000i64);
+        for (obj, class, tr) in tracks {
+            id += rng.gen_range(1..=3);
+            truth.push((cam.id, id, obj, obj < 0));
+            let local: Vec<(f64, f64, f64, bool)> = tr
+                .iter()
+                .map(|&(t, x, y, e)| {
+                    let (lx, ly) = cam.to_local(x + noise.sample(&mut rng), y + noise.sample(&mut rng));
+                    (t + cam.clock_offset, lx, ly, e)
+                })
+                .collect();
+            for (j, &(t, x, y, e)) in local.iter().enumerate() {
+                let (a, b) = if j == 0 { (local[0], local[1]) } else { (local[j - 1], local[j]) };
+                let speed = ((b.1 - a.1).powi(2) + (b.2 - a.2).powi(2)).sqrt() / (b.0 - a.0);
+                points.push(PointRow { camera: cam.id, track_id: id, class, t, x, y, speed, estimated: e });
+            }
+        }
+    }
+    Ok(Scenario { params: p.clone(), objects, cameras, points, truth })
+}
+
+fn wkt(ring: &[[f64; 2]; 4]) -> String {
+    let mut s = String::from("POLYGON ((");
+    for p in ring.iter().chain(std::iter::once(&ring[0])) {
+        let _ = write!(s, "{} {}, ", p[0], p[1]);
+    }
+    s.truncate(s.len() - 2);
+    s.push_str("))");
+    s
+}
+
+impl Scenario {
+    /// Writes points.csv, cameras.csv, truth.csv, world.csv (unless world_rate_hz = 0),
+    /// objects.csv and README.txt into `dir` (created if needed). points.parquet is the
+    /// caller's (it needs DuckDB).
+    pub fn write(&self, dir: &Path, command: &str) -> Result<(), SimError> {
+        std::fs::create_dir_all(dir)?;
+        let file = |n: &str| -> Result<BufWriter<std::fs::File>, SimError> { Ok(BufWriter::new(std::fs::File::create(dir.join(n))?)) };
+        let mut f = file("points.csv")?;
+        writeln!(f, "camera,track_id,class,t,x,y,speed,estimated")?;
+        for p in &self.points {
+            writeln!(f, "{},{},{},{:.6},{:.6},{:.6},{:.6},{}", p.camera, p.track_id, p.class, p.t, p.x, p.y, p.speed, u8::from(p.estimated))?;
+        }
+        f.flush()?;
+        let mut f = file("cameras.csv")?;
+        writeln!(f, "camera,theta_rad,tx,ty,view_wkt_world,view_wkt_local,clock_offset_s,noise_sigma_m,rate_hz,phase_s")?;
+        for c in &self.cameras {
+            let local = c.view_world.map(|q| {
+                let (x, y) = c.to_local(q[0], q[1]);
+                [x, y]
+            });
+            writeln!(
+                f,
+                "{},{},{},{},\"{}\",\"{}\",{},{},{},{}",
+                c.id,
+                c.theta,
+                c.tx,
+                c.ty,
+                wkt(&c.view_world),
+                wkt(&local),
+                c.clock_offset,
+                c.sigma,
+                c.rate_hz,
+                c.phase
+            )?;
+        }
+        f.flush()?;
+        let mut f = file("truth.csv")?;
+        writeln!(f, "camera,track_id,object_id,is_noise")?;
+        for (c, t, o, n) in &self.truth {
+            writeln!(f, "{c},{t},{o},{}", u8::from(*n))?;
+        }
+        f.flush()?;
+        let mut f = file("objects.csv")?;
+        writeln!(f, "object_id,class,source")?;
+        for o in &self.objects {
+            writeln!(f, "{},{},sim:{}", o.id, o.class, o.route)?;
+        }
+        f.flush()?;
+        if self.params.world_rate_hz > 0.0 {
+            let step = ((1.0 / self.params.world_rate_hz / WORLD_DT).round() as usize).max(1);
+            let mut f = file("world.csv")?;
+            writeln!(f, "object_id,class,t,x,y")?;
+            for o in &self.objects {
+                for s in o.samples.iter().step_by(step) {
+                    writeln!(f, "{},{},{:.6},{:.6},{:.6}", o.id, o.class, s[0], s[1], s[2])?;
+                }
+            }
+            f.flush()?;
+        }
+        let mut f = file("README.txt")?;
+        write!(f, "{}", self.readme(command))?;
+        f.flush()?;
+        Ok(())
+    }
+
+    /// The scenario's README.txt: how it was made, and its statistics.
+    pub fn readme(&self, command: &str) -> String {
+        let p = &self.params;
+        let mut s = String::new();
+        let _ = writeln!(s, "Synthetic intersection scenario made by `{command}` (trajdb {}).", env!("CARGO_PKG_VERSION"));
+        let _ = writeln!(s, "Parameters: {p:?}");
+        let _ = writeln!(s, "World: four-arm intersection at the origin (arms E/N/W/S, 70 m), lanes at 1.75 m, bike lanes at 5 m, sidewalks at 8 m, crosswalks 10 m from the centre; see src/simulate.rs.");
+        let per_class = |c: &str| self.objects.iter().filter(|o| o.class == c).count();
+        let _ = writeln!(
+            s,
+            "Objects: {} (car {}, heavy_vehicle {}, cyclist {}, pedestrian {}).",
+            self.objects.len(),
+            per_class("car"),
+            per_class("heavy_vehicle"),
+            per_class("cyclist"),
+            per_class("pedestrian")
+        );
+        let _ = writeln!(s, "Totals: {} points, {} tracks ({} spurious).", self.points.len(), self.truth.len(), self.truth.iter().filter(|t| t.3).count());
+        for c in &self.cameras {
+            let n_pts = self.points.iter().filter(|q| q.camera == c.id).count();
+            let n_tr = self.truth.iter().filter(|t| t.0 == c.id).count();
+            let _ = writeln!(
+                s,
+                "  cam {}: theta {:.4} rad, t=({:.3},{:.3}) m, sigma {:.3} m, rate {} Hz phase {:.4} s, clock offset {:+.3} s; {} points, {} tracks",
+                c.id, c.theta, c.tx, c.ty, c.sigma, c.rate_hz, c.phase, c.clock_offset, n_pts, n_tr
+            );
+        }
+        let _ = writeln!(s, "Files: points.csv / points.parquet (the input), cameras.csv, truth.csv, world.csv, objects.csv (ground truth), as in ../shared/data.");
+        s
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn small() -> SimParams {
+        SimParams { cameras: 3, minutes: 2.0, seed: 7, ..SimParams::default() }
+    }
+
+    #[test]
+    fn deterministic_for_a_seed() {
+        let a = simulate(&small()).unwrap();
+        let b = simulate(&small()).unwrap();
+        assert_eq!(a.points.len(), b.points.len());
+        assert!(a.points.iter().zip(&b.points).all(|(p, q)| p.x == q.x && p.t == q.t && p.track_id == q.track_id));
+        let c = simulate(&SimParams { seed: 8, ..small() }).unwrap();
+        assert_ne!(a.points.len(), c.points.len());
+    }
+
+    #[test]
+    fn points_map_back_to_the_truth() {
+        let s = simulate(&SimParams { noise_sigma: (0.0, 0.0), p_est: 0.0, noise_tracks_per_min: 0.0, ..small() }).unwrap();
+        let truth: std::collections::HashMap<(i64, i64), i64> = s.truth.iter().map(|t| ((t.0, t.1), t.2)).collect();
+        for p in s.points.iter().step_by(37) {
+            let cam = &s.cameras[p.camera as usize];
+            let (c, sn) = (cam.theta.cos(), cam.theta.sin());
+            let (wx, wy) = (c * p.x - sn * p.y + cam.tx, sn * p.x + c * p.y + cam.ty);
+            let o = &s.objects[truth[&(p.camera, p.track_id)] as usize];
+            let (ex, ey) = at(o, p.t).unwrap();
+            assert!((wx - ex).abs() < 1e-6 && (wy - ey).abs() < 1e-6);
+            assert!(cam.sees(wx, wy));
+        }
+    }
+
+    #[test]
+    fn realistic_speeds_and_every_class() {
+        let s = simulate(&small()).unwrap();
+        for class in CLASSES {
+            let objs: Vec<&Object> = s.objects.iter().filter(|o| o.class == class).collect();
+            assert!(!objs.is_empty(), "{class}");
+            let vmax = objs
+                .iter()
+                .flat_map(|o| o.samples.windows(2).map(|w| ((w[1][1] - w[0][1]).hypot(w[1][2] - w[0][2])) / (w[1][0] - w[0][0])))
+                .fold(0.0f64, f64::max);
+            let limit = match class {
+                "pedestrian" => 1.7,
+                "cyclist" => 6.6,
+                _ => 14.1,
+            };
+            assert!(vmax <= limit, "{class}: {vmax}");
+        }
+        // tracks ids unique per camera, every track has >= 3 points
+        let mut seen = std::collections::HashSet::new();
+        for t in &s.truth {
+            assert!(seen.insert((t.0, t.1)));
+        }
+        assert!(s.truth.iter().any(|t| t.3));
+        assert!(s.points.iter().any(|p| p.estimated));
+    }
+
+    #[test]
+    fn neighbouring_views_overlap() {
+        let s = simulate(&small()).unwrap();
+        let shared = s.objects.iter().filter(|o| o.samples.iter().any(|q| s.cameras[0].sees(q[1], q[2]) && s.cameras[1].sees(q[1], q[2]))).count();
+        assert!(shared > 10, "{shared}");
+    }
+
+    #[test]
+    fn bad_parameters_are_errors() {
+        for p in [
+            SimParams { cameras: 0, ..small() },
+            SimParams { minutes: -1.0, ..small() },
+            SimParams { rate_hz: f64::NAN, ..small() },
+            SimParams { noise_sigma: (0.2, 0.1), ..small() },
+            SimParams { p_break: 2.0, ..small() },
+        ] {
+            assert!(simulate(&p).unwrap_err().to_string().starts_with("simulate: "));
+        }
+    }
+}

@@ -46,8 +46,9 @@ def main():
         t0 = time.perf_counter()
         con.execute(sql)
         el = time.perf_counter() - t0
-        obj = {(c * 1_000_000_000 + t): o for c, t, o, noise in con.execute(
-            f"SELECT camera, track_id, object_id, is_noise FROM read_csv('{os.path.abspath(os.path.join(sc, 'truth.csv'))}')").fetchall() if not noise}
+        obj = {u: o for u, o, noise in con.execute(
+            f"""SELECT m.uid, t.object_id, t.is_noise FROM read_csv('{os.path.abspath(os.path.join(sc, 'truth.csv'))}') t
+                JOIN merge_tracks m USING (camera, track_id)""").fetchall() if not noise}
         uids = [r[0] for r in con.execute("SELECT uid FROM merge_tracks").fetchall()]
         by_obj = {}
         for u in uids:

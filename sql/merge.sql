@@ -35,7 +35,8 @@ SET VARIABLE merge_min_points = 3;
 SET VARIABLE merge_eta = 0.5;
 
 CREATE OR REPLACE TEMP TABLE merge_tracks AS
-SELECT p.camera, p.track_id, p.class, p.camera * 1000000000 + p.track_id AS uid,
+-- uid: one BIGINT per (camera, track_id), dense, so any camera and track id fits
+SELECT p.camera, p.track_id, p.class, dense_rank() OVER (ORDER BY p.camera, p.track_id) AS uid,
        transform_apply(list({'t': p.t, 'x': p.x, 'y': p.y} ORDER BY p.t), any_value(f.to_reference)) AS traj,
        min(p.t) AS t0, max(p.t) AS t1
 FROM points p JOIN align_frames f USING (camera)

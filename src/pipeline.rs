@@ -20,6 +20,11 @@ pub const STAGES: &[(&str, &str)] = &[
     ("cluster", include_str!("../sql/cluster.sql")),
 ];
 
+/// GeoParquet 1.1 file metadata of merged.parquet: `geometry` is WKB (LINESTRING, or POINT for a
+/// one-point road user) in the reference camera's local metric frame, which has no CRS
+/// (`"crs": null` is GeoParquet's "undefined"; QGIS and GDAL open it as a plain XY layer).
+pub const GEOPARQUET_META: &str = r#"{"version":"1.1.0","primary_column":"geometry","columns":{"geometry":{"encoding":"WKB","geometry_types":["LineString","Point"],"crs":null,"edges":"planar"}}}"#;
+
 /// Replaces the default of every `(name, value)` in the stage files; errors on unknown names.
 pub fn with_params(params: &[(String, String)]) -> Result<Vec<(&'static str, String)>, Box<dyn Error>> {
     let mut stages: Vec<(&'static str, String)> = STAGES.iter().map(|(n, s)| (*n, s.to_string())).collect();
@@ -80,21 +85,23 @@ pub fn run(con: &Connection, input: &str, out: &Path, params: &[(String, String)
                FROM align_frames a, align_frames b,
                     LATERAL (SELECT transform_compose(transform_invert(b.to_reference), a.to_reference) AS tf)
                WHERE a.camera <> b.camera ORDER BY cam_from, cam_to) TO {} (HEADER, DELIMITER ',');
-         COPY (SELECT m.uid_a // 1000000000 AS camera_a, m.uid_a % 1000000000 AS track_a,
-                      m.uid_b // 1000000000 AS camera_b, m.uid_b % 1000000000 AS track_b, m.eta AS score, m.kind
+         COPY (SELECT ta.camera AS camera_a, ta.track_id AS track_a,
+                      tb.camera AS camera_b, tb.track_id AS track_b, m.eta AS score, m.kind
                FROM merge_links m
+               JOIN merge_tracks ta ON ta.uid = m.uid_a JOIN merge_tracks tb ON tb.uid = m.uid_b
                -- only the links merge_groups() kept (a refused link contradicts its road user)
                JOIN merge_groups ga ON ga.uid = m.uid_a JOIN merge_groups gb ON gb.uid = m.uid_b
                WHERE ga.road_user = gb.road_user
                ORDER BY camera_a, track_a, camera_b, track_b) TO {} (HEADER, DELIMITER ',');
-         COPY (SELECT road_user, class, n_tracks, sources, traj_to_wkt(traj) AS geometry_wkt, traj
-               FROM merged ORDER BY road_user) TO {} (FORMAT parquet);
+         COPY (SELECT road_user, class, n_tracks, sources, traj_to_wkb(traj) AS geometry, traj
+               FROM merged ORDER BY road_user) TO {} (FORMAT parquet, KV_METADATA {{geo: {}}});
          COPY (SELECT getvariable('cluster_camera') AS camera, class, track_id, cluster FROM cluster_assign
                ORDER BY class, cluster, track_id) TO {} (HEADER, DELIMITER ',');
          COPY (SELECT camera, track_id, linked_id FROM quality_links ORDER BY camera, track_id) TO {} (HEADER, DELIMITER ',');",
         path("transforms.csv"),
         path("matches.csv"),
         path("merged.parquet"),
+        sql_string(GEOPARQUET_META),
         path("clusters.csv"),
         path("links.csv"),
     ))?;

@@ -336,9 +336,9 @@ pub fn write(con: &Connection, out: &Path, input: &str, timings: &[(String, f64)
     // matched pairs per camera pair and class (table 4.2 style), merged road users per camera set (4.6)
     let links: Vec<(String, String, i64)> = query_rows(
         con,
-        "SELECT (m.uid_a // 1000000000)::VARCHAR || '–' || (m.uid_b // 1000000000)::VARCHAR AS pair, t.class, count(*)
+        "SELECT t.camera::VARCHAR || '–' || u.camera::VARCHAR AS pair, t.class, count(*)
          FROM merge_links m JOIN merge_groups ga ON ga.uid = m.uid_a JOIN merge_groups gb ON gb.uid = m.uid_b
-         JOIN merge_tracks t ON t.uid = m.uid_a
+         JOIN merge_tracks t ON t.uid = m.uid_a JOIN merge_tracks u ON u.uid = m.uid_b
          WHERE ga.road_user = gb.road_user GROUP BY ALL ORDER BY pair",
         |r| Ok((r.get(0)?, r.get(1)?, r.get(2)?)),
     )?;

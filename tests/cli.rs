@@ -59,8 +59,65 @@ fn errors_exit_nonzero_with_the_message() {
 }
 
 #[test]
-fn demo_runs_and_finds_the_shared_objects() {
-    let (ok, out, err) = trajdb(&["--csv", "demo"], None);
+fn demo_simulates_runs_the_pipeline_and_passes_its_score() {
+    let dir = std::env::temp_dir().join(format!("trajdb-demo-{}", std::process::id()));
+    let (ok, out, err) = trajdb(&["demo", "--out", dir.to_str().unwrap()], None);
+    assert!(ok, "{out}\n{err}");
+    assert!(out.contains("demo PASSED"), "{out}");
+    for f in ["points.parquet", "points.csv", "cameras.csv", "truth.csv", "world.csv", "objects.csv", "README.txt"] {
+        assert!(dir.join(f).exists(), "{f}");
+    }
+    for f in ["transforms.csv", "matches.csv", "merged.parquet", "clusters.csv", "links.csv", "report.html"] {
+        assert!(dir.join("results").join(f).exists(), "{f}");
+    }
+    let html = std::fs::read_to_string(dir.join("results/report.html")).unwrap();
+    for needle in ["<svg", "Cayley", "Sample merges", "heavy_vehicle", "cyclist"] {
+        assert!(html.contains(needle), "report lacks {needle}");
+    }
+    // every class of the simulator gets scored
+    for class in ["car", "heavy_vehicle", "cyclist", "pedestrian"] {
+        assert!(out.lines().any(|l| l.trim_start().starts_with(class)), "{class}: {out}");
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn simulate_is_deterministic_and_checks_its_options() {
+    let base = std::env::temp_dir().join(format!("trajdb-sim-{}", std::process::id()));
+    let run = |name: &str, extra: &[&str]| {
+        let d = base.join(name);
+        let mut args = vec!["simulate", "--cameras", "2", "--minutes", "1", "--seed", "5", "--out", d.to_str().unwrap()];
+        args.extend_from_slice(extra);
+        let (ok, _, err) = trajdb(&args, None);
+        (ok, err, d)
+    };
+    let (ok, err, a) = run("a", &[]);
+    assert!(ok, "{err}");
+    let (ok, err, b) = run("b", &[]);
+    assert!(ok, "{err}");
+    let read = |d: &std::path::Path| std::fs::read_to_string(d.join("points.csv")).unwrap();
+    assert_eq!(read(&a), read(&b));
+    // the parquet copy holds the same rows, typed as in ../shared/data
+    let q = format!("SELECT count(*), typeof(any_value(camera)), typeof(any_value(estimated)) FROM read_parquet('{}')", a.join("points.parquet").display());
+    let (ok, out, err) = trajdb(&["--csv", "sql", &q], None);
+    assert!(ok, "{err}");
+    let n = read(&a).lines().count() - 1;
+    assert!(out.contains(&format!("{n},INTEGER,INTEGER")), "{out} vs {n}");
+    for (bad, msg) in [
+        (vec!["--cameras", "0"], "cameras must be in 1..=16"),
+        (vec!["--minutes", "x"], "--minutes must be a number"),
+        (vec!["--rate-hz", "-1"], "rate_hz must be in (0, 100]"),
+        (vec!["--bogus", "1"], "unknown option"),
+    ] {
+        let (ok, err, _) = run("c", &bad);
+        assert!(!ok && err.contains(msg), "{bad:?}: {err}");
+    }
+    std::fs::remove_dir_all(&base).ok();
+}
+
+#[test]
+fn demo_sql_runs_and_finds_the_shared_objects() {
+    let (ok, out, err) = trajdb(&["--csv", "demo", "--sql"], None);
     assert!(ok, "{err}");
     // Results: align_frames (from sql/align.sql), then the
     // summary candidate_pairs,above_threshold,correct,objects_seen_by_both,...
@@ -132,8 +189,15 @@ fn pipeline_writes_results() {
         let transforms = std::fs::read_to_string(out.join("transforms.csv")).unwrap();
         assert_eq!(transforms.lines().count(), 3, "{transforms}");
         assert!(std::fs::read_to_string(out.join("matches.csv")).unwrap().lines().count() > 10);
-        assert!(std::fs::metadata(out.join("merged.parquet")).unwrap().len() > 0);
         assert!(out.join("clusters.csv").exists());
+        // GeoParquet: DuckDB reads the WKB column back as GEOMETRY (the 'geo' metadata)
+        let q = format!(
+            "SELECT typeof(geometry), count(*) > 0, bool_and(ST_AsWKB(geometry) = traj_to_wkb(traj)) FROM read_parquet('{}') GROUP BY ALL",
+            out.join("merged.parquet").display()
+        );
+        let (ok, got, err) = trajdb(&["--csv", "sql", &q], None);
+        assert!(ok, "{err}");
+        assert!(got.contains("GEOMETRY,true,true"), "{got}");
     }
     let (ok, _, err) = trajdb(&["pipeline", "--input", pq.to_str().unwrap(), "--out", dir.join("x").to_str().unwrap(), "--param", "nope=1"], None);
     assert!(!ok && err.contains("unknown parameter \"nope\""), "{err}");

@@ -98,6 +98,20 @@ def main():
         SELECT traj_points_inside(t.tr, v.convex) = (SELECT count(*) FROM range(3000) r(i), v
                    WHERE ST_Intersects(ST_GeomFromWKB(v.convex), ST_Point(30 * cos(i * 0.01), 20 * sin(i * 0.013))))
         FROM t, v""")
+    check("traj_to_wkb = ST_GeomFromText(traj_to_wkt)", """
+        WITH t AS (SELECT [{'t': i, 'x': 3.5 * i, 'y': sin(i)} FOR i IN range(50)] AS tr
+                   UNION ALL SELECT [{'t': 0, 'x': 1.5, 'y': -2}] UNION ALL SELECT [])
+        SELECT bool_and(ST_Equals(ST_GeomFromWKB(traj_to_wkb(tr)), ST_GeomFromText(traj_to_wkt(tr)))
+                        OR (len(tr) = 0 AND ST_IsEmpty(ST_GeomFromWKB(traj_to_wkb(tr))))) FROM t""")
+    # merged.parquet of `trajdb pipeline`: WKB + GeoParquet 'geo' metadata (pipeline::GEOPARQUET_META)
+    geo = ('{"version":"1.1.0","primary_column":"geometry","columns":{"geometry":{"encoding":"WKB",'
+           '"geometry_types":["LineString","Point"],"crs":null,"edges":"planar"}}}')
+    path = os.path.join(os.environ.get("TMPDIR", "/tmp"), f"trajdb-geoparquet-{os.getpid()}.parquet")
+    con.execute(f"""COPY (SELECT 1 AS road_user, traj_to_wkb([{{'t': 0, 'x': 0, 'y': 0}}, {{'t': 1, 'x': 3, 'y': 4}}]) AS geometry)
+                    TO '{path}' (FORMAT parquet, KV_METADATA {{geo: '{geo}'}})""")
+    check("GeoParquet merged.parquet is read by spatial as GEOMETRY",
+          f"SELECT typeof(geometry) = 'GEOMETRY' AND ST_Length(geometry) = 5 FROM read_parquet('{path}')")
+    os.remove(path)
     print(f"duckdb {duckdb.__version__} + spatial: {checks - failures} passed, {failures} failed")
     sys.exit(1 if failures else 0)
 

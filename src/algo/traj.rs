@@ -214,9 +214,51 @@ pub fn to_wkt(tr: Traj<'_>) -> String {
     }
 }
 
+/// Little-endian ISO WKB of the same geometry as [`to_wkt`]: LINESTRING (type 2) for two or
+/// more points, POINT (type 1) for one, LINESTRING EMPTY (zero points) for none. O(n).
+pub fn to_wkb(tr: Traj<'_>) -> Vec<u8> {
+    let n = tr.len();
+    let mut out = Vec::with_capacity(9 + 16 * n);
+    out.push(1u8);
+    if n == 1 {
+        out.extend_from_slice(&1u32.to_le_bytes());
+    } else {
+        out.extend_from_slice(&2u32.to_le_bytes());
+        out.extend_from_slice(&(n as u32).to_le_bytes());
+    }
+    for k in 0..n {
+        out.extend_from_slice(&tr.x[k].to_le_bytes());
+        out.extend_from_slice(&tr.y[k].to_le_bytes());
+    }
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn wkb_reads_back_as_the_wkt_geometry() {
+        use geo_traits::{CoordTrait, GeometryTrait, GeometryType, LineStringTrait, PointTrait};
+        let (t, x, y) = ([0.0, 1.0, 2.0], [0.5, -1.25, 3.0], [2.0, 4.5, -7.0]);
+        let b = to_wkb(Traj::new(&t, &x, &y));
+        let g = wkb::reader::read_wkb(&b).unwrap();
+        match g.as_type() {
+            GeometryType::LineString(l) => {
+                assert_eq!(l.num_coords(), 3);
+                let c = l.coord(1).unwrap();
+                assert_eq!((c.x(), c.y()), (-1.25, 4.5));
+            }
+            _ => panic!("not a linestring"),
+        }
+        let b = to_wkb(Traj::new(&t[..1], &x[..1], &y[..1]));
+        match wkb::reader::read_wkb(&b).unwrap().as_type() {
+            GeometryType::Point(p) => assert_eq!(p.coord().unwrap().x(), 0.5),
+            _ => panic!("not a point"),
+        }
+        let b = to_wkb(Traj::new(&[], &[], &[]));
+        assert_eq!(b, [1, 2, 0, 0, 0, 0, 0, 0, 0]);
+    }
 
     #[test]
     fn validate_rejects_nan_inf_and_unsorted() {

@@ -4,7 +4,8 @@
 //! trajdb [--db FILE] [--csv | --json] sql "<query>"
 //! trajdb [--db FILE] [--csv | --json] run file.sql
 //! trajdb [--db FILE] [--csv | --json] < file.sql        (SQL on stdin)
-//! trajdb [--csv | --json] demo                          (embedded demo, no external data)
+//! trajdb demo [--out DIR] [--cameras N --minutes M --seed S]   (simulate → pipeline → score)
+//! trajdb [--csv | --json] demo --sql                    (the SQL-only demo: sql/demo.sql …)
 //! trajdb functions [--markdown]                         (function reference)
 //! ```
 
@@ -12,7 +13,7 @@ use arrow::record_batch::RecordBatch;
 use std::io::{Read, Write};
 use std::process::ExitCode;
 
-const USAGE: &str = "usage: trajdb [--db FILE] [--csv|--json] (sql \"<query>\" | run FILE.sql | demo | functions [--markdown])\n       trajdb pipeline --input points.parquet|points.csv --out DIR [--param name=value ...]\n       trajdb score SCENARIO_DIR --results DIR\n       trajdb simulate --cameras N --minutes M --seed S --out DIR [--rate-hz R] [--traffic X]\n       SQL is read from stdin when no command is given.";
+const USAGE: &str = "usage: trajdb [--db FILE] [--csv|--json] (sql \"<query>\" | run FILE.sql | demo [--sql] | functions [--markdown])\n       trajdb pipeline --input points.parquet|points.csv --out DIR [--param name=value ...]\n       trajdb score SCENARIO_DIR --results DIR\n       trajdb simulate --cameras N --minutes M --seed S --out DIR [--rate-hz R] [--traffic X]\n       SQL is read from stdin when no command is given.";
 
 /// The embedded demo: generate two cameras (each in its own frame), align them, build the
 /// view polygons and overlaps, merge the tracks into road users, and check the matches.
@@ -75,7 +76,10 @@ fn real_main() -> Result<(), Box<dyn std::error::Error>> {
             let f = rest.get(1).ok_or("run needs a file")?;
             std::fs::read_to_string(f).map_err(|e| format!("cannot read {f}: {e}"))?
         }
-        Some("demo") => DEMO_SQL.join("\n;\n"),
+        Some("demo") if rest.iter().any(|a| a == "--sql") => DEMO_SQL.join("\n;\n"),
+        Some("demo") => {
+            return demo(db.as_deref(), &rest[1..]);
+        }
         Some("score") => {
             let scenario = rest.get(1).ok_or("score needs a scenario directory")?;
             let mut results = None;
@@ -130,6 +134,36 @@ fn real_main() -> Result<(), Box<dyn std::error::Error>> {
         run_statement(&con, &stmt, format, &mut out)?;
     }
     Ok(())
+}
+
+/// `trajdb demo [--out DIR] [simulate options]`: simulate (3 cameras, 5 minutes, seed 1 unless
+/// given), run the pipeline on the simulated points, score the result against the simulator's
+/// ground truth, and fail unless match F1 >= 0.95 and every camera pair is within 0.5° / 0.3 m.
+fn demo(db: Option<&str>, args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
+    let mut args: Vec<String> = args.to_vec();
+    if !args.iter().any(|a| a == "--out") {
+        args.extend(["--out".to_string(), "trajdb-demo".to_string()]);
+    }
+    let (params, out) = parse_simulate(&args)?;
+    let dir = std::path::Path::new(&out);
+    eprintln!("[trajdb] demo: simulate {} cameras, {} minutes of intersection traffic (seed {}) -> {out}", params.cameras, params.minutes, params.seed);
+    simulate(db, &params, &out, &format!("demo {}", args.join(" ")))?;
+    let con = trajdb::open(db)?;
+    let results = dir.join("results");
+    trajdb::pipeline::run(&con, &dir.join("points.parquet").to_string_lossy(), &results, &[])?;
+    println!("score of {} against the simulator's ground truth:", results.display());
+    let (rot, trans, f1) = trajdb::pipeline::score(&con, dir, &results)?;
+    let ok = f1 >= 0.95 && rot <= 0.5 && trans <= 0.3;
+    println!(
+        "demo {}: match F1 {f1:.3} (target >= 0.95), worst camera pair {rot:.3} deg / {trans:.3} m (targets 0.5 deg / 0.3 m)",
+        if ok { "PASSED" } else { "FAILED" }
+    );
+    println!("results: {}/{{transforms.csv, matches.csv, merged.parquet, clusters.csv, report.html}}", results.display());
+    if ok {
+        Ok(())
+    } else {
+        Err("demo: the pipeline missed its accuracy targets".into())
+    }
 }
 
 /// `simulate` options: --cameras N --minutes M --seed S --out DIR [--rate-hz R] [--traffic X]

@@ -505,6 +505,17 @@ pub fn write_flat<T: Copy>(out: &mut FlatVector<'_>, vals: &[Option<T>]) {
     }
 }
 
+/// Writes BLOB results (WKB), NULL where `None`.
+pub fn write_blobs(output: &mut dyn duckdb::vtab::arrow::WritableVector, vals: &[Option<Vec<u8>>]) {
+    let mut out = output.flat_vector();
+    for (row, v) in vals.iter().enumerate() {
+        match v {
+            Some(b) => out.insert(row, b.as_slice()),
+            None => out.set_null(row),
+        }
+    }
+}
+
 pub fn write_varchar(out: &mut FlatVector<'_>, vals: &[Option<String>]) {
     for (row, v) in vals.iter().enumerate() {
         match v {

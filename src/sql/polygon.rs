@@ -13,7 +13,7 @@
 use super::convert::*;
 use crate::algo::region::Region;
 use crate::algo::{hull, polygon, traj::OwnedTraj};
-use duckdb::core::{DataChunkHandle, Inserter, LogicalTypeId};
+use duckdb::core::{DataChunkHandle, LogicalTypeId};
 use duckdb::ffi::duckdb_string_t;
 use duckdb::types::DuckString;
 use duckdb::vtab::arrow::WritableVector;
@@ -95,16 +95,6 @@ pub const DOCS: &[FnDoc] = &[
 
 fn geometry_types() -> [fn() -> duckdb::core::LogicalTypeHandle; 2] {
     [varchar, blob]
-}
-
-fn write_blobs(output: &mut dyn WritableVector, vals: &[Option<Vec<u8>>]) {
-    let mut out = output.flat_vector();
-    for (row, v) in vals.iter().enumerate() {
-        match v {
-            Some(b) => out.insert(row, b.as_slice()),
-            None => out.set_null(row),
-        }
-    }
 }
 
 // ---------------------------------------------------------------- view_polygon

@@ -1,5 +1,5 @@
 //! SQL: trajectory helpers (`traj_length`, `traj_duration`, `traj_speeds`, `traj_time_range`,
-//! `traj_to_wkt`).
+//! `traj_to_wkt`, `traj_to_wkb`).
 
 use super::convert::*;
 use crate::algo::traj;
@@ -48,6 +48,13 @@ pub const DOCS: &[FnDoc] = &[
         description: "WKT for GIS tools: LINESTRING for two or more points, POINT for one, LINESTRING EMPTY for none. \
                       Time is dropped. ST_GeomFromText (DuckDB spatial) reads it.",
         example: "SELECT traj_to_wkt([{'t': 0, 'x': 0, 'y': 0}, {'t': 1, 'x': 3, 'y': 4}]); -- LINESTRING (0 0, 3 4)",
+    },
+    FnDoc {
+        name: "traj_to_wkb",
+        signatures: "traj_to_wkb(traj STRUCT(t, x, y)[]) -> BLOB",
+        description: "Little-endian ISO WKB of the geometry traj_to_wkt describes (LINESTRING, POINT for one point, LINESTRING EMPTY). \
+                      ST_GeomFromWKB (DuckDB spatial) reads it; trajdb pipeline writes it as the GeoParquet geometry of merged.parquet.",
+        example: "SELECT octet_length(traj_to_wkb([{'t': 0, 'x': 0, 'y': 0}, {'t': 1, 'x': 3, 'y': 4}])); -- 41",
     },
 ];
 
@@ -114,6 +121,14 @@ fn to_wkt(input: &mut DataChunkHandle, output: &mut dyn WritableVector) -> FnRes
     Ok(())
 }
 
+fn to_wkb(input: &mut DataChunkHandle, output: &mut dyn WritableVector) -> FnResult {
+    const F: &str = "traj_to_wkb";
+    let a = TrajCol::new(input, 0);
+    let vals = map_rows(input.len(), |r| Ok(a.get(r, F, "traj")?.map(traj::to_wkb)))?;
+    write_blobs(output, &vals);
+    Ok(())
+}
+
 scalar_fn!(TrajLength, vec![sig(vec![traj_type()], bigint())], length);
 scalar_fn!(TrajDuration, vec![sig(vec![traj_type()], double())], duration);
 scalar_fn!(
@@ -128,6 +143,7 @@ scalar_fn!(
     turn_rates
 );
 scalar_fn!(TrajToWkt, vec![sig(vec![traj_type()], varchar())], to_wkt);
+scalar_fn!(TrajToWkb, vec![sig(vec![traj_type()], blob())], to_wkb);
 
 pub fn register(con: &Connection) -> duckdb::Result<()> {
     con.register_scalar_function::<TrajLength>("traj_length")?;
@@ -136,5 +152,6 @@ pub fn register(con: &Connection) -> duckdb::Result<()> {
     con.register_scalar_function::<TrajSpeeds>("traj_speeds")?;
     con.register_scalar_function::<TrajTurnRates>("traj_turn_rates")?;
     con.register_scalar_function::<TrajToWkt>("traj_to_wkt")?;
+    con.register_scalar_function::<TrajToWkb>("traj_to_wkb")?;
     Ok(())
 }

@@ -1,5 +1,5 @@
 //! SQL: trajectory helpers (`traj_length`, `traj_duration`, `traj_speeds`, `traj_time_range`,
-//! `traj_to_wkt`, `traj_to_wkb`).
+//! `traj_to_wkt`, `traj_to_wkb`, `traj_resample`).
 
 use super::convert::*;
 use crate::algo::traj;
@@ -55,6 +55,15 @@ pub const DOCS: &[FnDoc] = &[
         description: "Little-endian ISO WKB of the geometry traj_to_wkt describes (LINESTRING, POINT for one point, LINESTRING EMPTY). \
                       ST_GeomFromWKB (DuckDB spatial) reads it; trajdb pipeline writes it as the GeoParquet geometry of merged.parquet.",
         example: "SELECT octet_length(traj_to_wkb([{'t': 0, 'x': 0, 'y': 0}, {'t': 1, 'x': 3, 'y': 4}])); -- 41",
+    },
+    FnDoc {
+        name: "traj_resample",
+        signatures: "traj_resample(traj STRUCT(t, x, y)[], period DOUBLE [, max_gap DOUBLE]) -> STRUCT(t DOUBLE, x DOUBLE, y DOUBLE)[]",
+        description: "The trajectory at t = k * period seconds (k integer: one clock shared by every camera), by linear interpolation; \
+                      no extrapolation, and no interpolation across a gap longer than max_gap seconds (default: no limit). \
+                      Resample both tracks before LCSS when cameras sample at different phases: raw samples of a car at 12 m/s lie up to \
+                      period/2 * 12 m apart, which can exceed epsilon. Errors: period or max_gap <= 0 or not finite, more than 50,000,000 output points.",
+        example: "SELECT traj_resample([{'t': 0.05, 'x': 0, 'y': 0}, {'t': 0.25, 'x': 2, 'y': 0}], 0.1); -- [{'t': 0.1, 'x': 0.5, 'y': 0.0}, {'t': 0.2, 'x': 1.5, 'y': 0.0}]",
     },
 ];
 
@@ -129,6 +138,31 @@ fn to_wkb(input: &mut DataChunkHandle, output: &mut dyn WritableVector) -> FnRes
     Ok(())
 }
 
+fn resample(input: &mut DataChunkHandle, output: &mut dyn WritableVector) -> FnResult {
+    const F: &str = "traj_resample";
+    let a = TrajCol::new(input, 0);
+    let period = PrimCol::new(input, 1);
+    let gap = (input.num_columns() > 2).then(|| PrimCol::new(input, 2));
+    let vals = map_rows(input.len(), |r| {
+        let Some(t) = a.get(r, F, "traj")? else { return Ok(None) };
+        let Some(p) = period.f64(r) else { return Ok(None) };
+        if !(p > 0.0 && p.is_finite()) {
+            return Err(err(F, format!("period must be > 0, got {p}")));
+        }
+        let g = match &gap {
+            None => f64::INFINITY,
+            Some(c) => match c.f64(r) {
+                None => return Ok(None),
+                Some(g) if g > 0.0 && !g.is_nan() => g,
+                Some(g) => return Err(err(F, format!("max_gap must be > 0, got {g}"))),
+            },
+        };
+        traj::resample(t, p, g).map(Some).map_err(|e| err(F, e))
+    })?;
+    write_trajs(&mut output.list_vector(), &vals);
+    Ok(())
+}
+
 scalar_fn!(TrajLength, vec![sig(vec![traj_type()], bigint())], length);
 scalar_fn!(TrajDuration, vec![sig(vec![traj_type()], double())], duration);
 scalar_fn!(
@@ -144,6 +178,11 @@ scalar_fn!(
 );
 scalar_fn!(TrajToWkt, vec![sig(vec![traj_type()], varchar())], to_wkt);
 scalar_fn!(TrajToWkb, vec![sig(vec![traj_type()], blob())], to_wkb);
+scalar_fn!(
+    TrajResample,
+    vec![sig(vec![traj_type(), double()], traj_type()), sig(vec![traj_type(), double(), double()], traj_type())],
+    resample
+);
 
 pub fn register(con: &Connection) -> duckdb::Result<()> {
     con.register_scalar_function::<TrajLength>("traj_length")?;
@@ -153,5 +192,6 @@ pub fn register(con: &Connection) -> duckdb::Result<()> {
     con.register_scalar_function::<TrajTurnRates>("traj_turn_rates")?;
     con.register_scalar_function::<TrajToWkt>("traj_to_wkt")?;
     con.register_scalar_function::<TrajToWkb>("traj_to_wkb")?;
+    con.register_scalar_function::<TrajResample>("traj_resample")?;
     Ok(())
 }

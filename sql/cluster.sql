@@ -4,9 +4,9 @@
 -- clustered per class in that camera's own frame (no alignment needed; after sql/merge.sql the
 -- same works on merged(road_user, class, traj)).
 -- Output:
---   cluster_tracks(track_id, class, traj)                 tracks resampled to 2 Hz
---   cluster_pairs(class, a, b, distance)                   1 - Buzan's S1 (or S2, translation-invariant)
---   cluster_assign(class, track_id, cluster)               average linkage cut at the threshold
+--   cluster_tracks(track_id, class, traj)                 tracks resampled to 2 Hz (traj_resample, t = k/2 s)
+--   cluster_assign(class, track_id, cluster)               average linkage on 1 - Buzan's S1 (or S2,
+--                                                          translation-invariant), cut at the threshold
 --   cluster_summary(class, cluster, n_tracks, ...)         one row per route pattern
 --
 -- Distance: 1 - min(S_x, S_y) with delta = 5 samples (2.5 s of time warping), epsilon = 2 m and
@@ -24,42 +24,30 @@ SET VARIABLE cluster_threshold = 0.5;
 SET VARIABLE cluster_translation_invariant = false;
 
 CREATE OR REPLACE TEMP TABLE cluster_tracks AS
-SELECT track_id, class, list({'t': t, 'x': x, 'y': y} ORDER BY t) AS traj,
-       min(x) AS x0, max(x) AS x1, min(y) AS y0, max(y) AS y1
-FROM (
-    SELECT *, row_number() OVER (PARTITION BY track_id ORDER BY t) AS k
-    FROM points WHERE camera = getvariable('cluster_camera') AND estimated = 0 AND class IN ('car', 'pedestrian')
+SELECT * FROM (
+    SELECT track_id, class, traj_resample(list({'t': t, 'x': x, 'y': y} ORDER BY t), 0.5, 1.0) AS traj
+    FROM points
+    WHERE camera = getvariable('cluster_camera') AND estimated = 0 AND class IN ('car', 'pedestrian')
+    GROUP BY track_id, class
 )
-WHERE k % 5 = 1
-GROUP BY track_id, class
-HAVING count(*) >= 6;
+WHERE len(traj) >= 6;
 
-CREATE OR REPLACE TEMP TABLE cluster_pairs AS
-SELECT class, a, b, 1 - least(s.sx, s.sy) AS distance
-FROM (
-    SELECT p.class, p.track_id AS a, q.track_id AS b,
-           CASE WHEN getvariable('cluster_translation_invariant')
-                THEN lcss_s2(p.traj, q.traj, getvariable('cluster_delta'), getvariable('cluster_epsilon'), getvariable('cluster_rho'))::STRUCT(sx DOUBLE, sy DOUBLE)
-                ELSE lcss_s1(p.traj, q.traj, getvariable('cluster_delta'), getvariable('cluster_epsilon'), getvariable('cluster_rho')) END AS s
-    FROM cluster_tracks p JOIN cluster_tracks q
-      ON p.class = q.class AND p.track_id < q.track_id
-     -- S1_x > 0 needs the x ranges within epsilon of each other, S1_y > 0 the y ranges: an exact
-     -- pre-filter (a range join) that skips pairs whose distance would be 1 anyway (not for S2,
-     -- which translates)
-     AND (getvariable('cluster_translation_invariant')
-          OR (p.x0 < q.x1 + getvariable('cluster_epsilon') AND q.x0 < p.x1 + getvariable('cluster_epsilon')
-              AND p.y0 < q.y1 + getvariable('cluster_epsilon') AND q.y0 < p.y1 + getvariable('cluster_epsilon')))
-)
-WHERE least(s.sx, s.sy) > 0;
-
+-- All pairs in one call per class: traj_cluster computes every S1 (or S2) distance in parallel
+-- straight into the distance matrix, with the exact bounding-box pre-filter (S1_x > 0 needs the
+-- x ranges within epsilon, likewise y), then average linkage cut at the threshold. Pairs with no
+-- common subsequence are cannot-links; a track with no similar track at all gets cluster 0.
+-- (The same by hand, for other distances: lcss_s1 over a self-join of cluster_tracks, then
+-- agglomerative_cluster(list({'a', 'b', 'distance'}), 'average', threshold): 86 s instead of
+-- a few on a Mellingen-sized day, because the join materialises two trajectories per pair.)
 CREATE OR REPLACE TEMP TABLE cluster_assign AS
 WITH c AS (
-    SELECT class, unnest(agglomerative_cluster(list({'a': a, 'b': b, 'distance': distance}), 'average',
-                                               getvariable('cluster_threshold'))) AS m
-    FROM cluster_pairs GROUP BY class
+    SELECT class, unnest(traj_cluster(list(track_id ORDER BY track_id), list(traj ORDER BY track_id), 'average',
+                                      getvariable('cluster_threshold'), getvariable('cluster_delta'),
+                                      getvariable('cluster_epsilon'), getvariable('cluster_rho'),
+                                      getvariable('cluster_translation_invariant'))) AS m
+    FROM cluster_tracks GROUP BY class
 )
-SELECT t.class, t.track_id, coalesce(c.m.cluster, 0) AS cluster   -- 0: no similar track at all
-FROM cluster_tracks t LEFT JOIN c ON c.class = t.class AND c.m.id = t.track_id;
+SELECT class, m.id AS track_id, m.cluster FROM c;
 
 CREATE OR REPLACE TEMP TABLE cluster_summary AS
 SELECT a.class, a.cluster, count(*) AS n_tracks,

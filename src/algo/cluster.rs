@@ -204,10 +204,25 @@ fn finish(pairs: &[(i64, i64, f64)], ids: Vec<i64>, lookup: impl Fn(i64) -> usiz
     }
     // SAFETY: u64 and f64 have the same size and alignment; every bit pattern written is a
     // non-negative f64 or +inf.
-    let mut m: Vec<f64> = unsafe {
+    let m: Vec<f64> = unsafe {
         let mut b = std::mem::ManuallyDrop::new(bits);
         Vec::from_raw_parts(b.as_mut_ptr() as *mut f64, b.len(), b.capacity())
     };
+    linkage_condensed(ids, m, method)
+}
+
+/// The linkage of a ready condensed matrix `m` (row-major upper triangle, n(n−1)/2 entries,
+/// `+inf` = cannot-link) over `ids` (increasing; the leaves). Used by [`dendrogram`] and by
+/// [`super::traj_cluster`], which computes the matrix itself.
+pub fn linkage_condensed(ids: Vec<i64>, mut m: Vec<f64>, method: Linkage) -> Result<Dendrogram, ClusterError> {
+    let n = ids.len();
+    if n > MAX_ITEMS {
+        return Err(ClusterError::TooMany(n));
+    }
+    if n < 2 {
+        return Ok(Dendrogram { ids, merges: vec![] });
+    }
+    debug_assert_eq!(m.len(), n * (n - 1) / 2);
     if method == Linkage::Ward {
         if let Some(k) = m.iter().position(|d| d.is_infinite()) {
             // Recover (i, j) of condensed index k.

@@ -7,6 +7,7 @@
 //! | [`hungarian`] | sparse rectangular optimal assignment (scipy semantics; components, lsap or sparse JV) |
 //! | [`assign`] | sparse maximum-weight one-to-one assignment (components + scipy's LSAP via `lsap`) |
 //! | [`cluster`] | agglomerative clustering with cannot-link pairs (kodama linkage, scipy-style cuts) |
+//! | [`traj_cluster`] | trajectories clustered in one call: all Buzan S1/S2 distances in parallel, then [`cluster`] |
 //! | [`band`] | the banded LCSS dynamic-programming engine shared by every LCSS form |
 //! | [`lcss`] | time-window LCSS (thesis eq. 2.9, 2.10, Alg. 1), 2-D points and 1-D series |
 //! | [`lcss_index`] | index-window LCSS of Buzan def. 4.1/4.2 (δ, ε, ρ, S1) |
@@ -41,3 +42,4 @@ pub mod polygon;
 pub mod region;
 pub mod rigid;
 pub mod traj;
+pub mod traj_cluster;

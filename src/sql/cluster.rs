@@ -1,8 +1,11 @@
 //! SQL: agglomerative clustering on pairwise distances (`agglomerative_cluster`,
-//! `agglomerative_cluster_k`, `agglomerative_dendrogram`), Buzan et al. sections 4.3–4.5.
+//! `agglomerative_cluster_k`, `agglomerative_dendrogram`) and of trajectories in one call
+//! (`traj_cluster`), Buzan et al. sections 4.3–4.5.
 
 use super::convert::*;
 use crate::algo::cluster::{self, Cut, Linkage};
+use crate::algo::lcss_index::IndexParams;
+use crate::algo::traj_cluster::{self, Similarity};
 use duckdb::core::{DataChunkHandle, LogicalTypeHandle};
 use duckdb::vtab::arrow::WritableVector;
 use duckdb::Connection;
@@ -36,6 +39,18 @@ pub const DOCS: &[FnDoc] = &[
         description: "The merges in scipy's linkage format, for plotting: leaves 0..n-1 are the ids in increasing order, merge i creates cluster n + i; \
                       left < right; distance 'inf' for merges forced across cannot-link pairs. Same methods and input rules as agglomerative_cluster.",
         example: "SELECT agglomerative_dendrogram([{'a': 7, 'b': 9, 'distance': 0.5}, {'a': 7, 'b': 8, 'distance': 0.25}, {'a': 8, 'b': 9, 'distance': 1}], 'complete'); -- [{'left': 0, 'right': 1, 'distance': 0.25, 'size': 2}, {'left': 2, 'right': 3, 'distance': 1.0, 'size': 3}]",
+    },
+    FnDoc {
+        name: "traj_cluster",
+        signatures: "traj_cluster(ids BIGINT[], trajs STRUCT(t, x, y)[][], method VARCHAR, threshold DOUBLE, delta BIGINT, epsilon DOUBLE [, rho DOUBLE [, translation_invariant BOOLEAN]]) -> STRUCT(id BIGINT, cluster INTEGER)[]",
+        description: "Clusters trajectories in one call: the distance of every pair is 1 - min(S_x, S_y) of Buzan's S1 (delta samples of time warping, \
+                      epsilon metres, length ratio rho, default 0 = off), or of S2 when translation_invariant is true; all pairs are computed in \
+                      parallel straight into the distance matrix (no pair rows), and the linkage and cut are agglomerative_cluster's. A pair with no \
+                      common subsequence is a cannot-link; a trajectory with no similar trajectory at all gets cluster 0, the others 1.. by smallest \
+                      id. Use it with list(id ORDER BY id), list(traj ORDER BY id) over a GROUP BY; it is the fast form of lcss_s1 pairs + \
+                      agglomerative_cluster. Errors: lists of different lengths, duplicate ids, NULL elements, the parameter rules of lcss_s1 and \
+                      agglomerative_cluster; more than 80,000 trajectories.",
+        example: "SELECT traj_cluster([1, 2, 3], [[{'t':0,'x':0,'y':0},{'t':1,'x':1,'y':0}], [{'t':0,'x':0,'y':0.1},{'t':1,'x':1,'y':0.1}], [{'t':0,'x':50,'y':50},{'t':1,'x':51,'y':50}]], 'average', 0.5, 1, 1.0); -- [{'id': 1, 'cluster': 1}, {'id': 2, 'cluster': 1}, {'id': 3, 'cluster': 0}]",
     },
 ];
 
@@ -123,13 +138,66 @@ fn dendrogram_fn(input: &mut DataChunkHandle, output: &mut dyn WritableVector) -
     Ok(())
 }
 
+fn traj_cluster_fn(input: &mut DataChunkHandle, output: &mut dyn WritableVector) -> FnResult {
+    const F: &str = "traj_cluster";
+    let ncol = input.num_columns();
+    let ids = I64ListCol::new(input, 0);
+    let trajs = TrajListCol::new(input, 1);
+    let methods = VarcharCol::new(input, 2);
+    let (thr, delta, eps) = (PrimCol::new(input, 3), PrimCol::new(input, 4), PrimCol::new(input, 5));
+    let rho = (ncol > 6).then(|| PrimCol::new(input, 6));
+    let ti = (ncol > 7).then(|| PrimCol::new(input, 7));
+    let vals = map_rows(input.len(), |r| {
+        let (Some(id), Some(tr), Some(method), Some(t), Some(d), Some(e)) =
+            (ids.get(r, F, "ids")?, trajs.get(r, F, "trajs")?, methods.get(r), thr.f64(r), delta.i64(r), eps.f64(r))
+        else {
+            return Ok(None);
+        };
+        let rho = match &rho {
+            None => None,
+            Some(c) => match c.f64(r) {
+                None => return Ok(None),
+                v => v,
+            },
+        };
+        let sim = match &ti {
+            None => Similarity::S1,
+            Some(c) => match c.bool(r) {
+                None => return Ok(None),
+                Some(true) => Similarity::S2,
+                Some(false) => Similarity::S1,
+            },
+        };
+        if t.is_nan() {
+            return Err(err(F, cluster::ClusterError::Threshold(t)));
+        }
+        let method = Linkage::parse(&method).map_err(|e| err(F, e))?;
+        let p = IndexParams::new(d, e, rho).map_err(|e| err(F, e))?;
+        let (ids, labels) = traj_cluster::cluster_trajectories(id, &tr, &p, sim, method, Cut::Threshold(t)).map_err(|e| err(F, e))?;
+        Ok(Some((ids, labels)))
+    })?;
+    write_assignments(&mut output.list_vector(), &vals);
+    Ok(())
+}
+
+fn traj_cluster_sigs() -> Vec<duckdb::vscalar::ScalarFunctionSignature> {
+    let base = || vec![LogicalTypeHandle::list(&bigint()), LogicalTypeHandle::list(&traj_type()), varchar(), double(), bigint(), double()];
+    let mut with_rho = base();
+    with_rho.push(double());
+    let mut with_ti = base();
+    with_ti.extend([double(), boolean()]);
+    vec![sig(base(), assignment_type()), sig(with_rho, assignment_type()), sig(with_ti, assignment_type())]
+}
+
 scalar_fn!(AggCluster, vec![sig(vec![pair_type(), varchar(), double()], assignment_type())], cluster_fn, false);
 scalar_fn!(AggClusterK, vec![sig(vec![pair_type(), varchar(), bigint()], assignment_type())], cluster_fn, true);
 scalar_fn!(AggDendrogram, vec![sig(vec![pair_type(), varchar()], dendrogram_type())], dendrogram_fn);
+scalar_fn!(TrajCluster, traj_cluster_sigs(), traj_cluster_fn);
 
 pub fn register(con: &Connection) -> duckdb::Result<()> {
     con.register_scalar_function::<AggCluster>("agglomerative_cluster")?;
     con.register_scalar_function::<AggClusterK>("agglomerative_cluster_k")?;
     con.register_scalar_function::<AggDendrogram>("agglomerative_dendrogram")?;
+    con.register_scalar_function::<TrajCluster>("traj_cluster")?;
     Ok(())
 }

@@ -261,6 +261,48 @@ impl<'a> TrajListCol<'a> {
     }
 }
 
+/// Reads a `BIGINT[]` argument.
+pub struct I64ListCol<'a> {
+    entries: &'a [ffi::duckdb_list_entry],
+    validity: Validity,
+    child_validity: Validity,
+    data: &'a [i64],
+}
+
+impl<'a> I64ListCol<'a> {
+    pub fn new(input: &'a DataChunkHandle, col: usize) -> Self {
+        // SAFETY: `col` is a LIST(BIGINT) column of this chunk (fixed by the signature), flattened;
+        // its child holds `duckdb_list_vector_get_size` BIGINTs.
+        unsafe {
+            let lv = ffi::duckdb_data_chunk_get_vector(input.get_ptr(), col as u64);
+            let total = ffi::duckdb_list_vector_get_size(lv) as usize;
+            let child = ffi::duckdb_list_vector_get_child(lv);
+            let data = ffi::duckdb_vector_get_data(child) as *const i64;
+            I64ListCol {
+                entries: std::slice::from_raw_parts(ffi::duckdb_vector_get_data(lv) as *const ffi::duckdb_list_entry, input.len()),
+                validity: Validity::of(lv),
+                child_validity: Validity::of(child),
+                data: if total == 0 { &[][..] } else { std::slice::from_raw_parts(data, total) },
+            }
+        }
+    }
+
+    /// The values of `row`; a NULL element is an error naming its position.
+    pub fn get(&self, row: usize, function: &str, param: &str) -> Result<Option<&'a [i64]>, Box<dyn Error>> {
+        if self.validity.is_null(row) {
+            return Ok(None);
+        }
+        let e = self.entries[row];
+        let r = e.offset as usize..(e.offset + e.length) as usize;
+        if !self.child_validity.all_valid() {
+            if let Some(k) = r.clone().find(|&k| self.child_validity.is_null(k)) {
+                return Err(err(function, format!("{param}[{}] is NULL", k - r.start + 1)));
+            }
+        }
+        Ok(Some(&self.data[r]))
+    }
+}
+
 /// An `i64` stored in a DOUBLE-typed 8-byte slot (for BIGINT struct fields read or written
 /// through the DOUBLE-field helpers: DuckDB only sees the bytes).
 pub fn i64_bits(v: f64) -> i64 {

@@ -44,7 +44,7 @@ pub const DOCS: &[FnDoc] = &[
         name: "traj_cluster",
         signatures: "traj_cluster(ids BIGINT[], trajs STRUCT(t, x, y)[][], method VARCHAR, threshold DOUBLE, delta BIGINT, epsilon DOUBLE [, rho DOUBLE [, translation_invariant BOOLEAN]]) -> STRUCT(id BIGINT, cluster INTEGER)[]",
         description: "Clusters trajectories in one call: the distance of every pair is 1 - min(S_x, S_y) of Buzan's S1 (delta samples of time warping, \
-                      epsilon metres, length ratio rho, default 0 = off), or of S2 when translation_invariant is true; all pairs are computed in \
+                      epsilon metres, length ratio rho in (0, 1], default: no ratio test), or of S2 when translation_invariant is true; all pairs are computed in \
                       parallel straight into the distance matrix (no pair rows), and the linkage and cut are agglomerative_cluster's. A pair with no \
                       common subsequence is a cannot-link; a trajectory with no similar trajectory at all gets cluster 0, the others 1.. by smallest \
                       id. Use it with list(id ORDER BY id), list(traj ORDER BY id) over a GROUP BY; it is the fast form of lcss_s1 pairs + \

@@ -63,7 +63,7 @@ pub const DOCS: &[FnDoc] = &[
                       no extrapolation, and no interpolation across a gap longer than max_gap seconds (default: no limit). \
                       Resample both tracks before LCSS when cameras sample at different phases: raw samples of a car at 12 m/s lie up to \
                       period/2 * 12 m apart, which can exceed epsilon. Errors: period or max_gap <= 0 or not finite, more than 50,000,000 output points.",
-        example: "SELECT traj_resample([{'t': 0.05, 'x': 0, 'y': 0}, {'t': 0.25, 'x': 2, 'y': 0}], 0.1); -- [{'t': 0.1, 'x': 0.5, 'y': 0.0}, {'t': 0.2, 'x': 1.5, 'y': 0.0}]",
+        example: "SELECT traj_resample([{'t': 0.125, 'x': 0, 'y': 0}, {'t': 0.625, 'x': 2, 'y': 0}], 0.25); -- [{'t': 0.25, 'x': 0.5, 'y': 0.0}, {'t': 0.5, 'x': 1.5, 'y': 0.0}]",
     },
 ];
 

@@ -1,0 +1,24 @@
+#!/usr/bin/env bash
+# Whole-pipeline accuracy and scale (issue 7): the shared DUT scenarios, then simulated
+# Skövde-sized (2 cameras, ~24,000 tracks) and Mellingen-sized (3 cameras, ~48,000+ tracks) days,
+# each through `trajdb pipeline` (time per stage, peak memory) and `trajdb score`.
+# usage: benches/pipeline_scale.sh [WORKDIR]      (needs ../shared/data for the DUT part)
+set -euo pipefail
+cd "$(dirname "$0")/.."
+export CARGO_TARGET_DIR="${CARGO_TARGET_DIR:-$HOME/.cache/trajdb-target}"
+cargo build --release --bin trajdb
+T="$CARGO_TARGET_DIR/release/trajdb"
+W="${1:-${TMPDIR:-/tmp}/trajdb-scale}"
+mkdir -p "$W"
+run() {  # name scenario_dir
+    echo "== $1"
+    /usr/bin/time -f "peak RSS %M KB, wall %e s" "$T" pipeline --input "$2/points.parquet" --out "$W/$1.results" 2>&1 | grep -v '^\['"trajdb"'\] report' || true
+    "$T" score "$2" --results "$W/$1.results"
+}
+for s in dut_intersection_3cam dut_roundabout_2cam; do
+    [ -d "../shared/data/$s" ] && run "$s" "../shared/data/$s"
+done
+"$T" simulate --cameras 2 --minutes 720 --traffic 0.9 --rate-hz 5 --seed 41 --world-rate-hz 0 --out "$W/skovde"
+run skovde "$W/skovde"
+"$T" simulate --cameras 3 --minutes 720 --traffic 1.4 --rate-hz 5 --seed 42 --world-rate-hz 0 --out "$W/mellingen"
+run mellingen "$W/mellingen"

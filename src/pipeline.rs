@@ -49,7 +49,8 @@ pub fn with_params(params: &[(String, String)]) -> Result<Vec<(&'static str, Str
     Ok(stages)
 }
 
-fn sql_string(s: &str) -> String {
+/// A SQL string literal (single quotes doubled).
+pub fn sql_string(s: &str) -> String {
     format!("'{}'", s.replace('\'', "''"))
 }
 

@@ -232,8 +232,7 @@ pub fn write(con: &Connection, out: &Path, input: &str, timings: &[(String, f64)
         let mine: Vec<(f64, f64)> = aligned.iter().filter(|p| p.0 == c).map(|p| (p.1, p.2)).collect();
         h.push_str(&fr.dots(&mine, color(c), 1.6));
     }
-    for (c, class, w) in views.iter().filter(|v| v.1 == "*") {
-        let _ = class;
+    for (c, _, w) in views.iter().filter(|v| v.1 == "*") {
         h.push_str(&fr.polygon(w, color(*c), "none", 0.0));
     }
     h.push_str(&fr.close(&format!(

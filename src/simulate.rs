@@ -535,9 +535,9 @@ pub fn simulate(p: &SimParams) -> Result<Scenario, SimError> {
                 runs.push(run);
             }
             for r in runs.into_iter().filter(|r| r.len() >= 3) {
-                // a break: a gap of 0.5–2 s, both parts >= 1 s
+                // a break: a gap of 0.5–2 s, both parts >= 1 s (so the run must last > 1 + 2 + 1 s)
                 let dur = r[r.len() - 1].0 - r[0].0;
-                if rng.gen_bool(p.p_break) && dur > 2.0 + 2.0 {
+                if rng.gen_bool(p.p_break) && dur > 4.0 {
                     let gap = uniform(&mut rng, 0.5, 2.0);
                     let cut = r[0].0 + uniform(&mut rng, 1.0, dur - 1.0 - gap);
                     let first: Vec<_> = r.iter().copied().filter(|q| q.0 < cut).collect();

@@ -198,7 +198,7 @@ fn simulate(db: Option<&str>, p: &trajdb::simulate::SimParams, out: &str, comman
     let dir = std::path::Path::new(out);
     s.write(dir, &format!("trajdb {command}"))?;
     let con = trajdb::open(db)?;
-    let q = |f: &str| format!("'{}'", dir.join(f).to_string_lossy().replace('\'', "''"));
+    let q = |f: &str| trajdb::pipeline::sql_string(&dir.join(f).to_string_lossy());
     con.execute_batch(&format!(
         "COPY (SELECT camera::INTEGER AS camera, track_id::BIGINT AS track_id, class::VARCHAR AS class, t::DOUBLE AS t,
                       x::DOUBLE AS x, y::DOUBLE AS y, speed::DOUBLE AS speed, estimated::INTEGER AS estimated

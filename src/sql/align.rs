@@ -135,32 +135,18 @@ fn cpd_signatures() -> Vec<ScalarFunctionSignature> {
 
 /// The optional `tau, max_iter, tol, with_scale, starts` arguments (columns 3..7), defaulted.
 fn cpd_params(input: &DataChunkHandle) -> impl Fn(usize, f64) -> Result<Option<CpdParams>, Box<dyn Error>> + '_ {
-    let nc = input.num_columns();
-    let tau = (nc > 3).then(|| PrimCol::new(input, 3));
-    let max_iter = (nc > 4).then(|| PrimCol::new(input, 4));
-    let tol = (nc > 5).then(|| PrimCol::new(input, 5));
-    let scale = (nc > 6).then(|| PrimCol::new(input, 6));
-    let starts = (nc > 7).then(|| PrimCol::new(input, 7));
+    let tau = OptCol::new(input, 3);
+    let max_iter = OptCol::new(input, 4);
+    let tol = OptCol::new(input, 5);
+    let scale = OptCol::new(input, 6);
+    let starts = OptCol::new(input, 7);
     move |r, w| {
-        macro_rules! opt {
-            ($c:expr, $get:ident, $default:expr) => {
-                match &$c {
-                    None => $default,
-                    Some(c) => match c.$get(r) {
-                        None => return Ok(None),
-                        Some(v) => v,
-                    },
-                }
-            };
-        }
-        let p = CpdParams::new(
-            w,
-            Some(opt!(tau, f64, f64::INFINITY)),
-            opt!(max_iter, i64, 100),
-            opt!(tol, f64, 1e-5),
-            opt!(scale, bool, false),
-            opt!(starts, i64, 8),
-        )
+        let (Some(tau), Some(max_iter), Some(tol), Some(scale), Some(starts)) =
+            (tau.f64_or(r, f64::INFINITY), max_iter.i64_or(r, 100), tol.f64_or(r, 1e-5), scale.bool_or(r, false), starts.i64_or(r, 8))
+        else {
+            return Ok(None);
+        };
+        let p = CpdParams::new(w, Some(tau), max_iter, tol, scale, starts)
         .map_err(|e| err("cpd_align", e))?;
         Ok(Some(p))
     }
@@ -264,26 +250,13 @@ fn rigid_fit_type() -> LogicalTypeHandle {
 
 fn rigid_fit(input: &mut DataChunkHandle, output: &mut dyn WritableVector) -> FnResult {
     const F: &str = "rigid_fit";
-    let nc = input.num_columns();
     let pairs = FourCol::new(input, 0);
-    let trim = (nc > 1).then(|| PrimCol::new(input, 1));
-    let scale = (nc > 2).then(|| PrimCol::new(input, 2));
+    let trim = OptCol::new(input, 1);
+    let scale = OptCol::new(input, 2);
     let vals = map_rows(input.len(), |r| -> Result<Option<Vec<Field>>, Box<dyn Error>> {
         let Some(cols) = pairs.get(r, F, "pairs")? else { return Ok(None) };
-        let trim = match &trim {
-            None => 0.0,
-            Some(c) => match c.f64(r) {
-                None => return Ok(None),
-                Some(v) => v,
-            },
-        };
-        let with_scale = match &scale {
-            None => false,
-            Some(c) => match c.bool(r) {
-                None => return Ok(None),
-                Some(v) => v,
-            },
-        };
+        let Some(trim) = trim.f64_or(r, 0.0) else { return Ok(None) };
+        let Some(with_scale) = scale.bool_or(r, false) else { return Ok(None) };
         let f = rigid::fit_trimmed(cols[0], cols[1], cols[2], cols[3], trim, with_scale).map_err(|e| err(F, e))?;
         let t = f.transform;
         let kept = f.inliers.iter().filter(|&&b| b).count();
@@ -373,16 +346,10 @@ fn correspond(input: &mut DataChunkHandle, output: &mut dyn WritableVector) -> F
     const F: &str = "traj_correspond";
     let a = TrajCol::new(input, 0);
     let b = TrajCol::new(input, 1);
-    let gap = (input.num_columns() > 2).then(|| PrimCol::new(input, 2));
+    let gap = OptCol::new(input, 2);
     let vals = map_rows(input.len(), |r| -> Result<Option<crate::algo::correspond::Pairs>, Box<dyn Error>> {
         let (Some(a), Some(b)) = (a.get(r, F, "fixed")?, b.get(r, F, "moving")?) else { return Ok(None) };
-        let g = match &gap {
-            None => 0.5,
-            Some(c) => match c.f64(r) {
-                None => return Ok(None),
-                Some(v) => v,
-            },
-        };
+        let Some(g) = gap.f64_or(r, 0.5) else { return Ok(None) };
         if !(g > 0.0) {
             return Err(err(F, format!("max_gap must be > 0, got {g}")));
         }

@@ -39,24 +39,12 @@ fn pair_type() -> LogicalTypeHandle {
 fn hungarian_match_fn(input: &mut DataChunkHandle, output: &mut dyn WritableVector) -> FnResult {
     const F: &str = "hungarian_match";
     let col = EdgeCol::new(input, 0, "pairs", ["a", "b", "score"]);
-    let maximize = (input.num_columns() > 1).then(|| PrimCol::new(input, 1));
-    let min_score = (input.num_columns() > 2).then(|| PrimCol::new(input, 2));
+    let maximize = OptCol::new(input, 1);
+    let min_score = OptCol::new(input, 2);
     let vals = map_rows(input.len(), |r| -> Result<Option<Vec<(i64, i64, f64)>>, Box<dyn Error>> {
         let Some(pairs) = col.get(r, F)? else { return Ok(None) };
-        let mx = match &maximize {
-            None => true,
-            Some(c) => match c.bool(r) {
-                None => return Ok(None),
-                Some(v) => v,
-            },
-        };
-        let t = match &min_score {
-            None => None,
-            Some(c) => match c.f64(r) {
-                None => return Ok(None),
-                v => v,
-            },
-        };
+        let Some(mx) = maximize.bool_or(r, true) else { return Ok(None) };
+        let Some(t) = min_score.f64_opt(r) else { return Ok(None) };
         let params = hungarian::MatchParams::new(mx, t).map_err(|e| err(F, e))?;
         Ok(Some(hungarian::hungarian_match(&pairs, &params).map_err(|e| err(F, e))?))
     })?;

@@ -140,34 +140,21 @@ fn dendrogram_fn(input: &mut DataChunkHandle, output: &mut dyn WritableVector) -
 
 fn traj_cluster_fn(input: &mut DataChunkHandle, output: &mut dyn WritableVector) -> FnResult {
     const F: &str = "traj_cluster";
-    let ncol = input.num_columns();
     let ids = I64ListCol::new(input, 0);
     let trajs = TrajListCol::new(input, 1);
     let methods = VarcharCol::new(input, 2);
     let (thr, delta, eps) = (PrimCol::new(input, 3), PrimCol::new(input, 4), PrimCol::new(input, 5));
-    let rho = (ncol > 6).then(|| PrimCol::new(input, 6));
-    let ti = (ncol > 7).then(|| PrimCol::new(input, 7));
+    let rho = OptCol::new(input, 6);
+    let ti = OptCol::new(input, 7);
     let vals = map_rows(input.len(), |r| {
         let (Some(id), Some(tr), Some(method), Some(t), Some(d), Some(e)) =
             (ids.get(r, F, "ids")?, trajs.get(r, F, "trajs")?, methods.get(r), thr.f64(r), delta.i64(r), eps.f64(r))
         else {
             return Ok(None);
         };
-        let rho = match &rho {
-            None => None,
-            Some(c) => match c.f64(r) {
-                None => return Ok(None),
-                v => v,
-            },
-        };
-        let sim = match &ti {
-            None => Similarity::S1,
-            Some(c) => match c.bool(r) {
-                None => return Ok(None),
-                Some(true) => Similarity::S2,
-                Some(false) => Similarity::S1,
-            },
-        };
+        let Some(rho) = rho.f64_opt(r) else { return Ok(None) };
+        let Some(translation_invariant) = ti.bool_or(r, false) else { return Ok(None) };
+        let sim = if translation_invariant { Similarity::S2 } else { Similarity::S1 };
         if t.is_nan() {
             return Err(err(F, cluster::ClusterError::Threshold(t)));
         }

@@ -455,6 +455,34 @@ impl<'a> PrimCol<'a> {
     }
 }
 
+/// An optional trailing argument (absent from the shorter signatures of a function). Each
+/// getter gives `None` when the argument is present and NULL in `row` (so the row's result is
+/// NULL), else its value, or the default when the argument is absent: the NULL policy of every
+/// optional argument, once.
+pub struct OptCol<'a>(Option<PrimCol<'a>>);
+
+impl<'a> OptCol<'a> {
+    pub fn new(input: &'a DataChunkHandle, col: usize) -> Self {
+        OptCol((col < input.num_columns()).then(|| PrimCol::new(input, col)))
+    }
+    pub fn f64_or(&self, row: usize, default: f64) -> Option<f64> {
+        self.0.as_ref().map_or(Some(default), |c| c.f64(row))
+    }
+    pub fn i64_or(&self, row: usize, default: i64) -> Option<i64> {
+        self.0.as_ref().map_or(Some(default), |c| c.i64(row))
+    }
+    pub fn bool_or(&self, row: usize, default: bool) -> Option<bool> {
+        self.0.as_ref().map_or(Some(default), |c| c.bool(row))
+    }
+    /// `Some(None)` when absent (no default: the callee decides).
+    pub fn f64_opt(&self, row: usize) -> Option<Option<f64>> {
+        self.0.as_ref().map_or(Some(None), |c| c.f64(row).map(Some))
+    }
+    pub fn bool_opt(&self, row: usize) -> Option<Option<bool>> {
+        self.0.as_ref().map_or(Some(None), |c| c.bool(row).map(Some))
+    }
+}
+
 /// A polygon argument given as WKT (VARCHAR) or WKB (BLOB). The parsed region of the last
 /// distinct value is cached, so a constant region is parsed once per chunk, not per row.
 pub struct RegionCol<'a> {

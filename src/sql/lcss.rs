@@ -137,23 +137,17 @@ enum Val {
 struct TwArgs<'a> {
     eps: PrimCol<'a>,
     tw: PrimCol<'a>,
-    xi: Option<PrimCol<'a>>,
+    xi: OptCol<'a>,
 }
 
 impl<'a> TwArgs<'a> {
     fn new(input: &'a DataChunkHandle) -> Self {
-        let xi = (input.num_columns() > 4).then(|| PrimCol::new(input, 4));
+        let xi = OptCol::new(input, 4);
         TwArgs { eps: PrimCol::new(input, 2), tw: PrimCol::new(input, 3), xi }
     }
     fn get(&self, r: usize, f: &str) -> Result<Option<TimeWindowParams>, Box<dyn Error>> {
         let (Some(eps), Some(tw)) = (self.eps.f64(r), self.tw.f64(r)) else { return Ok(None) };
-        let xi = match &self.xi {
-            None => 0,
-            Some(c) => match c.i64(r) {
-                None => return Ok(None),
-                Some(v) => v,
-            },
-        };
+        let Some(xi) = self.xi.i64_or(r, 0) else { return Ok(None) };
         TimeWindowParams::new(eps, tw, xi).map(Some).map_err(|e| err(f, e))
     }
 }
@@ -252,23 +246,16 @@ fn index_rows<T>(
     f: &str,
     mut g: impl FnMut(Traj<'_>, Traj<'_>, &IndexParams) -> T,
 ) -> Result<Vec<Option<T>>, Box<dyn Error>> {
-    let ncol = input.num_columns();
     let a = TrajCol::new(input, 0);
     let b = TrajCol::new(input, 1);
     let delta = PrimCol::new(input, 2);
     let eps = PrimCol::new(input, 3);
-    let rho = (ncol > 4).then(|| PrimCol::new(input, 4));
+    let rho = OptCol::new(input, 4);
     map_rows(input.len(), |r| {
         let (Some(a), Some(b), Some(d), Some(e)) = (a.get(r, f, "a")?, b.get(r, f, "b")?, delta.i64(r), eps.f64(r)) else {
             return Ok(None);
         };
-        let rho = match &rho {
-            None => None,
-            Some(c) => match c.f64(r) {
-                None => return Ok(None),
-                Some(v) => Some(v),
-            },
-        };
+        let Some(rho) = rho.f64_opt(r) else { return Ok(None) };
         let p = index_params(f, d, e, rho)?;
         Ok(Some(g(a, b, &p)))
     })

@@ -110,20 +110,14 @@ fn view_polygon_fn(input: &mut DataChunkHandle, output: &mut dyn WritableVector,
     let methods = VarcharCol::new(input, 1);
     let off = usize::from(with_t);
     let ncol = input.num_columns();
-    let param = (ncol > 2).then(|| PrimCol::new(input, 2));
+    let param = OptCol::new(input, 2);
     let radius = (ncol > 3).then(|| PrimCol::new(input, 3));
     let min_nb = (ncol > 4).then(|| PrimCol::new(input, 4));
     let mut cache: Option<((String, Option<f64>, Option<f64>, Option<i64>), hull::HullParams)> = None;
     let vals = map_rows(input.len(), |r| {
         let Some(fields) = pts.row_fields(r, F, "points")? else { return Ok(None) };
         let Some(method) = methods.get(r) else { return Ok(None) };
-        let p = match &param {
-            None => None,
-            Some(c) => match c.f64(r) {
-                None => return Ok(None),
-                v => v,
-            },
-        };
+        let Some(p) = param.f64_opt(r) else { return Ok(None) };
         let (rad, k) = match (&radius, &min_nb) {
             (Some(a), Some(b)) => match (a.f64(r), b.i64(r)) {
                 (Some(a), Some(b)) => (Some(a), Some(b)),

@@ -103,16 +103,10 @@ fn speeds(input: &mut DataChunkHandle, output: &mut dyn WritableVector) -> FnRes
 fn turn_rates(input: &mut DataChunkHandle, output: &mut dyn WritableVector) -> FnResult {
     const F: &str = "traj_turn_rates";
     let a = TrajCol::new(input, 0);
-    let step = (input.num_columns() > 1).then(|| PrimCol::new(input, 1));
+    let step = OptCol::new(input, 1);
     let vals = map_rows(input.len(), |r| {
         let Some(t) = a.get(r, F, "traj")? else { return Ok(None) };
-        let s = match &step {
-            None => 1.0,
-            Some(c) => match c.f64(r) {
-                None => return Ok(None),
-                Some(v) => v,
-            },
-        };
+        let Some(s) = step.f64_or(r, 1.0) else { return Ok(None) };
         if !(s > 0.0 && s.is_finite()) {
             return Err(err(F, format!("min_step must be > 0, got {s}")));
         }
@@ -142,21 +136,17 @@ fn resample(input: &mut DataChunkHandle, output: &mut dyn WritableVector) -> FnR
     const F: &str = "traj_resample";
     let a = TrajCol::new(input, 0);
     let period = PrimCol::new(input, 1);
-    let gap = (input.num_columns() > 2).then(|| PrimCol::new(input, 2));
+    let gap = OptCol::new(input, 2);
     let vals = map_rows(input.len(), |r| {
         let Some(t) = a.get(r, F, "traj")? else { return Ok(None) };
         let Some(p) = period.f64(r) else { return Ok(None) };
         if !(p > 0.0 && p.is_finite()) {
             return Err(err(F, format!("period must be > 0, got {p}")));
         }
-        let g = match &gap {
-            None => f64::INFINITY,
-            Some(c) => match c.f64(r) {
-                None => return Ok(None),
-                Some(g) if g > 0.0 && !g.is_nan() => g,
-                Some(g) => return Err(err(F, format!("max_gap must be > 0, got {g}"))),
-            },
-        };
+        let Some(g) = gap.f64_or(r, f64::INFINITY) else { return Ok(None) };
+        if !(g > 0.0) {
+            return Err(err(F, format!("max_gap must be > 0, got {g}")));
+        }
         traj::resample(t, p, g).map(Some).map_err(|e| err(F, e))
     })?;
     write_trajs(&mut output.list_vector(), &vals);

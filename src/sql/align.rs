@@ -48,6 +48,20 @@ pub const DOCS: &[FnDoc] = &[
         example: "SELECT transform_apply([{'t':0,'x':1,'y':0}], {'theta': pi()/2, 'tx': 10, 'ty': 0, 'scale': 1})[1].x; -- 10.0",
     },
     FnDoc {
+        name: "transform_point",
+        signatures: "transform_point(tf STRUCT(theta, tx, ty, scale), x DOUBLE, y DOUBLE) -> STRUCT(x DOUBLE, y DOUBLE)",
+        description: "One point mapped with p' = scale*R(theta)*p + (tx, ty), for point tables: transform_point(f.to_reference, p.x, p.y).x. \
+                      NaN or infinite x/y is an error.",
+        example: "SELECT transform_point({'theta': 0, 'tx': 10, 'ty': -1, 'scale': 2}, 1, 0); -- {'x': 12.0, 'y': -1.0}",
+    },
+    FnDoc {
+        name: "rigid_rms",
+        signatures: "rigid_rms(pairs STRUCT(fx, fy, mx, my)[], tf STRUCT(theta, tx, ty, scale)) -> DOUBLE",
+        description: "Root mean square of |(fx, fy) - tf(mx, my)| over the pairs: how well a transform explains point pairs (e.g. one track pair's \
+                      traj_correspond under a camera pair's fit). NULL for an empty list.",
+        example: "SELECT rigid_rms([{'fx': 1, 'fy': 0, 'mx': 0, 'my': 0}], {'theta': 0, 'tx': 0, 'ty': 0, 'scale': 1}); -- 1.0",
+    },
+    FnDoc {
         name: "transform_compose",
         signatures: "transform_compose(a STRUCT(theta, tx, ty, scale), b STRUCT(theta, tx, ty, scale)) -> STRUCT(theta, tx, ty, scale)",
         description: "a after b: transform_apply(p, transform_compose(a, b)) = transform_apply(transform_apply(p, b), a). To chain camera k -> l -> ref use \
@@ -304,6 +318,39 @@ fn apply(input: &mut DataChunkHandle, output: &mut dyn WritableVector) -> FnResu
     Ok(())
 }
 
+fn point(input: &mut DataChunkHandle, output: &mut dyn WritableVector) -> FnResult {
+    const F: &str = "transform_point";
+    let tf = StructF64Col::new(input, 0, TF_FIELDS);
+    let (x, y) = (PrimCol::new(input, 1), PrimCol::new(input, 2));
+    let vals = map_rows(input.len(), |r| {
+        let (Some(t), Some(x), Some(y)) = (transform_arg(&tf, r, F, "tf")?, x.f64(r), y.f64(r)) else { return Ok(None) };
+        for (name, v) in [("x", x), ("y", y)] {
+            if !v.is_finite() {
+                return Err(err(F, format!("{name} must be finite, got {v}")));
+            }
+        }
+        let (px, py) = t.apply(x, y);
+        Ok(Some(vec![px, py]))
+    })?;
+    write_struct_f64(&mut output.struct_vector(), 2, &vals);
+    Ok(())
+}
+
+fn rms(input: &mut DataChunkHandle, output: &mut dyn WritableVector) -> FnResult {
+    const F: &str = "rigid_rms";
+    let pairs = FourCol::new(input, 0);
+    let tf = StructF64Col::new(input, 1, TF_FIELDS);
+    let vals = map_rows(input.len(), |r| {
+        let (Some(c), Some(t)) = (pairs.get(r, F, "pairs")?, transform_arg(&tf, r, F, "tf")?) else { return Ok(None) };
+        if c[0].is_empty() {
+            return Ok(None);
+        }
+        Ok(Some(rigid::residual_rms(&t, c[0], c[1], c[2], c[3], &[])))
+    })?;
+    write_flat(&mut output.flat_vector(), &vals);
+    Ok(())
+}
+
 fn compose(input: &mut DataChunkHandle, output: &mut dyn WritableVector) -> FnResult {
     const F: &str = "transform_compose";
     let a = StructF64Col::new(input, 0, TF_FIELDS);
@@ -385,6 +432,12 @@ scalar_fn!(
     rigid_fit
 );
 scalar_fn!(TransformApply, vec![sig(vec![traj_type(), transform_type()], traj_type())], apply);
+scalar_fn!(
+    TransformPoint,
+    vec![sig(vec![transform_type(), double(), double()], struct_of(&[("x", double()), ("y", double())]))],
+    point
+);
+scalar_fn!(RigidRms, vec![sig(vec![pairs_col_type(), transform_type()], double())], rms);
 scalar_fn!(TransformCompose, vec![sig(vec![transform_type(), transform_type()], transform_type())], compose);
 scalar_fn!(TransformInvert, vec![sig(vec![transform_type()], transform_type())], invert);
 
@@ -393,6 +446,8 @@ pub fn register(con: &Connection) -> duckdb::Result<()> {
     con.register_scalar_function::<RigidFit>("rigid_fit")?;
     con.register_scalar_function::<TrajCorrespond>("traj_correspond")?;
     con.register_scalar_function::<TransformApply>("transform_apply")?;
+    con.register_scalar_function::<TransformPoint>("transform_point")?;
+    con.register_scalar_function::<RigidRms>("rigid_rms")?;
     con.register_scalar_function::<TransformCompose>("transform_compose")?;
     con.register_scalar_function::<TransformInvert>("transform_invert")?;
     Ok(())

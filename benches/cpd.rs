@@ -2,7 +2,7 @@
 //! Ten EM iterations of plain CPD (dense E-step) and TimeCPD (time band) on a synthetic scene.
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use trajdb::algo::cpd::{align, CpdParams};
+use trajdb::algo::align::cpd::{align, CpdParams};
 
 fn scene(n: usize, shift: f64) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
     let (mut x, mut y, mut t) = (vec![], vec![], vec![]);

@@ -7,9 +7,9 @@
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
 use std::hint::black_box;
-use trajdb::algo::lcss::{self, TimeWindowParams};
-use trajdb::algo::lcss_index::{self, IndexParams};
-use trajdb::algo::lcss_translate;
+use trajdb::algo::lcss::time_window::{self as lcss, TimeWindowParams};
+use trajdb::algo::lcss::index::{self as lcss_index, IndexParams};
+use trajdb::algo::lcss::translate as lcss_translate;
 use trajdb::algo::traj::{OwnedTraj, Series};
 
 fn track(n: usize, phase: f64, dx: f64, seed: u64) -> OwnedTraj {

@@ -5,8 +5,8 @@
 //! * trajectory_merge of two 600-point tracks that overlap for 300 points, and a 3-track chain.
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use trajdb::algo::hungarian::{hungarian_match, MatchParams};
-use trajdb::algo::lcss::TimeWindowParams;
+use trajdb::algo::matching::hungarian::{hungarian_match, MatchParams};
+use trajdb::algo::lcss::time_window::TimeWindowParams;
 use trajdb::algo::merge::merge_chain;
 use trajdb::algo::traj::OwnedTraj;
 
@@ -40,8 +40,8 @@ fn bench(c: &mut Criterion) {
     let (a, b, d) = (line(0.0, 600, 0.0), line(30.0, 600, 0.1), line(50.0, 600, -0.1));
     let p = TimeWindowParams::new(0.5, 0.25, 3).unwrap();
     let mut g = c.benchmark_group("trajectory_merge");
-    g.bench_function("pair_600_points_300_overlap", |bn| bn.iter(|| merge_chain(&[a.view(), b.view()], &p, &[])));
-    g.bench_function("chain_3x600_points", |bn| bn.iter(|| merge_chain(&[a.view(), b.view(), d.view()], &p, &[])));
+    g.bench_function("pair_600_points_300_overlap", |bn| bn.iter(|| merge_chain(&[a.view(), b.view()], &p, None)));
+    g.bench_function("chain_3x600_points", |bn| bn.iter(|| merge_chain(&[a.view(), b.view(), d.view()], &p, None)));
     g.finish();
 }
 

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Agglomerative clustering against scipy, in one process on the same data, and the pins.
 
-  --pin    writes src/algo/testdata/cluster_scipy.json: random condensed matrices (no ties) with
+  --pin    writes src/algo/cluster/testdata/cluster_scipy.json: random condensed matrices (no ties) with
            scipy.cluster.hierarchy.linkage for single/complete/average/weighted/ward, and
            fcluster at a threshold ('distance') and at k clusters ('maxclust').
   default  n = 5,000 items (12.5 million pairs): scipy.cluster.hierarchy.linkage on the condensed
@@ -42,7 +42,7 @@ def pin():
             "method": method, "ids": ids, "condensed": cond.tolist(), "linkage": z.tolist(),
             "t": t, "fcluster": fcluster(z, t, "distance").tolist(), "k": k, "maxclust": fcluster(z, k, "maxclust").tolist(),
         })
-    out = os.path.join(HERE, "..", "src", "algo", "testdata", "cluster_scipy.json")
+    out = os.path.join(HERE, "..", "src", "algo", "cluster", "testdata", "cluster_scipy.json")
     with open(out, "w") as f:
         json.dump({"scipy": scipy.__version__, "numpy": np.__version__, "seed": 20261122, "cases": cases}, f)
     print(f"wrote {len(cases)} cases to {out} (scipy {scipy.__version__})")

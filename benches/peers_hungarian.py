@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """hungarian_match against scipy, in one process on the same data, and the pinned references.
 
-  --pin    writes src/algo/testdata/hungarian_scipy.json: random sparse rectangular instances
+  --pin    writes src/algo/matching/testdata/hungarian_scipy.json: random sparse rectangular instances
            (absent pairs forbidden) with scipy.optimize.linear_sum_assignment's count and total.
   default  times, on the same instances:
            * dense 2,000 x 2,000 (every pair a candidate): trajdb SQL hungarian_match vs
@@ -50,7 +50,7 @@ def pin():
         pairs = [[int(ids_a[i]), int(ids_b[j]), float(score[i, j])] for i in range(nr) for j in range(nc) if mask[i, j]]
         rng.shuffle(pairs)
         cases.append({"maximize": maximize, "pairs": pairs, "count": int(len(r)), "total": float(score[r, c].sum())})
-    out = os.path.join(HERE, "..", "src", "algo", "testdata", "hungarian_scipy.json")
+    out = os.path.join(HERE, "..", "src", "algo", "matching", "testdata", "hungarian_scipy.json")
     os.makedirs(os.path.dirname(out), exist_ok=True)
     with open(out, "w") as f:
         json.dump({"scipy": scipy.__version__, "numpy": np.__version__, "seed": 20261121, "cases": cases}, f)

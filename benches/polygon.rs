@@ -13,9 +13,9 @@ use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use geo::indexed::IntervalTreeMultiPolygon;
 use geo::{Contains, Coord, Intersects, LineString, MultiPolygon, Polygon};
 use std::hint::black_box;
-use trajdb::algo::hull::{view_polygon, HullParams};
-use trajdb::algo::polygon::{overlap, to_wkb};
-use trajdb::algo::region::Region;
+use trajdb::algo::geometry::hull::{view_polygon, HullParams};
+use trajdb::algo::geometry::polygon::{overlap, to_wkb};
+use trajdb::algo::geometry::region::Region;
 
 fn lcg(s: &mut u64) -> f64 {
     *s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);

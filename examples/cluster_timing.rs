@@ -1,7 +1,7 @@
 //! Times agglomerative clustering on n random 2-D points (all pairs) without DuckDB:
 //! `cargo run --release --no-default-features --example cluster_timing -- 5000`
 use std::time::Instant;
-use trajdb::algo::cluster::{dendrogram, Linkage};
+use trajdb::algo::cluster::linkage::{dendrogram, Linkage};
 
 fn main() {
     let n: usize = std::env::args().nth(1).and_then(|s| s.parse().ok()).unwrap_or(5000);

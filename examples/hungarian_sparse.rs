@@ -1,7 +1,7 @@
 //! Times hungarian_match on the peer script's two shapes without DuckDB:
 //! `cargo run --release --no-default-features --example hungarian_sparse`
 use std::time::Instant;
-use trajdb::algo::hungarian::{hungarian_match, MatchParams};
+use trajdb::algo::matching::hungarian::{hungarian_match, MatchParams};
 
 fn main() {
     let mut s = 7u64;

@@ -10,8 +10,8 @@
 
 use rayon::prelude::*;
 use std::time::Instant;
-use trajdb::algo::lcss::{self, TimeWindowParams};
-use trajdb::algo::lcss_index::{self, IndexParams};
+use trajdb::algo::lcss::time_window::{self as lcss, TimeWindowParams};
+use trajdb::algo::lcss::index::{self as lcss_index, IndexParams};
 use trajdb::algo::traj::OwnedTraj;
 
 fn read_u32(b: &[u8], p: &mut usize) -> u32 {

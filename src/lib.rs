@@ -1,14 +1,15 @@
 //! trajdb: multi-camera traffic-trajectory analysis as DuckDB SQL functions.
 //!
-//! - [`algo`]: pure Rust, no DuckDB (builds with `--no-default-features`).
-//! - `sql`: the DuckDB registration layer, compiled with either the `bundled` or the
-//!   `extension` feature.
+//! - [`algo`]: the maths, pure Rust, no DuckDB (builds with `--no-default-features`).
+//! - `bindings`: the DuckDB functions (descriptors, kernels, the vector module), compiled with
+//!   either the `bundled` or the `extension` feature.
+//! - [`simulate`] and the application (`pipeline`, `report`) behind the `trajdb` command.
 //! - The loadable-extension entry point (`trajdb_init_c_api`) with feature `extension`.
 
 pub mod algo;
 
 #[cfg(any(feature = "bundled", feature = "extension"))]
-pub mod sql;
+pub mod bindings;
 
 /// Synthetic multi-camera intersection traffic with ground truth (`trajdb simulate`); pure Rust.
 pub mod simulate;
@@ -24,11 +25,12 @@ pub mod report;
 #[cfg(all(feature = "bundled", feature = "extension"))]
 compile_error!("features `bundled` and `extension` must not be enabled together: build the extension with --no-default-features --features extension");
 
-/// Entry point of `trajdb.duckdb_extension` (C API v1.2.0, ABI C_STRUCT).
+/// Entry point of `trajdb.duckdb_extension` (C API v1.2.0, ABI C_STRUCT). `unsafe` because the
+/// entry-point macro requires it; the registration itself is safe code.
 #[cfg(feature = "extension")]
 #[duckdb::duckdb_entrypoint_c_api(ext_name = "trajdb", min_duckdb_version = "v1.2.0")]
 pub unsafe fn extension_entrypoint(con: duckdb::Connection) -> Result<(), Box<dyn std::error::Error>> {
-    sql::register_all(&con)?;
+    bindings::register_all(&con)?;
     Ok(())
 }
 
@@ -39,6 +41,6 @@ pub fn open(path: Option<&str>) -> duckdb::Result<duckdb::Connection> {
         Some(p) => duckdb::Connection::open(p)?,
         None => duckdb::Connection::open_in_memory()?,
     };
-    sql::register_all(&con)?;
+    bindings::register_all(&con)?;
     Ok(con)
 }

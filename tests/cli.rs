@@ -146,7 +146,7 @@ fn functions_reference_lists_every_function() {
 #[test]
 fn every_documented_example_runs_and_matches_its_comment() {
     let con = trajdb::open(None).unwrap();
-    for d in trajdb::sql::docs() {
+    for d in trajdb::bindings::docs() {
         let (sql, expected) = match d.example.split_once("; --") {
             Some((s, e)) => (s, Some(e.trim())),
             None => (d.example.trim_end_matches(';'), None),

@@ -17,7 +17,7 @@
 //! O(n log n) to sort the starts by time, plus O(c) for c (end, start) pairs inside the time
 //! window.
 
-use crate::algo::region::Region;
+use crate::algo::geometry::region::Region;
 use std::fmt;
 
 #[derive(Clone, Debug, PartialEq)]
@@ -28,6 +28,8 @@ pub enum EventError {
     /// 1-based index, field name.
     NotFinite { index: usize, field: &'static str },
     Reversed { index: usize },
+    /// The starting velocity of a track (1-based) is NaN or infinite.
+    NotFiniteStart { index: usize },
 }
 
 impl fmt::Display for EventError {
@@ -38,6 +40,7 @@ impl fmt::Display for EventError {
             EventError::Threshold(v) => write!(f, "threshold must be in [0, 1], got {v}"),
             EventError::NotFinite { index, field } => write!(f, "tracks[{index}].{field} must be finite"),
             EventError::Reversed { index } => write!(f, "tracks[{index}] ends before it starts (t1 < t0)"),
+            EventError::NotFiniteStart { index } => write!(f, "tracks[{index}].vx0/vy0 must be finite"),
         }
     }
 }
@@ -175,6 +178,34 @@ pub struct Motion {
     pub h0: f64,
     pub v1: f64,
     pub h1: f64,
+}
+
+impl Motion {
+    /// Speed and heading from a track's end velocity (`ends.vx1`, `ends.vy1`) and its start
+    /// velocity `(vx0, vy0)`.
+    pub fn of(ends: &Endpoints, vx0: f64, vy0: f64) -> Motion {
+        Motion { id: ends.id, v0: vx0.hypot(vy0), h0: vy0.atan2(vx0), v1: ends.vx1.hypot(ends.vy1), h1: ends.vy1.atan2(ends.vx1) }
+    }
+}
+
+/// One call for `traj_labels`: `tracks` are the endpoints with the start velocity `(vx0, vy0)`
+/// of each track; finds the [`events`] and labels every track with [`labels`]. Returns
+/// `(id, label, coherence)` in input order. Errors on NaN / infinite start velocities (checked
+/// first) and on everything [`events`] rejects.
+pub fn label_tracks(
+    tracks: &[(Endpoints, f64, f64)],
+    interior: Option<&Region>,
+    p: &EventParams,
+    lp: &LabelParams,
+) -> Result<Vec<(i64, Label, f64)>, EventError> {
+    if let Some(k) = tracks.iter().position(|(_, vx0, vy0)| !(vx0.is_finite() && vy0.is_finite())) {
+        return Err(EventError::NotFiniteStart { index: k + 1 });
+    }
+    let ends: Vec<Endpoints> = tracks.iter().map(|t| t.0).collect();
+    let ev = events(&ends, interior, p)?;
+    let motion: Vec<Motion> = tracks.iter().map(|(e, vx0, vy0)| Motion::of(e, *vx0, *vy0)).collect();
+    let l = labels(&motion, &ev, lp);
+    Ok(motion.iter().zip(l).map(|(m, (lab, c))| (m.id, lab, c)).collect())
 }
 
 /// Motion-coherency parameters of eq. 3–5: the speed / heading differences of fragments of one

@@ -25,11 +25,12 @@
 //! φ_ij never survives next to a φ_ijk that contains it.
 //!
 //! # Complexity
-//! [`merge_pair`]: the LCSS of [`crate::algo::lcss`] plus O((n + m) log(n + m)) for the sort.
+//! [`merge_pair`]: the LCSS of [`crate::algo::lcss::time_window`] plus O((n + m) log(n + m)) for the sort.
 //! [`consistent_groups`]: O(L log L + L · g²) for L links and groups of at most g tracks.
 
-use crate::algo::lcss::{self, TimeWindowParams};
-use crate::algo::region::{inside_indices, Region};
+use crate::algo::lcss::time_window::{matches_in, TimeWindowParams};
+use crate::algo::geometry::region::Region;
+use crate::algo::graph::UnionFind;
 use crate::algo::traj::{OwnedTraj, Traj};
 use std::collections::HashMap;
 use std::fmt;
@@ -52,24 +53,6 @@ impl Weighted {
     }
     pub fn into_traj(self) -> OwnedTraj {
         OwnedTraj { t: self.t, x: self.x, y: self.y }
-    }
-}
-
-/// LCSS matches of `a` and `b` (0-based into the full lists), counting only points inside
-/// `region` when one is given (eq. 2.10: ξ and the lengths apply inside the overlap).
-pub fn matches_in(a: Traj<'_>, b: Traj<'_>, p: &TimeWindowParams, region: Option<&Region>) -> Vec<(usize, usize)> {
-    match region {
-        None => lcss::matches(a, b, p),
-        Some(r) => {
-            let (ia, ib) = (inside_indices(a.x, a.y, r), inside_indices(b.x, b.y, r));
-            let pick = |tr: Traj<'_>, ix: &[usize]| OwnedTraj {
-                t: ix.iter().map(|&k| tr.t[k]).collect(),
-                x: ix.iter().map(|&k| tr.x[k]).collect(),
-                y: ix.iter().map(|&k| tr.y[k]).collect(),
-            };
-            let (sa, sb) = (pick(a, &ia), pick(b, &ib));
-            lcss::matches(sa.view(), sb.view(), p).into_iter().map(|(i, j)| (ia[i], ib[j])).collect()
-        }
     }
 }
 
@@ -102,42 +85,60 @@ pub fn merge_pair(a: &Weighted, b: &Weighted, matches: &[(usize, usize)]) -> Wei
     }
 }
 
+/// Θ(a, b) of eq. 2.11 in one call (`trajectory_merge(a, b, ...)`): the LCSS pairs inside
+/// `region` (eq. 2.10), merged.
+pub fn merge_two(a: Traj<'_>, b: Traj<'_>, p: &TimeWindowParams, region: Option<&Region>) -> OwnedTraj {
+    let m = matches_in(a, b, p, region);
+    merge_pair(&Weighted::from_traj(a), &Weighted::from_traj(b), &m).into_traj()
+}
+
 /// φ_{N−1}: merges `trajs` in the given order, step i (i ≥ 1) restricted to `regions[i − 1]`
-/// when given. Returns the merged trajectory and the number of matched pairs at each step.
-pub fn merge_chain(trajs: &[Traj<'_>], p: &TimeWindowParams, regions: &[Option<&Region>]) -> (OwnedTraj, Vec<usize>) {
-    let Some(first) = trajs.first() else { return (OwnedTraj::default(), vec![]) };
+/// when regions are given (then exactly one per step, else [`MergeError::Regions`]). Returns
+/// the merged trajectory and the number of matched pairs at each step.
+pub fn merge_chain(trajs: &[Traj<'_>], p: &TimeWindowParams, regions: Option<&[&Region]>) -> Result<(OwnedTraj, Vec<usize>), MergeError> {
+    if let Some(r) = regions {
+        if r.len() + 1 != trajs.len().max(1) {
+            return Err(MergeError::Regions { steps: trajs.len().saturating_sub(1), got: r.len() });
+        }
+    }
+    let Some(first) = trajs.first() else { return Ok((OwnedTraj::default(), vec![])) };
     let mut phi = Weighted::from_traj(*first);
     let mut counts = Vec::with_capacity(trajs.len().saturating_sub(1));
     for (k, next) in trajs.iter().enumerate().skip(1) {
-        let region = regions.get(k - 1).copied().flatten();
+        let region = regions.map(|r| r[k - 1]);
         let m = matches_in(phi.view(), *next, p, region);
         counts.push(m.len());
         phi = merge_pair(&phi, &Weighted::from_traj(*next), &m);
     }
-    (phi.into_traj(), counts)
+    Ok((phi.into_traj(), counts))
 }
 
-/// Why grouping failed.
+/// Why merging or grouping failed.
 #[derive(Clone, Debug, PartialEq)]
-pub enum GroupError {
+pub enum MergeError {
     /// A link names a track that is not in the track list (1-based link index).
     UnknownTrack { link: usize, id: i64 },
     /// The same track id is listed twice.
     DuplicateTrack(i64),
     /// A track's time range is NaN or reversed.
     TimeRange { id: i64 },
+    /// [`merge_chain`] got a region list whose length is not one per merge step.
+    Regions { steps: usize, got: usize },
 }
 
-impl fmt::Display for GroupError {
+impl fmt::Display for MergeError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
-            GroupError::UnknownTrack { link, id } => write!(f, "links[{link}] names track {id}, which is not in tracks"),
-            GroupError::DuplicateTrack(id) => write!(f, "tracks lists id {id} twice"),
-            GroupError::TimeRange { id } => write!(f, "track {id} needs finite t0 <= t1"),
+            MergeError::UnknownTrack { link, id } => write!(f, "links[{link}] names track {id}, which is not in tracks"),
+            MergeError::DuplicateTrack(id) => write!(f, "tracks lists id {id} twice"),
+            MergeError::TimeRange { id } => write!(f, "track {id} needs finite t0 <= t1"),
+            MergeError::Regions { steps, got } => {
+                write!(f, "regions needs one polygon per merge step (len(trajs) - 1 = {steps}), got {got}")
+            }
         }
     }
 }
-impl std::error::Error for GroupError {}
+impl std::error::Error for MergeError {}
 
 /// One track: a unique id (e.g. `camera * 1e9 + track_id`), its camera and time range.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -148,34 +149,26 @@ pub struct Span {
     pub t1: f64,
 }
 
-fn root(p: &mut [usize], mut x: usize) -> usize {
-    while p[x] != x {
-        p[x] = p[p[x]];
-        x = p[x];
-    }
-    x
-}
-
 /// Groups tracks into road users by applying `links` in order (see module docs). Returns, for
 /// every track in input order, its group: the smallest track id in the group. `accepted[k]`
 /// tells whether link k was applied (false when it contradicted the group or was redundant).
-pub fn consistent_groups(tracks: &[Span], links: &[(i64, i64)]) -> Result<(Vec<i64>, Vec<bool>), GroupError> {
+pub fn consistent_groups(tracks: &[Span], links: &[(i64, i64)]) -> Result<(Vec<i64>, Vec<bool>), MergeError> {
     let mut index: HashMap<i64, usize> = HashMap::with_capacity(tracks.len());
     for (k, s) in tracks.iter().enumerate() {
         if !(s.t0 <= s.t1) || !s.t0.is_finite() || !s.t1.is_finite() {
-            return Err(GroupError::TimeRange { id: s.id });
+            return Err(MergeError::TimeRange { id: s.id });
         }
         if index.insert(s.id, k).is_some() {
-            return Err(GroupError::DuplicateTrack(s.id));
+            return Err(MergeError::DuplicateTrack(s.id));
         }
     }
-    let mut parent: Vec<usize> = (0..tracks.len()).collect();
+    let mut uf = UnionFind::new(tracks.len());
     let mut members: Vec<Vec<usize>> = (0..tracks.len()).map(|k| vec![k]).collect();
     let mut accepted = vec![false; links.len()];
     for (l, &(a, b)) in links.iter().enumerate() {
-        let ia = *index.get(&a).ok_or(GroupError::UnknownTrack { link: l + 1, id: a })?;
-        let ib = *index.get(&b).ok_or(GroupError::UnknownTrack { link: l + 1, id: b })?;
-        let (ra, rb) = (root(&mut parent, ia), root(&mut parent, ib));
+        let ia = *index.get(&a).ok_or(MergeError::UnknownTrack { link: l + 1, id: a })?;
+        let ib = *index.get(&b).ok_or(MergeError::UnknownTrack { link: l + 1, id: b })?;
+        let (ra, rb) = (uf.find(ia), uf.find(ib));
         if ra == rb {
             continue;
         }
@@ -189,18 +182,18 @@ pub fn consistent_groups(tracks: &[Span], links: &[(i64, i64)]) -> Result<(Vec<i
             continue;
         }
         let (big, small) = if members[ra].len() >= members[rb].len() { (ra, rb) } else { (rb, ra) };
-        parent[small] = big;
+        uf.attach(small, big);
         let moved = std::mem::take(&mut members[small]);
         members[big].extend(moved);
         accepted[l] = true;
     }
     let mut label: HashMap<usize, i64> = HashMap::new();
     for (k, t) in tracks.iter().enumerate() {
-        let r = root(&mut parent, k);
+        let r = uf.find(k);
         let e = label.entry(r).or_insert(t.id);
         *e = (*e).min(t.id);
     }
-    let groups = (0..tracks.len()).map(|k| label[&root(&mut parent, k)]).collect();
+    let groups = (0..tracks.len()).map(|k| label[&uf.find(k)]).collect();
     Ok((groups, accepted))
 }
 
@@ -236,23 +229,24 @@ mod tests {
     fn chain_weights_every_camera_equally() {
         let p = TimeWindowParams::new(1.0, 0.05, 1).unwrap();
         let (a, b, c) = (line(0.0, 5, 0.0), line(0.0, 5, 0.3), line(0.0, 5, 0.9));
-        let (m, counts) = merge_chain(&[a.view(), b.view(), c.view()], &p, &[]);
+        let (m, counts) = merge_chain(&[a.view(), b.view(), c.view()], &p, None).unwrap();
         assert_eq!(counts, vec![5, 5]);
         assert!(m.y.iter().all(|&y| (y - 0.4).abs() < 1e-12), "mean of 0, 0.3, 0.9 (the thesis's recursion would give 0.6)");
         // regions restrict each step
         let r = Region::from_wkt("POLYGON ((-1 -1, 2.5 -1, 2.5 2, -1 2, -1 -1))").unwrap();
-        let (m2, counts2) = merge_chain(&[a.view(), b.view()], &p, &[Some(&r)]);
+        let (m2, counts2) = merge_chain(&[a.view(), b.view()], &p, Some(&[&r])).unwrap();
         assert_eq!(counts2, vec![3]); // x = 0, 1, 2 inside
         assert_eq!(m2.t.len(), 7);
-        assert_eq!(merge_chain(&[], &p, &[]).0.t.len(), 0);
-        assert_eq!(merge_chain(&[a.view()], &p, &[]).0, a);
+        assert_eq!(merge_chain(&[], &p, None).unwrap().0.t.len(), 0);
+        assert_eq!(merge_chain(&[a.view()], &p, None).unwrap().0, a);
+        assert_eq!(merge_chain(&[a.view(), b.view()], &p, Some(&[])).unwrap_err(), MergeError::Regions { steps: 1, got: 0 });
     }
 
     #[test]
     fn no_matches_keeps_everything_sorted() {
         let p = TimeWindowParams::new(0.01, 0.01, 1).unwrap();
         let (a, b) = (line(0.0, 3, 0.0), line(0.05, 3, 50.0));
-        let m = merge_chain(&[a.view(), b.view()], &p, &[]).0;
+        let m = merge_chain(&[a.view(), b.view()], &p, None).unwrap().0;
         assert_eq!(m.t, vec![0.0, 0.05, 0.1, 0.15000000000000002, 0.2, 0.25]);
     }
 
@@ -270,8 +264,8 @@ mod tests {
         let (g, acc) = consistent_groups(&tracks, &[(1, 2), (2, 3), (1, 4), (2, 3)]).unwrap();
         assert_eq!(g, vec![1, 1, 1, 4]);
         assert_eq!(acc, vec![true, true, false, false]);
-        assert_eq!(consistent_groups(&tracks, &[(1, 9)]).unwrap_err(), GroupError::UnknownTrack { link: 1, id: 9 });
-        assert_eq!(consistent_groups(&[s(1, 1, 0.0, 1.0), s(1, 2, 0.0, 1.0)], &[]).unwrap_err(), GroupError::DuplicateTrack(1));
+        assert_eq!(consistent_groups(&tracks, &[(1, 9)]).unwrap_err(), MergeError::UnknownTrack { link: 1, id: 9 });
+        assert_eq!(consistent_groups(&[s(1, 1, 0.0, 1.0), s(1, 2, 0.0, 1.0)], &[]).unwrap_err(), MergeError::DuplicateTrack(1));
         assert!(consistent_groups(&[s(1, 1, 2.0, 1.0)], &[]).is_err());
     }
 }

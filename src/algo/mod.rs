@@ -1,45 +1,91 @@
-//! Pure-Rust algorithms behind trajdb. Nothing in this module imports DuckDB:
-//! it builds and tests with `cargo test --release --no-default-features --lib`.
+//! Pure-Rust algorithms behind trajdb. Nothing in this module imports DuckDB: it builds and
+//! tests with `cargo test --release --no-default-features --lib`.
 //!
-//! | file | what |
+//! One operation per file, grouped by family; each SQL function's descriptor in
+//! `src/bindings/<family>.rs` names the file that holds its maths (`trajdb_functions()`
+//! column `maths`, and docs/functions.md). Every range check lives in a parameter type or a
+//! checking constructor here; the bindings never test a value.
+//!
+//! | module | what |
 //! |---|---|
-//! | [`traj`] | trajectory views, validation, speeds, WKT |
-//! | [`hungarian`] | sparse rectangular optimal assignment (scipy semantics; components, lsap or sparse JV) |
-//! | [`assign`] | sparse maximum-weight one-to-one assignment (components + scipy's LSAP via `lsap`) |
-//! | [`cluster`] | agglomerative clustering with cannot-link pairs (kodama linkage, scipy-style cuts) |
-//! | [`traj_cluster`] | trajectories clustered in one call: all Buzan S1/S2 distances in parallel, then [`cluster`] |
-//! | [`band`] | the banded LCSS dynamic-programming engine shared by every LCSS form |
-//! | [`lcss`] | time-window LCSS (thesis eq. 2.9, 2.10, Alg. 1), 2-D points and 1-D series |
-//! | [`lcss_index`] | index-window LCSS of Buzan def. 4.1/4.2 (δ, ε, ρ, S1) |
-//! | [`lcss_translate`] | translation-invariant S2 of Buzan def. 4.3, appendix / lemma 4.2 |
-//! | [`events`] | broken / split / merge events of tracks within one camera (endpoints) |
-//! | [`merge`] | trajectory merge (eq. 2.11, Alg. 3/4) and consistent road-user groups |
-//! | [`region`] | polygon regions from WKT/WKB, validation, prepared point-in-polygon |
-//! | [`hull`] | view polygons `P^k`: convex / concave hull with a density rule |
-//! | [`polygon`] | overlaps, unions, area, WKB/WKT output |
-//! | [`rigid`] | 2-D similarity transforms, Umeyama/Kabsch fit, trimmed robust fit |
-//! | [`correspond`] | time-interpolated point pairs between two tracks (transform hypotheses) |
-//! | [`cpd3`] | the same TimeCPD in 3-D (rotation by SVD, nalgebra) |
-//! | [`cpd`] | rigid TimeCPD (thesis eq. 2.7/2.8, Alg. 5–8) with a sparse time-windowed E-step |
+//! | [`traj`] | trajectory views ([`traj::Traj`], [`traj::Traj3`], series), the input policy, speeds, turn rates, WKT/WKB, resampling |
+//! | [`lcss`] | the LCSS family: banded engine, time-window form (thesis eq. 2.9/2.10), index-window S1 and translation-invariant S2 (Buzan) |
+//! | [`align`] | 2-D transforms and the Umeyama fit, time-interpolated correspondences, rigid TimeCPD in 2-D and 3-D |
+//! | [`geometry`] | polygon regions (WKT/WKB, prepared point-in-polygon), view polygons P^k, overlaps and unions |
+//! | [`matching`] | one-to-one assignment: `hungarian_match` (scipy semantics, sparse JV) and `assign_pairs` (lsap) |
+//! | [`cluster`] | agglomerative clustering with cannot-links, and trajectories clustered in one call |
+//! | [`merge`] | Θ(A, B) of eq. 2.11 for N cameras, and consistent road-user groups |
+//! | [`events`] | broken / split / merge events within one camera, object / fragment / group labels |
+//! | [`graph`] | union–find and the connected components of a bipartite edge list (shared) |
 
 // `!(x > 0.0)` is used on purpose throughout: unlike `x <= 0.0` it also rejects NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
-pub mod assign;
-pub mod band;
+use std::fmt;
+
+pub mod align;
 pub mod cluster;
-pub mod correspond;
-pub mod cpd;
-pub mod cpd3;
-pub mod lcss;
-pub mod lcss_index;
-pub mod lcss_translate;
-pub mod merge;
 pub mod events;
-pub mod hull;
-pub mod hungarian;
-pub mod polygon;
-pub mod region;
-pub mod rigid;
+pub mod geometry;
+pub mod graph;
+pub mod lcss;
+pub mod matching;
+pub mod merge;
 pub mod traj;
-pub mod traj_cluster;
+
+/// A scalar parameter outside its range: `"<name> must be <rule>, got <value>"`. Modules whose
+/// parameters are single numbers use it directly or wrap it in their own error type.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ParamError {
+    pub name: &'static str,
+    pub rule: &'static str,
+    pub value: f64,
+}
+
+impl fmt::Display for ParamError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{} must be {}, got {}", self.name, self.rule, self.value)
+    }
+}
+impl std::error::Error for ParamError {}
+
+/// `value` if it is > 0 and finite, else an error saying "must be > 0".
+pub fn positive(name: &'static str, value: f64) -> Result<f64, ParamError> {
+    if value > 0.0 && value.is_finite() {
+        Ok(value)
+    } else {
+        Err(ParamError { name, rule: "> 0", value })
+    }
+}
+
+/// `value` if it is > 0 (`+inf` allowed: "no limit"), else an error.
+pub fn positive_or_inf(name: &'static str, value: f64) -> Result<f64, ParamError> {
+    if value > 0.0 {
+        Ok(value)
+    } else {
+        Err(ParamError { name, rule: "> 0", value })
+    }
+}
+
+/// `value` if it is finite, else an error.
+pub fn finite(name: &'static str, value: f64) -> Result<f64, ParamError> {
+    if value.is_finite() {
+        Ok(value)
+    } else {
+        Err(ParamError { name, rule: "finite", value })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn param_checks_name_the_parameter_and_the_value() {
+        assert_eq!(positive("period", 0.0).unwrap_err().to_string(), "period must be > 0, got 0");
+        assert!(positive("period", f64::INFINITY).is_err() && positive("period", f64::NAN).is_err());
+        assert_eq!(positive_or_inf("max_gap", f64::INFINITY), Ok(f64::INFINITY));
+        assert_eq!(finite("x", f64::NAN).unwrap_err().to_string(), "x must be finite, got NaN");
+        assert_eq!(finite("x", -2.5), Ok(-2.5));
+    }
+}

@@ -10,6 +10,7 @@
 //! - `t` must be non-decreasing ([`TrajError::Unsorted`]); duplicate timestamps are allowed;
 //! - an empty trajectory is valid.
 
+use super::{positive, positive_or_inf, ParamError};
 use std::fmt;
 
 /// A borrowed 2-D trajectory in struct-of-arrays form. All three slices have the same length.
@@ -47,6 +48,14 @@ impl OwnedTraj {
 }
 
 impl<'a> Traj<'a> {
+    /// The points at `idx` (in that order), e.g. the points inside a region. O(|idx|).
+    pub fn select(&self, idx: &[usize]) -> OwnedTraj {
+        OwnedTraj {
+            t: idx.iter().map(|&k| self.t[k]).collect(),
+            x: idx.iter().map(|&k| self.x[k]).collect(),
+            y: idx.iter().map(|&k| self.y[k]).collect(),
+        }
+    }
     /// Builds a view; panics if the slices differ in length (a programming error, not input).
     pub fn new(t: &'a [f64], x: &'a [f64], y: &'a [f64]) -> Self {
         assert!(t.len() == x.len() && t.len() == y.len(), "Traj::new: column lengths differ");
@@ -85,11 +94,50 @@ impl<'a> Series<'a> {
     }
 }
 
+/// A borrowed 3-D trajectory `(t, x, y, z)` (`STRUCT(t, x, y, z)[]` in SQL), same input policy.
+#[derive(Clone, Copy, Debug)]
+pub struct Traj3<'a> {
+    pub t: &'a [f64],
+    pub x: &'a [f64],
+    pub y: &'a [f64],
+    pub z: &'a [f64],
+}
+
+impl<'a> Traj3<'a> {
+    pub fn new(t: &'a [f64], x: &'a [f64], y: &'a [f64], z: &'a [f64]) -> Self {
+        assert!(t.len() == x.len() && t.len() == y.len() && t.len() == z.len(), "Traj3::new: column lengths differ");
+        Traj3 { t, x, y, z }
+    }
+    pub fn len(&self) -> usize {
+        self.t.len()
+    }
+    pub fn is_empty(&self) -> bool {
+        self.t.is_empty()
+    }
+    pub fn validate(&self) -> Result<(), TrajError> {
+        check_finite("t", self.t)?;
+        check_finite("x", self.x)?;
+        check_finite("y", self.y)?;
+        check_finite("z", self.z)?;
+        check_sorted(self.t)
+    }
+}
+
 /// Why a trajectory was rejected. Indices are 0-based here; the SQL layer prints them 1-based.
 #[derive(Clone, Debug, PartialEq)]
 pub enum TrajError {
     NotFinite { index: usize, field: &'static str, value: f64 },
     Unsorted { index: usize, prev: f64, t: f64 },
+    /// A parameter (`period`, `max_gap`, `min_step`) out of range.
+    Param(ParamError),
+    /// [`resample`] would produce more than [`RESAMPLE_MAX_POINTS`] points.
+    TooManyPoints(f64),
+}
+
+impl From<ParamError> for TrajError {
+    fn from(e: ParamError) -> Self {
+        TrajError::Param(e)
+    }
 }
 
 impl TrajError {
@@ -105,6 +153,10 @@ impl TrajError {
                 index + 1,
                 index
             ),
+            TrajError::Param(e) => e.to_string(),
+            TrajError::TooManyPoints(n) => {
+                format!("would produce {n:.0} points (more than {RESAMPLE_MAX_POINTS}); use a longer period")
+            }
         }
     }
 }
@@ -170,8 +222,9 @@ pub fn speeds(tr: Traj<'_>) -> (Vec<f64>, Vec<f64>) {
 /// dominating the heading of slow road users). The heading of each segment is the direction
 /// of its chord; the turn rate between two consecutive segments is the wrapped heading change
 /// divided by the time between their ends, stamped at the later end. Fewer than two segments
-/// give no samples. O(n).
-pub fn turn_rates(tr: Traj<'_>, min_step: f64) -> (Vec<f64>, Vec<f64>) {
+/// give no samples. O(n). `min_step` must be > 0 and finite.
+pub fn turn_rates(tr: Traj<'_>, min_step: f64) -> Result<(Vec<f64>, Vec<f64>), TrajError> {
+    let min_step = positive("min_step", min_step)?;
     let mut ends: Vec<(f64, f64)> = Vec::new(); // (t, heading)
     let mut k = 0;
     for j in 1..tr.len() {
@@ -189,7 +242,7 @@ pub fn turn_rates(tr: Traj<'_>, min_step: f64) -> (Vec<f64>, Vec<f64>) {
         ts.push(w[1].0);
         vs.push(d / (w[1].0 - w[0].0));
     }
-    (ts, vs)
+    Ok((ts, vs))
 }
 
 /// WKT for GIS tools: `LINESTRING (x y, ...)` for two or more points, `POINT (x y)` for one,
@@ -243,8 +296,11 @@ pub const RESAMPLE_MAX_POINTS: usize = 50_000_000;
 /// clock, so LCSS compares positions at the same instant instead of up to half a sample period
 /// apart (at 12 m/s and 5 Hz that is 1.2 m, more than the matching ε).
 /// O(n + m) for n input and m output points. Errors when m would exceed
-/// [`RESAMPLE_MAX_POINTS`]; `period` and `max_gap` must be validated by the caller (> 0).
-pub fn resample(tr: Traj<'_>, period: f64, max_gap: f64) -> Result<OwnedTraj, String> {
+/// [`RESAMPLE_MAX_POINTS`], when `period` is not > 0 and finite, or `max_gap` not > 0
+/// (`+inf`: no limit).
+pub fn resample(tr: Traj<'_>, period: f64, max_gap: f64) -> Result<OwnedTraj, TrajError> {
+    let period = positive("period", period)?;
+    let max_gap = positive_or_inf("max_gap", max_gap)?;
     let n = tr.len();
     let mut out = OwnedTraj::default();
     if n == 0 {
@@ -253,7 +309,7 @@ pub fn resample(tr: Traj<'_>, period: f64, max_gap: f64) -> Result<OwnedTraj, St
     let (t0, t1) = (tr.t[0], tr.t[n - 1]);
     let estimate = ((t1 - t0) / period).floor() + 1.0;
     if estimate > RESAMPLE_MAX_POINTS as f64 {
-        return Err(format!("would produce {estimate:.0} points (more than {RESAMPLE_MAX_POINTS}); use a longer period"));
+        return Err(TrajError::TooManyPoints(estimate));
     }
     let mut k = (t0 / period).ceil() as i64;
     let mut j = 0usize;
@@ -315,6 +371,10 @@ mod tests {
         assert_eq!(r.t, vec![0.0, 0.5, 1.0]);
         assert_eq!(r.x, vec![5.0, 7.5, 8.0]);
         assert!(resample(Traj::new(&[0.0, 1e9], &[0.0, 1.0], &[0.0; 2]), 1e-3, f64::INFINITY).is_err());
+        let e = |p, g| resample(Traj::new(&[], &[], &[]), p, g).unwrap_err().to_string();
+        assert_eq!(e(0.0, 1.0), "period must be > 0, got 0");
+        assert_eq!(e(f64::INFINITY, 1.0), "period must be > 0, got inf");
+        assert_eq!(e(0.1, -1.0), "max_gap must be > 0, got -1");
     }
 
     proptest::proptest! {
@@ -389,6 +449,17 @@ mod tests {
     }
 
     #[test]
+    fn traj3_and_select() {
+        let (t, x) = ([0.0, 1.0, 0.5], [1.0, 2.0, 3.0]);
+        let e = Traj3::new(&t, &x, &x, &x).validate().unwrap_err();
+        assert!(e.describe("fixed").starts_with("fixed must be ordered by t, but fixed[3].t = 0.5 follows fixed[2].t = 1"));
+        let z = [0.0, f64::NAN, 0.0];
+        assert_eq!(Traj3::new(&x, &x, &x, &z).validate().unwrap_err().describe("a"), "a[2].z must be finite, got NaN");
+        let s = Traj::new(&t, &x, &x).select(&[2, 0]);
+        assert_eq!((s.t, s.x), (vec![0.5, 0.0], vec![3.0, 1.0]));
+    }
+
+    #[test]
     fn duplicates_and_empty_are_valid() {
         let t = [0.0, 0.0, 1.0];
         let z = [0.0; 3];
@@ -414,12 +485,13 @@ mod tests {
         let x: Vec<f64> = t.iter().map(|t| 10.0 * (t * 0.157).cos()).collect();
         let y: Vec<f64> = t.iter().map(|t| 10.0 * (t * 0.157).sin()).collect();
         let (rx, ry): (Vec<f64>, Vec<f64>) = x.iter().zip(&y).map(|(&a, &b)| (a * 0.3f64.cos() - b * 0.3f64.sin() + 5.0, a * 0.3f64.sin() + b * 0.3f64.cos())).unzip();
-        let (t1, v1) = turn_rates(Traj::new(&t, &x, &y), 1.0);
-        let (t2, v2) = turn_rates(Traj::new(&t, &rx, &ry), 1.0);
+        let (t1, v1) = turn_rates(Traj::new(&t, &x, &y), 1.0).unwrap();
+        let (t2, v2) = turn_rates(Traj::new(&t, &rx, &ry), 1.0).unwrap();
         assert_eq!(t1, t2);
         assert!(v1.iter().zip(&v2).all(|(a, b)| (a - b).abs() < 1e-9));
         assert!(v1.iter().all(|v| (v - 0.157).abs() < 0.01), "{v1:?}");
-        assert!(turn_rates(Traj::new(&[0.0], &[0.0], &[0.0]), 1.0).0.is_empty());
+        assert!(turn_rates(Traj::new(&[0.0], &[0.0], &[0.0]), 1.0).unwrap().0.is_empty());
+        assert_eq!(turn_rates(Traj::new(&[], &[], &[]), 0.0).unwrap_err().to_string(), "min_step must be > 0, got 0");
     }
 
     #[test]

@@ -1,0 +1,85 @@
+//! Point correspondences between two tracks of the same road user seen by two cameras with
+//! synchronised clocks but different sampling phases.
+//!
+//! For every point `a_i` of the fixed track whose time lies inside the moving track's time
+//! span, the moving track is interpolated linearly at `t_i` between its two neighbouring
+//! samples, provided they are at most `max_gap` seconds apart (no interpolation across track
+//! breaks). The pairs `(a_i, b(t_i))` feed [`crate::algo::align::rigid::fit`]: one pair of tracks of
+//! the same object is a hypothesis for the camera-to-camera transform, which needs no initial
+//! rotation at all (it is found in closed form).
+//!
+//! # Complexity
+//! O(n + m) (two pointers over time-sorted tracks).
+
+use crate::algo::traj::Traj;
+use crate::algo::{positive_or_inf, ParamError};
+
+/// Correspondence columns: fixed (fx, fy) and interpolated moving (mx, my), plus time t.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Pairs {
+    pub t: Vec<f64>,
+    pub fx: Vec<f64>,
+    pub fy: Vec<f64>,
+    pub mx: Vec<f64>,
+    pub my: Vec<f64>,
+}
+
+/// See the module docs. Both tracks must satisfy [`Traj::validate`]; `max_gap` must be > 0
+/// (`+inf`: interpolate across any gap).
+pub fn correspond(fixed: Traj<'_>, moving: Traj<'_>, max_gap: f64) -> Result<Pairs, ParamError> {
+    let max_gap = positive_or_inf("max_gap", max_gap)?;
+    let mut out = Pairs::default();
+    let m = moving.len();
+    if m == 0 {
+        return Ok(out);
+    }
+    let mut j = 0usize; // moving.t[j] <= t < moving.t[j + 1]
+    for i in 0..fixed.len() {
+        let t = fixed.t[i];
+        if t < moving.t[0] || t > moving.t[m - 1] {
+            continue;
+        }
+        while j + 1 < m && moving.t[j + 1] <= t {
+            j += 1;
+        }
+        let (x, y) = if moving.t[j] == t || j + 1 == m {
+            (moving.x[j], moving.y[j])
+        } else {
+            let (t0, t1) = (moving.t[j], moving.t[j + 1]);
+            if t1 - t0 > max_gap {
+                continue;
+            }
+            let u = (t - t0) / (t1 - t0);
+            (moving.x[j] + u * (moving.x[j + 1] - moving.x[j]), moving.y[j] + u * (moving.y[j + 1] - moving.y[j]))
+        };
+        out.t.push(t);
+        out.fx.push(fixed.x[i]);
+        out.fy.push(fixed.y[i]);
+        out.mx.push(x);
+        out.my.push(y);
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn interpolates_inside_and_skips_gaps_and_outside() {
+        let (at, ax, ay) = (vec![0.0, 0.5, 1.0, 2.5, 4.0], vec![0.0; 5], vec![0.0; 5]);
+        let (bt, bx, by) = (vec![0.2, 1.2, 1.4, 3.9], vec![2.0, 12.0, 14.0, 39.0], vec![0.0, 1.0, 1.0, 1.0]);
+        let p = correspond(Traj::new(&at, &ax, &ay), Traj::new(&bt, &bx, &by), 1.0).unwrap();
+        // 0.0 is before b starts, 2.5 falls in the 2.5 s gap 1.4..3.9, 4.0 is after b ends.
+        assert_eq!(p.t, vec![0.5, 1.0]);
+        assert!((p.mx[0] - 5.0).abs() < 1e-12 && (p.mx[1] - 10.0).abs() < 1e-12);
+        assert!((p.my[0] - 0.3).abs() < 1e-12);
+        // exact sample times and a single-point moving track
+        let q = correspond(Traj::new(&[3.9], &[0.0], &[0.0]), Traj::new(&bt, &bx, &by), 1.0).unwrap();
+        assert_eq!(q.mx, vec![39.0]);
+        let r = correspond(Traj::new(&at, &ax, &ay), Traj::new(&[1.0], &[7.0], &[8.0]), 1.0).unwrap();
+        assert_eq!((r.t.clone(), r.mx.clone()), (vec![1.0], vec![7.0]));
+        assert!(correspond(Traj::new(&at, &ax, &ay), Traj::new(&[], &[], &[]), 1.0).unwrap().t.is_empty());
+        assert_eq!(correspond(Traj::new(&[], &[], &[]), Traj::new(&[], &[], &[]), 0.0).unwrap_err().to_string(), "max_gap must be > 0, got 0");
+    }
+}

@@ -1,0 +1,337 @@
+//! SQL: camera alignment. Maths: `src/algo/align/` (cpd.rs and cpd3.rs for `cpd_align`, rigid.rs
+//! for the fit and the transforms, correspond.rs for `traj_correspond`).
+
+use super::registry::{p, Function, Param, Signature, Ty, TRAJ, TRANSFORM};
+use super::vector::{Args, Column, Out, StructCol, Value};
+use crate::algo::align::correspond::{self, Pairs};
+use crate::algo::align::cpd::{self, CpdParams};
+use crate::algo::align::cpd3;
+use crate::algo::align::rigid::{self, Transform2};
+use std::error::Error;
+
+type R = Result<(), Box<dyn Error>>;
+const RIGID: &str = "src/algo/align/rigid.rs";
+
+const TRAJ3: Ty = Ty::List(&Ty::Struct(&[("t", Ty::Double), ("x", Ty::Double), ("y", Ty::Double), ("z", Ty::Double)]));
+const PAIRS4: Ty = Ty::List(&Ty::Struct(&[("fx", Ty::Double), ("fy", Ty::Double), ("mx", Ty::Double), ("my", Ty::Double)]));
+
+/// `(fixed, moving, w [, tau [, max_iter, tol [, with_scale, starts]]])` with `T` the point type.
+macro_rules! cpd_params {
+    ($t:expr) => {
+        &[
+            p("fixed", $t),
+            p("moving", $t),
+            p("w", Ty::Double),
+            p("tau", Ty::Double),
+            p("max_iter", Ty::Bigint),
+            p("tol", Ty::Double),
+            p("with_scale", Ty::Boolean),
+            p("starts", Ty::Bigint),
+        ]
+    };
+}
+const CPD_PARAMS: &[Param] = cpd_params!(TRAJ);
+const CPD3_PARAMS: &[Param] = cpd_params!(TRAJ3);
+const CPD_ARITIES: &[usize] = &[3, 4, 6, 8];
+
+const CPD_RESULT: Ty = Ty::Struct(&[
+    ("theta", Ty::Double),
+    ("tx", Ty::Double),
+    ("ty", Ty::Double),
+    ("scale", Ty::Double),
+    ("r11", Ty::Double),
+    ("r12", Ty::Double),
+    ("r21", Ty::Double),
+    ("r22", Ty::Double),
+    ("sigma2", Ty::Double),
+    ("iterations", Ty::Bigint),
+    ("converged", Ty::Boolean),
+    ("q", Ty::Double),
+    ("log_likelihood", Ty::Double),
+    ("inlier_fraction", Ty::Double),
+    ("rms", Ty::Double),
+    ("start_theta", Ty::Double),
+    ("pairs_in_band", Ty::Bigint),
+]);
+const CPD3_RESULT: Ty = Ty::Struct(&[
+    ("r11", Ty::Double),
+    ("r12", Ty::Double),
+    ("r13", Ty::Double),
+    ("r21", Ty::Double),
+    ("r22", Ty::Double),
+    ("r23", Ty::Double),
+    ("r31", Ty::Double),
+    ("r32", Ty::Double),
+    ("r33", Ty::Double),
+    ("tx", Ty::Double),
+    ("ty", Ty::Double),
+    ("tz", Ty::Double),
+    ("scale", Ty::Double),
+    ("sigma2", Ty::Double),
+    ("iterations", Ty::Bigint),
+    ("converged", Ty::Boolean),
+    ("q", Ty::Double),
+    ("log_likelihood", Ty::Double),
+    ("inlier_fraction", Ty::Double),
+    ("rms", Ty::Double),
+    ("pairs_in_band", Ty::Bigint),
+]);
+
+pub static FUNCTIONS: &[Function] = &[
+    Function {
+        name: "cpd_align",
+        description: "Rigid TimeCPD (thesis eq. 2.7/2.8, Alg. 5-8): the transform p_fixed = scale*R(theta)*p_moving + (tx, ty) that best explains the \
+                      fixed points (x, y, t) as noisy copies of the moving ones, with outlier weight w in [0, 1) and time standard deviation tau (s). \
+                      Without tau, or tau = 'inf', it is plain rigid CPD (Myronenko & Song); a NULL tau gives NULL like any NULL argument. \
+                      The E-step only visits pairs with |t - s| <= 7.43*tau (time weight < 1e-12) and runs on all cores. \
+                      Defaults: max_iter 100, tol 1e-5, with_scale false, starts 8 (EM from 8 rotations 2*pi*k/8, the best log-likelihood after 15 \
+                      iterations continues; starts = 1 is the thesis's R = I start). converged = false when max_iter ran out (the estimate is still returned). \
+                      With STRUCT(t, x, y, z)[] inputs it runs in 3-D (rotation from the SVD of the 3x3 cross-covariance; starts rotate about z).",
+        example: "SELECT round(degrees(cpd_align(a, b, 0.0, 1.0).theta)) FROM (SELECT [{'t':0,'x':0,'y':0},{'t':1,'x':4,'y':0},{'t':2,'x':4,'y':3}] AS a, [{'t':0,'x':0,'y':0},{'t':1,'x':0,'y':-4},{'t':2,'x':3,'y':-4}] AS b); -- 90.0",
+        maths: "src/algo/align/cpd.rs, src/algo/align/cpd3.rs",
+        binding: file!(),
+        signatures: &[
+            Signature { params: CPD_PARAMS, arities: CPD_ARITIES, returns: CPD_RESULT, kernel: cpd_align },
+            Signature { params: CPD3_PARAMS, arities: CPD_ARITIES, returns: CPD3_RESULT, kernel: cpd_align3 },
+        ],
+        table: None,
+    },
+    Function {
+        name: "rigid_fit",
+        description: "Least-squares transform from known correspondences (Umeyama/Kabsch; closed form in 2-D): p_fixed = scale*R(theta)*p_moving + (tx, ty) \
+                      for pairs (fx, fy) <- (mx, my). With trim in [0, 1), least trimmed squares: refit on the best (1 - trim) share of pairs until the kept \
+                      set is stable (robust to wrong correspondences). Needs 2 pairs that are not all at one point; otherwise an error.",
+        example: "SELECT round(degrees(rigid_fit([{'fx':0,'fy':0,'mx':0,'my':0},{'fx':0,'fy':1,'mx':1,'my':0}]).theta)); -- 90.0",
+        maths: RIGID,
+        binding: file!(),
+        signatures: &[Signature {
+            params: &[p("pairs", PAIRS4), p("trim", Ty::Double), p("with_scale", Ty::Boolean)],
+            arities: &[1, 2, 3],
+            returns: Ty::Struct(&[
+                ("theta", Ty::Double),
+                ("tx", Ty::Double),
+                ("ty", Ty::Double),
+                ("scale", Ty::Double),
+                ("rms", Ty::Double),
+                ("inliers", Ty::Bigint),
+                ("n", Ty::Bigint),
+            ]),
+            kernel: rigid_fit,
+        }],
+        table: None,
+    },
+    Function {
+        name: "rigid_rms",
+        description: "Root mean square of |(fx, fy) - tf(mx, my)| over the pairs: how well a transform explains point pairs (e.g. one track pair's \
+                      traj_correspond under a camera pair's fit). NULL for an empty list.",
+        example: "SELECT rigid_rms([{'fx': 1, 'fy': 0, 'mx': 0, 'my': 0}], {'theta': 0, 'tx': 0, 'ty': 0, 'scale': 1}); -- 1.0",
+        maths: RIGID,
+        binding: file!(),
+        signatures: &[Signature { params: &[p("pairs", PAIRS4), p("tf", TRANSFORM)], arities: &[], returns: Ty::Double, kernel: rigid_rms }],
+        table: None,
+    },
+    Function {
+        name: "traj_correspond",
+        description: "Point pairs for rigid_fit from two tracks of (presumably) the same road user in two cameras with synchronised clocks: for each \
+                      fixed point inside the moving track's time span, the moving track interpolated linearly at that time (not across gaps longer \
+                      than max_gap seconds, default 0.5). rigid_fit(traj_correspond(a, b)) is one transform hypothesis, found in closed form, with no \
+                      initial rotation needed. O(n + m).",
+        example: "SELECT traj_correspond([{'t':1,'x':0,'y':0}], [{'t':0,'x':0,'y':0},{'t':2,'x':4,'y':2}], 3.0); -- [{'fx': 0.0, 'fy': 0.0, 'mx': 2.0, 'my': 1.0}]",
+        maths: "src/algo/align/correspond.rs",
+        binding: file!(),
+        signatures: &[Signature {
+            params: &[p("fixed", TRAJ), p("moving", TRAJ), p("max_gap", Ty::Double)],
+            arities: &[2, 3],
+            returns: PAIRS4,
+            kernel: traj_correspond,
+        }],
+        table: None,
+    },
+    Function {
+        name: "transform_apply",
+        description: "Maps every point of the trajectory with p' = scale*R(theta)*p + (tx, ty); t is unchanged. Use it to bring a camera's tracks into the fixed frame.",
+        example: "SELECT transform_apply([{'t':0,'x':1,'y':0}], {'theta': pi()/2, 'tx': 10, 'ty': 0, 'scale': 1})[1].x; -- 10.0",
+        maths: RIGID,
+        binding: file!(),
+        signatures: &[Signature { params: &[p("traj", TRAJ), p("tf", TRANSFORM)], arities: &[], returns: TRAJ, kernel: transform_apply }],
+        table: None,
+    },
+    Function {
+        name: "transform_point",
+        description: "One point mapped with p' = scale*R(theta)*p + (tx, ty), for point tables: transform_point(f.to_reference, p.x, p.y).x. \
+                      NaN or infinite x/y is an error.",
+        example: "SELECT transform_point({'theta': 0, 'tx': 10, 'ty': -1, 'scale': 2}, 1, 0); -- {'x': 12.0, 'y': -1.0}",
+        maths: RIGID,
+        binding: file!(),
+        signatures: &[Signature {
+            params: &[p("tf", TRANSFORM), p("x", Ty::Double), p("y", Ty::Double)],
+            arities: &[],
+            returns: Ty::Struct(&[("x", Ty::Double), ("y", Ty::Double)]),
+            kernel: transform_point,
+        }],
+        table: None,
+    },
+    Function {
+        name: "transform_compose",
+        description: "a after b: transform_apply(p, transform_compose(a, b)) = transform_apply(transform_apply(p, b), a). To chain camera k -> l -> ref use \
+                      transform_compose(l_to_ref, k_to_l). theta is wrapped to (-pi, pi].",
+        example: "SELECT transform_compose({'theta': 0, 'tx': 1, 'ty': 0, 'scale': 1}, {'theta': 0, 'tx': 0, 'ty': 2, 'scale': 1}); -- {'theta': 0.0, 'tx': 1.0, 'ty': 2.0, 'scale': 1.0}",
+        maths: RIGID,
+        binding: file!(),
+        signatures: &[Signature { params: &[p("a", TRANSFORM), p("b", TRANSFORM)], arities: &[], returns: TRANSFORM, kernel: transform_compose }],
+        table: None,
+    },
+    Function {
+        name: "transform_invert",
+        description: "The inverse transform (fixed frame back to moving frame); transform_compose(tf, transform_invert(tf)) is the identity.",
+        example: "SELECT transform_invert({'theta': 0, 'tx': 3, 'ty': -1, 'scale': 2}); -- {'theta': -0.0, 'tx': -1.5, 'ty': 0.5, 'scale': 0.5}",
+        maths: RIGID,
+        binding: file!(),
+        signatures: &[Signature { params: &[p("tf", TRANSFORM)], arities: &[], returns: TRANSFORM, kernel: transform_invert }],
+        table: None,
+    },
+];
+
+/// The optional `tau, max_iter, tol, with_scale, starts` (columns 3..7) with their defaults,
+/// checked by [`CpdParams::new`]; `None` when one is NULL.
+fn cpd_params<'a>(a: &Args<'a>) -> impl Fn(usize) -> Result<Option<CpdParams>, Box<dyn Error>> + 'a {
+    let (w, tau, max_iter, tol, scale, starts) = (a.double(2), a.opt_double(3), a.opt_bigint(4), a.opt_double(5), a.opt_boolean(6), a.opt_bigint(7));
+    move |r| {
+        let (Some(w), Some(tau), Some(max_iter), Some(tol), Some(scale), Some(starts)) =
+            (w.get(r), tau.or(r, f64::INFINITY), max_iter.or(r, 100), tol.or(r, 1e-5), scale.or(r, false), starts.or(r, 8))
+        else {
+            return Ok(None);
+        };
+        Ok(Some(CpdParams::new(w, Some(tau), max_iter, tol, scale, starts)?))
+    }
+}
+
+/// The statistics every `cpd_align` result ends with.
+fn fit_stats<T>(res: &cpd::CpdResult<T>) -> [Value; 4] {
+    [Value::F64(res.q), Value::F64(res.log_likelihood), Value::F64(res.inlier_fraction), Value::F64(res.rms)]
+}
+
+fn cpd_align(a: &Args<'_>, out: &mut Out<'_>) -> R {
+    let (fixed, moving, params) = (a.traj(0), a.traj(1), cpd_params(a));
+    let vals = a.map(|r| {
+        let (Some(f), Some(m)) = (fixed.get(r)?, moving.get(r)?) else { return Ok(None) };
+        let Some(p) = params(r)? else { return Ok(None) };
+        let res = cpd::align((f.x, f.y, f.t), (m.x, m.y, m.t), &p)?;
+        let t = res.transform;
+        let m = Transform2 { scale: 1.0, ..t }.matrix();
+        let mut v: Vec<Value> = [t.theta, t.tx, t.ty, t.scale, m[0][0], m[0][1], m[1][0], m[1][1], res.sigma2].map(Value::F64).to_vec();
+        v.extend([Value::I64(res.iterations as i64), Value::Bool(res.converged)]);
+        v.extend(fit_stats(&res));
+        v.extend([Value::F64(res.start_theta), Value::I64(res.pairs_in_band as i64)]);
+        Ok(Some(v))
+    })?;
+    out.structs(&vals);
+    Ok(())
+}
+
+fn cpd_align3(a: &Args<'_>, out: &mut Out<'_>) -> R {
+    let (fixed, moving, params) = (a.traj3(0), a.traj3(1), cpd_params(a));
+    let vals = a.map(|r| {
+        let (Some(f), Some(m)) = (fixed.get(r)?, moving.get(r)?) else { return Ok(None) };
+        let Some(p) = params(r)? else { return Ok(None) };
+        let res = cpd3::align3((f.x, f.y, f.z, f.t), (m.x, m.y, m.z, m.t), &p)?;
+        let t = &res.transform;
+        let mut v: Vec<Value> = t.r.iter().flat_map(|row| row.iter().map(|&x| Value::F64(x))).collect();
+        v.extend([t.t[0], t.t[1], t.t[2], t.scale, res.sigma2].map(Value::F64));
+        v.extend([Value::I64(res.iterations as i64), Value::Bool(res.converged)]);
+        v.extend(fit_stats(&res));
+        v.push(Value::I64(res.pairs_in_band as i64));
+        Ok(Some(v))
+    })?;
+    out.structs(&vals);
+    Ok(())
+}
+
+fn rigid_fit(a: &Args<'_>, out: &mut Out<'_>) -> R {
+    let (pairs, trim, scale) = (a.struct_list(0), a.opt_double(1), a.opt_boolean(2));
+    let vals = a.map(|r| {
+        let Some(c) = pairs.get(r)? else { return Ok(None) };
+        let (Some(trim), Some(with_scale)) = (trim.or(r, 0.0), scale.or(r, false)) else { return Ok(None) };
+        rigid::check_pairs(c.f64(0), c.f64(1), c.f64(2), c.f64(3))?;
+        let f = rigid::fit_trimmed(c.f64(0), c.f64(1), c.f64(2), c.f64(3), trim, with_scale)?;
+        let t = f.transform;
+        let kept = f.inliers.iter().filter(|&&b| b).count();
+        let mut v: Vec<Value> = [t.theta, t.tx, t.ty, t.scale, f.rms].map(Value::F64).to_vec();
+        v.extend([Value::I64(kept as i64), Value::I64(f.inliers.len() as i64)]);
+        Ok(Some(v))
+    })?;
+    out.structs(&vals);
+    Ok(())
+}
+
+/// A transform argument, checked by [`Transform2::validate`].
+fn transform(c: &StructCol<'_>, a: &Args<'_>, col: usize, r: usize) -> Result<Option<Transform2>, Box<dyn Error>> {
+    let Some(v) = c.get(r)? else { return Ok(None) };
+    let t = Transform2::new(v[0], v[1], v[2], v[3]);
+    t.validate().map_err(|e| format!("{}: {e}", a.name(col)))?;
+    Ok(Some(t))
+}
+
+fn rigid_rms(a: &Args<'_>, out: &mut Out<'_>) -> R {
+    let (pairs, tf) = (a.struct_list(0), a.structure(1));
+    let vals = a.map(|r| {
+        let (Some(c), Some(t)) = (pairs.get(r)?, transform(&tf, a, 1, r)?) else { return Ok(None) };
+        rigid::check_pairs(c.f64(0), c.f64(1), c.f64(2), c.f64(3))?;
+        Ok((!c.is_empty()).then(|| rigid::residual_rms(&t, c.f64(0), c.f64(1), c.f64(2), c.f64(3), &[])))
+    })?;
+    out.flat(&vals);
+    Ok(())
+}
+
+fn traj_correspond(a: &Args<'_>, out: &mut Out<'_>) -> R {
+    let (fixed, moving, gap) = (a.traj(0), a.traj(1), a.opt_double(2));
+    let vals: Vec<Option<Pairs>> = a.map(|r| {
+        let (Some(f), Some(m), Some(g)) = (fixed.get(r)?, moving.get(r)?, gap.or(r, 0.5)) else { return Ok(None) };
+        Ok(Some(correspond::correspond(f, m, g)?))
+    })?;
+    let cols: Vec<_> =
+        vals.iter().map(|v| v.as_ref().map(|p| vec![Column::F64(&p.fx), Column::F64(&p.fy), Column::F64(&p.mx), Column::F64(&p.my)])).collect();
+    out.struct_lists(&cols);
+    Ok(())
+}
+
+fn transform_apply(a: &Args<'_>, out: &mut Out<'_>) -> R {
+    let (tr, tf) = (a.traj(0), a.structure(1));
+    let vals = a.map(|r| {
+        let (Some(x), Some(t)) = (tr.get(r)?, transform(&tf, a, 1, r)?) else { return Ok(None) };
+        Ok(Some(t.apply_traj(x)))
+    })?;
+    out.trajs(&vals);
+    Ok(())
+}
+
+fn transform_point(a: &Args<'_>, out: &mut Out<'_>) -> R {
+    let (tf, x, y) = (a.structure(0), a.double(1), a.double(2));
+    let vals = a.map(|r| {
+        let (Some(t), Some(x), Some(y)) = (transform(&tf, a, 0, r)?, x.get(r), y.get(r)) else { return Ok(None) };
+        let (px, py) = t.apply_checked(x, y)?;
+        Ok(Some(vec![Value::F64(px), Value::F64(py)]))
+    })?;
+    out.structs(&vals);
+    Ok(())
+}
+
+fn tf_values(t: Transform2) -> Vec<Value> {
+    [t.theta, t.tx, t.ty, t.scale].map(Value::F64).to_vec()
+}
+
+fn transform_compose(a: &Args<'_>, out: &mut Out<'_>) -> R {
+    let (ta, tb) = (a.structure(0), a.structure(1));
+    let vals = a.map(|r| {
+        let (Some(x), Some(y)) = (transform(&ta, a, 0, r)?, transform(&tb, a, 1, r)?) else { return Ok(None) };
+        Ok(Some(tf_values(x.compose(&y))))
+    })?;
+    out.structs(&vals);
+    Ok(())
+}
+
+fn transform_invert(a: &Args<'_>, out: &mut Out<'_>) -> R {
+    let tf = a.structure(0);
+    out.structs(&a.map(|r| Ok(transform(&tf, a, 0, r)?.map(|t| tf_values(t.invert()))))?);
+    Ok(())
+}

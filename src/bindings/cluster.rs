@@ -1,0 +1,174 @@
+//! SQL: agglomerative clustering. Maths: `src/algo/cluster/` (linkage.rs for the pairwise
+//! forms, traj_cluster.rs for trajectories in one call), Buzan et al. sections 4.3–4.5.
+
+use super::registry::{p, Function, Param, Signature, Ty, TRAJ};
+use super::vector::{Args, Column, Out, StructListCol, TextCol};
+use crate::algo::cluster::linkage::{self, Cut, Dendrogram, Linkage};
+use crate::algo::cluster::traj_cluster::{self, Similarity};
+use crate::algo::lcss::index::IndexParams;
+use std::error::Error;
+
+type R = Result<(), Box<dyn Error>>;
+const LINKAGE: &str = "src/algo/cluster/linkage.rs";
+
+const PAIRS: Ty = Ty::List(&Ty::Struct(&[("a", Ty::Bigint), ("b", Ty::Bigint), ("distance", Ty::Double)]));
+const ASSIGNMENT: Ty = Ty::List(&Ty::Struct(&[("id", Ty::Bigint), ("cluster", Ty::Integer)]));
+const PAIRS_METHOD: [Param; 2] = [p("pairs", PAIRS), p("method", Ty::Varchar)];
+
+pub static FUNCTIONS: &[Function] = &[
+    Function {
+        name: "agglomerative_cluster",
+        description: "Hierarchical clustering of the ids in pairs (e.g. track pairs with 1 - lcss similarity as distance), cut so that every merge \
+                      of height <= threshold is applied (scipy fcluster 'distance'). method: 'single', 'complete', 'average', 'weighted' or 'ward' \
+                      (kodama, the fastcluster algorithms scipy uses). A pair absent from the list, or with distance 'inf', is a cannot-link: under \
+                      complete, average and weighted linkage such ids never share a cluster; single linkage still joins them through a chain of close \
+                      pairs (its definition). Ward assumes Euclidean distances and needs every pair: missing or infinite pairs are an error. \
+                      Clusters are numbered 1.. by their smallest id; duplicated pairs keep the smallest distance; NaN or negative distances and \
+                      self pairs are errors; an empty list gives an empty list.",
+        example: "SELECT agglomerative_cluster([{'a': 1, 'b': 2, 'distance': 0.1}, {'a': 2, 'b': 3, 'distance': 0.2}, {'a': 1, 'b': 3, 'distance': 0.9}], 'average', 0.3); -- [{'id': 1, 'cluster': 1}, {'id': 2, 'cluster': 1}, {'id': 3, 'cluster': 2}]",
+        maths: LINKAGE,
+        binding: file!(),
+        signatures: &[Signature {
+            params: &[PAIRS_METHOD[0], PAIRS_METHOD[1], p("threshold", Ty::Double)],
+            arities: &[],
+            returns: ASSIGNMENT,
+            kernel: cluster_threshold,
+        }],
+        table: None,
+    },
+    Function {
+        name: "agglomerative_cluster_k",
+        description: "As agglomerative_cluster, cut at k clusters (scipy fcluster 'maxclust': the lowest merge height that leaves at most k clusters; \
+                      tied heights can give fewer). Merges at infinite distance (cannot-link) are never applied, so more than k clusters come back \
+                      when the cannot-links require it.",
+        example: "SELECT agglomerative_cluster_k([{'a': 1, 'b': 2, 'distance': 0.1}, {'a': 2, 'b': 3, 'distance': 0.2}, {'a': 1, 'b': 3, 'distance': 0.9}], 'single', 1); -- [{'id': 1, 'cluster': 1}, {'id': 2, 'cluster': 1}, {'id': 3, 'cluster': 1}]",
+        maths: LINKAGE,
+        binding: file!(),
+        signatures: &[Signature {
+            params: &[PAIRS_METHOD[0], PAIRS_METHOD[1], p("k", Ty::Bigint)],
+            arities: &[],
+            returns: ASSIGNMENT,
+            kernel: cluster_k,
+        }],
+        table: None,
+    },
+    Function {
+        name: "agglomerative_dendrogram",
+        description: "The merges in scipy's linkage format, for plotting: leaves 0..n-1 are the ids in increasing order, merge i creates cluster n + i; \
+                      left < right; distance 'inf' for merges forced across cannot-link pairs. Same methods and input rules as agglomerative_cluster.",
+        example: "SELECT agglomerative_dendrogram([{'a': 7, 'b': 9, 'distance': 0.5}, {'a': 7, 'b': 8, 'distance': 0.25}, {'a': 8, 'b': 9, 'distance': 1}], 'complete'); -- [{'left': 0, 'right': 1, 'distance': 0.25, 'size': 2}, {'left': 2, 'right': 3, 'distance': 1.0, 'size': 3}]",
+        maths: LINKAGE,
+        binding: file!(),
+        signatures: &[Signature {
+            params: &PAIRS_METHOD,
+            arities: &[],
+            returns: Ty::List(&Ty::Struct(&[("left", Ty::Bigint), ("right", Ty::Bigint), ("distance", Ty::Double), ("size", Ty::Bigint)])),
+            kernel: dendrogram,
+        }],
+        table: None,
+    },
+    Function {
+        name: "traj_cluster",
+        description: "Clusters trajectories in one call: the distance of every pair is 1 - min(S_x, S_y) of Buzan's S1 (delta samples of time warping, \
+                      epsilon metres, length ratio rho in (0, 1], default: no ratio test), or of S2 when translation_invariant is true; all pairs are computed in \
+                      parallel straight into the distance matrix (no pair rows), and the linkage and cut are agglomerative_cluster's. A pair with no \
+                      common subsequence is a cannot-link; a trajectory with no similar trajectory at all gets cluster 0, the others 1.. by smallest \
+                      id. Use it with list(id ORDER BY id), list(traj ORDER BY id) over a GROUP BY; it is the fast form of lcss_s1 pairs + \
+                      agglomerative_cluster. Errors: lists of different lengths, duplicate ids, NULL elements, the parameter rules of lcss_s1 and \
+                      agglomerative_cluster; more than 80,000 trajectories.",
+        example: "SELECT traj_cluster([1, 2, 3], [[{'t':0,'x':0,'y':0},{'t':1,'x':1,'y':0}], [{'t':0,'x':0,'y':0.1},{'t':1,'x':1,'y':0.1}], [{'t':0,'x':50,'y':50},{'t':1,'x':51,'y':50}]], 'average', 0.5, 1, 1.0); -- [{'id': 1, 'cluster': 1}, {'id': 2, 'cluster': 1}, {'id': 3, 'cluster': 0}]",
+        maths: "src/algo/cluster/traj_cluster.rs",
+        binding: file!(),
+        signatures: &[Signature {
+            params: &[
+                p("ids", Ty::List(&Ty::Bigint)),
+                p("trajs", Ty::List(&TRAJ)),
+                p("method", Ty::Varchar),
+                p("threshold", Ty::Double),
+                p("delta", Ty::Bigint),
+                p("epsilon", Ty::Double),
+                p("rho", Ty::Double),
+                p("translation_invariant", Ty::Boolean),
+            ],
+            arities: &[6, 7, 8],
+            returns: ASSIGNMENT,
+            kernel: traj_cluster,
+        }],
+        table: None,
+    },
+];
+
+/// The dendrogram of one row's pairs and method.
+fn dendrogram_of(pairs: &StructListCol<'_>, methods: &TextCol<'_>, r: usize) -> Result<Option<Dendrogram>, Box<dyn Error>> {
+    let (Some(rows), Some(method)) = (pairs.get(r)?, methods.get(r)) else { return Ok(None) };
+    let method = Linkage::parse(&method)?;
+    let p: Vec<(i64, i64, f64)> = (0..rows.len()).map(|k| (rows.i64(0)[k], rows.i64(1)[k], rows.f64(2)[k])).collect();
+    Ok(Some(linkage::dendrogram(&p, method)?))
+}
+
+/// Writes `STRUCT(id BIGINT, cluster INTEGER)[]` rows.
+fn write_assignments(out: &mut Out<'_>, vals: &[Option<(Vec<i64>, Vec<u32>)>]) {
+    let as_i32: Vec<Option<(&Vec<i64>, Vec<i32>)>> = vals.iter().map(|v| v.as_ref().map(|(ids, c)| (ids, c.iter().map(|&x| x as i32).collect()))).collect();
+    let cols: Vec<_> = as_i32.iter().map(|v| v.as_ref().map(|(ids, c)| vec![Column::I64(ids), Column::I32(c)])).collect();
+    out.struct_lists(&cols);
+}
+
+/// Both flat cuts; `cut` reads column 2 of a row.
+fn cluster_with(a: &Args<'_>, out: &mut Out<'_>, cut: impl Fn(usize) -> Result<Option<Cut>, Box<dyn Error>>) -> R {
+    let (pairs, methods) = (a.struct_list(0), a.text(1));
+    let vals = a.map(|r| {
+        let Some(c) = cut(r)? else { return Ok(None) };
+        let Some(d) = dendrogram_of(&pairs, &methods, r)? else { return Ok(None) };
+        let labels = linkage::flat(&d, c);
+        Ok(Some((d.ids, labels)))
+    })?;
+    write_assignments(out, &vals);
+    Ok(())
+}
+
+fn cluster_threshold(a: &Args<'_>, out: &mut Out<'_>) -> R {
+    let t = a.double(2);
+    cluster_with(a, out, |r| Ok(t.get(r).map(Cut::threshold).transpose()?))
+}
+
+fn cluster_k(a: &Args<'_>, out: &mut Out<'_>) -> R {
+    let k = a.bigint(2);
+    cluster_with(a, out, |r| Ok(k.get(r).map(Cut::k).transpose()?))
+}
+
+fn dendrogram(a: &Args<'_>, out: &mut Out<'_>) -> R {
+    let (pairs, methods) = (a.struct_list(0), a.text(1));
+    let vals = a.map(|r| {
+        let Some(d) = dendrogram_of(&pairs, &methods, r)? else { return Ok(None) };
+        let m = &d.merges;
+        Ok(Some((
+            m.iter().map(|x| x.left as i64).collect::<Vec<_>>(),
+            m.iter().map(|x| x.right as i64).collect::<Vec<_>>(),
+            m.iter().map(|x| x.distance).collect::<Vec<_>>(),
+            m.iter().map(|x| x.size as i64).collect::<Vec<_>>(),
+        )))
+    })?;
+    let cols: Vec<_> =
+        vals.iter().map(|v| v.as_ref().map(|(l, r, d, s)| vec![Column::I64(l), Column::I64(r), Column::F64(d), Column::I64(s)])).collect();
+    out.struct_lists(&cols);
+    Ok(())
+}
+
+fn traj_cluster(a: &Args<'_>, out: &mut Out<'_>) -> R {
+    let (ids, trajs, methods, thr, delta, eps) = (a.i64_list(0), a.traj_list(1), a.text(2), a.double(3), a.bigint(4), a.double(5));
+    let (rho, ti) = (a.opt_double(6), a.opt_boolean(7));
+    let vals = a.map(|r| {
+        let (Some(id), Some(tr), Some(method), Some(t), Some(d), Some(e)) = (ids.get(r)?, trajs.get(r)?, methods.get(r), thr.get(r), delta.get(r), eps.get(r))
+        else {
+            return Ok(None);
+        };
+        let (Some(rho), Some(translation_invariant)) = (rho.opt(r), ti.or(r, false)) else { return Ok(None) };
+        let sim = if translation_invariant { Similarity::S2 } else { Similarity::S1 };
+        let cut = Cut::threshold(t)?;
+        let method = Linkage::parse(&method)?;
+        let p = IndexParams::new(d, e, rho)?;
+        Ok(Some(traj_cluster::cluster_trajectories(id, &tr, &p, sim, method, cut)?))
+    })?;
+    write_assignments(out, &vals);
+    Ok(())
+}

@@ -1,0 +1,179 @@
+//! SQL: events between the tracks of one camera (Zhao et al. III.A) and object / fragment /
+//! group labels (section IV). Maths: `src/algo/events.rs`.
+
+use super::registry::{p, Function, Param, Signature, Ty, GEOMETRY};
+use super::vector::{Args, Column, Out, RegionCol, Rows};
+use crate::algo::events::{self, Endpoints, EventParams, LabelParams};
+use std::error::Error;
+use std::rc::Rc;
+
+type R = Result<(), Box<dyn Error>>;
+const MATHS: &str = "src/algo/events.rs";
+
+/// The endpoint fields both functions read first.
+macro_rules! endpoint_fields {
+    ($($extra:expr),*) => {
+        Ty::List(&Ty::Struct(&[
+            ("id", Ty::Bigint),
+            ("t0", Ty::Double),
+            ("x0", Ty::Double),
+            ("y0", Ty::Double),
+            ("t1", Ty::Double),
+            ("x1", Ty::Double),
+            ("y1", Ty::Double),
+            ("vx1", Ty::Double),
+            ("vy1", Ty::Double),
+            $($extra),*
+        ]))
+    };
+}
+const ENDPOINTS: Ty = endpoint_fields!();
+const LABEL_TRACKS: Ty = endpoint_fields!(("vx0", Ty::Double), ("vy0", Ty::Double));
+const GAP_DIST: [Param; 3] = [p("max_gap", Ty::Double), p("max_dist", Ty::Double), p("interior", GEOMETRY)];
+
+pub static FUNCTIONS: &[Function] = &[
+    Function {
+        name: "traj_events",
+        description: "Events between the tracks of one camera, from their endpoints (first point, last point, velocity at the end): for a track a \
+                      that ends and a track b that starts within max_gap seconds after it, b is near a when b's first point lies within max_dist metres \
+                      of a's end moved on at a's final velocity for the gap. 'broken' a -> b: b is the only start near a's end and a the only end near \
+                      b's start; 'split': several starts near one end; 'merge': several ends near one start. With interior (the view polygon shrunk by \
+                      an inset, e.g. polygon_buffer(view_polygon(...), -3)), only endpoints inside it count: objects enter and leave at the margins. \
+                      sql/quality.sql builds the endpoints and links broken tracks.",
+        example: "SELECT traj_events([{'id': 1, 't0': 0, 'x0': 0, 'y0': 0, 't1': 10, 'x1': 10, 'y1': 0, 'vx1': 1, 'vy1': 0}, {'id': 2, 't0': 11.5, 'x0': 11.6, 'y0': 0, 't1': 20, 'x1': 20, 'y1': 0, 'vx1': 1, 'vy1': 0}], 2, 1); -- [{'kind': broken, 'from_id': 1, 'to_id': 2, 'gap': 1.5, 'distance': 0.09999999999999964}]",
+        maths: MATHS,
+        binding: file!(),
+        signatures: &[Signature {
+            params: &[p("tracks", ENDPOINTS), GAP_DIST[0], GAP_DIST[1], GAP_DIST[2]],
+            arities: &[3, 4],
+            returns: Ty::List(&Ty::Struct(&[
+                ("kind", Ty::Varchar),
+                ("from_id", Ty::Bigint),
+                ("to_id", Ty::Bigint),
+                ("gap", Ty::Double),
+                ("distance", Ty::Double),
+            ])),
+            kernel: traj_events,
+        }],
+        table: None,
+    },
+    Function {
+        name: "traj_labels",
+        description: "Labels each track object, fragment or group (Zhao et al. IV) on the interaction graph of traj_events (same first arguments, plus the \
+                      starting velocity vx0, vy0): the tracks a split produces (or the tracks that merge) are compared pairwise by motion coherency, eq. 3-5 \
+                      (speed and heading differences, zero-mean Gaussians with sigma for one object and tau for different objects; defaults 0.5 m/s, \
+                      0.25 rad, 3 m/s, 1.5 rad, threshold 0.7): coherent ones are fragments of one object, otherwise they are objects and their parent a \
+                      group; tracks in no split or merge are objects. Shape coherency (eq. 1-2) needs object extents, which tracks do not carry: skipped. \
+                      coherence is the minimum pairwise posterior of the set the track belongs to (1 if none).",
+        example: "SELECT traj_labels([{'id': 1, 't0': 0, 'x0': 0, 'y0': 0, 't1': 10, 'x1': 10, 'y1': 0, 'vx1': 1, 'vy1': 0, 'vx0': 1, 'vy0': 0}, {'id': 2, 't0': 10.5, 'x0': 10.5, 'y0': 0.5, 't1': 20, 'x1': 20, 'y1': 9, 'vx1': 1, 'vy1': 1, 'vx0': 1, 'vy0': 1}, {'id': 3, 't0': 10.5, 'x0': 10.5, 'y0': -0.5, 't1': 20, 'x1': 20, 'y1': -9, 'vx1': 1, 'vy1': -1, 'vx0': 1, 'vy0': -1}], 2, 1); -- [{'id': 1, 'label': group, 'coherence': 1.0}, {'id': 2, 'label': object, 'coherence': 1.6664855972319293e-07}, {'id': 3, 'label': object, 'coherence': 1.6664855972319293e-07}]",
+        maths: MATHS,
+        binding: file!(),
+        signatures: &[Signature {
+            params: &[
+                p("tracks", LABEL_TRACKS),
+                GAP_DIST[0],
+                GAP_DIST[1],
+                GAP_DIST[2],
+                p("sigma_speed", Ty::Double),
+                p("sigma_heading", Ty::Double),
+                p("tau_speed", Ty::Double),
+                p("tau_heading", Ty::Double),
+                p("threshold", Ty::Double),
+            ],
+            arities: &[3, 4, 9],
+            returns: Ty::List(&Ty::Struct(&[("id", Ty::Bigint), ("label", Ty::Varchar), ("coherence", Ty::Double)])),
+            kernel: traj_labels,
+        }],
+        table: None,
+    },
+];
+
+/// The endpoints of one row's tracks (the first nine fields of both track types).
+fn endpoints(f: &Rows<'_>) -> Vec<Endpoints> {
+    (0..f.len())
+        .map(|k| {
+            let d = |i: usize| f.f64(i)[k];
+            Endpoints { id: f.i64(0)[k], t0: d(1), x0: d(2), y0: d(3), t1: d(4), x1: d(5), y1: d(6), vx1: d(7), vy1: d(8) }
+        })
+        .collect()
+}
+
+/// `max_gap`, `max_dist` (checked by [`EventParams::new`]) and the optional interior of `row`;
+/// `None` when one is NULL.
+fn event_args<'a>(a: &Args<'a>) -> impl Fn(usize) -> Result<Option<(EventParams, Option<Rc<crate::algo::geometry::region::Region>>)>, Box<dyn Error>> + 'a {
+    let (gap, dist) = (a.double(1), a.double(2));
+    let interior: Option<RegionCol<'a>> = a.opt_region(3);
+    move |r| {
+        let (Some(g), Some(d)) = (gap.get(r), dist.get(r)) else { return Ok(None) };
+        let p = EventParams::new(g, d)?;
+        let region = match &interior {
+            None => None,
+            Some(c) => match c.get(r)? {
+                None => return Ok(None),
+                v => v,
+            },
+        };
+        Ok(Some((p, region)))
+    }
+}
+
+fn traj_events(a: &Args<'_>, out: &mut Out<'_>) -> R {
+    let (tracks, args) = (a.struct_list(0), event_args(a));
+    let vals = a.map(|r| {
+        let Some(f) = tracks.get(r)? else { return Ok(None) };
+        let Some((p, region)) = args(r)? else { return Ok(None) };
+        Ok(Some(events::events(&endpoints(&f), region.as_deref(), &p)?))
+    })?;
+    let split: Vec<Option<_>> = vals
+        .iter()
+        .map(|v| {
+            v.as_ref().map(|ev: &Vec<events::Event>| {
+                let kind: Vec<&str> = ev.iter().map(|e| e.kind.as_str()).collect();
+                let from: Vec<i64> = ev.iter().map(|e| e.from).collect();
+                let to: Vec<i64> = ev.iter().map(|e| e.to).collect();
+                let gap: Vec<f64> = ev.iter().map(|e| e.gap).collect();
+                let dist: Vec<f64> = ev.iter().map(|e| e.dist).collect();
+                (kind, from, to, gap, dist)
+            })
+        })
+        .collect();
+    let cols: Vec<_> = split
+        .iter()
+        .map(|v| v.as_ref().map(|(k, f, t, g, d)| vec![Column::Text(k), Column::I64(f), Column::I64(t), Column::F64(g), Column::F64(d)]))
+        .collect();
+    out.struct_lists(&cols);
+    Ok(())
+}
+
+fn traj_labels(a: &Args<'_>, out: &mut Out<'_>) -> R {
+    let (tracks, args) = (a.struct_list(0), event_args(a));
+    let coherency: Vec<_> = (4..9).map(|c| a.opt_double(c)).collect();
+    let vals = a.map(|r| {
+        let Some(f) = tracks.get(r)? else { return Ok(None) };
+        let Some((p, region)) = args(r)? else { return Ok(None) };
+        let lp = if a.given(4) {
+            let v: Option<Vec<f64>> = coherency.iter().map(|c| c.or(r, f64::NAN)).collect();
+            let Some(v) = v else { return Ok(None) };
+            LabelParams::new(v[0], v[1], v[2], v[3], v[4])?
+        } else {
+            LabelParams::default()
+        };
+        let ends = endpoints(&f);
+        let tracks: Vec<(Endpoints, f64, f64)> = ends.into_iter().enumerate().map(|(k, e)| (e, f.f64(9)[k], f.f64(10)[k])).collect();
+        Ok(Some(events::label_tracks(&tracks, region.as_deref(), &p, &lp)?))
+    })?;
+    let split: Vec<Option<_>> = vals
+        .iter()
+        .map(|v| {
+            v.as_ref().map(|l: &Vec<(i64, events::Label, f64)>| {
+                let id: Vec<i64> = l.iter().map(|x| x.0).collect();
+                let label: Vec<&str> = l.iter().map(|x| x.1.as_str()).collect();
+                let coh: Vec<f64> = l.iter().map(|x| x.2).collect();
+                (id, label, coh)
+            })
+        })
+        .collect();
+    let cols: Vec<_> = split.iter().map(|v| v.as_ref().map(|(i, l, c)| vec![Column::I64(i), Column::Text(l), Column::F64(c)])).collect();
+    out.struct_lists(&cols);
+    Ok(())
+}

@@ -1,0 +1,255 @@
+//! SQL: the LCSS family. Maths: `src/algo/lcss/` (time_window.rs for the thesis's eq. 2.9/2.10
+//! and the 1-D series form, index.rs for Buzan's S1, translate.rs for S2).
+
+use super::registry::{p, Function, Param, Signature, Ty, GEOMETRY, SERIES, TRAJ};
+use super::vector::{Args, Column, Out, Value};
+use crate::algo::lcss::index::{self, IndexParams};
+use crate::algo::lcss::time_window::{self as tw, TimeWindowParams};
+use crate::algo::lcss::translate;
+use std::error::Error;
+
+type R = Result<(), Box<dyn Error>>;
+const TW_MATHS: &str = "src/algo/lcss/time_window.rs";
+const INDEX_MATHS: &str = "src/algo/lcss/index.rs";
+
+/// `(a, b, epsilon, time_window [, min_points [, region]])` of the time-window forms.
+const TW_PARAMS: &[Param] =
+    &[p("a", TRAJ), p("b", TRAJ), p("epsilon", Ty::Double), p("time_window", Ty::Double), p("min_points", Ty::Bigint), p("region", GEOMETRY)];
+const TW_ARITIES: &[usize] = &[4, 5, 6];
+/// `(a, b, epsilon, time_window [, min_points])` of the series forms.
+const SERIES_PARAMS: &[Param] = &[p("a", SERIES), p("b", SERIES), p("epsilon", Ty::Double), p("time_window", Ty::Double), p("min_points", Ty::Bigint)];
+/// `(a, b, delta, epsilon [, rho])` of the index-window forms.
+const INDEX_PARAMS: &[Param] = &[p("a", TRAJ), p("b", TRAJ), p("delta", Ty::Bigint), p("epsilon", Ty::Double), p("rho", Ty::Double)];
+const PAIRS: Ty = Ty::List(&Ty::Struct(&[("i", Ty::Integer), ("j", Ty::Integer)]));
+
+pub static FUNCTIONS: &[Function] = &[
+    Function {
+        name: "lcss_length",
+        description: "Longest common subsequence L(eps, T, xi) of thesis eq. 2.9: points match when their distance is < epsilon (metres) \
+                      and their time difference is < time_window (seconds). 0 when either side has fewer than min_points points. \
+                      With region (WKT or WKB polygon) only points inside it take part, and min_points counts them after the restriction. \
+                      Banded: O((n+m)*w) time with w the points of the other trajectory within time_window; O(n+m) memory.",
+        example: "SELECT lcss_length(a, b, 1.0, 0.5) FROM (SELECT [{'t':0,'x':0,'y':0},{'t':1,'x':1,'y':0}] AS a, [{'t':0.1,'x':0.2,'y':0},{'t':1.1,'x':1.2,'y':0}] AS b); -- 2",
+        maths: TW_MATHS,
+        binding: file!(),
+        signatures: &[Signature { params: TW_PARAMS, arities: TW_ARITIES, returns: Ty::Bigint, kernel: length }],
+        table: None,
+    },
+    Function {
+        name: "lcss_similarity",
+        description: "eta of thesis eq. 2.10: lcss_length / min(|a|, |b|), in [0, 1]; 0 for an empty side or one with fewer than min_points points. \
+                      With region, both lengths are counted inside the region (P^{k∩l} in the thesis).",
+        example: "SELECT lcss_similarity(a, b, 1.0, 0.5, 2, 'POLYGON((-1 -1, 5 -1, 5 5, -1 5, -1 -1))') FROM (SELECT [{'t':0,'x':0,'y':0},{'t':1,'x':1,'y':0}] AS a, [{'t':0.1,'x':0.2,'y':0},{'t':1.1,'x':1.2,'y':0}] AS b); -- 1.0",
+        maths: TW_MATHS,
+        binding: file!(),
+        signatures: &[Signature { params: TW_PARAMS, arities: TW_ARITIES, returns: Ty::Double, kernel: similarity }],
+        table: None,
+    },
+    Function {
+        name: "lcss_distance",
+        description: "1 - lcss_similarity, in [0, 1], for clustering. Buzan's D = 1/S (eq. 4.7, in [1, inf]) is 1.0 / lcss_similarity(...) in SQL.",
+        example: "SELECT lcss_distance([{'t':0,'x':0,'y':0}], [{'t':0,'x':5,'y':0}], 1.0, 1.0); -- 1.0",
+        maths: TW_MATHS,
+        binding: file!(),
+        signatures: &[Signature { params: TW_PARAMS, arities: TW_ARITIES, returns: Ty::Double, kernel: distance }],
+        table: None,
+    },
+    Function {
+        name: "lcss_matches",
+        description: "The matched point pairs of one longest common subsequence, by backtracking (thesis section 2.3): 1-based positions \
+                      into a and b (so a[i] and b[j] index the inputs directly, also with a region), increasing in both. \
+                      Ties prefer the latest match. Empty when nothing matches.",
+        example: "SELECT lcss_matches([{'t':0,'x':0,'y':0},{'t':1,'x':1,'y':0}], [{'t':1.1,'x':1.2,'y':0}], 1.0, 0.5); -- [{'i': 2, 'j': 1}]",
+        maths: TW_MATHS,
+        binding: file!(),
+        signatures: &[Signature { params: TW_PARAMS, arities: TW_ARITIES, returns: PAIRS, kernel: matches }],
+        table: None,
+    },
+    Function {
+        name: "lcss_series_length",
+        description: "1-D time-window LCSS on series such as traj_speeds(...): match when |v_a - v_b| < epsilon (series units) and |t_a - t_b| < time_window.",
+        example: "SELECT lcss_series_length([{'t':0,'v':1.0},{'t':1,'v':2.0}], [{'t':0.2,'v':1.5},{'t':1.2,'v':2.1}], 1.0, 0.5); -- 2",
+        maths: TW_MATHS,
+        binding: file!(),
+        signatures: &[Signature { params: SERIES_PARAMS, arities: &[4, 5], returns: Ty::Bigint, kernel: series_length }],
+        table: None,
+    },
+    Function {
+        name: "lcss_series_similarity",
+        description: "lcss_series_length / min(|a|, |b|). The thesis's coordinate-free speed pre-match is \
+                      lcss_series_similarity(traj_speeds(a), traj_speeds(b), 2.0, 1.0) >= 0.8.",
+        example: "SELECT lcss_series_similarity([{'t':0,'v':1.0},{'t':1,'v':2.0}], [{'t':0.2,'v':1.5},{'t':1.2,'v':5.0}], 1.0, 0.5); -- 0.5",
+        maths: TW_MATHS,
+        binding: file!(),
+        signatures: &[Signature { params: SERIES_PARAMS, arities: &[4, 5], returns: Ty::Double, kernel: series_similarity }],
+        table: None,
+    },
+    Function {
+        name: "lcss_series_matches",
+        description: "Matched 1-based index pairs of the 1-D form.",
+        example: "SELECT lcss_series_matches([{'t':0,'v':1.0},{'t':1,'v':2.0}], [{'t':0.2,'v':1.5}], 1.0, 0.5); -- [{'i': 1, 'j': 1}]",
+        maths: TW_MATHS,
+        binding: file!(),
+        signatures: &[Signature { params: SERIES_PARAMS, arities: &[4, 5], returns: PAIRS, kernel: series_matches }],
+        table: None,
+    },
+    Function {
+        name: "lcss_index_similarity",
+        description: "Index-window LCSS with one 2-D match: ||a_i - b_j|| < epsilon and |i - j| <= delta (list positions, t unused), \
+                      divided by min(n, m); 0 when min(n,m) < rho*max(n,m). Equals tslearn's lcss(a, b, eps, sakoe_chiba_radius=delta) \
+                      on equal-length inputs for delta >= 1 (for delta = 0 tslearn 0.10 returns only the trailing run of matches; this is the true LCSS). O(delta*(n+m)) (Buzan lemma 4.1).",
+        example: "SELECT lcss_index_similarity([{'t':0,'x':0,'y':0},{'t':1,'x':1,'y':0}], [{'t':0,'x':0.1,'y':0},{'t':1,'x':5,'y':0}], 1, 0.5); -- 0.5",
+        maths: INDEX_MATHS,
+        binding: file!(),
+        signatures: &[Signature { params: INDEX_PARAMS, arities: &[4, 5], returns: Ty::Double, kernel: index_similarity }],
+        table: None,
+    },
+    Function {
+        name: "lcss_s1",
+        description: "Buzan's S1_2D (def. 4.1/4.2): per-axis LCSS (|a_x - b_x| < epsilon, |i - j| <= delta) over min(n, m); \
+                      both 0 when min(n,m) < rho*max(n,m). Buzan's distance D1 = 1/S1 per axis.",
+        example: "SELECT lcss_s1([{'t':0,'x':0,'y':0},{'t':1,'x':1,'y':0}], [{'t':0,'x':0.1,'y':9},{'t':1,'x':1.1,'y':9}], 1, 0.5); -- {'sx': 1.0, 'sy': 0.0}",
+        maths: INDEX_MATHS,
+        binding: file!(),
+        signatures: &[Signature {
+            params: INDEX_PARAMS,
+            arities: &[4, 5],
+            returns: Ty::Struct(&[("sx", Ty::Double), ("sy", Ty::Double)]),
+            kernel: s1,
+        }],
+        table: None,
+    },
+    Function {
+        name: "lcss_s2",
+        description: "Buzan's translation-invariant S2_2D (def. 4.3): the best S1 over all translations of b, searched per axis over the \
+                      O(delta*(n+m)) candidate translations of lemma 4.2 with branch-and-bound pruning; (cx, cy) is a translation that \
+                      achieves it (add it to b).",
+        example: "SELECT lcss_s2([{'t':0,'x':0,'y':0},{'t':1,'x':1,'y':1}], [{'t':0,'x':10,'y':20},{'t':1,'x':11,'y':21}], 1, 0.5); -- sx = sy = 1, cx ~ -10, cy ~ -20",
+        maths: "src/algo/lcss/translate.rs",
+        binding: file!(),
+        signatures: &[Signature {
+            params: INDEX_PARAMS,
+            arities: &[4, 5],
+            returns: Ty::Struct(&[("sx", Ty::Double), ("sy", Ty::Double), ("cx", Ty::Double), ("cy", Ty::Double)]),
+            kernel: s2,
+        }],
+        table: None,
+    },
+];
+
+/// The time-window parameters of `row` (columns 2, 3 and the optional 4); `None` when one is NULL.
+fn tw_params<'a>(a: &Args<'a>) -> impl Fn(usize) -> Result<Option<TimeWindowParams>, Box<dyn Error>> + 'a {
+    let (eps, t, xi) = (a.double(2), a.double(3), a.opt_bigint(4));
+    move |r| {
+        let (Some(eps), Some(t), Some(xi)) = (eps.get(r), t.get(r), xi.or(r, 0)) else { return Ok(None) };
+        Ok(Some(TimeWindowParams::new(eps, t, xi)?))
+    }
+}
+
+/// Runs `f(a, b, params, region)` for every row of a time-window call.
+fn time_window_rows<T>(
+    a: &Args<'_>,
+    f: impl Fn(crate::algo::traj::Traj<'_>, crate::algo::traj::Traj<'_>, &TimeWindowParams, Option<&crate::algo::geometry::region::Region>) -> T,
+) -> Result<Vec<Option<T>>, Box<dyn Error>> {
+    let (ta, tb, params, region) = (a.traj(0), a.traj(1), tw_params(a), a.opt_region(5));
+    a.map(|r| {
+        let (Some(x), Some(y), Some(p)) = (ta.get(r)?, tb.get(r)?, params(r)?) else { return Ok(None) };
+        let reg = match &region {
+            None => None,
+            Some(c) => match c.get(r)? {
+                None => return Ok(None),
+                v => v,
+            },
+        };
+        Ok(Some(f(x, y, &p, reg.as_deref())))
+    })
+}
+
+fn length(a: &Args<'_>, out: &mut Out<'_>) -> R {
+    out.flat(&time_window_rows(a, |x, y, p, reg| tw::length_in(x, y, p, reg) as i64)?);
+    Ok(())
+}
+
+fn similarity(a: &Args<'_>, out: &mut Out<'_>) -> R {
+    out.flat(&time_window_rows(a, tw::similarity_in)?);
+    Ok(())
+}
+
+fn distance(a: &Args<'_>, out: &mut Out<'_>) -> R {
+    out.flat(&time_window_rows(a, |x, y, p, reg| 1.0 - tw::similarity_in(x, y, p, reg))?);
+    Ok(())
+}
+
+/// Writes matched pairs as 1-based `STRUCT(i, j)[]`.
+fn write_pairs(out: &mut Out<'_>, vals: &[Option<Vec<(usize, usize)>>]) {
+    let ij: Vec<Option<(Vec<i32>, Vec<i32>)>> =
+        vals.iter().map(|v| v.as_ref().map(|m| m.iter().map(|&(i, j)| (i as i32 + 1, j as i32 + 1)).unzip())).collect();
+    let cols: Vec<_> = ij.iter().map(|v| v.as_ref().map(|(i, j)| vec![Column::I32(i), Column::I32(j)])).collect();
+    out.struct_lists(&cols);
+}
+
+fn matches(a: &Args<'_>, out: &mut Out<'_>) -> R {
+    write_pairs(out, &time_window_rows(a, tw::matches_in)?);
+    Ok(())
+}
+
+/// Runs `f(a, b, params)` for every row of a series call.
+fn series_rows<T>(a: &Args<'_>, f: impl Fn(crate::algo::traj::Series<'_>, crate::algo::traj::Series<'_>, &TimeWindowParams) -> T) -> Result<Vec<Option<T>>, Box<dyn Error>> {
+    let (sa, sb, params) = (a.series(0), a.series(1), tw_params(a));
+    a.map(|r| {
+        let (Some(x), Some(y), Some(p)) = (sa.get(r)?, sb.get(r)?, params(r)?) else { return Ok(None) };
+        Ok(Some(f(x, y, &p)))
+    })
+}
+
+fn series_length(a: &Args<'_>, out: &mut Out<'_>) -> R {
+    out.flat(&series_rows(a, |x, y, p| tw::series_length(x, y, p) as i64)?);
+    Ok(())
+}
+
+fn series_similarity(a: &Args<'_>, out: &mut Out<'_>) -> R {
+    out.flat(&series_rows(a, tw::series_similarity)?);
+    Ok(())
+}
+
+fn series_matches(a: &Args<'_>, out: &mut Out<'_>) -> R {
+    write_pairs(out, &series_rows(a, tw::series_matches)?);
+    Ok(())
+}
+
+/// Runs `f(a, b, params)` for every row of an index-window call.
+fn index_rows<T>(
+    a: &Args<'_>,
+    f: impl Fn(crate::algo::traj::Traj<'_>, crate::algo::traj::Traj<'_>, &IndexParams) -> Result<T, Box<dyn Error>>,
+) -> Result<Vec<Option<T>>, Box<dyn Error>> {
+    let (ta, tb, delta, eps, rho) = (a.traj(0), a.traj(1), a.bigint(2), a.double(3), a.opt_double(4));
+    a.map(|r| {
+        let (Some(x), Some(y), Some(d), Some(e), Some(rho)) = (ta.get(r)?, tb.get(r)?, delta.get(r), eps.get(r), rho.opt(r)) else {
+            return Ok(None);
+        };
+        Ok(Some(f(x, y, &IndexParams::new(d, e, rho)?)?))
+    })
+}
+
+fn index_similarity(a: &Args<'_>, out: &mut Out<'_>) -> R {
+    out.flat(&index_rows(a, |x, y, p| Ok(index::joint_similarity(x, y, p)))?);
+    Ok(())
+}
+
+fn s1(a: &Args<'_>, out: &mut Out<'_>) -> R {
+    let vals = index_rows(a, |x, y, p| {
+        let s = index::s1(x, y, p);
+        Ok(vec![Value::F64(s.sx), Value::F64(s.sy)])
+    })?;
+    out.structs(&vals);
+    Ok(())
+}
+
+fn s2(a: &Args<'_>, out: &mut Out<'_>) -> R {
+    let vals = index_rows(a, |x, y, p| {
+        let s = translate::s2_checked(x, y, p)?;
+        Ok([s.sx, s.sy, s.cx, s.cy].map(Value::F64).to_vec())
+    })?;
+    out.structs(&vals);
+    Ok(())
+}

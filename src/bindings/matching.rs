@@ -1,0 +1,90 @@
+//! SQL: one-to-one selection of candidate pairs (the Hungarian step of thesis Alg. 2–4).
+//! Maths: `src/algo/matching/` (hungarian.rs, assign.rs).
+
+use super::registry::{p, Function, Signature, Ty};
+use super::vector::{Args, Column, Out, Rows};
+use crate::algo::matching::{assign, hungarian};
+use std::error::Error;
+
+type R = Result<(), Box<dyn Error>>;
+
+const PAIRS: Ty = Ty::List(&Ty::Struct(&[("a", Ty::Bigint), ("b", Ty::Bigint), ("score", Ty::Double)]));
+const EDGES: Ty = Ty::List(&Ty::Struct(&[("a", Ty::Bigint), ("b", Ty::Bigint), ("w", Ty::Double)]));
+
+pub static FUNCTIONS: &[Function] = &[
+    Function {
+        name: "hungarian_match",
+        description: "Optimal one-to-one assignment over a sparse, possibly rectangular list of candidate pairs; pairs not in the list can never be matched. \
+                      It matches as many pairs as possible and, among those, maximises (maximize = true, the default: similarities) or minimises (costs) the total, \
+                      exactly like scipy.optimize.linear_sum_assignment on the dense matrix with absent pairs forbidden (rows that cannot be matched stay unmatched \
+                      instead of raising). min_score removes candidates before solving: with maximize, pairs scoring below it; with costs, pairs above it. \
+                      Duplicate (a, b) pairs keep their best score; ties are broken the same way whatever the list order; the result is sorted by (a, b). \
+                      Connected components of the candidate graph are solved separately (in parallel), dense ones with lsap (scipy's LSAP), sparse ones with a sparse \
+                      shortest-augmenting-path solver. NULL or NaN scores are errors; an empty list gives an empty list.",
+        example: "SELECT hungarian_match([{'a': 1, 'b': 10, 'score': 0.9}, {'a': 1, 'b': 20, 'score': 0.8}, {'a': 2, 'b': 10, 'score': 0.8}], true, 0.5); -- [{'a': 1, 'b': 20, 'score': 0.8}, {'a': 2, 'b': 10, 'score': 0.8}]",
+        maths: "src/algo/matching/hungarian.rs",
+        binding: file!(),
+        signatures: &[Signature {
+            params: &[p("pairs", PAIRS), p("maximize", Ty::Boolean), p("min_score", Ty::Double)],
+            arities: &[1, 2, 3],
+            returns: PAIRS,
+            kernel: hungarian_match,
+        }],
+        table: None,
+    },
+    Function {
+        name: "assign_pairs",
+        description: "Maximum-weight one-to-one matching of candidate pairs (a, b) with weights w >= 0, e.g. track pairs and their LCSS \
+                      similarity: list the candidates with list({'a': ..., 'b': ..., 'w': ...}) and unnest the result. The graph is split into \
+                      connected components and each is solved exactly (scipy's LSAP algorithm via the lsap crate). Pairs of weight 0 are never chosen.",
+        example: "SELECT assign_pairs([{'a': 1, 'b': 10, 'w': 0.9}, {'a': 1, 'b': 20, 'w': 0.8}, {'a': 2, 'b': 10, 'w': 0.8}, {'a': 2, 'b': 20, 'w': 0.1}]); -- [{'a': 1, 'b': 20, 'w': 0.8}, {'a': 2, 'b': 10, 'w': 0.8}]",
+        maths: "src/algo/matching/assign.rs",
+        binding: file!(),
+        signatures: &[Signature { params: &[p("edges", EDGES)], arities: &[], returns: EDGES, kernel: assign_pairs }],
+        table: None,
+    },
+];
+
+/// `(a, b, score)` triples of one list.
+fn triples(r: &Rows<'_>) -> Vec<(i64, i64, f64)> {
+    (0..r.len()).map(|k| (r.i64(0)[k], r.i64(1)[k], r.f64(2)[k])).collect()
+}
+
+/// Writes `STRUCT(a BIGINT, b BIGINT, score|w DOUBLE)[]` rows.
+fn write_triples(out: &mut Out<'_>, vals: &[Option<Vec<(i64, i64, f64)>>]) {
+    let split: Vec<Option<(Vec<i64>, Vec<i64>, Vec<f64>)>> = vals
+        .iter()
+        .map(|v| {
+            v.as_ref().map(|t| {
+                let (ab, w): (Vec<(i64, i64)>, Vec<f64>) = t.iter().map(|&(a, b, w)| ((a, b), w)).unzip();
+                let (a, b) = ab.into_iter().unzip();
+                (a, b, w)
+            })
+        })
+        .collect();
+    let cols: Vec<_> = split.iter().map(|v| v.as_ref().map(|(a, b, w)| vec![Column::I64(a), Column::I64(b), Column::F64(w)])).collect();
+    out.struct_lists(&cols);
+}
+
+fn hungarian_match(a: &Args<'_>, out: &mut Out<'_>) -> R {
+    let (pairs, maximize, min_score) = (a.struct_list(0), a.opt_boolean(1), a.opt_double(2));
+    let vals = a.map(|r| {
+        let (Some(rows), Some(mx), Some(t)) = (pairs.get(r)?, maximize.or(r, true), min_score.opt(r)) else { return Ok(None) };
+        let params = hungarian::MatchParams::new(mx, t)?;
+        Ok(Some(hungarian::hungarian_match(&triples(&rows), &params)?))
+    })?;
+    write_triples(out, &vals);
+    Ok(())
+}
+
+fn assign_pairs(a: &Args<'_>, out: &mut Out<'_>) -> R {
+    let edges = a.struct_list(0);
+    let vals = a.map(|r| {
+        let Some(rows) = edges.get(r)? else { return Ok(None) };
+        let e = triples(&rows);
+        let chosen = assign::assign_max(&e).map_err(|x| format!("edges {x}"))?;
+        Ok(Some(chosen.into_iter().map(|k| e[k]).collect()))
+    })?;
+    write_triples(out, &vals);
+    Ok(())
+}

@@ -1,0 +1,59 @@
+//! The DuckDB bindings: thin kernels that read arguments, call [`crate::algo`], and write
+//! results. One file per algo family (`traj`, `lcss`, `align`, `geometry`, `matching`, `merge`,
+//! `cluster`, `events`), each with the [`registry::Function`] descriptors of its SQL functions;
+//! [`vector`] is the only code that touches DuckDB's vectors; [`registry`] turns descriptors into
+//! registrations and the reference. The same [`register_all`] runs in the embedded build and in
+//! the loadable extension.
+
+pub mod align;
+pub mod cluster;
+pub mod events;
+pub mod geometry;
+pub mod lcss;
+pub mod matching;
+pub mod merge;
+pub mod meta;
+pub mod registry;
+pub mod traj;
+pub mod vector;
+
+use duckdb::Connection;
+use registry::{Doc, Function};
+
+/// Every function, in reference order.
+pub fn functions() -> Vec<&'static Function> {
+    [traj::FUNCTIONS, lcss::FUNCTIONS, align::FUNCTIONS, geometry::FUNCTIONS, matching::FUNCTIONS, merge::FUNCTIONS, cluster::FUNCTIONS, events::FUNCTIONS, meta::FUNCTIONS]
+        .into_iter()
+        .flatten()
+        .collect()
+}
+
+/// The reference rows (`trajdb_functions()`, `trajdb functions`, docs/functions.md).
+pub fn docs() -> Vec<Doc> {
+    functions().iter().map(|f| f.doc()).collect()
+}
+
+/// Registers every trajdb function on `con`.
+pub fn register_all(con: &Connection) -> duckdb::Result<()> {
+    registry::register(con, &functions())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::path::Path;
+
+    /// From its name alone a newcomer finds a function's maths, binding, test and doc.
+    #[test]
+    fn every_function_names_existing_files_and_a_unique_name() {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+        let mut names = std::collections::HashSet::new();
+        for d in docs() {
+            assert!(names.insert(d.name), "{} is described twice", d.name);
+            for f in d.maths.split(", ").chain([d.binding]) {
+                assert!(root.join(f).exists(), "{}: {f} does not exist", d.name);
+            }
+            assert!(root.join(&d.test).exists(), "{}: {} does not exist", d.name, d.test);
+        }
+    }
+}

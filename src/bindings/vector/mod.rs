@@ -1,0 +1,134 @@
+//! The only place that touches DuckDB vectors: every `unsafe` block and FFI call of the
+//! bindings is in this module (`read.rs`, `write.rs`).
+//!
+//! A kernel gets an [`Args`] (the input chunk with its declared parameters) and an [`Out`] (the
+//! result vector). It reads with the typed column readers of [`Args`], calls `crate::algo`, and
+//! writes with one [`Out`] writer; it never sees a raw vector.
+//!
+//! # NULL policy (every trajdb scalar function)
+//! - A NULL argument (a NULL list, number, text or polygon) gives a NULL result for that row.
+//! - A NULL *inside* a list argument (a NULL point, a NULL t, x or y, a NULL pair) is an error
+//!   naming the argument and the 1-based position (`b[2] is NULL; filter NULL points out
+//!   first`): dropping the element silently would change lengths and similarities.
+//! - An absent optional argument takes its default ([`OptCol`]); a present NULL one gives NULL.
+//! - NaN / infinite values, unsorted timestamps and out-of-range parameters are errors decided
+//!   in `crate::algo` (its parameter types and `validate` methods). An empty list is a valid,
+//!   empty trajectory.
+
+mod read;
+mod write;
+
+pub use read::{I64ListCol, OptCol, PrimCol, RegionCol, RegionListCol, Rows, SeriesCol, StructCol, StructListCol, TextCol, Traj3Col, TrajCol, TrajListCol};
+pub use write::{Column, Out, Value};
+
+use super::registry::{Param, Ty};
+use duckdb::core::DataChunkHandle;
+use std::error::Error;
+
+/// The storage of a struct field the readers support (8-byte DOUBLE or BIGINT).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Kind {
+    F64,
+    I64,
+}
+
+/// The fields of a declared `STRUCT` type (or of the element type of a `LIST(STRUCT)`).
+fn struct_fields(ty: &Ty) -> Vec<(&'static str, Kind)> {
+    let fields = match ty {
+        Ty::Struct(f) => *f,
+        Ty::List(Ty::Struct(f)) => *f,
+        other => panic!("not a struct or a list of structs: {other:?}"),
+    };
+    fields
+        .iter()
+        .map(|(name, t)| match t {
+            Ty::Double => (*name, Kind::F64),
+            Ty::Bigint => (*name, Kind::I64),
+            other => panic!("struct field {name} has type {other:?}; the readers take DOUBLE and BIGINT fields"),
+        })
+        .collect()
+}
+
+/// The input of one call: the chunk, and the declared parameters of the matched signature.
+pub struct Args<'a> {
+    chunk: &'a DataChunkHandle,
+    params: &'static [Param],
+}
+
+type Res<T> = Result<T, Box<dyn Error>>;
+
+impl<'a> Args<'a> {
+    pub(crate) fn new(chunk: &'a DataChunkHandle, params: &'static [Param]) -> Self {
+        Args { chunk, params }
+    }
+    /// Rows in this chunk.
+    pub fn rows(&self) -> usize {
+        self.chunk.len()
+    }
+    /// Whether the call passed argument `col` (optional trailing arguments).
+    pub fn given(&self, col: usize) -> bool {
+        col < self.chunk.num_columns()
+    }
+    /// The declared name of argument `col`.
+    pub fn name(&self, col: usize) -> &'static str {
+        self.params[col].name
+    }
+    /// Runs `f` for every row and collects the results; the first error aborts the query.
+    pub fn map<T>(&self, f: impl FnMut(usize) -> Res<Option<T>>) -> Res<Vec<Option<T>>> {
+        (0..self.rows()).map(f).collect()
+    }
+
+    pub fn traj(&self, col: usize) -> TrajCol<'a> {
+        TrajCol::new(self.chunk, col, self.name(col))
+    }
+    pub fn traj3(&self, col: usize) -> Traj3Col<'a> {
+        Traj3Col::new(self.chunk, col, self.name(col))
+    }
+    pub fn series(&self, col: usize) -> SeriesCol<'a> {
+        SeriesCol::new(self.chunk, col, self.name(col))
+    }
+    pub fn traj_list(&self, col: usize) -> TrajListCol<'a> {
+        TrajListCol::new(self.chunk, col, self.name(col))
+    }
+    pub fn i64_list(&self, col: usize) -> I64ListCol<'a> {
+        I64ListCol::new(self.chunk, col, self.name(col))
+    }
+    /// A `LIST(STRUCT)` argument with the fields of its declared type.
+    pub fn struct_list(&self, col: usize) -> StructListCol<'a> {
+        StructListCol::new(self.chunk, col, self.name(col), &struct_fields(&self.params[col].ty))
+    }
+    /// A `STRUCT` argument with the fields of its declared type.
+    pub fn structure(&self, col: usize) -> StructCol<'a> {
+        StructCol::new(self.chunk, col, self.name(col), &struct_fields(&self.params[col].ty))
+    }
+    pub fn double(&self, col: usize) -> PrimCol<'a, f64> {
+        PrimCol::new(self.chunk, col)
+    }
+    pub fn bigint(&self, col: usize) -> PrimCol<'a, i64> {
+        PrimCol::new(self.chunk, col)
+    }
+    pub fn opt_double(&self, col: usize) -> OptCol<'a, f64> {
+        OptCol::new(self.chunk, col)
+    }
+    pub fn opt_bigint(&self, col: usize) -> OptCol<'a, i64> {
+        OptCol::new(self.chunk, col)
+    }
+    pub fn opt_boolean(&self, col: usize) -> OptCol<'a, bool> {
+        OptCol::new(self.chunk, col)
+    }
+    pub fn text(&self, col: usize) -> TextCol<'a> {
+        TextCol::new(self.chunk, col)
+    }
+    /// A polygon argument (WKT VARCHAR or WKB BLOB).
+    pub fn region(&self, col: usize) -> RegionCol<'a> {
+        RegionCol::new(self.chunk, col, self.name(col))
+    }
+    /// A polygon argument that only the longer overloads pass.
+    pub fn opt_region(&self, col: usize) -> Option<RegionCol<'a>> {
+        self.given(col).then(|| self.region(col))
+    }
+    /// A `VARCHAR[]` / `BLOB[]` argument of polygons.
+    pub fn region_list(&self, col: usize) -> RegionListCol<'a> {
+        RegionListCol::new(self.chunk, col, self.name(col))
+    }
+}

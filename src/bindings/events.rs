@@ -2,7 +2,7 @@
 //! group labels (section IV). Maths: `src/algo/events.rs`.
 
 use super::registry::{p, Function, Param, Signature, Ty, GEOMETRY};
-use super::vector::{Args, Column, Out, RegionCol, Rows};
+use super::vector::{Args, Column, Out, Rows};
 use crate::algo::events::{self, Endpoints, EventParams, LabelParams};
 use std::error::Error;
 use std::rc::Rc;
@@ -102,17 +102,11 @@ fn endpoints(f: &Rows<'_>) -> Vec<Endpoints> {
 /// `None` when one is NULL.
 fn event_args<'a>(a: &Args<'a>) -> impl Fn(usize) -> Result<Option<(EventParams, Option<Rc<crate::algo::geometry::region::Region>>)>, Box<dyn Error>> + 'a {
     let (gap, dist) = (a.double(1), a.double(2));
-    let interior: Option<RegionCol<'a>> = a.opt_region(3);
+    let interior = a.opt_region(3);
     move |r| {
         let (Some(g), Some(d)) = (gap.get(r), dist.get(r)) else { return Ok(None) };
         let p = EventParams::new(g, d)?;
-        let region = match &interior {
-            None => None,
-            Some(c) => match c.get(r)? {
-                None => return Ok(None),
-                v => v,
-            },
-        };
+        let Some(region) = interior.get(r)? else { return Ok(None) };
         Ok(Some((p, region)))
     }
 }

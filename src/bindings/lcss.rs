@@ -154,13 +154,7 @@ fn time_window_rows<T>(
     let (ta, tb, params, region) = (a.traj(0), a.traj(1), tw_params(a), a.opt_region(5));
     a.map(|r| {
         let (Some(x), Some(y), Some(p)) = (ta.get(r)?, tb.get(r)?, params(r)?) else { return Ok(None) };
-        let reg = match &region {
-            None => None,
-            Some(c) => match c.get(r)? {
-                None => return Ok(None),
-                v => v,
-            },
-        };
+        let Some(reg) = region.get(r)? else { return Ok(None) };
         Ok(Some(f(x, y, &p, reg.as_deref())))
     })
 }

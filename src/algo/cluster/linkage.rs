@@ -190,25 +190,18 @@ fn finish(pairs: &[(i64, i64, f64)], ids: Vec<i64>, lookup: impl Fn(i64) -> usiz
     }
     // Condensed upper triangle, row-major: (i, j), i < j at i*n - i(i+1)/2 + j - i - 1.
     let len = n * (n - 1) / 2;
-    let mut bits: Vec<u64> = vec![f64::INFINITY.to_bits(); len];
-    {
-        // SAFETY: AtomicU64 has the same size, alignment and bit validity as u64.
-        let cells: &[AtomicU64] = unsafe { std::slice::from_raw_parts(bits.as_mut_ptr() as *const AtomicU64, len) };
-        let at = |i: usize, j: usize| i * n - i * (i + 1) / 2 + j - i - 1;
-        pairs.par_chunks(1 << 16).for_each(|chunk| {
-            for &(a, b, d) in chunk {
-                let (i, j) = (lookup(a), lookup(b));
-                let (i, j) = (i.min(j), i.max(j));
-                cells[at(i, j)].fetch_min(d.to_bits(), Ordering::Relaxed);
-            }
-        });
-    }
-    // SAFETY: u64 and f64 have the same size and alignment; every bit pattern written is a
-    // non-negative f64 or +inf.
-    let m: Vec<f64> = unsafe {
-        let mut b = std::mem::ManuallyDrop::new(bits);
-        Vec::from_raw_parts(b.as_mut_ptr() as *mut f64, b.len(), b.capacity())
-    };
+    let inf = f64::INFINITY.to_bits();
+    let cells: Vec<AtomicU64> = (0..len).into_par_iter().map(|_| AtomicU64::new(inf)).collect();
+    let at = |i: usize, j: usize| i * n - i * (i + 1) / 2 + j - i - 1;
+    pairs.par_chunks(1 << 16).for_each(|chunk| {
+        for &(a, b, d) in chunk {
+            let (i, j) = (lookup(a), lookup(b));
+            let (i, j) = (i.min(j), i.max(j));
+            cells[at(i, j)].fetch_min(d.to_bits(), Ordering::Relaxed);
+        }
+    });
+    // Same size and alignment: the standard library reuses the allocation for this collect.
+    let m: Vec<f64> = cells.into_iter().map(|c| f64::from_bits(c.into_inner())).collect();
     linkage_condensed(ids, m, method)
 }
 

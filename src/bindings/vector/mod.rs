@@ -18,7 +18,7 @@
 mod read;
 mod write;
 
-pub use read::{I64ListCol, OptCol, PrimCol, RegionCol, RegionListCol, Rows, SeriesCol, StructCol, StructListCol, TextCol, Traj3Col, TrajCol, TrajListCol};
+pub use read::{I64ListCol, OptCol, OptRegionCol, PrimCol, RegionCol, RegionListCol, Rows, SeriesCol, StructCol, StructListCol, TextCol, Traj3Col, TrajCol, TrajListCol};
 pub use write::{Column, Out, Value};
 
 use super::registry::{Param, Ty};
@@ -124,8 +124,8 @@ impl<'a> Args<'a> {
         RegionCol::new(self.chunk, col, self.name(col))
     }
     /// A polygon argument that only the longer overloads pass.
-    pub fn opt_region(&self, col: usize) -> Option<RegionCol<'a>> {
-        self.given(col).then(|| self.region(col))
+    pub fn opt_region(&self, col: usize) -> OptRegionCol<'a> {
+        OptRegionCol(self.given(col).then(|| self.region(col)))
     }
     /// A `VARCHAR[]` / `BLOB[]` argument of polygons.
     pub fn region_list(&self, col: usize) -> RegionListCol<'a> {

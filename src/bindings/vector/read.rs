@@ -504,6 +504,19 @@ impl<'a> RegionCol<'a> {
     }
 }
 
+/// An optional trailing polygon argument, with the NULL policy of [`OptCol`]: absent gives
+/// `Some(None)` (no region), present and NULL gives `None` (the row's result is NULL).
+pub struct OptRegionCol<'a>(pub(super) Option<RegionCol<'a>>);
+
+impl OptRegionCol<'_> {
+    pub fn get(&self, row: usize) -> Res<Option<Option<Rc<Region>>>> {
+        match &self.0 {
+            None => Ok(Some(None)),
+            Some(c) => Ok(c.get(row)?.map(Some)),
+        }
+    }
+}
+
 /// A `VARCHAR[]` or `BLOB[]` argument of polygons.
 pub struct RegionListCol<'a> {
     lists: Lists<'a>,

@@ -4,6 +4,7 @@
 use super::registry::{p, Function, Param, Signature, Ty, GEOMETRY};
 use super::vector::{Args, Column, Out, Rows};
 use crate::algo::events::{self, Endpoints, EventParams, LabelParams};
+use crate::algo::geometry::region::Region;
 use std::error::Error;
 use std::rc::Rc;
 
@@ -98,9 +99,12 @@ fn endpoints(f: &Rows<'_>) -> Vec<Endpoints> {
         .collect()
 }
 
+/// The checked thresholds and the optional interior polygon of one row.
+type EventArgs = (EventParams, Option<Rc<Region>>);
+
 /// `max_gap`, `max_dist` (checked by [`EventParams::new`]) and the optional interior of `row`;
 /// `None` when one is NULL.
-fn event_args<'a>(a: &Args<'a>) -> impl Fn(usize) -> Result<Option<(EventParams, Option<Rc<crate::algo::geometry::region::Region>>)>, Box<dyn Error>> + 'a {
+fn event_args<'a>(a: &Args<'a>) -> impl Fn(usize) -> Result<Option<EventArgs>, Box<dyn Error>> + 'a {
     let (gap, dist) = (a.double(1), a.double(2));
     let interior = a.opt_region(3);
     move |r| {

@@ -141,7 +141,9 @@ pub static FUNCTIONS: &[Function] = &[
 /// Both point types (`STRUCT(x, y)[]` and `TRAJ`): x and y are the last two fields.
 fn view_polygon(a: &Args<'_>, out: &mut Out<'_>) -> R {
     let (pts, methods, param, radius, min_nb) = (a.struct_list(0), a.text(1), a.opt_double(2), a.opt_double(3), a.opt_bigint(4));
-    let mut cache: Option<((String, Option<f64>, Option<f64>, Option<i64>), hull::HullParams)> = None;
+    // the last arguments and their checked parameters: constant arguments are checked once
+    type Key = (String, Option<f64>, Option<f64>, Option<i64>);
+    let mut cache: Option<(Key, hull::HullParams)> = None;
     let vals = a.map(|r| {
         let Some(rows) = pts.get(r)? else { return Ok(None) };
         let (Some(method), Some(param), Some(rad), Some(k)) = (methods.get(r), param.opt(r), radius.opt(r), min_nb.opt(r)) else { return Ok(None) };

@@ -45,14 +45,18 @@ pub static FUNCTIONS: &[Function] = &[
     },
 ];
 
-/// `(a, b, score)` triples of one list.
-fn triples(r: &Rows<'_>) -> Vec<(i64, i64, f64)> {
+/// `(a, b, score)` candidate pairs of one list.
+type Triples = Vec<(i64, i64, f64)>;
+
+/// The candidate pairs of one list.
+fn triples(r: &Rows<'_>) -> Triples {
     (0..r.len()).map(|k| (r.i64(0)[k], r.i64(1)[k], r.f64(2)[k])).collect()
 }
 
 /// Writes `STRUCT(a BIGINT, b BIGINT, score|w DOUBLE)[]` rows.
-fn write_triples(out: &mut Out<'_>, vals: &[Option<Vec<(i64, i64, f64)>>]) {
-    let split: Vec<Option<(Vec<i64>, Vec<i64>, Vec<f64>)>> = vals
+fn write_triples(out: &mut Out<'_>, vals: &[Option<Triples>]) {
+    type Split = (Vec<i64>, Vec<i64>, Vec<f64>);
+    let split: Vec<Option<Split>> = vals
         .iter()
         .map(|v| {
             v.as_ref().map(|t| {

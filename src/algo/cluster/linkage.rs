@@ -31,6 +31,7 @@
 //!   clusters is found and every merge of height `<= h` applied (with tied heights this can give
 //!   fewer than `k` clusters, as in scipy); infinite merges are never applied, so more than `k`
 //!   clusters come back when cannot-link pairs require it.
+//!
 //! Clusters are numbered 1, 2, … in the order of their smallest id (scipy numbers them by its
 //! own traversal; the partition is the same, the numbers are not).
 //!

@@ -193,10 +193,13 @@ pub fn matches(a: Traj<'_>, b: Traj<'_>, p: &TimeWindowParams) -> Vec<(usize, us
     table.backtrack(b.len(), is_match)
 }
 
+/// The positions in `a` and in `b` of the points a region kept.
+type Kept = (Vec<usize>, Vec<usize>);
+
 /// Runs `f` on `a` and `b` restricted to the points inside `region` (eq. 2.10: the lengths,
 /// ξ and η are all counted inside the overlap `P^{k∩l}`), or on `a` and `b` themselves when
 /// `region` is `None`; also returns the positions of the kept points in `a` and `b`.
-fn restricted<R>(a: Traj<'_>, b: Traj<'_>, region: Option<&Region>, f: impl FnOnce(Traj<'_>, Traj<'_>) -> R) -> (R, Option<(Vec<usize>, Vec<usize>)>) {
+fn restricted<R>(a: Traj<'_>, b: Traj<'_>, region: Option<&Region>, f: impl FnOnce(Traj<'_>, Traj<'_>) -> R) -> (R, Option<Kept>) {
     match region {
         None => (f(a, b), None),
         Some(r) => {

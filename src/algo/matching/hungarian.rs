@@ -292,6 +292,9 @@ pub(crate) fn solve_sparse(nr: usize, nc: usize, start: &[usize], adj: &[(u32, f
 /// reduction transfer, two passes of augmenting row reduction, then shortest augmenting paths
 /// with the column-list scan). Rows `nr..nc` are virtual zero-cost rows that absorb the spare
 /// columns. Returns `col4row` for the real rows. O(n³) worst case, far less in practice.
+// The index loops follow the paper's pseudocode line by line (and `for k in up..n` reads `up`
+// once on purpose, as LAPJV's scan does), which is easier to check against it than iterators.
+#[allow(clippy::needless_range_loop, clippy::mut_range_bound)]
 pub(crate) fn solve_complete(nr: usize, nc: usize, cost: &[f64]) -> Vec<u32> {
     let n = nc;
     let c = |i: usize, j: usize| if i < nr { cost[i * nc + j] } else { 0.0 };

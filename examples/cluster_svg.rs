@@ -1,4 +1,4 @@
-//! Draws the route patterns of `sql/cluster.sql` as an SVG: one panel per class, every track a
+//! Draws the route patterns of `sql/stages/cluster.sql` as an SVG: one panel per class, every track a
 //! polyline coloured by its cluster (grey: tracks in no pattern of 5 or more).
 //!
 //! `cargo run --release --example cluster_svg -- ../shared/data/dut_intersection_3cam/points.parquet clusters.svg [camera]`
@@ -15,8 +15,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let camera: i64 = args.get(3).map(|s| s.parse()).transpose()?.unwrap_or(1);
     let con = trajdb::open(None)?;
     con.execute_batch(&format!("CREATE TABLE points AS SELECT * FROM read_parquet('{}')", args[1].replace('\'', "''")))?;
-    let sql = include_str!("../sql/cluster.sql").replace("SET VARIABLE cluster_camera = 1;", &format!("SET VARIABLE cluster_camera = {camera};"));
-    con.execute_batch(&sql)?;
+    trajdb::app::pipeline::set_params(&con, &[("cluster_camera".to_string(), camera.to_string())])?;
+    con.execute_batch(trajdb::app::sql::file("sql/stages/cluster.sql").expect("embedded"))?;
     // (class, cluster, track) -> points
     let mut tracks: BTreeMap<(String, i64, i64), Vec<(f64, f64)>> = BTreeMap::new();
     let mut sizes: BTreeMap<(String, i64), i64> = BTreeMap::new();

@@ -1,20 +1,15 @@
--- trajdb: the whole pipeline for the DuckDB CLI (or `trajdb run sql/pipeline.sql`), from the
+-- trajdb: the whole pipeline for the DuckDB CLI (extension loaded) or `trajdb run`, from the
 -- repository root:
 --
 --   SET VARIABLE pipeline_input = 'points.parquet';   -- or a .csv file
+--   SET VARIABLE merge_eta = 0.6;                      -- optional: any parameter of sql/params.sql
 --   .read sql/pipeline.sql
 --
--- Stages (each file holds its parameters as SET VARIABLE defaults at the top; set your own
--- values after the .read of a stage file to override, or use `trajdb pipeline --param`):
---   1 load, 2 clean, 3 tracks + quality (broken tracks linked), 4 align, 5 overlap,
---   6 match + 7 merge (merge.sql), 8 cluster.
+-- 1 parameters (defaults for whatever you did not set), 2 load, 3 the stages of sql/stages.sql.
+-- `trajdb pipeline --input FILE --out DIR` runs the same files and also writes the results
+-- (sql/export.sql) and report.html.
+.read sql/params.sql
 CREATE OR REPLACE TEMP TABLE points AS
 SELECT camera, track_id, class, t, x, y, estimated
 FROM query_table(getvariable('pipeline_input'));
-.read sql/clean.sql
-.read sql/quality.sql
-CREATE OR REPLACE TEMP TABLE points AS SELECT * FROM points_linked;
-.read sql/align.sql
-.read sql/overlap.sql
-.read sql/merge.sql
-.read sql/cluster.sql
+.read sql/stages.sql

@@ -3,7 +3,7 @@
 //! - [`algo`]: the maths, pure Rust, no DuckDB (builds with `--no-default-features`).
 //! - `bindings`: the DuckDB functions (descriptors, kernels, the vector module), compiled with
 //!   either the `bundled` or the `extension` feature.
-//! - [`simulate`] and the application (`pipeline`, `report`) behind the `trajdb` command.
+//! - [`app`]: the application behind the `trajdb` command (pipeline, score, report, simulate).
 //! - The loadable-extension entry point (`trajdb_init_c_api`) with feature `extension`.
 
 pub mod algo;
@@ -11,16 +11,8 @@ pub mod algo;
 #[cfg(any(feature = "bundled", feature = "extension"))]
 pub mod bindings;
 
-/// Synthetic multi-camera intersection traffic with ground truth (`trajdb simulate`); pure Rust.
-pub mod simulate;
-
-/// The whole pipeline run embedded (`trajdb pipeline`).
-#[cfg(feature = "bundled")]
-pub mod pipeline;
-
-/// The pipeline's QA report (`report.html`).
-#[cfg(feature = "bundled")]
-pub mod report;
+/// The application behind the `trajdb` command: pipeline, parameters, score, report, simulator.
+pub mod app;
 
 #[cfg(all(feature = "bundled", feature = "extension"))]
 compile_error!("features `bundled` and `extension` must not be enabled together: build the extension with --no-default-features --features extension");

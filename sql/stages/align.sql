@@ -14,9 +14,13 @@
 --  4. pairs with too little support are solved through other cameras: the widest path
 --     (largest bottleneck support) to the reference camera, composed with transform_compose.
 --
--- Parameters (edit here): tracks need >= 10 real points; pairs overlap >= 2 s in time and
--- their moving points span >= 3 m; hypotheses with residual < 0.5 m vote; bins are 2 degrees
--- and 1 m; a camera pair needs >= 3 agreeing hypotheses.
+-- Parameters (align_*): declared once in src/app/params.rs, defaults in sql/params.sql. Tracks
+-- need >= align_min_points real points; pairs overlap >= align_min_overlap_s in time, give
+-- >= align_min_pairs point pairs and their moving points span >= align_min_span_m; hypotheses
+-- with residual < align_max_rms_m vote in bins of align_bin_deg degrees and align_bin_m metres;
+-- a hypothesis agrees within align_agree_deg / align_agree_m; a camera pair needs
+-- >= align_min_support agreeing hypotheses; the refit trims align_trim of the pairs, and the
+-- second pass keeps track pairs within align_refine_rms_m RMS of the first fit.
 
 CREATE OR REPLACE TEMP TABLE align_tracks AS
 SELECT camera, track_id, class,
@@ -25,7 +29,7 @@ SELECT camera, track_id, class,
 FROM points
 WHERE estimated = 0
 GROUP BY camera, track_id, class
-HAVING count(*) >= 10;
+HAVING count(*) >= getvariable('align_min_points');
 
 -- 1. hypotheses
 CREATE OR REPLACE TEMP TABLE align_hyp AS
@@ -34,20 +38,22 @@ WITH cand AS (
            traj_correspond(a.traj, b.traj) AS pairs
     FROM align_tracks a JOIN align_tracks b
       ON a.camera < b.camera AND a.class = b.class
-     AND a.t0 <= b.t1 - 2 AND b.t0 <= a.t1 - 2
+     AND a.t0 <= b.t1 - getvariable('align_min_overlap_s') AND b.t0 <= a.t1 - getvariable('align_min_overlap_s')
 )
 SELECT cam_fixed, cam_moving, track_fixed, track_moving, pairs, rigid_fit(pairs) AS f
 FROM cand
-WHERE len(pairs) >= 10
+WHERE len(pairs) >= getvariable('align_min_pairs')
   AND greatest(list_max([p.mx FOR p IN pairs]) - list_min([p.mx FOR p IN pairs]),
-               list_max([p.my FOR p IN pairs]) - list_min([p.my FOR p IN pairs])) >= 3;
+               list_max([p.my FOR p IN pairs]) - list_min([p.my FOR p IN pairs])) >= getvariable('align_min_span_m');
 
 -- 2. vote
 CREATE OR REPLACE TEMP TABLE align_best AS
 SELECT cam_fixed, cam_moving,
-       round(degrees(f.theta) / 2) * 2 AS theta_deg, round(f.tx) AS tx, round(f.ty) AS ty, count(*) AS votes
+       round(degrees(f.theta) / getvariable('align_bin_deg')) * getvariable('align_bin_deg') AS theta_deg,
+       round(f.tx / getvariable('align_bin_m')) * getvariable('align_bin_m') AS tx,
+       round(f.ty / getvariable('align_bin_m')) * getvariable('align_bin_m') AS ty, count(*) AS votes
 FROM align_hyp
-WHERE f.rms < 0.5
+WHERE f.rms < getvariable('align_max_rms_m')
 GROUP BY cam_fixed, cam_moving, theta_deg, tx, ty
 QUALIFY row_number() OVER (PARTITION BY cam_fixed, cam_moving ORDER BY votes DESC, theta_deg, tx, ty) = 1;
 
@@ -56,32 +62,31 @@ QUALIFY row_number() OVER (PARTITION BY cam_fixed, cam_moving ORDER BY votes DES
 CREATE OR REPLACE TEMP TABLE align_support AS
 SELECT h.cam_fixed, h.cam_moving, h.track_fixed, h.track_moving, h.pairs
 FROM align_hyp h JOIN align_best b USING (cam_fixed, cam_moving)
-WHERE h.f.rms < 0.5
-  AND abs(((degrees(h.f.theta) - b.theta_deg + 540) % 360) - 180) <= 3
-  AND abs(h.f.tx - b.tx) <= 2 AND abs(h.f.ty - b.ty) <= 2;
+WHERE h.f.rms < getvariable('align_max_rms_m')
+  AND abs(((degrees(h.f.theta) - b.theta_deg + 540) % 360) - 180) <= getvariable('align_agree_deg')
+  AND abs(h.f.tx - b.tx) <= getvariable('align_agree_m') AND abs(h.f.ty - b.ty) <= getvariable('align_agree_m');
 
---    refit on all their point pairs together, trimming the worst 10 %
+--    refit on all their point pairs together, trimming the worst align_trim share
 CREATE OR REPLACE TEMP TABLE align_pairs AS
-SELECT cam_fixed, cam_moving, rigid_fit(flatten(list(pairs)), 0.1) AS fit, count(*) AS support
+SELECT cam_fixed, cam_moving, rigid_fit(flatten(list(pairs)), getvariable('align_trim')) AS fit, count(*) AS support
 FROM align_support
 GROUP BY cam_fixed, cam_moving
-HAVING count(*) >= 3;
+HAVING count(*) >= getvariable('align_min_support');
 
---    second pass: keep the track pairs whose own points sit within 0.3 m RMS of that fit
+--    second pass: keep the track pairs whose own points sit within align_refine_rms_m RMS of that fit
 --    (road users walking side by side agree with the vote to within a metre or two, but not
 --    to 0.3 m), and refit on those: this is the final pre-match and the final transform.
 CREATE OR REPLACE TEMP TABLE align_support AS
 SELECT s.*
 FROM align_support s JOIN align_pairs a USING (cam_fixed, cam_moving)
-WHERE sqrt(list_avg([(p.fx - (a.fit.scale * (cos(a.fit.theta) * p.mx - sin(a.fit.theta) * p.my) + a.fit.tx)) ** 2
-                   + (p.fy - (a.fit.scale * (sin(a.fit.theta) * p.mx + cos(a.fit.theta) * p.my) + a.fit.ty)) ** 2
-                     FOR p IN s.pairs])) < 0.3;
+WHERE rigid_rms(s.pairs, {'theta': a.fit.theta, 'tx': a.fit.tx, 'ty': a.fit.ty, 'scale': a.fit.scale})
+      < getvariable('align_refine_rms_m');
 
 CREATE OR REPLACE TEMP TABLE align_pairs AS
-SELECT cam_fixed, cam_moving, rigid_fit(flatten(list(pairs)), 0.1) AS fit, count(*) AS support
+SELECT cam_fixed, cam_moving, rigid_fit(flatten(list(pairs)), getvariable('align_trim')) AS fit, count(*) AS support
 FROM align_support
 GROUP BY cam_fixed, cam_moving
-HAVING count(*) >= 3;
+HAVING count(*) >= getvariable('align_min_support');
 
 -- 4. spanning tree: widest path from every camera to the reference camera (the one with the
 --    most support), composing moving -> fixed transforms (inverted when walked backwards).

@@ -11,7 +11,7 @@
 --                                                                   along the merge order
 -- Cameras that align.sql could not place are left out (they have no row in align_frames).
 --
--- Parameters (edit here):
+-- Parameters (see above):
 --   hull method 'convex' (default: a camera's field of view is convex) or 'concave' + concavity;
 --   robust rule: estimated points are dropped, and a point counts only with >= 3 other points
 --   within 2 m (spurious detections are isolated; 10 Hz tracks leave dense trails);
@@ -19,11 +19,8 @@
 --   shrunk by overlap_shrink_sigmas x the camera's position noise, measured from its own tracks
 --   (table view_noise; 0 switches the correction off);
 --   merge order: ascending camera id (the table view_merge_order can be replaced).
-SET VARIABLE overlap_method = 'convex';
-SET VARIABLE overlap_concavity = 2.0;
-SET VARIABLE overlap_radius_m = 2.0;
-SET VARIABLE overlap_min_neighbours = 3;
-SET VARIABLE overlap_shrink_sigmas = 1.0;
+-- Parameters (overlap_*): declared once in src/app/params.rs, defaults in sql/params.sql;
+-- `trajdb params` lists them, `trajdb pipeline --param name=value` or SET VARIABLE sets them.
 
 -- Position noise per camera, coordinate-free: for evenly sampled smooth motion the second
 -- difference p[k+1] - 2 p[k] + p[k-1] is noise with variance 6 sigma^2 per axis, so its squared
@@ -41,11 +38,10 @@ FROM d WHERE abs(dt1 - dt2) <= 1e-3 * dt1
 GROUP BY camera;
 
 CREATE OR REPLACE TEMP TABLE view_points AS
-SELECT p.camera, p.class,
-       f.to_reference.scale * (cos(f.to_reference.theta) * p.x - sin(f.to_reference.theta) * p.y) + f.to_reference.tx AS x,
-       f.to_reference.scale * (sin(f.to_reference.theta) * p.x + cos(f.to_reference.theta) * p.y) + f.to_reference.ty AS y
-FROM points p JOIN align_frames f USING (camera)
-WHERE p.estimated = 0;
+SELECT camera, class, q.x, q.y
+FROM (SELECT p.camera, p.class, transform_point(f.to_reference, p.x, p.y) AS q
+      FROM points p JOIN align_frames f USING (camera)
+      WHERE p.estimated = 0);
 
 CREATE OR REPLACE TEMP TABLE view_polygons AS
 SELECT *, polygon_area(polygon) AS area_m2 FROM (

@@ -16,12 +16,8 @@
 -- groups far fewer, larger patterns. Pairs with no common subsequence (distance 1) are left
 -- out of the list: they are cannot-links, and under average linkage such tracks never share a
 -- cluster.
-SET VARIABLE cluster_camera = 1;
-SET VARIABLE cluster_delta = 5;
-SET VARIABLE cluster_epsilon = 2.0;
-SET VARIABLE cluster_rho = 0.5;
-SET VARIABLE cluster_threshold = 0.5;
-SET VARIABLE cluster_translation_invariant = false;
+-- Parameters (cluster_*): declared once in src/app/params.rs, defaults in sql/params.sql;
+-- `trajdb params` lists them, `trajdb pipeline --param name=value` or SET VARIABLE sets them.
 
 CREATE OR REPLACE TEMP TABLE cluster_tracks AS
 SELECT * FROM (

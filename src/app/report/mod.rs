@@ -1,169 +1,43 @@
 //! The QA report of `trajdb pipeline` (`report.html`, one self-contained file with inline SVG):
 //! each camera's points before alignment (its own frame) and after (the common frame), the view
-//! polygons and overlaps per class, sample merges, and count tables in the style of the thesis's
-//! tables 4.1–4.6 (tracks per class and camera with the number that has ≥ ξ points in an
-//! overlap; Cayley tables per class; matched pairs and merged road users per camera set).
-//!
-//! It reads the pipeline's tables (points, align_frames, view_polygons, view_overlaps,
-//! merge_tracks, merge_links, merge_groups, merged, cluster_assign) from the open connection.
+//! polygons and overlaps per class, sample merges, count tables in the style of the thesis's
+//! tables 4.1–4.6, and the parameters used. One function per section; the data comes from the
+//! pipeline's tables ([`queries`]), the markup from [`html`] and [`svg`].
+
+mod html;
+mod queries;
+mod svg;
 
 use duckdb::Connection;
+use html::table;
+use queries::{query_rows, value_xy, Ctx};
 use std::error::Error;
 use std::fmt::Write as _;
 use std::path::Path;
+use svg::{color, Frame};
 
 type R<T> = Result<T, Box<dyn Error>>;
 
-const PALETTE: [&str; 8] = ["#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2", "#17becf"];
-
-fn color(camera: i64) -> &'static str {
-    PALETTE[camera.rem_euclid(PALETTE.len() as i64) as usize]
-}
-
-fn esc(s: &str) -> String {
-    s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;")
-}
-
-/// World → SVG pixel mapping with equal scales, y up.
-struct Frame {
-    x0: f64,
-    y1: f64,
-    k: f64,
-    w: f64,
-    h: f64,
-}
-
-impl Frame {
-    fn fit(xs: impl Iterator<Item = (f64, f64)>, w: f64) -> Frame {
-        let (mut x0, mut x1, mut y0, mut y1) = (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY);
-        for (x, y) in xs.filter(|(x, y)| x.is_finite() && y.is_finite()) {
-            x0 = x0.min(x);
-            x1 = x1.max(x);
-            y0 = y0.min(y);
-            y1 = y1.max(y);
-        }
-        if !x0.is_finite() {
-            (x0, x1, y0, y1) = (0.0, 1.0, 0.0, 1.0);
-        }
-        let pad = 0.03 * (x1 - x0).max(y1 - y0).max(1.0);
-        let (x0, x1, y0, y1) = (x0 - pad, x1 + pad, y0 - pad, y1 + pad);
-        let k = w / (x1 - x0).max(y1 - y0);
-        Frame { x0, y1, k, w: (x1 - x0) * k, h: (y1 - y0) * k }
-    }
-    fn p(&self, x: f64, y: f64) -> (f64, f64) {
-        ((x - self.x0) * self.k, (self.y1 - y) * self.k)
-    }
-    fn open(&self, title: &str) -> String {
-        format!(
-            "<figure><svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{:.0}\" height=\"{:.0}\" viewBox=\"0 0 {:.1} {:.1}\" style=\"background:#fff;border:1px solid #ccc\">",
-            self.w, self.h, self.w, self.h
-        ) + &format!("<title>{}</title>", esc(title))
-    }
-    fn close(&self, caption: &str) -> String {
-        // a 10 m scale bar
-        let (bx, by) = (8.0, self.h - 8.0);
-        format!(
-            "<line x1=\"{bx}\" y1=\"{by}\" x2=\"{:.1}\" y2=\"{by}\" stroke=\"#000\" stroke-width=\"2\"/><text x=\"{bx}\" y=\"{:.1}\" font-size=\"10\">10 m</text></svg><figcaption>{}</figcaption></figure>",
-            bx + 10.0 * self.k,
-            by - 4.0,
-            esc(caption)
-        )
-    }
-    /// Points as one path of zero-length round-capped segments.
-    fn dots(&self, pts: &[(f64, f64)], color: &str, r: f64) -> String {
-        let mut d = String::with_capacity(pts.len() * 16);
-        for &(x, y) in pts {
-            let (u, v) = self.p(x, y);
-            let _ = write!(d, "M{u:.1} {v:.1}h0");
-        }
-        format!("<path d=\"{d}\" stroke=\"{color}\" stroke-width=\"{r}\" stroke-linecap=\"round\" stroke-opacity=\"0.5\" fill=\"none\"/>")
-    }
-    fn line(&self, pts: &[(f64, f64)], color: &str, width: f64, dash: bool) -> String {
-        let mut d = String::new();
-        for (i, &(x, y)) in pts.iter().enumerate() {
-            let (u, v) = self.p(x, y);
-            let _ = write!(d, "{}{u:.1} {v:.1}", if i == 0 { "M" } else { "L" });
-        }
-        format!(
-            "<path d=\"{d}\" stroke=\"{color}\" stroke-width=\"{width}\" fill=\"none\"{}/>",
-            if dash { " stroke-dasharray=\"4 3\"" } else { "" }
-        )
-    }
-    /// A (multi)polygon given as WKT.
-    fn polygon(&self, wkt_text: &str, stroke: &str, fill: &str, fill_opacity: f64) -> String {
-        let mut d = String::new();
-        for ring in wkt_rings(wkt_text) {
-            for (i, &(x, y)) in ring.iter().enumerate() {
-                let (u, v) = self.p(x, y);
-                let _ = write!(d, "{}{u:.1} {v:.1}", if i == 0 { "M" } else { "L" });
-            }
-            d.push('Z');
-        }
-        format!("<path d=\"{d}\" stroke=\"{stroke}\" stroke-width=\"1.5\" fill=\"{fill}\" fill-opacity=\"{fill_opacity}\" fill-rule=\"evenodd\"/>")
-    }
-}
-
-/// The rings of a POLYGON / MULTIPOLYGON WKT (every parenthesised list of coordinates).
-fn wkt_rings(s: &str) -> Vec<Vec<(f64, f64)>> {
-    let mut rings = Vec::new();
-    let mut depth_start = None;
-    for (i, c) in s.char_indices() {
-        match c {
-            '(' => depth_start = Some(i + 1),
-            ')' => {
-                if let Some(st) = depth_start.take() {
-                    let ring: Vec<(f64, f64)> = s[st..i]
-                        .split(',')
-                        .filter_map(|p| {
-                            let mut it = p.split_whitespace().map(str::parse::<f64>);
-                            match (it.next(), it.next()) {
-                                (Some(Ok(x)), Some(Ok(y))) => Some((x, y)),
-                                _ => None,
-                            }
-                        })
-                        .collect();
-                    if ring.len() >= 3 {
-                        rings.push(ring);
-                    }
-                }
-            }
-            _ => {}
-        }
-    }
-    rings
-}
-
-fn query_rows<T>(con: &Connection, sql: &str, f: impl FnMut(&duckdb::Row) -> duckdb::Result<T>) -> R<Vec<T>> {
-    let mut st = con.prepare(sql)?;
-    let rows = st.query_map([], f)?;
-    Ok(rows.collect::<Result<Vec<T>, _>>()?)
-}
-
-/// An HTML table from a header and rows of cells.
-fn table(head: &[String], rows: &[Vec<String>]) -> String {
-    let mut s = String::from("<table><tr>");
-    for h in head {
-        let _ = write!(s, "<th>{}</th>", esc(h));
-    }
-    s.push_str("</tr>");
-    for r in rows {
-        s.push_str("<tr>");
-        for (i, c) in r.iter().enumerate() {
-            let _ = write!(s, "<{0}>{1}</{0}>", if i == 0 { "th" } else { "td" }, esc(c));
-        }
-        s.push_str("</tr>");
-    }
-    s.push_str("</table>");
-    s
-}
-
-/// Writes `out/report.html`. `timings` are the stage times (s); `xi` the minimum number of
-/// points inside an overlap (merge_min_points).
+/// Writes `out/report.html`; `timings` are the stage times (s).
 pub fn write(con: &Connection, out: &Path, input: &str, timings: &[(String, f64)]) -> R<()> {
-    let mut h = String::new();
-    h.push_str("<!DOCTYPE html><html><head><meta charset=\"utf-8\"><title>trajdb pipeline report</title><style>body{font-family:sans-serif;max-width:1300px;margin:1em auto;padding:0 1em}table{border-collapse:collapse;margin:.5em 0 1.2em}td,th{border:1px solid #bbb;padding:2px 8px;text-align:right}th{background:#f3f3f3}figure{display:inline-block;margin:.4em;vertical-align:top}figcaption{font-size:12px;max-width:420px}</style></head><body>");
-    let _ = write!(h, "<h1>trajdb pipeline report</h1><p>Input: <code>{}</code>. Generated by trajdb {}.</p>", esc(input), env!("CARGO_PKG_VERSION"));
+    let mut h = html::page_start(input);
+    stage_times(timings, &mut h);
+    let c = Ctx::load(con)?;
+    transforms(con, &c, &mut h)?;
+    points(con, &c, &mut h)?;
+    view_polygons(con, &c, &mut h)?;
+    track_counts(con, &c, &mut h)?;
+    matches(con, &c, &mut h)?;
+    sample_merges(con, &c, &mut h)?;
+    clusters(con, &c, &mut h)?;
+    parameters(con, &c, &mut h)?;
+    h.push_str(html::page_end());
+    std::fs::write(out.join("report.html"), h)?;
+    Ok(())
+}
 
+/// Stage times.
+fn stage_times(timings: &[(String, f64)], h: &mut String) {
     // stage times
     let _ = write!(
         h,
@@ -171,10 +45,10 @@ pub fn write(con: &Connection, out: &Path, input: &str, timings: &[(String, f64)
         table(&["stage".into(), "seconds".into()], &timings.iter().map(|(n, t)| vec![n.clone(), format!("{t:.2}")]).collect::<Vec<_>>())
     );
 
-    let cameras: Vec<i64> = query_rows(con, "SELECT DISTINCT camera FROM points ORDER BY camera", |r| r.get(0))?;
-    let classes: Vec<String> = query_rows(con, "SELECT DISTINCT class FROM points ORDER BY class", |r| r.get(0))?;
-    let xi: i64 = con.query_row("SELECT getvariable('merge_min_points')::BIGINT", [], |r| r.get(0))?;
+}
 
+/// Each camera's transform into the reference frame.
+fn transforms(con: &Connection, _: &Ctx, h: &mut String) -> R<()> {
     // transforms
     let tf: Vec<Vec<String>> = query_rows(
         con,
@@ -194,11 +68,16 @@ pub fn write(con: &Connection, out: &Path, input: &str, timings: &[(String, f64)
     let unaligned: Vec<i64> = query_rows(con, "SELECT DISTINCT camera FROM points ANTI JOIN align_frames USING (camera) ORDER BY camera", |r| r.get(0))?;
     let _ = write!(
         h,
-        "<h2>Camera alignment</h2><p>Each camera's transform into the reference camera's frame (sql/align.sql).{}</p>{}",
+        "<h2>Camera alignment</h2><p>Each camera's transform into the reference camera's frame (sql/stages/align.sql).{}</p>{}",
         if unaligned.is_empty() { String::new() } else { format!(" <b>Not aligned (no consistent track pairs): cameras {unaligned:?}.</b>") },
         table(&["camera", "reference", "rotation °", "tx m", "ty m", "hops", "support (pairs)"].map(String::from), &tf)
     );
 
+    Ok(())
+}
+
+/// Every camera's points before (own frame) and after alignment.
+fn points(con: &Connection, c: &Ctx, h: &mut String) -> R<()> {
     // points before / after
     let n_points: i64 = con.query_row("SELECT count(*) FROM points WHERE estimated = 0", [], |r| r.get(0))?;
     let step = (n_points / 12_000).max(1);
@@ -206,8 +85,8 @@ pub fn write(con: &Connection, out: &Path, input: &str, timings: &[(String, f64)
         con,
         &format!(
             "SELECT p.camera, p.x, p.y,
-                    f.to_reference.scale * (cos(f.to_reference.theta) * p.x - sin(f.to_reference.theta) * p.y) + f.to_reference.tx,
-                    f.to_reference.scale * (sin(f.to_reference.theta) * p.x + cos(f.to_reference.theta) * p.y) + f.to_reference.ty
+                    transform_point(f.to_reference, p.x, p.y).x,
+                    transform_point(f.to_reference, p.x, p.y).y
              FROM (SELECT *, row_number() OVER (ORDER BY camera, track_id, t) AS k FROM points WHERE estimated = 0) p
              LEFT JOIN align_frames f USING (camera) WHERE p.k % {step} = 0"
         ),
@@ -215,7 +94,7 @@ pub fn write(con: &Connection, out: &Path, input: &str, timings: &[(String, f64)
     )?;
     h.push_str("<h2>Points before and after alignment</h2><p>Every ");
     let _ = write!(h, "{step}th real point. Before: each camera in its own frame. After: all cameras in the reference frame, with the view polygons (all classes) outlined.</p>");
-    for &c in &cameras {
+    for &c in &c.cameras {
         let mine: Vec<(f64, f64)> = pts.iter().filter(|p| p.0 == c).map(|p| (p.1, p.2)).collect();
         let fr = Frame::fit(mine.iter().copied(), 300.0);
         h.push_str(&fr.open(&format!("camera {c}, local frame")));
@@ -223,12 +102,10 @@ pub fn write(con: &Connection, out: &Path, input: &str, timings: &[(String, f64)
         h.push_str(&fr.close(&format!("camera {c} before alignment (its own frame)")));
     }
     let aligned: Vec<(i64, f64, f64)> = pts.iter().filter_map(|p| Some((p.0, p.3?, p.4?))).collect();
-    let views: Vec<(i64, String, String)> = query_rows(con, "SELECT camera, class, polygon_to_wkt(polygon) FROM view_polygons ORDER BY camera, class", |r| {
-        Ok((r.get(0)?, r.get(1)?, r.get(2)?))
-    })?;
+    let views = queries::views(con)?;
     let fr = Frame::fit(aligned.iter().map(|p| (p.1, p.2)), 620.0);
     h.push_str(&fr.open("all cameras, common frame"));
-    for &c in &cameras {
+    for &c in &c.cameras {
         let mine: Vec<(f64, f64)> = aligned.iter().filter(|p| p.0 == c).map(|p| (p.1, p.2)).collect();
         h.push_str(&fr.dots(&mine, color(c), 1.6));
     }
@@ -237,18 +114,24 @@ pub fn write(con: &Connection, out: &Path, input: &str, timings: &[(String, f64)
     }
     h.push_str(&fr.close(&format!(
         "after alignment; colours: {}",
-        cameras.iter().map(|c| format!("camera {c} {}", color(*c))).collect::<Vec<_>>().join(", ")
+        c.cameras.iter().map(|c| format!("camera {c} {}", color(*c))).collect::<Vec<_>>().join(", ")
     )));
 
+    Ok(())
+}
+
+/// View polygons and overlaps per class.
+fn view_polygons(con: &Connection, c: &Ctx, h: &mut String) -> R<()> {
     // view polygons and overlaps per class
     let overlaps: Vec<(String, i64, i64, String, f64)> =
         query_rows(con, "SELECT class, cam_a, cam_b, polygon_to_wkt(polygon), area_m2 FROM view_overlaps ORDER BY class, cam_a, cam_b", |r| {
             Ok((r.get(0)?, r.get(1)?, r.get(2)?, r.get(3)?, r.get(4)?))
         })?;
+    let views = queries::views(con)?;
     h.push_str("<h2>View polygons and overlaps per class</h2><p>P<sup>k</sup> per camera (outline, camera colour) and the pairwise overlaps P<sup>k∩l</sup> (grey fill), in the common frame.</p>");
-    let all_view_pts = views.iter().flat_map(|v| wkt_rings(&v.2).into_iter().flatten());
+    let all_view_pts = views.iter().flat_map(|v| svg::rings(&v.2).into_iter().flatten());
     let frv = Frame::fit(all_view_pts, 300.0);
-    for class in classes.iter().map(String::as_str).chain(std::iter::once("*")) {
+    for class in c.classes.iter().map(String::as_str).chain(std::iter::once("*")) {
         h.push_str(&frv.open(class));
         for (_, _, _, w, _) in overlaps.iter().filter(|o| o.0 == class) {
             h.push_str(&frv.polygon(w, "#555", "#888", 0.35));
@@ -260,6 +143,12 @@ pub fn write(con: &Connection, out: &Path, input: &str, timings: &[(String, f64)
         h.push_str(&frv.close(&format!("{}: {}", if class == "*" { "all classes" } else { class }, areas.join(", "))));
     }
 
+    Ok(())
+}
+
+/// Tracks per class and camera (table 4.1/4.3) and Cayley tables (4.4/4.5).
+fn track_counts(con: &Connection, c: &Ctx, h: &mut String) -> R<()> {
+    let xi = c.xi;
     // Table 4.1 style: tracks per class and camera, (*) with >= xi points in an overlap
     let counts: Vec<(String, i64, i64, i64)> = query_rows(
         con,
@@ -274,10 +163,10 @@ pub fn write(con: &Connection, out: &Path, input: &str, timings: &[(String, f64)
         |r| Ok((r.get(0)?, r.get(1)?, r.get(2)?, r.get(3)?)),
     )?;
     let mut rows = Vec::new();
-    for class in &classes {
+    for class in &c.classes {
         let mut row = vec![class.clone()];
         let (mut a, mut b) = (0, 0);
-        for &c in &cameras {
+        for &c in &c.cameras {
             let x = counts.iter().find(|q| &q.0 == class && q.1 == c).map_or((0, 0), |q| (q.2, q.3));
             row.push(format!("{} ({})", x.0, x.1));
             a += x.0;
@@ -287,7 +176,7 @@ pub fn write(con: &Connection, out: &Path, input: &str, timings: &[(String, f64)
         rows.push(row);
     }
     let mut total = vec!["Total".to_string()];
-    for &c in cameras.iter() {
+    for &c in c.cameras.iter() {
         let x: (i64, i64) = counts.iter().filter(|q| q.1 == c).fold((0, 0), |s, q| (s.0 + q.2, s.1 + q.3));
         total.push(format!("{} ({})", x.0, x.1));
     }
@@ -295,7 +184,7 @@ pub fn write(con: &Connection, out: &Path, input: &str, timings: &[(String, f64)
     total.push(format!("{} ({})", x.0, x.1));
     rows.push(total);
     let mut head = vec!["class".to_string()];
-    head.extend(cameras.iter().map(|c| format!("camera {c} (*)")));
+    head.extend(c.cameras.iter().map(|c| format!("camera {c} (*)")));
     head.push("total (*)".into());
     let _ = write!(
         h,
@@ -313,11 +202,11 @@ pub fn write(con: &Connection, out: &Path, input: &str, timings: &[(String, f64)
         |r| Ok((r.get(0)?, r.get(1)?, r.get(2)?, r.get(3)?)),
     )?;
     let _ = write!(h, "<h2>Cayley tables: tracks with at least ξ points in each overlap (cf. thesis tables 4.4/4.5)</h2><p>Row k, column l: camera k's tracks with ≥ {xi} points in P<sup>k∩l</sup>; the diagonal is all of camera k's tracks.</p>");
-    for class in &classes {
+    for class in &c.classes {
         let mut rows = Vec::new();
-        for &k in &cameras {
+        for &k in &c.cameras {
             let mut row = vec![format!("P{k}")];
-            for &l in &cameras {
+            for &l in &c.cameras {
                 let v = if k == l {
                     counts.iter().find(|q| &q.0 == class && q.1 == k).map_or(0, |q| q.2)
                 } else {
@@ -328,10 +217,15 @@ pub fn write(con: &Connection, out: &Path, input: &str, timings: &[(String, f64)
             rows.push(row);
         }
         let mut head = vec![class.clone()];
-        head.extend(cameras.iter().map(|c| format!("P{c}")));
+        head.extend(c.cameras.iter().map(|c| format!("P{c}")));
         h.push_str(&table(&head, &rows));
     }
 
+    Ok(())
+}
+
+/// Accepted links per camera pair (4.2) and road users per camera set (4.6).
+fn matches(con: &Connection, c: &Ctx, h: &mut String) -> R<()> {
     // matched pairs per camera pair and class (table 4.2 style), merged road users per camera set (4.6)
     let links: Vec<(String, String, i64)> = query_rows(
         con,
@@ -352,17 +246,17 @@ pub fn write(con: &Connection, out: &Path, input: &str, timings: &[(String, f64)
         let mut keys: Vec<&String> = data.iter().map(|d| &d.0).collect();
         keys.dedup();
         let mut rows = Vec::new();
-        let mut col_tot = vec![0i64; classes.len() + 1];
+        let mut col_tot = vec![0i64; c.classes.len() + 1];
         for k in keys {
             let mut row = vec![k.clone()];
             let mut tot = 0;
-            for (i, class) in classes.iter().enumerate() {
+            for (i, class) in c.classes.iter().enumerate() {
                 let v = data.iter().find(|d| &d.0 == k && &d.1 == class).map_or(0, |d| d.2);
                 row.push(v.to_string());
                 tot += v;
                 col_tot[i] += v;
             }
-            col_tot[classes.len()] += tot;
+            col_tot[c.classes.len()] += tot;
             row.push(tot.to_string());
             rows.push(row);
         }
@@ -370,7 +264,7 @@ pub fn write(con: &Connection, out: &Path, input: &str, timings: &[(String, f64)
         last.extend(col_tot.iter().map(|v| v.to_string()));
         rows.push(last);
         let mut head = vec![label.to_string()];
-        head.extend(classes.iter().cloned());
+        head.extend(c.classes.iter().cloned());
         head.push("total".into());
         table(&head, &rows)
     };
@@ -382,6 +276,11 @@ pub fn write(con: &Connection, out: &Path, input: &str, timings: &[(String, f64)
         pivot(&sets, "cameras")
     );
 
+    Ok(())
+}
+
+/// Four merged road users with their sources.
+fn sample_merges(con: &Connection, _: &Ctx, h: &mut String) -> R<()> {
     // sample merges
     let samples: Vec<(i64, String)> = query_rows(
         con,
@@ -416,6 +315,11 @@ pub fn write(con: &Connection, out: &Path, input: &str, timings: &[(String, f64)
         h.push_str(&fr.close(&format!("road user {ru} ({class}) from tracks {}", names.join(", "))));
     }
 
+    Ok(())
+}
+
+/// Route patterns.
+fn clusters(con: &Connection, _: &Ctx, h: &mut String) -> R<()> {
     // clusters
     let cl: Vec<Vec<String>> = query_rows(
         con,
@@ -426,42 +330,17 @@ pub fn write(con: &Connection, out: &Path, input: &str, timings: &[(String, f64)
     let cam: i64 = con.query_row("SELECT getvariable('cluster_camera')::BIGINT", [], |r| r.get(0))?;
     let _ = write!(
         h,
-        "<h2>Route patterns</h2><p>Agglomerative clustering (average linkage on 1 − LCSS S1) of camera {cam}'s tracks (sql/cluster.sql).</p>{}",
+        "<h2>Route patterns</h2><p>Agglomerative clustering (average linkage on 1 − LCSS S1) of camera {cam}'s tracks (sql/stages/cluster.sql).</p>{}",
         table(&["class", "clusters", "tracks in a cluster", "tracks"].map(String::from), &cl)
     );
-    h.push_str("</body></html>\n");
-    std::fs::write(out.join("report.html"), h)?;
     Ok(())
 }
 
-/// (x, y) pairs of a trajectory value (`STRUCT(t, x, y)[]`).
-fn value_xy(v: &duckdb::types::Value) -> Vec<(f64, f64)> {
-    use duckdb::types::Value;
-    let f = |v: &Value| match v {
-        Value::Double(d) => *d,
-        _ => f64::NAN,
-    };
-    match v {
-        Value::List(items) => items
-            .iter()
-            .filter_map(|it| match it {
-                Value::Struct(m) => Some((f(m.get(&"x".to_string())?), f(m.get(&"y".to_string())?))),
-                _ => None,
-            })
-            .collect(),
-        _ => Vec::new(),
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::wkt_rings;
-
-    #[test]
-    fn rings_of_polygons_and_multipolygons() {
-        assert_eq!(wkt_rings("POLYGON EMPTY").len(), 0);
-        let r = wkt_rings("MULTIPOLYGON (((0 0, 1 0, 1 1, 0 0)), ((5 5, 6 5, 6 6, 5 5), (5.1 5.1, 5.2 5.1, 5.2 5.2, 5.1 5.1)))");
-        assert_eq!(r.len(), 3);
-        assert_eq!(r[1][2], (6.0, 6.0));
-    }
+/// The parameters the run used (`pipeline_params`).
+fn parameters(con: &Connection, _: &Ctx, h: &mut String) -> R<()> {
+    let rows: Vec<Vec<String>> = query_rows(con, "SELECT name, value, stage, description FROM pipeline_params", |r| {
+        Ok(vec![r.get::<_, String>(0)?, r.get::<_, String>(1)?, r.get::<_, String>(2)?, r.get::<_, String>(3)?])
+    })?;
+    let _ = write!(h, "<h2>Parameters</h2><p>Declared in src/app/params.rs; set with <code>--param name=value</code>.</p>{}", table(&["name", "value", "stage", "description"].map(String::from), &rows));
+    Ok(())
 }

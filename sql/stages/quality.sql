@@ -10,22 +10,19 @@
 --   quality_links(camera, track_id, linked_id)        every track and the id of its linked chain
 --   quality_flags(camera, track_id, flag)             'split' / 'merge' participants
 --   quality_labels(camera, track_id, label, coherence) object / fragment / group (traj_labels, motion coherency)
---   points_linked                                     points with track_id replaced by linked_id
+--   points_linked                                     points with track_id replaced by linked_id (and `points` becomes it)
 --
--- Parameters (edit here): a piece may resume up to 2.5 s later, within 2 m of where the track
+-- Parameters (defaults and why): a piece may resume up to 2.5 s later, within 2 m of where the track
 -- would be at its final velocity (velocity over the last ~0.4 s); endpoints closer than 1 m to
 -- the view's edge are entries and exits, not events. Only tracks of the same class are linked.
 -- Measured with benches/accuracy_quality.py: (2.5 s, 2 m, 1 m) links 73 % / 92 % of the true
 -- breaks at precision 1.00 on the two DUT scenes; a 2 m inset (entries mistaken for nothing)
 -- finds 52 % / 80 %, a 3 m radius adds split/merge ambiguity and finds fewer.
 --
--- Use before the cross-camera pipeline:
---   .read sql/quality.sql
---   CREATE OR REPLACE TABLE points AS SELECT * FROM points_linked;
---   .read sql/align.sql  ...
-SET VARIABLE quality_max_gap = 2.5;
-SET VARIABLE quality_max_dist = 2.0;
-SET VARIABLE quality_inset = 1.0;
+-- It ends by replacing `points` with `points_linked` (the original rows stay in
+-- quality_endpoints / quality_links), so the cross-camera stages run on linked tracks.
+-- Parameters (quality_*): declared once in src/app/params.rs, defaults in sql/params.sql;
+-- `trajdb params` lists them, `trajdb pipeline --param name=value` or SET VARIABLE sets them.
 
 CREATE OR REPLACE TEMP TABLE quality_endpoints AS
 WITH t AS (
@@ -90,6 +87,9 @@ SELECT DISTINCT camera, ev.to_id, ev.kind FROM quality_events WHERE ev.kind IN (
 CREATE OR REPLACE TEMP TABLE points_linked AS
 SELECT p.* REPLACE (coalesce(l.linked_id, p.track_id) AS track_id)
 FROM points p LEFT JOIN quality_links l USING (camera, track_id);
+
+-- The later stages work on the linked tracks.
+CREATE OR REPLACE TEMP TABLE points AS SELECT * FROM points_linked;
 
 SELECT ev.kind, count(*) AS events FROM quality_events GROUP BY ev.kind ORDER BY ev.kind;
 SELECT label, count(*) AS tracks FROM quality_labels GROUP BY label ORDER BY label;

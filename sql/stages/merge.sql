@@ -23,23 +23,19 @@
 --  * each road user is merged with trajectory_merge() in the merge order (view_merge_order), so
 --    duplicates (phi_ij next to phi_ijk) cannot arise.
 --
--- Parameters (edit here). The thesis used eps = 1 m, T = 0.5 s, xi = 5, eta_bar = 0.35-0.5. With an
+-- Parameters (defaults and why). The thesis used eps = 1 m, T = 0.5 s, xi = 5, eta_bar = 0.35-0.5. With an
 -- accurate alignment, eps should be a few times the cameras' combined position noise (view_noise:
 -- 0.06-0.13 m on the benchmark scenes), not the width of a lane: at eps = 1 m pedestrians walking
 -- side by side score eta = 1 against each other and Hungarian swaps them (pair precision 0.82 on
 -- dut_intersection_3cam); at eps = 0.5 m it is 1.00 (benches/accuracy_merge.py). T = 0.25 s is
 -- 2.5 sample periods at 10 Hz; xi = 3 points keeps short overlaps.
-SET VARIABLE merge_epsilon = 0.5;
-SET VARIABLE merge_time_window = 0.25;
-SET VARIABLE merge_min_points = 3;
-SET VARIABLE merge_eta = 0.5;
+-- Parameters (merge_*): declared once in src/app/params.rs, defaults in sql/params.sql;
+-- `trajdb params` lists them, `trajdb pipeline --param name=value` or SET VARIABLE sets them.
 -- Common clock: every track is resampled to t = k * merge_resample_s (traj_resample; 0 keeps the
 -- raw samples) without bridging gaps longer than merge_resample_max_gap s. Cameras sample at
 -- their own phases, so raw samples of one car lie up to half a period apart in time: at 12 m/s
 -- and 5 Hz that is 1.2 m, more than eps, and fast cars went unmatched (car recall 0.76 on a
 -- simulated 5 Hz day, `trajdb simulate --rate-hz 5`). The merged trajectories are on this clock.
-SET VARIABLE merge_resample_s = 0.1;
-SET VARIABLE merge_resample_max_gap = 1.0;
 
 CREATE OR REPLACE TEMP TABLE merge_tracks AS
 -- uid: one BIGINT per (camera, track_id), dense, so any camera and track id fits

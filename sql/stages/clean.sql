@@ -6,9 +6,8 @@
 --    (dut_roundabout_2cam) at unchanged precision. The estimated points themselves are never
 --    used for scoring (every later stage reads estimated = 0 only);
 --  * drop tracks with fewer than clean_min_points real points.
-SET VARIABLE clean_drop_estimated_tails = false;
-SET VARIABLE clean_xi = 3;
-SET VARIABLE clean_min_points = 5;
+-- Parameters (clean_*): declared once in src/app/params.rs, defaults in sql/params.sql;
+-- `trajdb params` lists them, `trajdb pipeline --param name=value` or SET VARIABLE sets them.
 
 CREATE OR REPLACE TEMP TABLE clean_dropped AS
 WITH r AS (

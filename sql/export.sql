@@ -1,0 +1,37 @@
+-- trajdb: the pipeline's result files, written into the directory getvariable('out_dir')
+-- (`trajdb pipeline --out DIR` sets it; after `.read sql/pipeline.sql` in the DuckDB CLI:
+-- SET VARIABLE out_dir = 'results'; .read sql/export.sql  -- the directory must exist).
+
+-- transforms.csv: cam_from-local into cam_to-local, every ordered pair of aligned cameras
+COPY (SELECT a.camera AS cam_from, b.camera AS cam_to, tf.theta AS theta_rad, tf.tx, tf.ty
+      FROM align_frames a, align_frames b,
+           LATERAL (SELECT transform_compose(transform_invert(b.to_reference), a.to_reference) AS tf)
+      WHERE a.camera <> b.camera ORDER BY cam_from, cam_to)
+TO (getvariable('out_dir') || '/transforms.csv') (HEADER, DELIMITER ',');
+
+-- matches.csv: only the links merge_groups() kept (a refused link contradicts its road user)
+COPY (SELECT ta.camera AS camera_a, ta.track_id AS track_a,
+             tb.camera AS camera_b, tb.track_id AS track_b, m.eta AS score, m.kind
+      FROM merge_links m
+      JOIN merge_tracks ta ON ta.uid = m.uid_a JOIN merge_tracks tb ON tb.uid = m.uid_b
+      JOIN merge_groups ga ON ga.uid = m.uid_a JOIN merge_groups gb ON gb.uid = m.uid_b
+      WHERE ga.road_user = gb.road_user
+      ORDER BY camera_a, track_a, camera_b, track_b)
+TO (getvariable('out_dir') || '/matches.csv') (HEADER, DELIMITER ',');
+
+-- merged.parquet: one row per road user; GeoParquet 1.1: `geometry` is WKB (LINESTRING, or
+-- POINT for a one-point road user) in the reference camera's local metric frame, which has no
+-- CRS ("crs": null is GeoParquet's "undefined"; QGIS and GDAL open it as a plain XY layer).
+COPY (SELECT road_user, class, n_tracks, sources, traj_to_wkb(traj) AS geometry, traj
+      FROM merged ORDER BY road_user)
+TO (getvariable('out_dir') || '/merged.parquet')
+(FORMAT parquet, KV_METADATA {geo: '{"version":"1.1.0","primary_column":"geometry","columns":{"geometry":{"encoding":"WKB","geometry_types":["LineString","Point"],"crs":null,"edges":"planar"}}}'});
+
+-- clusters.csv: route patterns of one camera
+COPY (SELECT getvariable('cluster_camera') AS camera, class, track_id, cluster FROM cluster_assign
+      ORDER BY class, cluster, track_id)
+TO (getvariable('out_dir') || '/clusters.csv') (HEADER, DELIMITER ',');
+
+-- links.csv: broken tracks linked within a camera (every track and the id of its chain)
+COPY (SELECT camera, track_id, linked_id FROM quality_links ORDER BY camera, track_id)
+TO (getvariable('out_dir') || '/links.csv') (HEADER, DELIMITER ',');

@@ -1,0 +1,49 @@
+-- trajdb pipeline parameters: GENERATED from src/app/params.rs by `trajdb params --sql > sql/params.sql`.
+-- Each keeps a value you SET VARIABLE before `.read sql/params.sql`; otherwise it takes the default.
+
+-- clean
+SET VARIABLE clean_drop_estimated_tails = coalesce(getvariable('clean_drop_estimated_tails'), false); -- drop a track whose last clean_xi points are all estimated
+SET VARIABLE clean_xi = coalesce(getvariable('clean_xi'), 3::BIGINT); -- points of the estimated tail rule
+SET VARIABLE clean_min_points = coalesce(getvariable('clean_min_points'), 5::BIGINT); -- drop tracks with fewer real (not estimated) points
+
+-- quality
+SET VARIABLE quality_max_gap = coalesce(getvariable('quality_max_gap'), 2.5::DOUBLE); -- a broken piece may resume up to this many seconds later
+SET VARIABLE quality_max_dist = coalesce(getvariable('quality_max_dist'), 2.0::DOUBLE); -- ... within this many metres of where the track would be at its final velocity
+SET VARIABLE quality_inset = coalesce(getvariable('quality_inset'), 1.0::DOUBLE); -- endpoints closer than this (m) to the view's edge are entries and exits
+
+-- align
+SET VARIABLE align_min_points = coalesce(getvariable('align_min_points'), 10::BIGINT); -- tracks need at least this many real points to form hypotheses
+SET VARIABLE align_min_overlap_s = coalesce(getvariable('align_min_overlap_s'), 2.0::DOUBLE); -- track pairs overlap at least this long in time (s)
+SET VARIABLE align_min_pairs = coalesce(getvariable('align_min_pairs'), 10::BIGINT); -- a hypothesis needs at least this many time-interpolated point pairs
+SET VARIABLE align_min_span_m = coalesce(getvariable('align_min_span_m'), 3.0::DOUBLE); -- ... and its moving points span at least this many metres
+SET VARIABLE align_max_rms_m = coalesce(getvariable('align_max_rms_m'), 0.5::DOUBLE); -- hypotheses fitting their own pairs within this RMS (m) vote
+SET VARIABLE align_bin_deg = coalesce(getvariable('align_bin_deg'), 2.0::DOUBLE); -- vote bin of the rotation (degrees)
+SET VARIABLE align_bin_m = coalesce(getvariable('align_bin_m'), 1.0::DOUBLE); -- vote bin of the translation (m)
+SET VARIABLE align_agree_deg = coalesce(getvariable('align_agree_deg'), 3.0::DOUBLE); -- a hypothesis agrees with the winning bin within this rotation (degrees)
+SET VARIABLE align_agree_m = coalesce(getvariable('align_agree_m'), 2.0::DOUBLE); -- ... and this translation (m)
+SET VARIABLE align_min_support = coalesce(getvariable('align_min_support'), 3::BIGINT); -- a camera pair needs at least this many agreeing track pairs
+SET VARIABLE align_trim = coalesce(getvariable('align_trim'), 0.1::DOUBLE); -- share of point pairs the trimmed refit leaves out
+SET VARIABLE align_refine_rms_m = coalesce(getvariable('align_refine_rms_m'), 0.3::DOUBLE); -- second pass: track pairs within this RMS (m) of the first fit are kept
+
+-- overlap
+SET VARIABLE overlap_method = coalesce(getvariable('overlap_method'), 'convex'); -- view polygon hull: 'convex' or 'concave'
+SET VARIABLE overlap_concavity = coalesce(getvariable('overlap_concavity'), 2.0::DOUBLE); -- concavity of the concave hull
+SET VARIABLE overlap_radius_m = coalesce(getvariable('overlap_radius_m'), 2.0::DOUBLE); -- density rule: a point counts with overlap_min_neighbours others within this radius (m)
+SET VARIABLE overlap_min_neighbours = coalesce(getvariable('overlap_min_neighbours'), 3::BIGINT); -- density rule: neighbours a point needs
+SET VARIABLE overlap_shrink_sigmas = coalesce(getvariable('overlap_shrink_sigmas'), 1.0::DOUBLE); -- each view polygon is shrunk by this many times the camera's measured noise
+
+-- merge
+SET VARIABLE merge_epsilon = coalesce(getvariable('merge_epsilon'), 0.5::DOUBLE); -- LCSS epsilon (m) for matching and merging
+SET VARIABLE merge_time_window = coalesce(getvariable('merge_time_window'), 0.25::DOUBLE); -- LCSS time window T (s)
+SET VARIABLE merge_min_points = coalesce(getvariable('merge_min_points'), 3::BIGINT); -- LCSS xi: points a track needs inside the overlap
+SET VARIABLE merge_eta = coalesce(getvariable('merge_eta'), 0.5::DOUBLE); -- eta-bar: the lowest similarity that links two tracks
+SET VARIABLE merge_resample_s = coalesce(getvariable('merge_resample_s'), 0.1::DOUBLE); -- common clock period (s); 0 keeps the raw samples
+SET VARIABLE merge_resample_max_gap = coalesce(getvariable('merge_resample_max_gap'), 1.0::DOUBLE); -- the common clock does not bridge gaps longer than this (s)
+
+-- cluster
+SET VARIABLE cluster_camera = coalesce(getvariable('cluster_camera'), 1::BIGINT); -- the camera whose tracks are clustered
+SET VARIABLE cluster_delta = coalesce(getvariable('cluster_delta'), 5::BIGINT); -- Buzan's delta: samples of time warping
+SET VARIABLE cluster_epsilon = coalesce(getvariable('cluster_epsilon'), 2.0::DOUBLE); -- Buzan's epsilon (m)
+SET VARIABLE cluster_rho = coalesce(getvariable('cluster_rho'), 0.5::DOUBLE); -- Buzan's rho: length ratio below which tracks are not compared
+SET VARIABLE cluster_threshold = coalesce(getvariable('cluster_threshold'), 0.5::DOUBLE); -- average-linkage cut height
+SET VARIABLE cluster_translation_invariant = coalesce(getvariable('cluster_translation_invariant'), false); -- use S2 (shapes anywhere) instead of S1 (routes)

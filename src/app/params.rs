@@ -1,0 +1,216 @@
+//! The one declared table of pipeline parameters. The stage files read them with
+//! `getvariable('name')`; the runner sets every one with `SET VARIABLE` before the stages
+//! (the default or a `--param name=value` override, checked against the declared type), and
+//! `sql/params.sql`, generated from this table, does the same for the DuckDB CLI.
+
+use std::error::Error;
+use std::fmt::Write as _;
+
+/// The SQL type of a parameter.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Kind {
+    Double,
+    Integer,
+    Boolean,
+    Text,
+}
+
+/// One parameter: name, type, default (as SQL), stage, description.
+#[derive(Clone, Copy, Debug)]
+pub struct Param {
+    pub name: &'static str,
+    pub kind: Kind,
+    pub default: &'static str,
+    pub stage: &'static str,
+    pub description: &'static str,
+}
+
+const fn d(name: &'static str, default: &'static str, stage: &'static str, description: &'static str) -> Param {
+    Param { name, kind: Kind::Double, default, stage, description }
+}
+const fn i(name: &'static str, default: &'static str, stage: &'static str, description: &'static str) -> Param {
+    Param { name, kind: Kind::Integer, default, stage, description }
+}
+const fn b(name: &'static str, default: &'static str, stage: &'static str, description: &'static str) -> Param {
+    Param { name, kind: Kind::Boolean, default, stage, description }
+}
+const fn s(name: &'static str, default: &'static str, stage: &'static str, description: &'static str) -> Param {
+    Param { name, kind: Kind::Text, default, stage, description }
+}
+
+/// Every parameter of every stage, in stage order. The defaults and the measurements behind
+/// them are explained at the top of each stage file.
+pub const PARAMS: &[Param] = &[
+    b("clean_drop_estimated_tails", "false", "clean", "drop a track whose last clean_xi points are all estimated"),
+    i("clean_xi", "3", "clean", "points of the estimated tail rule"),
+    i("clean_min_points", "5", "clean", "drop tracks with fewer real (not estimated) points"),
+    d("quality_max_gap", "2.5", "quality", "a broken piece may resume up to this many seconds later"),
+    d("quality_max_dist", "2.0", "quality", "... within this many metres of where the track would be at its final velocity"),
+    d("quality_inset", "1.0", "quality", "endpoints closer than this (m) to the view's edge are entries and exits"),
+    i("align_min_points", "10", "align", "tracks need at least this many real points to form hypotheses"),
+    d("align_min_overlap_s", "2.0", "align", "track pairs overlap at least this long in time (s)"),
+    i("align_min_pairs", "10", "align", "a hypothesis needs at least this many time-interpolated point pairs"),
+    d("align_min_span_m", "3.0", "align", "... and its moving points span at least this many metres"),
+    d("align_max_rms_m", "0.5", "align", "hypotheses fitting their own pairs within this RMS (m) vote"),
+    d("align_bin_deg", "2.0", "align", "vote bin of the rotation (degrees)"),
+    d("align_bin_m", "1.0", "align", "vote bin of the translation (m)"),
+    d("align_agree_deg", "3.0", "align", "a hypothesis agrees with the winning bin within this rotation (degrees)"),
+    d("align_agree_m", "2.0", "align", "... and this translation (m)"),
+    i("align_min_support", "3", "align", "a camera pair needs at least this many agreeing track pairs"),
+    d("align_trim", "0.1", "align", "share of point pairs the trimmed refit leaves out"),
+    d("align_refine_rms_m", "0.3", "align", "second pass: track pairs within this RMS (m) of the first fit are kept"),
+    s("overlap_method", "'convex'", "overlap", "view polygon hull: 'convex' or 'concave'"),
+    d("overlap_concavity", "2.0", "overlap", "concavity of the concave hull"),
+    d("overlap_radius_m", "2.0", "overlap", "density rule: a point counts with overlap_min_neighbours others within this radius (m)"),
+    i("overlap_min_neighbours", "3", "overlap", "density rule: neighbours a point needs"),
+    d("overlap_shrink_sigmas", "1.0", "overlap", "each view polygon is shrunk by this many times the camera's measured noise"),
+    d("merge_epsilon", "0.5", "merge", "LCSS epsilon (m) for matching and merging"),
+    d("merge_time_window", "0.25", "merge", "LCSS time window T (s)"),
+    i("merge_min_points", "3", "merge", "LCSS xi: points a track needs inside the overlap"),
+    d("merge_eta", "0.5", "merge", "eta-bar: the lowest similarity that links two tracks"),
+    d("merge_resample_s", "0.1", "merge", "common clock period (s); 0 keeps the raw samples"),
+    d("merge_resample_max_gap", "1.0", "merge", "the common clock does not bridge gaps longer than this (s)"),
+    i("cluster_camera", "1", "cluster", "the camera whose tracks are clustered"),
+    i("cluster_delta", "5", "cluster", "Buzan's delta: samples of time warping"),
+    d("cluster_epsilon", "2.0", "cluster", "Buzan's epsilon (m)"),
+    d("cluster_rho", "0.5", "cluster", "Buzan's rho: length ratio below which tracks are not compared"),
+    d("cluster_threshold", "0.5", "cluster", "average-linkage cut height"),
+    b("cluster_translation_invariant", "false", "cluster", "use S2 (shapes anywhere) instead of S1 (routes)"),
+];
+
+/// The declared parameter called `name`.
+pub fn find(name: &str) -> Option<&'static Param> {
+    PARAMS.iter().find(|p| p.name == name)
+}
+
+impl Param {
+    /// `value` as an SQL literal of this parameter's type, or an error naming the parameter.
+    pub fn literal(&self, value: &str) -> Result<String, Box<dyn Error>> {
+        let v = value.trim();
+        let bad = |what: &str| -> Box<dyn Error> { format!("pipeline: parameter {} must be {what}, got {value:?}", self.name).into() };
+        Ok(match self.kind {
+            Kind::Double => {
+                let x: f64 = v.parse().map_err(|_| bad("a number"))?;
+                if !x.is_finite() {
+                    return Err(bad("a finite number"));
+                }
+                format!("{x:?}::DOUBLE")
+            }
+            Kind::Integer => format!("{}::BIGINT", v.parse::<i64>().map_err(|_| bad("an integer"))?),
+            Kind::Boolean => match v.to_ascii_lowercase().as_str() {
+                "true" => "true".into(),
+                "false" => "false".into(),
+                _ => return Err(bad("true or false")),
+            },
+            Kind::Text => {
+                let inner = v.strip_prefix('\'').and_then(|x| x.strip_suffix('\'')).unwrap_or(v);
+                format!("'{}'", inner.replace('\'', "''"))
+            }
+        })
+    }
+}
+
+/// The value of every parameter (default or override), as SQL literals in table order.
+/// Unknown names are an error that lists the known ones.
+pub fn resolve(overrides: &[(String, String)]) -> Result<Vec<(&'static Param, String)>, Box<dyn Error>> {
+    for (name, _) in overrides {
+        if find(name).is_none() {
+            let known: Vec<&str> = PARAMS.iter().map(|p| p.name).collect();
+            return Err(format!("pipeline: unknown parameter {name:?}; known: {}", known.join(", ")).into());
+        }
+    }
+    PARAMS
+        .iter()
+        .map(|p| {
+            let v = overrides.iter().rev().find(|(n, _)| n == p.name).map(|(_, v)| v.as_str()).unwrap_or(p.default);
+            Ok((p, p.literal(v)?))
+        })
+        .collect()
+}
+
+/// `SET VARIABLE` statements for resolved values, and the `pipeline_params` table that records
+/// them (the report shows it).
+pub fn set_sql(values: &[(&'static Param, String)]) -> String {
+    let mut sql = String::new();
+    for (p, v) in values {
+        let _ = writeln!(sql, "SET VARIABLE {} = {v};", p.name);
+    }
+    sql.push_str("CREATE OR REPLACE TEMP TABLE pipeline_params AS SELECT * FROM (VALUES\n");
+    let rows: Vec<String> = values
+        .iter()
+        .map(|(p, v)| format!("    ('{}', '{}', '{}', '{}')", p.name, v.replace('\'', "''"), p.stage, p.description.replace('\'', "''")))
+        .collect();
+    sql.push_str(&rows.join(",\n"));
+    sql.push_str("\n) t(name, value, stage, description);\n");
+    sql
+}
+
+/// The text of `sql/params.sql`: every default, kept when the variable is already set.
+pub fn params_sql() -> String {
+    let mut s = String::from(
+        "-- trajdb pipeline parameters: GENERATED from src/app/params.rs by `trajdb params --sql > sql/params.sql`.\n\
+         -- Each keeps a value you SET VARIABLE before `.read sql/params.sql`; otherwise it takes the default.\n",
+    );
+    let mut stage = "";
+    for p in PARAMS {
+        if p.stage != stage {
+            let _ = writeln!(s, "\n-- {}", p.stage);
+            stage = p.stage;
+        }
+        let _ = writeln!(s, "SET VARIABLE {0} = coalesce(getvariable('{0}'), {1}); -- {2}", p.name, p.literal(p.default).expect("valid default"), p.description);
+    }
+    s
+}
+
+/// A table of the parameters for `trajdb params`.
+pub fn table() -> String {
+    let mut s = format!("{:<32} {:<8} {:<10} {}\n", "name", "stage", "default", "description");
+    for p in PARAMS {
+        let _ = writeln!(s, "{:<32} {:<8} {:<10} {}", p.name, p.stage, p.default, p.description);
+    }
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn values_are_checked_against_their_type() {
+        let p = find("merge_eta").unwrap();
+        assert_eq!(p.literal("0.4").unwrap(), "0.4::DOUBLE");
+        assert!(p.literal("abc").unwrap_err().to_string().contains("merge_eta must be a number, got \"abc\""));
+        assert!(p.literal("NaN").is_err());
+        assert_eq!(find("clean_xi").unwrap().literal("4").unwrap(), "4::BIGINT");
+        assert!(find("clean_xi").unwrap().literal("4.5").is_err());
+        assert_eq!(find("cluster_translation_invariant").unwrap().literal("TRUE").unwrap(), "true");
+        assert_eq!(find("overlap_method").unwrap().literal("concave").unwrap(), "'concave'");
+        assert_eq!(find("overlap_method").unwrap().literal("'x''; DROP'").unwrap(), "'x''''; DROP'");
+    }
+
+    #[test]
+    fn resolve_applies_overrides_and_rejects_unknown_names() {
+        let v = resolve(&[("merge_eta".into(), "0.4".into())]).unwrap();
+        assert_eq!(v.len(), PARAMS.len());
+        assert!(v.iter().any(|(p, v)| p.name == "merge_eta" && v == "0.4::DOUBLE"));
+        let e = resolve(&[("nope".into(), "1".into())]).unwrap_err().to_string();
+        assert!(e.starts_with("pipeline: unknown parameter \"nope\"; known: clean_drop_estimated_tails"), "{e}");
+        for p in PARAMS {
+            p.literal(p.default).unwrap();
+        }
+    }
+
+    #[test]
+    fn sql_params_file_is_generated_from_the_table() {
+        let file = include_str!("../../sql/params.sql");
+        assert_eq!(file, params_sql(), "sql/params.sql is stale: run `trajdb params --sql > sql/params.sql`");
+    }
+
+    #[test]
+    fn every_parameter_is_read_by_its_stage_file() {
+        for p in PARAMS {
+            let sql = super::super::sql::file(&format!("sql/stages/{}.sql", p.stage)).unwrap();
+            assert!(sql.contains(&format!("getvariable('{}')", p.name)), "{} is never read in its stage", p.name);
+        }
+    }
+}

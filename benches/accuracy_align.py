@@ -7,7 +7,7 @@ truth T_b^-1 o T_a: rotation error in degrees and the RMS displacement of a's po
 in the true overlap of the two views (the convention of shared/data/README.md).
 
 Methods:
-  trajdb      sql/align.sql (hypotheses from track pairs, voting, trimmed refit, spanning tree)
+  trajdb      sql/stages/align.sql (hypotheses from track pairs, voting, trimmed refit, spanning tree)
   timecpd8    cpd_align on all points of both cameras (a fixed 1/8 sample), tau = 0.5 s, 8 starts
   cpd_RI      plain rigid CPD (tau = inf) from R = I only (the thesis's start)
   timecpd_RI  TimeCPD (tau = 0.5 s) from R = I only
@@ -30,6 +30,12 @@ import time
 import duckdb
 
 HERE = os.path.dirname(os.path.abspath(__file__))
+
+
+def stage_sql(name):
+    """sql/stages/NAME.sql after the parameter defaults of sql/params.sql (the stages read them)."""
+    read = lambda *p: open(os.path.join(HERE, "..", "sql", *p)).read()
+    return read("params.sql") + "\n" + read("stages", name)
 DATA = os.path.join(HERE, "..", "..", "shared", "data")
 
 
@@ -62,7 +68,7 @@ def main():
     ap.add_argument("--no-cpd", action="store_true")
     a = ap.parse_args()
     scenarios = a.scenario or [os.path.join(DATA, "dut_intersection_3cam"), os.path.join(DATA, "dut_roundabout_2cam")]
-    align_sql = open(os.path.join(HERE, "..", "sql", "align.sql")).read()
+    align_sql = stage_sql("align.sql")
     worst = (0.0, 0.0)
     for sc in scenarios:
         con = duckdb.connect(config={"allow_unsigned_extensions": "true"})
@@ -80,7 +86,7 @@ def main():
             for row in csv.DictReader(f):
                 truth[int(row["camera"])] = ((float(row["theta_rad"]), float(row["tx"]), float(row["ty"]), 1.0), row["view_wkt_world"])
         cams = sorted(truth)
-        print(f"\n== {os.path.basename(sc)}: {len(cams)} cameras; sql/align.sql ran in {el:.2f} s; pair support {support}")
+        print(f"\n== {os.path.basename(sc)}: {len(cams)} cameras; sql/stages/align.sql ran in {el:.2f} s; pair support {support}")
 
         def errors(est_ab, ca, cb):
             """rotation error (deg) and RMS displacement over a's points in the true overlap."""

@@ -1,12 +1,12 @@
 #!/usr/bin/env python3
-"""Accuracy of the multi-camera merge (sql/align.sql -> sql/overlap.sql -> sql/merge.sql) on the
+"""Accuracy of the multi-camera merge (sql/stages/align.sql -> sql/stages/overlap.sql -> sql/stages/merge.sql) on the
 real-trajectory scenarios, against truth.csv (read only here, never by the pipeline).
 
 A track pair (any two tracks, same or different camera) is positive when both tracks belong to
 the same true object. Scored:
   thesis     the thesis's output: the one-to-one Hungarian links per camera pair (eta >= eta_bar),
              nothing else (split pieces in one camera are never joined);
-  trajdb     the road users of sql/merge.sql: all track pairs in one merge group (Hungarian links
+  trajdb     the road users of sql/stages/merge.sql: all track pairs in one merge group (Hungarian links
              + split-piece links, with the same-camera/same-time consistency rule).
 Precision, recall and F1 over track pairs; also the number of groups that hold two
 time-overlapping tracks of one camera (must be 0).
@@ -21,6 +21,12 @@ import time
 import duckdb
 
 HERE = os.path.dirname(os.path.abspath(__file__))
+
+
+def stage_sql(name):
+    """sql/stages/NAME.sql after the parameter defaults of sql/params.sql (the stages read them)."""
+    read = lambda *p: open(os.path.join(HERE, "..", "sql", *p)).read()
+    return read("params.sql") + "\n" + read("stages", name)
 DATA = os.path.join(HERE, "..", "..", "shared", "data")
 
 
@@ -37,7 +43,7 @@ def main():
     ap.add_argument("--scenario", action="append")
     a = ap.parse_args()
     scenarios = a.scenario or [os.path.join(DATA, "dut_intersection_3cam"), os.path.join(DATA, "dut_roundabout_2cam")]
-    sql = "".join(open(os.path.join(HERE, "..", "sql", f)).read() + "\n;\n" for f in ["align.sql", "overlap.sql", "merge.sql"])
+    sql = "".join(stage_sql(f) + "\n;\n" for f in ["align.sql", "overlap.sql", "merge.sql"])
     print(f"duckdb {duckdb.__version__}")
     for sc in scenarios:
         con = duckdb.connect(config={"allow_unsigned_extensions": "true"})

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Accuracy of the camera-overlap polygons on the real-trajectory scenarios.
 
-Runs the pipeline (sql/align.sql, then sql/overlap.sql) on points.parquet, takes the pairwise
+Runs the pipeline (sql/stages/align.sql, then sql/stages/overlap.sql) on points.parquet, takes the pairwise
 overlaps of the all-class view polygons (class '*') in the common frame, and compares them with
 the true overlap of the cameras' `view_wkt_world` rectangles from cameras.csv, mapped into the
 same frame with the true transform of the reference camera (p_local = R(-theta)(p - t), see the
@@ -29,6 +29,12 @@ from shapely import wkb, wkt
 from shapely.affinity import affine_transform
 
 HERE = os.path.dirname(os.path.abspath(__file__))
+
+
+def stage_sql(name):
+    """sql/stages/NAME.sql after the parameter defaults of sql/params.sql (the stages read them)."""
+    read = lambda *p: open(os.path.join(HERE, "..", "sql", *p)).read()
+    return read("params.sql") + "\n" + read("stages", name)
 DATA = os.path.join(HERE, "..", "..", "shared", "data")
 
 # name, method, concavity, density radius, min_neighbours, shrink (x measured noise sigma)
@@ -48,8 +54,8 @@ def main():
     ap.add_argument("--scenario", action="append")
     a = ap.parse_args()
     scenarios = a.scenario or [os.path.join(DATA, "dut_intersection_3cam"), os.path.join(DATA, "dut_roundabout_2cam")]
-    align_sql = open(os.path.join(HERE, "..", "sql", "align.sql")).read()
-    overlap_sql = open(os.path.join(HERE, "..", "sql", "overlap.sql")).read()
+    align_sql = stage_sql("align.sql")
+    overlap_sql = stage_sql("overlap.sql")
     print(f"duckdb {duckdb.__version__}, shapely {shapely.__version__}")
     worst = {}
     for sc in scenarios:

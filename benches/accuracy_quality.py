@@ -1,10 +1,10 @@
 #!/usr/bin/env python3
-"""Track quality (sql/quality.sql) on the real-trajectory scenarios, against truth.csv (read only
+"""Track quality (sql/stages/quality.sql) on the real-trajectory scenarios, against truth.csv (read only
 here, never by the pipeline).
 
   * broken-track links: precision = share of 'broken' events whose two tracks are the same
     object; recall = share of true breaks (consecutive tracks of one object in one camera) found;
-  * effect on the whole pipeline: pair precision / recall / F1 of sql/merge.sql's road users
+  * effect on the whole pipeline: pair precision / recall / F1 of sql/stages/merge.sql's road users
     over the original tracks, without and with linking (points vs points_linked).
 
 usage: python benches/accuracy_quality.py --ext trajdb.duckdb_extension [--scenario DIR ...]
@@ -16,13 +16,19 @@ import os
 import duckdb
 
 HERE = os.path.dirname(os.path.abspath(__file__))
+
+
+def stage_sql(name):
+    """sql/stages/NAME.sql after the parameter defaults of sql/params.sql (the stages read them)."""
+    read = lambda *p: open(os.path.join(HERE, "..", "sql", *p)).read()
+    return read("params.sql") + "\n" + read("stages", name)
 DATA = os.path.join(HERE, "..", "..", "shared", "data")
-SQL = {f: open(os.path.join(HERE, "..", "sql", f)).read() for f in ["quality.sql", "align.sql", "overlap.sql", "merge.sql"]}
+SQL = {f: stage_sql(f) for f in ["quality.sql", "align.sql", "overlap.sql", "merge.sql"]}
 
 
 def pipeline_f1(con, table, obj, linked):
     """Pair P/R/F1 over original tracks; `linked` maps (camera, track) -> id used in `table`."""
-    con.execute(f"CREATE OR REPLACE TABLE points AS SELECT * FROM {table}")
+    con.execute(f"CREATE OR REPLACE TEMP TABLE points AS SELECT * FROM {table}")
     for f in ["align.sql", "overlap.sql", "merge.sql"]:
         con.execute(SQL[f])
     group = {}
@@ -56,7 +62,7 @@ def main():
         con = duckdb.connect(config={"allow_unsigned_extensions": "true"})
         con.execute(f"LOAD '{os.path.abspath(a.ext)}'")
         con.execute(f"CREATE TABLE raw AS SELECT * FROM read_parquet('{os.path.abspath(os.path.join(sc, 'points.parquet'))}')")
-        con.execute("CREATE TABLE points AS SELECT * FROM raw")
+        con.execute("CREATE OR REPLACE TEMP TABLE points AS SELECT * FROM raw")
         con.execute(SQL["quality.sql"])
         con.execute("CREATE TABLE linked AS SELECT * FROM points_linked")
         obj = {(c, t): o for c, t, o, noise in con.execute(

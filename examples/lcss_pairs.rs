@@ -44,7 +44,8 @@ fn main() {
     let mut p = 0;
     let count = read_u32(&bytes, &mut p) as usize;
     let pairs: Vec<(OwnedTraj, OwnedTraj)> = (0..count).map(|_| (read_traj(&bytes, &mut p), read_traj(&bytes, &mut p))).collect();
-    let f: Box<dyn Fn(&OwnedTraj, &OwnedTraj) -> f64 + Sync> = match args[3].as_str() {
+    type Score = Box<dyn Fn(&OwnedTraj, &OwnedTraj) -> f64 + Sync>;
+    let f: Score = match args[3].as_str() {
         "index" => {
             let ip = IndexParams::new(args[4].parse().unwrap(), args[5].parse().unwrap(), None).unwrap();
             Box::new(move |a, b| lcss_index::joint_similarity(a.view(), b.view(), &ip))

@@ -498,6 +498,9 @@ fn at(o: &Object, t: f64) -> Option<(f64, f64)> {
     Some((a[1] + f * (b[1] - a[1]), a[2] + f * (b[2] - a[2])))
 }
 
+/// One camera's view of one object: (object id or −1, class, world samples (t, x, y, estimated)).
+type SeenTrack = (i64, &'static str, Vec<(f64, f64, f64, bool)>);
+
 /// Runs the simulation.
 pub fn simulate(p: &SimParams) -> Result<Scenario, SimError> {
     p.validate()?;
@@ -509,8 +512,7 @@ pub fn simulate(p: &SimParams) -> Result<Scenario, SimError> {
     for cam in &cameras {
         let dt = 1.0 / cam.rate_hz;
         let noise = Normal::new(0.0, cam.sigma.max(1e-12)).unwrap();
-        // (object id or −1, class, world samples (t, x, y, estimated))
-        let mut tracks: Vec<(i64, &'static str, Vec<(f64, f64, f64, bool)>)> = Vec::new();
+        let mut tracks: Vec<SeenTrack> = Vec::new();
         for o in &objects {
             let (t0, t1) = (o.samples[0][0], o.samples[o.samples.len() - 1][0]);
             let mut k = ((t0 - cam.phase) / dt).ceil() as i64;

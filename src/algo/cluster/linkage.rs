@@ -305,6 +305,8 @@ pub fn flat(d: &Dendrogram, cut: Cut) -> Vec<u32> {
 }
 
 #[cfg(test)]
+// The slow references index like the textbook definitions they transcribe.
+#[allow(clippy::needless_range_loop)]
 mod tests {
     use super::*;
     use proptest::prelude::*;

@@ -216,6 +216,8 @@ pub(crate) mod naive {
 }
 
 #[cfg(test)]
+// The slow references index like the textbook definitions they transcribe.
+#[allow(clippy::needless_range_loop)]
 mod tests {
     use super::*;
     use proptest::prelude::*;

@@ -70,6 +70,8 @@ pub fn assign_max(edges: &[(i64, i64, f64)]) -> Result<Vec<usize>, AssignError> 
 }
 
 #[cfg(test)]
+// The slow references index like the textbook definitions they transcribe.
+#[allow(clippy::needless_range_loop)]
 mod tests {
     use super::*;
     use proptest::prelude::*;

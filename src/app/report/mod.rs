@@ -81,7 +81,9 @@ fn points(con: &Connection, c: &Ctx, h: &mut String) -> R<()> {
     // points before / after
     let n_points: i64 = con.query_row("SELECT count(*) FROM points WHERE estimated = 0", [], |r| r.get(0))?;
     let step = (n_points / 12_000).max(1);
-    let pts: Vec<(i64, f64, f64, Option<f64>, Option<f64>)> = query_rows(
+    // (camera, local x, local y, aligned x, aligned y)
+    type Pt = (i64, f64, f64, Option<f64>, Option<f64>);
+    let pts: Vec<Pt> = query_rows(
         con,
         &format!(
             "SELECT p.camera, p.x, p.y,
@@ -290,7 +292,9 @@ fn sample_merges(con: &Connection, _: &Ctx, h: &mut String) -> R<()> {
     )?;
     h.push_str("<h2>Sample merges</h2><p>Source tracks in the common frame (camera colours, dashed) and the merged trajectory (black).</p>");
     for (ru, class) in samples {
-        let src: Vec<(i64, i64, Vec<(f64, f64)>)> = query_rows(
+        // (camera, track, points)
+        type Source = (i64, i64, Vec<(f64, f64)>);
+        let src: Vec<Source> = query_rows(
             con,
             &format!(
                 "SELECT t.camera, t.track_id, t.traj FROM merge_tracks t JOIN merge_groups g USING (uid) WHERE g.road_user = {ru} ORDER BY t.camera, t.t0"

@@ -69,10 +69,7 @@ impl<'a> Traj<'a> {
     }
     /// Checks the input policy of this module.
     pub fn validate(&self) -> Result<(), TrajError> {
-        check_finite("t", self.t)?;
-        check_finite("x", self.x)?;
-        check_finite("y", self.y)?;
-        check_sorted(self.t)
+        check(self.t, &[("x", self.x), ("y", self.y)])
     }
 }
 
@@ -88,9 +85,7 @@ impl<'a> Series<'a> {
         self.t.is_empty()
     }
     pub fn validate(&self) -> Result<(), TrajError> {
-        check_finite("t", self.t)?;
-        check_finite("v", self.v)?;
-        check_sorted(self.t)
+        check(self.t, &[("v", self.v)])
     }
 }
 
@@ -115,11 +110,7 @@ impl<'a> Traj3<'a> {
         self.t.is_empty()
     }
     pub fn validate(&self) -> Result<(), TrajError> {
-        check_finite("t", self.t)?;
-        check_finite("x", self.x)?;
-        check_finite("y", self.y)?;
-        check_finite("z", self.z)?;
-        check_sorted(self.t)
+        check(self.t, &[("x", self.x), ("y", self.y), ("z", self.z)])
     }
 }
 
@@ -167,6 +158,15 @@ impl fmt::Display for TrajError {
     }
 }
 impl std::error::Error for TrajError {}
+
+/// The input policy: every column finite (t first), then t non-decreasing.
+fn check(t: &[f64], cols: &[(&'static str, &[f64])]) -> Result<(), TrajError> {
+    check_finite("t", t)?;
+    for (name, c) in cols {
+        check_finite(name, c)?;
+    }
+    check_sorted(t)
+}
 
 fn check_finite(field: &'static str, v: &[f64]) -> Result<(), TrajError> {
     match v.iter().position(|a| !a.is_finite()) {

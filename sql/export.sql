@@ -22,8 +22,16 @@ TO (getvariable('out_dir') || '/matches.csv') (HEADER, DELIMITER ',');
 -- merged.parquet: one row per road user; GeoParquet 1.1: `geometry` is WKB (LINESTRING, or
 -- POINT for a one-point road user) in the reference camera's local metric frame, which has no
 -- CRS ("crs": null is GeoParquet's "undefined"; QGIS and GDAL open it as a plain XY layer).
-COPY (SELECT road_user, class, n_tracks, sources, traj_to_wkb(traj) AS geometry, traj
-      FROM merged ORDER BY road_user)
+-- `sources` names the ORIGINAL (camera, track_id) of every piece (quality.sql linked broken
+-- pieces under one id before matching), ordered by camera and start time, so any scorer can
+-- read a road user's tracks from this file alone.
+COPY (SELECT m.road_user, m.class, m.n_tracks,
+             (SELECT list({'camera': l.camera, 'track_id': l.track_id} ORDER BY l.camera, q.e.t0, l.track_id)
+              FROM unnest(m.sources) u(s)
+              JOIN quality_links l ON l.camera = s.camera AND l.linked_id = s.track_id
+              LEFT JOIN quality_endpoints q ON q.camera = l.camera AND q.track_id = l.track_id) AS sources,
+             traj_to_wkb(m.traj) AS geometry, m.traj
+      FROM merged m ORDER BY m.road_user)
 TO (getvariable('out_dir') || '/merged.parquet')
 (FORMAT parquet, KV_METADATA {geo: '{"version":"1.1.0","primary_column":"geometry","columns":{"geometry":{"encoding":"WKB","geometry_types":["LineString","Point"],"crs":null,"edges":"planar"}}}'});
 

@@ -76,3 +76,89 @@ SELECT cls.class,
        (SELECT count(*) FROM t WHERE cls.class = '*' OR t.class = cls.class) AS true_pairs,
        (SELECT count(*) FROM p WHERE cls.class = '*' OR p.class = cls.class) AS predicted
 FROM cls;
+
+-- ---------------------------------------------------------------- road-user identity
+-- What analysts count and follow: every real track of one road user, in every camera, in
+-- exactly one road user with nothing from another road user. Read from merged.parquet alone
+-- (its `sources` name the original tracks).
+
+-- every track's real (not estimated) points and start time
+CREATE OR REPLACE TEMP TABLE s_track_w AS
+SELECT camera, track_id, count(*) AS w, min(t) AS t0 FROM s_points WHERE estimated = 0 GROUP BY camera, track_id;
+
+-- real tracks of real objects, each weighing its real points
+CREATE OR REPLACE TEMP TABLE s_gt_tracks AS
+SELECT p.camera, p.track_id, tr.object_id, any_value(p.class) AS class, count(*) AS w, min(p.t) AS t0
+FROM s_points p JOIN s_truth tr USING (camera, track_id)
+WHERE p.estimated = 0 AND tr.is_noise = 0
+GROUP BY p.camera, p.track_id, tr.object_id;
+
+-- the predicted road users: (road_user, class, camera, track_id, w) with w the track's real points
+CREATE OR REPLACE TEMP TABLE s_ru AS
+WITH r AS (SELECT road_user, class, unnest(sources) AS s
+           FROM read_parquet(getvariable('score_results') || '/merged.parquet'))
+SELECT r.road_user, r.class, s.camera, s.track_id, coalesce(tw.w, 0) AS w
+FROM r LEFT JOIN s_track_w tw ON tw.camera = s.camera AND tw.track_id = s.track_id;
+
+-- IDF1 (Ristani et al. 2016) over observations: objects and road users mapped one to one so
+-- that the shared points are at a maximum (assign_pairs: maximum total weight), then
+-- IDF1 = 2 IDTP / (points of all real tracks + points of all tracks in road users).
+CREATE OR REPLACE TEMP TABLE s_id_map AS
+WITH shared AS (SELECT g.object_id, r.road_user, sum(g.w) AS w
+                FROM s_gt_tracks g JOIN s_ru r USING (camera, track_id)
+                GROUP BY g.object_id, r.road_user)
+SELECT m.a AS object_id, m.b AS road_user, m.w AS shared
+FROM (SELECT unnest(assign_pairs(coalesce(list({'a': object_id, 'b': road_user, 'w': w::DOUBLE}), []))) AS m FROM shared);
+
+CREATE OR REPLACE TEMP TABLE s_objects AS
+SELECT object_id, any_value(class) AS class, count(*) AS n_tracks, sum(w) AS w FROM s_gt_tracks GROUP BY object_id;
+
+-- an object is exactly reconstructed when all its real tracks are in one road user whose
+-- real tracks are exactly these
+CREATE OR REPLACE TEMP TABLE s_exact AS
+WITH placed AS (SELECT g.object_id, count(r.road_user) AS n_placed, count(DISTINCT r.road_user) AS n_ru, any_value(r.road_user) AS ru
+                FROM s_gt_tracks g LEFT JOIN s_ru r USING (camera, track_id) GROUP BY g.object_id),
+     ru_real AS (SELECT r.road_user, count(g.object_id) AS n_real FROM s_ru r LEFT JOIN s_gt_tracks g USING (camera, track_id) GROUP BY r.road_user)
+SELECT o.object_id, o.class,
+       p.n_placed = o.n_tracks AND p.n_ru = 1 AND coalesce(u.n_real, 0) = o.n_tracks AS exact
+FROM s_objects o JOIN placed p USING (object_id) LEFT JOIN ru_real u ON u.road_user = p.ru;
+
+-- within-camera links: a true break is two consecutive real tracks of one object in one
+-- camera; it is found when links.csv puts both in one chain. A predicted link is two
+-- consecutive pieces of one chain; it is correct when both are real tracks of one object.
+CREATE OR REPLACE TEMP TABLE s_breaks AS
+SELECT g.camera, g.class, g.track_id AS a, lead(g.track_id) OVER w AS b
+FROM s_gt_tracks g
+WINDOW w AS (PARTITION BY g.camera, g.object_id ORDER BY g.t0, g.track_id)
+QUALIFY b IS NOT NULL;
+
+CREATE OR REPLACE TEMP TABLE s_pred_links AS
+WITH pieces AS (SELECT l.camera, l.track_id, l.linked_id, tw.t0
+                FROM s_links l LEFT JOIN s_track_w tw USING (camera, track_id))
+SELECT camera, track_id AS a, lead(track_id) OVER w AS b
+FROM pieces
+WINDOW w AS (PARTITION BY camera, linked_id ORDER BY t0, track_id)
+QUALIFY b IS NOT NULL;
+
+-- one row per class and '*': identity measures
+CREATE OR REPLACE TEMP TABLE s_identity AS
+WITH cls AS (SELECT DISTINCT class FROM s_objects UNION SELECT '*'),
+     pred_w AS (SELECT class, sum(w) AS w FROM s_ru GROUP BY class)
+SELECT cls.class,
+       2.0 * coalesce((SELECT sum(m.shared) FROM s_id_map m JOIN s_objects o USING (object_id) WHERE cls.class IN ('*', o.class)), 0)
+           / greatest(coalesce((SELECT sum(w) FROM s_objects o WHERE cls.class IN ('*', o.class)), 0)
+                      + coalesce((SELECT sum(w) FROM pred_w p WHERE cls.class IN ('*', p.class)), 0), 1) AS idf1,
+       (SELECT avg(exact::INT) FROM s_exact e WHERE cls.class IN ('*', e.class)) AS exact_share,
+       (SELECT count(*) FROM s_objects o WHERE cls.class IN ('*', o.class)) AS objects,
+       (SELECT count(*) FROM s_breaks k WHERE cls.class IN ('*', k.class)) AS true_breaks,
+       (SELECT count(*) FILTER (WHERE la.linked_id = lb.linked_id) FROM s_breaks k
+          LEFT JOIN s_links la ON la.camera = k.camera AND la.track_id = k.a
+          LEFT JOIN s_links lb ON lb.camera = k.camera AND lb.track_id = k.b
+          WHERE cls.class IN ('*', k.class)) AS breaks_found,
+       (SELECT count(*) FROM s_pred_links l LEFT JOIN s_gt_tracks ga ON ga.camera = l.camera AND ga.track_id = l.a
+          WHERE cls.class = '*' OR ga.class = cls.class) AS links,
+       (SELECT count(*) FILTER (WHERE ga.object_id = gb.object_id) FROM s_pred_links l
+          LEFT JOIN s_gt_tracks ga ON ga.camera = l.camera AND ga.track_id = l.a
+          LEFT JOIN s_gt_tracks gb ON gb.camera = l.camera AND gb.track_id = l.b
+          WHERE cls.class = '*' OR ga.class = cls.class) AS links_correct
+FROM cls;

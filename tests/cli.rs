@@ -252,3 +252,37 @@ fn score_on_shared_scenario() {
     assert!(!ok && err.contains("no/such/dir"), "{err}");
     std::fs::remove_dir_all(&out).ok();
 }
+
+/// `trajdb score` measures road-user identity from merged.parquet alone: its `sources` name the
+/// original tracks (every track the pipeline kept, exactly once), and the identity table gives
+/// IDF1, exactly reconstructed objects and the within-camera links.
+#[test]
+fn score_reports_identity_from_original_sources() {
+    let dir = std::env::temp_dir().join(format!("trajdb-identity-{}", std::process::id()));
+    let d = dir.to_str().unwrap();
+    let (ok, _, err) = trajdb(&["simulate", "--cameras", "3", "--minutes", "2", "--seed", "3", "--out", d], None);
+    assert!(ok, "{err}");
+    let res = dir.join("results");
+    let (ok, _, err) = trajdb(&["pipeline", "--input", dir.join("points.parquet").to_str().unwrap(), "--out", res.to_str().unwrap()], None);
+    assert!(ok, "{err}");
+    // sources are original track ids: together they are exactly the tracks of links.csv, once each
+    let q = format!(
+        "WITH s AS (SELECT unnest(sources) AS s FROM read_parquet('{m}')),
+              l AS (SELECT camera, track_id FROM read_csv('{l}'))
+         SELECT (SELECT count(*) FROM s) = (SELECT count(DISTINCT (s.camera, s.track_id)) FROM s)
+            AND (SELECT count(*) FROM s) = (SELECT count(*) FROM l)
+            AND NOT EXISTS (SELECT 1 FROM s ANTI JOIN l ON l.camera = s.camera AND l.track_id = s.track_id) AS ok",
+        m = res.join("merged.parquet").display(),
+        l = res.join("links.csv").display()
+    );
+    let (ok, out, err) = trajdb(&["--csv", "sql", &q], None);
+    assert!(ok, "{err}");
+    assert_eq!(out, "ok\ntrue\n");
+    let (ok, text, err) = trajdb(&["score", d, "--results", res.to_str().unwrap()], None);
+    assert!(ok, "{err}");
+    let all = text.lines().skip_while(|l| !l.starts_with("road users")).find(|l| l.trim_start().starts_with("all")).expect(&text);
+    let v: Vec<f64> = all.split_whitespace().skip(1).filter_map(|w| w.parse().ok()).collect();
+    assert!(v[0] > 0.9 && v[0] <= 1.0, "IDF1: {all}");
+    assert!(v[1] > 0.5 && v[1] <= 1.0, "exact share: {all}");
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -64,3 +64,65 @@ pub fn score(con: &Connection, scenario: &Path, results: &Path) -> Result<(f64, 
     }
     Ok((rot, trans, all_f1))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Camera 0 sees object A as tracks 1 (10 points) and 3 (5 points, after a break) and
+    /// object B as track 2 (10 points); camera 1 sees A as track 7 (10 points).
+    fn scenario(dir: &Path, road_users: &str, links: &str) -> Connection {
+        let con = crate::open(None).unwrap();
+        std::fs::create_dir_all(dir.join("r")).unwrap();
+        let f = |n: &str| sql::sql_string(&dir.join(n).to_string_lossy());
+        con.execute_batch(&format!(
+            "COPY (SELECT camera::INTEGER AS camera, track_id::BIGINT AS track_id, class, t0 + k * 0.1 AS t, k::DOUBLE AS x, y, 0 AS estimated
+                   FROM (VALUES (0, 1, 'car', 0.0, 0.0, 10), (0, 2, 'car', 0.0, 5.0, 10), (0, 3, 'car', 2.0, 0.0, 5), (1, 7, 'car', 0.0, 0.0, 10))
+                        v(camera, track_id, class, t0, y, n), range(10) r(k) WHERE k < n) TO {pts} (FORMAT parquet);
+             COPY (SELECT * FROM (VALUES (0, 0.0, 0.0, 0.0, 'POLYGON ((-9 -9, 99 -9, 99 99, -9 99, -9 -9))', 0.0),
+                                         (1, 0.0, 0.0, 0.0, 'POLYGON ((-9 -9, 99 -9, 99 99, -9 99, -9 -9))', 0.0))
+                   v(camera, theta_rad, tx, ty, view_wkt_world, clock_offset_s)) TO {cams} (HEADER);
+             COPY (SELECT * FROM (VALUES (0, 1, 100, 0), (0, 2, 200, 0), (0, 3, 100, 0), (1, 7, 100, 0)) v(camera, track_id, object_id, is_noise)) TO {truth} (HEADER);
+             COPY (SELECT 0 AS cam_from, 1 AS cam_to, 0.0 AS theta_rad, 0.0 AS tx, 0.0 AS ty) TO {tf} (HEADER);
+             COPY (SELECT 0 AS camera_a, 1 AS track_a, 1 AS camera_b, 7 AS track_b, 1.0 AS score, 'hungarian' AS kind) TO {m} (HEADER);
+             COPY (SELECT * FROM (VALUES {links}) v(camera, track_id, linked_id)) TO {l} (HEADER);
+             COPY (SELECT road_user, 'car' AS class, list({{'camera': c, 'track_id': t}}) AS sources
+                   FROM (VALUES {road_users}) v(road_user, c, t) GROUP BY road_user) TO {mp} (FORMAT parquet);",
+            pts = f("points.parquet"),
+            cams = f("cameras.csv"),
+            truth = f("truth.csv"),
+            tf = f("r/transforms.csv"),
+            m = f("r/matches.csv"),
+            l = f("r/links.csv"),
+            mp = f("r/merged.parquet"),
+        ))
+        .unwrap();
+        score(&con, dir, &dir.join("r")).unwrap();
+        con
+    }
+
+    fn identity_row(con: &Connection) -> (f64, f64, i64, i64, i64, i64) {
+        con.query_row("SELECT idf1, exact_share, true_breaks, breaks_found, links, links_correct FROM s_identity WHERE class = '*'", [], |r| {
+            Ok((r.get(0)?, r.get(1)?, r.get(2)?, r.get(3)?, r.get(4)?, r.get(5)?))
+        })
+        .unwrap()
+    }
+
+    #[test]
+    fn identity_measures_by_hand() {
+        let base = std::env::temp_dir().join(format!("trajdb-score-unit-{}", std::process::id()));
+        // perfect: A = {0:1, 0:3, 1:7}, B = {0:2}; the break 1 -> 3 linked
+        let con = scenario(&base.join("a"), "(1, 0, 1), (1, 0, 3), (1, 1, 7), (2, 0, 2)", "(0, 1, 1), (0, 3, 1), (0, 2, 2), (1, 7, 7)");
+        let (idf1, exact, tb, bf, nl, lc) = identity_row(&con);
+        assert!((idf1 - 1.0).abs() < 1e-12 && exact == 1.0, "{idf1} {exact}");
+        assert_eq!((tb, bf, nl, lc), (1, 1, 1, 1));
+        // A's second piece merged into B's road user, and wrongly linked to track 2:
+        // shared A-RU1 = 20, B-RU2 = 10 of 35 + 35 points: IDF1 = 2 * 30 / 70; nothing exact
+        let con = scenario(&base.join("b"), "(1, 0, 1), (1, 1, 7), (2, 0, 2), (2, 0, 3)", "(0, 1, 1), (0, 3, 2), (0, 2, 2), (1, 7, 7)");
+        let (idf1, exact, tb, bf, nl, lc) = identity_row(&con);
+        assert!((idf1 - 60.0 / 70.0).abs() < 1e-12, "{idf1}");
+        assert_eq!(exact, 0.0);
+        assert_eq!((tb, bf, nl, lc), (1, 0, 1, 0));
+        std::fs::remove_dir_all(&base).ok();
+    }
+}

@@ -4,7 +4,8 @@
 -- clean
 SET VARIABLE clean_drop_estimated_tails = coalesce(getvariable('clean_drop_estimated_tails'), false); -- drop a track whose last clean_xi points are all estimated
 SET VARIABLE clean_xi = coalesce(getvariable('clean_xi'), 3::BIGINT); -- points of the estimated tail rule
-SET VARIABLE clean_min_points = coalesce(getvariable('clean_min_points'), 5::BIGINT); -- drop tracks with fewer real (not estimated) points
+SET VARIABLE clean_min_points = coalesce(getvariable('clean_min_points'), 5::BIGINT); -- a track with fewer real points than this ...
+SET VARIABLE clean_min_duration_s = coalesce(getvariable('clean_min_duration_s'), 0.35::DOUBLE); -- ... and spanning less than this many seconds is dropped as too short
 
 -- quality
 SET VARIABLE quality_max_gap = coalesce(getvariable('quality_max_gap'), 2.5::DOUBLE); -- a broken piece may resume up to this many seconds later

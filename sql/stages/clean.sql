@@ -5,7 +5,10 @@
 --    `trajdb score` from 0.993 to 0.836 (dut_intersection_3cam) and from 1.000 to 0.802
 --    (dut_roundabout_2cam) at unchanged precision. The estimated points themselves are never
 --    used for scoring (every later stage reads estimated = 0 only);
---  * drop tracks with fewer than clean_min_points real points.
+--  * drop a track as too short only when it has fewer than clean_min_points real points AND
+--    its real points span less than clean_min_duration_s seconds. A point count alone depends
+--    on the frame rate: at 2 Hz a pedestrian seen for 1.5 s has 3-4 points and is a real road
+--    user; at 10 Hz (the shared scenes) the two rules agree (5 points span 0.4 s).
 -- Parameters (clean_*): declared once in src/app/params.rs, defaults in sql/params.sql;
 -- `trajdb params` lists them, `trajdb pipeline --param name=value` or SET VARIABLE sets them.
 
@@ -22,7 +25,8 @@ HAVING count(*) = getvariable('clean_xi') AND bool_and(estimated = 1)
 UNION ALL
 SELECT camera, track_id, 'too short'
 FROM points GROUP BY camera, track_id
-HAVING count(*) FILTER (WHERE estimated = 0) < getvariable('clean_min_points');
+HAVING count(*) FILTER (WHERE estimated = 0) < getvariable('clean_min_points')
+   AND coalesce(max(t) FILTER (WHERE estimated = 0) - min(t) FILTER (WHERE estimated = 0), 0) < getvariable('clean_min_duration_s');
 
 CREATE OR REPLACE TEMP TABLE points AS
 SELECT p.* FROM points p ANTI JOIN clean_dropped d USING (camera, track_id);

@@ -43,7 +43,8 @@ const fn s(name: &'static str, default: &'static str, stage: &'static str, descr
 pub const PARAMS: &[Param] = &[
     b("clean_drop_estimated_tails", "false", "clean", "drop a track whose last clean_xi points are all estimated"),
     i("clean_xi", "3", "clean", "points of the estimated tail rule"),
-    i("clean_min_points", "5", "clean", "drop tracks with fewer real (not estimated) points"),
+    i("clean_min_points", "5", "clean", "a track with fewer real points than this ..."),
+    d("clean_min_duration_s", "0.35", "clean", "... and spanning less than this many seconds is dropped as too short"),
     d("quality_max_gap", "2.5", "quality", "a broken piece may resume up to this many seconds later"),
     d("quality_max_dist", "2.0", "quality", "... within this many metres of where the track would be at its final velocity"),
     d("quality_inset", "1.0", "quality", "endpoints closer than this (m) to the view's edge are entries and exits"),

@@ -56,3 +56,26 @@ pub fn run(con: &Connection, input: &str, out: &Path, overrides: &[(String, Stri
     eprintln!("[trajdb] total    {:>7.2} s", t_all.elapsed().as_secs_f64());
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The clean stage keeps a 2 Hz track of 3 points (1 s of a real road user) and drops a
+    /// 10 Hz track of 4 points (0.3 s), a single point, and an estimated-only track.
+    #[test]
+    fn clean_drops_short_tracks_by_points_and_duration() {
+        let con = crate::open(None).unwrap();
+        set_params(&con, &[]).unwrap();
+        con.execute_batch(
+            "CREATE TEMP TABLE points AS
+             SELECT 1 AS camera, track_id, 'pedestrian' AS class, k * dt AS t, k::DOUBLE AS x, 0.0 AS y, est AS estimated
+             FROM (VALUES (1, 0.5, 3, 0), (2, 0.1, 4, 0), (3, 0.1, 1, 0), (4, 0.1, 8, 1), (5, 0.1, 5, 0)) v(track_id, dt, n, est),
+                  range(10) r(k) WHERE k < n;",
+        )
+        .unwrap();
+        con.execute_batch(sql::file("sql/stages/clean.sql").unwrap()).unwrap();
+        let kept: Vec<i64> = con.prepare("SELECT DISTINCT track_id FROM points ORDER BY 1").unwrap().query_map([], |r| r.get(0)).unwrap().collect::<Result<_, _>>().unwrap();
+        assert_eq!(kept, vec![1, 5]);
+    }
+}

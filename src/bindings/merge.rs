@@ -77,11 +77,7 @@ pub static FUNCTIONS: &[Function] = &[
 fn merge_pair(a: &Args<'_>, out: &mut Out<'_>) -> R {
     let (ta, tb, eps, t) = (a.traj(0), a.traj(1), a.double(2), a.double(3));
     // 4 arguments; 5 = region; 6 = min_points, region
-    let (min_points, region) = match (a.given(4), a.given(5)) {
-        (true, true) => (Some(a.bigint(4)), a.opt_region(5)),
-        (true, false) => (None, a.opt_region(4)),
-        _ => (None, a.opt_region(4)),
-    };
+    let (min_points, region) = if a.given(5) { (Some(a.bigint(4)), a.opt_region(5)) } else { (None, a.opt_region(4)) };
     let vals = a.map(|r| {
         let (Some(x), Some(y), Some(e), Some(t)) = (ta.get(r)?, tb.get(r)?, eps.get(r), t.get(r)) else { return Ok(None) };
         let Some(mp) = min_points.as_ref().map_or(Some(1), |c| c.get(r)) else { return Ok(None) };

@@ -214,9 +214,21 @@ impl<'a> StructListCol<'a> {
     }
     /// The elements of `row`, named `name` in errors.
     fn get_named(&self, row: usize, name: &str) -> Res<Option<Rows<'a>>> {
+        Ok(self.checked_range(row, name)?.map(|r| self.fields.rows(r)))
+    }
+    /// The element positions of `row` after the NULL checks (`None` for a NULL list).
+    fn checked_range(&self, row: usize, name: &str) -> Res<Option<Range<usize>>> {
         let Some(r) = self.lists.range(row) else { return Ok(None) };
         self.fields.check(r.clone(), name, self.hint)?;
-        Ok(Some(self.fields.rows(r)))
+        Ok(Some(r))
+    }
+    /// DOUBLE field `k` at positions `r`, without building a [`Rows`] (the per-row path of the
+    /// point readers, which run once per row of every LCSS call).
+    fn f64_at(&self, k: usize, r: Range<usize>) -> &'a [f64] {
+        match self.fields.data[k].0 {
+            FieldData::F64(s) => &s[r],
+            FieldData::I64(_) => panic!("field {k} is BIGINT, not DOUBLE (registry type)"),
+        }
     }
     pub fn get(&self, row: usize) -> Res<Option<Rows<'a>>> {
         self.get_named(row, self.param)
@@ -245,8 +257,8 @@ impl<'a> TrajCol<'a> {
 }
 
 fn to_traj<'a>(c: &StructListCol<'a>, row: usize, name: &str) -> Res<Option<Traj<'a>>> {
-    let Some(r) = c.get_named(row, name)? else { return Ok(None) };
-    let tr = Traj::new(r.f64(0), r.f64(1), r.f64(2));
+    let Some(r) = c.checked_range(row, name)? else { return Ok(None) };
+    let tr = Traj::new(c.f64_at(0, r.clone()), c.f64_at(1, r.clone()), c.f64_at(2, r));
     tr.validate().map_err(|e| e.describe(name))?;
     Ok(Some(tr))
 }
@@ -259,8 +271,9 @@ impl<'a> Traj3Col<'a> {
         Traj3Col(StructListCol::new(chunk, col, param, &[("t", Kind::F64), ("x", Kind::F64), ("y", Kind::F64), ("z", Kind::F64)]))
     }
     pub fn get(&self, row: usize) -> Res<Option<Traj3<'a>>> {
-        let Some(r) = self.0.get(row)? else { return Ok(None) };
-        let tr = Traj3::new(r.f64(0), r.f64(1), r.f64(2), r.f64(3));
+        let c = &self.0;
+        let Some(r) = c.checked_range(row, c.param)? else { return Ok(None) };
+        let tr = Traj3::new(c.f64_at(0, r.clone()), c.f64_at(1, r.clone()), c.f64_at(2, r.clone()), c.f64_at(3, r));
         tr.validate().map_err(|e| e.describe(self.0.param))?;
         Ok(Some(tr))
     }
@@ -274,8 +287,9 @@ impl<'a> SeriesCol<'a> {
         SeriesCol(StructListCol::new(chunk, col, param, &[("t", Kind::F64), ("v", Kind::F64)]))
     }
     pub fn get(&self, row: usize) -> Res<Option<Series<'a>>> {
-        let Some(r) = self.0.get(row)? else { return Ok(None) };
-        let s = Series::new(r.f64(0), r.f64(1));
+        let c = &self.0;
+        let Some(r) = c.checked_range(row, c.param)? else { return Ok(None) };
+        let s = Series::new(c.f64_at(0, r.clone()), c.f64_at(1, r));
         s.validate().map_err(|e| e.describe(self.0.param))?;
         Ok(Some(s))
     }

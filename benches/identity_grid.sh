@@ -1,27 +1,39 @@
 #!/usr/bin/env bash
 # Road-user identity across recordings unlike ours (issue 14): the shared scenes plus simulated
-# days over frame rate, camera count, clock offset and traffic, each run with the DEFAULT
-# command (no per-scenario parameters), then `trajdb score`. One line per scenario: worst
-# camera pair, IDF1, objects exactly reconstructed, within-camera link precision and break
-# recall, cross-camera match F1.
+# days over frame rate, camera count, clock offset, position noise, traffic and a pedestrian
+# crowd, each run with the DEFAULT command (no per-scenario parameters), then `trajdb score`.
+# One line per scenario: worst camera pair (rotation, translation, clock offset error), IDF1,
+# objects exactly reconstructed, within-camera link precision and break recall, cross-camera
+# match F1. With PER_CLASS=1 the per-class identity rows follow each line.
 # usage: benches/identity_grid.sh [OUT_DIR]   (after cargo build --release)
 T="${CARGO_TARGET_DIR:-$HOME/.cache/trajdb-target}/release/trajdb"
 OUT="${1:-/tmp/trajdb-grid}"
 DATA="$(cd "$(dirname "$0")/../.." && pwd)/shared/data"
 row() { # name dir
   s=$($T score "$2" --results "$2/r")
-  w=$(echo "$s" | head -1 | grep -oE "[0-9.]+ deg|[0-9.]+ m" | tr '\n' ' ')
+  w=$(echo "$s" | head -1 | grep -oE "[0-9.]+ deg|[0-9.]+ m|[0-9.]+ ms" | tr '\n' ' ')
   id=$(echo "$s" | sed -n '/road users/,/^matches/p' | grep "^  all" | awk '{print "IDF1 "$2" exact "$3" linkP "$5" breakR "$6}')
   m=$(echo "$s" | tail -1 | awk '{print "matchF1 "$4}')
-  printf "%-52s %-22s %s %s\n" "$1" "$w" "$id" "$m"
+  printf "%-78s %-28s %s %s\n" "$1" "$w" "$id" "$m"
+  if [ -n "$PER_CLASS" ]; then echo "$s" | sed -n '/road users/,/^matches/p' | grep -vE "^(road|matches|  class)" | grep -v "^  all"; fi
 }
 for sc in dut_intersection_3cam dut_roundabout_2cam; do
+  mkdir -p $OUT/$sc
   $T pipeline --input $DATA/$sc/points.parquet --out $OUT/$sc/r 2>/dev/null >/dev/null
   ln -sfn $DATA/$sc/points.parquet $OUT/$sc/points.parquet; for f in cameras.csv truth.csv; do ln -sfn $DATA/$sc/$f $OUT/$sc/$f; done
   row "$sc" $OUT/$sc
 done
-for args in "--cameras 3 --rate-hz 2" "--cameras 3 --rate-hz 5" "--cameras 3 --rate-hz 10" "--cameras 3 --rate-hz 25" "--cameras 2 --rate-hz 10" "--cameras 7 --rate-hz 10" "--cameras 3 --rate-hz 10 --clock-offset-max 0.1" "--cameras 3 --rate-hz 10 --clock-offset-max 0.3" "--cameras 5 --rate-hz 25 --clock-offset-max 0.5" "--cameras 3 --rate-hz 10 --traffic 3"; do
-  d=$OUT/$(echo $args | tr -d ' -'); rm -rf $d
+GRID=(
+  "--cameras 3 --rate-hz 2" "--cameras 3 --rate-hz 5" "--cameras 3 --rate-hz 10" "--cameras 3 --rate-hz 25"
+  "--cameras 2 --rate-hz 10" "--cameras 7 --rate-hz 10"
+  "--cameras 3 --rate-hz 10 --noise-sigma 0.05" "--cameras 3 --rate-hz 10 --noise-sigma 0.3"
+  "--cameras 3 --rate-hz 10 --clock-offset-max 0.1" "--cameras 3 --rate-hz 10 --clock-offset-max 0.3"
+  "--cameras 5 --rate-hz 25 --clock-offset-max 0.5" "--cameras 7 --rate-hz 2 --clock-offset-max 0.5"
+  "--cameras 3 --rate-hz 10 --traffic 3"
+  "--cameras 3 --rate-hz 10 --pedestrians 10" "--cameras 7 --rate-hz 2 --pedestrians 10 --noise-sigma 0.05,0.3 --clock-offset-max 0.5"
+)
+for args in "${GRID[@]}"; do
+  d=$OUT/$(echo $args | tr -d ' -' | tr ',' '_'); rm -rf $d
   $T simulate --minutes 5 --seed 1 $args --out $d >/dev/null 2>&1
   $T pipeline --input $d/points.parquet --out $d/r 2>/dev/null >/dev/null
   row "simulate --minutes 5 --seed 1 $args" $d

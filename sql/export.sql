@@ -2,12 +2,20 @@
 -- (`trajdb pipeline --out DIR` sets it; after `.read sql/pipeline.sql` in the DuckDB CLI:
 -- SET VARIABLE out_dir = 'results'; .read sql/export.sql  -- the directory must exist).
 
--- transforms.csv: cam_from-local into cam_to-local, every ordered pair of aligned cameras
-COPY (SELECT a.camera AS cam_from, b.camera AS cam_to, tf.theta AS theta_rad, tf.tx, tf.ty
+-- transforms.csv: cam_from-local into cam_to-local, every ordered pair of aligned cameras, and
+-- clock_offset_s = cam_from's clock minus cam_to's clock (a road user seen by cam_to at t is
+-- seen by cam_from at t + clock_offset_s)
+COPY (SELECT a.camera AS cam_from, b.camera AS cam_to, tf.theta AS theta_rad, tf.tx, tf.ty,
+             a.clock_offset_s - b.clock_offset_s AS clock_offset_s
       FROM align_frames a, align_frames b,
            LATERAL (SELECT transform_compose(transform_invert(b.to_reference), a.to_reference) AS tf)
       WHERE a.camera <> b.camera ORDER BY cam_from, cam_to)
 TO (getvariable('out_dir') || '/transforms.csv') (HEADER, DELIMITER ',');
+
+-- calibration.csv: what sql/stages/calibrate.sql and align.sql measured, and the parameters
+-- derived from it (scope: a camera, a camera pair, or the pipeline)
+COPY (SELECT * FROM calibration_summary ORDER BY scope, quantity)
+TO (getvariable('out_dir') || '/calibration.csv') (HEADER, DELIMITER ',');
 
 -- matches.csv: only the links merge_groups() kept (a refused link contradicts its road user)
 COPY (SELECT ta.camera AS camera_a, ta.track_id AS track_a,

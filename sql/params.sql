@@ -4,8 +4,9 @@
 -- clean
 SET VARIABLE clean_drop_estimated_tails = coalesce(getvariable('clean_drop_estimated_tails'), false); -- drop a track whose last clean_xi points are all estimated
 SET VARIABLE clean_xi = coalesce(getvariable('clean_xi'), 3::BIGINT); -- points of the estimated tail rule
-SET VARIABLE clean_min_points = coalesce(getvariable('clean_min_points'), 5::BIGINT); -- a track with fewer real points than this ...
-SET VARIABLE clean_min_duration_s = coalesce(getvariable('clean_min_duration_s'), 0.35::DOUBLE); -- ... and spanning less than this many seconds is dropped as too short
+SET VARIABLE clean_min_points = coalesce(getvariable('clean_min_points'), NULL::BIGINT); -- a track with fewer real points than this ... (auto: 2, the least that shows motion)
+SET VARIABLE clean_min_duration_s = coalesce(getvariable('clean_min_duration_s'), NULL::DOUBLE); -- ... and spanning less than this many seconds is dropped (auto: 1.5 sampling periods)
+SET VARIABLE clean_max_speed = coalesce(getvariable('clean_max_speed'), 70.0::DOUBLE); -- a track whose median real speed exceeds this (m/s) is implausible and dropped
 
 -- quality
 SET VARIABLE quality_max_gap = coalesce(getvariable('quality_max_gap'), 2.5::DOUBLE); -- a broken piece may resume up to this many seconds later
@@ -17,14 +18,18 @@ SET VARIABLE align_min_points = coalesce(getvariable('align_min_points'), 10::BI
 SET VARIABLE align_min_overlap_s = coalesce(getvariable('align_min_overlap_s'), 2.0::DOUBLE); -- track pairs overlap at least this long in time (s)
 SET VARIABLE align_min_pairs = coalesce(getvariable('align_min_pairs'), 10::BIGINT); -- a hypothesis needs at least this many time-interpolated point pairs
 SET VARIABLE align_min_span_m = coalesce(getvariable('align_min_span_m'), 3.0::DOUBLE); -- ... and its moving points span at least this many metres
-SET VARIABLE align_max_rms_m = coalesce(getvariable('align_max_rms_m'), 0.5::DOUBLE); -- hypotheses fitting their own pairs within this RMS (m) vote
+SET VARIABLE align_max_hypotheses = coalesce(getvariable('align_max_hypotheses'), 4000::BIGINT); -- at most this many track pairs per camera pair are scanned (a hash sample of a long day)
+SET VARIABLE align_max_clock_offset_s = coalesce(getvariable('align_max_clock_offset_s'), 1.0::DOUBLE); -- clock offsets between two cameras are searched up to this many seconds either way
+SET VARIABLE align_bin_s = coalesce(getvariable('align_bin_s'), 0.05::DOUBLE); -- vote bin (and scan step) of the clock offset (s)
+SET VARIABLE align_clock_step_s = coalesce(getvariable('align_clock_step_s'), 0.005::DOUBLE); -- step of the joint clock offset search around the winning bin (s)
+SET VARIABLE align_max_rms_m = coalesce(getvariable('align_max_rms_m'), NULL::DOUBLE); -- hypotheses fitting their own pairs within this RMS (m) vote (auto: 0.1 + 3 sigma_pair)
 SET VARIABLE align_bin_deg = coalesce(getvariable('align_bin_deg'), 2.0::DOUBLE); -- vote bin of the rotation (degrees)
 SET VARIABLE align_bin_m = coalesce(getvariable('align_bin_m'), 1.0::DOUBLE); -- vote bin of the translation (m)
 SET VARIABLE align_agree_deg = coalesce(getvariable('align_agree_deg'), 3.0::DOUBLE); -- a hypothesis agrees with the winning bin within this rotation (degrees)
 SET VARIABLE align_agree_m = coalesce(getvariable('align_agree_m'), 2.0::DOUBLE); -- ... and this translation (m)
 SET VARIABLE align_min_support = coalesce(getvariable('align_min_support'), 3::BIGINT); -- a camera pair needs at least this many agreeing track pairs
 SET VARIABLE align_trim = coalesce(getvariable('align_trim'), 0.1::DOUBLE); -- share of point pairs the trimmed refit leaves out
-SET VARIABLE align_refine_rms_m = coalesce(getvariable('align_refine_rms_m'), 0.3::DOUBLE); -- second pass: track pairs within this RMS (m) of the first fit are kept
+SET VARIABLE align_refine_rms_m = coalesce(getvariable('align_refine_rms_m'), NULL::DOUBLE); -- second pass: track pairs within this RMS (m) of the first fit are kept (auto: 0.05 + 2 sigma_pair)
 
 -- overlap
 SET VARIABLE overlap_method = coalesce(getvariable('overlap_method'), 'convex'); -- view polygon hull: 'convex' or 'concave'
@@ -34,9 +39,9 @@ SET VARIABLE overlap_min_neighbours = coalesce(getvariable('overlap_min_neighbou
 SET VARIABLE overlap_shrink_sigmas = coalesce(getvariable('overlap_shrink_sigmas'), 1.0::DOUBLE); -- each view polygon is shrunk by this many times the camera's measured noise
 
 -- merge
-SET VARIABLE merge_epsilon = coalesce(getvariable('merge_epsilon'), 0.5::DOUBLE); -- LCSS epsilon (m) for matching and merging
+SET VARIABLE merge_epsilon = coalesce(getvariable('merge_epsilon'), NULL::DOUBLE); -- LCSS epsilon (m) for matching and merging (auto: per camera pair, 3.03 x the measured residual sigma: 99% of true pairs)
 SET VARIABLE merge_time_window = coalesce(getvariable('merge_time_window'), 0.25::DOUBLE); -- LCSS time window T (s)
-SET VARIABLE merge_min_points = coalesce(getvariable('merge_min_points'), 3::BIGINT); -- LCSS xi: points a track needs inside the overlap
+SET VARIABLE merge_min_points = coalesce(getvariable('merge_min_points'), NULL::BIGINT); -- LCSS xi: points a track needs inside the overlap (auto: 2 real samples of the slowest camera on the common clock, >= 3)
 SET VARIABLE merge_eta = coalesce(getvariable('merge_eta'), 0.5::DOUBLE); -- eta-bar: the lowest similarity that links two tracks
 SET VARIABLE merge_resample_s = coalesce(getvariable('merge_resample_s'), 0.1::DOUBLE); -- common clock period (s); 0 keeps the raw samples
 SET VARIABLE merge_resample_max_gap = coalesce(getvariable('merge_resample_max_gap'), 1.0::DOUBLE); -- the common clock does not bridge gaps longer than this (s)

@@ -17,19 +17,22 @@ CREATE OR REPLACE TEMP TABLE s_links AS SELECT * FROM read_csv(getvariable('scor
 CREATE OR REPLACE TEMP TABLE s_true AS
 SELECT camera, {'theta': theta_rad, 'tx': tx, 'ty': ty, 'scale': 1.0} AS tf, view_wkt_world FROM s_cameras;
 
--- rotation error, and the translation error at the centroid of the moving camera's points
+-- rotation error, the translation error at the centroid of the moving camera's points, and the
+-- clock offset error (cameras.csv without clock_offset_s: synchronised clocks)
 CREATE OR REPLACE TEMP TABLE s_pair_err AS
 WITH c AS (SELECT camera, avg(x) AS mx, avg(y) AS my FROM s_points GROUP BY camera),
-     e AS (SELECT e.cam_from, e.cam_to, e.theta_rad,
+     e AS (SELECT e.cam_from, e.cam_to, e.theta_rad, e.clock_offset_s AS dt_est, a.clock_offset_s - b.clock_offset_s AS dt_true,
                   transform_point({'theta': e.theta_rad, 'tx': e.tx, 'ty': e.ty, 'scale': 1.0}, c.mx, c.my) AS est,
                   transform_point(tt, c.mx, c.my) AS tru, tt.theta AS true_theta
            FROM s_tf e
-           JOIN s_true a ON a.camera = e.cam_from JOIN s_true b ON b.camera = e.cam_to
+           JOIN s_cameras a ON a.camera = e.cam_from JOIN s_cameras b ON b.camera = e.cam_to
+           JOIN s_true ta ON ta.camera = e.cam_from JOIN s_true tb ON tb.camera = e.cam_to
            JOIN c ON c.camera = e.cam_from,
-           LATERAL (SELECT transform_compose(transform_invert(b.tf), a.tf) AS tt))
+           LATERAL (SELECT transform_compose(transform_invert(tb.tf), ta.tf) AS tt))
 SELECT cam_from, cam_to,
        abs(((degrees(theta_rad - true_theta) + 540) % 360) - 180) AS rot_deg,
-       sqrt((est.x - tru.x) ** 2 + (est.y - tru.y) ** 2) AS trans_m
+       sqrt((est.x - tru.x) ** 2 + (est.y - tru.y) ** 2) AS trans_m,
+       abs(dt_est - coalesce(dt_true, 0.0)) AS clock_err_s
 FROM e;
 
 -- world positions of the real points, with the object of each track

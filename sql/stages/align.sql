@@ -1,16 +1,18 @@
 -- trajdb: put N cameras into one frame from their tracks alone.
 --
 -- Input: a table `points(camera, track_id, class, t, x, y, estimated)`, each camera in its own
--- frame, clocks synchronised. Output: `align_pairs` (one transform per camera pair that has
--- support) and `align_frames` (camera -> reference frame, composed along a spanning tree).
+-- frame and on its own clock. Output: `align_pairs` (one transform and clock offset per camera
+-- pair that has support), `align_frames` (camera -> reference frame and clock, composed along a
+-- spanning tree), and `points` with t on the reference camera's clock.
 --
 -- Method (why not the thesis's speed pre-match + CPD from R = I, see docs/alignment.md):
 --  1. every time-overlapping pair of tracks of the same class in two cameras is a hypothesis:
---     if both are the same road user, rigid_fit(traj_correspond(a, b)) recovers the camera
---     transform in closed form, whatever the rotation (no start needed);
---  2. hypotheses vote in (theta, tx, ty) bins; true pairs agree, wrong pairs scatter;
---  3. the correspondences of all hypotheses that agree with the winning bin are refitted
---     together with a trimmed least-squares fit;
+--     if both are the same road user, rigid_fit(traj_correspond(a, b, 0.5, dt)) recovers the
+--     camera transform in closed form, whatever the rotation (no start needed), for the right
+--     clock offset dt; each pair is fitted at every dt of a grid (a Hough line);
+--  2. hypotheses vote in (theta, tx, ty, dt) bins; true pairs agree, wrong pairs scatter;
+--  3. the tracks of all hypotheses that agree with the winning bin are refitted together, with
+--     a trimmed least-squares fit at every dt of a fine grid around the winner;
 --  4. pairs with too little support are solved through other cameras: the widest path
 --     (largest bottleneck support) to the reference camera, composed with transform_compose.
 --
@@ -31,72 +33,138 @@ WHERE estimated = 0
 GROUP BY camera, track_id, class
 HAVING count(*) >= getvariable('align_min_points');
 
--- 1. hypotheses
+-- 1. hypotheses. Clocks may differ (dt = moving clock - fixed clock, up to
+--    align_max_clock_offset_s either way): each track pair is fitted at every shift dt on a grid
+--    of align_bin_s (rigid_fit_scan, src/algo/align/shift.rs). A straight track fits at every
+--    shift, its translation sliding along the road; a turning one only near its true offset.
+--    A camera pair needs a few hundred agreeing pairs, not every pair of a 12-hour day: at most
+--    align_max_hypotheses track pairs per camera pair are scanned, drawn evenly by a hash of
+--    their ids (all of them on the shared scenes' busiest pair: 18k candidates -> 4k).
 CREATE OR REPLACE TEMP TABLE align_hyp AS
-WITH cand AS (
-    SELECT a.camera AS cam_fixed, b.camera AS cam_moving, a.track_id AS track_fixed, b.track_id AS track_moving,
-           traj_correspond(a.traj, b.traj) AS pairs
+WITH pairs AS (
+    SELECT a.camera AS cam_fixed, b.camera AS cam_moving, a.track_id AS track_fixed, b.track_id AS track_moving
     FROM align_tracks a JOIN align_tracks b
       ON a.camera < b.camera AND a.class = b.class
-     AND a.t0 <= b.t1 - getvariable('align_min_overlap_s') AND b.t0 <= a.t1 - getvariable('align_min_overlap_s')
+     AND a.t0 <= b.t1 + getvariable('align_max_clock_offset_s') - getvariable('align_min_overlap_s')
+     AND b.t0 <= a.t1 + getvariable('align_max_clock_offset_s') - getvariable('align_min_overlap_s')
+    QUALIFY row_number() OVER (PARTITION BY a.camera, b.camera ORDER BY hash(a.track_id, b.track_id), a.track_id, b.track_id)
+            <= getvariable('align_max_hypotheses')
+),
+cand AS (
+    SELECT p.*, rigid_fit_scan(a.traj, b.traj, getvariable('align_max_clock_offset_s'), getvariable('align_bin_s')) AS fits
+    FROM pairs p
+    JOIN align_tracks a ON a.camera = p.cam_fixed AND a.track_id = p.track_fixed
+    JOIN align_tracks b ON b.camera = p.cam_moving AND b.track_id = p.track_moving
 )
-SELECT cam_fixed, cam_moving, track_fixed, track_moving, pairs, rigid_fit(pairs) AS f
-FROM cand
-WHERE len(pairs) >= getvariable('align_min_pairs')
-  AND greatest(list_max([p.mx FOR p IN pairs]) - list_min([p.mx FOR p IN pairs]),
-               list_max([p.my FOR p IN pairs]) - list_min([p.my FOR p IN pairs])) >= getvariable('align_min_span_m');
+SELECT h.cam_fixed, h.cam_moving, track_fixed, track_moving, f.dt, f.theta, f.tx, f.ty, f.rms
+FROM (SELECT cam_fixed, cam_moving, track_fixed, track_moving, unnest(fits) AS f FROM cand) h
+JOIN calib_pairs c ON c.cam_a = h.cam_fixed AND c.cam_b = h.cam_moving
+WHERE f.n >= getvariable('align_min_pairs') AND f.span >= getvariable('align_min_span_m')
+  AND f.rms < c.align_max_rms_m;
 
--- 2. vote
+-- 2. vote in (theta, tx, ty, dt) bins: the true bin collects every true track pair (straight
+--    ones vote along a line through it), a wrong one only the pairs that happen to cross it.
+--    Ties go to the smaller offset: one road in one direction cannot tell an offset from a
+--    translation along it, and then the synchronised reading is the safer one.
 CREATE OR REPLACE TEMP TABLE align_best AS
-SELECT cam_fixed, cam_moving,
-       round(degrees(f.theta) / getvariable('align_bin_deg')) * getvariable('align_bin_deg') AS theta_deg,
-       round(f.tx / getvariable('align_bin_m')) * getvariable('align_bin_m') AS tx,
-       round(f.ty / getvariable('align_bin_m')) * getvariable('align_bin_m') AS ty, count(*) AS votes
-FROM align_hyp
-WHERE f.rms < getvariable('align_max_rms_m')
-GROUP BY cam_fixed, cam_moving, theta_deg, tx, ty
-QUALIFY row_number() OVER (PARTITION BY cam_fixed, cam_moving ORDER BY votes DESC, theta_deg, tx, ty) = 1;
+WITH bins AS (
+    SELECT cam_fixed, cam_moving,
+           round(degrees(theta) / getvariable('align_bin_deg')) * getvariable('align_bin_deg') AS theta_deg,
+           round(tx / getvariable('align_bin_m')) * getvariable('align_bin_m') AS tx,
+           round(ty / getvariable('align_bin_m')) * getvariable('align_bin_m') AS ty,
+           round(dt / getvariable('align_bin_s')) * getvariable('align_bin_s') AS dt
+    FROM align_hyp
+)
+SELECT cam_fixed, cam_moving, theta_deg, tx, ty, dt, count(*) AS votes
+FROM bins
+GROUP BY cam_fixed, cam_moving, theta_deg, tx, ty, dt
+QUALIFY row_number() OVER (PARTITION BY cam_fixed, cam_moving ORDER BY votes DESC, abs(dt), theta_deg, tx, ty) = 1;
 
--- 3. the agreeing hypotheses (angle difference wrapped to [-180, 180)) are the pre-matched
---    track pairs: same road user in both cameras, found without any coordinates in common.
+-- 3. the agreeing hypotheses at the winning shift (angle difference wrapped to [-180, 180)) are
+--    the pre-matched track pairs: same road user in both cameras, found without any coordinates
+--    or clock in common.
 CREATE OR REPLACE TEMP TABLE align_support AS
-SELECT h.cam_fixed, h.cam_moving, h.track_fixed, h.track_moving, h.pairs
+SELECT h.cam_fixed, h.cam_moving, h.track_fixed, h.track_moving, a.traj AS traj_fixed, m.traj AS traj_moving
 FROM align_hyp h JOIN align_best b USING (cam_fixed, cam_moving)
-WHERE h.f.rms < getvariable('align_max_rms_m')
-  AND abs(((degrees(h.f.theta) - b.theta_deg + 540) % 360) - 180) <= getvariable('align_agree_deg')
-  AND abs(h.f.tx - b.tx) <= getvariable('align_agree_m') AND abs(h.f.ty - b.ty) <= getvariable('align_agree_m');
+JOIN align_tracks a ON a.camera = h.cam_fixed AND a.track_id = h.track_fixed
+JOIN align_tracks m ON m.camera = h.cam_moving AND m.track_id = h.track_moving
+WHERE abs(h.dt - b.dt) < 0.5 * getvariable('align_bin_s')
+  AND abs(((degrees(h.theta) - b.theta_deg + 540) % 360) - 180) <= getvariable('align_agree_deg')
+  AND abs(h.tx - b.tx) <= getvariable('align_agree_m') AND abs(h.ty - b.ty) <= getvariable('align_agree_m');
 
---    refit on all their point pairs together, trimming the worst align_trim share
+--    refit all their tracks together at every shift within one vote bin of the winner, on a
+--    grid of align_clock_step_s (rigid_fit_shifted): tracks in several directions pin the
+--    offset that a single straight track leaves open. Trims the worst align_trim of the pairs;
+--    each squared residual is weighted by the two cameras' measured noise (calib_cameras) so
+--    that interpolated pairs do not pull the offset towards the half-sample phase.
 CREATE OR REPLACE TEMP TABLE align_pairs AS
-SELECT cam_fixed, cam_moving, rigid_fit(flatten(list(pairs)), getvariable('align_trim')) AS fit, count(*) AS support
-FROM align_support
-GROUP BY cam_fixed, cam_moving
+SELECT s.cam_fixed, s.cam_moving,
+       rigid_fit_shifted(list(s.traj_fixed ORDER BY s.track_fixed, s.track_moving),
+                         list(s.traj_moving ORDER BY s.track_fixed, s.track_moving),
+                         any_value(b.dt), getvariable('align_bin_s'), getvariable('align_clock_step_s'),
+                         0.5, getvariable('align_trim'), any_value(cf.sigma_m), any_value(cm.sigma_m)) AS fit,
+       count(*) AS support
+FROM align_support s JOIN align_best b USING (cam_fixed, cam_moving)
+JOIN calib_cameras cf ON cf.camera = s.cam_fixed JOIN calib_cameras cm ON cm.camera = s.cam_moving
+GROUP BY s.cam_fixed, s.cam_moving
 HAVING count(*) >= getvariable('align_min_support');
 
 --    second pass: keep the track pairs whose own points sit within align_refine_rms_m RMS of that fit
 --    (road users walking side by side agree with the vote to within a metre or two, but not
---    to 0.3 m), and refit on those: this is the final pre-match and the final transform.
+--    to 0.3 m), and refit on those: this is the final pre-match, transform and clock offset.
 CREATE OR REPLACE TEMP TABLE align_support AS
 SELECT s.*
 FROM align_support s JOIN align_pairs a USING (cam_fixed, cam_moving)
-WHERE rigid_rms(s.pairs, {'theta': a.fit.theta, 'tx': a.fit.tx, 'ty': a.fit.ty, 'scale': a.fit.scale})
-      < getvariable('align_refine_rms_m');
+JOIN calib_pairs c ON c.cam_a = s.cam_fixed AND c.cam_b = s.cam_moving
+WHERE a.fit IS NOT NULL
+  AND rigid_rms(traj_correspond(s.traj_fixed, s.traj_moving, 0.5, a.fit.dt),
+                {'theta': a.fit.theta, 'tx': a.fit.tx, 'ty': a.fit.ty, 'scale': a.fit.scale}) < c.align_refine_rms_m;
 
 CREATE OR REPLACE TEMP TABLE align_pairs AS
-SELECT cam_fixed, cam_moving, rigid_fit(flatten(list(pairs)), getvariable('align_trim')) AS fit, count(*) AS support
-FROM align_support
-GROUP BY cam_fixed, cam_moving
+SELECT s.cam_fixed, s.cam_moving,
+       rigid_fit_shifted(list(s.traj_fixed ORDER BY s.track_fixed, s.track_moving),
+                         list(s.traj_moving ORDER BY s.track_fixed, s.track_moving),
+                         any_value(b.dt), getvariable('align_bin_s'), getvariable('align_clock_step_s'),
+                         0.5, getvariable('align_trim'), any_value(cf.sigma_m), any_value(cm.sigma_m)) AS fit,
+       count(*) AS support
+FROM align_support s JOIN align_best b USING (cam_fixed, cam_moving)
+JOIN calib_cameras cf ON cf.camera = s.cam_fixed JOIN calib_cameras cm ON cm.camera = s.cam_moving
+GROUP BY s.cam_fixed, s.cam_moving
 HAVING count(*) >= getvariable('align_min_support');
+
+DELETE FROM align_pairs WHERE fit IS NULL;
+
+-- Calibration from the matched tracks themselves: the residuals of the pre-matched track pairs
+-- under their camera pair's final fit and clock offset. For a true pair they are the two
+-- cameras' noise plus interpolation and alignment error, i.e. exactly what LCSS has to
+-- tolerate. Per-axis sigma_d = median |r| / sqrt(2 ln 2) (Rayleigh median; robust to the few
+-- wrong pairs), and merge_epsilon = sigma_d sqrt(2 ln 100) = 3.03 sigma_d: 99% of a true pair's
+-- points fall within eps. Pairs of cameras without a direct fit use sqrt(sigma_a^2 + sigma_b^2).
+CREATE OR REPLACE TEMP TABLE calib_match AS
+WITH r AS (
+    SELECT s.cam_fixed, s.cam_moving, a.fit, unnest(traj_correspond(s.traj_fixed, s.traj_moving, 0.5, a.fit.dt)) AS c
+    FROM align_support s JOIN align_pairs a USING (cam_fixed, cam_moving)
+),
+d AS (
+    SELECT cam_fixed, cam_moving,
+           median(sqrt((c.fx - q.x) ** 2 + (c.fy - q.y) ** 2)) / sqrt(2 * ln(2)) AS sigma_d, count(*) AS n_pairs
+    FROM (SELECT *, transform_point({'theta': fit.theta, 'tx': fit.tx, 'ty': fit.ty, 'scale': fit.scale}, c.mx, c.my) AS q FROM r)
+    GROUP BY cam_fixed, cam_moving
+)
+SELECT p.cam_a, p.cam_b, coalesce(d.sigma_d, p.sigma_pair_m) AS sigma_d_m, coalesce(d.n_pairs, 0) AS n_pairs,
+       CASE WHEN d.sigma_d IS NULL THEN 'camera noise' ELSE 'matched residuals' END AS source,
+       coalesce(getvariable('merge_epsilon'), sqrt(2 * ln(100)) * coalesce(d.sigma_d, p.sigma_pair_m)) AS merge_epsilon
+FROM calib_pairs p LEFT JOIN d ON d.cam_fixed = p.cam_a AND d.cam_moving = p.cam_b;
 
 -- 4. spanning tree: widest path from every camera to the reference camera (the one with the
 --    most support), composing moving -> fixed transforms (inverted when walked backwards).
 CREATE OR REPLACE TEMP TABLE align_edges AS
 SELECT cam_moving AS src, cam_fixed AS dst, support,
-       {'theta': fit.theta, 'tx': fit.tx, 'ty': fit.ty, 'scale': fit.scale} AS tf
+       {'theta': fit.theta, 'tx': fit.tx, 'ty': fit.ty, 'scale': fit.scale} AS tf, fit.dt AS dt
 FROM align_pairs
 UNION ALL
 SELECT cam_fixed, cam_moving, support,
-       transform_invert({'theta': fit.theta, 'tx': fit.tx, 'ty': fit.ty, 'scale': fit.scale})
+       transform_invert({'theta': fit.theta, 'tx': fit.tx, 'ty': fit.ty, 'scale': fit.scale}), -fit.dt
 FROM align_pairs;
 
 CREATE OR REPLACE TEMP TABLE align_frames AS
@@ -104,23 +172,50 @@ WITH RECURSIVE
 ref AS (
     SELECT src AS camera FROM align_edges GROUP BY src ORDER BY sum(support) DESC, src LIMIT 1
 ),
-walk(camera, node, tf, bottleneck, hops, visited) AS (
-    -- start at each camera with the identity, walk edges towards the reference
-    SELECT camera, camera, {'theta': 0.0::DOUBLE, 'tx': 0.0::DOUBLE, 'ty': 0.0::DOUBLE, 'scale': 1.0::DOUBLE}, 1e18::DOUBLE, 0, [camera]
+walk(camera, node, tf, dt, bottleneck, hops, visited) AS (
+    -- start at each camera with the identity, walk edges towards the reference; clock offsets
+    -- (edge src clock - dst clock) add up along the path to camera clock - reference clock
+    SELECT camera, camera, {'theta': 0.0::DOUBLE, 'tx': 0.0::DOUBLE, 'ty': 0.0::DOUBLE, 'scale': 1.0::DOUBLE}, 0.0::DOUBLE, 1e18::DOUBLE, 0, [camera]
     FROM (SELECT DISTINCT camera FROM points)
     UNION ALL
-    SELECT w.camera, e.dst, transform_compose(e.tf, w.tf), least(w.bottleneck, e.support), w.hops + 1,
+    SELECT w.camera, e.dst, transform_compose(e.tf, w.tf), w.dt + e.dt, least(w.bottleneck, e.support), w.hops + 1,
            list_append(w.visited, e.dst)
     FROM walk w JOIN align_edges e ON e.src = w.node
     WHERE NOT list_contains(w.visited, e.dst) AND w.node <> (SELECT camera FROM ref)
 )
-SELECT w.camera, (SELECT camera FROM ref) AS reference, w.tf AS to_reference, w.hops,
+SELECT w.camera, (SELECT camera FROM ref) AS reference, w.tf AS to_reference, w.dt AS clock_offset_s, w.hops,
        CASE WHEN w.hops = 0 THEN NULL ELSE w.bottleneck END AS bottleneck_support
 FROM walk w
 WHERE w.node = (SELECT camera FROM ref)
 QUALIFY row_number() OVER (PARTITION BY w.camera ORDER BY w.bottleneck DESC, w.hops) = 1;
 
+-- What was measured and chosen (calibration.csv and the report): per camera, per camera pair,
+-- and the pipeline-wide values (`given` when --param / SET VARIABLE set them).
+CREATE OR REPLACE TEMP TABLE calibration_summary AS
+SELECT 'camera ' || c.camera AS scope, q.quantity, q.value, q.unit, q.how
+FROM calib_cameras c LEFT JOIN align_frames f USING (camera),
+     LATERAL (VALUES ('sampling period', c.period_s, 's', 'median interval between consecutive real points'),
+                     ('sampling jitter', c.jitter_s, 's', 'median absolute deviation of the intervals'),
+                     ('position noise sigma', c.sigma_m, 'm', 'median second difference of evenly sampled points'),
+                     ('clock offset', f.clock_offset_s, 's', 'camera clock minus reference clock, fitted with the transform')) q(quantity, value, unit, how)
+UNION ALL
+SELECT 'cameras ' || m.cam_a || '-' || m.cam_b, q.quantity, q.value, q.unit, q.how
+FROM calib_match m JOIN calib_pairs p USING (cam_a, cam_b),
+     LATERAL (VALUES ('residual sigma', m.sigma_d_m, 'm', 'per axis, from ' || m.source),
+                     ('merge_epsilon', m.merge_epsilon, 'm', CASE WHEN getvariable('merge_epsilon') IS NULL THEN '3.03 x residual sigma' ELSE 'given' END),
+                     ('align_max_rms_m', p.align_max_rms_m, 'm', CASE WHEN getvariable('align_max_rms_m') IS NULL THEN '0.1 + 3 sigma_pair' ELSE 'given' END),
+                     ('align_refine_rms_m', p.align_refine_rms_m, 'm', CASE WHEN getvariable('align_refine_rms_m') IS NULL THEN '0.05 + 2 sigma_pair' ELSE 'given' END)) q(quantity, value, unit, how)
+UNION ALL
+SELECT 'pipeline', parameter, coalesce(given, measured), '', CASE WHEN given IS NULL THEN rule ELSE 'given' END
+FROM calibration;
+
+-- 5. every later stage works on the reference camera's clock: t := t - clock_offset_s.
+CREATE OR REPLACE TEMP TABLE points AS
+SELECT p.* REPLACE (p.t - coalesce(f.clock_offset_s, 0.0) AS t)
+FROM points p LEFT JOIN align_frames f USING (camera);
+
 SELECT camera, reference, round(degrees(to_reference.theta), 3) AS theta_deg,
-       round(to_reference.tx, 3) AS tx, round(to_reference.ty, 3) AS ty, hops,
+       round(to_reference.tx, 3) AS tx, round(to_reference.ty, 3) AS ty,
+       round(clock_offset_s, 3) AS clock_offset_s, hops,
        bottleneck_support::BIGINT AS support
 FROM align_frames ORDER BY camera;

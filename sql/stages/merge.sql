@@ -24,11 +24,14 @@
 --    duplicates (phi_ij next to phi_ijk) cannot arise.
 --
 -- Parameters (defaults and why). The thesis used eps = 1 m, T = 0.5 s, xi = 5, eta_bar = 0.35-0.5. With an
--- accurate alignment, eps should be a few times the cameras' combined position noise (view_noise:
--- 0.06-0.13 m on the benchmark scenes), not the width of a lane: at eps = 1 m pedestrians walking
--- side by side score eta = 1 against each other and Hungarian swaps them (pair precision 0.82 on
--- dut_intersection_3cam); at eps = 0.5 m it is 1.00 (benches/accuracy_merge.py). T = 0.25 s is
--- 2.5 sample periods at 10 Hz; xi = 3 points keeps short overlaps.
+-- accurate alignment, eps should be a few times the cameras' combined position noise, not the
+-- width of a lane: at eps = 1 m pedestrians walking side by side score eta = 1 against each
+-- other and Hungarian swaps them (pair precision 0.82 on dut_intersection_3cam). So eps is
+-- measured (merge_epsilon = auto): per camera pair, 3.03 x the residual sigma of its matched
+-- tracks (calib_match, sql/stages/align.sql). xi (merge_min_points = auto) is 2 real samples of
+-- the slowest camera on the common clock (sql/stages/calibrate.sql). T = 0.25 s is 2.5 steps
+-- of the common clock: after the clock offsets are removed (align.sql) it only has to cover
+-- the clock's step.
 -- Parameters (merge_*): declared once in src/app/params.rs, defaults in sql/params.sql;
 -- `trajdb params` lists them, `trajdb pipeline --param name=value` or SET VARIABLE sets them.
 -- Common clock: every track is resampled to t = k * merge_resample_s (traj_resample; 0 keeps the
@@ -51,13 +54,14 @@ GROUP BY p.camera, p.track_id, p.class;
 
 CREATE OR REPLACE TEMP TABLE merge_scores AS
 SELECT a.uid AS uid_a, b.uid AS uid_b, a.camera AS camera_a, b.camera AS camera_b,
-       lcss_similarity(a.traj, b.traj, getvariable('merge_epsilon'), getvariable('merge_time_window'),
-                       getvariable('merge_min_points'), o.polygon) AS eta
+       lcss_similarity(a.traj, b.traj, c.merge_epsilon, getvariable('merge_time_window'),
+                       calibrated('merge_min_points')::BIGINT, o.polygon) AS eta
 FROM merge_tracks a
 JOIN merge_tracks b
   ON a.camera < b.camera AND a.class = b.class
  AND a.t0 <= b.t1 + getvariable('merge_time_window') AND b.t0 <= a.t1 + getvariable('merge_time_window')
-JOIN view_overlaps o ON o.class = a.class AND o.cam_a = a.camera AND o.cam_b = b.camera AND o.area_m2 > 0;
+JOIN view_overlaps o ON o.class = a.class AND o.cam_a = a.camera AND o.cam_b = b.camera AND o.area_m2 > 0
+JOIN calib_match c ON c.cam_a = a.camera AND c.cam_b = b.camera;
 
 CREATE OR REPLACE TEMP TABLE merge_links AS
 WITH h AS (
@@ -85,7 +89,9 @@ CREATE OR REPLACE TEMP TABLE merged AS
 SELECT g.road_user, any_value(t.class) AS class,
        list({'camera': t.camera, 'track_id': t.track_id} ORDER BY o.position, t.t0) AS sources,
        count(*) AS n_tracks,
-       trajectory_merge(list(t.traj ORDER BY o.position, t.t0), getvariable('merge_epsilon'), getvariable('merge_time_window')) AS traj
+       trajectory_merge(list(t.traj ORDER BY o.position, t.t0),
+                        coalesce(getvariable('merge_epsilon'), (SELECT max(merge_epsilon) FROM calib_match)),
+                        getvariable('merge_time_window')) AS traj
 FROM merge_tracks t
 JOIN merge_groups g USING (uid)
 JOIN view_merge_order o USING (camera)

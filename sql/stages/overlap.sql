@@ -17,26 +17,12 @@
 --   within 2 m (spurious detections are isolated; 10 Hz tracks leave dense trails);
 --   noise correction: the hull of noisy points overshoots the true view edge, so each P^k is
 --   shrunk by overlap_shrink_sigmas x the camera's position noise, measured from its own tracks
---   (table view_noise; 0 switches the correction off);
+--   (calib_cameras.sigma_m, sql/stages/calibrate.sql; 0 switches the correction off);
 --   merge order: ascending camera id (the table view_merge_order can be replaced).
 -- Parameters (overlap_*): declared once in src/app/params.rs, defaults in sql/params.sql;
 -- `trajdb params` lists them, `trajdb pipeline --param name=value` or SET VARIABLE sets them.
 
--- Position noise per camera, coordinate-free: for evenly sampled smooth motion the second
--- difference p[k+1] - 2 p[k] + p[k-1] is noise with variance 6 sigma^2 per axis, so its squared
--- length is 6 sigma^2 chi2(2), whose median is 6 sigma^2 * 2 ln 2 (robust to manoeuvres).
-CREATE OR REPLACE TEMP TABLE view_noise AS
-WITH d AS (
-    SELECT camera,
-           x - 2 * lag(x) OVER w + lag(x, 2) OVER w AS ax, y - 2 * lag(y) OVER w + lag(y, 2) OVER w AS ay,
-           t - lag(t) OVER w AS dt1, lag(t) OVER w - lag(t, 2) OVER w AS dt2
-    FROM points WHERE estimated = 0
-    WINDOW w AS (PARTITION BY camera, track_id ORDER BY t)
-)
-SELECT camera, sqrt(median(ax * ax + ay * ay) / (12 * ln(2))) AS sigma_m, count(*) AS n_triples
-FROM d WHERE abs(dt1 - dt2) <= 1e-3 * dt1
-GROUP BY camera;
-
+-- Position noise per camera: measured by sql/stages/calibrate.sql (calib_cameras.sigma_m).
 CREATE OR REPLACE TEMP TABLE view_points AS
 SELECT camera, class, q.x, q.y
 FROM (SELECT p.camera, p.class, transform_point(f.to_reference, p.x, p.y) AS q
@@ -54,7 +40,7 @@ FROM (
            count(*) AS n_points
     FROM view_points
     GROUP BY GROUPING SETS ((camera, class), (camera))
-) h LEFT JOIN view_noise n USING (camera));
+) h LEFT JOIN calib_cameras n USING (camera));
 
 CREATE OR REPLACE TEMP TABLE view_overlaps AS
 SELECT *, polygon_area(polygon) AS area_m2 FROM (

@@ -67,6 +67,15 @@ pub fn positive_or_inf(name: &'static str, value: f64) -> Result<f64, ParamError
     }
 }
 
+/// `value` if it is >= 0 and finite, else an error.
+pub fn non_negative(name: &'static str, value: f64) -> Result<f64, ParamError> {
+    if value >= 0.0 && value.is_finite() {
+        Ok(value)
+    } else {
+        Err(ParamError { name, rule: ">= 0", value })
+    }
+}
+
 /// `value` if it is finite, else an error.
 pub fn finite(name: &'static str, value: f64) -> Result<f64, ParamError> {
     if value.is_finite() {

@@ -44,7 +44,8 @@ pub fn demo_sql(db: Option<&str>, format: Format) -> Result<(), Box<dyn std::err
 }
 
 /// `simulate` options: --cameras N --minutes M --seed S --out DIR [--rate-hz R] [--traffic X]
-/// [--noise-tracks-per-min K] [--clock-offset-max S] [--world-rate-hz R (0: no world.csv)].
+/// [--pedestrians X] [--noise-sigma S | LO,HI] [--noise-tracks-per-min K] [--clock-offset-max S]
+/// [--world-rate-hz R (0: no world.csv)].
 pub fn parse_simulate(args: &[String]) -> Result<(super::simulate::SimParams, String), Box<dyn std::error::Error>> {
     let mut p = super::simulate::SimParams::default();
     let mut out = None;
@@ -58,6 +59,17 @@ pub fn parse_simulate(args: &[String]) -> Result<(super::simulate::SimParams, St
             "--seed" => p.seed = val(a)?.parse().map_err(|_| "simulate: --seed must be a non-negative integer")?,
             "--rate-hz" => p.rate_hz = num(a, val(a)?)?,
             "--traffic" => p.traffic = num(a, val(a)?)?,
+            "--pedestrians" => p.pedestrians = num(a, val(a)?)?,
+            "--noise-sigma" => {
+                let v = val(a)?;
+                p.noise_sigma = match v.split_once(',') {
+                    Some((lo, hi)) => (num(a, lo.to_string())?, num(a, hi.to_string())?),
+                    None => {
+                        let s = num(a, v)?;
+                        (s, s)
+                    }
+                };
+            }
             "--noise-tracks-per-min" => p.noise_tracks_per_min = num(a, val(a)?)?,
             "--clock-offset-max" => p.clock_offset_max = num(a, val(a)?)?,
             "--world-rate-hz" => p.world_rate_hz = num(a, val(a)?)?,

@@ -30,7 +30,7 @@ pub mod shell;
 pub mod sql;
 
 /// The command line summary.
-pub const USAGE: &str = "usage: trajdb [--db FILE] [--csv|--json] (sql \"<query>\" | run FILE.sql | demo [--sql] | functions [--markdown] | params [--sql])\n       trajdb pipeline --input points.parquet|points.csv --out DIR [--param name=value ...]\n       trajdb score SCENARIO_DIR --results DIR\n       trajdb simulate --cameras N --minutes M --seed S --out DIR [--rate-hz R] [--traffic X]\n       SQL is read from stdin when no command is given.";
+pub const USAGE: &str = "usage: trajdb [--db FILE] [--csv|--json] (sql \"<query>\" | run FILE.sql | demo [--sql] | functions [--markdown] | params [--sql])\n       trajdb pipeline --input points.parquet|points.csv --out DIR [--param name=value ...]\n       trajdb score SCENARIO_DIR --results DIR\n       trajdb simulate --cameras N --minutes M --seed S --out DIR [--rate-hz R] [--traffic X]\n         [--pedestrians X] [--noise-sigma S|LO,HI] [--noise-tracks-per-min K] [--clock-offset-max S] [--world-rate-hz R]\n       SQL is read from stdin when no command is given.";
 
 /// The function reference: Markdown (docs/functions.md) or plain text.
 #[cfg(feature = "bundled")]

@@ -43,8 +43,9 @@ const fn s(name: &'static str, default: &'static str, stage: &'static str, descr
 pub const PARAMS: &[Param] = &[
     b("clean_drop_estimated_tails", "false", "clean", "drop a track whose last clean_xi points are all estimated"),
     i("clean_xi", "3", "clean", "points of the estimated tail rule"),
-    i("clean_min_points", "5", "clean", "a track with fewer real points than this ..."),
-    d("clean_min_duration_s", "0.35", "clean", "... and spanning less than this many seconds is dropped as too short"),
+    i("clean_min_points", "auto", "clean", "a track with fewer real points than this ... (auto: 2, the least that shows motion)"),
+    d("clean_min_duration_s", "auto", "clean", "... and spanning less than this many seconds is dropped (auto: 1.5 sampling periods)"),
+    d("clean_max_speed", "70.0", "clean", "a track whose median real speed exceeds this (m/s) is implausible and dropped"),
     d("quality_max_gap", "2.5", "quality", "a broken piece may resume up to this many seconds later"),
     d("quality_max_dist", "2.0", "quality", "... within this many metres of where the track would be at its final velocity"),
     d("quality_inset", "1.0", "quality", "endpoints closer than this (m) to the view's edge are entries and exits"),
@@ -52,22 +53,26 @@ pub const PARAMS: &[Param] = &[
     d("align_min_overlap_s", "2.0", "align", "track pairs overlap at least this long in time (s)"),
     i("align_min_pairs", "10", "align", "a hypothesis needs at least this many time-interpolated point pairs"),
     d("align_min_span_m", "3.0", "align", "... and its moving points span at least this many metres"),
-    d("align_max_rms_m", "0.5", "align", "hypotheses fitting their own pairs within this RMS (m) vote"),
+    i("align_max_hypotheses", "4000", "align", "at most this many track pairs per camera pair are scanned (a hash sample of a long day)"),
+    d("align_max_clock_offset_s", "1.0", "align", "clock offsets between two cameras are searched up to this many seconds either way"),
+    d("align_bin_s", "0.05", "align", "vote bin (and scan step) of the clock offset (s)"),
+    d("align_clock_step_s", "0.005", "align", "step of the joint clock offset search around the winning bin (s)"),
+    d("align_max_rms_m", "auto", "align", "hypotheses fitting their own pairs within this RMS (m) vote (auto: 0.1 + 3 sigma_pair)"),
     d("align_bin_deg", "2.0", "align", "vote bin of the rotation (degrees)"),
     d("align_bin_m", "1.0", "align", "vote bin of the translation (m)"),
     d("align_agree_deg", "3.0", "align", "a hypothesis agrees with the winning bin within this rotation (degrees)"),
     d("align_agree_m", "2.0", "align", "... and this translation (m)"),
     i("align_min_support", "3", "align", "a camera pair needs at least this many agreeing track pairs"),
     d("align_trim", "0.1", "align", "share of point pairs the trimmed refit leaves out"),
-    d("align_refine_rms_m", "0.3", "align", "second pass: track pairs within this RMS (m) of the first fit are kept"),
+    d("align_refine_rms_m", "auto", "align", "second pass: track pairs within this RMS (m) of the first fit are kept (auto: 0.05 + 2 sigma_pair)"),
     s("overlap_method", "'convex'", "overlap", "view polygon hull: 'convex' or 'concave'"),
     d("overlap_concavity", "2.0", "overlap", "concavity of the concave hull"),
     d("overlap_radius_m", "2.0", "overlap", "density rule: a point counts with overlap_min_neighbours others within this radius (m)"),
     i("overlap_min_neighbours", "3", "overlap", "density rule: neighbours a point needs"),
     d("overlap_shrink_sigmas", "1.0", "overlap", "each view polygon is shrunk by this many times the camera's measured noise"),
-    d("merge_epsilon", "0.5", "merge", "LCSS epsilon (m) for matching and merging"),
+    d("merge_epsilon", "auto", "merge", "LCSS epsilon (m) for matching and merging (auto: per camera pair, 3.03 x the measured residual sigma: 99% of true pairs)"),
     d("merge_time_window", "0.25", "merge", "LCSS time window T (s)"),
-    i("merge_min_points", "3", "merge", "LCSS xi: points a track needs inside the overlap"),
+    i("merge_min_points", "auto", "merge", "LCSS xi: points a track needs inside the overlap (auto: 2 real samples of the slowest camera on the common clock, >= 3)"),
     d("merge_eta", "0.5", "merge", "eta-bar: the lowest similarity that links two tracks"),
     d("merge_resample_s", "0.1", "merge", "common clock period (s); 0 keeps the raw samples"),
     d("merge_resample_max_gap", "1.0", "merge", "the common clock does not bridge gaps longer than this (s)"),
@@ -88,16 +93,24 @@ impl Param {
     /// `value` as an SQL literal of this parameter's type, or an error naming the parameter.
     pub fn literal(&self, value: &str) -> Result<String, Box<dyn Error>> {
         let v = value.trim();
+        // `auto`: measured from the data by sql/stages/calibrate.sql (the variable stays NULL and
+        // the stages read calibrated('name')); only numeric parameters can be measured.
+        if v.eq_ignore_ascii_case("auto") && matches!(self.kind, Kind::Double | Kind::Integer) {
+            return Ok(match self.kind {
+                Kind::Double => "NULL::DOUBLE".into(),
+                _ => "NULL::BIGINT".into(),
+            });
+        }
         let bad = |what: &str| -> Box<dyn Error> { format!("pipeline: parameter {} must be {what}, got {value:?}", self.name).into() };
         Ok(match self.kind {
             Kind::Double => {
-                let x: f64 = v.parse().map_err(|_| bad("a number"))?;
+                let x: f64 = v.parse().map_err(|_| bad("a number or auto"))?;
                 if !x.is_finite() {
                     return Err(bad("a finite number"));
                 }
                 format!("{x:?}::DOUBLE")
             }
-            Kind::Integer => format!("{}::BIGINT", v.parse::<i64>().map_err(|_| bad("an integer"))?),
+            Kind::Integer => format!("{}::BIGINT", v.parse::<i64>().map_err(|_| bad("an integer or auto"))?),
             Kind::Boolean => match v.to_ascii_lowercase().as_str() {
                 "true" => "true".into(),
                 "false" => "false".into(),
@@ -180,7 +193,9 @@ mod tests {
     fn values_are_checked_against_their_type() {
         let p = find("merge_eta").unwrap();
         assert_eq!(p.literal("0.4").unwrap(), "0.4::DOUBLE");
-        assert!(p.literal("abc").unwrap_err().to_string().contains("merge_eta must be a number, got \"abc\""));
+        assert!(p.literal("abc").unwrap_err().to_string().contains("merge_eta must be a number or auto, got \"abc\""));
+        assert_eq!(p.literal("AUTO").unwrap(), "NULL::DOUBLE");
+        assert!(find("overlap_method").unwrap().literal("auto").unwrap() == "'auto'");
         assert!(p.literal("NaN").is_err());
         assert_eq!(find("clean_xi").unwrap().literal("4").unwrap(), "4::BIGINT");
         assert!(find("clean_xi").unwrap().literal("4.5").is_err());

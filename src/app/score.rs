@@ -7,7 +7,7 @@ use std::error::Error;
 use std::path::Path;
 
 /// Prints the road-user identity table (IDF1, exactly reconstructed objects, within-camera
-/// links) and the clock offsets of the scenario.
+/// links).
 fn identity(con: &Connection) -> Result<(), Box<dyn Error>> {
     println!("road users (from merged.parquet; IDF1 over real points, exact = all of an object's real tracks and nothing else in one road user):");
     println!("  {:<14} {:>6} {:>7} {:>8} {:>11} {:>12} {:>11} {:>8}", "class", "IDF1", "exact", "objects", "link prec.", "break recall", "true breaks", "links");
@@ -21,10 +21,6 @@ fn identity(con: &Connection) -> Result<(), Box<dyn Error>> {
             (r.get(0)?, r.get(1)?, r.get(2)?, r.get(3)?, r.get(4)?, r.get(5)?, r.get(6)?, r.get(7)?);
         let class = if c == "*" { "all" } else { c.as_str() };
         println!("  {class:<14} {idf1:>6.3} {:>7.3} {n:>8} {lp:>11.3} {br:>12.3} {nb:>11} {nl:>8}", exact.unwrap_or(0.0));
-    }
-    let offsets: Vec<f64> = con.prepare("SELECT DISTINCT clock_offset_s FROM s_cameras WHERE clock_offset_s IS NOT NULL ORDER BY 1")?.query_map([], |r| r.get(0))?.collect::<Result<_, _>>()?;
-    if offsets.iter().any(|&o| o != 0.0) {
-        println!("clock offsets: the scenario's cameras are off by {offsets:?} s; the pipeline does not estimate clock offsets yet (it assumes synchronised clocks)");
     }
     Ok(())
 }
@@ -40,13 +36,14 @@ pub fn score(con: &Connection, scenario: &Path, results: &Path) -> Result<(f64, 
         sql::sql_string(&results.to_string_lossy())
     ))?;
     con.execute_batch(sql::file("sql/score.sql").expect("sql/score.sql"))?;
-    let (rot, trans): (f64, f64) = con.query_row("SELECT max(rot_deg), max(trans_m) FROM s_pair_err WHERE cam_from < cam_to", [], |r| Ok((r.get(0)?, r.get(1)?)))?;
-    println!("camera pairs: worst rotation error {rot:.3} deg, worst translation error {trans:.3} m");
-    let mut pe = con.prepare("SELECT cam_from, cam_to, rot_deg, trans_m FROM s_pair_err WHERE cam_from < cam_to ORDER BY 1, 2")?;
+    let (rot, trans, clock): (f64, f64, f64) =
+        con.query_row("SELECT max(rot_deg), max(trans_m), max(clock_err_s) FROM s_pair_err WHERE cam_from < cam_to", [], |r| Ok((r.get(0)?, r.get(1)?, r.get(2)?)))?;
+    println!("camera pairs: worst rotation error {rot:.3} deg, worst translation error {trans:.3} m, worst clock offset error {:.1} ms", clock * 1e3);
+    let mut pe = con.prepare("SELECT cam_from, cam_to, rot_deg, trans_m, clock_err_s FROM s_pair_err WHERE cam_from < cam_to ORDER BY 1, 2")?;
     let mut q = pe.query([])?;
     while let Some(r) = q.next()? {
-        let (a, b, rd, tm): (i64, i64, f64, f64) = (r.get(0)?, r.get(1)?, r.get(2)?, r.get(3)?);
-        println!("  {a} -> {b}: rotation {rd:.3} deg, translation {tm:.3} m");
+        let (a, b, rd, tm, ce): (i64, i64, f64, f64, f64) = (r.get(0)?, r.get(1)?, r.get(2)?, r.get(3)?, r.get(4)?);
+        println!("  {a} -> {b}: rotation {rd:.3} deg, translation {tm:.3} m, clock offset {:.1} ms", ce * 1e3);
     }
     identity(con)?;
     println!("matches (a true pair: same object, >= 1 s together, >= 3 points each in the true overlap):");

@@ -3,10 +3,11 @@
 
 use super::registry::{p, Function, Param, Signature, Ty, TRAJ, TRANSFORM};
 use super::vector::{Args, Column, Out, StructCol, Value};
-use crate::algo::align::correspond::{self, Pairs};
+use crate::algo::align::correspond::Pairs;
 use crate::algo::align::cpd::{self, CpdParams};
 use crate::algo::align::cpd3;
 use crate::algo::align::rigid::{self, Transform2};
+use crate::algo::align::shift::{self, ShiftGrid};
 use std::error::Error;
 
 type R = Result<(), Box<dyn Error>>;
@@ -135,15 +136,79 @@ pub static FUNCTIONS: &[Function] = &[
         description: "Point pairs for rigid_fit from two tracks of (presumably) the same road user in two cameras with synchronised clocks: for each \
                       fixed point inside the moving track's time span, the moving track interpolated linearly at that time (not across gaps longer \
                       than max_gap seconds, default 0.5). rigid_fit(traj_correspond(a, b)) is one transform hypothesis, found in closed form, with no \
-                      initial rotation needed. O(n + m).",
+                      initial rotation needed. With shift (s, the moving clock minus the fixed clock; default 0) the moving times are read as t - shift. O(n + m).",
         example: "SELECT traj_correspond([{'t':1,'x':0,'y':0}], [{'t':0,'x':0,'y':0},{'t':2,'x':4,'y':2}], 3.0); -- [{'fx': 0.0, 'fy': 0.0, 'mx': 2.0, 'my': 1.0}]",
         maths: "src/algo/align/correspond.rs",
         binding: file!(),
         signatures: &[Signature {
-            params: &[p("fixed", TRAJ), p("moving", TRAJ), p("max_gap", Ty::Double)],
-            arities: &[2, 3],
+            params: &[p("fixed", TRAJ), p("moving", TRAJ), p("max_gap", Ty::Double), p("shift", Ty::Double)],
+            arities: &[2, 3, 4],
             returns: PAIRS4,
             kernel: traj_correspond,
+        }],
+        table: None,
+    },
+    Function {
+        name: "rigid_fit_scan",
+        description: "Clock offset hypotheses of one track pair: rigid_fit(traj_correspond(fixed, moving, max_gap, dt)) at every dt = -max_shift, \
+                      -max_shift + step, ..., max_shift (dt: moving clock minus fixed clock). A straight track fits at every dt (the translation slides \
+                      along the road); a turning one only near its true offset. Voting over (theta, tx, ty, dt) across many track pairs finds the \
+                      offset and the transform together. Shifts with fewer than 2 pairs are left out; span is the larger side of the bounding box of \
+                      the moving points paired. O(S (n + m)) for S shifts (at most 100001).",
+        example: "SELECT len(rigid_fit_scan([{'t':0,'x':0,'y':0},{'t':1,'x':1,'y':0},{'t':2,'x':2,'y':1}], [{'t':0,'x':0,'y':0},{'t':1,'x':1,'y':0},{'t':2,'x':2,'y':1}], 1.0, 0.5)); -- 5",
+        maths: "src/algo/align/shift.rs",
+        binding: file!(),
+        signatures: &[Signature {
+            params: &[p("fixed", TRAJ), p("moving", TRAJ), p("max_shift", Ty::Double), p("step", Ty::Double), p("max_gap", Ty::Double)],
+            arities: &[4, 5],
+            returns: Ty::List(&Ty::Struct(&[
+                ("dt", Ty::Double),
+                ("theta", Ty::Double),
+                ("tx", Ty::Double),
+                ("ty", Ty::Double),
+                ("rms", Ty::Double),
+                ("n", Ty::Bigint),
+                ("span", Ty::Double),
+            ])),
+            kernel: rigid_fit_scan,
+        }],
+        table: None,
+    },
+    Function {
+        name: "rigid_fit_shifted",
+        description: "The clock offset and transform that fit many track pairs of one camera pair best together: at every dt = centre + k step, \
+                      |k step| <= half_width, all pairs traj_correspond(fixed[i], moving[i], max_gap, dt) are fitted together by least trimmed squares \
+                      (trim, default 0.1); the dt with the least trimmed RMS is refined by a parabola through its neighbours. Tracks in two or more \
+                      directions separate the offset from a translation along the road. With the cameras' position noise (sigma_fixed, \
+                      sigma_moving, m) each squared residual is weighted so that pairs interpolated between two samples count as much as \
+                      exact ones (otherwise the phase half-way between samples looks best). NULL when no shift gives 2 pairs. \
+                      Aggregate with list(): rigid_fit_shifted(list(a.traj), list(b.traj), 0.3, 0.05, 0.005).",
+        example: "SELECT rigid_fit_shifted([[{'t':0,'x':0,'y':0},{'t':1,'x':1,'y':0},{'t':2,'x':1,'y':1}]], [[{'t':0.5,'x':0,'y':0},{'t':1.5,'x':1,'y':0},{'t':2.5,'x':1,'y':1}]], 0.5, 0.1, 0.1, 1.0, 0.0).dt; -- 0.5",
+        maths: "src/algo/align/shift.rs",
+        binding: file!(),
+        signatures: &[Signature {
+            params: &[
+                p("fixed", Ty::List(&TRAJ)),
+                p("moving", Ty::List(&TRAJ)),
+                p("centre", Ty::Double),
+                p("half_width", Ty::Double),
+                p("step", Ty::Double),
+                p("max_gap", Ty::Double),
+                p("trim", Ty::Double),
+                p("sigma_fixed", Ty::Double),
+                p("sigma_moving", Ty::Double),
+            ],
+            arities: &[5, 6, 7, 9],
+            returns: Ty::Struct(&[
+                ("dt", Ty::Double),
+                ("theta", Ty::Double),
+                ("tx", Ty::Double),
+                ("ty", Ty::Double),
+                ("scale", Ty::Double),
+                ("rms", Ty::Double),
+                ("n", Ty::Bigint),
+            ]),
+            kernel: rigid_fit_shifted,
         }],
         table: None,
     },
@@ -284,10 +349,10 @@ fn rigid_rms(a: &Args<'_>, out: &mut Out<'_>) -> R {
 }
 
 fn traj_correspond(a: &Args<'_>, out: &mut Out<'_>) -> R {
-    let (fixed, moving, gap) = (a.traj(0), a.traj(1), a.opt_double(2));
+    let (fixed, moving, gap, dt) = (a.traj(0), a.traj(1), a.opt_double(2), a.opt_double(3));
     let vals: Vec<Option<Pairs>> = a.map(|r| {
-        let (Some(f), Some(m), Some(g)) = (fixed.get(r)?, moving.get(r)?, gap.or(r, 0.5)) else { return Ok(None) };
-        Ok(Some(correspond::correspond(f, m, g)?))
+        let (Some(f), Some(m), Some(g), Some(dt)) = (fixed.get(r)?, moving.get(r)?, gap.or(r, 0.5), dt.or(r, 0.0)) else { return Ok(None) };
+        Ok(Some(shift::correspond_at(f, m, dt, g)?))
     })?;
     let cols: Vec<_> =
         vals.iter().map(|v| v.as_ref().map(|p| vec![Column::F64(&p.fx), Column::F64(&p.fy), Column::F64(&p.mx), Column::F64(&p.my)])).collect();
@@ -333,5 +398,55 @@ fn transform_compose(a: &Args<'_>, out: &mut Out<'_>) -> R {
 fn transform_invert(a: &Args<'_>, out: &mut Out<'_>) -> R {
     let tf = a.structure(0);
     out.structs(&a.map(|r| Ok(transform(&tf, a, 0, r)?.map(|t| tf_values(t.invert()))))?);
+    Ok(())
+}
+
+fn rigid_fit_scan(a: &Args<'_>, out: &mut Out<'_>) -> R {
+    let (fixed, moving, max, step, gap) = (a.traj(0), a.traj(1), a.double(2), a.double(3), a.opt_double(4));
+    let vals = a.map(|r| {
+        let (Some(f), Some(m), Some(max), Some(step), Some(g)) = (fixed.get(r)?, moving.get(r)?, max.get(r), step.get(r), gap.or(r, 0.5)) else {
+            return Ok(None);
+        };
+        Ok(Some(shift::scan(f, m, &ShiftGrid::new(0.0, max, step)?, g)?))
+    })?;
+    let cols: Vec<_> = vals
+        .iter()
+        .map(|v| {
+            v.as_ref().map(|fits| {
+                let col = |g: fn(&shift::ShiftFit) -> f64| fits.iter().map(g).collect::<Vec<f64>>();
+                let n: Vec<i64> = fits.iter().map(|f| f.n as i64).collect();
+                (col(|f| f.dt), col(|f| f.transform.theta), col(|f| f.transform.tx), col(|f| f.transform.ty), col(|f| f.rms), n, col(|f| f.span))
+            })
+        })
+        .collect();
+    let cols: Vec<_> = cols
+        .iter()
+        .map(|v| {
+            v.as_ref().map(|(dt, th, tx, ty, rms, n, span)| {
+                vec![Column::F64(dt), Column::F64(th), Column::F64(tx), Column::F64(ty), Column::F64(rms), Column::I64(n), Column::F64(span)]
+            })
+        })
+        .collect();
+    out.struct_lists(&cols);
+    Ok(())
+}
+
+fn rigid_fit_shifted(a: &Args<'_>, out: &mut Out<'_>) -> R {
+    let (fixed, moving, centre, half, step) = (a.traj_list(0), a.traj_list(1), a.double(2), a.double(3), a.double(4));
+    let (gap, trim, sf, sm) = (a.opt_double(5), a.opt_double(6), a.opt_double(7), a.opt_double(8));
+    let vals = a.map(|r| {
+        let (Some(f), Some(m), Some(c), Some(h), Some(s)) = (fixed.get(r)?, moving.get(r)?, centre.get(r), half.get(r), step.get(r)) else {
+            return Ok(None);
+        };
+        let (Some(g), Some(trim), Some(sf), Some(sm)) = (gap.or(r, 0.5), trim.or(r, 0.1), sf.or(r, 0.0), sm.or(r, 0.0)) else { return Ok(None) };
+        let grid = ShiftGrid::new(c, h, s)?;
+        let pairs = shift::zip_tracks(&f, &m)?;
+        let Some(fit) = shift::joint(&pairs, &grid, g, trim, shift::Noise::new(sf, sm)?)? else { return Ok(None) };
+        let t = fit.transform;
+        let mut v: Vec<Value> = [fit.dt, t.theta, t.tx, t.ty, t.scale, fit.rms].map(Value::F64).to_vec();
+        v.push(Value::I64(fit.n as i64));
+        Ok(Some(v))
+    })?;
+    out.structs(&vals);
     Ok(())
 }

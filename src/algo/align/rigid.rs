@@ -215,9 +215,13 @@ pub fn fit_trimmed(fx: &[f64], fy: &[f64], mx: &[f64], my: &[f64], trim: f64, wi
                 ((fx[k] - px).powi(2) + (fy[k] - py).powi(2), k)
             })
             .collect();
-        r.sort_by(|a, b| a.0.total_cmp(&b.0));
+        // the keep smallest residuals (ties by index, so the set is deterministic): O(n)
+        let kk = keep.max(2).min(n);
+        if kk < n {
+            r.select_nth_unstable_by(kk - 1, |a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        }
         let mut next = vec![false; n];
-        for &(_, k) in &r[..keep.max(2).min(n)] {
+        for &(_, k) in &r[..kk] {
             next[k] = true;
         }
         let w: Vec<f64> = next.iter().map(|&b| b as u8 as f64).collect();

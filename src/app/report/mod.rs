@@ -24,6 +24,7 @@ pub fn write(con: &Connection, out: &Path, input: &str, timings: &[(String, f64)
     stage_times(timings, &mut h);
     let c = Ctx::load(con)?;
     transforms(con, &c, &mut h)?;
+    calibration(con, &c, &mut h)?;
     points(con, &c, &mut h)?;
     view_polygons(con, &c, &mut h)?;
     track_counts(con, &c, &mut h)?;
@@ -52,7 +53,7 @@ fn transforms(con: &Connection, _: &Ctx, h: &mut String) -> R<()> {
     // transforms
     let tf: Vec<Vec<String>> = query_rows(
         con,
-        "SELECT camera, reference, degrees(to_reference.theta), to_reference.tx, to_reference.ty, hops, bottleneck_support FROM align_frames ORDER BY camera",
+        "SELECT camera, reference, degrees(to_reference.theta), to_reference.tx, to_reference.ty, hops, bottleneck_support, clock_offset_s * 1000 FROM align_frames ORDER BY camera",
         |r| {
             Ok(vec![
                 r.get::<_, i64>(0)?.to_string(),
@@ -62,6 +63,7 @@ fn transforms(con: &Connection, _: &Ctx, h: &mut String) -> R<()> {
                 format!("{:.3}", r.get::<_, f64>(4)?),
                 r.get::<_, i64>(5)?.to_string(),
                 r.get::<_, Option<f64>>(6)?.map_or("-".into(), |v| format!("{v:.0}")),
+                format!("{:+.1}", r.get::<_, f64>(7)?),
             ])
         },
     )?;
@@ -70,9 +72,29 @@ fn transforms(con: &Connection, _: &Ctx, h: &mut String) -> R<()> {
         h,
         "<h2>Camera alignment</h2><p>Each camera's transform into the reference camera's frame (sql/stages/align.sql).{}</p>{}",
         if unaligned.is_empty() { String::new() } else { format!(" <b>Not aligned (no consistent track pairs): cameras {unaligned:?}.</b>") },
-        table(&["camera", "reference", "rotation °", "tx m", "ty m", "hops", "support (pairs)"].map(String::from), &tf)
+        table(&["camera", "reference", "rotation °", "tx m", "ty m", "hops", "support (pairs)", "clock offset ms"].map(String::from), &tf)
     );
 
+    Ok(())
+}
+
+/// What the pipeline measured from the data and the parameters it derived (calibration.csv).
+fn calibration(con: &Connection, _: &Ctx, h: &mut String) -> R<()> {
+    let rows: Vec<Vec<String>> = query_rows(con, "SELECT scope, quantity, value, unit, how FROM calibration_summary ORDER BY scope, quantity", |r| {
+        Ok(vec![
+            r.get::<_, String>(0)?,
+            r.get::<_, String>(1)?,
+            r.get::<_, Option<f64>>(2)?.map_or("-".into(), |v| format!("{v:.4}")),
+            r.get::<_, String>(3)?,
+            r.get::<_, String>(4)?,
+        ])
+    })?;
+    let _ = write!(
+        h,
+        "<h2>Calibration</h2><p>Measured from the tracks alone (sql/stages/calibrate.sql, sql/stages/align.sql) and the parameters derived from it; \
+         <code>--param name=value</code> overrides any of them (shown as <i>given</i>). The same table is calibration.csv.</p>{}",
+        table(&["scope", "quantity", "value", "unit", "how"].map(String::from), &rows)
+    );
     Ok(())
 }
 
@@ -160,7 +182,7 @@ fn track_counts(con: &Connection, c: &Ctx, h: &mut String) -> R<()> {
                        max(traj_points_inside(t.traj, o.polygon)) AS best
                 FROM t LEFT JOIN view_overlaps o ON o.class = t.class AND (o.cam_a = t.camera OR o.cam_b = t.camera) AND o.area_m2 > 0
                 GROUP BY ALL)
-         SELECT class, camera, count(*), count(*) FILTER (WHERE best >= getvariable('merge_min_points'))
+         SELECT class, camera, count(*), count(*) FILTER (WHERE best >= calibrated('merge_min_points'))
          FROM inside GROUP BY ALL ORDER BY class, camera",
         |r| Ok((r.get(0)?, r.get(1)?, r.get(2)?, r.get(3)?)),
     )?;
@@ -198,7 +220,7 @@ fn track_counts(con: &Connection, c: &Ctx, h: &mut String) -> R<()> {
     let cay: Vec<(String, i64, i64, i64)> = query_rows(
         con,
         "SELECT t.class, t.camera, CASE WHEN o.cam_a = t.camera THEN o.cam_b ELSE o.cam_a END AS other,
-                count(*) FILTER (WHERE traj_points_inside(t.traj, o.polygon) >= getvariable('merge_min_points'))
+                count(*) FILTER (WHERE traj_points_inside(t.traj, o.polygon) >= calibrated('merge_min_points'))
          FROM merge_tracks t JOIN view_overlaps o ON o.class = t.class AND (o.cam_a = t.camera OR o.cam_b = t.camera)
          GROUP BY ALL",
         |r| Ok((r.get(0)?, r.get(1)?, r.get(2)?, r.get(3)?)),

@@ -21,7 +21,7 @@ impl Ctx {
         Ok(Ctx {
             cameras: query_rows(con, "SELECT DISTINCT camera FROM points ORDER BY camera", |r| r.get(0))?,
             classes: query_rows(con, "SELECT DISTINCT class FROM points ORDER BY class", |r| r.get(0))?,
-            xi: con.query_row("SELECT getvariable('merge_min_points')::BIGINT", [], |r| r.get(0))?,
+            xi: con.query_row("SELECT calibrated('merge_min_points')::BIGINT", [], |r| r.get(0))?,
         })
     }
 }

@@ -1,0 +1,78 @@
+-- trajdb pipeline, stage 1: measure the recording, then set the parameters that depend on it.
+--
+-- The thesis chose eps and T "by intuition rather than some metric" (section 5.2), and a
+-- default tuned to one site's frame rate and noise fails on another's. Every parameter whose
+-- default is `auto` (see `trajdb params`) is derived here from what the tracks themselves show;
+-- a value set with --param or SET VARIABLE wins over the measurement.
+--
+-- Input: `points(camera, track_id, class, t, x, y, estimated)`, each camera in its own frame
+-- and clock. Output:
+--   calib_cameras(camera, period_s, jitter_s, sigma_m, n_intervals, n_triples)   per camera
+--   calib_pairs(cam_a, cam_b, sigma_pair_m, align_max_rms_m, align_refine_rms_m)  per camera pair (a < b)
+--   calibration(parameter, measured, given, rule)                               derived pipeline-wide values
+--   the macro calibrated('name'): the --param / SET VARIABLE value if given, else the derived one.
+-- sql/stages/align.sql adds the clock offsets and the cross-camera residuals (align_frames,
+-- calib_match); `calibration.csv` (sql/export.sql) and the report show all of it.
+--
+-- What is measured, and how:
+--  * sampling period: the median interval between consecutive real points of a track (robust
+--    to breaks and dropped frames); jitter: the median absolute deviation of those intervals;
+--  * position noise sigma: for evenly sampled smooth motion the second difference
+--    p[k+1] - 2 p[k] + p[k-1] is noise with variance 6 sigma^2 per axis, so its squared length
+--    is 6 sigma^2 chi2(2), whose median is 6 sigma^2 * 2 ln 2 (the median ignores manoeuvres).
+--    At low frame rates real acceleration (a dt^2) adds to it: the estimate errs high, which
+--    errs on the side of wider tolerances.
+-- What is derived, and why:
+--  * clean_min_points = 2, clean_min_duration_s = 1.5 periods: a track is dropped as too short
+--    only when it has a single real point, or its real points span less than 1.5 sampling
+--    periods; a point count alone would drop a real pedestrian seen for 1.5 s at 2 Hz;
+--  * per camera pair, sigma_pair = sqrt(sigma_a^2 + sigma_b^2): a true hypothesis of align.sql
+--    leaves residuals of about sigma_pair per axis, so it votes when its RMS is under
+--    align_max_rms_m = 0.1 + 3 sigma_pair, and is kept in the refit under
+--    align_refine_rms_m = 0.05 + 2 sigma_pair (road users walking side by side, 0.7 m apart, are
+--    refused while sigma_pair stays under ~0.3 m). The constants 0.1 / 0.05 m cover the
+--    interpolation and clock-grid error of a hypothesis;
+--  * merge_min_points (LCSS xi) = 2 real samples of the slowest camera on the common clock:
+--    ceil(period_max / merge_resample_s) + 1, at least 3;
+--  * merge_epsilon is derived after alignment, per camera pair, from the residuals of the
+--    matched tracks themselves (align.sql, calib_match).
+
+CREATE OR REPLACE TEMP TABLE calib_cameras AS
+WITH d AS (
+    SELECT camera,
+           t - lag(t) OVER w AS dt1, lag(t) OVER w - lag(t, 2) OVER w AS dt2,
+           x - 2 * lag(x) OVER w + lag(x, 2) OVER w AS ax, y - 2 * lag(y) OVER w + lag(y, 2) OVER w AS ay
+    FROM points WHERE estimated = 0 AND isfinite(t) AND isfinite(x) AND isfinite(y)
+    WINDOW w AS (PARTITION BY camera, track_id ORDER BY t)
+),
+p AS (SELECT camera, median(dt1) AS period_s, count(dt1) AS n_intervals FROM d WHERE dt1 > 0 GROUP BY camera)
+SELECT p.camera, p.period_s,
+       (SELECT median(abs(d.dt1 - p.period_s)) FROM d WHERE d.camera = p.camera AND d.dt1 > 0) AS jitter_s,
+       (SELECT sqrt(median(ax * ax + ay * ay) / (12 * ln(2))) FROM d
+        WHERE d.camera = p.camera AND d.dt1 > 0 AND abs(d.dt1 - d.dt2) <= 0.25 * p.period_s AND d.dt1 <= 1.5 * p.period_s) AS sigma_m,
+       p.n_intervals,
+       (SELECT count(*) FROM d WHERE d.camera = p.camera AND d.dt1 > 0 AND abs(d.dt1 - d.dt2) <= 0.25 * p.period_s AND d.dt1 <= 1.5 * p.period_s) AS n_triples
+FROM p;
+
+CREATE OR REPLACE TEMP TABLE calib_pairs AS
+SELECT a.camera AS cam_a, b.camera AS cam_b,
+       sqrt(coalesce(a.sigma_m, 0) ** 2 + coalesce(b.sigma_m, 0) ** 2) AS sigma_pair_m,
+       coalesce(getvariable('align_max_rms_m'), 0.1 + 3 * sqrt(coalesce(a.sigma_m, 0) ** 2 + coalesce(b.sigma_m, 0) ** 2)) AS align_max_rms_m,
+       coalesce(getvariable('align_refine_rms_m'), 0.05 + 2 * sqrt(coalesce(a.sigma_m, 0) ** 2 + coalesce(b.sigma_m, 0) ** 2)) AS align_refine_rms_m
+FROM calib_cameras a JOIN calib_cameras b ON a.camera < b.camera;
+
+CREATE OR REPLACE TEMP TABLE calibration AS
+SELECT * FROM (VALUES
+    ('clean_min_points', 2.0, getvariable('clean_min_points')::DOUBLE, 'a single real point shows no motion'),
+    ('clean_min_duration_s', 1.5 * (SELECT max(period_s) FROM calib_cameras), getvariable('clean_min_duration_s'),
+     '1.5 x the longest sampling period'),
+    ('merge_min_points', greatest(3, ceil((SELECT max(period_s) FROM calib_cameras) / nullif(getvariable('merge_resample_s'), 0)) + 1),
+     getvariable('merge_min_points')::DOUBLE, '2 real samples of the slowest camera on the common clock, at least 3')
+) t(parameter, measured, given, rule);
+
+-- the value a stage uses: the one set by --param / SET VARIABLE, else the measured one
+CREATE OR REPLACE TEMP MACRO calibrated(name) AS
+    (SELECT coalesce(given, measured) FROM calibration WHERE parameter = name);
+
+SELECT camera, round(period_s, 4) AS period_s, round(jitter_s, 4) AS jitter_s, round(sigma_m, 3) AS sigma_m, n_intervals
+FROM calib_cameras ORDER BY camera;

@@ -65,6 +65,11 @@ impl From<RigidError> for ShiftError {
     }
 }
 
+/// [`joint`] moves its grid at most this many times, and never farther than [`WALK_LIMIT`]
+/// seconds from where it started.
+pub const MAX_WALKS: usize = 20;
+pub const WALK_LIMIT: f64 = 1.0;
+
 /// The most shifts one scan or joint fit evaluates (bounds the work of one call).
 pub const MAX_SHIFTS: usize = 100_001;
 
@@ -265,14 +270,30 @@ fn joint_at(tracks: &[(Traj<'_>, Traj<'_>)], dt: f64, max_gap: f64, trim: f64, n
 /// `None` when no shift gives a fit (fewer than 2 point pairs).
 pub fn joint(tracks: &[(Traj<'_>, Traj<'_>)], grid: &ShiftGrid, max_gap: f64, trim: f64, noise: Noise) -> Result<Option<ShiftFit>, ShiftError> {
     let max_gap = positive_or_inf("max_gap", max_gap)?;
+    let (centre0, limit) = (grid.centre, WALK_LIMIT);
     if !(0.0..1.0).contains(&trim) {
         return Err(RigidError::Trim(trim).into());
     }
-    let fits: Vec<Option<ShiftFit>> = grid.shifts().map(|dt| joint_at(tracks, dt, max_gap, trim, noise)).collect::<Result<_, _>>()?;
-    let Some((i, best)) = fits.iter().enumerate().filter_map(|(i, f)| f.as_ref().map(|f| (i, f))).min_by(|a, b| a.1.rms.total_cmp(&b.1.rms))
-    else {
-        return Ok(None);
+    // Search the grid; while the best shift is at its edge, move the grid there and search on
+    // (the vote's bin can sit off the minimum where offset and rotation trade off, e.g. on a
+    // roundabout, where circling at constant speed looks the same shifted in time and rotated),
+    // at most `MAX_WALKS` times and never beyond `limit` from the first centre.
+    let mut grid = *grid;
+    let mut walks = 0;
+    let (fits, i) = loop {
+        let fits: Vec<Option<ShiftFit>> = grid.shifts().map(|dt| joint_at(tracks, dt, max_gap, trim, noise)).collect::<Result<_, _>>()?;
+        let Some(i) = fits.iter().enumerate().filter_map(|(i, f)| f.as_ref().map(|f| (i, f))).min_by(|a, b| a.1.rms.total_cmp(&b.1.rms)).map(|x| x.0)
+        else {
+            return Ok(None);
+        };
+        let at_edge = grid.k > 0 && (i == 0 || i + 1 == fits.len());
+        if !at_edge || walks >= MAX_WALKS || (fits[i].as_ref().unwrap().dt - centre0).abs() + grid.half_width > limit {
+            break (fits, i);
+        }
+        grid.centre = fits[i].as_ref().unwrap().dt;
+        walks += 1;
     };
+    let best = fits[i].as_ref().unwrap();
     // Parabola through the best shift and its neighbours (same number of pairs or close: the
     // vertex is only taken inside the bracket, where the objective is locally smooth).
     if i == 0 || i + 1 == fits.len() {
@@ -378,6 +399,10 @@ mod tests {
         assert!((f.dt - dt).abs() < 0.005, "{f:?}");
         assert!((f.transform.tx - tf.tx).abs() < 0.05 && (f.transform.ty - tf.ty).abs() < 0.05, "{f:?}");
         assert!(rigid::wrap_angle(f.transform.theta - tf.theta).abs() < 1e-3);
+        // a grid that does not hold the minimum walks to it
+        let far = ShiftGrid::new(-0.1, 0.05, 0.01).unwrap();
+        let w = joint(&[(we.view(), me.view()), (wn.view(), mn.view())], &far, 0.5, 0.0, Noise::default()).unwrap().unwrap();
+        assert!((w.dt - dt).abs() < 0.005, "{w:?}");
         // one direction alone leaves the offset to the translation: the fit is still exact
         let one = joint(&[(we.view(), me.view())], &g, 0.5, 0.0, Noise::default()).unwrap().unwrap();
         assert!(one.rms < 1e-6);

@@ -286,3 +286,36 @@ fn score_reports_identity_from_original_sources() {
     assert!(v[1] > 0.5 && v[1] <= 1.0, "exact share: {all}");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// Calibration (issue 14): on cameras whose clocks are off by up to 0.3 s, the pipeline
+/// measures each camera's sampling period and noise, fits the clock offsets with the
+/// transforms, writes calibration.csv, and `trajdb score` finds the offsets within 20 ms;
+/// `--param merge_epsilon=0.4` is reported as given.
+#[test]
+fn calibration_measures_period_noise_and_clock_offsets() {
+    let dir = std::env::temp_dir().join(format!("trajdb-calib-{}", std::process::id()));
+    let d = dir.to_str().unwrap();
+    let (ok, _, err) = trajdb(&["simulate", "--cameras", "3", "--minutes", "3", "--seed", "4", "--rate-hz", "5", "--clock-offset-max", "0.3", "--out", d], None);
+    assert!(ok, "{err}");
+    let res = dir.join("results");
+    let input = dir.join("points.parquet");
+    let (ok, _, err) = trajdb(&["pipeline", "--input", input.to_str().unwrap(), "--out", res.to_str().unwrap(), "--param", "merge_epsilon=0.4"], None);
+    assert!(ok, "{err}");
+    let q = format!(
+        "SELECT count(*) FILTER (WHERE quantity = 'sampling period' AND abs(value - 0.2) < 1e-6) AS periods,
+                count(*) FILTER (WHERE quantity = 'position noise sigma' AND value BETWEEN 0.02 AND 0.3) AS sigmas,
+                count(*) FILTER (WHERE quantity = 'clock offset') AS offsets,
+                bool_and(how = 'given') FILTER (WHERE quantity = 'merge_epsilon') AS eps_given
+         FROM read_csv('{}')",
+        res.join("calibration.csv").display()
+    );
+    let (ok, out, err) = trajdb(&["--csv", "sql", &q], None);
+    assert!(ok, "{err}");
+    assert_eq!(out, "periods,sigmas,offsets,eps_given\n3,3,3,true\n");
+    let (ok, text, err) = trajdb(&["score", d, "--results", res.to_str().unwrap()], None);
+    assert!(ok, "{err}");
+    let first = text.lines().next().unwrap();
+    let ms: f64 = first.rsplit("clock offset error ").next().unwrap().trim_end_matches(" ms").parse().expect(first);
+    assert!(ms < 20.0, "{first}");
+    std::fs::remove_dir_all(&dir).ok();
+}

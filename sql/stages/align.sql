@@ -206,6 +206,11 @@ FROM calib_match m JOIN calib_pairs p USING (cam_a, cam_b),
                      ('align_max_rms_m', p.align_max_rms_m, 'm', CASE WHEN getvariable('align_max_rms_m') IS NULL THEN '0.1 + 3 sigma_pair' ELSE 'given' END),
                      ('align_refine_rms_m', p.align_refine_rms_m, 'm', CASE WHEN getvariable('align_refine_rms_m') IS NULL THEN '0.05 + 2 sigma_pair' ELSE 'given' END)) q(quantity, value, unit, how)
 UNION ALL
+SELECT 'class ' || class, 'acceleration p95', accel_p95, 'm/s2',
+       CASE WHEN getvariable('quality_max_accel') IS NULL THEN 'tracks resampled to 1 s, 95th percentile of |second difference|: quality_max_accel'
+            ELSE 'measured; quality_max_accel given' END
+FROM calib_classes
+UNION ALL
 SELECT 'pipeline', parameter, coalesce(given, measured), '', CASE WHEN given IS NULL THEN rule ELSE 'given' END
 FROM calibration;
 

@@ -8,6 +8,7 @@
 -- Input: `points(camera, track_id, class, t, x, y, estimated)`, each camera in its own frame
 -- and clock. Output:
 --   calib_cameras(camera, period_s, jitter_s, sigma_m, n_intervals, n_triples)   per camera
+--   calib_classes(class, accel_p95, n)                                          per class
 --   calib_pairs(cam_a, cam_b, sigma_pair_m, align_max_rms_m, align_refine_rms_m)  per camera pair (a < b)
 --   calibration(parameter, measured, given, rule)                               derived pipeline-wide values
 --   the macro calibrated('name'): the --param / SET VARIABLE value if given, else the derived one.
@@ -34,6 +35,9 @@
 --    interpolation and clock-grid error of a hypothesis;
 --  * merge_min_points (LCSS xi) = 2 real samples of the slowest camera on the common clock:
 --    ceil(period_max / merge_resample_s) + 1, at least 3;
+--  * quality_max_accel, per class: the 95th percentile acceleration of the class's tracks
+--    (resampled to 1 s steps); a broken piece may resume that much farther from where its
+--    track would be at constant velocity (accel * gap^2 / 2);
 --  * merge_epsilon is derived after alignment, per camera pair, from the residuals of the
 --    matched tracks themselves (align.sql, calib_match).
 
@@ -53,6 +57,26 @@ SELECT p.camera, p.period_s,
        p.n_intervals,
        (SELECT count(*) FROM d WHERE d.camera = p.camera AND d.dt1 > 0 AND abs(d.dt1 - d.dt2) <= 0.25 * p.period_s AND d.dt1 <= 1.5 * p.period_s) AS n_triples
 FROM p;
+
+-- Acceleration per class: each track resampled to 1 s steps (traj_resample; noise sigma then
+-- adds only sqrt(6) sigma / 1 s^2 ~ 0.25 m/s^2 at sigma = 0.1 m), second differences, the 95th
+-- percentile of |a|. A broken track may resume that much farther from its constant-velocity
+-- prediction: accel * gap^2 / 2 (quality_max_accel, sql/stages/quality.sql).
+CREATE OR REPLACE TEMP TABLE calib_classes AS
+WITH r AS (
+    SELECT class, traj_resample(list({'t': t, 'x': x, 'y': y} ORDER BY t), 1.0, 1.5) AS tr
+    FROM points WHERE estimated = 0 AND isfinite(t) AND isfinite(x) AND isfinite(y)
+    GROUP BY camera, track_id, class
+),
+a AS (
+    SELECT class, unnest([sqrt((tr[k + 1].x - 2 * tr[k].x + tr[k - 1].x) ** 2 + (tr[k + 1].y - 2 * tr[k].y + tr[k - 1].y) ** 2)
+                          / ((tr[k + 1].t - tr[k].t) * (tr[k].t - tr[k - 1].t))
+                          FOR k IN range(2, len(tr))
+                          IF tr[k + 1].t - tr[k - 1].t < 2.5]) AS accel
+    FROM r WHERE len(tr) >= 3
+)
+SELECT class, quantile_cont(accel, 0.95) AS accel_p95, count(*) AS n
+FROM a GROUP BY class;
 
 CREATE OR REPLACE TEMP TABLE calib_pairs AS
 SELECT a.camera AS cam_a, b.camera AS cam_b,

@@ -13,7 +13,14 @@
 --   points_linked                                     points with track_id replaced by linked_id (and `points` becomes it)
 --
 -- Parameters (defaults and why): a piece may resume up to 2.5 s later, within 2 m of where the track
--- would be at its final velocity (velocity over the last ~0.4 s); endpoints closer than 1 m to
+-- would be at its final velocity (velocity over the last ~0.4 s), plus accel * gap^2 / 2 with
+-- accel the class's measured 95th-percentile acceleration (calib_classes, calibrate.sql):
+-- broken car tracks that were missed resumed 2.8-5.8 m from the constant-velocity prediction
+-- after 1.4-2 s gaps (braking and pulling away at the stop line). OFF by default
+-- (quality_max_accel = 0; `auto` switches it on): measured with benches/identity_grid.sh, it
+-- raised break recall on simulated 5-25 Hz days (0.56-0.69 -> 0.94-1.00) but lowered it on the
+-- real pedestrians of dut_intersection_3cam (0.732 -> 0.658: more ends with two starts in reach,
+-- i.e. split/merge instead of broken) and cut link precision at 2 Hz (1.000 -> 0.944); endpoints closer than 1 m to
 -- the view's edge are entries and exits, not events. Only tracks of the same class are linked.
 -- Measured with benches/accuracy_quality.py: (2.5 s, 2 m, 1 m) links 73 % / 92 % of the true
 -- breaks at precision 1.00 on the two DUT scenes; a 2 m inset (entries mistaken for nothing)
@@ -52,8 +59,9 @@ GROUP BY camera;
 CREATE OR REPLACE TEMP TABLE quality_events AS
 SELECT q.camera, q.class,
        unnest(traj_events(list({'id': e.id, 't0': e.t0, 'x0': e.x0, 'y0': e.y0, 't1': e.t1, 'x1': e.x1, 'y1': e.y1, 'vx1': e.vx1, 'vy1': e.vy1}),
-                          getvariable('quality_max_gap'), getvariable('quality_max_dist'), any_value(v.interior))) AS ev
-FROM quality_endpoints q JOIN quality_views v USING (camera)
+                          getvariable('quality_max_gap'), getvariable('quality_max_dist'), any_value(v.interior),
+                          coalesce(getvariable('quality_max_accel'), any_value(c.accel_p95), 0.0))) AS ev
+FROM quality_endpoints q JOIN quality_views v USING (camera) LEFT JOIN calib_classes c USING (class)
 GROUP BY q.camera, q.class;
 
 CREATE OR REPLACE TEMP TABLE quality_labels AS

@@ -48,6 +48,7 @@ pub const PARAMS: &[Param] = &[
     d("clean_max_speed", "70.0", "clean", "a track whose median real speed exceeds this (m/s) is implausible and dropped"),
     d("quality_max_gap", "2.5", "quality", "a broken piece may resume up to this many seconds later"),
     d("quality_max_dist", "2.0", "quality", "... within this many metres of where the track would be at its final velocity"),
+    d("quality_max_accel", "0.0", "quality", "... plus accel * gap^2 / 2 (m/s^2; auto: the class's measured 95th percentile acceleration; off by default, see quality.sql)"),
     d("quality_inset", "1.0", "quality", "endpoints closer than this (m) to the view's edge are entries and exits"),
     i("align_min_points", "10", "align", "tracks need at least this many real points to form hypotheses"),
     d("align_min_overlap_s", "2.0", "align", "track pairs overlap at least this long in time (s)"),
@@ -225,8 +226,16 @@ mod tests {
     #[test]
     fn every_parameter_is_read_by_its_stage_file() {
         for p in PARAMS {
+            // read by its stage, directly or as calibrated('name') (an `auto` parameter: then
+            // sql/stages/calibrate.sql reads it to decide between the given and measured value)
             let sql = super::super::sql::file(&format!("sql/stages/{}.sql", p.stage)).unwrap();
-            assert!(sql.contains(&format!("getvariable('{}')", p.name)), "{} is never read in its stage", p.name);
+            let calib = super::super::sql::file("sql/stages/calibrate.sql").unwrap();
+            let get = format!("getvariable('{}')", p.name);
+            assert!(
+                sql.contains(&get) || sql.contains(&format!("calibrated('{}')", p.name)) || calib.contains(&get),
+                "{} is never read in its stage",
+                p.name
+            );
         }
     }
 }

@@ -61,8 +61,9 @@ pub fn run(con: &Connection, input: &str, out: &Path, overrides: &[(String, Stri
 mod tests {
     use super::*;
 
-    /// The clean stage keeps a 2 Hz track of 3 points (1 s of a real road user) and drops a
-    /// 10 Hz track of 4 points (0.3 s), a single point, and an estimated-only track.
+    /// The clean stage, with its `auto` thresholds measured by the calibrate stage (period
+    /// 0.1 s here): keeps a 2 Hz track of 3 points (1 s of a real road user) and a 10 Hz track
+    /// of 4 points (0.3 s), drops a single point and an estimated-only track.
     #[test]
     fn clean_drops_short_tracks_by_points_and_duration() {
         let con = crate::open(None).unwrap();
@@ -74,6 +75,15 @@ mod tests {
                   range(10) r(k) WHERE k < n;",
         )
         .unwrap();
+        con.execute_batch(sql::file("sql/stages/calibrate.sql").unwrap()).unwrap();
+        con.execute_batch(sql::file("sql/stages/clean.sql").unwrap()).unwrap();
+        let kept: Vec<i64> = con.prepare("SELECT DISTINCT track_id FROM points ORDER BY 1").unwrap().query_map([], |r| r.get(0)).unwrap().collect::<Result<_, _>>().unwrap();
+        assert_eq!(kept, vec![1, 2, 5]);
+        let reasons: Vec<String> = con.prepare("SELECT reason FROM clean_dropped ORDER BY track_id").unwrap().query_map([], |r| r.get(0)).unwrap().collect::<Result<_, _>>().unwrap();
+        assert_eq!(reasons, vec!["too short", "estimated only"]);
+        // a given value wins over the measured one: 5 points needed, 0.35 s
+        set_params(&con, &[("clean_min_points".into(), "5".into()), ("clean_min_duration_s".into(), "0.35".into())]).unwrap();
+        con.execute_batch(sql::file("sql/stages/calibrate.sql").unwrap()).unwrap();
         con.execute_batch(sql::file("sql/stages/clean.sql").unwrap()).unwrap();
         let kept: Vec<i64> = con.prepare("SELECT DISTINCT track_id FROM points ORDER BY 1").unwrap().query_map([], |r| r.get(0)).unwrap().collect::<Result<_, _>>().unwrap();
         assert_eq!(kept, vec![1, 5]);

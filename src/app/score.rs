@@ -80,7 +80,7 @@ mod tests {
                                          (1, 0.0, 0.0, 0.0, 'POLYGON ((-9 -9, 99 -9, 99 99, -9 99, -9 -9))', 0.0))
                    v(camera, theta_rad, tx, ty, view_wkt_world, clock_offset_s)) TO {cams} (HEADER);
              COPY (SELECT * FROM (VALUES (0, 1, 100, 0), (0, 2, 200, 0), (0, 3, 100, 0), (1, 7, 100, 0)) v(camera, track_id, object_id, is_noise)) TO {truth} (HEADER);
-             COPY (SELECT 0 AS cam_from, 1 AS cam_to, 0.0 AS theta_rad, 0.0 AS tx, 0.0 AS ty) TO {tf} (HEADER);
+             COPY (SELECT 0 AS cam_from, 1 AS cam_to, 0.0 AS theta_rad, 0.0 AS tx, 0.0 AS ty, 0.0 AS clock_offset_s) TO {tf} (HEADER);
              COPY (SELECT 0 AS camera_a, 1 AS track_a, 1 AS camera_b, 7 AS track_b, 1.0 AS score, 'hungarian' AS kind) TO {m} (HEADER);
              COPY (SELECT * FROM (VALUES {links}) v(camera, track_id, linked_id)) TO {l} (HEADER);
              COPY (SELECT road_user, 'car' AS class, list({{'camera': c, 'track_id': t}}) AS sources

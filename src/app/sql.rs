@@ -171,7 +171,7 @@ mod tests {
 
     #[test]
     fn one_stage_list_for_every_runner() {
-        assert_eq!(stages(), ["clean", "quality", "align", "overlap", "merge", "cluster"]);
+        assert_eq!(stages(), ["calibrate", "clean", "quality", "align", "overlap", "merge", "cluster"]);
         let p = parts("sql/pipeline.sql").unwrap();
         let names: Vec<&str> = p.iter().map(|x| x.0.as_str()).collect();
         assert_eq!(names, ["setup", "clean", "quality", "align", "overlap", "merge", "cluster"]);

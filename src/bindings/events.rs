@@ -40,13 +40,14 @@ pub static FUNCTIONS: &[Function] = &[
                       of a's end moved on at a's final velocity for the gap. 'broken' a -> b: b is the only start near a's end and a the only end near \
                       b's start; 'split': several starts near one end; 'merge': several ends near one start. With interior (the view polygon shrunk by \
                       an inset, e.g. polygon_buffer(view_polygon(...), -3)), only endpoints inside it count: objects enter and leave at the margins. \
-                      sql/quality.sql builds the endpoints and links broken tracks.",
+                      With accel (m/s², default 0) the radius grows to max_dist + accel * gap^2 / 2: a road user that braked or sped up during \
+                      the gap. sql/stages/quality.sql builds the endpoints and links broken tracks.",
         example: "SELECT traj_events([{'id': 1, 't0': 0, 'x0': 0, 'y0': 0, 't1': 10, 'x1': 10, 'y1': 0, 'vx1': 1, 'vy1': 0}, {'id': 2, 't0': 11.5, 'x0': 11.6, 'y0': 0, 't1': 20, 'x1': 20, 'y1': 0, 'vx1': 1, 'vy1': 0}], 2, 1); -- [{'kind': broken, 'from_id': 1, 'to_id': 2, 'gap': 1.5, 'distance': 0.09999999999999964}]",
         maths: MATHS,
         binding: file!(),
         signatures: &[Signature {
-            params: &[p("tracks", ENDPOINTS), GAP_DIST[0], GAP_DIST[1], GAP_DIST[2]],
-            arities: &[3, 4],
+            params: &[p("tracks", ENDPOINTS), GAP_DIST[0], GAP_DIST[1], GAP_DIST[2], p("accel", Ty::Double)],
+            arities: &[3, 4, 5],
             returns: Ty::List(&Ty::Struct(&[
                 ("kind", Ty::Varchar),
                 ("from_id", Ty::Bigint),
@@ -116,10 +117,12 @@ fn event_args<'a>(a: &Args<'a>) -> impl Fn(usize) -> Result<Option<EventArgs>, B
 }
 
 fn traj_events(a: &Args<'_>, out: &mut Out<'_>) -> R {
-    let (tracks, args) = (a.struct_list(0), event_args(a));
+    let (tracks, args, accel) = (a.struct_list(0), event_args(a), a.opt_double(4));
     let vals = a.map(|r| {
         let Some(f) = tracks.get(r)? else { return Ok(None) };
         let Some((p, region)) = args(r)? else { return Ok(None) };
+        let Some(acc) = accel.or(r, 0.0) else { return Ok(None) };
+        let p = p.with_accel(acc)?;
         Ok(Some(events::events(&endpoints(&f), region.as_deref(), &p)?))
     })?;
     let split: Vec<Option<_>> = vals

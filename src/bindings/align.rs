@@ -155,7 +155,7 @@ pub static FUNCTIONS: &[Function] = &[
                       along the road); a turning one only near its true offset. Voting over (theta, tx, ty, dt) across many track pairs finds the \
                       offset and the transform together. Shifts with fewer than 2 pairs are left out; span is the larger side of the bounding box of \
                       the moving points paired. O(S (n + m)) for S shifts (at most 100001).",
-        example: "SELECT len(rigid_fit_scan([{'t':0,'x':0,'y':0},{'t':1,'x':1,'y':0},{'t':2,'x':2,'y':1}], [{'t':0,'x':0,'y':0},{'t':1,'x':1,'y':0},{'t':2,'x':2,'y':1}], 1.0, 0.5)); -- 5",
+        example: "SELECT len(rigid_fit_scan([{'t':0,'x':0,'y':0},{'t':1,'x':1,'y':0},{'t':2,'x':2,'y':1}], [{'t':0,'x':0,'y':0},{'t':1,'x':1,'y':0},{'t':2,'x':2,'y':1}], 1.0, 0.5)); -- 3",
         maths: "src/algo/align/shift.rs",
         binding: file!(),
         signatures: &[Signature {

@@ -96,8 +96,9 @@ WHERE abs(h.dt - b.dt) < 0.5 * getvariable('align_bin_s')
 --    grid of align_clock_step_s (rigid_fit_shifted): tracks in several directions pin the
 --    offset that a single straight track leaves open. Trims the worst align_trim of the pairs;
 --    each squared residual is weighted by the two cameras' measured noise (calib_cameras) so
---    that interpolated pairs do not pull the offset towards the half-sample phase.
-CREATE OR REPLACE TEMP TABLE align_pairs AS
+--    that interpolated pairs do not pull the offset towards the half-sample phase. The same
+--    refit (align_refit) runs again after the second pass below, on the kept pairs.
+CREATE OR REPLACE TEMP MACRO align_refit() AS TABLE
 SELECT s.cam_fixed, s.cam_moving,
        rigid_fit_shifted(list(s.traj_fixed ORDER BY s.track_fixed, s.track_moving),
                          list(s.traj_moving ORDER BY s.track_fixed, s.track_moving),
@@ -108,6 +109,8 @@ FROM align_support s JOIN align_best b USING (cam_fixed, cam_moving)
 JOIN calib_cameras cf ON cf.camera = s.cam_fixed JOIN calib_cameras cm ON cm.camera = s.cam_moving
 GROUP BY s.cam_fixed, s.cam_moving
 HAVING count(*) >= getvariable('align_min_support');
+
+CREATE OR REPLACE TEMP TABLE align_pairs AS FROM align_refit();
 
 --    second pass: keep the track pairs whose own points sit within align_refine_rms_m RMS of that fit
 --    (road users walking side by side agree with the vote to within a metre or two, but not
@@ -120,17 +123,7 @@ WHERE a.fit IS NOT NULL
   AND rigid_rms(traj_correspond(s.traj_fixed, s.traj_moving, 0.5, a.fit.dt),
                 {'theta': a.fit.theta, 'tx': a.fit.tx, 'ty': a.fit.ty, 'scale': a.fit.scale}) < c.align_refine_rms_m;
 
-CREATE OR REPLACE TEMP TABLE align_pairs AS
-SELECT s.cam_fixed, s.cam_moving,
-       rigid_fit_shifted(list(s.traj_fixed ORDER BY s.track_fixed, s.track_moving),
-                         list(s.traj_moving ORDER BY s.track_fixed, s.track_moving),
-                         any_value(b.dt), getvariable('align_bin_s'), getvariable('align_clock_step_s'),
-                         0.5, getvariable('align_trim'), any_value(cf.sigma_m), any_value(cm.sigma_m)) AS fit,
-       count(*) AS support
-FROM align_support s JOIN align_best b USING (cam_fixed, cam_moving)
-JOIN calib_cameras cf ON cf.camera = s.cam_fixed JOIN calib_cameras cm ON cm.camera = s.cam_moving
-GROUP BY s.cam_fixed, s.cam_moving
-HAVING count(*) >= getvariable('align_min_support');
+CREATE OR REPLACE TEMP TABLE align_pairs AS FROM align_refit();
 
 DELETE FROM align_pairs WHERE fit IS NULL;
 

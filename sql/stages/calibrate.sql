@@ -49,19 +49,18 @@ WITH d AS (
     FROM points WHERE estimated = 0 AND isfinite(t) AND isfinite(x) AND isfinite(y)
     WINDOW w AS (PARTITION BY camera, track_id ORDER BY t)
 ),
-p AS (SELECT camera, median(dt1) AS period_s, count(dt1) AS n_intervals FROM d WHERE dt1 > 0 GROUP BY camera)
-SELECT p.camera, p.period_s,
-       (SELECT median(abs(d.dt1 - p.period_s)) FROM d WHERE d.camera = p.camera AND d.dt1 > 0) AS jitter_s,
-       (SELECT sqrt(median(ax * ax + ay * ay) / (12 * ln(2))) FROM d
-        WHERE d.camera = p.camera AND d.dt1 > 0 AND abs(d.dt1 - d.dt2) <= 0.25 * p.period_s AND d.dt1 <= 1.5 * p.period_s) AS sigma_m,
-       p.n_intervals,
-       (SELECT count(*) FROM d WHERE d.camera = p.camera AND d.dt1 > 0 AND abs(d.dt1 - d.dt2) <= 0.25 * p.period_s AND d.dt1 <= 1.5 * p.period_s) AS n_triples
-FROM p;
+p AS (SELECT camera, median(dt1) AS period_s FROM d WHERE dt1 > 0 GROUP BY camera)
+-- one pass over the intervals for every per-camera figure (even triples: both intervals within
+-- a quarter period of each other, none longer than 1.5 periods)
+SELECT camera, period_s,
+       median(abs(dt1 - period_s)) AS jitter_s,
+       sqrt(median(ax * ax + ay * ay) FILTER (WHERE even) / (12 * ln(2))) AS sigma_m,
+       count(*) AS n_intervals,
+       count(*) FILTER (WHERE even) AS n_triples
+FROM (SELECT d.*, p.period_s, abs(d.dt1 - d.dt2) <= 0.25 * p.period_s AND d.dt1 <= 1.5 * p.period_s AS even
+      FROM d JOIN p USING (camera) WHERE d.dt1 > 0)
+GROUP BY camera, period_s;
 
--- Acceleration per class: each track resampled to 1 s steps (traj_resample; noise sigma then
--- adds only sqrt(6) sigma / 1 s^2 ~ 0.25 m/s^2 at sigma = 0.1 m), second differences, the 95th
--- percentile of |a|. A broken track may resume that much farther from its constant-velocity
--- prediction: accel * gap^2 / 2 (quality_max_accel, sql/stages/quality.sql).
 CREATE OR REPLACE TEMP TABLE calib_classes AS
 WITH r AS (
     SELECT class, traj_resample(list({'t': t, 'x': x, 'y': y} ORDER BY t), 1.0, 1.5) AS tr

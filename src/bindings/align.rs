@@ -409,23 +409,20 @@ fn rigid_fit_scan(a: &Args<'_>, out: &mut Out<'_>) -> R {
         };
         Ok(Some(shift::scan(f, m, &ShiftGrid::new(0.0, max, step)?, g)?))
     })?;
-    let cols: Vec<_> = vals
+    // columns per row: dt, theta, tx, ty, rms, n, span
+    type Cols = (Vec<f64>, Vec<f64>, Vec<f64>, Vec<f64>, Vec<f64>, Vec<i64>, Vec<f64>);
+    let owned: Vec<Option<Cols>> = vals
         .iter()
         .map(|v| {
             v.as_ref().map(|fits| {
                 let col = |g: fn(&shift::ShiftFit) -> f64| fits.iter().map(g).collect::<Vec<f64>>();
-                let n: Vec<i64> = fits.iter().map(|f| f.n as i64).collect();
-                (col(|f| f.dt), col(|f| f.transform.theta), col(|f| f.transform.tx), col(|f| f.transform.ty), col(|f| f.rms), n, col(|f| f.span))
+                (col(|f| f.dt), col(|f| f.transform.theta), col(|f| f.transform.tx), col(|f| f.transform.ty), col(|f| f.rms), fits.iter().map(|f| f.n as i64).collect(), col(|f| f.span))
             })
         })
         .collect();
-    let cols: Vec<_> = cols
+    let cols: Vec<_> = owned
         .iter()
-        .map(|v| {
-            v.as_ref().map(|(dt, th, tx, ty, rms, n, span)| {
-                vec![Column::F64(dt), Column::F64(th), Column::F64(tx), Column::F64(ty), Column::F64(rms), Column::I64(n), Column::F64(span)]
-            })
-        })
+        .map(|v| v.as_ref().map(|(dt, th, tx, ty, rms, n, span)| vec![Column::F64(dt), Column::F64(th), Column::F64(tx), Column::F64(ty), Column::F64(rms), Column::I64(n), Column::F64(span)]))
         .collect();
     out.struct_lists(&cols);
     Ok(())

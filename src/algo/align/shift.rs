@@ -270,14 +270,14 @@ fn joint_at(tracks: &[(Traj<'_>, Traj<'_>)], dt: f64, max_gap: f64, trim: f64, n
 /// `None` when no shift gives a fit (fewer than 2 point pairs).
 pub fn joint(tracks: &[(Traj<'_>, Traj<'_>)], grid: &ShiftGrid, max_gap: f64, trim: f64, noise: Noise) -> Result<Option<ShiftFit>, ShiftError> {
     let max_gap = positive_or_inf("max_gap", max_gap)?;
-    let (centre0, limit) = (grid.centre, WALK_LIMIT);
+    let centre0 = grid.centre;
     if !(0.0..1.0).contains(&trim) {
         return Err(RigidError::Trim(trim).into());
     }
     // Search the grid; while the best shift is at its edge, move the grid there and search on
     // (the vote's bin can sit off the minimum where offset and rotation trade off, e.g. on a
     // roundabout, where circling at constant speed looks the same shifted in time and rotated),
-    // at most `MAX_WALKS` times and never beyond `limit` from the first centre.
+    // at most `MAX_WALKS` times and never beyond `WALK_LIMIT` from the first centre.
     let mut grid = *grid;
     let mut walks = 0;
     let (fits, i) = loop {
@@ -287,7 +287,7 @@ pub fn joint(tracks: &[(Traj<'_>, Traj<'_>)], grid: &ShiftGrid, max_gap: f64, tr
             return Ok(None);
         };
         let at_edge = grid.k > 0 && (i == 0 || i + 1 == fits.len());
-        if !at_edge || walks >= MAX_WALKS || (fits[i].as_ref().unwrap().dt - centre0).abs() + grid.half_width > limit {
+        if !at_edge || walks >= MAX_WALKS || (fits[i].as_ref().unwrap().dt - centre0).abs() + grid.half_width > WALK_LIMIT {
             break (fits, i);
         }
         grid.centre = fits[i].as_ref().unwrap().dt;

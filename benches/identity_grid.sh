@@ -20,7 +20,7 @@ row() { # name dir
 for sc in dut_intersection_3cam dut_roundabout_2cam; do
   mkdir -p $OUT/$sc
   $T pipeline --input $DATA/$sc/points.parquet --out $OUT/$sc/r 2>/dev/null >/dev/null
-  ln -sfn $DATA/$sc/points.parquet $OUT/$sc/points.parquet; for f in cameras.csv truth.csv; do ln -sfn $DATA/$sc/$f $OUT/$sc/$f; done
+  ln -sfn $DATA/$sc/points.parquet $OUT/$sc/points.parquet; for f in cameras.csv truth.csv world.csv; do ln -sfn $DATA/$sc/$f $OUT/$sc/$f; done
   row "$sc" $OUT/$sc
 done
 GRID=(

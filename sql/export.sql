@@ -17,13 +17,17 @@ TO (getvariable('out_dir') || '/transforms.csv') (HEADER, DELIMITER ',');
 COPY (SELECT * FROM calibration_summary ORDER BY scope, quantity)
 TO (getvariable('out_dir') || '/calibration.csv') (HEADER, DELIMITER ',');
 
--- matches.csv: only the links merge_groups() kept (a refused link contradicts its road user)
-COPY (SELECT ta.camera AS camera_a, ta.track_id AS track_a,
-             tb.camera AS camera_b, tb.track_id AS track_b, m.eta AS score, m.kind
+-- matches.csv: the cross-camera links merge_groups() kept (a refused link contradicts its road
+-- user), one row per pair of ORIGINAL tracks (a track quality.sql linked from pieces gives a row
+-- per piece), with the road user both belong to and its class
+COPY (SELECT la.camera AS camera_a, la.track_id AS track_a, lb.camera AS camera_b, lb.track_id AS track_b,
+             m.eta AS score, m.kind, ga.road_user, ta.class
       FROM merge_links m
       JOIN merge_tracks ta ON ta.uid = m.uid_a JOIN merge_tracks tb ON tb.uid = m.uid_b
       JOIN merge_groups ga ON ga.uid = m.uid_a JOIN merge_groups gb ON gb.uid = m.uid_b
-      WHERE ga.road_user = gb.road_user
+      JOIN quality_links la ON la.camera = ta.camera AND la.linked_id = ta.track_id
+      JOIN quality_links lb ON lb.camera = tb.camera AND lb.linked_id = tb.track_id
+      WHERE ga.road_user = gb.road_user AND m.kind <> 'reach'  -- within one camera: links.csv
       ORDER BY camera_a, track_a, camera_b, track_b)
 TO (getvariable('out_dir') || '/matches.csv') (HEADER, DELIMITER ',');
 
@@ -48,6 +52,7 @@ COPY (SELECT getvariable('cluster_camera') AS camera, class, track_id, cluster F
       ORDER BY class, cluster, track_id)
 TO (getvariable('out_dir') || '/clusters.csv') (HEADER, DELIMITER ',');
 
--- links.csv: broken tracks linked within a camera (every track and the id of its chain)
-COPY (SELECT camera, track_id, linked_id FROM quality_links ORDER BY camera, track_id)
+-- links.csv: tracks linked within a camera (every track and the id of its chain: quality.sql's
+-- links, and the pieces of one camera merge.sql put in one road user; merge_chains)
+COPY (SELECT camera, track_id, linked_id FROM merge_chains ORDER BY camera, track_id)
 TO (getvariable('out_dir') || '/links.csv') (HEADER, DELIMITER ',');

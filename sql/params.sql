@@ -11,7 +11,7 @@ SET VARIABLE clean_max_speed = coalesce(getvariable('clean_max_speed'), 70.0::DO
 -- quality
 SET VARIABLE quality_max_gap = coalesce(getvariable('quality_max_gap'), 2.5::DOUBLE); -- a broken piece may resume up to this many seconds later
 SET VARIABLE quality_max_dist = coalesce(getvariable('quality_max_dist'), 2.0::DOUBLE); -- ... within this many metres of where the track would be at its final velocity
-SET VARIABLE quality_max_accel = coalesce(getvariable('quality_max_accel'), 0.0::DOUBLE); -- ... plus accel * gap^2 / 2 (m/s^2; auto: the class's measured 95th percentile acceleration; off by default, see quality.sql)
+SET VARIABLE quality_max_accel = coalesce(getvariable('quality_max_accel'), NULL::DOUBLE); -- second linking pass: a leftover start may lie max_dist + accel * gap^2 / 2 from the prediction (m/s^2; auto: the class's measured 95th percentile acceleration, see quality.sql)
 SET VARIABLE quality_inset = coalesce(getvariable('quality_inset'), 1.0::DOUBLE); -- endpoints closer than this (m) to the view's edge are entries and exits
 
 -- align

@@ -55,12 +55,9 @@ WHERE (SELECT count(*) FROM s_world w WHERE w.camera = cand.ca AND w.track_id = 
   AND (SELECT count(*) FROM s_world w WHERE w.camera = cand.cb AND w.track_id = cand.tb
          AND polygon_contains(va.view_wkt_world, w.wx, w.wy) AND polygon_contains(vb.view_wkt_world, w.wx, w.wy)) >= 3;
 
--- predicted pairs are between linked tracks: expand them to the original tracks
+-- predicted pairs: matches.csv names the original tracks
 CREATE OR REPLACE TEMP TABLE s_pred AS
-SELECT DISTINCT la.camera AS ca, la.track_id AS ta, lb.camera AS cb, lb.track_id AS tb
-FROM s_matches m
-JOIN s_links la ON la.camera = m.camera_a AND la.linked_id = m.track_a
-JOIN s_links lb ON lb.camera = m.camera_b AND lb.linked_id = m.track_b;
+SELECT DISTINCT camera_a AS ca, track_a AS ta, camera_b AS cb, track_b AS tb FROM s_matches;
 
 CREATE OR REPLACE TEMP TABLE s_obj AS SELECT camera, track_id, object_id, is_noise FROM s_truth;
 
@@ -165,3 +162,4 @@ SELECT cls.class,
           LEFT JOIN s_gt_tracks gb ON gb.camera = l.camera AND gb.track_id = l.b
           WHERE cls.class = '*' OR ga.class = cls.class) AS links_correct
 FROM cls;
+

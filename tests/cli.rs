@@ -319,3 +319,40 @@ fn calibration_measures_period_noise_and_clock_offsets() {
     assert!(ms < 20.0, "{first}");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// Neighbours and merged paths (issue 14): in a pedestrian crowd, where pairs walk side by side
+/// 0.7 m apart, no road user holds real tracks of two objects, matches.csv names original
+/// tracks with their road user, and every merged point lies within 1 m of its object's true
+/// path at the same time (`trajdb score`, against world.csv).
+#[test]
+fn crowd_neighbours_stay_apart_and_merged_paths_stay_on_the_true_path() {
+    let dir = std::env::temp_dir().join(format!("trajdb-crowd-{}", std::process::id()));
+    let d = dir.to_str().unwrap();
+    let (ok, _, err) = trajdb(&["simulate", "--cameras", "3", "--minutes", "2", "--seed", "5", "--pedestrians", "10", "--out", d], None);
+    assert!(ok, "{err}");
+    let res = dir.join("results");
+    let (ok, _, err) = trajdb(&["pipeline", "--input", dir.join("points.parquet").to_str().unwrap(), "--out", res.to_str().unwrap()], None);
+    assert!(ok, "{err}");
+    let q = format!(
+        "WITH s AS (SELECT road_user, unnest(sources) AS s FROM read_parquet('{m}')),
+              t AS (SELECT * FROM read_csv('{t}') WHERE is_noise = 0),
+              mixed AS (SELECT road_user FROM s JOIN t ON t.camera = s.s.camera AND t.track_id = s.s.track_id
+                        GROUP BY road_user HAVING count(DISTINCT t.object_id) > 1),
+              m AS (SELECT * FROM read_csv('{x}'))
+         SELECT (SELECT count(*) FROM mixed) AS mixed,
+                (SELECT count(*) FROM m ANTI JOIN t ON t.camera = m.camera_a AND t.track_id = m.track_a) AS unknown_tracks,
+                (SELECT count(*) FILTER (WHERE road_user IS NULL OR class IS NULL) FROM m) AS no_road_user",
+        m = res.join("merged.parquet").display(),
+        t = dir.join("truth.csv").display(),
+        x = res.join("matches.csv").display()
+    );
+    let (ok, out, err) = trajdb(&["--csv", "sql", &q], None);
+    assert!(ok, "{err}");
+    assert_eq!(out, "mixed,unknown_tracks,no_road_user\n0,0,0\n");
+    let (ok, text, err) = trajdb(&["score", d, "--results", res.to_str().unwrap()], None);
+    assert!(ok, "{err}");
+    let all = text.lines().skip_while(|l| !l.starts_with("merged paths")).find(|l| l.trim_start().starts_with("all")).expect(&text);
+    let v: Vec<f64> = all.split_whitespace().skip(1).filter_map(|w| w.parse().ok()).collect();
+    assert!(v[0] > 1000.0 && v[3] < 1.0 && v[4] == 0.0, "points, median, p95, max, road users > 1 m: {all}");
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -205,7 +205,11 @@ SELECT 'class ' || class, 'acceleration p95', accel_p95, 'm/s2',
 FROM calib_classes
 UNION ALL
 SELECT 'pipeline', parameter, coalesce(given, measured), '', CASE WHEN given IS NULL THEN rule ELSE 'given' END
-FROM calibration;
+FROM calibration
+UNION ALL
+SELECT 'pipeline', 'reference camera', any_value(reference), '',
+       'merged.parquet and every later stage are in this camera''s frame and on its clock'
+FROM align_frames;
 
 -- 5. every later stage works on the reference camera's clock: t := t - clock_offset_s.
 CREATE OR REPLACE TEMP TABLE points AS

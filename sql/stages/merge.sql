@@ -5,8 +5,10 @@
 -- Output (the defaults below were chosen on benches/accuracy_merge.py, see the parameters):
 --   merge_tracks(camera, track_id, class, uid, traj, t0, t1)   tracks in the common frame
 --   merge_scores(uid_a, uid_b, camera_a, camera_b, eta)        LCSS similarity inside P^{a∩b} (eq. 2.10)
---   merge_links(uid_a, uid_b, eta, kind)                       'hungarian' (one-to-one per camera pair) or
---                                                              'split' (a second piece of a split track)
+--   merge_links(uid_a, uid_b, eta, kind)                       'hungarian' (one-to-one per camera pair),
+--                                                              'split' (a second piece of a split track) or
+--                                                              'reach' (a within-camera break quality.sql's
+--                                                              second pass proposes; eta NULL)
 --   merge_groups(uid, road_user)                               consistent groups (merge_groups())
 --   merged(road_user, class, sources, n_tracks, traj)          the merged trajectories; sources lists the
 --                                                              (camera, track_id) pairs it came from
@@ -19,7 +21,8 @@
 --  * links become road users with merge_groups(), which refuses any link that would give a road
 --    user two time-overlapping tracks of one camera (false links across many cameras), and
 --    accepts a second, time-disjoint piece of a track that one camera split (the 'split' links,
---    applied after all Hungarian links);
+--    applied after all Hungarian links), then the 'reach' links of quality.sql's second pass, which
+--    other cameras can veto this way;
 --  * each road user is merged with trajectory_merge() in the merge order (view_merge_order), so
 --    duplicates (phi_ij next to phi_ijk) cannot arise.
 --
@@ -74,14 +77,20 @@ UNION ALL
 SELECT s.uid_a, s.uid_b, s.eta, 'split'
 FROM merge_scores s
 WHERE s.eta >= getvariable('merge_eta')
-  AND NOT EXISTS (SELECT 1 FROM h WHERE h.m.a = s.uid_a AND h.m.b = s.uid_b);
+  AND NOT EXISTS (SELECT 1 FROM h WHERE h.m.a = s.uid_a AND h.m.b = s.uid_b)
+UNION ALL
+-- within-camera links the constant-velocity rule missed (quality.sql, pass 2), offered last
+SELECT ta.uid, tb.uid, NULL, 'reach'
+FROM quality_reach_links r
+JOIN merge_tracks ta ON ta.camera = r.camera AND ta.track_id = r.from_id
+JOIN merge_tracks tb ON tb.camera = r.camera AND tb.track_id = r.to_id;
 
 CREATE OR REPLACE TEMP TABLE merge_groups AS
 SELECT g.id AS uid, g.grp AS road_user
 FROM (
     SELECT unnest(merge_groups(
         (SELECT list({'id': uid, 'camera': camera, 't0': t0, 't1': t1}) FROM merge_tracks),
-        (SELECT coalesce(list({'a': uid_a, 'b': uid_b} ORDER BY kind = 'split', eta DESC, uid_a, uid_b), [])
+        (SELECT coalesce(list({'a': uid_a, 'b': uid_b} ORDER BY kind = 'reach', kind = 'split', eta DESC, uid_a, uid_b), [])
          FROM merge_links))) AS g
 );
 
@@ -96,5 +105,16 @@ FROM merge_tracks t
 JOIN merge_groups g USING (uid)
 JOIN view_merge_order o USING (camera)
 GROUP BY g.road_user;
+
+-- Within-camera chains after merging: the pieces of one camera in one road user, whether
+-- quality.sql linked them, a 'reach' link did, or another camera's view bridged the gap
+-- ('split' links). linked_id: the chain's first track id. Exported as links.csv.
+CREATE OR REPLACE TEMP TABLE merge_chains AS
+SELECT l.camera, l.track_id,
+       CASE WHEN g.road_user IS NULL THEN l.linked_id
+            ELSE min(l.linked_id) OVER (PARTITION BY l.camera, g.road_user) END AS linked_id
+FROM quality_links l
+LEFT JOIN merge_tracks t ON t.camera = l.camera AND t.track_id = l.linked_id
+LEFT JOIN merge_groups g ON g.uid = t.uid;
 
 SELECT n_tracks, count(*) AS road_users FROM merged GROUP BY n_tracks ORDER BY n_tracks;

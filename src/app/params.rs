@@ -48,7 +48,7 @@ pub const PARAMS: &[Param] = &[
     d("clean_max_speed", "70.0", "clean", "a track whose median real speed exceeds this (m/s) is implausible and dropped"),
     d("quality_max_gap", "2.5", "quality", "a broken piece may resume up to this many seconds later"),
     d("quality_max_dist", "2.0", "quality", "... within this many metres of where the track would be at its final velocity"),
-    d("quality_max_accel", "0.0", "quality", "... plus accel * gap^2 / 2 (m/s^2; auto: the class's measured 95th percentile acceleration; off by default, see quality.sql)"),
+    d("quality_max_accel", "auto", "quality", "second linking pass: a leftover start may lie max_dist + accel * gap^2 / 2 from the prediction (m/s^2; auto: the class's measured 95th percentile acceleration, see quality.sql)"),
     d("quality_inset", "1.0", "quality", "endpoints closer than this (m) to the view's edge are entries and exits"),
     i("align_min_points", "10", "align", "tracks need at least this many real points to form hypotheses"),
     d("align_min_overlap_s", "2.0", "align", "track pairs overlap at least this long in time (s)"),

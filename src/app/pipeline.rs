@@ -88,4 +88,43 @@ mod tests {
         let kept: Vec<i64> = con.prepare("SELECT DISTINCT track_id FROM points ORDER BY 1").unwrap().query_map([], |r| r.get(0)).unwrap().collect::<Result<_, _>>().unwrap();
         assert_eq!(kept, vec![1, 5]);
     }
+
+    /// The quality stage's second pass: a car braking at 3 m/s^2 through a 1.5 s gap resumes
+    /// 3.4 m short of its constant-velocity prediction, out of pass 1's 2 m but inside
+    /// 2 + 3 * 1.5^2 / 2 m; a pair pass 1 linked stays linked and is not offered again. With
+    /// quality_max_accel = 0 the second pass adds nothing.
+    #[test]
+    fn quality_second_pass_links_a_braking_car() {
+        let points = "CREATE OR REPLACE TEMP TABLE points AS
+             SELECT 1 AS camera, track_id, 'car' AS class, t, x, y, 0 AS estimated FROM (
+               -- the view: a long drive around a 200 x 100 m rectangle (its ends on the hull)
+               SELECT 9 AS track_id, k * 0.1 AS t,
+                      CASE WHEN k < 200 THEN -50 + k ELSE 150 END AS x,
+                      CASE WHEN k < 200 THEN -50 ELSE -50 + (k - 200) END AS y FROM range(300) r(k)
+               UNION ALL SELECT 1, k * 0.1, 10 * k * 0.1, 0 FROM range(51) r(k)                 -- ends at 50 m, 10 m/s, t 5
+               UNION ALL SELECT 2, 6.5 + k * 0.1, 61.625 + 5.5 * k * 0.1, 0 FROM range(31) r(k) -- braked: 3.4 m short
+               UNION ALL SELECT 3, k * 0.1, 10 * k * 0.1, 20 FROM range(51) r(k)                -- a break at constant speed
+               UNION ALL SELECT 4, 6.0 + k * 0.1, 60 + 10 * k * 0.1, 20 FROM range(31) r(k))";
+        let run = |accel: &str| -> (Vec<(i64, i64)>, Vec<(i64, i64)>) {
+            let con = crate::open(None).unwrap();
+            set_params(&con, &[("quality_max_accel".into(), accel.into())]).unwrap();
+            con.execute_batch(points).unwrap();
+            for f in ["calibrate", "clean", "quality"] {
+                con.execute_batch(sql::file(&format!("sql/stages/{f}.sql")).unwrap()).unwrap();
+            }
+            let pairs = |q: &str| -> Vec<(i64, i64)> {
+                con.prepare(q).unwrap().query_map([], |r| Ok((r.get(0)?, r.get(1)?))).unwrap().collect::<Result<_, _>>().unwrap()
+            };
+            (
+                pairs("SELECT track_id, linked_id FROM quality_links WHERE track_id <> linked_id ORDER BY 1"),
+                pairs("SELECT from_id, to_id FROM quality_reach_links ORDER BY 1"),
+            )
+        };
+        let (links, reach) = run("3.0");
+        assert_eq!(links, vec![(4, 3)]);
+        assert_eq!(reach, vec![(1, 2)]);
+        let (links, reach) = run("0.0");
+        assert_eq!(links, vec![(4, 3)]);
+        assert!(reach.is_empty());
+    }
 }

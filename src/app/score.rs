@@ -25,8 +25,26 @@ fn identity(con: &Connection) -> Result<(), Box<dyn Error>> {
     Ok(())
 }
 
-/// Scores `results` (transforms.csv, matches.csv, links.csv) against `scenario` (points.parquet,
-/// cameras.csv, truth.csv): rotation / translation error per camera pair, and match precision /
+/// Prints how far the merged trajectories lie from the true paths (world.csv), per class
+/// (`sql/score_path.sql`).
+fn paths(con: &Connection) -> Result<(), Box<dyn Error>> {
+    con.execute_batch(sql::file("sql/score_path.sql").expect("sql/score_path.sql"))?;
+    println!("merged paths against world.csv (each road user's mapped object, at the same time):");
+    println!("  {:<14} {:>9} {:>9} {:>9} {:>9} {:>18}", "class", "points", "median m", "p95 m", "max m", "road users > 1 m");
+    let mut st = con.prepare("SELECT class, points, median_m, p95_m, max_m, off_1m FROM s_path_summary ORDER BY class = '*', class")?;
+    let mut q = st.query([])?;
+    while let Some(r) = q.next()? {
+        let (c, n, med, p95, max, off): (String, i64, Option<f64>, Option<f64>, Option<f64>, i64) =
+            (r.get(0)?, r.get(1)?, r.get(2)?, r.get(3)?, r.get(4)?, r.get(5)?);
+        let f = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:.3}"));
+        println!("  {:<14} {n:>9} {:>9} {:>9} {:>9} {off:>18}", if c == "*" { "all" } else { &c }, f(med), f(p95), f(max));
+    }
+    Ok(())
+}
+
+/// Scores `results` (transforms.csv, matches.csv, links.csv, merged.parquet, calibration.csv)
+/// against `scenario` (points.parquet, cameras.csv, truth.csv, world.csv when present): rotation /
+/// translation / clock error per camera pair, road-user identity, merged path error, and match precision /
 /// recall / F1 overall and per class. Prints the tables; returns (worst rotation error in
 /// degrees, worst translation error in metres, overall F1).
 pub fn score(con: &Connection, scenario: &Path, results: &Path) -> Result<(f64, f64, f64), Box<dyn Error>> {
@@ -46,6 +64,9 @@ pub fn score(con: &Connection, scenario: &Path, results: &Path) -> Result<(f64, 
         println!("  {a} -> {b}: rotation {rd:.3} deg, translation {tm:.3} m, clock offset {:.1} ms", ce * 1e3);
     }
     identity(con)?;
+    if scenario.join("world.csv").exists() {
+        paths(con)?;
+    }
     println!("matches (a true pair: same object, >= 1 s together, >= 3 points each in the true overlap):");
     println!("  {:<14} {:>9} {:>7} {:>6} {:>10} {:>10}", "class", "precision", "recall", "F1", "true pairs", "predicted");
     let mut all_f1 = 0.0;

@@ -256,7 +256,7 @@ fn matches(con: &Connection, c: &Ctx, h: &mut String) -> R<()> {
         "SELECT t.camera::VARCHAR || '–' || u.camera::VARCHAR AS pair, t.class, count(*)
          FROM merge_links m JOIN merge_groups ga ON ga.uid = m.uid_a JOIN merge_groups gb ON gb.uid = m.uid_b
          JOIN merge_tracks t ON t.uid = m.uid_a JOIN merge_tracks u ON u.uid = m.uid_b
-         WHERE ga.road_user = gb.road_user GROUP BY ALL ORDER BY pair",
+         WHERE ga.road_user = gb.road_user AND m.kind <> 'reach' GROUP BY ALL ORDER BY pair",
         |r| Ok((r.get(0)?, r.get(1)?, r.get(2)?)),
     )?;
     let sets: Vec<(String, String, i64)> = query_rows(

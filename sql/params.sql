@@ -1,6 +1,9 @@
 -- trajdb pipeline parameters: GENERATED from src/app/params.rs by `trajdb params --sql > sql/params.sql`.
 -- Each keeps a value you SET VARIABLE before `.read sql/params.sql`; otherwise it takes the default.
 
+-- load
+SET VARIABLE input_columns = coalesce(getvariable('input_columns'), ''); -- your column names, as 'camera=cam_id, track_id=id, t=time' (any of camera, track_id, class, t, x, y, estimated; unnamed ones keep their name; estimated may be absent)
+
 -- clean
 SET VARIABLE clean_drop_estimated_tails = coalesce(getvariable('clean_drop_estimated_tails'), false); -- drop a track whose last clean_xi points are all estimated
 SET VARIABLE clean_xi = coalesce(getvariable('clean_xi'), 3::BIGINT); -- points of the estimated tail rule

@@ -356,3 +356,46 @@ fn crowd_neighbours_stay_apart_and_merged_paths_stay_on_the_true_path() {
     assert!(v[0] > 1000.0 && v[3] < 1.0 && v[4] == 0.0, "points, median, p95, max, road users > 1 m: {all}");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// Input mapping (issue 15): own column names (input_columns), a TIMESTAMP t and no
+/// `estimated` column give the same road users; a missing column fails the load stage with an
+/// error that names the stage, the missing column and the fix, and leaves no output folder.
+#[test]
+fn pipeline_maps_columns_timestamps_and_fails_cleanly() {
+    let dir = std::env::temp_dir().join(format!("trajdb-map-{}", std::process::id()));
+    let d = dir.to_str().unwrap();
+    let (ok, _, err) = trajdb(&["simulate", "--cameras", "2", "--minutes", "1", "--seed", "2", "--out", d], None);
+    assert!(ok, "{err}");
+    let mapped = dir.join("mapped.parquet");
+    let q = format!(
+        "COPY (SELECT camera AS cam, track_id AS id, class, TIMESTAMP '2024-05-01 08:00:00' + to_microseconds((t * 1e6)::BIGINT) AS ts, x, y
+               FROM '{}' WHERE estimated = 0) TO '{}'",
+        dir.join("points.parquet").display(),
+        mapped.display()
+    );
+    let (ok, _, err) = trajdb(&["sql", &q], None);
+    assert!(ok, "{err}");
+    let (plain, remapped) = (dir.join("plain"), dir.join("remapped"));
+    let (ok, _, err) = trajdb(&["pipeline", "--input", dir.join("points.parquet").to_str().unwrap(), "--out", plain.to_str().unwrap()], None);
+    assert!(ok, "{err}");
+    let (ok, _, err) = trajdb(
+        &["pipeline", "--input", mapped.to_str().unwrap(), "--out", remapped.to_str().unwrap(), "--param", "input_columns=camera=cam, track_id=id, t=ts"],
+        None,
+    );
+    assert!(ok, "{err}");
+    assert!(err.contains("found") && err.contains("road users"), "{err}");
+    let count = |p: &std::path::Path| {
+        let (ok, out, err) = trajdb(&["--csv", "sql", &format!("SELECT count(*) AS n FROM '{}'", p.join("merged.parquet").display())], None);
+        assert!(ok, "{err}");
+        out
+    };
+    assert_eq!(count(&plain), count(&remapped));
+    let failed = dir.join("failed");
+    let (ok, _, err) = trajdb(&["pipeline", "--input", mapped.to_str().unwrap(), "--out", failed.to_str().unwrap()], None);
+    assert!(!ok);
+    assert!(err.contains("pipeline stage 'load'") && err.contains("has no column camera, track_id, t") && err.contains("input_columns"), "{err}");
+    assert!(!failed.exists());
+    let leftovers = std::fs::read_dir(&dir).unwrap().filter(|e| e.as_ref().unwrap().file_name().to_string_lossy().contains("partial")).count();
+    assert_eq!(leftovers, 0);
+    std::fs::remove_dir_all(&dir).ok();
+}

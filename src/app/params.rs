@@ -41,6 +41,7 @@ const fn s(name: &'static str, default: &'static str, stage: &'static str, descr
 /// Every parameter of every stage, in stage order. The defaults and the measurements behind
 /// them are explained at the top of each stage file.
 pub const PARAMS: &[Param] = &[
+    s("input_columns", "''", "load", "your column names, as 'camera=cam_id, track_id=id, t=time' (any of camera, track_id, class, t, x, y, estimated; unnamed ones keep their name; estimated may be absent)"),
     b("clean_drop_estimated_tails", "false", "clean", "drop a track whose last clean_xi points are all estimated"),
     i("clean_xi", "3", "clean", "points of the estimated tail rule"),
     i("clean_min_points", "auto", "clean", "a track with fewer real points than this ... (auto: 2, the least that shows motion)"),

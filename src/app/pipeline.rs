@@ -22,38 +22,101 @@ pub fn set_params(con: &Connection, overrides: &[(String, String)]) -> Result<()
 pub fn run_sql_file(con: &Connection, path: &str) -> Result<Vec<(String, f64)>, Box<dyn Error>> {
     let mut timings = Vec::new();
     for (name, text) in sql::parts(path)? {
+        let label = if name == "setup" { "load" } else { name.as_str() };
+        eprint!("[trajdb] {label:<8} ");
         let t = Instant::now();
-        con.execute_batch(&text)?;
+        con.execute_batch(&text).map_err(|e| stage_error(label, &e.to_string()))?;
         let s = t.elapsed().as_secs_f64();
         if name == "setup" && con.prepare("SELECT 1 FROM duckdb_tables() WHERE table_name = 'points'")?.exists([])? {
             let n: i64 = con.query_row("SELECT count(*) FROM points", [], |r| r.get(0))?;
-            eprintln!("[trajdb] load     {s:>7.2} s  {n} points");
+            eprintln!("{s:>7.2} s  {n} points");
             timings.push(("load".to_string(), s));
         } else {
-            eprintln!("[trajdb] {name:<8} {s:>7.2} s");
+            eprintln!("{s:>7.2} s");
             timings.push((name, s));
         }
     }
     Ok(timings)
 }
 
+/// A stage's error, naming the stage, its file and, where one is known, the fix.
+fn stage_error(stage: &str, err: &str) -> Box<dyn Error> {
+    eprintln!("failed");
+    let file = if stage == "load" { "sql/pipeline.sql".to_string() } else { format!("sql/stages/{stage}.sql") };
+    let fix = if stage == "load" {
+        "\nfix: the input needs the columns camera, track_id, class, t, x, y (t in seconds or a TIMESTAMP; estimated \
+         optional). Map your own names with --param \"input_columns=camera=cam_id, t=time\" (in SQL: SET VARIABLE \
+         input_columns = 'camera=cam_id, t=time')."
+    } else if err.contains("INTERVAL") || err.contains("TIMESTAMP") {
+        "\nfix: t must be seconds (a number) or a TIMESTAMP; load the input through sql/pipeline.sql, which converts it."
+    } else {
+        ""
+    };
+    format!("pipeline stage '{stage}' ({file}) failed: {err}{fix}").into()
+}
+
 /// Runs the pipeline on `input` (Parquet or CSV with camera, track_id, class, t, x, y,
 /// estimated) and writes the result files into `out`. Progress goes to stderr.
 pub fn run(con: &Connection, input: &str, out: &Path, overrides: &[(String, String)]) -> Result<(), Box<dyn Error>> {
     set_params(con, overrides)?;
-    std::fs::create_dir_all(out)?;
     let t_all = Instant::now();
     con.execute_batch(&format!("SET VARIABLE pipeline_input = {};", sql::sql_string(input)))?;
     let mut timings = run_sql_file(con, "sql/pipeline.sql")?;
-    let t = Instant::now();
-    con.execute_batch(&format!("SET VARIABLE out_dir = {};", sql::sql_string(&out.to_string_lossy())))?;
-    con.execute_batch(sql::file("sql/export.sql").expect("sql/export.sql"))?;
-    eprintln!("[trajdb] write    {:>7.2} s  -> {}", t.elapsed().as_secs_f64(), out.display());
-    timings.push(("write".into(), t.elapsed().as_secs_f64()));
-    let t = Instant::now();
-    report::write(con, out, input, &timings)?;
-    eprintln!("[trajdb] report   {:>7.2} s  -> {}", t.elapsed().as_secs_f64(), out.join("report.html").display());
+    // The result files go to a sibling folder first and replace `out` only when all are written:
+    // a failed run leaves no half-written output (and an earlier result in `out` stays).
+    let name = out.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_else(|| "results".into());
+    let parent = out.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    std::fs::create_dir_all(parent)?;
+    let partial = parent.join(format!(".{name}.partial-{}", std::process::id()));
+    let written = (|| -> Result<(), Box<dyn Error>> {
+        std::fs::create_dir_all(&partial)?;
+        let t = Instant::now();
+        con.execute_batch(&format!("SET VARIABLE out_dir = {};", sql::sql_string(&partial.to_string_lossy())))?;
+        con.execute_batch(sql::file("sql/export.sql").expect("sql/export.sql")).map_err(|e| stage_error("export", &e.to_string()))?;
+        eprintln!("[trajdb] write    {:>7.2} s  -> {}", t.elapsed().as_secs_f64(), out.display());
+        timings.push(("write".into(), t.elapsed().as_secs_f64()));
+        let t = Instant::now();
+        report::write(con, &partial, input, &timings)?;
+        eprintln!("[trajdb] report   {:>7.2} s  -> {}", t.elapsed().as_secs_f64(), out.join("report.html").display());
+        Ok(())
+    })();
+    if let Err(e) = written {
+        std::fs::remove_dir_all(&partial).ok();
+        return Err(e);
+    }
+    if out.exists() {
+        std::fs::remove_dir_all(out)?;
+    }
+    std::fs::rename(&partial, out)?;
     eprintln!("[trajdb] total    {:>7.2} s", t_all.elapsed().as_secs_f64());
+    summary(con, out)?;
+    Ok(())
+}
+
+/// What was found, in a few lines (stderr): road users per class, cross-camera links,
+/// within-camera links, the cameras aligned and their worst residual.
+fn summary(con: &Connection, out: &Path) -> Result<(), Box<dyn Error>> {
+    let (users, multi, cams, aligned): (i64, i64, i64, i64) = con.query_row(
+        "SELECT (SELECT count(*) FROM merged), (SELECT count(*) FROM merged WHERE n_tracks > 1),
+                (SELECT count(DISTINCT camera) FROM points), (SELECT count(*) FROM align_frames)",
+        [],
+        |r| Ok((r.get(0)?, r.get(1)?, r.get(2)?, r.get(3)?)),
+    )?;
+    let per_class: String = con.query_row(
+        "SELECT coalesce(string_agg(class || ' ' || n, ', ' ORDER BY n DESC, class), '') FROM (SELECT class, count(*) AS n FROM merged GROUP BY class)",
+        [],
+        |r| r.get(0),
+    )?;
+    let (links, chains): (i64, i64) = con.query_row(
+        "SELECT (SELECT count(*) FROM merge_links m JOIN merge_groups a ON a.uid = m.uid_a JOIN merge_groups b ON b.uid = m.uid_b
+                 WHERE a.road_user = b.road_user AND m.kind <> 'reach'),
+                (SELECT count(*) FROM merge_chains WHERE track_id <> linked_id)",
+        [],
+        |r| Ok((r.get(0)?, r.get(1)?)),
+    )?;
+    eprintln!("[trajdb] found    {users} road users ({per_class}); {multi} seen by more than one track");
+    eprintln!("[trajdb]          {aligned} of {cams} cameras in one frame; {links} cross-camera links; {chains} tracks joined to an earlier piece in their camera");
+    eprintln!("[trajdb]          results in {}, open {} for the report", out.display(), out.join("report.html").display());
     Ok(())
 }
 

@@ -3,7 +3,8 @@
 #   1. algo unit + property tests without DuckDB (--no-default-features)
 #   2. embedded build: unit tests, CLI tests, tests/sql/*.slt through the sqllogictest crate
 #   3. the function reference docs/functions.md is up to date
-#   4. loadable extension: build, footer, and the same .slt files in stock DuckDB (PyPI duckdb)
+#   4. loadable extension: build, footer, the same .slt files and the README's examples in stock
+#      DuckDB (PyPI duckdb)
 #   5. round trip with DuckDB spatial (PyPI duckdb 1.5.5 + duckdb-extension-spatial, own venv)
 # Needs: cargo, python3 (with venv/pip, PyPI reachable). The first run compiles DuckDB (~50 CPU-min).
 set -euo pipefail
@@ -31,6 +32,7 @@ if [ ! -x "$VENV/bin/python" ]; then python3 -m venv "$VENV"; fi
 "$VENV/bin/pip" install -q -r requirements-test.txt
 python3 tests/test_footer.py && python3 tests/test_footer.py trajdb.duckdb_extension
 "$VENV/bin/python" tests/run_slt_python.py trajdb.duckdb_extension
+"$VENV/bin/python" tests/test_readme.py trajdb.duckdb_extension
 
 echo "== 5/5 WKB round trip with DuckDB spatial"
 if [ ! -x "$SPATIAL_VENV/bin/python" ]; then python3 -m venv "$SPATIAL_VENV"; fi

@@ -36,12 +36,16 @@ TO (getvariable('out_dir') || '/matches.csv') (HEADER, DELIMITER ',');
 -- CRS ("crs": null is GeoParquet's "undefined"; QGIS and GDAL open it as a plain XY layer).
 -- `sources` names the ORIGINAL (camera, track_id) of every piece (quality.sql linked broken
 -- pieces under one id before matching), ordered by camera and start time, so any scorer can
--- read a road user's tracks from this file alone.
+-- read a road user's tracks from this file alone. t_start / t_end (reference clock, s),
+-- duration_s and length_m (metres along the merged path) save the analyst a pass over traj.
+-- `geometry` stays 2-D: traj_to_wkb(traj, true) gives LINESTRING M (time as M) on demand.
 COPY (SELECT m.road_user, m.class, m.n_tracks,
              (SELECT list({'camera': l.camera, 'track_id': l.track_id} ORDER BY l.camera, q.e.t0, l.track_id)
               FROM unnest(m.sources) u(s)
               JOIN quality_links l ON l.camera = s.camera AND l.linked_id = s.track_id
               LEFT JOIN quality_endpoints q ON q.camera = l.camera AND q.track_id = l.track_id) AS sources,
+             traj_time_range(m.traj).t_start AS t_start, traj_time_range(m.traj).t_end AS t_end,
+             traj_duration(m.traj) AS duration_s, traj_length_m(m.traj) AS length_m,
              traj_to_wkb(m.traj) AS geometry, m.traj
       FROM merged m ORDER BY m.road_user)
 TO (getvariable('out_dir') || '/merged.parquet')

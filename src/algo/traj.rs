@@ -270,20 +270,43 @@ pub fn to_wkt(tr: Traj<'_>) -> String {
 /// Little-endian ISO WKB of the same geometry as [`to_wkt`]: LINESTRING (type 2) for two or
 /// more points, POINT (type 1) for one, LINESTRING EMPTY (zero points) for none. O(n).
 pub fn to_wkb(tr: Traj<'_>) -> Vec<u8> {
+    wkb_of(tr, false)
+}
+
+/// [`to_wkb`] with time as the M coordinate: ISO LINESTRING M (type 2002) / POINT M (2001),
+/// each point (x, y, t). O(n).
+pub fn to_wkb_m(tr: Traj<'_>) -> Vec<u8> {
+    wkb_of(tr, true)
+}
+
+fn wkb_of(tr: Traj<'_>, m: bool) -> Vec<u8> {
     let n = tr.len();
-    let mut out = Vec::with_capacity(9 + 16 * n);
+    let base = if m { 2000u32 } else { 0 };
+    let mut out = Vec::with_capacity(9 + if m { 24 } else { 16 } * n);
     out.push(1u8);
     if n == 1 {
-        out.extend_from_slice(&1u32.to_le_bytes());
+        out.extend_from_slice(&(base + 1).to_le_bytes());
     } else {
-        out.extend_from_slice(&2u32.to_le_bytes());
+        out.extend_from_slice(&(base + 2).to_le_bytes());
         out.extend_from_slice(&(n as u32).to_le_bytes());
     }
     for k in 0..n {
         out.extend_from_slice(&tr.x[k].to_le_bytes());
         out.extend_from_slice(&tr.y[k].to_le_bytes());
+        if m {
+            out.extend_from_slice(&tr.t[k].to_le_bytes());
+        }
     }
     out
+}
+
+/// Path length in metres: the sum of |p[k+1] - p[k]| over consecutive points; 0 for one point,
+/// `None` for none. O(n).
+pub fn path_length(tr: Traj<'_>) -> Option<f64> {
+    if tr.is_empty() {
+        return None;
+    }
+    Some((1..tr.len()).map(|k| (tr.x[k] - tr.x[k - 1]).hypot(tr.y[k] - tr.y[k - 1])).sum())
 }
 
 /// Most points [`resample`] may produce (a guard against a tiny period over a long track).
@@ -409,6 +432,25 @@ mod tests {
                 proptest::prop_assert!((r.t[k] - tk).abs() < 1e-12 && (r.x[k] - v).abs() < 1e-9 && (r.y[k] + 2.0 * v).abs() < 1e-9);
             }
         }
+    }
+
+    #[test]
+    fn path_length_sums_segments() {
+        let (t, x, y) = ([0.0, 1.0, 2.0], [0.0, 3.0, 3.0], [0.0, 4.0, 6.0]);
+        assert_eq!(path_length(Traj::new(&t, &x, &y)), Some(7.0));
+        assert_eq!(path_length(Traj::new(&t[..1], &x[..1], &y[..1])), Some(0.0));
+        assert_eq!(path_length(Traj::new(&[], &[], &[])), None);
+    }
+
+    #[test]
+    fn wkb_m_carries_time() {
+        let (t, x, y) = ([10.0, 11.5], [1.0, 2.0], [3.0, 4.0]);
+        let b = to_wkb_m(Traj::new(&t, &x, &y));
+        assert_eq!(u32::from_le_bytes(b[1..5].try_into().unwrap()), 2002);
+        assert_eq!(b.len(), 9 + 2 * 24);
+        assert_eq!(f64::from_le_bytes(b[9 + 24 + 16..9 + 48].try_into().unwrap()), 11.5);
+        let p = to_wkb_m(Traj::new(&t[..1], &x[..1], &y[..1]));
+        assert_eq!(u32::from_le_bytes(p[1..5].try_into().unwrap()), 2001);
     }
 
     #[test]

@@ -10,8 +10,28 @@ const MATHS: &str = "src/algo/traj.rs";
 
 pub static FUNCTIONS: &[Function] = &[
     Function {
+        name: "traj_num_points",
+        description: "Number of points in the trajectory (no validation; NULL for a NULL list). For the length in metres see traj_length_m.",
+        example: "SELECT traj_num_points([{'t': 0, 'x': 0, 'y': 0}, {'t': 1, 'x': 3, 'y': 4}]); -- 2",
+        maths: MATHS,
+        binding: file!(),
+        signatures: &[Signature { params: &[p("traj", TRAJ)], arities: &[], returns: Ty::Bigint, kernel: length }],
+        table: None,
+    },
+    Function {
+        name: "traj_length_m",
+        description: "Path length in metres: the sum of the distances between consecutive points (0 for one point; NULL for an empty or NULL \
+                      trajectory; an error for NaN / infinite values or unsorted t).",
+        example: "SELECT traj_length_m([{'t': 0, 'x': 0, 'y': 0}, {'t': 1, 'x': 3, 'y': 4}, {'t': 2, 'x': 3, 'y': 6}]); -- 7.0",
+        maths: MATHS,
+        binding: file!(),
+        signatures: &[Signature { params: &[p("traj", TRAJ)], arities: &[], returns: Ty::Double, kernel: length_m }],
+        table: None,
+    },
+    Function {
         name: "traj_length",
-        description: "Number of points in the trajectory (no validation; NULL for a NULL list).",
+        description: "DEPRECATED (removed in the next release): the number of points, not metres. Use traj_num_points, or traj_length_m for \
+                      the path length in metres.",
         example: "SELECT traj_length([{'t': 0, 'x': 0, 'y': 0}, {'t': 1, 'x': 3, 'y': 4}]); -- 2",
         maths: MATHS,
         binding: file!(),
@@ -76,11 +96,12 @@ pub static FUNCTIONS: &[Function] = &[
     Function {
         name: "traj_to_wkb",
         description: "Little-endian ISO WKB of the geometry traj_to_wkt describes (LINESTRING, POINT for one point, LINESTRING EMPTY). \
-                      ST_GeomFromWKB (DuckDB spatial) reads it; trajdb pipeline writes it as the GeoParquet geometry of merged.parquet.",
+                      ST_GeomFromWKB (DuckDB spatial) reads it; trajdb pipeline writes it as the GeoParquet geometry of merged.parquet. \
+                      With with_time = true, time is the M coordinate (LINESTRING M / POINT M, ISO types 2002 / 2001).",
         example: "SELECT octet_length(traj_to_wkb([{'t': 0, 'x': 0, 'y': 0}, {'t': 1, 'x': 3, 'y': 4}])); -- 41",
         maths: MATHS,
         binding: file!(),
-        signatures: &[Signature { params: &[p("traj", TRAJ)], arities: &[], returns: Ty::Blob, kernel: to_wkb }],
+        signatures: &[Signature { params: &[p("traj", TRAJ), p("with_time", Ty::Boolean)], arities: &[1, 2], returns: Ty::Blob, kernel: to_wkb }],
         table: None,
     },
     Function {
@@ -106,6 +127,12 @@ fn length(a: &Args<'_>, out: &mut Out<'_>) -> R {
     let tr = a.traj(0);
     let vals: Vec<Option<i64>> = (0..a.rows()).map(|r| tr.raw_len(r).map(|n| n as i64)).collect();
     out.flat(&vals);
+    Ok(())
+}
+
+fn length_m(a: &Args<'_>, out: &mut Out<'_>) -> R {
+    let tr = a.traj(0);
+    out.flat(&a.map(|r| Ok(tr.get(r)?.and_then(traj::path_length)))?);
     Ok(())
 }
 
@@ -151,8 +178,11 @@ fn to_wkt(a: &Args<'_>, out: &mut Out<'_>) -> R {
 }
 
 fn to_wkb(a: &Args<'_>, out: &mut Out<'_>) -> R {
-    let tr = a.traj(0);
-    out.blobs(&a.map(|r| Ok(tr.get(r)?.map(traj::to_wkb)))?);
+    let (tr, with_time) = (a.traj(0), a.opt_boolean(1));
+    out.blobs(&a.map(|r| {
+        let Some(m) = with_time.or(r, false) else { return Ok(None) };
+        Ok(tr.get(r)?.map(if m { traj::to_wkb_m } else { traj::to_wkb }))
+    })?);
     Ok(())
 }
 

@@ -12,7 +12,7 @@ DATA="$(cd "$(dirname "$0")/../.." && pwd)/shared/data"
 row() { # name dir
   s=$($T score "$2" --results "$2/r")
   w=$(echo "$s" | head -1 | grep -oE "[0-9.]+ deg|[0-9.]+ m|[0-9.]+ ms" | tr '\n' ' ')
-  id=$(echo "$s" | sed -n '/road users/,/^matches/p' | grep "^  all" | awk '{print "IDF1 "$2" exact "$3" linkP "$5" breakR "$6}')
+  id=$(echo "$s" | sed -n '/road users/,/^matches/p' | grep -m1 "^  all" | awk '{print "IDF1 "$2" exact "$3" linkP "$5" breakR "$6}')
   m=$(echo "$s" | tail -1 | awk '{print "matchF1 "$4}')
   printf "%-78s %-28s %s %s\n" "$1" "$w" "$id" "$m"
   if [ -n "$PER_CLASS" ]; then echo "$s" | sed -n '/road users/,/^matches/p' | grep -vE "^(road|matches|  class)" | grep -v "^  all"; fi

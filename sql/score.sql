@@ -74,7 +74,9 @@ SELECT cls.class,
        (SELECT count(*) FILTER (WHERE correct)::DOUBLE / greatest(count(*), 1) FROM p WHERE cls.class = '*' OR p.class = cls.class) AS precision,
        (SELECT count(*) FILTER (WHERE found)::DOUBLE / greatest(count(*), 1) FROM t WHERE cls.class = '*' OR t.class = cls.class) AS recall,
        (SELECT count(*) FROM t WHERE cls.class = '*' OR t.class = cls.class) AS true_pairs,
-       (SELECT count(*) FROM p WHERE cls.class = '*' OR p.class = cls.class) AS predicted
+       (SELECT count(*) FROM p WHERE cls.class = '*' OR p.class = cls.class) AS predicted,
+       (SELECT count(*) FROM p WHERE (cls.class = '*' OR p.class = cls.class) AND correct
+          AND NOT EXISTS (SELECT 1 FROM s_true_pairs tp WHERE tp.ca = p.ca AND tp.ta = p.ta AND tp.cb = p.cb AND tp.tb = p.tb)) AS neutral
 FROM cls;
 
 -- ---------------------------------------------------------------- road-user identity

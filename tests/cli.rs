@@ -55,7 +55,14 @@ fn errors_exit_nonzero_with_the_message() {
     assert!(!ok);
     assert!(err.contains("lcss_similarity: epsilon must be > 0, got -1"), "{err}");
     let (ok, _, err) = trajdb(&["bogus"], None);
-    assert!(!ok && err.contains("unknown command"));
+    assert!(!ok && err.contains("unrecognized subcommand 'bogus'"), "{err}");
+    // every command has its own help, with defaults; `trajdb help` is the overview
+    let (ok, out, _) = trajdb(&["simulate", "--help"], None);
+    assert!(ok && out.contains("--rate-hz <X>") && out.contains("[default: 10]"), "{out}");
+    let (ok, out, _) = trajdb(&["pipeline", "--help"], None);
+    assert!(ok && out.contains("--param <NAME=VALUE>") && out.contains("merge_eta"), "{out}");
+    let (ok, out, _) = trajdb(&["help"], None);
+    assert!(ok && out.contains("pipeline") && out.contains("score") && out.contains("simulate"), "{out}");
 }
 
 #[test]
@@ -107,7 +114,7 @@ fn simulate_is_deterministic_and_checks_its_options() {
         (vec!["--cameras", "0"], "cameras must be in 1..=16"),
         (vec!["--minutes", "x"], "--minutes must be a number"),
         (vec!["--rate-hz", "-1"], "rate_hz must be in (0, 100]"),
-        (vec!["--bogus", "1"], "unknown option"),
+        (vec!["--bogus", "1"], "unexpected argument '--bogus'"),
     ] {
         let (ok, err, _) = run("c", &bad);
         assert!(!ok && err.contains(msg), "{bad:?}: {err}");

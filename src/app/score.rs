@@ -67,18 +67,19 @@ pub fn score(con: &Connection, scenario: &Path, results: &Path) -> Result<(f64, 
     if scenario.join("world.csv").exists() {
         paths(con)?;
     }
-    println!("matches (a true pair: same object, >= 1 s together, >= 3 points each in the true overlap):");
-    println!("  {:<14} {:>9} {:>7} {:>6} {:>10} {:>10}", "class", "precision", "recall", "F1", "true pairs", "predicted");
+    println!("matches (a true pair: same object, >= 1 s together, >= 3 points each in the true overlap; a predicted pair of one");
+    println!("object that misses that rule is neutral: right, so not against precision, but not a true pair either):");
+    println!("  {:<14} {:>9} {:>7} {:>6} {:>10} {:>10} {:>8}", "class", "precision", "recall", "F1", "true pairs", "predicted", "neutral");
     let mut all_f1 = 0.0;
-    let mut rows = con.prepare("SELECT class, precision, recall, true_pairs, predicted FROM s_class_scores ORDER BY class = '*', class")?;
+    let mut rows = con.prepare("SELECT class, precision, recall, true_pairs, predicted, neutral FROM s_class_scores ORDER BY class = '*', class")?;
     let mut q = rows.query([])?;
     while let Some(r) = q.next()? {
-        let (c, p, rc, nt, np): (String, f64, f64, i64, i64) = (r.get(0)?, r.get(1)?, r.get(2)?, r.get(3)?, r.get(4)?);
+        let (c, p, rc, nt, np, nn): (String, f64, f64, i64, i64, i64) = (r.get(0)?, r.get(1)?, r.get(2)?, r.get(3)?, r.get(4)?, r.get(5)?);
         let f1 = if p + rc > 0.0 { 2.0 * p * rc / (p + rc) } else { 0.0 };
         if c == "*" {
             all_f1 = f1;
         }
-        println!("  {:<14} {p:>9.3} {rc:>7.3} {f1:>6.3} {nt:>10} {np:>10}", if c == "*" { "all" } else { &c });
+        println!("  {:<14} {p:>9.3} {rc:>7.3} {f1:>6.3} {nt:>10} {np:>10} {nn:>8}", if c == "*" { "all" } else { &c });
     }
     Ok((rot, trans, all_f1))
 }

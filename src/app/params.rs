@@ -212,7 +212,7 @@ mod tests {
         assert_eq!(v.len(), PARAMS.len());
         assert!(v.iter().any(|(p, v)| p.name == "merge_eta" && v == "0.4::DOUBLE"));
         let e = resolve(&[("nope".into(), "1".into())]).unwrap_err().to_string();
-        assert!(e.starts_with("pipeline: unknown parameter \"nope\"; known: clean_drop_estimated_tails"), "{e}");
+        assert!(e.starts_with("pipeline: unknown parameter \"nope\"; known: input_columns, clean_drop_estimated_tails"), "{e}");
         for p in PARAMS {
             p.literal(p.default).unwrap();
         }
@@ -229,7 +229,9 @@ mod tests {
         for p in PARAMS {
             // read by its stage, directly or as calibrated('name') (an `auto` parameter: then
             // sql/stages/calibrate.sql reads it to decide between the given and measured value)
-            let sql = super::super::sql::file(&format!("sql/stages/{}.sql", p.stage)).unwrap();
+            // the load step (stage "load") is in sql/pipeline.sql
+            let file = if p.stage == "load" { "sql/pipeline.sql".to_string() } else { format!("sql/stages/{}.sql", p.stage) };
+            let sql = super::super::sql::file(&file).unwrap();
             let calib = super::super::sql::file("sql/stages/calibrate.sql").unwrap();
             let get = format!("getvariable('{}')", p.name);
             assert!(

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Every test of trajdb, from a clean clone: `scripts/test.sh`
 #   1. algo unit + property tests without DuckDB (--no-default-features)
-#   2. embedded build: unit tests, CLI tests, tests/sql/*.slt through the sqllogictest crate
+#   2. embedded build: unit tests, CLI tests, tests/sql/*.slt through the sqllogictest crate;
+#      2b. report.html rendered in headless Chromium (tests/test_report.sh; apt-get installs it)
 #   3. the function reference docs/functions.md is up to date
 #   4. loadable extension: build, footer, the same .slt files and the README's examples in stock
 #      DuckDB (PyPI duckdb)
@@ -18,6 +19,13 @@ cargo test --release --no-default-features --lib
 
 echo "== 2/5 embedded build: unit, CLI and sqllogictest tests"
 cargo test --release
+
+echo "== 2b/5 the report in headless Chromium (installed from Debian when missing)"
+if ! command -v chromium > /dev/null && ! command -v chromium-browser > /dev/null; then
+  SUDO=""; [ "$(id -u)" -ne 0 ] && SUDO="sudo"
+  $SUDO apt-get update -qq && DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq chromium > /dev/null
+fi
+tests/test_report.sh
 
 echo "== 3/5 function reference is generated from the registered descriptions"
 "$CARGO_TARGET_DIR/release/trajdb" functions --markdown > "$CARGO_TARGET_DIR/functions.md"

@@ -32,6 +32,7 @@ pub fn write(con: &Connection, out: &Path, input: &str, timings: &[(String, f64)
     sample_merges(con, &c, &mut h)?;
     clusters(con, &c, &mut h)?;
     parameters(con, &c, &mut h)?;
+    h.push_str(html::GLOSSARY);
     h.push_str(html::page_end());
     std::fs::write(out.join("report.html"), h)?;
     Ok(())
@@ -116,11 +117,12 @@ fn points(con: &Connection, c: &Ctx, h: &mut String) -> R<()> {
         ),
         |r| Ok((r.get(0)?, r.get(1)?, r.get(2)?, r.get(3)?, r.get(4)?)),
     )?;
-    h.push_str("<h2>Points before and after alignment</h2><p>Every ");
-    let _ = write!(h, "{step}th real point. Before: each camera in its own frame. After: all cameras in the reference frame, with the view polygons (all classes) outlined.</p>");
+    h.push_str("<h2>Points before and after alignment</h2><p>");
+    let _ = write!(h, "{}Before: each camera in its own frame. After: all cameras in the reference frame, with the view polygons (all classes) outlined.</p>{}",
+        if step > 1 { format!("One real point in {step}. ") } else { String::new() }, svg::legend(&c.cameras));
     for &c in &c.cameras {
         let mine: Vec<(f64, f64)> = pts.iter().filter(|p| p.0 == c).map(|p| (p.1, p.2)).collect();
-        let fr = Frame::fit(mine.iter().copied(), 300.0);
+        let fr = Frame::fit(mine.iter().copied(), svg::PLOT_W);
         h.push_str(&fr.open(&format!("camera {c}, local frame")));
         h.push_str(&fr.dots(&mine, color(c), 1.6));
         h.push_str(&fr.close(&format!("camera {c} before alignment (its own frame)")));
@@ -137,8 +139,8 @@ fn points(con: &Connection, c: &Ctx, h: &mut String) -> R<()> {
         h.push_str(&fr.polygon(w, color(*c), "none", 0.0));
     }
     h.push_str(&fr.close(&format!(
-        "after alignment; colours: {}",
-        c.cameras.iter().map(|c| format!("camera {c} {}", color(*c))).collect::<Vec<_>>().join(", ")
+        "all cameras after alignment{}",
+        ""
     )));
 
     Ok(())
@@ -153,8 +155,9 @@ fn view_polygons(con: &Connection, c: &Ctx, h: &mut String) -> R<()> {
         })?;
     let views = queries::views(con)?;
     h.push_str("<h2>View polygons and overlaps per class</h2><p>P<sup>k</sup> per camera (outline, camera colour) and the pairwise overlaps P<sup>k∩l</sup> (grey fill), in the common frame.</p>");
+    h.push_str(&svg::legend(&c.cameras));
     let all_view_pts = views.iter().flat_map(|v| svg::rings(&v.2).into_iter().flatten());
-    let frv = Frame::fit(all_view_pts, 300.0);
+    let frv = Frame::fit(all_view_pts, svg::PLOT_W);
     for class in c.classes.iter().map(String::as_str).chain(std::iter::once("*")) {
         h.push_str(&frv.open(class));
         for (_, _, _, w, _) in overlaps.iter().filter(|o| o.0 == class) {
@@ -212,7 +215,7 @@ fn track_counts(con: &Connection, c: &Ctx, h: &mut String) -> R<()> {
     head.push("total (*)".into());
     let _ = write!(
         h,
-        "<h2>Tracks per class and camera (cf. thesis table 4.1/4.3)</h2><p>Tracks after cleaning and linking of broken tracks; (*) tracks with at least ξ = {xi} points in an overlap with another camera (the most that can be matched).</p>{}",
+        "<h2>Tracks per class and camera (cf. [PA20] tables 4.1/4.3)</h2><p>Tracks after cleaning and linking of broken tracks; (*) tracks with at least ξ = {xi} points in an overlap with another camera (the most that can be matched).</p>{}",
         table(&head, &rows)
     );
 
@@ -225,7 +228,7 @@ fn track_counts(con: &Connection, c: &Ctx, h: &mut String) -> R<()> {
          GROUP BY ALL",
         |r| Ok((r.get(0)?, r.get(1)?, r.get(2)?, r.get(3)?)),
     )?;
-    let _ = write!(h, "<h2>Cayley tables: tracks with at least ξ points in each overlap (cf. thesis tables 4.4/4.5)</h2><p>Row k, column l: camera k's tracks with ≥ {xi} points in P<sup>k∩l</sup>; the diagonal is all of camera k's tracks.</p>");
+    let _ = write!(h, "<h2>Cayley tables: tracks with at least ξ points in each overlap (cf. [PA20] tables 4.4/4.5)</h2><p>Row k, column l: camera k's tracks with ≥ {xi} points in P<sup>k∩l</sup>; the diagonal is all of camera k's tracks.</p>");
     for class in &c.classes {
         let mut rows = Vec::new();
         for &k in &c.cameras {
@@ -295,7 +298,7 @@ fn matches(con: &Connection, c: &Ctx, h: &mut String) -> R<()> {
     let eta: f64 = con.query_row("SELECT getvariable('merge_eta')::DOUBLE", [], |r| r.get(0))?;
     let _ = write!(
         h,
-        "<h2>Matches and merged road users (cf. thesis tables 4.2/4.6)</h2><p>Accepted links (LCSS similarity ≥ η̄ = {eta}, one-to-one per camera pair, consistent road users) per camera pair:</p>{}<p>Road users after merging, by the set of cameras that saw them (no duplicates: every track belongs to exactly one road user):</p>{}",
+        "<h2>Matches and merged road users (cf. [PA20] tables 4.2/4.6)</h2><p>Accepted links (LCSS similarity ≥ η̄ = {eta}, one-to-one per camera pair, consistent road users) per camera pair:</p>{}<p>Road users after merging, by the set of cameras that saw them (no duplicates: every track belongs to exactly one road user):</p>{}",
         pivot(&links, "camera pair"),
         pivot(&sets, "cameras")
     );
@@ -303,16 +306,22 @@ fn matches(con: &Connection, c: &Ctx, h: &mut String) -> R<()> {
     Ok(())
 }
 
-/// Four merged road users with their sources.
-fn sample_merges(con: &Connection, _: &Ctx, h: &mut String) -> R<()> {
+/// Up to six merged road users with their sources, chosen for variety (class, cameras, length).
+fn sample_merges(con: &Connection, c: &Ctx, h: &mut String) -> R<()> {
     // sample merges
     let samples: Vec<(i64, String)> = query_rows(
         con,
-        "SELECT road_user, class FROM merged
-         ORDER BY len(list_distinct([s.camera FOR s IN sources])) DESC, n_tracks DESC, len(traj) DESC, road_user LIMIT 4",
+        "WITH m AS (SELECT road_user, class, len(list_distinct([s.camera FOR s IN sources])) AS n_cams, traj_length_m(traj) AS len_m
+                    FROM merged WHERE n_tracks > 1),
+              -- variety: the longest road user of every (class, camera count), then round-robin over classes
+              best AS (SELECT *, row_number() OVER (PARTITION BY class, n_cams ORDER BY len_m DESC, road_user) AS k FROM m QUALIFY k = 1)
+         SELECT road_user, class FROM best
+         QUALIFY row_number() OVER (PARTITION BY class ORDER BY n_cams DESC) <= 2
+         ORDER BY row_number() OVER (PARTITION BY class ORDER BY n_cams DESC), class LIMIT 6",
         |r| Ok((r.get(0)?, r.get(1)?)),
     )?;
-    h.push_str("<h2>Sample merges</h2><p>Source tracks in the common frame (camera colours, dashed) and the merged trajectory (black).</p>");
+    h.push_str("<h2>Sample merges</h2><p>Source tracks in the common frame (camera colours, dashed) and the merged trajectory (black): the longest road user of each class and number of cameras.</p>");
+    h.push_str(&svg::legend(&c.cameras));
     for (ru, class) in samples {
         // (camera, track, points)
         type Source = (i64, i64, Vec<(f64, f64)>);
@@ -331,14 +340,14 @@ fn sample_merges(con: &Connection, _: &Ctx, h: &mut String) -> R<()> {
             [],
             |r| Ok(value_xy(&r.get::<_, duckdb::types::Value>(0)?)),
         )?;
-        let fr = Frame::fit(src.iter().flat_map(|s| s.2.iter().copied()).chain(merged.iter().copied()), 300.0);
+        let fr = Frame::fit(src.iter().flat_map(|s| s.2.iter().copied()).chain(merged.iter().copied()), svg::PLOT_W);
         h.push_str(&fr.open(&format!("road user {ru}")));
         for (c, _, pts) in &src {
             h.push_str(&fr.line(pts, color(*c), 2.5, true));
         }
         h.push_str(&fr.line(&merged, "#000", 1.0, false));
         let names: Vec<String> = src.iter().map(|s| format!("{}:{}", s.0, s.1)).collect();
-        h.push_str(&fr.close(&format!("road user {ru} ({class}) from tracks {}", names.join(", "))));
+        h.push_str(&fr.close(&format!("road user {ru} ({class}) from camera:track {}", names.join(", "))));
     }
 
     Ok(())
@@ -356,9 +365,38 @@ fn clusters(con: &Connection, _: &Ctx, h: &mut String) -> R<()> {
     let cam: i64 = con.query_row("SELECT getvariable('cluster_camera')::BIGINT", [], |r| r.get(0))?;
     let _ = write!(
         h,
-        "<h2>Route patterns</h2><p>Agglomerative clustering (average linkage on 1 − LCSS S1) of camera {cam}'s tracks (sql/stages/cluster.sql).</p>{}",
+        "<h2>Route patterns</h2><p>Agglomerative clustering (average linkage on 1 − LCSS S1, [Buz04]) of camera {cam}'s tracks \
+         (sql/stages/cluster.sql), in that camera's frame. Each plot: the tracks of the eight largest clusters of a class, one colour per cluster \
+         (grey: tracks in smaller clusters or none).</p>{}",
         table(&["class", "clusters", "tracks in a cluster", "tracks"].map(String::from), &cl)
     );
+    // (class, rank of its cluster by size (0: not among the 8 largest), points)
+    type Routed = (String, i64, Vec<(f64, f64)>);
+    let tracks: Vec<Routed> = query_rows(
+        con,
+        "WITH sizes AS (SELECT class, cluster, row_number() OVER (PARTITION BY class ORDER BY count(*) DESC, cluster) AS rank
+                        FROM cluster_assign WHERE cluster > 0 GROUP BY class, cluster)
+         SELECT t.class, CASE WHEN s.rank <= 8 THEN s.rank ELSE 0 END AS rank, t.traj
+         FROM cluster_tracks t JOIN cluster_assign a USING (class, track_id) LEFT JOIN sizes s USING (class, cluster)
+         QUALIFY row_number() OVER (PARTITION BY t.class ORDER BY hash(t.track_id)) <= 600
+         ORDER BY t.class, rank = 0 DESC, rank DESC",
+        |r| {
+            let l: duckdb::types::Value = r.get(2)?;
+            Ok((r.get(0)?, r.get(1)?, value_xy(&l)))
+        },
+    )?;
+    let mut classes: Vec<&str> = tracks.iter().map(|t| t.0.as_str()).collect();
+    classes.dedup();
+    for class in classes {
+        let mine: Vec<&Routed> = tracks.iter().filter(|t| t.0 == class).collect();
+        let fr = Frame::fit(mine.iter().flat_map(|t| t.2.iter().copied()), svg::PLOT_W);
+        h.push_str(&fr.open(&format!("route patterns, {class}")));
+        for t in &mine {
+            let (col, w) = if t.1 == 0 { ("#c8c8c8", 0.8) } else { (color(t.1 - 1), 1.2) };
+            h.push_str(&fr.line(&t.2, col, w, false));
+        }
+        h.push_str(&fr.close(&format!("{class}: route patterns of camera {cam}")));
+    }
     Ok(())
 }
 

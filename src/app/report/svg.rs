@@ -11,7 +11,36 @@ pub fn color(camera: i64) -> &'static str {
 }
 
 
-/// World → SVG pixel mapping with equal scales, y up.
+/// The width of a plot area in pixels (axes come on top).
+pub const PLOT_W: f64 = 420.0;
+/// Room for the y tick labels (left) and the x tick labels (below), in pixels.
+const LEFT: f64 = 46.0;
+const BOTTOM: f64 = 30.0;
+
+/// A legend of camera colours (HTML).
+pub fn legend(cameras: &[i64]) -> String {
+    let items: Vec<String> = cameras
+        .iter()
+        .map(|c| format!("<span class=\"key\"><span class=\"sw\" style=\"background:{}\"></span>camera {c}</span>", color(*c)))
+        .collect();
+    format!("<p class=\"legend\">{}</p>", items.join(" "))
+}
+
+/// A tick step of 1, 2 or 5 × 10^k metres giving about 5 ticks over `span`.
+fn tick_step(span: f64) -> f64 {
+    let raw = (span / 5.0).max(1e-9);
+    let p = 10f64.powf(raw.log10().floor());
+    [1.0, 2.0, 5.0, 10.0].iter().map(|m| m * p).find(|s| *s >= raw).unwrap_or(10.0 * p)
+}
+
+/// A tick label without float noise (0.30000000000000004 -> 0.3).
+fn label(t: f64, step: f64) -> String {
+    let digits = if step >= 1.0 { 0 } else { (-step.log10().floor()) as usize };
+    let s = format!("{:.*}", digits, t);
+    if s == "-0" { "0".into() } else { s }
+}
+
+/// World → SVG pixel mapping with equal scales, y up, and axes in metres.
 pub struct Frame {
     x0: f64,
     y1: f64,
@@ -37,24 +66,61 @@ impl Frame {
         let k = w / (x1 - x0).max(y1 - y0);
         Frame { x0, y1, k, w: (x1 - x0) * k, h: (y1 - y0) * k }
     }
+    /// SVG pixel of world point (x, y).
     pub fn p(&self, x: f64, y: f64) -> (f64, f64) {
-        ((x - self.x0) * self.k, (self.y1 - y) * self.k)
+        (LEFT + (x - self.x0) * self.k, (self.y1 - y) * self.k)
+    }
+    /// The axes: ticks and labels in metres along the bottom and the left, and a frame.
+    fn axes(&self) -> String {
+        let mut a = String::new();
+        let (x1, y0) = (self.x0 + self.w / self.k, self.y1 - self.h / self.k);
+        let step = tick_step((x1 - self.x0).max(self.y1 - y0));
+        let _ = write!(a, "<rect x=\"{LEFT}\" y=\"0\" width=\"{:.1}\" height=\"{:.1}\" fill=\"none\" stroke=\"#999\"/>", self.w, self.h);
+        let mut t = (self.x0 / step).ceil() * step;
+        while t <= x1 {
+            let (u, _) = self.p(t, 0.0);
+            let _ = write!(
+                a,
+                "<line x1=\"{u:.1}\" y1=\"{:.1}\" x2=\"{u:.1}\" y2=\"{:.1}\" stroke=\"#999\"/><text x=\"{u:.1}\" y=\"{:.1}\" font-size=\"10\" text-anchor=\"middle\">{}</text>",
+                self.h,
+                self.h + 4.0,
+                self.h + 14.0,
+                label(t, step)
+            );
+            t += step;
+        }
+        let mut t = (y0 / step).ceil() * step;
+        while t <= self.y1 {
+            let (_, v) = self.p(0.0, t);
+            let _ = write!(
+                a,
+                "<line x1=\"{:.1}\" y1=\"{v:.1}\" x2=\"{LEFT}\" y2=\"{v:.1}\" stroke=\"#999\"/><text x=\"{:.1}\" y=\"{:.1}\" font-size=\"10\" text-anchor=\"end\">{}</text>",
+                LEFT - 4.0,
+                LEFT - 6.0,
+                v + 3.5,
+                label(t, step)
+            );
+            t += step;
+        }
+        let _ = write!(
+            a,
+            "<text x=\"{:.1}\" y=\"{:.1}\" font-size=\"10\" text-anchor=\"middle\">x (m)</text><text x=\"10\" y=\"{:.1}\" font-size=\"10\" transform=\"rotate(-90 10 {:.1})\" text-anchor=\"middle\">y (m)</text>",
+            LEFT + self.w / 2.0,
+            self.h + BOTTOM - 4.0,
+            self.h / 2.0,
+            self.h / 2.0
+        );
+        a
     }
     pub fn open(&self, title: &str) -> String {
+        let (w, h) = (LEFT + self.w + 4.0, self.h + BOTTOM);
         format!(
-            "<figure><svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{:.0}\" height=\"{:.0}\" viewBox=\"0 0 {:.1} {:.1}\" style=\"background:#fff;border:1px solid #ccc\">",
-            self.w, self.h, self.w, self.h
+            "<figure style=\"max-width:{w:.0}px\"><svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{w:.0}\" height=\"{h:.0}\" viewBox=\"0 0 {w:.1} {h:.1}\" style=\"background:#fff\">"
         ) + &format!("<title>{}</title>", esc(title))
+            + &self.axes()
     }
     pub fn close(&self, caption: &str) -> String {
-        // a 10 m scale bar
-        let (bx, by) = (8.0, self.h - 8.0);
-        format!(
-            "<line x1=\"{bx}\" y1=\"{by}\" x2=\"{:.1}\" y2=\"{by}\" stroke=\"#000\" stroke-width=\"2\"/><text x=\"{bx}\" y=\"{:.1}\" font-size=\"10\">10 m</text></svg><figcaption>{}</figcaption></figure>",
-            bx + 10.0 * self.k,
-            by - 4.0,
-            esc(caption)
-        )
+        format!("</svg><figcaption>{}</figcaption></figure>", esc(caption))
     }
     /// Points as one path of zero-length round-capped segments.
     pub fn dots(&self, pts: &[(f64, f64)], color: &str, r: f64) -> String {
@@ -104,7 +170,14 @@ pub fn rings(wkt: &str) -> Vec<Vec<(f64, f64)>> {
 
 #[cfg(test)]
 mod tests {
-    use super::rings;
+    use super::{rings, tick_step};
+
+    #[test]
+    fn ticks_are_1_2_5_steps() {
+        assert_eq!(tick_step(100.0), 20.0);
+        assert_eq!(tick_step(40.0), 10.0);
+        assert_eq!(tick_step(7.0), 2.0);
+    }
 
     #[test]
     fn rings_of_polygons_and_multipolygons() {

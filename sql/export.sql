@@ -31,14 +31,15 @@ COPY (SELECT la.camera AS camera_a, la.track_id AS track_a, lb.camera AS camera_
       ORDER BY camera_a, track_a, camera_b, track_b)
 TO (getvariable('out_dir') || '/matches.csv') (HEADER, DELIMITER ',');
 
--- merged.parquet: one row per road user; GeoParquet 1.1: `geometry` is WKB (LINESTRING, or
--- POINT for a one-point road user) in the reference camera's local metric frame, which has no
+-- merged.parquet: one row per road user; GeoParquet 1.1: `geometry` is WKB (LINESTRING M, or
+-- POINT M for a one-point road user) in the reference camera's local metric frame, which has no
 -- CRS ("crs": null is GeoParquet's "undefined"; QGIS and GDAL open it as a plain XY layer).
 -- `sources` names the ORIGINAL (camera, track_id) of every piece (quality.sql linked broken
 -- pieces under one id before matching), ordered by camera and start time, so any scorer can
 -- read a road user's tracks from this file alone. t_start / t_end (reference clock, s),
 -- duration_s and length_m (metres along the merged path) save the analyst a pass over traj.
--- `geometry` stays 2-D: traj_to_wkb(traj, true) gives LINESTRING M (time as M) on demand.
+-- `geometry` is LINESTRING M (POINT M for one point): M is t, so the geometry keeps time.
+-- Checked: geopandas 1.2 / shapely 2.2 and DuckDB spatial (1.5.5) read M from this file.
 COPY (SELECT m.road_user, m.class, m.n_tracks,
              (SELECT list({'camera': l.camera, 'track_id': l.track_id} ORDER BY l.camera, q.e.t0, l.track_id)
               FROM unnest(m.sources) u(s)
@@ -46,10 +47,10 @@ COPY (SELECT m.road_user, m.class, m.n_tracks,
               LEFT JOIN quality_endpoints q ON q.camera = l.camera AND q.track_id = l.track_id) AS sources,
              traj_time_range(m.traj).t_start AS t_start, traj_time_range(m.traj).t_end AS t_end,
              traj_duration(m.traj) AS duration_s, traj_length_m(m.traj) AS length_m,
-             traj_to_wkb(m.traj) AS geometry, m.traj
+             traj_to_wkb(m.traj, true) AS geometry, m.traj
       FROM merged m ORDER BY m.road_user)
 TO (getvariable('out_dir') || '/merged.parquet')
-(FORMAT parquet, KV_METADATA {geo: '{"version":"1.1.0","primary_column":"geometry","columns":{"geometry":{"encoding":"WKB","geometry_types":["LineString","Point"],"crs":null,"edges":"planar"}}}'});
+(FORMAT parquet, KV_METADATA {geo: '{"version":"1.1.0","primary_column":"geometry","columns":{"geometry":{"encoding":"WKB","geometry_types":["LineString M","Point M"],"crs":null,"edges":"planar"}}}'});
 
 -- clusters.csv: route patterns of one camera
 COPY (SELECT getvariable('cluster_camera') AS camera, class, track_id, cluster FROM cluster_assign

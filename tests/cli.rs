@@ -197,9 +197,9 @@ fn pipeline_writes_results() {
         assert_eq!(transforms.lines().count(), 3, "{transforms}");
         assert!(std::fs::read_to_string(out.join("matches.csv")).unwrap().lines().count() > 10);
         assert!(out.join("clusters.csv").exists());
-        // GeoParquet: DuckDB reads the WKB column back as GEOMETRY (the 'geo' metadata)
+        // GeoParquet: DuckDB reads the WKB column back as GEOMETRY (the geo metadata), LINESTRING M with M = t
         let q = format!(
-            "SELECT typeof(geometry), count(*) > 0, bool_and(ST_AsWKB(geometry) = traj_to_wkb(traj)) FROM read_parquet('{}') GROUP BY ALL",
+            "SELECT typeof(geometry), count(*) > 0, bool_and(ST_AsWKB(geometry) = traj_to_wkb(traj, true)) FROM read_parquet('{}') GROUP BY ALL",
             out.join("merged.parquet").display()
         );
         let (ok, got, err) = trajdb(&["--csv", "sql", &q], None);

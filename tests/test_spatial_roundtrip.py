@@ -105,12 +105,12 @@ def main():
                         OR (len(tr) = 0 AND ST_IsEmpty(ST_GeomFromWKB(traj_to_wkb(tr))))) FROM t""")
     # merged.parquet of `trajdb pipeline`: WKB + GeoParquet 'geo' metadata (pipeline::GEOPARQUET_META)
     geo = ('{"version":"1.1.0","primary_column":"geometry","columns":{"geometry":{"encoding":"WKB",'
-           '"geometry_types":["LineString","Point"],"crs":null,"edges":"planar"}}}')
+           '"geometry_types":["LineString M","Point M"],"crs":null,"edges":"planar"}}}')
     path = os.path.join(os.environ.get("TMPDIR", "/tmp"), f"trajdb-geoparquet-{os.getpid()}.parquet")
-    con.execute(f"""COPY (SELECT 1 AS road_user, traj_to_wkb([{{'t': 0, 'x': 0, 'y': 0}}, {{'t': 1, 'x': 3, 'y': 4}}]) AS geometry)
+    con.execute(f"""COPY (SELECT 1 AS road_user, traj_to_wkb([{{'t': 0, 'x': 0, 'y': 0}}, {{'t': 1.5, 'x': 3, 'y': 4}}], true) AS geometry)
                     TO '{path}' (FORMAT parquet, KV_METADATA {{geo: '{geo}'}})""")
-    check("GeoParquet merged.parquet is read by spatial as GEOMETRY",
-          f"SELECT typeof(geometry) = 'GEOMETRY' AND ST_Length(geometry) = 5 FROM read_parquet('{path}')")
+    check("GeoParquet merged.parquet (LINESTRING M, M = t) is read by spatial as GEOMETRY with M",
+          f"SELECT typeof(geometry) = 'GEOMETRY' AND ST_Length(geometry) = 5 AND ST_HasM(geometry) AND ST_MMax(geometry) = 1.5 FROM read_parquet('{path}')")
     os.remove(path)
     print(f"duckdb {duckdb.__version__} + spatial: {checks - failures} passed, {failures} failed")
     sys.exit(1 if failures else 0)

@@ -8,6 +8,7 @@
 use super::{params, report, sql};
 use duckdb::Connection;
 use std::error::Error;
+use std::io::IsTerminal;
 use std::path::Path;
 use std::time::Instant;
 
@@ -25,7 +26,22 @@ pub fn run_sql_file(con: &Connection, path: &str) -> Result<Vec<(String, f64)>, 
         let label = if name == "setup" { "load" } else { name.as_str() };
         eprint!("[trajdb] {label:<8} ");
         let t = Instant::now();
-        con.execute_batch(&text).map_err(|e| stage_error(label, &e.to_string()))?;
+        // statement by statement: progress within a long stage (on a terminal), and an error
+        // that says which statement failed
+        let statements = sql::split_statements(&text);
+        let tty = std::io::stderr().is_terminal();
+        for (k, stmt) in statements.iter().enumerate() {
+            if tty {
+                eprint!("\r[trajdb] {label:<8} statement {}/{}", k + 1, statements.len());
+            }
+            con.execute_batch(stmt).map_err(|e| {
+                let head: String = stmt.split_whitespace().collect::<Vec<_>>().join(" ").chars().take(90).collect();
+                stage_error(label, &format!("{e}\n  in statement {} of {}: {head} ...", k + 1, statements.len()))
+            })?;
+        }
+        if tty {
+            eprint!("\r[trajdb] {label:<8} {:<20}\r[trajdb] {label:<8} ", "");
+        }
         let s = t.elapsed().as_secs_f64();
         if name == "setup" && con.prepare("SELECT 1 FROM duckdb_tables() WHERE table_name = 'points'")?.exists([])? {
             let n: i64 = con.query_row("SELECT count(*) FROM points", [], |r| r.get(0))?;

@@ -1,40 +1,16 @@
 #!/usr/bin/env python3
-"""Turn the cdylib into a loadable DuckDB extension by appending DuckDB's 512-byte footer.
-
-Footer layout (read by DuckDB from the last 512 bytes): eight 32-byte zero-padded fields, in
-order: unused, unused, unused, ABI type, extension version, C API version, platform, magic "4";
-then 256 zero bytes where a signature would go.
-
-We write ABI type C_STRUCT and C API version v1.2.0: C_STRUCT_UNSTABLE makes DuckDB 2.0 look
-for `trajdb_init_c_api_v2`, and a newer C API version than the host's is rejected.
+"""Turn the cdylib into a loadable DuckDB extension by appending DuckDB's 512-byte footer
+(the layout and why C_STRUCT / v1.2.0: python/trajdb/footer.py, shared with the Python package).
 
 usage: python3 scripts/append_footer.py IN.so OUT.duckdb_extension [--version V] [--platform P]
 """
 import argparse
-import platform
+import os
 import shutil
+import sys
 
-
-def default_platform():
-    m = platform.machine().lower()
-    arch = {"x86_64": "amd64", "amd64": "amd64", "aarch64": "arm64", "arm64": "arm64"}.get(m, m)
-    osname = platform.system().lower()
-    osname = {"darwin": "osx"}.get(osname, osname)
-    return f"{osname}_{arch}"
-
-
-def field(s):
-    b = s.encode()
-    if len(b) > 32:
-        raise SystemExit(f"footer field too long: {s!r}")
-    return b + b"\0" * (32 - len(b))
-
-
-def footer(ext_version, plat, abi="C_STRUCT", capi="v1.2.0"):
-    fields = [field(""), field(""), field(""), field(abi), field(ext_version), field(capi), field(plat), field("4")]
-    out = b"".join(fields) + b"\0" * 256
-    assert len(out) == 512
-    return out
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "python", "trajdb"))
+from footer import default_platform, footer  # noqa: E402  (the package's module, without importing duckdb)
 
 
 def main():

@@ -5,7 +5,7 @@
 #      2b. report.html rendered in headless Chromium (tests/test_report.sh; apt-get installs it)
 #   3. the function reference docs/functions.md is up to date
 #   4. loadable extension: build, footer, the same .slt files and the README's examples in stock
-#      DuckDB (PyPI duckdb)
+#      DuckDB (PyPI duckdb); the Python package (pip install . into a fresh venv) against the binary
 #   5. round trip with DuckDB spatial (PyPI duckdb 1.5.5 + duckdb-extension-spatial, own venv)
 # Needs: cargo, python3 (with venv/pip, PyPI reachable). The first run compiles DuckDB (~50 CPU-min).
 set -euo pipefail
@@ -41,6 +41,7 @@ if [ ! -x "$VENV/bin/python" ]; then python3 -m venv "$VENV"; fi
 python3 tests/test_footer.py && python3 tests/test_footer.py trajdb.duckdb_extension
 "$VENV/bin/python" tests/run_slt_python.py trajdb.duckdb_extension
 "$VENV/bin/python" tests/test_readme.py trajdb.duckdb_extension
+tests/test_python_package.sh
 
 echo "== 5/5 WKB round trip with DuckDB spatial"
 if [ ! -x "$SPATIAL_VENV/bin/python" ]; then python3 -m venv "$SPATIAL_VENV"; fi

@@ -1,0 +1,119 @@
+"""trajdb for Python: DuckDB with the trajdb extension loaded.
+
+    import trajdb
+    con = trajdb.connect()                       # a DuckDB connection with trajdb loaded
+    trajdb.load(con)                             # or load it into your own connection
+    trajdb.pipeline(con, "points.parquet", out="results", merge_eta=0.6)
+    con.sql("SELECT class, count(*) FROM merged GROUP BY class").show()
+
+The extension is built from this repository by `pip install .` (setuptools-rust; no C++ is
+compiled). `pipeline` runs the same SQL files as `trajdb pipeline` and writes the same result
+files (transforms.csv, calibration.csv, matches.csv, merged.parquet, clusters.csv, links.csv);
+the HTML report needs the `trajdb` binary.
+"""
+import glob
+import hashlib
+import os
+import tempfile
+
+import duckdb
+
+from .footer import footer
+
+__version__ = "0.1.0"
+_HERE = os.path.dirname(os.path.abspath(__file__))
+# C API v1.2.0 / C_STRUCT: DuckDB 1.5 and 2.0 load it (tested: 1.5.x and 2.0.x in CI)
+MIN_DUCKDB = (1, 5)
+
+
+def _duckdb_version():
+    return tuple(int(p) for p in duckdb.__version__.split(".")[:2] if p.isdigit())
+
+
+def check_duckdb():
+    """Refuses a DuckDB that cannot load the extension, naming the versions that can."""
+    if _duckdb_version() < MIN_DUCKDB:
+        raise RuntimeError(
+            f"trajdb needs DuckDB 1.5 or newer (tested with 1.5.x and 2.0.x); this Python has duckdb {duckdb.__version__}: "
+            "pip install -U 'duckdb>=1.5'"
+        )
+
+
+def extension_path():
+    """The loadable extension file: the built library plus DuckDB's footer, cached per build."""
+    libs = [p for p in glob.glob(os.path.join(_HERE, "_trajdb*")) if not p.endswith(".py")]
+    if not libs:
+        raise RuntimeError(f"trajdb's extension library is missing from {_HERE}: reinstall with `pip install .`")
+    lib = libs[0]
+    with open(lib, "rb") as f:
+        data = f.read()
+    digest = hashlib.sha256(data).hexdigest()[:16]
+    cache = os.path.join(os.environ.get("XDG_CACHE_HOME", os.path.expanduser("~/.cache")), "trajdb", digest)
+    path = os.path.join(cache, "trajdb.duckdb_extension")
+    if not os.path.exists(path):
+        os.makedirs(cache, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(dir=cache)
+        with os.fdopen(fd, "wb") as f:
+            f.write(data + footer("v" + __version__))
+        os.replace(tmp, path)  # atomic: a concurrent load never sees half a file
+    return path
+
+
+def load(con):
+    """Loads trajdb into `con` (opened with allow_unsigned_extensions, as trajdb.connect does)."""
+    check_duckdb()
+    try:
+        con.execute(f"LOAD '{extension_path()}'")
+    except duckdb.Error as e:
+        if "unsigned" in str(e).lower() or "signature" in str(e).lower():
+            raise RuntimeError(
+                "trajdb is not signed by DuckDB: open the connection with "
+                "duckdb.connect(config={'allow_unsigned_extensions': 'true'}), or use trajdb.connect()"
+            ) from e
+        raise
+    return con
+
+
+def connect(database=":memory:", **config):
+    """duckdb.connect with unsigned extensions allowed and trajdb loaded."""
+    check_duckdb()
+    config.setdefault("allow_unsigned_extensions", "true")
+    return load(duckdb.connect(database, config=config))
+
+
+def sql_file(path):
+    """The text of one of trajdb's SQL files (`sql/...`), its `.read` lines expanded."""
+    out = []
+    with open(os.path.join(_HERE, path)) as f:
+        for line in f:
+            out.append(sql_file(line.split(maxsplit=1)[1].strip()) if line.startswith(".read ") else line)
+    return "".join(out)
+
+
+def read(con, path):
+    """Runs one of trajdb's SQL files, like the DuckDB CLI's `.read sql/...`."""
+    for stmt in con.extract_statements(sql_file(path)):
+        con.execute(stmt.query).fetchall()
+
+
+def _literal(v):
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, (int, float)):
+        return repr(v)
+    return "'" + str(v).replace("'", "''") + "'"
+
+
+def pipeline(con, input, out=None, **params):
+    """The whole pipeline on `input` (a Parquet / CSV file or a table name), as `trajdb pipeline`:
+    parameters by keyword (`merge_eta=0.6`; `trajdb params` lists them), then the stages; with
+    `out`, the result files are written there. The tables (merged, matches, ...) stay in `con`."""
+    for k, v in params.items():
+        con.execute(f"SET VARIABLE {k} = {_literal(v)}")
+    con.execute(f"SET VARIABLE pipeline_input = {_literal(input)}")
+    read(con, "sql/pipeline.sql")
+    if out is not None:
+        os.makedirs(out, exist_ok=True)
+        con.execute(f"SET VARIABLE out_dir = {_literal(os.path.abspath(out))}")
+        read(con, "sql/export.sql")
+    return con

@@ -6,7 +6,8 @@
 #   3. the function reference docs/functions.md is up to date
 #   4. loadable extension: build, footer, the same .slt files and the README's examples in stock
 #      DuckDB (PyPI duckdb); the Python package (pip install . into a fresh venv) against the binary
-#   5. round trip with DuckDB spatial (PyPI duckdb 1.5.5 + duckdb-extension-spatial, own venv)
+#   5. round trip with DuckDB spatial (PyPI duckdb 1.5.5 + duckdb-extension-spatial, own venv), and
+#      the .slt suite and README examples again in that DuckDB 1.5.5
 # Needs: cargo, python3 (with venv/pip, PyPI reachable). The first run compiles DuckDB (~50 CPU-min).
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -47,3 +48,6 @@ echo "== 5/5 WKB round trip with DuckDB spatial"
 if [ ! -x "$SPATIAL_VENV/bin/python" ]; then python3 -m venv "$SPATIAL_VENV"; fi
 "$SPATIAL_VENV/bin/pip" install -q -r requirements-spatial.txt
 "$SPATIAL_VENV/bin/python" tests/test_spatial_roundtrip.py trajdb.duckdb_extension
+# the same extension file, .slt suite and README examples in DuckDB 1.5 (this venv's duckdb 1.5.5)
+"$SPATIAL_VENV/bin/python" tests/run_slt_python.py trajdb.duckdb_extension
+"$SPATIAL_VENV/bin/python" tests/test_readme.py trajdb.duckdb_extension

@@ -12,6 +12,12 @@
 -- load: the input's columns by name (input_columns maps yours: 'camera=cam_id, t=time'); t may
 -- be seconds (any number) or a TIMESTAMP / TIMESTAMPTZ (then epoch seconds); estimated may be
 -- absent (then every point is real).
+-- the input: a file (Parquet, CSV, JSON; a path or glob) or a table name. query() with a FROM
+-- string works in DuckDB 1.5 and 2.0 (query_table('file.parquet') is a table name in 1.5).
+SET VARIABLE input_query = 'FROM ' || CASE
+    WHEN regexp_matches(getvariable('pipeline_input'), '(\.(parquet|csv|tsv|txt|json|jsonl|ndjson|gz|zst)$)|[/\\*]')
+    THEN '''' || replace(getvariable('pipeline_input'), '''', '''''') || ''''
+    ELSE getvariable('pipeline_input') END;
 SET VARIABLE input_map = map_from_entries(
     [(trim(split_part(kv, '=', 1)), trim(split_part(kv, '=', 2)))
      for kv in string_split(coalesce(getvariable('input_columns'), ''), ',') if trim(kv) <> '']);
@@ -19,7 +25,7 @@ SELECT CASE WHEN len(missing) > 0 THEN error('load: the input ' || getvariable('
                                                || array_to_string(missing, ', ') || ' (its columns: ' || array_to_string(cols, ', ') || ')') END
 FROM (SELECT cols, [coalesce(getvariable('input_map')[n], n) for n in ['camera', 'track_id', 'class', 't', 'x', 'y']
                     if NOT list_contains(cols, coalesce(getvariable('input_map')[n], n))] AS missing
-      FROM (SELECT list(column_name) AS cols FROM (DESCRIBE SELECT * FROM query_table(getvariable('pipeline_input')))));
+      FROM (SELECT list(column_name) AS cols FROM (DESCRIBE FROM query(getvariable('input_query')))));
 CREATE OR REPLACE TEMP TABLE points AS
 SELECT camera::INTEGER AS camera, track_id::BIGINT AS track_id, class::VARCHAR AS class,
        coalesce(try_cast(t AS DOUBLE), epoch(try_cast(t AS TIMESTAMP))) AS t,
@@ -31,6 +37,6 @@ FROM (SELECT COLUMNS(lambda c: c = coalesce(getvariable('input_map')['camera'], 
              COLUMNS(lambda c: c = coalesce(getvariable('input_map')['x'], 'x')) AS x,
              COLUMNS(lambda c: c = coalesce(getvariable('input_map')['y'], 'y')) AS y,
              COLUMNS(lambda c: c = coalesce(getvariable('input_map')['estimated'], 'estimated')) AS estimated
-      FROM (SELECT * FROM query_table(getvariable('pipeline_input'))
+      FROM (SELECT * FROM query(getvariable('input_query'))
             UNION ALL BY NAME SELECT NULL AS estimated WHERE false));
 .read sql/stages.sql

@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # The Python package (issue 16): `pip install .` into a FRESH venv (setuptools-rust builds the
-# loadable extension: no C++), then the pipeline through `trajdb.connect()` / `trajdb.pipeline`
-# in stock PyPI DuckDB on a simulated day, compared file by file with the `trajdb` binary's
-# results; and an old DuckDB is refused with a message naming the versions that work.
+# loadable extension: no C++), then the demo in stock PyPI DuckDB (`python -m trajdb`:
+# trajdb_simulate, the pipeline, the score), compared file by file with `trajdb demo`; and an
+# old DuckDB is refused with a message naming the versions that work.
 # usage: tests/test_python_package.sh   (after cargo build --release)
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -13,15 +13,15 @@ trap 'rm -rf "$W"' EXIT
 python3 -m venv "$W/venv"
 "$W/venv/bin/pip" install -q . 2>&1 | grep -v "^\s*$" | grep -vi "warning" || true
 "$W/venv/bin/python" -c "import trajdb" || { echo "FAIL: pip install . did not install trajdb" >&2; exit 1; }
-"$T" simulate --cameras 3 --minutes 2 --seed 11 --rate-hz 5 --out "$W/sim" > /dev/null 2>&1
-"$T" pipeline --input "$W/sim/points.parquet" --out "$W/bin" > /dev/null 2>&1
+# the demo both ways: stock DuckDB through the package (python -m trajdb), and the binary
+(cd "$W" && "$W/venv/bin/python" -m trajdb "$W/pydemo")
+"$T" demo --out "$W/bindemo" > /dev/null 2>&1
 "$W/venv/bin/python" - "$W" <<'PY'
 import sys, duckdb, trajdb
 w = sys.argv[1]
 con = trajdb.connect()
 v = con.sql("SELECT extension_version FROM duckdb_extensions() WHERE extension_name = 'trajdb'").fetchall()
 assert v == [("v" + trajdb.__version__,)], v
-trajdb.pipeline(con, f"{w}/sim/points.parquet", out=f"{w}/py")
 # identical to the binary, file by file (the report is the binary's only)
 q = duckdb.connect()
 checks = {
@@ -32,8 +32,8 @@ checks = {
     "clusters.csv": "FROM '{}/clusters.csv'",
 }
 for name, sql in checks.items():
-    a, b = sql.format(f"{w}/bin"), sql.format(f"{w}/py")
-    n = q.sql(f"SELECT count(*) FROM '{w}/bin/{name}'").fetchall()[0][0]
+    a, b = sql.format(f"{w}/bindemo/results"), sql.format(f"{w}/pydemo/results")
+    n = q.sql(f"SELECT count(*) FROM '{w}/bindemo/results/{name}'").fetchall()[0][0]
     diff = q.sql(f"SELECT (SELECT count(*) FROM ({a} EXCEPT ALL {b})) + (SELECT count(*) FROM ({b} EXCEPT ALL {a}))").fetchall()[0][0]
     assert n > 0 and diff == 0, f"{name}: {diff} rows differ of {n}"
     print(f"ok   {name}: {n} rows, identical to the trajdb binary")

@@ -117,3 +117,53 @@ def pipeline(con, input, out=None, **params):
         con.execute(f"SET VARIABLE out_dir = {_literal(os.path.abspath(out))}")
         read(con, "sql/export.sql")
     return con
+
+
+def simulate(con, out, **params):
+    """`trajdb simulate` in stock DuckDB: the scenario files in `out` (trajdb_simulate(); named
+    parameters as there, e.g. cameras=3, minutes=5, seed=1), plus points.parquet typed as the
+    shared scenarios. Returns the one summary row (dir, objects, cameras, tracks, points)."""
+    args = ", ".join([_literal(os.path.abspath(out))] + [f"{k} := {_literal(v)}" for k, v in params.items()])
+    row = con.sql(f"FROM trajdb_simulate({args})").fetchall()[0]
+    csv, pq = _literal(os.path.join(os.path.abspath(out), "points.csv")), _literal(os.path.join(os.path.abspath(out), "points.parquet"))
+    con.execute(
+        f"""COPY (SELECT camera::INTEGER AS camera, track_id::BIGINT AS track_id, class::VARCHAR AS class, t::DOUBLE AS t,
+                        x::DOUBLE AS x, y::DOUBLE AS y, speed::DOUBLE AS speed, estimated::INTEGER AS estimated
+                 FROM read_csv({csv}, header = true)) TO {pq} (FORMAT parquet)"""
+    )
+    return row
+
+
+def score(con, scenario, results):
+    """`trajdb score`: the results folder against the scenario's ground truth (sql/score.sql).
+    Returns {'rot_deg', 'trans_m', 'clock_s', 'match_f1', 'idf1', 'exact'} (worst camera pair,
+    overall match F1 and road-user identity); the tables s_pair_err, s_identity and
+    s_class_scores stay in `con`."""
+    con.execute(f"SET VARIABLE score_scenario = {_literal(os.path.abspath(scenario))}")
+    con.execute(f"SET VARIABLE score_results = {_literal(os.path.abspath(results))}")
+    read(con, "sql/score.sql")
+    rot, trans, clock = con.sql("SELECT max(rot_deg), max(trans_m), max(clock_err_s) FROM s_pair_err WHERE cam_from < cam_to").fetchall()[0]
+    p, r = con.sql("SELECT precision, recall FROM s_class_scores WHERE class = '*'").fetchall()[0]
+    idf1, exact = con.sql("SELECT idf1, exact_share FROM s_identity WHERE class = '*'").fetchall()[0]
+    return {"rot_deg": rot, "trans_m": trans, "clock_s": clock, "match_f1": 2 * p * r / (p + r) if p + r > 0 else 0.0, "idf1": idf1, "exact": exact}
+
+
+def demo(out="trajdb-demo", **params):
+    """`trajdb demo` in stock DuckDB: simulate (3 cameras, 5 minutes, seed 1 unless given), run
+    the pipeline into out/results, score it against the simulator's truth; raises unless match
+    F1 >= 0.95 and every camera pair is within 0.5 deg / 0.3 m (the binary's targets)."""
+    con = connect()
+    row = simulate(con, out, **params)
+    results = os.path.join(out, "results")
+    pipeline(con, os.path.join(out, "points.parquet"), out=results)
+    s = score(con, out, results)
+    ok = s["match_f1"] >= 0.95 and s["rot_deg"] <= 0.5 and s["trans_m"] <= 0.3
+    print(f"simulated {row[1]} objects, {row[2]} cameras, {row[3]} tracks, {row[4]} points -> {out}")
+    print(
+        f"demo {'PASSED' if ok else 'FAILED'}: match F1 {s['match_f1']:.3f} (target >= 0.95), IDF1 {s['idf1']:.3f}, "
+        f"worst camera pair {s['rot_deg']:.3f} deg / {s['trans_m']:.3f} m (targets 0.5 deg / 0.3 m); results in {results}"
+    )
+    if not ok:
+        raise RuntimeError("demo: the pipeline missed its accuracy targets")
+    return s
+

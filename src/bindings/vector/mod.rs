@@ -19,7 +19,7 @@ mod read;
 mod write;
 
 pub use read::{I64ListCol, OptCol, OptRegionCol, PrimCol, RegionCol, RegionListCol, Rows, SeriesCol, StructCol, StructListCol, TextCol, Traj3Col, TrajCol, TrajListCol};
-pub use write::{Column, Out, Value};
+pub use write::{chunk_set_i64, Column, Out, Value};
 
 use super::registry::{Param, Ty};
 use duckdb::core::DataChunkHandle;

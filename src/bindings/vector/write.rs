@@ -191,3 +191,13 @@ fn set_nulls(out: &mut FlatVector<'_>, nulls: impl Iterator<Item = bool>) {
         }
     }
 }
+
+/// Writes one BIGINT into column `col`, row `row`, of a table function's output chunk
+/// (`row` < 2048, the chunk's capacity).
+pub fn chunk_set_i64(chunk: &mut duckdb::core::DataChunkHandle, col: usize, row: usize, v: i64) {
+    assert!(row < 2048, "a data chunk holds 2048 rows");
+    let mut c = chunk.flat_vector(col);
+    // SAFETY: a table function's output vectors hold the standard vector size (2048) of the
+    // column's type, BIGINT here (the caller's bind declared it).
+    unsafe { c.as_mut_slice_with_len::<i64>(2048)[row] = v };
+}

@@ -1,7 +1,13 @@
 #!/usr/bin/env bash
-# The main job on a fresh machine: build the embedded trajdb (bundled DuckDB) and run the demo.
-# Uses the same target directory as scripts/test.sh, so DuckDB is compiled once for both.
+# README command 1, the main job on a fresh machine, in stock DuckDB: build the loadable
+# extension and the Python package (`pip install .`: Rust only, no C++), then `python -m trajdb`:
+# simulate 5 minutes of a 3-camera intersection (trajdb_simulate), run the whole pipeline, score
+# it against the simulator's truth. Output in ./trajdb-demo (or $1).
+# The HTML report needs the trajdb binary (scripts/demo-binary.sh: compiles DuckDB once, ~30 min).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 export CARGO_TARGET_DIR="${CARGO_TARGET_DIR:-$HOME/.cache/trajdb-target}"
-exec cargo run --release -- demo "$@"
+VENV="${TRAJDB_DEMO_VENV:-$HOME/.cache/trajdb-demo-venv}"
+[ -x "$VENV/bin/python" ] || python3 -m venv "$VENV"
+"$VENV/bin/pip" install -q --disable-pip-version-check .
+exec "$VENV/bin/python" -m trajdb "${1:-trajdb-demo}"

@@ -6,7 +6,7 @@
 //! `BLOB`s that DuckDB spatial's `ST_GeomFromWKB` reads. A polygon repeated over rows is
 //! parsed, validated and indexed once per chunk (see the vector module's `RegionCol`).
 
-use super::registry::{p, Function, Signature, Ty, GEOMETRY, TRAJ};
+use super::registry::{p, Function, Signature, Ty, GEOMETRY, GEOMETRY_LIST, TRAJ};
 use super::vector::{Args, Out};
 use crate::algo::geometry::{hull, polygon, region};
 use std::error::Error;
@@ -66,7 +66,7 @@ pub static FUNCTIONS: &[Function] = &[
         maths: POLYGON,
         binding: file!(),
         signatures: &[Signature {
-            params: &[p("polygons", Ty::OneOf(&[Ty::List(&Ty::Varchar), Ty::List(&Ty::Blob)]))],
+            params: &[p("polygons", GEOMETRY_LIST)],
             arities: &[],
             returns: Ty::Blob,
             kernel: union,

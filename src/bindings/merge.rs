@@ -2,7 +2,7 @@
 //! Maths: `src/algo/merge.rs` (eq. 2.11, the φ_i = Θ(φ_{i−1}, A^{k_i}) recursion, consistent
 //! groups).
 
-use super::registry::{p, Function, Param, Signature, Ty, GEOMETRY, TRAJ};
+use super::registry::{p, Function, Param, Signature, Ty, GEOMETRY, GEOMETRY_LIST, TRAJ};
 use super::vector::{Args, Column, Out};
 use crate::algo::geometry::region::Region;
 use crate::algo::lcss::time_window::TimeWindowParams;
@@ -40,7 +40,7 @@ pub static FUNCTIONS: &[Function] = &[
                     p("trajs", Ty::List(&TRAJ)),
                     p("epsilon", Ty::Double),
                     p("time_window", Ty::Double),
-                    p("regions", Ty::OneOf(&[Ty::List(&Ty::Varchar), Ty::List(&Ty::Blob)])),
+                    p("regions", GEOMETRY_LIST),
                 ],
                 arities: &[3, 4],
                 returns: TRAJ,

@@ -29,6 +29,8 @@ pub enum Ty {
     Boolean,
     Varchar,
     Blob,
+    /// DuckDB's core GEOMETRY (1.5+): WKB in a BLOB-like vector, read as WKB.
+    Geometry,
     List(&'static Ty),
     Struct(&'static [(&'static str, Ty)]),
     /// Any one of these (an overload each), e.g. a polygon as WKT VARCHAR or WKB BLOB.
@@ -39,8 +41,10 @@ pub enum Ty {
 pub const TRAJ: Ty = Ty::List(&Ty::Struct(&[("t", Ty::Double), ("x", Ty::Double), ("y", Ty::Double)]));
 /// `STRUCT(theta DOUBLE, tx DOUBLE, ty DOUBLE, scale DOUBLE)`, a 2-D similarity transform.
 pub const TRANSFORM: Ty = Ty::Struct(&[("theta", Ty::Double), ("tx", Ty::Double), ("ty", Ty::Double), ("scale", Ty::Double)]);
-/// A polygon: WKT text or WKB bytes.
-pub const GEOMETRY: Ty = Ty::OneOf(&[Ty::Varchar, Ty::Blob]);
+/// A polygon: WKT text, WKB bytes, or a GEOMETRY value (DuckDB 1.5+; e.g. merged.parquet's geometry).
+pub const GEOMETRY: Ty = Ty::OneOf(&[Ty::Varchar, Ty::Blob, Ty::Geometry]);
+/// A list of polygons: WKT, WKB or GEOMETRY elements.
+pub const GEOMETRY_LIST: Ty = Ty::OneOf(&[Ty::List(&Ty::Varchar), Ty::List(&Ty::Blob), Ty::List(&Ty::Geometry)]);
 /// `STRUCT(t DOUBLE, v DOUBLE)[]`, a 1-D series such as speeds.
 pub const SERIES: Ty = Ty::List(&Ty::Struct(&[("t", Ty::Double), ("v", Ty::Double)]));
 
@@ -54,6 +58,7 @@ impl Ty {
             Ty::Boolean => LogicalTypeId::Boolean.into(),
             Ty::Varchar => LogicalTypeId::Varchar.into(),
             Ty::Blob => LogicalTypeId::Blob.into(),
+            Ty::Geometry => LogicalTypeId::Geometry.into(),
             Ty::List(t) => LogicalTypeHandle::list(&t.logical()),
             Ty::Struct(fields) => {
                 let f: Vec<(&str, LogicalTypeHandle)> = fields.iter().map(|(n, t)| (*n, t.logical())).collect();
@@ -81,6 +86,7 @@ impl Ty {
             Ty::Boolean => "BOOLEAN".into(),
             Ty::Varchar => "VARCHAR".into(),
             Ty::Blob => "BLOB".into(),
+            Ty::Geometry => "GEOMETRY".into(),
             Ty::List(t) => format!("{}[]", t.sql()),
             Ty::Struct(fields) => {
                 let f: Vec<String> = fields.iter().map(|(n, t)| format!("{} {}", quote(n), t.sql())).collect();

@@ -105,6 +105,17 @@ pub static FUNCTIONS: &[Function] = &[
         table: None,
     },
     Function {
+        name: "traj_to_geometry",
+        description: "The trajectory as DuckDB's core GEOMETRY (DuckDB 1.5+): the geometry traj_to_wkb writes (LINESTRING, POINT for one point, \
+                      LINESTRING EMPTY), with time as M when with_time = true. GEOMETRY functions and GeoParquet writers take it directly; on hosts \
+                      without the type use traj_to_wkb.",
+        example: "SELECT typeof(traj_to_geometry([{'t': 0, 'x': 0, 'y': 0}, {'t': 1, 'x': 3, 'y': 4}])); -- GEOMETRY",
+        maths: MATHS,
+        binding: file!(),
+        signatures: &[Signature { params: &[p("traj", TRAJ), p("with_time", Ty::Boolean)], arities: &[1, 2], returns: Ty::Geometry, kernel: to_wkb }],
+        table: None,
+    },
+    Function {
         name: "traj_resample",
         description: "The trajectory at t = k * period seconds (k integer: one clock shared by every camera), by linear interpolation; \
                       no extrapolation, and no interpolation across a gap longer than max_gap seconds (default: no limit). \

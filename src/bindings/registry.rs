@@ -324,8 +324,9 @@ mod tests {
             returns: Ty::Double,
             kernel: k,
         };
-        assert_eq!(S.overloads().len(), 3);
-        assert_eq!(S.render("f"), "f(a TRAJ, eps DOUBLE [, n BIGINT, region VARCHAR|BLOB]) -> DOUBLE");
+        // (a, eps) and (a, eps, n, region) with region as VARCHAR, BLOB or GEOMETRY
+        assert_eq!(S.overloads().len(), 4);
+        assert_eq!(S.render("f"), "f(a TRAJ, eps DOUBLE [, n BIGINT, region VARCHAR|BLOB|GEOMETRY]) -> DOUBLE");
         static T: Signature = Signature { params: &[p("a", Ty::Double), p("b", Ty::Double), p("c", Ty::Double)], arities: &[1, 2, 3], returns: Ty::Double, kernel: k };
         assert_eq!(T.render("g"), "g(a DOUBLE [, b DOUBLE [, c DOUBLE]]) -> DOUBLE");
         assert_eq!(Ty::List(&Ty::Struct(&[("left", Ty::Bigint)])).sql(), "STRUCT(\"left\" BIGINT)[]");

@@ -19,6 +19,30 @@ fn trajdb(args: &[&str], stdin: Option<&str>) -> (bool, String, String) {
     (o.status.success(), String::from_utf8_lossy(&o.stdout).into(), String::from_utf8_lossy(&o.stderr).into())
 }
 
+/// Simulates a scenario into a fresh temp folder named after `name` (simulator options `sim`),
+/// then runs the pipeline on it into `results/` (extra pipeline options `pipeline`). Returns the
+/// scenario and results folders.
+fn simulated_run(name: &str, sim: &[&str], pipeline: &[&str]) -> (std::path::PathBuf, std::path::PathBuf) {
+    let dir = std::env::temp_dir().join(format!("trajdb-{name}-{}", std::process::id()));
+    let mut args = vec!["simulate", "--out", dir.to_str().unwrap()];
+    args.extend_from_slice(sim);
+    let (ok, _, err) = trajdb(&args, None);
+    assert!(ok, "{err}");
+    let (res, input) = (dir.join("results"), dir.join("points.parquet"));
+    let mut args = vec!["pipeline", "--input", input.to_str().unwrap(), "--out", res.to_str().unwrap()];
+    args.extend_from_slice(pipeline);
+    let (ok, _, err) = trajdb(&args, None);
+    assert!(ok, "{err}");
+    (dir, res)
+}
+
+/// The numbers of the `all` row in the section of `trajdb score`'s output that starts with
+/// `section`, and the row itself.
+fn score_all_row(text: &str, section: &str) -> (Vec<f64>, String) {
+    let all = text.lines().skip_while(|l| !l.starts_with(section)).find(|l| l.trim_start().starts_with("all")).expect(text);
+    (all.split_whitespace().skip(1).filter_map(|w| w.parse().ok()).collect(), all.to_string())
+}
+
 const Q: &str = "SELECT lcss_length([{'t': 0, 'x': 0, 'y': 0}], [{'t': 0.1, 'x': 0.2, 'y': 0}], 1.0, 0.5) AS l";
 
 #[test]
@@ -265,13 +289,8 @@ fn score_on_shared_scenario() {
 /// IDF1, exactly reconstructed objects and the within-camera links.
 #[test]
 fn score_reports_identity_from_original_sources() {
-    let dir = std::env::temp_dir().join(format!("trajdb-identity-{}", std::process::id()));
+    let (dir, res) = simulated_run("identity", &["--cameras", "3", "--minutes", "2", "--seed", "3"], &[]);
     let d = dir.to_str().unwrap();
-    let (ok, _, err) = trajdb(&["simulate", "--cameras", "3", "--minutes", "2", "--seed", "3", "--out", d], None);
-    assert!(ok, "{err}");
-    let res = dir.join("results");
-    let (ok, _, err) = trajdb(&["pipeline", "--input", dir.join("points.parquet").to_str().unwrap(), "--out", res.to_str().unwrap()], None);
-    assert!(ok, "{err}");
     // sources are original track ids: together they are exactly the tracks of links.csv, once each
     let q = format!(
         "WITH s AS (SELECT unnest(sources) AS s FROM read_parquet('{m}')),
@@ -287,8 +306,7 @@ fn score_reports_identity_from_original_sources() {
     assert_eq!(out, "ok\ntrue\n");
     let (ok, text, err) = trajdb(&["score", d, "--results", res.to_str().unwrap()], None);
     assert!(ok, "{err}");
-    let all = text.lines().skip_while(|l| !l.starts_with("road users")).find(|l| l.trim_start().starts_with("all")).expect(&text);
-    let v: Vec<f64> = all.split_whitespace().skip(1).filter_map(|w| w.parse().ok()).collect();
+    let (v, all) = score_all_row(&text, "road users");
     assert!(v[0] > 0.9 && v[0] <= 1.0, "IDF1: {all}");
     assert!(v[1] > 0.5 && v[1] <= 1.0, "exact share: {all}");
     std::fs::remove_dir_all(&dir).ok();
@@ -300,14 +318,12 @@ fn score_reports_identity_from_original_sources() {
 /// `--param merge_epsilon=0.4` is reported as given.
 #[test]
 fn calibration_measures_period_noise_and_clock_offsets() {
-    let dir = std::env::temp_dir().join(format!("trajdb-calib-{}", std::process::id()));
+    let (dir, res) = simulated_run(
+        "calib",
+        &["--cameras", "3", "--minutes", "3", "--seed", "4", "--rate-hz", "5", "--clock-offset-max", "0.3"],
+        &["--param", "merge_epsilon=0.4"],
+    );
     let d = dir.to_str().unwrap();
-    let (ok, _, err) = trajdb(&["simulate", "--cameras", "3", "--minutes", "3", "--seed", "4", "--rate-hz", "5", "--clock-offset-max", "0.3", "--out", d], None);
-    assert!(ok, "{err}");
-    let res = dir.join("results");
-    let input = dir.join("points.parquet");
-    let (ok, _, err) = trajdb(&["pipeline", "--input", input.to_str().unwrap(), "--out", res.to_str().unwrap(), "--param", "merge_epsilon=0.4"], None);
-    assert!(ok, "{err}");
     let q = format!(
         "SELECT count(*) FILTER (WHERE quantity = 'sampling period' AND abs(value - 0.2) < 1e-6) AS periods,
                 count(*) FILTER (WHERE quantity = 'position noise sigma' AND value BETWEEN 0.02 AND 0.3) AS sigmas,
@@ -333,13 +349,8 @@ fn calibration_measures_period_noise_and_clock_offsets() {
 /// path at the same time (`trajdb score`, against world.csv).
 #[test]
 fn crowd_neighbours_stay_apart_and_merged_paths_stay_on_the_true_path() {
-    let dir = std::env::temp_dir().join(format!("trajdb-crowd-{}", std::process::id()));
+    let (dir, res) = simulated_run("crowd", &["--cameras", "3", "--minutes", "2", "--seed", "5", "--pedestrians", "10"], &[]);
     let d = dir.to_str().unwrap();
-    let (ok, _, err) = trajdb(&["simulate", "--cameras", "3", "--minutes", "2", "--seed", "5", "--pedestrians", "10", "--out", d], None);
-    assert!(ok, "{err}");
-    let res = dir.join("results");
-    let (ok, _, err) = trajdb(&["pipeline", "--input", dir.join("points.parquet").to_str().unwrap(), "--out", res.to_str().unwrap()], None);
-    assert!(ok, "{err}");
     let q = format!(
         "WITH s AS (SELECT road_user, unnest(sources) AS s FROM read_parquet('{m}')),
               t AS (SELECT * FROM read_csv('{t}') WHERE is_noise = 0),
@@ -358,8 +369,7 @@ fn crowd_neighbours_stay_apart_and_merged_paths_stay_on_the_true_path() {
     assert_eq!(out, "mixed,unknown_tracks,no_road_user\n0,0,0\n");
     let (ok, text, err) = trajdb(&["score", d, "--results", res.to_str().unwrap()], None);
     assert!(ok, "{err}");
-    let all = text.lines().skip_while(|l| !l.starts_with("merged paths")).find(|l| l.trim_start().starts_with("all")).expect(&text);
-    let v: Vec<f64> = all.split_whitespace().skip(1).filter_map(|w| w.parse().ok()).collect();
+    let (v, all) = score_all_row(&text, "merged paths");
     assert!(v[0] > 1000.0 && v[3] < 1.0 && v[4] == 0.0, "points, median, p95, max, road users > 1 m: {all}");
     std::fs::remove_dir_all(&dir).ok();
 }

@@ -63,7 +63,7 @@ def load(con):
     """Loads trajdb into `con` (opened with allow_unsigned_extensions, as trajdb.connect does)."""
     check_duckdb()
     try:
-        con.execute(f"LOAD '{extension_path()}'")
+        con.execute(f"LOAD {_literal(extension_path())}")
     except duckdb.Error as e:
         if "unsigned" in str(e).lower() or "signature" in str(e).lower():
             raise RuntimeError(
@@ -109,6 +109,8 @@ def pipeline(con, input, out=None, **params):
     parameters by keyword (`merge_eta=0.6`; `trajdb params` lists them), then the stages; with
     `out`, the result files are written there. The tables (merged, matches, ...) stay in `con`."""
     for k, v in params.items():
+        if not k.isidentifier():
+            raise ValueError(f"trajdb.pipeline: parameter names are identifiers (see `trajdb params`), got {k!r}")
         con.execute(f"SET VARIABLE {k} = {_literal(v)}")
     con.execute(f"SET VARIABLE pipeline_input = {_literal(input)}")
     read(con, "sql/pipeline.sql")

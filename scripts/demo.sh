@@ -2,8 +2,8 @@
 # README command 1, the main job on a fresh machine, in stock DuckDB: build the loadable
 # extension and the Python package (`pip install .`: Rust only, no C++), then `python -m trajdb`:
 # simulate 5 minutes of a 3-camera intersection (trajdb_simulate), run the whole pipeline, score
-# it against the simulator's truth. Output in ./trajdb-demo (or $1).
-# The HTML report needs the trajdb binary (scripts/demo-binary.sh: compiles DuckDB once, ~30 min).
+# it against the simulator's truth. Output in ./trajdb-demo (or $1), with results/report.html.
+# scripts/demo-binary.sh does the same with the trajdb binary (compiles DuckDB once, ~30 min).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 export CARGO_TARGET_DIR="${CARGO_TARGET_DIR:-$HOME/.cache/trajdb-target}"

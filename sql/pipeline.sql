@@ -7,7 +7,8 @@
 --
 -- 1 parameters (defaults for whatever you did not set), 2 load, 3 the stages of sql/stages.sql.
 -- `trajdb pipeline --input FILE --out DIR` runs the same files and also writes the results
--- (sql/export.sql) and report.html.
+-- (sql/export.sql) and report.html (sql/report.sql); in the CLI afterwards:
+--   SET VARIABLE out_dir = 'results'; .read sql/export.sql; .read sql/report.sql
 .read sql/params.sql
 -- load: the input's columns by name (input_columns maps yours: 'camera=cam_id, t=time'); t may
 -- be seconds (any number) or a TIMESTAMP / TIMESTAMPTZ (then epoch seconds); estimated may be

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The Python package (issue 16): `pip install .` into a FRESH venv (setuptools-rust builds the
 # loadable extension: no C++), then the demo in stock PyPI DuckDB (`python -m trajdb`:
-# trajdb_simulate, the pipeline, the score), compared file by file with `trajdb demo`; and an
+# trajdb_simulate, the pipeline, report.html, the score), compared file by file with `trajdb demo`; and an
 # old DuckDB is refused with a message naming the versions that work.
 # usage: tests/test_python_package.sh   (after cargo build --release)
 set -euo pipefail
@@ -22,7 +22,7 @@ w = sys.argv[1]
 con = trajdb.connect()
 v = con.sql("SELECT extension_version FROM duckdb_extensions() WHERE extension_name = 'trajdb'").fetchall()
 assert v == [("v" + trajdb.__version__,)], v
-# identical to the binary, file by file (the report is the binary's only)
+# identical to the binary, file by file
 q = duckdb.connect()
 checks = {
     "merged.parquet": "SELECT road_user, class, n_tracks, sources, t_start, t_end, length_m, traj FROM '{}/merged.parquet'",
@@ -37,6 +37,14 @@ for name, sql in checks.items():
     diff = q.sql(f"SELECT (SELECT count(*) FROM ({a} EXCEPT ALL {b})) + (SELECT count(*) FROM ({b} EXCEPT ALL {a}))").fetchall()[0][0]
     assert n > 0 and diff == 0, f"{name}: {diff} rows differ of {n}"
     print(f"ok   {name}: {n} rows, identical to the trajdb binary")
+# report.html: the same page but for the stage times and the input path
+import re
+def page(d):
+    h = open(f"{w}/{d}/results/report.html").read()
+    return re.sub(r"<h2>Stages</h2><table>.*?</table>", "", re.sub(r"Input: <code>.*?</code>", "", h))
+a, b = page("bindemo"), page("pydemo")
+assert len(a) > 100_000 and a == b, f"report.html differs ({len(a)} / {len(b)} characters)"
+print(f"ok   report.html: {len(a)} characters, identical to the trajdb binary's but for the stage times")
 # an old DuckDB is refused, naming the versions that work
 duckdb.__version__ = "1.4.3"
 try:

@@ -8,13 +8,14 @@
 
 The extension is built from this repository by `pip install .` (setuptools-rust; no C++ is
 compiled). `pipeline` runs the same SQL files as `trajdb pipeline` and writes the same result
-files (transforms.csv, calibration.csv, matches.csv, merged.parquet, clusters.csv, links.csv);
-the HTML report needs the `trajdb` binary.
+files (transforms.csv, calibration.csv, matches.csv, merged.parquet, clusters.csv, links.csv,
+report.html).
 """
 import glob
 import hashlib
 import os
 import tempfile
+import time
 
 import duckdb
 
@@ -92,8 +93,39 @@ def sql_file(path):
 
 def read(con, path):
     """Runs one of trajdb's SQL files, like the DuckDB CLI's `.read sql/...`."""
-    for stmt in con.extract_statements(sql_file(path)):
+    _run(con, sql_file(path))
+
+
+def _run(con, text):
+    for stmt in con.extract_statements(text):
         con.execute(stmt.query).fetchall()
+
+
+def _parts(path, out):
+    """(name, text) per stage, as the binary's stage runner splits a file (src/app/sql.rs):
+    a `.read sql/stages/X.sql` is stage X, everything else is 'load'."""
+    with open(os.path.join(_HERE, path)) as f:
+        for line in f:
+            target = line.split(maxsplit=1)[1].strip() if line.startswith(".read ") else None
+            if target and target.startswith("sql/stages/"):
+                out.append((os.path.basename(target)[: -len(".sql")], sql_file(target)))
+            elif target:
+                _parts(target, out)
+            else:
+                if not out or out[-1][0] != "load":
+                    out.append(("load", ""))
+                out[-1] = ("load", out[-1][1] + line)
+    return out
+
+
+def _run_timed(con, path):
+    """Runs a SQL file stage by stage; returns [(stage, seconds)] (the report's stage table)."""
+    timings = []
+    for name, text in _parts(path, []):
+        t = time.perf_counter()
+        _run(con, text)
+        timings.append((name, time.perf_counter() - t))
+    return timings
 
 
 def _literal(v):
@@ -107,17 +139,22 @@ def _literal(v):
 def pipeline(con, input, out=None, **params):
     """The whole pipeline on `input` (a Parquet / CSV file or a table name), as `trajdb pipeline`:
     parameters by keyword (`merge_eta=0.6`; `trajdb params` lists them), then the stages; with
-    `out`, the result files are written there. The tables (merged, matches, ...) stay in `con`."""
+    `out`, the result files and report.html are written there. The tables (merged, matches, ...) stay in `con`."""
     for k, v in params.items():
         if not k.isidentifier():
             raise ValueError(f"trajdb.pipeline: parameter names are identifiers (see `trajdb params`), got {k!r}")
         con.execute(f"SET VARIABLE {k} = {_literal(v)}")
     con.execute(f"SET VARIABLE pipeline_input = {_literal(input)}")
-    read(con, "sql/pipeline.sql")
+    timings = _run_timed(con, "sql/pipeline.sql")
     if out is not None:
         os.makedirs(out, exist_ok=True)
         con.execute(f"SET VARIABLE out_dir = {_literal(os.path.abspath(out))}")
+        t = time.perf_counter()
         read(con, "sql/export.sql")
+        timings.append(("write", time.perf_counter() - t))
+        con.execute("CREATE OR REPLACE TEMP TABLE pipeline_timings (stage VARCHAR, seconds DOUBLE)")
+        con.executemany("INSERT INTO pipeline_timings VALUES (?, ?)", timings)
+        read(con, "sql/report.sql")
     return con
 
 

@@ -8,10 +8,11 @@
 //! | `sql` | the embedded SQL files, `.read` includes, statement splitting, the stage list |
 //! | `pipeline` | the stage runner over sql/pipeline.sql, then sql/export.sql and the report |
 //! | `score` | `trajdb score` (sql/score.sql) |
-//! | `report` | report.html |
+//! | [`report`] | report.html: the page from the data of sql/report.sql (pure Rust) |
 //! | `shell` | running SQL scripts and printing results |
 //! | `demo` | `trajdb demo`, `trajdb demo --sql`, `trajdb simulate` |
 
+pub mod report;
 pub mod simulate;
 
 #[cfg(feature = "bundled")]
@@ -20,8 +21,6 @@ pub mod demo;
 pub mod params;
 #[cfg(feature = "bundled")]
 pub mod pipeline;
-#[cfg(feature = "bundled")]
-pub mod report;
 #[cfg(feature = "bundled")]
 pub mod score;
 #[cfg(feature = "bundled")]

@@ -144,20 +144,13 @@ pub fn resolve(overrides: &[(String, String)]) -> Result<Vec<(&'static Param, St
         .collect()
 }
 
-/// `SET VARIABLE` statements for resolved values, and the `pipeline_params` table that records
-/// them (the report shows it).
+/// `SET VARIABLE` statements for resolved values (sql/params.sql then records them in the
+/// `pipeline_params` table that the report shows).
 pub fn set_sql(values: &[(&'static Param, String)]) -> String {
     let mut sql = String::new();
     for (p, v) in values {
         let _ = writeln!(sql, "SET VARIABLE {} = {v};", p.name);
     }
-    sql.push_str("CREATE OR REPLACE TEMP TABLE pipeline_params AS SELECT * FROM (VALUES\n");
-    let rows: Vec<String> = values
-        .iter()
-        .map(|(p, v)| format!("    ('{}', '{}', '{}', '{}')", p.name, v.replace('\'', "''"), p.stage, p.description.replace('\'', "''")))
-        .collect();
-    sql.push_str(&rows.join(",\n"));
-    sql.push_str("\n) t(name, value, stage, description);\n");
     sql
 }
 
@@ -175,6 +168,14 @@ pub fn params_sql() -> String {
         }
         let _ = writeln!(s, "SET VARIABLE {0} = coalesce(getvariable('{0}'), {1}); -- {2}", p.name, p.literal(p.default).expect("valid default"), p.description);
     }
+    // the values this run uses (the report's parameter table); NULL is 'auto'
+    s.push_str("\n-- the values in use, one row per parameter (report.html shows them)\nCREATE OR REPLACE TEMP TABLE pipeline_params AS SELECT * FROM (VALUES\n");
+    let rows: Vec<String> = PARAMS
+        .iter()
+        .map(|p| format!("    ('{0}', coalesce(getvariable('{0}')::VARCHAR, 'auto'), '{1}', '{2}')", p.name, p.stage, p.description.replace('\'', "''")))
+        .collect();
+    s.push_str(&rows.join(",\n"));
+    s.push_str("\n) t(name, value, stage, description);\n");
     s
 }
 

@@ -5,14 +5,14 @@
 //! `--param name=value`, checked against its type) is set with `SET VARIABLE` before the SQL
 //! runs, and `sql/params.sql` keeps values that are already set.
 
-use super::{params, report, sql};
+use super::{params, sql};
 use duckdb::Connection;
 use std::error::Error;
 use std::io::IsTerminal;
 use std::path::Path;
 use std::time::Instant;
 
-/// Sets the parameters (defaults and `overrides`) and records them in `pipeline_params`.
+/// Sets the parameters (defaults and `overrides`); sql/params.sql records them in `pipeline_params`.
 pub fn set_params(con: &Connection, overrides: &[(String, String)]) -> Result<(), Box<dyn Error>> {
     con.execute_batch(&params::set_sql(&params::resolve(overrides)?))?;
     Ok(())
@@ -58,7 +58,11 @@ pub fn run_sql_file(con: &Connection, path: &str) -> Result<Vec<(String, f64)>, 
 /// A stage's error, naming the stage, its file and, where one is known, the fix.
 fn stage_error(stage: &str, err: &str) -> Box<dyn Error> {
     eprintln!("failed");
-    let file = if stage == "load" { "sql/pipeline.sql".to_string() } else { format!("sql/stages/{stage}.sql") };
+    let file = match stage {
+        "load" => "sql/pipeline.sql".to_string(),
+        "export" | "report" => format!("sql/{stage}.sql"),
+        _ => format!("sql/stages/{stage}.sql"),
+    };
     let fix = if stage == "load" {
         "\nfix: the input needs the columns camera, track_id, class, t, x, y (t in seconds or a TIMESTAMP; estimated \
          optional). Map your own names with --param \"input_columns=camera=cam_id, t=time\" (in SQL: SET VARIABLE \
@@ -69,6 +73,20 @@ fn stage_error(stage: &str, err: &str) -> Box<dyn Error> {
         ""
     };
     format!("pipeline stage '{stage}' ({file}) failed: {err}{fix}").into()
+}
+
+/// report.html in `out_dir`: the stage times go to `pipeline_timings`, then `sql/report.sql`
+/// gathers the data and `trajdb_report_html()` draws it (the same SQL as in stock DuckDB).
+fn write_report(con: &Connection, timings: &[(String, f64)]) -> Result<(), Box<dyn Error>> {
+    con.execute_batch("CREATE OR REPLACE TEMP TABLE pipeline_timings (stage VARCHAR, seconds DOUBLE)")?;
+    {
+        let mut st = con.prepare("INSERT INTO pipeline_timings VALUES (?, ?)")?;
+        for (stage, s) in timings {
+            st.execute(duckdb::params![stage, s])?;
+        }
+    }
+    con.execute_batch(sql::file("sql/report.sql").expect("sql/report.sql")).map_err(|e| stage_error("report", &e.to_string()))?;
+    Ok(())
 }
 
 /// Runs the pipeline on `input` (Parquet or CSV with camera, track_id, class, t, x, y,
@@ -92,7 +110,7 @@ pub fn run(con: &Connection, input: &str, out: &Path, overrides: &[(String, Stri
         eprintln!("[trajdb] write    {:>7.2} s  -> {}", t.elapsed().as_secs_f64(), out.display());
         timings.push(("write".into(), t.elapsed().as_secs_f64()));
         let t = Instant::now();
-        report::write(con, &partial, input, &timings)?;
+        write_report(con, &timings)?;
         eprintln!("[trajdb] report   {:>7.2} s  -> {}", t.elapsed().as_secs_f64(), out.join("report.html").display());
         Ok(())
     })();

@@ -14,6 +14,7 @@ pub mod matching;
 pub mod merge;
 pub mod meta;
 pub mod registry;
+pub mod report;
 pub mod simulate;
 pub mod traj;
 pub mod vector;
@@ -23,7 +24,7 @@ use registry::{Doc, Function};
 
 /// Every function, in reference order.
 pub fn functions() -> Vec<&'static Function> {
-    [traj::FUNCTIONS, lcss::FUNCTIONS, align::FUNCTIONS, geometry::FUNCTIONS, matching::FUNCTIONS, merge::FUNCTIONS, cluster::FUNCTIONS, events::FUNCTIONS, meta::FUNCTIONS, simulate::FUNCTIONS]
+    [traj::FUNCTIONS, lcss::FUNCTIONS, align::FUNCTIONS, geometry::FUNCTIONS, matching::FUNCTIONS, merge::FUNCTIONS, cluster::FUNCTIONS, events::FUNCTIONS, meta::FUNCTIONS, simulate::FUNCTIONS, report::FUNCTIONS]
         .into_iter()
         .flatten()
         .collect()

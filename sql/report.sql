@@ -1,0 +1,95 @@
+-- trajdb: report.html, the pipeline's QA report, written into getvariable('out_dir') after
+-- sql/export.sql (`trajdb pipeline`, trajdb.pipeline(con, input, out=...) and the DuckDB CLI:
+-- SET VARIABLE out_dir = 'results'; .read sql/export.sql; .read sql/report.sql).
+--
+-- This file gathers the report's data from the pipeline's tables; trajdb_report_html() (Rust,
+-- src/app/report/) only draws it. Every row below is one line of the data text: its section
+-- name and cells, cells separated by chr(31), rows by chr(30), NULL as chr(21). Numbers are
+-- DuckDB's VARCHAR casts, which round-trip exactly. Stage times come from the temp table
+-- pipeline_timings(stage, seconds) when the runner filled it.
+CREATE TEMP TABLE IF NOT EXISTS pipeline_timings (stage VARCHAR, seconds DOUBLE);
+CREATE OR REPLACE TEMP MACRO report_cell(v) AS coalesce(replace(replace(v::VARCHAR, chr(30), ' '), chr(31), ' '), chr(21));
+CREATE OR REPLACE TEMP MACRO report_xy(traj) AS array_to_string([p.x::VARCHAR || ' ' || p.y::VARCHAR FOR p IN traj], ',');
+CREATE OR REPLACE TEMP TABLE report_points AS
+SELECT p.camera, p.x, p.y, transform_point(f.to_reference, p.x, p.y) AS a, p.k
+FROM (SELECT camera, x, y, row_number() OVER (ORDER BY camera, track_id, t) AS k FROM points WHERE estimated = 0) p
+LEFT JOIN align_frames f USING (camera)
+-- at most about 12,000 points in the plots
+WHERE p.k % greatest((SELECT count(*) FROM points WHERE estimated = 0) // 12000, 1) = 0;
+CREATE OR REPLACE TEMP TABLE report_samples AS
+WITH m AS (SELECT road_user, class, len(list_distinct([s.camera FOR s IN sources])) AS n_cams, traj_length_m(traj) AS len_m
+           FROM merged WHERE n_tracks > 1),
+     -- variety: the longest road user of every (class, camera count), then round-robin over classes
+     best AS (SELECT *, row_number() OVER (PARTITION BY class, n_cams ORDER BY len_m DESC, road_user) AS k FROM m QUALIFY k = 1)
+SELECT road_user, class, row_number() OVER (ORDER BY rr, class) AS k
+FROM (SELECT road_user, class, row_number() OVER (PARTITION BY class ORDER BY n_cams DESC) AS rr FROM best)
+WHERE rr <= 2 ORDER BY k LIMIT 6;
+CREATE OR REPLACE TEMP TABLE report_rows AS
+SELECT 'meta' AS s, 1 AS k, ['input', getvariable('pipeline_input')] AS c
+UNION ALL SELECT 'meta', 2, ['xi', calibrated('merge_min_points')::BIGINT::VARCHAR]
+UNION ALL SELECT 'meta', 3, ['eta', getvariable('merge_eta')::DOUBLE::VARCHAR]
+UNION ALL SELECT 'meta', 4, ['cluster_camera', getvariable('cluster_camera')::BIGINT::VARCHAR]
+UNION ALL SELECT 'meta', 5, ['step', greatest((SELECT count(*) FROM points WHERE estimated = 0) // 12000, 1)::VARCHAR]
+UNION ALL SELECT 'stage', row_number() OVER (), [stage, seconds::VARCHAR] FROM pipeline_timings
+UNION ALL SELECT 'camera', row_number() OVER (ORDER BY camera), [camera::VARCHAR] FROM (SELECT DISTINCT camera FROM points)
+UNION ALL SELECT 'class', row_number() OVER (ORDER BY class), [class] FROM (SELECT DISTINCT class FROM points)
+UNION ALL SELECT 'transform', row_number() OVER (ORDER BY camera),
+    [camera::VARCHAR, reference::VARCHAR, degrees(to_reference.theta)::VARCHAR, to_reference.tx::VARCHAR, to_reference.ty::VARCHAR,
+     hops::VARCHAR, bottleneck_support::VARCHAR, (clock_offset_s * 1000)::VARCHAR]
+    FROM align_frames
+UNION ALL SELECT 'unaligned', row_number() OVER (ORDER BY camera), [camera::VARCHAR]
+    FROM (SELECT DISTINCT camera FROM points ANTI JOIN align_frames USING (camera))
+UNION ALL SELECT 'calibration', row_number() OVER (ORDER BY scope, quantity), [scope, quantity, value::VARCHAR, unit, how]
+    FROM calibration_summary
+UNION ALL SELECT 'point', k, [camera::VARCHAR, x::VARCHAR, y::VARCHAR, a.x::VARCHAR, a.y::VARCHAR] FROM report_points
+UNION ALL SELECT 'view', row_number() OVER (ORDER BY camera, class), [camera::VARCHAR, class, polygon_to_wkt(polygon)]
+    FROM view_polygons
+UNION ALL SELECT 'overlap', row_number() OVER (ORDER BY class, cam_a, cam_b),
+    [class, cam_a::VARCHAR, cam_b::VARCHAR, polygon_to_wkt(polygon), area_m2::VARCHAR]
+    FROM view_overlaps
+-- tracks per class and camera; n_xi: with at least ξ points in an overlap with another camera
+UNION ALL SELECT 'count', row_number() OVER (ORDER BY class, camera), [class, camera::VARCHAR, n::VARCHAR, n_xi::VARCHAR]
+    FROM (SELECT class, camera, count(*) AS n, count(*) FILTER (WHERE best >= calibrated('merge_min_points')) AS n_xi
+          FROM (SELECT t.camera, t.track_id, t.class, max(traj_points_inside(t.traj, o.polygon)) AS best
+                FROM merge_tracks t
+                LEFT JOIN view_overlaps o ON o.class = t.class AND (o.cam_a = t.camera OR o.cam_b = t.camera) AND o.area_m2 > 0
+                GROUP BY ALL)
+          GROUP BY ALL)
+-- Cayley tables: camera's tracks with at least ξ points in its overlap with other
+UNION ALL SELECT 'cayley', row_number() OVER (ORDER BY class, camera, other), [class, camera::VARCHAR, other::VARCHAR, n::VARCHAR]
+    FROM (SELECT t.class, t.camera, CASE WHEN o.cam_a = t.camera THEN o.cam_b ELSE o.cam_a END AS other,
+                 count(*) FILTER (WHERE traj_points_inside(t.traj, o.polygon) >= calibrated('merge_min_points')) AS n
+          FROM merge_tracks t JOIN view_overlaps o ON o.class = t.class AND (o.cam_a = t.camera OR o.cam_b = t.camera)
+          GROUP BY ALL)
+-- accepted cross-camera links per camera pair and class
+UNION ALL SELECT 'link', row_number() OVER (ORDER BY pair, class), [pair, class, n::VARCHAR]
+    FROM (SELECT t.camera::VARCHAR || '–' || u.camera::VARCHAR AS pair, t.class, count(*) AS n
+          FROM merge_links m JOIN merge_groups ga ON ga.uid = m.uid_a JOIN merge_groups gb ON gb.uid = m.uid_b
+          JOIN merge_tracks t ON t.uid = m.uid_a JOIN merge_tracks u ON u.uid = m.uid_b
+          WHERE ga.road_user = gb.road_user AND m.kind <> 'reach' GROUP BY ALL)
+-- road users per set of cameras that saw them
+UNION ALL SELECT 'set', row_number() OVER (ORDER BY length(cams), cams, class), [cams, class, n::VARCHAR]
+    FROM (SELECT cams, class, count(*) AS n
+          FROM (SELECT array_to_string(list_sort(list_distinct([s.camera FOR s IN sources])), '+') AS cams, class FROM merged)
+          GROUP BY ALL)
+UNION ALL SELECT 'sample', k, [road_user::VARCHAR, class] FROM report_samples
+UNION ALL SELECT 'sample_source', row_number() OVER (ORDER BY s.k, t.camera, t.t0, t.track_id),
+    [s.road_user::VARCHAR, t.camera::VARCHAR, t.track_id::VARCHAR, report_xy(t.traj)]
+    FROM report_samples s JOIN merge_groups g USING (road_user) JOIN merge_tracks t USING (uid)
+UNION ALL SELECT 'sample_merged', s.k, [s.road_user::VARCHAR, report_xy(m.traj)]
+    FROM report_samples s JOIN merged m USING (road_user)
+UNION ALL SELECT 'cluster', row_number() OVER (ORDER BY class), [class, n_clusters::VARCHAR, n_in::VARCHAR, n::VARCHAR]
+    FROM (SELECT class, count(DISTINCT cluster) FILTER (WHERE cluster > 0) AS n_clusters,
+                 count(*) FILTER (WHERE cluster > 0) AS n_in, count(*) AS n
+          FROM cluster_assign GROUP BY class)
+-- up to 600 tracks per class; rank of the track's cluster by size (0: not among the 8 largest)
+UNION ALL SELECT 'route', row_number() OVER (ORDER BY class, rank = 0 DESC, rank DESC, h), [class, rank::VARCHAR, report_xy(traj)]
+    FROM (WITH sizes AS (SELECT class, cluster, row_number() OVER (PARTITION BY class ORDER BY count(*) DESC, cluster) AS rank
+                         FROM cluster_assign WHERE cluster > 0 GROUP BY class, cluster)
+          SELECT t.class, CASE WHEN s.rank <= 8 THEN s.rank ELSE 0 END AS rank, t.traj, hash(t.track_id) AS h
+          FROM cluster_tracks t JOIN cluster_assign a USING (class, track_id) LEFT JOIN sizes s USING (class, cluster)
+          QUALIFY row_number() OVER (PARTITION BY t.class ORDER BY hash(t.track_id), t.track_id) <= 600)
+UNION ALL SELECT 'param', row_number() OVER (ORDER BY stage, name), [name, value, stage, description] FROM pipeline_params;
+COPY (SELECT trajdb_report_html(string_agg(s || chr(31) || array_to_string([report_cell(v) FOR v IN c], chr(31)), chr(30) ORDER BY s, k))
+      FROM report_rows)
+TO (getvariable('out_dir') || '/report.html') (FORMAT csv, HEADER false, QUOTE '', ESCAPE '', DELIMITER chr(1));

@@ -119,6 +119,17 @@ pub static FUNCTIONS: &[Function] = &[
         table: None,
     },
     Function {
+        name: "polygon_to_geometry",
+        description: "The polygon as DuckDB's core GEOMETRY (DuckDB 1.5+), for GEOMETRY functions and GeoParquet writers: \
+                      view_polygon, polygon_overlap, polygon_union and polygon_buffer return WKB (BLOB), which hosts without the type also read. \
+                      The polygon is validated as everywhere (WKT, WKB or GEOMETRY in).",
+        example: "SELECT polygon_to_geometry(view_polygon([{'x': 0, 'y': 0}, {'x': 4, 'y': 0}, {'x': 0, 'y': 4}], 'convex'))::VARCHAR; -- POLYGON ((0 0, 4 0, 0 4, 0 0))",
+        maths: POLYGON,
+        binding: file!(),
+        signatures: &[Signature { params: &[p("p", GEOMETRY)], arities: &[], returns: Ty::Geometry, kernel: to_geometry }],
+        table: None,
+    },
+    Function {
         name: "traj_clip",
         description: "The points of the trajectory that lie in the closed polygon, in their original order (an empty list when none does).",
         example: "SELECT traj_clip([{'t': 0, 'x': 1, 'y': 1}, {'t': 1, 'x': 9, 'y': 1}, {'t': 2, 'x': 2, 'y': 2}], 'POLYGON ((0 0, 4 0, 4 4, 0 4, 0 0))'); -- [{'t': 0.0, 'x': 1.0, 'y': 1.0}, {'t': 2.0, 'x': 2.0, 'y': 2.0}]",
@@ -199,6 +210,12 @@ fn area(a: &Args<'_>, out: &mut Out<'_>) -> R {
 fn to_wkt(a: &Args<'_>, out: &mut Out<'_>) -> R {
     let pc = a.region(0);
     out.text(&a.map(|r| Ok(pc.get(r)?.map(|x| polygon::to_wkt(x.polygons()))))?);
+    Ok(())
+}
+
+fn to_geometry(a: &Args<'_>, out: &mut Out<'_>) -> R {
+    let pc = a.region(0);
+    out.blobs(&a.map(|r| Ok(pc.get(r)?.map(|x| polygon::to_wkb(x.polygons()))))?);
     Ok(())
 }
 

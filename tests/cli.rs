@@ -416,3 +416,87 @@ fn pipeline_maps_columns_timestamps_and_fails_cleanly() {
     assert_eq!(leftovers, 0);
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// Issue 17, pipeline integrity: faulty inputs give a clear message, the exit code says whether
+/// results exist, and a failed run leaves no results (neither partial nor an earlier run's).
+#[test]
+fn pipeline_on_faulty_input_says_what_is_wrong() {
+    let dir = std::env::temp_dir().join(format!("trajdb-faulty-{}", std::process::id()));
+    let d = dir.to_str().unwrap();
+    let (ok, _, err) = trajdb(&["simulate", "--cameras", "3", "--minutes", "1", "--seed", "5", "--out", d], None);
+    assert!(ok, "{err}");
+    let pts = dir.join("points.parquet");
+    let p = pts.to_str().unwrap();
+    let make = |name: &str, select: &str| {
+        let f = dir.join(name);
+        let (ok, _, err) = trajdb(&["sql", &format!("COPY ({select}) TO '{}'", f.display())], None);
+        assert!(ok, "{err}");
+        f
+    };
+    let run = |input: &std::path::Path, out: &str, extra: &[&str]| {
+        let mut a = vec!["pipeline", "--input", input.to_str().unwrap(), "--out", out];
+        a.extend_from_slice(extra);
+        trajdb(&a, None)
+    };
+    let out = dir.join("out");
+    let o = out.to_str().unwrap();
+
+    // a classifier flicker: camera 1's longest track is 'cyclist' for a third of its points
+    let flicker = make(
+        "flicker.parquet",
+        &format!("SELECT * REPLACE (CASE WHEN camera = 1 AND track_id = (SELECT track_id FROM '{p}' WHERE camera = 1 GROUP BY track_id ORDER BY count(*) DESC, track_id LIMIT 1) AND round(t * 10)::BIGINT % 3 = 0 THEN 'cyclist' ELSE class END AS class) FROM '{p}'"),
+    );
+    let (ok, _, err) = run(&flicker, o, &[]);
+    assert!(ok, "a class flicker must not kill the run: {err}");
+    assert!(err.contains("warning: 1 tracks change class partway; each keeps its majority class"), "{err}");
+    assert!(out.join("merged.parquet").exists());
+
+    // a failed run removes the earlier results; the error names the column and the fix
+    let text_t = make("text_t.parquet", &format!("SELECT * REPLACE (t::VARCHAR || 's' AS t) FROM '{p}'"));
+    let (ok, _, err) = run(&text_t, o, &[]);
+    assert!(!ok);
+    assert!(err.contains("column t is VARCHAR, not a number (seconds) or a TIMESTAMP") && err.contains("fix: cast it"), "{err}");
+    assert!(!out.exists(), "an earlier run's results stayed in place after a failed run");
+
+    let text_cam = make("text_cam.parquet", &format!("SELECT * REPLACE ('cam' || camera AS camera) FROM '{p}'"));
+    let (ok, _, err) = run(&text_cam, o, &[]);
+    assert!(!ok && err.contains("column camera is VARCHAR, not an integer") && err.contains("dense_rank()"), "{err}");
+
+    let nulls = make("nulls.parquet", &format!("SELECT * REPLACE (CASE WHEN track_id % 10 = 3 THEN NULL ELSE x END AS x) FROM '{p}'"));
+    let (ok, _, err) = run(&nulls, o, &[]);
+    assert!(!ok && err.contains("rows have a NULL, NaN or infinite camera, track_id, class, t, x or y (the first: camera"), "{err}");
+
+    let empty = make("empty.parquet", &format!("SELECT * FROM '{p}' WHERE false"));
+    let (ok, _, err) = run(&empty, o, &[]);
+    assert!(!ok && err.contains("has no rows"), "{err}");
+    assert!(!out.exists());
+
+    // one camera, and cameras that share no time: results, with a warning that says why
+    let one = make("one.parquet", &format!("SELECT * FROM '{p}' WHERE camera = 1"));
+    let (ok, _, err) = run(&one, o, &[]);
+    assert!(ok && err.contains("warning: one camera: nothing to align or match"), "{err}");
+    let apart = make("apart.parquet", &format!("SELECT * REPLACE (CASE WHEN camera = 2 THEN t + 100000 ELSE t END AS t) FROM '{p}'"));
+    let (ok, _, err) = run(&apart, o, &[]);
+    assert!(ok && err.contains("warning: 2 of 3 cameras in one frame: cameras [2] share no consistent track pairs"), "{err}");
+
+    // --param values are typed, never pasted into SQL
+    let (ok, _, err) = run(&pts, o, &["--param", "quality_max_gap=2.5; SET threads=1"]);
+    assert!(!ok && err.contains("parameter quality_max_gap must be a number or auto"), "{err}");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// A reader that closes the pipe early (`trajdb ... | head -1`) ends trajdb quietly, no panic.
+#[test]
+fn closed_stdout_is_not_a_panic() {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_trajdb"))
+        .args(["functions"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(c.stdout.take()); // the reader is gone before trajdb writes
+    let o = c.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!err.contains("panicked"), "{err}");
+    assert!(o.status.success(), "status {:?}: {err}", o.status);
+}

@@ -14,8 +14,10 @@ report.html).
 import glob
 import hashlib
 import os
+import shutil
 import tempfile
 import time
+import warnings
 
 import duckdb
 
@@ -145,17 +147,54 @@ def pipeline(con, input, out=None, **params):
             raise ValueError(f"trajdb.pipeline: parameter names are identifiers (see `trajdb params`), got {k!r}")
         con.execute(f"SET VARIABLE {k} = {_literal(v)}")
     con.execute(f"SET VARIABLE pipeline_input = {_literal(input)}")
-    timings = _run_timed(con, "sql/pipeline.sql")
+    try:
+        timings = _run_timed(con, "sql/pipeline.sql")
+    except BaseException:
+        if out is not None:  # no stale results from an earlier run
+            shutil.rmtree(os.path.abspath(out), ignore_errors=True)
+        raise
+    for w in warnings_of(con):
+        warnings.warn(f"trajdb.pipeline: {w}", stacklevel=2)
     if out is not None:
-        os.makedirs(out, exist_ok=True)
-        con.execute(f"SET VARIABLE out_dir = {_literal(os.path.abspath(out))}")
-        t = time.perf_counter()
-        read(con, "sql/export.sql")
-        timings.append(("write", time.perf_counter() - t))
-        con.execute("CREATE OR REPLACE TEMP TABLE pipeline_timings (stage VARCHAR, seconds DOUBLE)")
-        con.executemany("INSERT INTO pipeline_timings VALUES (?, ?)", timings)
-        read(con, "sql/report.sql")
+        # into a sibling folder, renamed into place when every file is written: a failed run
+        # leaves neither half-written nor stale results in `out`
+        out = os.path.abspath(out)
+        parent = os.path.dirname(out)
+        os.makedirs(parent, exist_ok=True)
+        partial = tempfile.mkdtemp(prefix=f".{os.path.basename(out)}.partial-", dir=parent)
+        try:
+            con.execute(f"SET VARIABLE out_dir = {_literal(partial)}")
+            t = time.perf_counter()
+            read(con, "sql/export.sql")
+            timings.append(("write", time.perf_counter() - t))
+            con.execute("CREATE OR REPLACE TEMP TABLE pipeline_timings (stage VARCHAR, seconds DOUBLE)")
+            con.executemany("INSERT INTO pipeline_timings VALUES (?, ?)", timings)
+            read(con, "sql/report.sql")
+        except BaseException:
+            shutil.rmtree(partial, ignore_errors=True)
+            shutil.rmtree(out, ignore_errors=True)
+            raise
+        shutil.rmtree(out, ignore_errors=True)
+        os.replace(partial, out)
     return con
+
+
+def warnings_of(con):
+    """What a finished pipeline run should tell its user: one camera, cameras left out of the
+    common frame, tracks whose class flickered (empty input is an error in the load)."""
+    cams, aligned, flicker = con.sql(
+        "SELECT (SELECT count(DISTINCT camera) FROM points), (SELECT count(*) FROM align_frames), (SELECT count(*) FROM load_class_flicker)"
+    ).fetchall()[0]
+    out = []
+    if cams == 1:
+        out.append("one camera: nothing to align or match across cameras; road users are that camera's tracks, linked within it")
+    elif aligned < cams:
+        left = [r[0] for r in con.sql("SELECT DISTINCT camera FROM points ANTI JOIN align_frames USING (camera) ORDER BY camera").fetchall()]
+        out.append(f"{aligned} of {cams} cameras in one frame: cameras {left} share no consistent track pairs with the others "
+                   "(no common time, or no common view); their tracks are road users of their own")
+    if flicker > 0:
+        out.append(f"{flicker} tracks change class partway; each keeps its majority class (table load_class_flicker)")
+    return out
 
 
 def simulate(con, out, **params):

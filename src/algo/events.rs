@@ -30,6 +30,8 @@ pub enum EventError {
     Reversed { index: usize },
     /// The starting velocity of a track (1-based) is NaN or infinite.
     NotFiniteStart { index: usize },
+    /// Two tracks share an id (it would link a track to itself: "broken 1→1").
+    DuplicateId(i64),
 }
 
 impl fmt::Display for EventError {
@@ -41,6 +43,7 @@ impl fmt::Display for EventError {
             EventError::NotFinite { index, field } => write!(f, "tracks[{index}].{field} must be finite"),
             EventError::Reversed { index } => write!(f, "tracks[{index}] ends before it starts (t1 < t0)"),
             EventError::NotFiniteStart { index } => write!(f, "tracks[{index}].vx0/vy0 must be finite"),
+            EventError::DuplicateId(id) => write!(f, "tracks lists id {id} twice (one row per track)"),
         }
     }
 }
@@ -135,6 +138,11 @@ pub fn events(tracks: &[Endpoints], interior: Option<&Region>, p: &EventParams) 
         if t.t1 < t.t0 {
             return Err(EventError::Reversed { index: k + 1 });
         }
+    }
+    let mut ids: Vec<i64> = tracks.iter().map(|t| t.id).collect();
+    ids.sort_unstable();
+    if let Some(w) = ids.windows(2).find(|w| w[0] == w[1]) {
+        return Err(EventError::DuplicateId(w[0]));
     }
     let inside = |x: f64, y: f64| interior.is_none_or(|r| r.contains(x, y));
     let mut starts: Vec<usize> = (0..tracks.len()).filter(|&k| inside(tracks[k].x0, tracks[k].y0)).collect();

@@ -67,7 +67,10 @@ pub fn merge_pair(a: &Weighted, b: &Weighted, matches: &[(usize, usize)]) -> Wei
         used_b[j] = true;
         let (wa, wb) = (a.w[i], b.w[j]);
         let w = wa + wb;
-        let avg = |p: f64, q: f64| (wa * p + wb * q) / w;
+        // weights first: (wa·p + wb·q) / w overflowed for coordinates near f64::MAX, while a
+        // convex combination of two finite numbers is always finite
+        let (fa, fb) = (wa / w, wb / w);
+        let avg = |p: f64, q: f64| fa * p + fb * q;
         pts.push((avg(a.t[i], b.t[j]), 0, k, avg(a.x[i], b.x[j]), avg(a.y[i], b.y[j]), w));
     }
     for i in (0..a.t.len()).filter(|&i| !used_a[i]) {

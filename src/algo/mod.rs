@@ -17,6 +17,7 @@
 //! | [`merge`] | Θ(A, B) of eq. 2.11 for N cameras, and consistent road-user groups |
 //! | [`events`] | broken / split / merge events within one camera, object / fragment / group labels |
 //! | [`graph`] | union–find and the connected components of a bipartite edge list (shared) |
+//! | [`limits`] | work limits per call (LCSS cells, CPD pair visits, output points), raised with `trajdb_limit` |
 
 // `!(x > 0.0)` is used on purpose throughout: unlike `x <= 0.0` it also rejects NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
@@ -29,6 +30,7 @@ pub mod events;
 pub mod geometry;
 pub mod graph;
 pub mod lcss;
+pub mod limits;
 pub mod matching;
 pub mod merge;
 pub mod traj;

@@ -121,7 +121,7 @@ pub enum TrajError {
     Unsorted { index: usize, prev: f64, t: f64 },
     /// A parameter (`period`, `max_gap`, `min_step`) out of range.
     Param(ParamError),
-    /// [`resample`] would produce more than [`RESAMPLE_MAX_POINTS`] points.
+    /// [`resample`] would produce more points than the work limit `output_points`.
     TooManyPoints(f64),
 }
 
@@ -146,7 +146,13 @@ impl TrajError {
             ),
             TrajError::Param(e) => e.to_string(),
             TrajError::TooManyPoints(n) => {
-                format!("would produce {n:.0} points (more than {RESAMPLE_MAX_POINTS}); use a longer period")
+                let l = &crate::algo::limits::OUTPUT_POINTS;
+                format!(
+                    "would produce {n:.0} points, above the work limit {} = {}; use a longer period, or raise it with SELECT trajdb_limit('{}', {n:.0})",
+                    l.name,
+                    l.get(),
+                    l.name
+                )
             }
         }
     }
@@ -310,8 +316,6 @@ pub fn path_length(tr: Traj<'_>) -> Option<f64> {
     Some((1..tr.len()).fold(0.0, |acc, k| acc + (tr.x[k] - tr.x[k - 1]).hypot(tr.y[k] - tr.y[k - 1])))
 }
 
-/// Most points [`resample`] may produce (a guard against a tiny period over a long track).
-pub const RESAMPLE_MAX_POINTS: usize = 50_000_000;
 
 /// Resamples a validated trajectory onto the global clock t = k · `period` (k integer), by linear
 /// interpolation between consecutive points; never extrapolates, and never interpolates across
@@ -319,8 +323,8 @@ pub const RESAMPLE_MAX_POINTS: usize = 50_000_000;
 /// zero-length segment and are skipped. Every camera resampled with the same period shares one
 /// clock, so LCSS compares positions at the same instant instead of up to half a sample period
 /// apart (at 12 m/s and 5 Hz that is 1.2 m, more than the matching ε).
-/// O(n + m) for n input and m output points. Errors when m would exceed
-/// [`RESAMPLE_MAX_POINTS`], when `period` is not > 0 and finite, or `max_gap` not > 0
+/// O(n + m) for n input and m output points. Errors when m would exceed the work limit
+/// [`crate::algo::limits::OUTPUT_POINTS`], when `period` is not > 0 and finite, or `max_gap` not > 0
 /// (`+inf`: no limit).
 pub fn resample(tr: Traj<'_>, period: f64, max_gap: f64) -> Result<OwnedTraj, TrajError> {
     let period = positive("period", period)?;
@@ -332,7 +336,7 @@ pub fn resample(tr: Traj<'_>, period: f64, max_gap: f64) -> Result<OwnedTraj, Tr
     }
     let (t0, t1) = (tr.t[0], tr.t[n - 1]);
     let estimate = ((t1 - t0) / period).floor() + 1.0;
-    if estimate > RESAMPLE_MAX_POINTS as f64 {
+    if estimate > crate::algo::limits::OUTPUT_POINTS.get() as f64 {
         return Err(TrajError::TooManyPoints(estimate));
     }
     let mut k = (t0 / period).ceil() as i64;

@@ -18,14 +18,14 @@ pub fn demo(db: Option<&str>, args: &[String]) -> Result<(), Box<dyn std::error:
     let con = crate::open(db)?;
     let results = dir.join("results");
     super::pipeline::run(&con, &dir.join("points.parquet").to_string_lossy(), &results, &[])?;
-    println!("score of {} against the simulator's ground truth:", results.display());
+    crate::outln!("score of {} against the simulator's ground truth:", results.display());
     let (rot, trans, f1) = super::score::score(&con, dir, &results)?;
     let ok = f1 >= 0.95 && rot <= 0.5 && trans <= 0.3;
-    println!(
+    crate::outln!(
         "demo {}: match F1 {f1:.3} (target >= 0.95), worst camera pair {rot:.3} deg / {trans:.3} m (targets 0.5 deg / 0.3 m)",
         if ok { "PASSED" } else { "FAILED" }
     );
-    println!("results: {}/{{transforms.csv, matches.csv, merged.parquet, clusters.csv, report.html}}", results.display());
+    crate::outln!("results: {}/{{transforms.csv, matches.csv, merged.parquet, clusters.csv, report.html}}", results.display());
     if ok {
         Ok(())
     } else {

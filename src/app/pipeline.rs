@@ -95,7 +95,7 @@ pub fn run(con: &Connection, input: &str, out: &Path, overrides: &[(String, Stri
     set_params(con, overrides)?;
     let t_all = Instant::now();
     con.execute_batch(&format!("SET VARIABLE pipeline_input = {};", sql::sql_string(input)))?;
-    let mut timings = run_sql_file(con, "sql/pipeline.sql")?;
+    let mut timings = run_sql_file(con, "sql/pipeline.sql").inspect_err(|_| remove_stale(out))?;
     // The result files go to a sibling folder first and replace `out` only when all are written:
     // a failed run leaves no half-written output (and an earlier result in `out` stays).
     let name = out.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_else(|| "results".into());
@@ -116,6 +116,7 @@ pub fn run(con: &Connection, input: &str, out: &Path, overrides: &[(String, Stri
     })();
     if let Err(e) = written {
         std::fs::remove_dir_all(&partial).ok();
+        remove_stale(out);
         return Err(e);
     }
     if out.exists() {
@@ -125,6 +126,15 @@ pub fn run(con: &Connection, input: &str, out: &Path, overrides: &[(String, Stri
     eprintln!("[trajdb] total    {:>7.2} s", t_all.elapsed().as_secs_f64());
     summary(con, out)?;
     Ok(())
+}
+
+/// A failed run leaves no results: an earlier run's files in `out` would look like its own.
+fn remove_stale(out: &Path) {
+    if out.join("transforms.csv").exists() || out.join("merged.parquet").exists() {
+        if std::fs::remove_dir_all(out).is_ok() {
+            eprintln!("[trajdb] removed the earlier results in {}: they are not this run's", out.display());
+        }
+    }
 }
 
 /// What was found, in a few lines (stderr): road users per class, cross-camera links,
@@ -151,7 +161,37 @@ fn summary(con: &Connection, out: &Path) -> Result<(), Box<dyn Error>> {
     eprintln!("[trajdb] found    {users} road users ({per_class}); {multi} seen by more than one track");
     eprintln!("[trajdb]          {aligned} of {cams} cameras in one frame; {links} cross-camera links; {chains} tracks joined to an earlier piece in their camera");
     eprintln!("[trajdb]          results in {}, open {} for the report", out.display(), out.join("report.html").display());
+    for w in warnings(con)? {
+        eprintln!("[trajdb] warning: {w}");
+    }
     Ok(())
+}
+
+/// What a finished run should tell its user (the same as trajdb.warnings_of in Python): one
+/// camera, cameras left out of the common frame, tracks whose class flickered.
+pub fn warnings(con: &Connection) -> Result<Vec<String>, Box<dyn Error>> {
+    let (cams, aligned, flicker): (i64, i64, i64) = con.query_row(
+        "SELECT (SELECT count(DISTINCT camera) FROM points), (SELECT count(*) FROM align_frames), (SELECT count(*) FROM load_class_flicker)",
+        [],
+        |r| Ok((r.get(0)?, r.get(1)?, r.get(2)?)),
+    )?;
+    let mut out = Vec::new();
+    if cams == 1 {
+        out.push("one camera: nothing to align or match across cameras; road users are that camera's tracks, linked within it".to_string());
+    } else if aligned < cams {
+        let left: Vec<i64> = con
+            .prepare("SELECT DISTINCT camera FROM points ANTI JOIN align_frames USING (camera) ORDER BY camera")?
+            .query_map([], |r| r.get(0))?
+            .collect::<Result<_, _>>()?;
+        out.push(format!(
+            "{aligned} of {cams} cameras in one frame: cameras {left:?} share no consistent track pairs with the others \
+             (no common time, or no common view); their tracks are road users of their own"
+        ));
+    }
+    if flicker > 0 {
+        out.push(format!("{flicker} tracks change class partway; each keeps its majority class (table load_class_flicker)"));
+    }
+    Ok(out)
 }
 
 #[cfg(test)]

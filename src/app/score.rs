@@ -9,8 +9,8 @@ use std::path::Path;
 /// Prints the road-user identity table (IDF1, exactly reconstructed objects, within-camera
 /// links).
 fn identity(con: &Connection) -> Result<(), Box<dyn Error>> {
-    println!("road users (from merged.parquet; IDF1 over real points, exact = all of an object's real tracks and nothing else in one road user):");
-    println!("  {:<14} {:>6} {:>7} {:>8} {:>11} {:>12} {:>11} {:>8}", "class", "IDF1", "exact", "objects", "link prec.", "break recall", "true breaks", "links");
+    crate::outln!("road users (from merged.parquet; IDF1 over real points, exact = all of an object's real tracks and nothing else in one road user):");
+    crate::outln!("  {:<14} {:>6} {:>7} {:>8} {:>11} {:>12} {:>11} {:>8}", "class", "IDF1", "exact", "objects", "link prec.", "break recall", "true breaks", "links");
     let mut st = con.prepare(
         "SELECT class, idf1, exact_share, objects, links_correct::DOUBLE / greatest(links, 1), breaks_found::DOUBLE / greatest(true_breaks, 1),
                 true_breaks, links FROM s_identity ORDER BY class = '*', class",
@@ -20,7 +20,7 @@ fn identity(con: &Connection) -> Result<(), Box<dyn Error>> {
         let (c, idf1, exact, n, lp, br, nb, nl): (String, f64, Option<f64>, i64, f64, f64, i64, i64) =
             (r.get(0)?, r.get(1)?, r.get(2)?, r.get(3)?, r.get(4)?, r.get(5)?, r.get(6)?, r.get(7)?);
         let class = if c == "*" { "all" } else { c.as_str() };
-        println!("  {class:<14} {idf1:>6.3} {:>7.3} {n:>8} {lp:>11.3} {br:>12.3} {nb:>11} {nl:>8}", exact.unwrap_or(0.0));
+        crate::outln!("  {class:<14} {idf1:>6.3} {:>7.3} {n:>8} {lp:>11.3} {br:>12.3} {nb:>11} {nl:>8}", exact.unwrap_or(0.0));
     }
     Ok(())
 }
@@ -29,15 +29,15 @@ fn identity(con: &Connection) -> Result<(), Box<dyn Error>> {
 /// (`sql/score_path.sql`).
 fn paths(con: &Connection) -> Result<(), Box<dyn Error>> {
     con.execute_batch(sql::file("sql/score_path.sql").expect("sql/score_path.sql"))?;
-    println!("merged paths against world.csv (each road user's mapped object, at the same time):");
-    println!("  {:<14} {:>9} {:>9} {:>9} {:>9} {:>18}", "class", "points", "median m", "p95 m", "max m", "road users > 1 m");
+    crate::outln!("merged paths against world.csv (each road user's mapped object, at the same time):");
+    crate::outln!("  {:<14} {:>9} {:>9} {:>9} {:>9} {:>18}", "class", "points", "median m", "p95 m", "max m", "road users > 1 m");
     let mut st = con.prepare("SELECT class, points, median_m, p95_m, max_m, off_1m FROM s_path_summary ORDER BY class = '*', class")?;
     let mut q = st.query([])?;
     while let Some(r) = q.next()? {
         let (c, n, med, p95, max, off): (String, i64, Option<f64>, Option<f64>, Option<f64>, i64) =
             (r.get(0)?, r.get(1)?, r.get(2)?, r.get(3)?, r.get(4)?, r.get(5)?);
         let f = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:.3}"));
-        println!("  {:<14} {n:>9} {:>9} {:>9} {:>9} {off:>18}", if c == "*" { "all" } else { &c }, f(med), f(p95), f(max));
+        crate::outln!("  {:<14} {n:>9} {:>9} {:>9} {:>9} {off:>18}", if c == "*" { "all" } else { &c }, f(med), f(p95), f(max));
     }
     Ok(())
 }
@@ -56,20 +56,20 @@ pub fn score(con: &Connection, scenario: &Path, results: &Path) -> Result<(f64, 
     con.execute_batch(sql::file("sql/score.sql").expect("sql/score.sql"))?;
     let (rot, trans, clock): (f64, f64, f64) =
         con.query_row("SELECT max(rot_deg), max(trans_m), max(clock_err_s) FROM s_pair_err WHERE cam_from < cam_to", [], |r| Ok((r.get(0)?, r.get(1)?, r.get(2)?)))?;
-    println!("camera pairs: worst rotation error {rot:.3} deg, worst translation error {trans:.3} m, worst clock offset error {:.1} ms", clock * 1e3);
+    crate::outln!("camera pairs: worst rotation error {rot:.3} deg, worst translation error {trans:.3} m, worst clock offset error {:.1} ms", clock * 1e3);
     let mut pe = con.prepare("SELECT cam_from, cam_to, rot_deg, trans_m, clock_err_s FROM s_pair_err WHERE cam_from < cam_to ORDER BY 1, 2")?;
     let mut q = pe.query([])?;
     while let Some(r) = q.next()? {
         let (a, b, rd, tm, ce): (i64, i64, f64, f64, f64) = (r.get(0)?, r.get(1)?, r.get(2)?, r.get(3)?, r.get(4)?);
-        println!("  {a} -> {b}: rotation {rd:.3} deg, translation {tm:.3} m, clock offset {:.1} ms", ce * 1e3);
+        crate::outln!("  {a} -> {b}: rotation {rd:.3} deg, translation {tm:.3} m, clock offset {:.1} ms", ce * 1e3);
     }
     identity(con)?;
     if scenario.join("world.csv").exists() {
         paths(con)?;
     }
-    println!("matches (a true pair: same object, >= 1 s together, >= 3 points each in the true overlap; a predicted pair of one");
-    println!("object that misses that rule is neutral: right, so not against precision, but not a true pair either):");
-    println!("  {:<14} {:>9} {:>7} {:>6} {:>10} {:>10} {:>8}", "class", "precision", "recall", "F1", "true pairs", "predicted", "neutral");
+    crate::outln!("matches (a true pair: same object, >= 1 s together, >= 3 points each in the true overlap; a predicted pair of one");
+    crate::outln!("object that misses that rule is neutral: right, so not against precision, but not a true pair either):");
+    crate::outln!("  {:<14} {:>9} {:>7} {:>6} {:>10} {:>10} {:>8}", "class", "precision", "recall", "F1", "true pairs", "predicted", "neutral");
     let mut all_f1 = 0.0;
     let mut rows = con.prepare("SELECT class, precision, recall, true_pairs, predicted, neutral FROM s_class_scores ORDER BY class = '*', class")?;
     let mut q = rows.query([])?;
@@ -79,7 +79,7 @@ pub fn score(con: &Connection, scenario: &Path, results: &Path) -> Result<(f64, 
         if c == "*" {
             all_f1 = f1;
         }
-        println!("  {:<14} {p:>9.3} {rc:>7.3} {f1:>6.3} {nt:>10} {np:>10} {nn:>8}", if c == "*" { "all" } else { &c });
+        crate::outln!("  {:<14} {p:>9.3} {rc:>7.3} {f1:>6.3} {nt:>10} {np:>10} {nn:>8}", if c == "*" { "all" } else { &c });
     }
     Ok((rot, trans, all_f1))
 }

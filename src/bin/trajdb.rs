@@ -23,6 +23,8 @@ use trajdb::app::{self, shell::Format};
 fn main() -> ExitCode {
     match real_main() {
         Ok(()) => ExitCode::SUCCESS,
+        // a reader that closed the pipe (trajdb sql ... | head) is not an error
+        Err(e) if e.downcast_ref::<std::io::Error>().is_some_and(|e| e.kind() == std::io::ErrorKind::BrokenPipe) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("Error: {e}");
             ExitCode::FAILURE
@@ -145,11 +147,11 @@ fn real_main() -> Result<(), Box<dyn std::error::Error>> {
             return Ok(());
         }
         Some(("functions", s)) => {
-            print!("{}", app::functions_reference(s.get_flag("markdown")));
+            trajdb::out!("{}", app::functions_reference(s.get_flag("markdown")));
             return Ok(());
         }
         Some(("params", s)) => {
-            print!("{}", if s.get_flag("sql") { app::params::params_sql() } else { app::params::table() });
+            trajdb::out!("{}", if s.get_flag("sql") { app::params::params_sql() } else { app::params::table() });
             return Ok(());
         }
         Some((other, _)) => unreachable!("clap knows no command {other}"),

@@ -86,7 +86,9 @@ pub static FUNCTIONS: &[Function] = &[
                       Without tau, or tau = 'inf', it is plain rigid CPD (Myronenko & Song); a NULL tau gives NULL like any NULL argument. \
                       The E-step only visits pairs with |t - s| <= 7.43*tau (time weight < 1e-12) and runs on all cores. \
                       Defaults: max_iter 100, tol 1e-5, with_scale false, starts 8 (EM from 8 rotations 2*pi*k/8, the best log-likelihood after 15 \
-                      iterations continues; starts = 1 is the thesis's R = I start). converged = false when max_iter ran out (the estimate is still returned). \
+                      iterations continues; starts = 1 is the thesis's R = I start). converged = false when max_iter ran out (the estimate is still returned); converged = true also when sigma² falls to 1e-16 of its \
+                      first value (noise-free points: the fit is exact). Limits: max_iter <= 100000, tau in [1e-100, 1e100] s, |x|, |y|, |z|, |t| <= 1e150. \
+                      Errors: no pair of points within 7.43*tau in time (the sets do not overlap), every point an outlier. \
                       With STRUCT(t, x, y, z)[] inputs it runs in 3-D (rotation from the SVD of the 3x3 cross-covariance; starts rotate about z).",
         example: "SELECT round(degrees(cpd_align(a, b, 0.0, 1.0).theta)) FROM (SELECT [{'t':0,'x':0,'y':0},{'t':1,'x':4,'y':0},{'t':2,'x':4,'y':3}] AS a, [{'t':0,'x':0,'y':0},{'t':1,'x':0,'y':-4},{'t':2,'x':3,'y':-4}] AS b); -- 90.0",
         maths: "src/algo/align/cpd.rs, src/algo/align/cpd3.rs",

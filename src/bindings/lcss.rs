@@ -155,6 +155,7 @@ fn time_window_rows<T>(
     a.map(|r| {
         let (Some(x), Some(y), Some(p)) = (ta.get(r)?, tb.get(r)?, params(r)?) else { return Ok(None) };
         let Some(reg) = region.get(r)? else { return Ok(None) };
+        tw::check_work(x.t, y.t, p.time_window())?;
         Ok(Some(f(x, y, &p, reg.as_deref())))
     })
 }
@@ -192,6 +193,7 @@ fn series_rows<T>(a: &Args<'_>, f: impl Fn(crate::algo::traj::Series<'_>, crate:
     let (sa, sb, params) = (a.series(0), a.series(1), tw_params(a));
     a.map(|r| {
         let (Some(x), Some(y), Some(p)) = (sa.get(r)?, sb.get(r)?, params(r)?) else { return Ok(None) };
+        tw::check_work(x.t, y.t, p.time_window())?;
         Ok(Some(f(x, y, &p)))
     })
 }
@@ -221,7 +223,9 @@ fn index_rows<T>(
         let (Some(x), Some(y), Some(d), Some(e), Some(rho)) = (ta.get(r)?, tb.get(r)?, delta.get(r), eps.get(r), rho.opt(r)) else {
             return Ok(None);
         };
-        Ok(Some(f(x, y, &IndexParams::new(d, e, rho)?)?))
+        let p = IndexParams::new(d, e, rho)?;
+        index::check_work(x.len(), y.len(), &p)?;
+        Ok(Some(f(x, y, &p)?))
     })
 }
 

@@ -1,6 +1,8 @@
 //! SQL: `trajdb_functions()`, the function reference as a table (rows from the registry).
 
-use super::registry::{Doc, Function, Table, Ty};
+use super::registry::{p, Doc, Function, Signature, Table, Ty};
+use super::vector::{Args, Out};
+use crate::algo::limits;
 use duckdb::core::{DataChunkHandle, Inserter};
 use duckdb::vtab::{BindInfo, InitInfo, TableFunctionInfo, VTab};
 use duckdb::Connection;
@@ -16,7 +18,36 @@ const COLUMNS: &[(&str, Ty)] = &[
     ("test", Ty::Varchar),
 ];
 
-pub static FUNCTIONS: &[Function] = &[Function {
+pub static FUNCTIONS: &[Function] = &[TRAJDB_FUNCTIONS, TRAJDB_LIMIT];
+
+const TRAJDB_LIMIT: Function = Function {
+    name: "trajdb_limit",
+    description: "Reads or sets a work limit, the most work one call may do (src/algo/limits.rs): 'lcss_cells' (cells of one LCSS table, \
+                  default 2e9), 'cpd_pair_visits' (pairs in cpd_align's time band x max_iter, default 2e10), 'output_points' (points one \
+                  call returns, default 5e7). A call above a limit stops at once with an error that names it. With a value it sets the limit \
+                  for the whole process and returns the previous one. DuckDB's C API lets no extension see Ctrl-C inside a call: the limits \
+                  keep every call short instead.",
+    example: "SELECT trajdb_limit('lcss_cells'); -- 2000000000",
+    maths: "src/algo/limits.rs",
+    binding: file!(),
+    signatures: &[Signature { params: &[p("name", Ty::Varchar), p("value", Ty::Bigint)], arities: &[1, 2], returns: Ty::Bigint, kernel: limit }],
+    table: None,
+};
+
+fn limit(a: &Args<'_>, out: &mut Out<'_>) -> Result<(), Box<dyn std::error::Error>> {
+    let (name, value) = (a.text(0), a.opt_bigint(1));
+    let vals = a.map(|r| {
+        let (Some(n), Some(v)) = (name.get(r), value.opt(r)) else { return Ok(None) };
+        Ok(Some(match v {
+            Some(v) => limits::set(&n, v)?,
+            None => limits::find(&n)?.get(),
+        } as i64))
+    })?;
+    out.flat(&vals);
+    Ok(())
+}
+
+const TRAJDB_FUNCTIONS: Function = Function {
     name: "trajdb_functions",
     description: "One row per trajdb function with its overloads (parameter names and types), description, example, and where its maths, \
                   binding and tests live; docs/functions.md is generated from the same descriptors.",
@@ -25,7 +56,7 @@ pub static FUNCTIONS: &[Function] = &[Function {
     binding: file!(),
     signatures: &[],
     table: Some(Table { columns: COLUMNS, register }),
-}];
+};
 
 struct FunctionsTable;
 

@@ -11,8 +11,8 @@ pub static FUNCTIONS: &[Function] = &[Function {
     description: "The pipeline's QA report (report.html: alignment, calibration, points before and after alignment, view polygons and \
                   overlaps, the thesis's count tables, sample merges, route patterns, parameters) from the data text that \
                   sql/report.sql gathers from the pipeline's tables (sections and cells separated by chr(30) / chr(31)). \
-                  Run it through sql/report.sql, which also writes the file; malformed data is an error naming the section, row and cell.",
-    example: "SET VARIABLE out_dir = 'results'; .read sql/report.sql  -- after sql/pipeline.sql and sql/export.sql",
+                  Run it through sql/report.sql (SET VARIABLE out_dir = 'results'; .read sql/report.sql, after sql/pipeline.sql), which also writes the file; malformed data is an error naming the section, row and cell.",
+    example: "SELECT left(trajdb_report_html(array_to_string(['meta' || chr(31) || 'xi' || chr(31) || '5', 'meta' || chr(31) || 'eta' || chr(31) || '0.6', 'meta' || chr(31) || 'cluster_camera' || chr(31) || '1', 'meta' || chr(31) || 'step' || chr(31) || '1'], chr(30))), 15); -- <!DOCTYPE html>",
     maths: "src/app/report/mod.rs",
     binding: file!(),
     signatures: &[Signature { params: &[p("data", Ty::Varchar)], arities: &[], returns: Ty::Varchar, kernel: report_html }],

@@ -58,18 +58,46 @@ pub enum CpdError {
     Starts(i64),
     TooFew { which: &'static str, got: usize },
     NotFinite { which: &'static str, index: usize },
+    /// A coordinate or time beyond [`MAX_MAGNITUDE`] (squares would overflow).
+    Magnitude { which: &'static str, index: usize },
+    /// No fixed point has a moving point within the time band (|t − s| ≤ 7.43 τ).
+    NoTimeOverlap { tau: f64 },
+    /// Every fixed point ended as an outlier: there is no fit to report.
+    AllOutliers { w: f64 },
+    /// More pair visits than the work limit `cpd_pair_visits`.
+    Work(crate::algo::limits::Exceeded),
 }
+
+/// Largest `max_iter` (each iteration is one E-step over the band; pycpd's default is 100).
+pub const MAX_ITER: i64 = 100_000;
+/// Largest |coordinate| and |t| accepted: squared distances stay far from overflow.
+pub const MAX_MAGNITUDE: f64 = 1e150;
+/// τ outside [1e-100, 1e100] makes 1/(2τ²) or τ² overflow.
+pub const TAU_RANGE: (f64, f64) = (1e-100, 1e100);
+/// σ² below this share of its first value is the noise-free floor: the fit is exact, and the
+/// run stops as converged (without it σ² → 0 and the EM oscillates on rounding until max_iter).
+pub const SIGMA2_FLOOR: f64 = 1e-16;
 
 impl fmt::Display for CpdError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             CpdError::W(v) => write!(f, "w must be in [0, 1), got {v}"),
-            CpdError::Tau(v) => write!(f, "tau must be > 0 (or NULL / inf for plain CPD), got {v}"),
+            CpdError::Tau(v) => write!(f, "tau must be between 1e-100 and 1e100 seconds (or 'inf' for plain CPD), got {v}"),
             CpdError::Tol(v) => write!(f, "tol must be >= 0, got {v}"),
-            CpdError::MaxIter(v) => write!(f, "max_iter must be >= 1, got {v}"),
+            CpdError::MaxIter(v) => write!(f, "max_iter must be between 1 and {MAX_ITER}, got {v}"),
             CpdError::Starts(v) => write!(f, "starts must be between 1 and 360, got {v}"),
             CpdError::TooFew { which, got } => write!(f, "{which} has too few points: got {got}, needs 2 (3 in 3-D)"),
             CpdError::NotFinite { which, index } => write!(f, "{which}[{}] has a NaN or infinite value", index + 1),
+            CpdError::Magnitude { which, index } => {
+                write!(f, "{which}[{}] has a coordinate or time beyond ±{MAX_MAGNITUDE:e} (shift or rescale the data)", index + 1)
+            }
+            CpdError::NoTimeOverlap { tau } => write!(
+                f,
+                "no point of fixed has a point of moving within 7.43*tau = {} s of its time: the sets do not overlap in time (check the clocks, or raise tau)",
+                7.43 * tau
+            ),
+            CpdError::Work(e) => e.fmt(f),
+            CpdError::AllOutliers { w } => write!(f, "every fixed point is an outlier at w = {w}: no fit (lower w, or check that the sets show the same scene)"),
         }
     }
 }
@@ -95,13 +123,13 @@ impl CpdParams {
         let tau = match tau {
             None => None,
             Some(t) if t == f64::INFINITY => None,
-            Some(t) if t > 0.0 && t.is_finite() => Some(t),
+            Some(t) if (TAU_RANGE.0..=TAU_RANGE.1).contains(&t) => Some(t),
             Some(t) => return Err(CpdError::Tau(t)),
         };
         if !(tol >= 0.0) {
             return Err(CpdError::Tol(tol));
         }
-        if max_iter < 1 {
+        if !(1..=MAX_ITER).contains(&max_iter) {
             return Err(CpdError::MaxIter(max_iter));
         }
         if !(1..=360).contains(&starts) {
@@ -147,6 +175,9 @@ fn prepare(which: &'static str, x: &[f64], y: &[f64], t: &[f64]) -> Result<Set, 
     for k in 0..x.len() {
         if !(x[k].is_finite() && y[k].is_finite() && t[k].is_finite()) {
             return Err(CpdError::NotFinite { which, index: k });
+        }
+        if x[k].abs().max(y[k].abs()).max(t[k].abs()) > MAX_MAGNITUDE {
+            return Err(CpdError::Magnitude { which, index: k });
         }
     }
     let mut idx: Vec<usize> = (0..x.len()).collect();
@@ -565,13 +596,13 @@ fn run(pb: &Problem<'_>, init: Transform2, p: &CpdParams, max_iter: usize, sigma
         q = (xpx - 2.0 * s * tr_ar + s * s * ypy) / (2.0 * sigma2) + d * st.np / 2.0 * sigma2.ln();
         diff = (q - qprev).abs();
         sigma2 = if p.with_scale { (xpx - s * tr_ar) / (st.np * d) } else { (xpx - 2.0 * tr_ar + ypy) / (st.np * d) };
-        if !(sigma2 > 0.0) {
-            sigma2 = p.tol / 10.0;
-            if !(sigma2 > 0.0) {
-                sigma2 = f64::MIN_POSITIVE.sqrt();
-            }
-        }
         it += 1;
+        let floor = (sigma2_init * SIGMA2_FLOOR).max(f64::MIN_POSITIVE);
+        if !(sigma2 > floor) {
+            // noise-free: the fit is exact to rounding
+            sigma2 = floor;
+            diff = 0.0;
+        }
     }
     let (n, m) = (pb.fx.x.len() as f64, pb.mv.x.len() as f64);
     let ll = last.log_den - n * (d / 2.0 * (2.0 * std::f64::consts::PI * sigma2).ln() + pb.log_tau_norm)
@@ -646,6 +677,11 @@ pub fn align(
     let fxc = Set { x: fx.x.iter().map(|v| v - cfx).collect(), y: fx.y.iter().map(|v| v - cfy).collect(), t: fx.t };
     let mvc = Set { x: mv.x.iter().map(|v| v - cmx).collect(), y: mv.y.iter().map(|v| v - cmy).collect(), t: mv.t };
     let pb = make_problem(&fxc, &mvc, p.tau);
+    if pb.band.iter().all(|&(a, b)| a == b) {
+        return Err(CpdError::NoTimeOverlap { tau: p.tau.unwrap_or(f64::INFINITY) });
+    }
+    let pairs: u128 = pb.band.iter().map(|&(a, b)| (b - a) as u128).sum();
+    crate::algo::limits::CPD_PAIR_VISITS.check(pairs * p.max_iter as u128).map_err(CpdError::Work)?;
     // Start k: rotation 2πk/starts about the centroids (the centred sets share their origin).
     // With one start we reproduce pycpd exactly: R = I and t = 0 in the caller's frames,
     // i.e. t' = c_m − c_f in the centred frames.
@@ -685,6 +721,9 @@ pub fn align(
         r.start_theta = b.start_theta;
         r
     };
+    if !(best.rms.is_finite()) {
+        return Err(CpdError::AllOutliers { w: p.w });
+    }
     // Undo the centring: p_f − c_f = T'(p_m − c_m)  ⇒  t = t' + c_f − sR c_m.
     let mut out = best;
     let t = out.transform;
@@ -813,5 +852,39 @@ mod tests {
         let s = scene(3);
         let r = align((&s.0, &s.1, &s.2), (&s.0, &s.1, &s.2), &p1).unwrap();
         assert!(!r.converged && r.iterations == 1);
+    }
+
+    /// Issue 17: the calls that never stopped or came back silently wrong.
+    #[test]
+    fn bounded_iterations_floor_overlap_and_magnitudes() {
+        // max_iter has a ceiling; tau a range where tau² and 1/tau² stay finite
+        assert_eq!(CpdParams::new(0.1, None, 9_000_000_000_000_000_000, 1e-5, false, 1).unwrap_err(), CpdError::MaxIter(9_000_000_000_000_000_000));
+        assert!(CpdParams::new(0.1, None, MAX_ITER, 1e-5, false, 1).is_ok());
+        for tau in [1e160, 1e-300] {
+            assert_eq!(CpdParams::new(0.1, Some(tau), 10, 1e-5, false, 1).unwrap_err(), CpdError::Tau(tau));
+        }
+        // noise-free points with tol = 0 and the largest max_iter: sigma² reaches its floor,
+        // which counts as converged, long before max_iter
+        let s = scene(3);
+        let (c, sn) = (0.3f64.cos(), 0.3f64.sin());
+        let mx: Vec<f64> = s.0.iter().zip(&s.1).map(|(x, y)| c * x - sn * y + 5.0).collect();
+        let my: Vec<f64> = s.0.iter().zip(&s.1).map(|(x, y)| sn * x + c * y - 2.0).collect();
+        let p = CpdParams::new(0.0, Some(0.5), MAX_ITER, 0.0, false, 1).unwrap();
+        let r = align((&mx, &my, &s.2), (&s.0, &s.1, &s.2), &p).unwrap();
+        assert!(r.converged && r.iterations < 1000, "{} iterations", r.iterations);
+        assert!((r.transform.theta - 0.3).abs() < 1e-9 && (r.transform.tx - 5.0).abs() < 1e-7 && r.rms < 1e-6, "{r:?}");
+        // no time overlap: an error, not theta = 0 with rms NaN
+        let late: Vec<f64> = s.2.iter().map(|t| t + 1000.0).collect();
+        let p = CpdParams::new(0.1, Some(0.5), 100, 1e-5, false, 1).unwrap();
+        let e = align((&s.0, &s.1, &late), (&s.0, &s.1, &s.2), &p).unwrap_err();
+        assert_eq!(e, CpdError::NoTimeOverlap { tau: 0.5 });
+        assert!(e.to_string().contains("do not overlap in time"));
+        // 1e200 coordinates: an error naming the bound, not NaN
+        let big: Vec<f64> = s.0.iter().map(|x| x * 1e200).collect();
+        assert!(matches!(align((&big, &s.1, &s.2), (&s.0, &s.1, &s.2), &p), Err(CpdError::Magnitude { which: "fixed", index: 0 }) | Err(CpdError::Magnitude { which: "fixed", .. })));
+        // 1e100 coordinates still fit
+        let (bx, by): (Vec<f64>, Vec<f64>) = (s.0.iter().map(|x| x * 1e100).collect(), s.1.iter().map(|y| y * 1e100).collect());
+        let r = align((&bx, &by, &s.2), (&bx, &by, &s.2), &CpdParams::new(0.1, Some(0.5), 100, 1e-5, false, 1).unwrap()).unwrap();
+        assert!(r.transform.theta.abs() < 1e-9 && r.rms.is_finite());
     }
 }

@@ -9,7 +9,7 @@
 //! # Complexity
 //! Per iteration O(N + M + K) time (K = pairs in the time band) and O(N + M) memory.
 
-use super::cpd::{exp_neg_pub as exp_neg, CpdError, CpdParams, PROBE_ITERATIONS, TIME_CUTOFF_TAUS};
+use super::cpd::{exp_neg_pub as exp_neg, CpdError, CpdParams, MAX_MAGNITUDE, PROBE_ITERATIONS, SIGMA2_FLOOR, TIME_CUTOFF_TAUS};
 use nalgebra::{Matrix3, Vector3};
 use rayon::prelude::*;
 
@@ -36,6 +36,9 @@ fn prepare(which: &'static str, c: (&[f64], &[f64], &[f64], &[f64])) -> Result<P
     for k in 0..x.len() {
         if !(x[k].is_finite() && y[k].is_finite() && z[k].is_finite() && t[k].is_finite()) {
             return Err(CpdError::NotFinite { which, index: k });
+        }
+        if x[k].abs().max(y[k].abs()).max(z[k].abs()).max(t[k].abs()) > MAX_MAGNITUDE {
+            return Err(CpdError::Magnitude { which, index: k });
         }
     }
     let mut idx: Vec<usize> = (0..x.len()).collect();
@@ -99,6 +102,11 @@ pub fn align3(
         }
         band.push((lo, hi));
     }
+    if band.iter().all(|&(a, b)| a == b) {
+        return Err(CpdError::NoTimeOverlap { tau: p.tau.unwrap_or(f64::INFINITY) });
+    }
+    let pairs: u128 = band.iter().map(|&(a, b)| (b - a) as u128).sum();
+    crate::algo::limits::CPD_PAIR_VISITS.check(pairs * p.max_iter as u128).map_err(CpdError::Work)?;
     let e_step = |r: &Matrix3<f64>, tv: &Vector3<f64>, s: f64, sigma2: f64| -> St {
         let ty: Vec<Vector3<f64>> = my.iter().map(|y| s * (r * y) + tv).collect();
         let c = (2.0 * std::f64::consts::PI * sigma2).powf(d / 2.0) * log_tau_norm.exp() * p.w / (1.0 - p.w) * m / n;
@@ -146,6 +154,7 @@ pub fn align3(
             let (sy, syy) = (ty.iter().sum::<Vector3<f64>>(), ty.iter().map(|v| v.norm_squared()).sum::<f64>());
             ((m * sxx + n * syy - 2.0 * sx.dot(&sy)) / (d * n * m)).max(f64::MIN_POSITIVE)
         });
+        let sigma2_first = sigma2;
         let (mut q, mut diff, mut it) = (f64::INFINITY, f64::INFINITY, 0);
         let mut last = St::default();
         while it < max_iter && diff > p.tol {
@@ -170,10 +179,13 @@ pub fn align3(
             q = (xpx - 2.0 * s * tr_ar + s * s * ypy) / (2.0 * sigma2) + d * st.np / 2.0 * sigma2.ln();
             diff = (q - qprev).abs();
             sigma2 = if p.with_scale { (xpx - s * tr_ar) / (st.np * d) } else { (xpx - 2.0 * tr_ar + ypy) / (st.np * d) };
-            if !(sigma2 > 0.0) {
-                sigma2 = if p.tol > 0.0 { p.tol / 10.0 } else { f64::MIN_POSITIVE.sqrt() };
-            }
             it += 1;
+            let floor = (sigma2_first * SIGMA2_FLOOR).max(f64::MIN_POSITIVE);
+            if !(sigma2 > floor) {
+                // noise-free: the fit is exact to rounding
+                sigma2 = floor;
+                diff = 0.0;
+            }
         }
         let ll = last.log_den - n * (d / 2.0 * (2.0 * std::f64::consts::PI * sigma2).ln() + log_tau_norm) + n * ((1.0 - p.w) / m).ln();
         (r, tv, s, sigma2, it, diff <= p.tol, q, ll, last)
@@ -199,6 +211,9 @@ pub fn align3(
         out
     };
     let (r, tv, s, sigma2, it, converged, q, ll, last) = res;
+    if !(last.np > 0.0) {
+        return Err(CpdError::AllOutliers { w: p.w });
+    }
     // Undo the centring: t = t' + c_f − s R c_m.
     let t = tv + cf - s * (r * cm);
     let mut rr = [[0.0; 3]; 3];

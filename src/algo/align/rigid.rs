@@ -50,8 +50,12 @@ impl Transform2 {
         if !(self.theta.is_finite() && self.tx.is_finite() && self.ty.is_finite() && self.scale.is_finite()) {
             return Err(RigidError::NotFinite);
         }
-        if !(self.scale > 0.0) {
+        // within these bounds the inverse and every composition stay finite
+        if !(1e-150..=1e150).contains(&self.scale) {
             return Err(RigidError::Scale(self.scale));
+        }
+        if self.tx.abs().max(self.ty.abs()) > 1e150 {
+            return Err(RigidError::NotFinite);
         }
         Ok(())
     }
@@ -109,8 +113,8 @@ impl fmt::Display for RigidError {
         match self {
             RigidError::TooFew { got, need } => write!(f, "needs at least {need} point pairs, got {got}"),
             RigidError::Degenerate => write!(f, "all points coincide, so the rotation is undetermined"),
-            RigidError::NotFinite => write!(f, "a value is NaN or infinite"),
-            RigidError::Scale(s) => write!(f, "scale must be > 0, got {s}"),
+            RigidError::NotFinite => write!(f, "a value is NaN or infinite (or a translation beyond ±1e150)"),
+            RigidError::Scale(s) => write!(f, "scale must be between 1e-150 and 1e150, got {s:?}"),
             RigidError::Trim(t) => write!(f, "trim must be in [0, 1), got {t}"),
             RigidError::PairNotFinite { index, field, value } => write!(f, "pairs[{index}].{field} must be finite, got {value}"),
         }

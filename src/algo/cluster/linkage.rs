@@ -231,11 +231,21 @@ pub fn linkage_condensed(ids: Vec<i64>, mut m: Vec<f64>, method: Linkage) -> Res
             return Err(ClusterError::WardIncomplete { a: ids[i], b: ids[j] });
         }
     }
+    // The Lance–Williams updates square distances (ward) and multiply them by cluster sizes
+    // (average, weighted): near f64::MAX they overflow to inf and then NaN, on which kodama
+    // panics. Every method is scale-equivariant, so very large (or very small) finite distances
+    // are scaled by a power of two, which is exact, and the merge heights scaled back.
+    let top = m.iter().copied().filter(|d| d.is_finite()).fold(0.0f64, f64::max);
+    let shift = if top > 1e150 || (top > 0.0 && top < 1e-150) { (-(top.log2().floor() as i32)).clamp(-1000, 1000) } else { 0 };
+    if shift != 0 {
+        m.iter_mut().for_each(|d| *d *= 2f64.powi(shift));
+    }
     let d = kodama::linkage(&mut m, n, method.kodama());
+    let back = 2f64.powi(-shift);
     let merges = d
         .steps()
         .iter()
-        .map(|s| Merge { left: s.cluster1.min(s.cluster2), right: s.cluster1.max(s.cluster2), distance: s.dissimilarity, size: s.size })
+        .map(|s| Merge { left: s.cluster1.min(s.cluster2), right: s.cluster1.max(s.cluster2), distance: s.dissimilarity * back, size: s.size })
         .collect();
     Ok(Dendrogram { ids, merges })
 }
@@ -399,6 +409,32 @@ mod tests {
         }
         let s = flat(&dendrogram(&pairs, Linkage::Single).unwrap(), Cut::Threshold(1.0));
         assert_eq!(s, vec![1, 1, 1], "single linkage chains through 3");
+    }
+
+    /// Distances near f64::MAX (ward squares them, average multiplies them by sizes) or near
+    /// the smallest doubles give the same dendrogram as the same distances at unit scale.
+    #[test]
+    fn extreme_magnitudes_scale_exactly() {
+        let unit = [(1, 2, 1.0), (2, 3, 1.7), (1, 3, 1.0e-8 + 0.5)];
+        for method in [Linkage::Ward, Linkage::Average, Linkage::Weighted, Linkage::Complete, Linkage::Single] {
+            let base = dendrogram(&unit, method).unwrap();
+            for scale in [2f64.powi(1000), 2f64.powi(-1000), 2f64.powi(-1020)] {
+                let pairs: Vec<_> = unit.iter().map(|&(a, b, d)| (a, b, d * scale)).collect();
+                let d = dendrogram(&pairs, method).unwrap();
+                assert_eq!(d.merges.len(), base.merges.len());
+                for (x, y) in d.merges.iter().zip(&base.merges) {
+                    assert_eq!((x.left, x.right, x.size), (y.left, y.right, y.size), "{method:?} at {scale:e}");
+                    assert!((x.distance / scale - y.distance).abs() <= 1e-12 * y.distance, "{method:?} at {scale:e}: {} vs {}", x.distance / scale, y.distance);
+                }
+            }
+        }
+        // the case: ward on 1e308 / 1.7e308 / 1e300 used to panic inside kodama
+        let d = dendrogram(&[(1, 2, 1e308), (2, 3, 1.7e308), (1, 3, 1e300)], Linkage::Ward).unwrap();
+        assert!(d.merges.iter().all(|m| m.distance.is_finite() || m.distance == f64::INFINITY));
+        assert_eq!(d.merges[0].distance, 1e300);
+        // subnormal distances: a result, not a panic
+        let d = dendrogram(&[(1, 2, 5e-324), (2, 3, 1e-320), (1, 3, 2e-322)], Linkage::Ward).unwrap();
+        assert!(d.merges.iter().all(|m| m.distance.is_finite()));
     }
 
     #[test]

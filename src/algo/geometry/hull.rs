@@ -16,8 +16,10 @@
 //!
 //! # Degenerate input (documented rule)
 //! Empty input, fewer than three distinct points, or points that are all collinear (after the
-//! density rule) have no area: the result is the empty polygon (`POLYGON EMPTY`), which
-//! contains nothing and overlaps nothing. NaN or infinite coordinates are an error.
+//! density rule; or so nearly collinear that the hull is a sliver that touches itself in
+//! floating point) have no area: the result is the empty polygon (`POLYGON EMPTY`), which
+//! contains nothing and overlaps nothing. NaN or infinite coordinates, or beyond ±1e150, are an
+//! error.
 //!
 //! # Complexity
 //! Deduplication O(n log n) (parallel sort for large n); convex hull O(n log n); concave hull
@@ -39,6 +41,8 @@ pub enum HullError {
     MinNeighbours(i64),
     /// 0-based index of a NaN or infinite point, and the field.
     NotFinite { index: usize, field: &'static str },
+    /// 0-based index of a point beyond ±MAX_COORD, and the field.
+    Magnitude { index: usize, field: &'static str },
 }
 
 impl fmt::Display for HullError {
@@ -50,6 +54,9 @@ impl fmt::Display for HullError {
             HullError::MinNeighbours(k) => write!(f, "min_neighbours must be >= 0, got {k}"),
             HullError::NotFinite { index, field } => {
                 write!(f, "points[{}].{field} is NaN or infinite", index + 1)
+            }
+            HullError::Magnitude { index, field } => {
+                write!(f, "points[{}].{field} is beyond ±{:e} (polygon areas would overflow)", index + 1, super::region::MAX_COORD)
             }
         }
     }
@@ -212,6 +219,12 @@ pub fn view_polygon(x: &[f64], y: &[f64], params: &HullParams) -> Result<MultiPo
         if !b.is_finite() {
             return Err(HullError::NotFinite { index: k, field: "y" });
         }
+        if a.abs() > super::region::MAX_COORD {
+            return Err(HullError::Magnitude { index: k, field: "x" });
+        }
+        if b.abs() > super::region::MAX_COORD {
+            return Err(HullError::Magnitude { index: k, field: "y" });
+        }
     }
     let kept: Vec<usize> = match params.density {
         Some(rule) => dense_points(x, y, rule),
@@ -246,7 +259,13 @@ pub fn view_polygon(x: &[f64], y: &[f64], params: &HullParams) -> Result<MultiPo
             }
         }
     };
-    Ok(MultiPolygon(vec![normalise(hull)]))
+    let out = MultiPolygon(vec![normalise(hull)]);
+    // Nearly collinear points can give a sliver whose ring touches itself in floating point:
+    // that is no area either, and every polygon function would refuse it.
+    if super::region::Region::from_multipolygon(out.clone()).is_err() {
+        return Ok(empty());
+    }
+    Ok(out)
 }
 
 /// Closed exterior ring, no holes (both hulls are simple polygons).
@@ -302,6 +321,21 @@ mod tests {
         assert_eq!(view_polygon(&[0.0, 1.0, 2.0], &[0.0, 0.0, 0.0], &c).unwrap(), empty());
         let tri = view_polygon(&[0.0, 1.0, 0.0], &[0.0, 0.0, 1.0], &c).unwrap();
         assert!((tri.unsigned_area() - 0.5).abs() < 1e-12);
+    }
+
+    /// Nearly collinear points (a line through rounded coordinates) give POLYGON EMPTY or a valid
+    /// polygon, never a ring that the polygon functions refuse; huge coordinates are an error.
+    #[test]
+    fn nearly_collinear_points_never_give_an_invalid_ring() {
+        let p = HullParams::new("convex", None).unwrap();
+        for k in 0..2000 {
+            let (c, s) = ((k as f64).cos(), (k as f64 * 1.3).sin());
+            let x: Vec<f64> = (0..40).map(|i| i as f64 * c).collect();
+            let y: Vec<f64> = (0..40).map(|i| i as f64 * s).collect();
+            let h = view_polygon(&x, &y, &p).unwrap();
+            assert!(super::super::region::Region::from_multipolygon(h).is_ok(), "k = {k}");
+        }
+        assert!(matches!(view_polygon(&[0.0, 1e200, 0.0], &[0.0, 0.0, 1.0], &p).unwrap_err(), HullError::Magnitude { index: 1, field: "x" }));
     }
 
     #[test]

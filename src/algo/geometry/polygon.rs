@@ -51,7 +51,13 @@ pub fn buffer(p: &MultiPolygon<f64>, distance: f64) -> Result<MultiPolygon<f64>,
     if p.0.is_empty() || distance == 0.0 {
         return Ok(p.clone());
     }
-    Ok(p.buffer(distance))
+    let out = p.buffer(distance);
+    // Far beyond the polygon's own size the offset loses the polygon to rounding (an outward
+    // buffer of 1e10 m came back with area 0): refuse what cannot be computed right.
+    if distance > 0.0 && !(out.unsigned_area() >= p.unsigned_area()) {
+        return Err(ParamError { name: "distance", rule: "small enough to keep the polygon within floating-point precision", value: distance });
+    }
+    Ok(out)
 }
 
 /// Unsigned area (holes subtracted).

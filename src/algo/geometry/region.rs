@@ -44,7 +44,15 @@ pub enum RegionError {
     NotFinite,
     /// A ring crosses or touches itself (near the given point).
     SelfIntersection { x: f64, y: f64 },
+    /// A ring with fewer than 4 points (3 distinct corners and the closing point).
+    ShortRing { points: usize },
+    /// A vertex beyond ±[`MAX_COORD`]: areas and intersections would overflow.
+    Magnitude { x: f64, y: f64 },
 }
+
+/// Largest |coordinate| of a polygon vertex: products of two coordinates (areas, orientation
+/// tests) stay far from overflow. Larger polygons are refused, not computed wrongly.
+pub const MAX_COORD: f64 = 1e150;
 
 impl fmt::Display for RegionError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
@@ -56,6 +64,10 @@ impl fmt::Display for RegionError {
             RegionError::SelfIntersection { x, y } => {
                 write!(f, "is not a valid polygon: a ring intersects itself at ({x} {y})")
             }
+            RegionError::ShortRing { points } => {
+                write!(f, "is not a valid polygon: a ring has {points} points, fewer than 4 (3 corners and the closing point)")
+            }
+            RegionError::Magnitude { x, y } => write!(f, "has a vertex ({x:?} {y:?}) beyond ±{MAX_COORD:e}"),
         }
     }
 }
@@ -244,6 +256,12 @@ impl Region {
         if !rings().flat_map(|r| r.0.iter()).all(|c| c.x.is_finite() && c.y.is_finite()) {
             return Err(RegionError::NotFinite);
         }
+        if let Some(c) = rings().flat_map(|r| r.0.iter()).find(|c| c.x.abs() > MAX_COORD || c.y.abs() > MAX_COORD) {
+            return Err(RegionError::Magnitude { x: c.x, y: c.y });
+        }
+        if let Some(r) = rings().find(|r| r.0.len() < 4) {
+            return Err(RegionError::ShortRing { points: r.0.len() });
+        }
         if let Some(c) = rings().find_map(ring_self_intersection) {
             return Err(RegionError::SelfIntersection { x: c.x, y: c.y });
         }
@@ -335,6 +353,18 @@ mod tests {
         let holes = Region::from_wkt("POLYGON ((0 0, 10 0, 10 10, 0 10, 0 0), (4 4, 6 4, 6 6, 4 6, 4 4))").unwrap();
         assert!(!holes.contains(5.0, 5.0) && holes.contains(1.0, 1.0));
         assert_eq!(inside_indices(&[1.0, 5.0, 20.0], &[1.0, 5.0, 1.0], &holes), vec![0]);
+    }
+
+    /// Issue 17: a ring of fewer than 4 points, and vertices whose products would overflow,
+    /// are errors (they used to give false / NaN / EMPTY silently).
+    #[test]
+    fn short_rings_and_huge_vertices_are_rejected() {
+        assert_eq!(Region::from_wkt("POLYGON((0 0,1 1))").unwrap_err().to_string(), "is not a valid polygon: a ring has 3 points, fewer than 4 (3 corners and the closing point)");
+        assert!(matches!(Region::from_wkt("POLYGON((0 0,1 0,0 0))").unwrap_err(), RegionError::ShortRing { .. }));
+        assert!(Region::from_wkt("POLYGON((0 0,1 0,1 1,0 0))").is_ok());
+        assert!(matches!(Region::from_wkt("POLYGON((0 0,1e200 0,1e200 1e200,0 0))").unwrap_err(), RegionError::Magnitude { .. }));
+        assert!(Region::from_wkt("POLYGON((0 0,1e100 0,1e100 1e100,0 0))").unwrap().contains(0.9e100, 0.1e100));
+        assert!(Region::from_wkt("POLYGON EMPTY").is_ok());
     }
 
     #[test]

@@ -78,6 +78,16 @@ pub struct S1 {
     pub sy: f64,
 }
 
+/// The cells of an index-band LCSS table (|i − j| ≤ δ) against the work limit `lcss_cells`.
+/// O(1).
+pub fn check_work(n: usize, m: usize, p: &IndexParams) -> Result<(), LcssError> {
+    let d = p.delta() as u128;
+    let (n, m) = (n as u128, m as u128);
+    // Σ_i |{j : |i − j| ≤ δ}| ≤ n · min(m, 2δ + 1)
+    let cells = n * m.min(2 * d + 1);
+    crate::algo::limits::LCSS_CELLS.check(cells).map_err(LcssError::Work)
+}
+
 /// `LCSS_2D` and `S1_2D` (eq. 4.1, 4.3). Only x and y are used; t plays no part here.
 pub fn s1(a: Traj<'_>, b: Traj<'_>, p: &IndexParams) -> S1 {
     if p.rejects(a.len(), b.len()) {

@@ -27,6 +27,8 @@ pub enum LcssError {
     Rho(f64),
     /// The translation search of S2 would need more candidates than the limit.
     TooLarge { candidates: usize, limit: usize },
+    /// The LCSS table would have more cells than the work limit `lcss_cells`.
+    Work(crate::algo::limits::Exceeded),
 }
 
 impl fmt::Display for LcssError {
@@ -41,6 +43,7 @@ impl fmt::Display for LcssError {
                 f,
                 "delta is too large for these trajectories: {candidates} candidate translations (limit {limit}); reduce delta"
             ),
+            LcssError::Work(e) => e.fmt(f),
         }
     }
 }

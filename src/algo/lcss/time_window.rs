@@ -151,6 +151,14 @@ fn pruned_bands(a: Traj<'_>, b: Traj<'_>, eps: f64, tw: f64) -> Vec<(usize, usiz
     bands
 }
 
+/// The cells of the LCSS table inside the time band (before pruning), against the work limit
+/// `lcss_cells`: `Err` before a call would run for long. O(n + m); `times` of A and B sorted.
+pub fn check_work(a_t: &[f64], b_t: &[f64], tw: f64) -> Result<(), LcssError> {
+    let mut band = time_band(a_t, b_t, tw);
+    let cells: u128 = (0..a_t.len()).map(|i| band(i)).map(|(lo, hi)| hi.saturating_sub(lo) as u128).sum();
+    crate::algo::limits::LCSS_CELLS.check(cells).map_err(LcssError::Work)
+}
+
 /// `L_{ε,T,ξ}(A, B)` of eq. 2.9. Inputs must satisfy [`Traj::validate`].
 pub fn length(a: Traj<'_>, b: Traj<'_>, p: &TimeWindowParams) -> usize {
     if p.too_short(a.len(), b.len()) || !may_match(a, b, p.epsilon, p.time_window) {

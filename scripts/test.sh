@@ -1,13 +1,17 @@
 #!/usr/bin/env bash
 # Every test of trajdb, from a clean clone: `scripts/test.sh`
 #   1. algo unit + property tests without DuckDB (--no-default-features)
-#   2. embedded build: unit tests, CLI tests, tests/sql/*.slt through the sqllogictest crate;
-#      2b. report.html rendered in headless Chromium (tests/test_report.sh; apt-get installs it)
+#   2. embedded build: unit tests, CLI tests, tests/sql/*.slt through the sqllogictest crate, the
+#      fuzz harness (tests/fuzz.rs, quick mode: TRAJDB_FUZZ_CASES per overload, default 24);
+#      2b. report.html rendered in headless Chromium (tests/test_report.sh; apt-get installs it);
+#      2c. byte-identical results across thread counts and input row orders (tests/test_determinism.sh)
 #   3. the function reference docs/functions.md is up to date
-#   4. loadable extension: build, footer, the same .slt files and the README's examples in stock
-#      DuckDB (PyPI duckdb); the Python package (pip install . into a fresh venv) against the binary
+#   4. loadable extension: build, footer, the same .slt files, the fuzz cases and the README's
+#      examples in stock DuckDB (PyPI duckdb); concurrency, interrupt and work limits
+#      (tests/test_robust_python.py); the Python package (pip install . into a fresh venv) against
+#      the binary
 #   5. round trip with DuckDB spatial (PyPI duckdb 1.5.5 + duckdb-extension-spatial, own venv), and
-#      the .slt suite and README examples again in that DuckDB 1.5.5
+#      the .slt suite, fuzz cases, robustness tests and README examples again in that DuckDB 1.5.5
 # Needs: cargo, python3 (with venv/pip, PyPI reachable). The first run compiles DuckDB (~50 CPU-min).
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -18,8 +22,9 @@ SPATIAL_VENV="${TRAJDB_SPATIAL_VENV:-$HOME/.cache/trajdb-spatial-venv}"
 echo "== 1/5 algo tests (no DuckDB)"
 cargo test --release --no-default-features --lib
 
-echo "== 2/5 embedded build: unit, CLI and sqllogictest tests"
-cargo test --release
+echo "== 2/5 embedded build: unit, CLI, sqllogictest and fuzz tests"
+FUZZ_CASES="$CARGO_TARGET_DIR/fuzz-cases.sql"
+TRAJDB_FUZZ_OUT="$FUZZ_CASES" cargo test --release
 
 echo "== 2b/5 the report in headless Chromium (installed from Debian when missing)"
 if ! command -v chromium > /dev/null && ! command -v chromium-browser > /dev/null; then
@@ -27,6 +32,9 @@ if ! command -v chromium > /dev/null && ! command -v chromium-browser > /dev/nul
   $SUDO apt-get update -qq && DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq chromium > /dev/null
 fi
 tests/test_report.sh
+
+echo "== 2c/5 determinism across thread counts and input row orders"
+tests/test_determinism.sh
 
 echo "== 3/5 function reference is generated from the registered descriptions"
 "$CARGO_TARGET_DIR/release/trajdb" functions --markdown > "$CARGO_TARGET_DIR/functions.md"
@@ -41,6 +49,8 @@ if [ ! -x "$VENV/bin/python" ]; then python3 -m venv "$VENV"; fi
 "$VENV/bin/pip" install -q -r requirements-test.txt
 python3 tests/test_footer.py && python3 tests/test_footer.py trajdb.duckdb_extension
 "$VENV/bin/python" tests/run_slt_python.py trajdb.duckdb_extension
+"$VENV/bin/python" tests/run_fuzz_python.py trajdb.duckdb_extension "$FUZZ_CASES"
+"$VENV/bin/python" tests/test_robust_python.py trajdb.duckdb_extension
 "$VENV/bin/python" tests/test_readme.py trajdb.duckdb_extension
 tests/test_python_package.sh
 
@@ -50,4 +60,6 @@ if [ ! -x "$SPATIAL_VENV/bin/python" ]; then python3 -m venv "$SPATIAL_VENV"; fi
 "$SPATIAL_VENV/bin/python" tests/test_spatial_roundtrip.py trajdb.duckdb_extension
 # the same extension file, .slt suite and README examples in DuckDB 1.5 (this venv's duckdb 1.5.5)
 "$SPATIAL_VENV/bin/python" tests/run_slt_python.py trajdb.duckdb_extension
+"$SPATIAL_VENV/bin/python" tests/run_fuzz_python.py trajdb.duckdb_extension "$FUZZ_CASES"
+"$SPATIAL_VENV/bin/python" tests/test_robust_python.py trajdb.duckdb_extension
 "$SPATIAL_VENV/bin/python" tests/test_readme.py trajdb.duckdb_extension

@@ -8,7 +8,7 @@
 //!
 //! | name | what one call may do | default |
 //! |---|---|---|
-//! | `lcss_cells` | cells of one LCSS table (inside the time or index band) | 2e9 (a few seconds) |
+//! | `lcss_cells` | cells of one LCSS table (inside the time or index band; traj_cluster S2: summed over pairs and candidate translations) | 1e10 (seconds) |
 //! | `cpd_pair_visits` | point pairs visited by one `cpd_align`: pairs in the time band × max_iter | 2e10 |
 //! | `output_points` | points (or rows) one call returns | 5e7 |
 
@@ -24,7 +24,7 @@ pub struct Limit {
     value: AtomicU64,
 }
 
-pub static LCSS_CELLS: Limit = Limit::new("lcss_cells", "LCSS table cells", 2_000_000_000);
+pub static LCSS_CELLS: Limit = Limit::new("lcss_cells", "LCSS table cells", 10_000_000_000);
 pub static CPD_PAIR_VISITS: Limit = Limit::new("cpd_pair_visits", "point-pair visits (pairs in the time band x max_iter)", 20_000_000_000);
 pub static OUTPUT_POINTS: Limit = Limit::new("output_points", "output points", 50_000_000);
 

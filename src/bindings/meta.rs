@@ -22,12 +22,12 @@ pub static FUNCTIONS: &[Function] = &[TRAJDB_FUNCTIONS, TRAJDB_LIMIT];
 
 const TRAJDB_LIMIT: Function = Function {
     name: "trajdb_limit",
-    description: "Reads or sets a work limit, the most work one call may do (src/algo/limits.rs): 'lcss_cells' (cells of one LCSS table, \
-                  default 2e9), 'cpd_pair_visits' (pairs in cpd_align's time band x max_iter, default 2e10), 'output_points' (points one \
+    description: "Reads or sets a work limit, the most work one call may do (src/algo/limits.rs): 'lcss_cells' (cells of one LCSS table; traj_cluster with S2 sums them over pairs and translations, \
+                  default 1e10), 'cpd_pair_visits' (pairs in cpd_align's time band x max_iter, default 2e10), 'output_points' (points one \
                   call returns, default 5e7). A call above a limit stops at once with an error that names it. With a value it sets the limit \
                   for the whole process and returns the previous one. DuckDB's C API lets no extension see Ctrl-C inside a call: the limits \
                   keep every call short instead.",
-    example: "SELECT trajdb_limit('lcss_cells'); -- 2000000000",
+    example: "SELECT trajdb_limit('lcss_cells'); -- 10000000000",
     maths: "src/algo/limits.rs",
     binding: file!(),
     signatures: &[Signature { params: &[p("name", Ty::Varchar), p("value", Ty::Bigint)], arities: &[1, 2], returns: Ty::Bigint, kernel: limit }],

@@ -64,6 +64,8 @@ pub enum ClusterError {
     K(i64),
     /// More items than the condensed matrix can index or memory can hold.
     TooMany(usize),
+    /// The condensed matrix could not be allocated (bytes needed).
+    Memory { items: usize, bytes: usize },
 }
 
 impl fmt::Display for ClusterError {
@@ -83,6 +85,11 @@ impl fmt::Display for ClusterError {
             ClusterError::Threshold(t) => write!(f, "threshold must not be NaN, got {t}"),
             ClusterError::K(k) => write!(f, "k must be >= 1, got {k}"),
             ClusterError::TooMany(n) => write!(f, "{n} items need a {n}x{n} distance matrix, more than this machine can hold"),
+            ClusterError::Memory { items, bytes } => write!(
+                f,
+                "{items} items need a {:.1} GiB distance matrix, which could not be allocated; cluster fewer at once (e.g. per class or hour)",
+                *bytes as f64 / (1u64 << 30) as f64
+            ),
         }
     }
 }
@@ -192,7 +199,10 @@ fn finish(pairs: &[(i64, i64, f64)], ids: Vec<i64>, lookup: impl Fn(i64) -> usiz
     // Condensed upper triangle, row-major: (i, j), i < j at i*n - i(i+1)/2 + j - i - 1.
     let len = n * (n - 1) / 2;
     let inf = f64::INFINITY.to_bits();
-    let cells: Vec<AtomicU64> = (0..len).into_par_iter().map(|_| AtomicU64::new(inf)).collect();
+    // fallible: too little memory is an error, never an abort of the host process
+    let mut cells: Vec<AtomicU64> = Vec::new();
+    cells.try_reserve_exact(len).map_err(|_| ClusterError::Memory { items: n, bytes: len * 8 })?;
+    cells.resize_with(len, || AtomicU64::new(inf));
     let at = |i: usize, j: usize| i * n - i * (i + 1) / 2 + j - i - 1;
     pairs.par_chunks(1 << 16).for_each(|chunk| {
         for &(a, b, d) in chunk {

@@ -48,6 +48,10 @@ pub enum TrajClusterError {
     /// S2 on a pair too large for its exact search.
     TooLarge(String),
     Cluster(ClusterError),
+    /// More work than the limit `lcss_cells` (S2: every pair's candidate translations).
+    Work(crate::algo::limits::Exceeded),
+    /// The condensed distance matrix could not be allocated.
+    Memory { items: usize, bytes: usize },
 }
 
 impl fmt::Display for TrajClusterError {
@@ -57,16 +61,23 @@ impl fmt::Display for TrajClusterError {
             TrajClusterError::DuplicateId(id) => write!(f, "ids must be distinct, got {id} twice"),
             TrajClusterError::TooLarge(s) => write!(f, "{s}"),
             TrajClusterError::Cluster(e) => write!(f, "{e}"),
+            TrajClusterError::Work(e) => write!(f, "{e}"),
+            TrajClusterError::Memory { items, bytes } => write!(
+                f,
+                "{items} trajectories need a {:.1} GiB distance matrix, which could not be allocated; cluster fewer at once (e.g. per class or hour)",
+                *bytes as f64 / (1u64 << 30) as f64
+            ),
         }
     }
 }
 impl std::error::Error for TrajClusterError {}
 
-/// The condensed distance matrix (row-major upper triangle) of `trajs`, in parallel.
-pub fn distances(trajs: &[Traj<'_>], p: &IndexParams, sim: Similarity) -> Vec<f64> {
+/// The condensed distance matrix (row-major upper triangle) of `trajs`, in parallel. Its
+/// allocation is fallible: too little memory is an error, never an abort of the host process.
+pub fn distances(trajs: &[Traj<'_>], p: &IndexParams, sim: Similarity) -> Result<Vec<f64>, TrajClusterError> {
     let n = trajs.len();
     if n < 2 {
-        return Vec::new();
+        return Ok(Vec::new());
     }
     let bbox: Vec<[f64; 4]> = trajs
         .iter()
@@ -77,7 +88,10 @@ pub fn distances(trajs: &[Traj<'_>], p: &IndexParams, sim: Similarity) -> Vec<f6
         })
         .collect();
     let eps = p.epsilon();
-    let mut m = vec![f64::INFINITY; n * (n - 1) / 2];
+    let len = n * (n - 1) / 2;
+    let mut m: Vec<f64> = Vec::new();
+    m.try_reserve_exact(len).map_err(|_| TrajClusterError::Memory { items: n, bytes: len * 8 })?;
+    m.resize(len, f64::INFINITY);
     let mut rows: Vec<&mut [f64]> = Vec::with_capacity(n - 1);
     let mut rest = &mut m[..];
     for i in 0..n - 1 {
@@ -112,7 +126,7 @@ pub fn distances(trajs: &[Traj<'_>], p: &IndexParams, sim: Similarity) -> Vec<f6
             }
         }
     });
-    m
+    Ok(m)
 }
 
 /// Clusters the trajectories `trajs` (one per id in `ids`, any order) with `method` and `cut`.
@@ -140,10 +154,27 @@ pub fn cluster_trajectories(
     if sim == Similarity::S2 {
         let longest = trajs.iter().map(|t| t.len()).max().unwrap_or(0);
         lcss_translate::check_size(longest, longest, p).map_err(|e| TrajClusterError::TooLarge(e.to_string()))?;
+        // S2 tries every candidate translation of every pair: LCSS cells x candidates per pair,
+        // summed over the pairs (by distinct lengths, O(L²)), against the work limit
+        let mut by_len: std::collections::BTreeMap<usize, u128> = std::collections::BTreeMap::new();
+        for t in trajs {
+            *by_len.entry(t.len()).or_default() += 1;
+        }
+        let band = 2 * p.delta() as u128 + 1;
+        let pair = |a: u128, b: u128| a * b.min(band) * 2 * a * b.min(band);
+        let lens: Vec<(u128, u128)> = by_len.into_iter().map(|(l, c)| (l as u128, c)).collect();
+        let mut work: u128 = 0;
+        for (i, &(la, ca)) in lens.iter().enumerate() {
+            work = work.saturating_add(ca * ca.saturating_sub(1) / 2 * pair(la, la));
+            for &(lb, cb) in &lens[i + 1..] {
+                work = work.saturating_add(ca * cb * pair(la, lb));
+            }
+        }
+        crate::algo::limits::LCSS_CELLS.check(work).map_err(TrajClusterError::Work)?;
     }
     let sorted_ids: Vec<i64> = order.iter().map(|&k| ids[k]).collect();
     let sorted: Vec<Traj<'_>> = order.iter().map(|&k| trajs[k]).collect();
-    let m = distances(&sorted, p, sim);
+    let m = distances(&sorted, p, sim)?;
     // isolated: +inf to every other item
     let mut linked = vec![false; n];
     {
@@ -199,7 +230,7 @@ mod tests {
         let trajs: Vec<Traj<'_>> = data.iter().map(|(t, x, y)| Traj::new(t, x, y)).collect();
         let p = IndexParams::new(2, 1.0, Some(0.5)).unwrap();
         for sim in [Similarity::S1, Similarity::S2] {
-            let m = distances(&trajs, &p, sim);
+            let m = distances(&trajs, &p, sim).unwrap();
             let mut k = 0;
             for i in 0..trajs.len() {
                 for j in i + 1..trajs.len() {

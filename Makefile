@@ -9,7 +9,10 @@ EXTENSION_NAME=trajdb
 # trajdb uses the STABLE C API (v1.2.0, C_STRUCT): one binary loads in DuckDB 1.5 and 2.0
 USE_UNSTABLE_C_API=0
 TARGET_DUCKDB_VERSION=v1.2.0
-CARGO_FLAGS=--no-default-features --features extension
+CARGO_FLAGS=--no-default-features --features extension $(ARROW_O0)
+# arrow (pulled in by duckdb-rs, never run by the extension) unoptimised, as in pyproject.toml
+# and scripts/build_extension.sh: a third of the build time
+ARROW_O0=$(foreach c,arrow arrow-arith arrow-array arrow-buffer arrow-cast arrow-cmp arrow-data arrow-ord arrow-row arrow-schema arrow-select arrow-string regex regex-automata regex-syntax,--config profile.release.package.$(c).opt-level=0)
 
 all: configure release
 

@@ -45,6 +45,26 @@ def page(d):
 a, b = page("bindemo"), page("pydemo")
 assert len(a) > 100_000 and a == b, f"report.html differs ({len(a)} / {len(b)} characters)"
 print(f"ok   report.html: {len(a)} characters, identical to the trajdb binary's but for the stage times")
+# faulty input through the package: a clear error, and no stale results from an earlier run
+import os, warnings
+scen = f"{w}/pydemo/points.parquet"
+out = f"{w}/pyfaulty"
+trajdb.pipeline(con, scen, out=out)
+assert os.path.exists(f"{out}/report.html")
+q.execute(f"COPY (SELECT * FROM '{scen}' WHERE false) TO '{w}/empty.parquet'")
+try:
+    trajdb.pipeline(con, f"{w}/empty.parquet", out=out)
+    raise SystemExit("FAIL: an empty input gave no error")
+except duckdb.InvalidInputException as e:
+    assert "has no rows" in str(e), e
+assert not os.path.exists(out), "an earlier run's results stayed after a failed run"
+print("ok   empty input: an error, and the earlier results are gone")
+q.execute(f"COPY (SELECT * FROM '{scen}' WHERE camera = 1) TO '{w}/one.parquet'")
+with warnings.catch_warnings(record=True) as got:
+    warnings.simplefilter("always")
+    trajdb.pipeline(con, f"{w}/one.parquet", out=out)
+assert any("one camera" in str(g.message) for g in got), [str(g.message) for g in got]
+print("ok   one camera: results, and a warning that says so")
 # an old DuckDB is refused, naming the versions that work
 duckdb.__version__ = "1.4.3"
 try:

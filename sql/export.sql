@@ -53,7 +53,7 @@ TO (getvariable('out_dir') || '/merged.parquet')
 (FORMAT parquet, KV_METADATA {geo: '{"version":"1.1.0","primary_column":"geometry","columns":{"geometry":{"encoding":"WKB","geometry_types":["LineString M","Point M"],"crs":null,"edges":"planar"}}}'});
 
 -- clusters.csv: route patterns of one camera
-COPY (SELECT getvariable('cluster_camera') AS camera, class, track_id, cluster FROM cluster_assign
+COPY (SELECT calibrated('cluster_camera')::BIGINT AS camera, class, track_id, cluster FROM cluster_assign
       ORDER BY class, cluster, track_id)
 TO (getvariable('out_dir') || '/clusters.csv') (HEADER, DELIMITER ',');
 

@@ -51,7 +51,8 @@ SET VARIABLE merge_resample_s = coalesce(getvariable('merge_resample_s'), 0.1::D
 SET VARIABLE merge_resample_max_gap = coalesce(getvariable('merge_resample_max_gap'), 1.0::DOUBLE); -- the common clock does not bridge gaps longer than this (s)
 
 -- cluster
-SET VARIABLE cluster_camera = coalesce(getvariable('cluster_camera'), 1::BIGINT); -- the camera whose tracks are clustered
+SET VARIABLE cluster_camera = coalesce(getvariable('cluster_camera'), NULL::BIGINT); -- the camera whose tracks are clustered (auto: the camera with the most real tracks; ties: the lowest id)
+SET VARIABLE cluster_classes = coalesce(getvariable('cluster_classes'), ''); -- the classes clustered, as 'car, pedestrian' ('' : every class)
 SET VARIABLE cluster_delta = coalesce(getvariable('cluster_delta'), 5::BIGINT); -- Buzan's delta: samples of time warping
 SET VARIABLE cluster_epsilon = coalesce(getvariable('cluster_epsilon'), 2.0::DOUBLE); -- Buzan's epsilon (m)
 SET VARIABLE cluster_rho = coalesce(getvariable('cluster_rho'), 0.5::DOUBLE); -- Buzan's rho: length ratio below which tracks are not compared
@@ -97,7 +98,8 @@ CREATE OR REPLACE TEMP TABLE pipeline_params AS SELECT * FROM (VALUES
     ('merge_eta', coalesce(getvariable('merge_eta')::VARCHAR, 'auto'), 'merge', 'eta-bar: the lowest similarity that links two tracks'),
     ('merge_resample_s', coalesce(getvariable('merge_resample_s')::VARCHAR, 'auto'), 'merge', 'common clock period (s); 0 keeps the raw samples'),
     ('merge_resample_max_gap', coalesce(getvariable('merge_resample_max_gap')::VARCHAR, 'auto'), 'merge', 'the common clock does not bridge gaps longer than this (s)'),
-    ('cluster_camera', coalesce(getvariable('cluster_camera')::VARCHAR, 'auto'), 'cluster', 'the camera whose tracks are clustered'),
+    ('cluster_camera', coalesce(getvariable('cluster_camera')::VARCHAR, 'auto'), 'cluster', 'the camera whose tracks are clustered (auto: the camera with the most real tracks; ties: the lowest id)'),
+    ('cluster_classes', coalesce(getvariable('cluster_classes')::VARCHAR, 'auto'), 'cluster', 'the classes clustered, as ''car, pedestrian'' ('''' : every class)'),
     ('cluster_delta', coalesce(getvariable('cluster_delta')::VARCHAR, 'auto'), 'cluster', 'Buzan''s delta: samples of time warping'),
     ('cluster_epsilon', coalesce(getvariable('cluster_epsilon')::VARCHAR, 'auto'), 'cluster', 'Buzan''s epsilon (m)'),
     ('cluster_rho', coalesce(getvariable('cluster_rho')::VARCHAR, 'auto'), 'cluster', 'Buzan''s rho: length ratio below which tracks are not compared'),

@@ -479,6 +479,9 @@ fn pipeline_on_faulty_input_says_what_is_wrong() {
     let (ok, _, err) = run(&apart, o, &[]);
     assert!(ok && err.contains("warning: 2 of 3 cameras in one frame: cameras [2] share no consistent track pairs"), "{err}");
 
+    // the clustered camera is measured (the one with the most tracks) unless given; a given one must exist
+    let (ok, _, err) = run(&pts, o, &["--param", "cluster_camera=7"]);
+    assert!(!ok && err.contains("cluster_camera 7 is not a camera of the input (cameras: 0, 1, 2)"), "{err}");
     // --param values are typed, never pasted into SQL
     let (ok, _, err) = run(&pts, o, &["--param", "quality_max_gap=2.5; SET threads=1"]);
     assert!(!ok && err.contains("parameter quality_max_gap must be a number or auto"), "{err}");

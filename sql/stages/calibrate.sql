@@ -90,7 +90,9 @@ SELECT * FROM (VALUES
     ('clean_min_duration_s', 1.5 * (SELECT max(period_s) FROM calib_cameras), getvariable('clean_min_duration_s'),
      '1.5 x the longest sampling period'),
     ('merge_min_points', greatest(3, ceil((SELECT max(period_s) FROM calib_cameras) / nullif(getvariable('merge_resample_s'), 0)) + 1),
-     getvariable('merge_min_points')::DOUBLE, '2 real samples of the slowest camera on the common clock, at least 3')
+     getvariable('merge_min_points')::DOUBLE, '2 real samples of the slowest camera on the common clock, at least 3'),
+    ('cluster_camera', (SELECT camera FROM points WHERE estimated = 0 GROUP BY camera ORDER BY count(DISTINCT track_id) DESC, camera LIMIT 1),
+     getvariable('cluster_camera')::DOUBLE, 'the camera with the most real tracks (ties: the lowest id)')
 ) t(parameter, measured, given, rule);
 
 -- the value a stage uses: the one set by --param / SET VARIABLE, else the measured one

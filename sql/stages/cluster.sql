@@ -19,11 +19,18 @@
 -- Parameters (cluster_*): declared once in src/app/params.rs, defaults in sql/params.sql;
 -- `trajdb params` lists them, `trajdb pipeline --param name=value` or SET VARIABLE sets them.
 
+-- The clustered camera: cluster_camera, or (auto) the camera with the most real tracks, ties to
+-- the lowest id (calibrate.sql: the data decides, not a camera number); a given camera must exist.
+SELECT CASE WHEN NOT EXISTS (SELECT 1 FROM points WHERE camera = calibrated('cluster_camera'))
+            THEN error('cluster: cluster_camera ' || calibrated('cluster_camera')::BIGINT || ' is not a camera of the input (cameras: '
+                       || (SELECT string_agg(DISTINCT camera::VARCHAR, ', ' ORDER BY camera::VARCHAR) FROM points) || ')') END;
 CREATE OR REPLACE TEMP TABLE cluster_tracks AS
 SELECT * FROM (
     SELECT track_id, class, traj_resample(list({'t': t, 'x': x, 'y': y} ORDER BY t), 0.5, 1.0) AS traj
     FROM points
-    WHERE camera = getvariable('cluster_camera') AND estimated = 0 AND class IN ('car', 'pedestrian')
+    WHERE camera = calibrated('cluster_camera') AND estimated = 0
+      AND (getvariable('cluster_classes') = ''
+           OR list_contains([lower(trim(c)) FOR c IN string_split(getvariable('cluster_classes'), ',')], lower(class)))
     GROUP BY track_id, class
 )
 WHERE len(traj) >= 6;

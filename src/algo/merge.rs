@@ -228,6 +228,17 @@ mod tests {
         assert_eq!((r.t[0], r.x[0], r.w[0]), (1.2, 1.0, 2.0));
     }
 
+    /// Issue 17: merging points near f64::MAX used to overflow to inf in the weighted mean.
+    #[test]
+    fn merged_points_stay_finite_near_the_largest_doubles() {
+        let big = f64::MAX * 0.99;
+        let a = Weighted { t: vec![0.0], x: vec![big], y: vec![-big], w: vec![1.0] };
+        let b = Weighted { t: vec![0.0], x: vec![big], y: vec![-big], w: vec![3.0] };
+        let m = merge_pair(&a, &b, &[(0, 0)]);
+        assert!(m.x[0].is_finite() && m.y[0].is_finite(), "{:?}", m.x);
+        assert!((m.x[0] - big).abs() <= big * 1e-15);
+    }
+
     #[test]
     fn chain_weights_every_camera_equally() {
         let p = TimeWindowParams::new(1.0, 0.05, 1).unwrap();

@@ -83,7 +83,7 @@ impl fmt::Display for CpdError {
         match self {
             CpdError::W(v) => write!(f, "w must be in [0, 1), got {v}"),
             CpdError::Tau(v) => write!(f, "tau must be between 1e-100 and 1e100 seconds (or 'inf' for plain CPD), got {v}"),
-            CpdError::Tol(v) => write!(f, "tol must be >= 0, got {v}"),
+            CpdError::Tol(v) => write!(f, "tol must be in [0, 1), got {v:?}"),
             CpdError::MaxIter(v) => write!(f, "max_iter must be between 1 and {MAX_ITER}, got {v}"),
             CpdError::Starts(v) => write!(f, "starts must be between 1 and 360, got {v}"),
             CpdError::TooFew { which, got } => write!(f, "{which} has too few points: got {got}, needs 2 (3 in 3-D)"),
@@ -126,7 +126,9 @@ impl CpdParams {
             Some(t) if (TAU_RANGE.0..=TAU_RANGE.1).contains(&t) => Some(t),
             Some(t) => return Err(CpdError::Tau(t)),
         };
-        if !(tol >= 0.0) {
+        // |Δq| below tol stops the EM; a tol of 1 or more would stop it after one step with
+        // converged = true on whatever angle it had reached
+        if !(0.0..1.0).contains(&tol) {
             return Err(CpdError::Tol(tol));
         }
         if !(1..=MAX_ITER).contains(&max_iter) {

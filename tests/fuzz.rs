@@ -223,8 +223,10 @@ fn every_function_survives_generated_arguments() {
                     // a watchdog interrupts a call that does not come back
                     let handle = con.interrupt_handle();
                     let (done, wait) = std::sync::mpsc::channel::<()>();
+                    let watched: String = call.chars().take(400).collect();
                     let dog = std::thread::spawn(move || {
                         if wait.recv_timeout(HANG).is_err() {
+                            eprintln!("HANG (> {HANG:?}, interrupting): {watched}");
                             handle.interrupt();
                             return true;
                         }
@@ -236,6 +238,12 @@ fn every_function_survives_generated_arguments() {
                     let _ = done.send(());
                     let hung = dog.join().unwrap_or(false);
                     n_cases += 1;
+                    if took > Duration::from_secs(2) {
+                        eprintln!("slow case ({:.1} s): {}", took.as_secs_f64(), call.chars().take(300).collect::<String>());
+                    }
+                    if n_cases % 5000 == 0 {
+                        eprintln!("fuzz: {n_cases} cases so far, {} failures", failures.len());
+                    }
                     if took > slowest.0 {
                         slowest = (took, call.chars().take(160).collect());
                     }

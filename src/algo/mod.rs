@@ -46,7 +46,13 @@ pub struct ParamError {
 
 impl fmt::Display for ParamError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{} must be {}, got {}", self.name, self.rule, self.value)
+        // huge or tiny values in exponent form (1e-320, not 320 digits)
+        let v = self.value;
+        if v.is_finite() && v != 0.0 && !(1e-6..1e16).contains(&v.abs()) {
+            write!(f, "{} must be {}, got {v:e}", self.name, self.rule)
+        } else {
+            write!(f, "{} must be {}, got {v}", self.name, self.rule)
+        }
     }
 }
 impl std::error::Error for ParamError {}

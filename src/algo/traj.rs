@@ -339,6 +339,16 @@ pub fn resample(tr: Traj<'_>, period: f64, max_gap: f64) -> Result<OwnedTraj, Tr
     if estimate > crate::algo::limits::OUTPUT_POINTS.get() as f64 {
         return Err(TrajError::TooManyPoints(estimate));
     }
+    // the clock index k = t / period must be an exact integer in f64 (|k| < 2^53), or the grid
+    // cannot be walked (a period of 1e-320 made k saturate and the walk never end)
+    const EXACT: f64 = 9_007_199_254_740_992.0;
+    if !((t0 / period).abs() < EXACT && (t1 / period).abs() < EXACT) {
+        return Err(TrajError::Param(ParamError {
+            name: "period",
+            rule: "large enough that t / period stays below 2^53 for every t of the trajectory",
+            value: period,
+        }));
+    }
     let mut k = (t0 / period).ceil() as i64;
     let mut j = 0usize;
     loop {
@@ -377,6 +387,16 @@ pub fn resample(tr: Traj<'_>, period: f64, max_gap: f64) -> Result<OwnedTraj, Tr
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Issue 17 (found by the fuzz harness): equal times and a period of 1e-320 walked the
+    /// clock forever; the clock index must stay an exact f64 integer.
+    #[test]
+    fn resample_refuses_a_period_below_the_clock_resolution() {
+        let (t, x, y) = ([1.0, 1.0], [0.0, 1.0], [0.0, 0.0]);
+        let e = resample(Traj::new(&t, &x, &y), 1e-320, f64::INFINITY).unwrap_err();
+        assert!(e.to_string().contains("period must be large enough that t / period stays below 2^53"), "{e}");
+        assert_eq!(resample(Traj::new(&t, &x, &y), 0.5, f64::INFINITY).unwrap().t, vec![1.0]);
+    }
 
     #[test]
     fn resample_on_the_global_clock() {

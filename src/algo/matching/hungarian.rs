@@ -64,7 +64,7 @@ pub enum MatchError {
 impl fmt::Display for MatchError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
-            MatchError::Score { index, value } => write!(f, "pairs[{}].score must be finite, got {value}", index + 1),
+            MatchError::Score { index, value } => write!(f, "pairs[{}].score must be finite and within ±1e150, got {value:?}", index + 1),
             MatchError::Threshold(v) => write!(f, "min_score must not be NaN, got {v}"),
             MatchError::Solver => write!(f, "the assignment solver failed"),
         }
@@ -589,7 +589,9 @@ fn solve_component(canon: &[(i64, i64, f64)], g: &Components, c: usize, maximize
 /// The optimal assignment (see module docs); returns the chosen pairs sorted by `(a, b)`.
 pub fn hungarian_match(pairs: &[(i64, i64, f64)], params: &MatchParams) -> Result<Vec<(i64, i64, f64)>, MatchError> {
     for (k, p) in pairs.iter().enumerate() {
-        if !p.2.is_finite() {
+        // finite and within ±1e150: the solver adds and subtracts scores (potentials), and
+        // -1.7e308 next to 9.2e18 overflowed into an index out of bounds (found by the fuzz run)
+        if !(p.2.is_finite() && p.2.abs() <= 1e150) {
             return Err(MatchError::Score { index: k, value: p.2 });
         }
     }
@@ -750,8 +752,11 @@ mod tests {
         assert!(hungarian_match(&[], &p).unwrap().is_empty());
         assert_eq!(
             hungarian_match(&[(1, 1, f64::NAN)], &p).unwrap_err().to_string(),
-            "pairs[1].score must be finite, got NaN"
+            "pairs[1].score must be finite and within ±1e150, got NaN"
         );
+        // found by the fuzz harness: -1.7e308 beside 9.2e18 overflowed the solver's potentials
+        let big = [(1, 2, -127.1), (1, 8, 123.5), (1, 58, -1.7e308), (48, 2, -104.4), (9, 2, 9.2e18)];
+        assert!(matches!(hungarian_match(&big, &MatchParams::new(true, None).unwrap()), Err(MatchError::Score { index: 2, .. })));
         assert!(MatchParams::new(true, Some(f64::NAN)).is_err());
         // negative and huge ids, rectangular
         let r = hungarian_match(&[(-5, i64::MAX, 1.0), (-5, 0, 2.0), (7, 0, 1.5)], &p).unwrap();

@@ -14,7 +14,7 @@ use proptest::prelude::*;
 use proptest::strategy::ValueTree;
 use proptest::test_runner::{Config, RngAlgorithm, TestRng, TestRunner};
 use std::time::{Duration, Instant};
-use trajdb::bindings::registry::{Signature, Ty, TRAJ};
+use trajdb::bindings::registry::Ty;
 
 /// A call slower than this counts as a hang (documented work limits keep every call far below).
 const HANG: Duration = Duration::from_secs(30);
@@ -172,24 +172,6 @@ fn value(t: &Ty) -> BoxedStrategy<String> {
     raw.prop_map(move |v| format!("CAST({v} AS {ty})")).boxed()
 }
 
-/// Every concrete overload of a signature (each `OneOf` expanded, each arity).
-fn overloads(sig: &Signature) -> Vec<Vec<Ty>> {
-    let arities = if sig.arities.is_empty() { vec![sig.params.len()] } else { sig.arities.to_vec() };
-    let mut out = Vec::new();
-    for n in arities {
-        let mut combos: Vec<Vec<Ty>> = vec![vec![]];
-        for p in &sig.params[..n] {
-            let alts = match p.ty {
-                Ty::OneOf(ts) => ts.to_vec(),
-                t => vec![t],
-            };
-            combos = combos.into_iter().flat_map(|c| alts.iter().map(move |t| [c.clone(), vec![*t]].concat())).collect();
-        }
-        out.extend(combos);
-    }
-    out
-}
-
 /// What a call's error may be: anything but a panic or an INTERNAL error; trajdb's own errors
 /// (Invalid Input) name the function.
 fn bad_error(name: &str, msg: &str) -> Option<String> {
@@ -210,10 +192,9 @@ fn every_function_survives_generated_arguments() {
     let mut written = Vec::new();
     let mut failures = Vec::new();
     let (mut n_cases, mut n_err, mut n_null, mut slowest) = (0usize, 0usize, 0usize, (Duration::ZERO, String::new()));
-    let _ = TRAJ;
     for f in trajdb::bindings::functions() {
         for sig in f.signatures {
-            for ov in overloads(sig) {
+            for ov in sig.overloads() {
                 let strategy: Vec<BoxedStrategy<String>> = ov.iter().map(value).collect();
                 let mut runner = TestRunner::new_with_rng(Config { cases, ..Config::default() }, TestRng::deterministic_rng(RngAlgorithm::ChaCha));
                 for _ in 0..cases {

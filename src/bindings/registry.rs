@@ -165,7 +165,7 @@ impl Signature {
         }
     }
     /// Every concrete overload: parameter types and return type.
-    fn overloads(&self) -> Vec<Vec<Ty>> {
+    pub fn overloads(&self) -> Vec<Vec<Ty>> {
         let mut out = Vec::new();
         for n in self.arities() {
             let mut combos: Vec<Vec<Ty>> = vec![vec![]];

@@ -43,6 +43,9 @@
 -- and 5 Hz that is 1.2 m, more than eps, and fast cars went unmatched (car recall 0.76 on a
 -- simulated 5 Hz day, `trajdb simulate --rate-hz 5`). The merged trajectories are on this clock.
 
+-- A camera that align.sql could not place (one camera alone, or no common time or view with
+-- the others) keeps its own frame: its tracks are road users of their own (the run warns), not
+-- lost. It has no view overlap, so none of its tracks is scored against another camera's.
 CREATE OR REPLACE TEMP TABLE merge_tracks AS
 -- uid: one BIGINT per (camera, track_id), dense, so any camera and track id fits
 SELECT p.camera, p.track_id, p.class, dense_rank() OVER (ORDER BY p.camera, p.track_id) AS uid,
@@ -51,7 +54,9 @@ SELECT p.camera, p.track_id, p.class, dense_rank() OVER (ORDER BY p.camera, p.tr
                                getvariable('merge_resample_s'), getvariable('merge_resample_max_gap'))
             ELSE transform_apply(list({'t': p.t, 'x': p.x, 'y': p.y} ORDER BY p.t), any_value(f.to_reference)) END AS traj,
        min(p.t) AS t0, max(p.t) AS t1
-FROM points p JOIN align_frames f USING (camera)
+FROM points p
+JOIN (SELECT c.camera, coalesce(a.to_reference, {'theta': 0.0::DOUBLE, 'tx': 0.0::DOUBLE, 'ty': 0.0::DOUBLE, 'scale': 1.0::DOUBLE}) AS to_reference
+      FROM (SELECT DISTINCT camera FROM points) c LEFT JOIN align_frames a USING (camera)) f USING (camera)
 WHERE p.estimated = 0
 GROUP BY p.camera, p.track_id, p.class;
 
@@ -103,7 +108,7 @@ SELECT g.road_user, any_value(t.class) AS class,
                         getvariable('merge_time_window')) AS traj
 FROM merge_tracks t
 JOIN merge_groups g USING (uid)
-JOIN view_merge_order o USING (camera)
+LEFT JOIN view_merge_order o USING (camera)  -- an unplaced camera: last (NULLS LAST)
 GROUP BY g.road_user;
 
 -- Within-camera chains after merging: the pieces of one camera in one road user, whether

@@ -106,7 +106,7 @@ pub fn run(con: &Connection, input: &str, out: &Path, overrides: &[(String, Stri
         std::fs::create_dir_all(&partial)?;
         let t = Instant::now();
         con.execute_batch(&format!("SET VARIABLE out_dir = {};", sql::sql_string(&partial.to_string_lossy())))?;
-        con.execute_batch(sql::file("sql/export.sql").expect("sql/export.sql")).map_err(|e| stage_error("export", &e.to_string()))?;
+        con.execute_batch(&sql::expand_reads(sql::file("sql/export.sql").expect("sql/export.sql"))?).map_err(|e| stage_error("export", &e.to_string()))?;
         eprintln!("[trajdb] write    {:>7.2} s  -> {}", t.elapsed().as_secs_f64(), out.display());
         timings.push(("write".into(), t.elapsed().as_secs_f64()));
         let t = Instant::now();

@@ -1,8 +1,8 @@
 -- trajdb: the pipeline's result files, written into the directory getvariable('out_dir')
 -- (`trajdb pipeline --out DIR` sets it; after `.read sql/pipeline.sql` in the DuckDB CLI:
 -- SET VARIABLE out_dir = 'results'; .read sql/export.sql  -- the directory must exist).
--- What each file holds is defined once, in sql/results.sql.
-.read sql/results.sql
+-- What each file holds is defined once, by the stage that makes it: the table macros result_*()
+-- at the end of sql/stages/align.sql, merge.sql and cluster.sql.
 
 COPY (FROM result_transforms() ORDER BY cam_from, cam_to)
 TO (getvariable('out_dir') || '/transforms.csv') (HEADER, DELIMITER ',');

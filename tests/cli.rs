@@ -475,9 +475,19 @@ fn pipeline_on_faulty_input_says_what_is_wrong() {
     let one = make("one.parquet", &format!("SELECT * FROM '{p}' WHERE camera = 1"));
     let (ok, _, err) = run(&one, o, &[]);
     assert!(ok && err.contains("warning: one camera: nothing to align or match"), "{err}");
+    // ... and its tracks are road users with trajectories (they were lost, then had a NULL traj)
+    let road_users_with_traj = |cam: i32| {
+        let q = format!("SELECT count(*) FILTER (WHERE traj IS NOT NULL AND len(traj) > 0) || '/' || count(*) FROM '{o}/merged.parquet' WHERE sources[1].camera = {cam}");
+        let (ok, text, err) = trajdb(&["sql", "--csv", &q], None);
+        assert!(ok, "{err}");
+        let v: Vec<i64> = text.lines().last().unwrap().trim_matches('"').split('/').map(|n| n.parse().unwrap()).collect();
+        assert!(v[1] > 0 && v[0] == v[1], "camera {cam}: {text}");
+    };
+    road_users_with_traj(1);
     let apart = make("apart.parquet", &format!("SELECT * REPLACE (CASE WHEN camera = 2 THEN t + 100000 ELSE t END AS t) FROM '{p}'"));
     let (ok, _, err) = run(&apart, o, &[]);
     assert!(ok && err.contains("warning: 2 of 3 cameras in one frame: cameras [2] share no consistent track pairs"), "{err}");
+    road_users_with_traj(2);
 
     // the clustered camera is measured (the one with the most tracks) unless given; a given one must exist
     let (ok, _, err) = run(&pts, o, &["--param", "cluster_camera=7"]);

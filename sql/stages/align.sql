@@ -221,3 +221,21 @@ SELECT camera, reference, round(degrees(to_reference.theta), 3) AS theta_deg,
        round(clock_offset_s, 3) AS clock_offset_s, hops,
        bottleneck_support::BIGINT AS support
 FROM align_frames ORDER BY camera;
+
+-- The stage's results (sql/export.sql writes them; python/trajdb/windows.py reads them per window).
+-- Table macros: they read the tables when called. Unordered: the caller orders.
+
+-- transforms: cam_from-local into cam_to-local, every ordered pair of aligned cameras, and
+-- clock_offset_s = cam_from's clock minus cam_to's clock (a road user seen by cam_to at t is
+-- seen by cam_from at t + clock_offset_s)
+CREATE OR REPLACE TEMP MACRO result_transforms() AS TABLE
+SELECT a.camera AS cam_from, b.camera AS cam_to, tf.theta AS theta_rad, tf.tx, tf.ty,
+       a.clock_offset_s - b.clock_offset_s AS clock_offset_s
+FROM align_frames a, align_frames b,
+     LATERAL (SELECT transform_compose(transform_invert(b.to_reference), a.to_reference) AS tf)
+WHERE a.camera <> b.camera;
+
+-- calibration: what sql/stages/calibrate.sql and align.sql measured, and the parameters
+-- derived from it (scope: a camera, a camera pair, or the pipeline)
+CREATE OR REPLACE TEMP MACRO result_calibration() AS TABLE
+SELECT * FROM calibration_summary;

@@ -63,3 +63,10 @@ SELECT class, count(*) FILTER (WHERE cluster > 0) AS route_patterns,
        sum(n_tracks) FILTER (WHERE n_tracks >= 5) AS tracks_in_patterns_of_5_plus,
        sum(n_tracks) AS tracks
 FROM cluster_summary GROUP BY class ORDER BY class;
+
+-- The stage's results (sql/export.sql writes them; python/trajdb/windows.py reads them per window).
+-- Table macros: they read the tables when called. Unordered: the caller orders.
+
+-- clusters: route patterns of one camera
+CREATE OR REPLACE TEMP MACRO result_clusters() AS TABLE
+SELECT calibrated('cluster_camera')::BIGINT AS camera, class, track_id, cluster FROM cluster_assign;

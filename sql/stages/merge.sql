@@ -104,7 +104,11 @@ SELECT g.road_user, any_value(t.class) AS class,
        list({'camera': t.camera, 'track_id': t.track_id} ORDER BY o.position, t.t0) AS sources,
        count(*) AS n_tracks,
        trajectory_merge(list(t.traj ORDER BY o.position, t.t0),
-                        coalesce(getvariable('merge_epsilon'), (SELECT max(merge_epsilon) FROM calib_match)),
+                        -- no camera pair at all (one camera, or none placed): the camera paired
+                        -- with itself, 3.03 sqrt(2) sigma as calib_match does for a pair without a
+                        -- fit, at least 1 mm (noise-free input measures sigma = 0)
+                        coalesce(getvariable('merge_epsilon'), (SELECT max(merge_epsilon) FROM calib_match),
+                                 greatest(sqrt(2 * ln(100)) * sqrt(2) * (SELECT coalesce(max(sigma_m), 0) FROM calib_cameras), 1e-3)),
                         getvariable('merge_time_window')) AS traj
 FROM merge_tracks t
 JOIN merge_groups g USING (uid)
@@ -123,3 +127,41 @@ LEFT JOIN merge_tracks t ON t.camera = l.camera AND t.track_id = l.linked_id
 LEFT JOIN merge_groups g ON g.uid = t.uid;
 
 SELECT n_tracks, count(*) AS road_users FROM merged GROUP BY n_tracks ORDER BY n_tracks;
+
+-- The stage's results (sql/export.sql writes them; python/trajdb/windows.py reads them per window).
+-- Table macros: they read the tables when called. Unordered: the caller orders.
+
+-- matches: the cross-camera links merge_groups() kept (a refused link contradicts its road
+-- user), one row per pair of ORIGINAL tracks (a track quality.sql linked from pieces gives a row
+-- per piece), with the road user both belong to and its class
+CREATE OR REPLACE TEMP MACRO result_matches() AS TABLE
+SELECT la.camera AS camera_a, la.track_id AS track_a, lb.camera AS camera_b, lb.track_id AS track_b,
+       m.eta AS score, m.kind, ga.road_user, ta.class
+FROM merge_links m
+JOIN merge_tracks ta ON ta.uid = m.uid_a JOIN merge_tracks tb ON tb.uid = m.uid_b
+JOIN merge_groups ga ON ga.uid = m.uid_a JOIN merge_groups gb ON gb.uid = m.uid_b
+JOIN quality_links la ON la.camera = ta.camera AND la.linked_id = ta.track_id
+JOIN quality_links lb ON lb.camera = tb.camera AND lb.linked_id = tb.track_id
+WHERE ga.road_user = gb.road_user AND m.kind <> 'reach';  -- within one camera: links
+
+-- road users (merged.parquet): one row per road user; `geometry` is WKB (LINESTRING M, or
+-- POINT M for a one-point road user; M is t) in the reference camera's local metric frame.
+-- `sources` names the ORIGINAL (camera, track_id) of every piece (quality.sql linked broken
+-- pieces under one id before matching), ordered by camera and start time, so any scorer can
+-- read a road user's tracks from this alone. t_start / t_end (reference clock, s), duration_s
+-- and length_m (metres along the merged path) save the analyst a pass over traj.
+CREATE OR REPLACE TEMP MACRO result_road_users() AS TABLE
+SELECT m.road_user, m.class, m.n_tracks,
+       (SELECT list({'camera': l.camera, 'track_id': l.track_id} ORDER BY l.camera, q.e.t0, l.track_id)
+        FROM unnest(m.sources) u(s)
+        JOIN quality_links l ON l.camera = s.camera AND l.linked_id = s.track_id
+        LEFT JOIN quality_endpoints q ON q.camera = l.camera AND q.track_id = l.track_id) AS sources,
+       traj_time_range(m.traj).t_start AS t_start, traj_time_range(m.traj).t_end AS t_end,
+       traj_duration(m.traj) AS duration_s, traj_length_m(m.traj) AS length_m,
+       traj_to_wkb(m.traj, true) AS geometry, m.traj
+FROM merged m;
+
+-- links: tracks linked within a camera (every track and the id of its chain: quality.sql's
+-- links, and the pieces of one camera merge.sql put in one road user; merge_chains)
+CREATE OR REPLACE TEMP MACRO result_links() AS TABLE
+SELECT camera, track_id, linked_id FROM merge_chains;

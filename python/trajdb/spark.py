@@ -67,7 +67,7 @@ _MATCH = pa.struct([
     ("camera_b", pa.int32()), ("track_b", pa.int64()), ("score", pa.float64()), ("kind", pa.string()), ("class", pa.string()),
 ])
 _STATUS = pa.struct([
-    ("window_start", pa.float64()), ("window_end", pa.float64()), ("halo_before_s", pa.float64()), ("halo_after_s", pa.float64()),
+    ("round", pa.int64()), ("window_start", pa.float64()), ("window_end", pa.float64()), ("halo_before_s", pa.float64()), ("halo_after_s", pa.float64()),
     ("points", pa.int64()), ("tracks", pa.int64()), ("kept", pa.int64()), ("need_before_s", pa.float64()),
     ("need_after_s", pa.float64()), ("complete", pa.bool_()), ("seconds", pa.float64()), ("peak_rss_mb", pa.float64()),
 ])
@@ -103,14 +103,17 @@ def _package_zip(spark):
 
 
 def _fail_once(kind, key):
-    """Fault injection for the tests (TRAJDB_SPARK_FAIL_ONCE=dir): the first attempt of every
-    task of `kind` fails after doing its work; Spark's retry must not duplicate output."""
+    """Fault injection for the tests (TRAJDB_SPARK_FAIL_ONCE=dir in the executors' environment):
+    the first attempt of every task of `kind` fails after doing the work of one group (noted in
+    dir); Spark's retry must neither lose nor duplicate output."""
     d = os.environ.get("TRAJDB_SPARK_FAIL_ONCE")
     if not d:
         return
-    marker = os.path.join(d, f"{kind}-{key}".replace("/", "_"))
-    if not os.path.exists(marker):
-        open(marker, "w").close()
+    from pyspark import TaskContext
+
+    tc = TaskContext.get()
+    if tc is not None and tc.attemptNumber() == 0:
+        open(os.path.join(d, f"{kind}-{key}-stage{tc.stageId()}-part{tc.partitionId()}".replace("/", "_")), "w").close()
         raise RuntimeError(f"trajdb.spark: injected failure of {kind} task {key} (TRAJDB_SPARK_FAIL_ONCE)")
 
 
@@ -243,7 +246,7 @@ def pipeline(points, window_s=3600.0, halo_s=None, calibrate_s=86400.0, calibrat
     k = F.when(F.col("t0_real") < k0 * window_s, k0 - 1).when(F.col("t0_real") >= (k0 + 1) * window_s, k0 + 1).otherwise(k0)
     starts = tracks.where(F.col("t0_real").isNotNull()).select("site", k.alias("window")).distinct()
 
-    def window_task(plan):
+    def window_task(plan, round_no):
         """plan: {(site, window): (halo_before, halo_after)} -> the task for applyInArrow"""
 
         def run(table):
@@ -265,7 +268,7 @@ def pipeline(points, window_s=3600.0, halo_s=None, calibrate_s=86400.0, calibrat
             _fail_once("window", f"{site}-{win}")
             st = out["status"].to_pylist()[0]
             status = {
-                "window_start": ws, "window_end": we, "halo_before_s": hb, "halo_after_s": ha, "points": pts_w.num_rows,
+                "round": round_no, "window_start": ws, "window_end": we, "halo_before_s": hb, "halo_after_s": ha, "points": pts_w.num_rows,
                 "tracks": len(set(zip(pts_w.column("camera").to_pylist(), pts_w.column("track_id").to_pylist()))),
                 "kept": st["kept"], "need_before_s": st["halo_before_s"], "need_after_s": st["halo_after_s"],
                 "complete": st["complete"], "seconds": time.perf_counter() - t_start, "peak_rss_mb": _peak_rss_mb(),
@@ -289,7 +292,7 @@ def pipeline(points, window_s=3600.0, halo_s=None, calibrate_s=86400.0, calibrat
     _arrow_schema = _WINDOW_OUT
     track_cols = ["site", "camera", "track_id", "t0", "t1"]
 
-    def run_round(plan, only=None):
+    def run_round(plan, round_no, only=None):
         """Every (site, window) with a first observation (or only those in `only`), each with its
         halo, as one applyInArrow over the complete tracks that touch it."""
         rows = [(s, int(w), hb, ha) for (s, w), (hb, ha) in plan.items()] if only else [(s, None, hb, ha) for s, (hb, ha) in halos.items()]
@@ -307,12 +310,12 @@ def pipeline(points, window_s=3600.0, halo_s=None, calibrate_s=86400.0, calibrat
             & (F.col("window") <= F.floor((F.col("t1") + F.col("hb")) / window_s) + 1),
         ).select("site", "camera", "track_id", "window")
         grouped = pts.join(tw, ["site", "camera", "track_id"]).select("site", "window", *_POINT_COLS, "estimated")
-        return grouped.groupBy("site", "window").applyInArrow(window_task(plan), _spark_schema(_WINDOW_OUT))
+        return grouped.groupBy("site", "window").applyInArrow(window_task(plan, round_no), _spark_schema(_WINDOW_OUT))
 
     # 3. rounds: windows that asked for a wider halo run again with it
     results = []
     plan = {}
-    res = run_round(plan).cache()
+    res = run_round(plan, 1).cache()
     for round_no in range(1, max_rounds + 1):
         results.append(res)
         todo = res.where(F.col("status").isNotNull() & ~F.col("status.complete")).select("site", "window", "status").collect()
@@ -329,7 +332,7 @@ def pipeline(points, window_s=3600.0, halo_s=None, calibrate_s=86400.0, calibrat
                                        max(r["status"]["need_after_s"] * 1.25, r["status"]["halo_after_s"] * 2))
             for r in todo
         }
-        res = run_round(plan, only=True).cache()
+        res = run_round(plan, round_no + 1, only=True).cache()
     allres = results[0]
     for r in results[1:]:
         allres = allres.unionByName(r)

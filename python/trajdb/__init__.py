@@ -43,7 +43,11 @@ def check_duckdb():
 
 
 def extension_path():
-    """The loadable extension file: the built library plus DuckDB's footer, cached per build."""
+    """The loadable extension file: the built library plus DuckDB's footer, cached per build;
+    or the file that the environment variable TRAJDB_EXTENSION names (e.g. one built by
+    scripts/build_extension.sh)."""
+    if os.environ.get("TRAJDB_EXTENSION"):
+        return os.path.abspath(os.environ["TRAJDB_EXTENSION"])
     libs = [p for p in glob.glob(os.path.join(_HERE, "_trajdb*")) if not p.endswith(".py")]
     if not libs:
         raise RuntimeError(f"trajdb's extension library is missing from {_HERE}: reinstall with `pip install .`")

@@ -8,11 +8,13 @@ Spark results must equal the binary's on each whole site: the same road users (b
 source tracks), the same matches, transforms and merged trajectories within 1e-9. Covered:
 road users that cross a window seam, windows without road users, a one-camera site, unsorted
 input, every window and write task failing once and retried by Spark (TRAJDB_SPARK_FAIL_ONCE),
-and a halo too short on purpose (halo_s=0: the windows ask for more and run again).
+a halo too short on purpose (halo_s=0: the windows ask for more and run again), and the
+README's "### Spark example" as it stands.
 """
 import glob
 import json
 import os
+import re
 import subprocess
 import sys
 import tempfile
@@ -27,6 +29,7 @@ from trajdb import spark as tspark  # noqa: E402
 from trajdb import windows as W  # noqa: E402
 
 BIN, EXT = os.path.abspath(sys.argv[1]), os.path.abspath(sys.argv[2])
+ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
 TOL = 1e-9
 
 
@@ -102,7 +105,23 @@ def compare(res, refs, label):
     return ru_rows
 
 
+def check_site_tables():
+    """Every table windows.py treats as the site's is made by a stage statement it recognises
+    (a renamed table would otherwise be recomputed per window without notice)."""
+    made = set()
+    for name, text in W.sql_texts()["parts"]:
+        for stmt in duckdb.connect().extract_statements(text):
+            t = W.statement_target(stmt.query)
+            if t:
+                made.add(t)
+    missing = (set(W.SITE_TABLES) | set(W.SITE_WORK_TABLES)) - made
+    assert not missing, f"windows.SITE_TABLES names tables no stage makes: {sorted(missing)}"
+    assert W.statement_target("-- c\nCREATE OR REPLACE TEMP TABLE align_frames AS SELECT 1") == "align_frames"
+    assert W.statement_target("SELECT * FROM align_frames") is None
+
+
 def main():
+    check_site_tables()
     tmp = tempfile.mkdtemp(prefix="trajdb-spark-test-")
     archive, sites = simulate(tmp)
     refs = {s: reference(tmp, s) for s in sites}
@@ -169,6 +188,20 @@ def main():
     assert o["road_users"].num_rows == 0 and o["matches"].num_rows == 0 and o["status"].to_pylist()[0]["complete"]
 
     spark.stop()
+
+    # 4. the README's "### Spark example", as it stands, in its own process and folder
+    with open(os.path.join(ROOT, "README.md")) as f:
+        text = f.read()
+    m = re.compile(r"```python\n(.*?)```", re.S).search(text, text.index("### Spark example\n"))
+    demo = os.path.join(tmp, "readme")
+    os.makedirs(demo)
+    env = {k: v for k, v in os.environ.items() if k != "TRAJDB_SPARK_FAIL_ONCE"}
+    env.update(PYTHONPATH=os.path.join(ROOT, "python"), TRAJDB_EXTENSION=EXT, PYSPARK_PYTHON=sys.executable)
+    r = subprocess.run([sys.executable, "-c", m.group(1)], cwd=demo, env=env, capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr[-4000:]
+    assert os.path.exists(f"{demo}/spark-demo/results/_SUCCESS") and glob.glob(f"{demo}/spark-demo/results/road_users/site=north/date=1970-01-01/part-0.parquet")
+    assert "pedestrian" in r.stdout, r.stdout[-2000:]
+
     n = {s: len(refs[s][0]) for s in sites}
     print(f"test_spark: OK: road users per site {n}, {len(seam)} across a seam, {len(wins)} window tasks, "
           f"{len(injected)} injected task failures retried, {reran60} windows rerun at 60 s, {rounds} windows rerun with a wider halo (halo_s=0)")

@@ -295,20 +295,22 @@ def pipeline(points, window_s=3600.0, halo_s=None, calibrate_s=86400.0, calibrat
     def run_round(plan, round_no, only=None):
         """Every (site, window) with a first observation (or only those in `only`), each with its
         halo, as one applyInArrow over the complete tracks that touch it."""
-        rows = [(s, int(w), hb, ha) for (s, w), (hb, ha) in plan.items()] if only else [(s, None, hb, ha) for s, (hb, ha) in halos.items()]
-        h = spark.createDataFrame(rows, "site string, window bigint, hb double, ha double")
         if only:
-            wins = starts.join(F.broadcast(h), ["site", "window"])
+            h = spark.createDataFrame([(s, int(w), hb, ha) for (s, w), (hb, ha) in plan.items()], "site string, window bigint, hb double, ha double")
+            hmax = h.groupBy("site").agg(F.max("hb").alias("hb"), F.max("ha").alias("ha"))
         else:
-            wins = starts.join(F.broadcast(h.drop("window")), "site")
-        # a track touches window k (with its halo) when t1 >= k*W - hb and t0 <= (k+1)*W + ha
-        tw = tracks.select(*track_cols).join(
-            wins.withColumnRenamed("site", "s"),
-            (F.col("site") == F.col("s")) & (F.col("t1") >= F.col("window") * window_s - F.col("hb"))
-            & (F.col("t0") <= (F.col("window") + 1) * window_s + F.col("ha"))
-            & (F.col("window") >= F.floor((F.col("t0") - F.col("ha")) / window_s) - 1)
-            & (F.col("window") <= F.floor((F.col("t1") + F.col("hb")) / window_s) + 1),
-        ).select("site", "camera", "track_id", "window")
+            hmax = spark.createDataFrame([(s, hb, ha) for s, (hb, ha) in halos.items()], "site string, hb double, ha double")
+        # the windows a track may touch with the widest halo of its site (an equi-join on
+        # (site, window) after this, never a range join of tracks against windows) ...
+        cand = tracks.select(*track_cols).join(F.broadcast(hmax), "site").withColumn(
+            "window", F.explode(F.sequence(F.floor((F.col("t0") - F.col("ha")) / window_s) - 1, F.floor((F.col("t1") + F.col("hb")) / window_s) + 1)))
+        if only:
+            cand = cand.drop("hb", "ha").join(F.broadcast(h), ["site", "window"])
+        else:
+            cand = cand.join(starts, ["site", "window"], "left_semi")
+        # ... and the exact test: track [t0, t1] meets [k*W - hb, (k+1)*W + ha]
+        tw = cand.where((F.col("t1") >= F.col("window") * window_s - F.col("hb"))
+                        & (F.col("t0") <= (F.col("window") + 1) * window_s + F.col("ha"))).select("site", "camera", "track_id", "window")
         grouped = pts.join(tw, ["site", "camera", "track_id"]).select("site", "window", *_POINT_COLS, "estimated")
         return grouped.groupBy("site", "window").applyInArrow(window_task(plan, round_no), _spark_schema(_WINDOW_OUT))
 

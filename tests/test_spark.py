@@ -135,7 +135,8 @@ def main():
     os.makedirs(fail_dir)
     os.environ["TRAJDB_SPARK_FAIL_ONCE"] = fail_dir
     spark = (SparkSession.builder.master("local[2,3]").appName("trajdb-test")  # 3 attempts per task
-             .config("spark.ui.enabled", "false").config("spark.sql.shuffle.partitions", "8").getOrCreate())
+             .config("spark.ui.enabled", "false").config("spark.ui.showConsoleProgress", "false")
+             .config("spark.sql.shuffle.partitions", "8").getOrCreate())
     spark.sparkContext.setLogLevel("ERROR")
     points = spark.read.parquet(archive).repartition(5)  # unsorted, and spread over partitions
 

@@ -79,7 +79,6 @@ def spark_run(a, cores):
     os.environ.setdefault("PYSPARK_PYTHON", sys.executable)
     sys.path.insert(0, os.path.join(ROOT, "python"))
     from pyspark.sql import SparkSession
-    from pyspark.sql import functions as F
 
     from trajdb import spark as tspark
 

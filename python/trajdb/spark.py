@@ -34,7 +34,7 @@ import zipfile
 
 import pyarrow as pa
 
-from . import _HERE, _literal
+from . import _HERE
 from . import windows as W
 
 _POINT_COLS = ("camera", "track_id", "class", "t", "x", "y")
@@ -133,8 +133,12 @@ def _typed(points):
     if missing:
         raise ValueError(f"trajdb.spark.pipeline: points has no column {', '.join(missing)} (its columns: {', '.join(points.columns)})")
     t = points.schema["t"].dataType
-    if isinstance(t, (T.TimestampType, T.TimestampNTZType, T.DateType)):
-        tcol = F.unix_micros(F.col("t").cast("timestamp")).cast("double") / 1e6
+    if isinstance(t, T.TimestampType):
+        tcol = F.unix_micros(F.col("t")).cast("double") / 1e6
+    elif isinstance(t, (T.TimestampNTZType, T.DateType)):
+        # a timestamp without time zone is UTC, as in the pipeline (epoch(t::TIMESTAMP))
+        tz = points.sparkSession.conf.get("spark.sql.session.timeZone")
+        tcol = F.unix_micros(F.to_utc_timestamp(F.col("t").cast("timestamp"), tz)).cast("double") / 1e6
     elif isinstance(t, T.NumericType):
         tcol = F.col("t").cast("double")
     else:
@@ -185,6 +189,11 @@ def pipeline(points, window_s=3600.0, halo_s=None, calibrate_s=86400.0, calibrat
     ext_name = os.path.basename(ext)
     sql = W.sql_texts()
     pts = _typed(points)
+    n_rows, n_null_site = pts.agg(F.count(F.lit(1)), F.count(F.when(F.col("site").isNull(), 1))).first()
+    if n_rows == 0:
+        raise ValueError("trajdb.spark.pipeline: points has no rows")
+    if n_null_site:
+        raise ValueError(f"trajdb.spark.pipeline: {n_null_site} of {n_rows} rows have a NULL site; drop or fill them first")
 
     # 1. calibration once per site
     if calibrate_on:
@@ -411,13 +420,15 @@ def _write_table(df, uri, root, name, parts, order, geo):
 
     def write_group(table):
         import uuid
+        from urllib.parse import quote
 
         import pyarrow.parquet as pq
         from pyarrow import fs as pafs
 
         filesystem, base = pafs.FileSystem.from_uri(location)
         keys = [table.column(p)[0].as_py() for p in parts]
-        d = "/".join([f"{base}/{name}"] + [f"{p}={k}" for p, k in zip(parts, keys)])
+        # hive partition folders, the value URI-escaped as Spark and pyarrow read it back
+        d = "/".join([f"{base}/{name}"] + [f"{p}={quote(str(k), safe='')}" for p, k in zip(parts, keys)])
         data = table.drop_columns(parts).sort_by([(c, "ascending") for c in order])
         if geo is not None:
             data = data.replace_schema_metadata({**(data.schema.metadata or {}), b"geo": geo.encode()})

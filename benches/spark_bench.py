@@ -6,8 +6,9 @@ cores, against N sequential `trajdb pipeline` runs (the binary, all cores), in o
         --extension trajdb.duckdb_extension [--sites 8 --minutes 1440 --window-s 3600 --out /tmp/trajdb-spark-bench]
 
 Prints, per run: wall time, points per second, speed-up over the sequential runs, and peak
-memory (a Spark task's Python worker, with spark.python.worker.reuse=false so that each task
-has its own process; the JVM's peak RSS; each sequential run's peak RSS). Spark calibrates each
+memory: of the Python workers that run the tasks (getrusage's ru_maxrss at the end of each
+task: a worker is reused across tasks, so the largest value bounds every task's peak), of the
+JVM (driver and executor in local mode), and of each sequential run. Spark calibrates each
 site on its first --calibrate-s seconds (default one hour: a year's archive calibrates on one
 day, so calibration is a small share there; here it would double the work if it used the whole
 day). The road users found are compared with the sequential runs' counts.
@@ -84,7 +85,6 @@ def spark_run(a, cores):
 
     spark = (SparkSession.builder.master(f"local[{cores}]").appName(f"trajdb-bench-{cores}")
              .config("spark.ui.enabled", "false").config("spark.driver.memory", "6g")
-             .config("spark.python.worker.reuse", "false")  # a process per task: its peak RSS is the task's
              .config("spark.sql.shuffle.partitions", str(max(8, 4 * cores))).getOrCreate())
     spark.sparkContext.setLogLevel("ERROR")
     points = spark.read.parquet(os.path.join(a.out, "archive.parquet"))

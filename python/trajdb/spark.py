@@ -88,9 +88,10 @@ def _geo_metadata():
     return m.group(1)
 
 
-def _package_zip(spark):
-    """The trajdb package (Python + SQL) as a zip for SparkContext.addPyFile: executors import
-    it from there; the extension library itself travels by addFile."""
+def _package_zip():
+    """The trajdb Python modules as a zip for SparkContext.addPyFile: executors import them from
+    there. The SQL travels inside the tasks (windows.sql_texts(), read on the driver), the
+    extension file by SparkContext.addFile."""
     import tempfile
 
     d = tempfile.mkdtemp(prefix="trajdb-spark-")
@@ -185,7 +186,7 @@ def pipeline(points, window_s=3600.0, halo_s=None, calibrate_s=86400.0, calibrat
     reach = max(v for v in _defaults(params).values())
     ext = os.path.abspath(extension or W._default_extension())
     sc.addFile(ext)
-    sc.addPyFile(_package_zip(spark))
+    sc.addPyFile(_package_zip())
     ext_name = os.path.basename(ext)
     sql = W.sql_texts()
     pts = _typed(points)

@@ -142,14 +142,19 @@ def _literal(v):
     return "'" + str(v).replace("'", "''") + "'"
 
 
+def set_params(con, params, who):
+    """Sets pipeline parameters (`trajdb params`) as DuckDB variables; names must be identifiers."""
+    for k, v in (params or {}).items():
+        if not str(k).isidentifier():
+            raise ValueError(f"{who}: parameter names are identifiers (see `trajdb params`), got {k!r}")
+        con.execute(f"SET VARIABLE {k} = {_literal(v)}")
+
+
 def pipeline(con, input, out=None, **params):
     """The whole pipeline on `input` (a Parquet / CSV file or a table name), as `trajdb pipeline`:
     parameters by keyword (`merge_eta=0.6`; `trajdb params` lists them), then the stages; with
     `out`, the result files and report.html are written there. The tables (merged, matches, ...) stay in `con`."""
-    for k, v in params.items():
-        if not k.isidentifier():
-            raise ValueError(f"trajdb.pipeline: parameter names are identifiers (see `trajdb params`), got {k!r}")
-        con.execute(f"SET VARIABLE {k} = {_literal(v)}")
+    set_params(con, params, "trajdb.pipeline")
     con.execute(f"SET VARIABLE pipeline_input = {_literal(input)}")
     try:
         timings = _run_timed(con, "sql/pipeline.sql")

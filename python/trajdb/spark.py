@@ -359,8 +359,7 @@ def pipeline(points, window_s=3600.0, halo_s=None, calibrate_s=86400.0, calibrat
         rows = []
         for s, tab in zip(sites, tabs):
             rows += [{"site": s, **r} for r in tab.to_pylist()]
-        schema = "site string, " + ", ".join(f"{f.name} {_spark_type(f.type)}" for f in tabs[0].schema)
-        return spark.createDataFrame(rows, schema)
+        return spark.createDataFrame(rows, _spark_schema(pa.schema([("site", pa.string())] + list(tabs[0].schema))))
 
     return Result(road_users, matches, site_df("result_transforms"), site_df("result_calibration"), windows)
 
@@ -369,14 +368,6 @@ def _struct(table, struct_type):
     """The rows of `table` as one StructArray of `struct_type` (fields by name, cast)."""
     cols = [table.column(f.name).combine_chunks().cast(f.type) if table.num_rows else pa.array([], f.type) for f in struct_type]
     return pa.StructArray.from_arrays(cols, fields=list(struct_type))
-
-
-def _spark_type(t):
-    if pa.types.is_integer(t):
-        return "bigint" if t.bit_width > 32 else "int"
-    if pa.types.is_floating(t):
-        return "double"
-    return "string"
 
 
 def write(result, path, mode="overwrite"):

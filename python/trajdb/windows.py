@@ -19,7 +19,7 @@ import re
 import duckdb
 import pyarrow as pa
 
-from . import _parts, _literal, check_duckdb, sql_file
+from . import _parts, _literal, check_duckdb, set_params, sql_file
 
 # Made once per site (calibrate.sql, align.sql, overlap.sql, and the camera views of
 # quality.sql) and shipped to every window of the site: the sampling periods and noise, the
@@ -59,10 +59,7 @@ def connect(extension, threads=1):
 
 
 def _set_params(con, params):
-    for k, v in (params or {}).items():
-        if not str(k).isidentifier():
-            raise ValueError(f"trajdb.windows: parameter names are identifiers (see `trajdb params`), got {k!r}")
-        con.execute(f"SET VARIABLE {k} = {_literal(v)}")
+    set_params(con, params, "trajdb.windows")
 
 
 def _run(con, text, skip=()):

@@ -26,13 +26,14 @@
 //!
 //! # Complexity
 //! [`merge_pair`]: the LCSS of [`crate::algo::lcss::time_window`] plus O((n + m) log(n + m)) for the sort.
-//! [`consistent_groups`]: O(L log L + L · g²) for L links and groups of at most g tracks.
+//! [`consistent_groups`]: O((T + L) log² T) for T tracks and L links (small-to-large merging of
+//! per-camera interval sets), plus O(min(|A|, |B|) log T) once per pair of groups in conflict.
 
 use crate::algo::lcss::time_window::{matches_in, TimeWindowParams};
 use crate::algo::geometry::region::Region;
 use crate::algo::graph::UnionFind;
 use crate::algo::traj::{OwnedTraj, Traj};
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 use std::fmt;
 
 /// A trajectory whose points carry the number of original points averaged into them.
@@ -152,9 +153,52 @@ pub struct Span {
     pub t1: f64,
 }
 
+/// An order-preserving key for a finite time: `a <= b` exactly when `key(a) <= key(b)`
+/// (−0 and +0 are one key, as they are one number).
+fn time_key(t: f64) -> u64 {
+    let b = (t + 0.0).to_bits();
+    if b >> 63 == 1 {
+        !b
+    } else {
+        b | 1 << 63
+    }
+}
+
+/// The tracks of one group: per camera, their time ranges `(t0, t1)`, which never overlap
+/// (the invariant [`consistent_groups`] keeps), keyed by `(camera, start)`. Empty for a group
+/// of one track, its root (most tracks never join anything: no allocation for them).
+type Ranges = std::collections::BTreeMap<(i64, u64), (f64, f64)>;
+
+/// The tracks `(camera, t0, t1)` of the group rooted at `root`.
+fn group_tracks<'a>(tracks: &'a [Span], ranges: &'a Ranges, root: usize) -> impl Iterator<Item = (i64, f64, f64)> + 'a {
+    let alone = ranges.is_empty().then(|| (tracks[root].camera, tracks[root].t0, tracks[root].t1));
+    alone.into_iter().chain(ranges.iter().map(|(&(c, _), &(t0, t1))| (c, t0, t1)))
+}
+
+/// Does a track of camera `c` on `[t0, t1]` overlap a track of the same camera in the group
+/// rooted at `root`? Its ranges per camera are disjoint and sorted by start, so the range that
+/// starts last at or before `t1` also ends last among those, and is the only candidate. O(log g).
+fn overlaps(tracks: &[Span], ranges: &Ranges, root: usize, c: i64, t0: f64, t1: f64) -> bool {
+    if ranges.is_empty() {
+        let s = &tracks[root];
+        return s.camera == c && s.t0 <= t1 && t0 <= s.t1;
+    }
+    match ranges.range(..=(c, time_key(t1))).next_back() {
+        Some((&(c2, _), &(_, e))) => c2 == c && t0 <= e,
+        None => false,
+    }
+}
+
 /// Groups tracks into road users by applying `links` in order (see module docs). Returns, for
 /// every track in input order, its group: the smallest track id in the group. `accepted[k]`
 /// tells whether link k was applied (false when it contradicted the group or was redundant).
+///
+/// Every track and link is checked before any work. A link joins two groups unless a track of
+/// one overlaps in time a track of the same camera in the other: each track of the smaller
+/// group is looked up in the larger one ([`overlaps`]), then moved into it (small to large: a
+/// track moves O(log T) times). Two groups found in conflict stay in conflict as they grow, so
+/// the pair is remembered while both are roots and never checked again. O((T + L) log² T) for
+/// T tracks and L links, plus O(min(|A|, |B|) log T) once per pair of groups A, B in conflict.
 pub fn consistent_groups(tracks: &[Span], links: &[(i64, i64)]) -> Result<(Vec<i64>, Vec<bool>), MergeError> {
     let mut index: HashMap<i64, usize> = HashMap::with_capacity(tracks.len());
     for (k, s) in tracks.iter().enumerate() {
@@ -165,38 +209,53 @@ pub fn consistent_groups(tracks: &[Span], links: &[(i64, i64)]) -> Result<(Vec<i
             return Err(MergeError::DuplicateTrack(s.id));
         }
     }
-    let mut uf = UnionFind::new(tracks.len());
-    let mut members: Vec<Vec<usize>> = (0..tracks.len()).map(|k| vec![k]).collect();
+    let resolved: Vec<(usize, usize)> = links
+        .iter()
+        .enumerate()
+        .map(|(l, &(a, b))| {
+            let ia = *index.get(&a).ok_or(MergeError::UnknownTrack { link: l + 1, id: a })?;
+            let ib = *index.get(&b).ok_or(MergeError::UnknownTrack { link: l + 1, id: b })?;
+            Ok((ia, ib))
+        })
+        .collect::<Result<_, MergeError>>()?;
+    drop(index);
+    let n = tracks.len();
+    let mut uf = UnionFind::new(n);
+    let mut ranges: Vec<Ranges> = (0..n).map(|_| Ranges::new()).collect();
+    let mut conflict: HashSet<(usize, usize)> = HashSet::new();
     let mut accepted = vec![false; links.len()];
-    for (l, &(a, b)) in links.iter().enumerate() {
-        let ia = *index.get(&a).ok_or(MergeError::UnknownTrack { link: l + 1, id: a })?;
-        let ib = *index.get(&b).ok_or(MergeError::UnknownTrack { link: l + 1, id: b })?;
+    for (l, &(ia, ib)) in resolved.iter().enumerate() {
         let (ra, rb) = (uf.find(ia), uf.find(ib));
         if ra == rb {
             continue;
         }
-        let clash = members[ra].iter().any(|&x| {
-            members[rb].iter().any(|&y| {
-                let (p, q) = (&tracks[x], &tracks[y]);
-                p.camera == q.camera && p.t0 <= q.t1 && q.t0 <= p.t1
-            })
-        });
-        if clash {
+        let pair = (ra.min(rb), ra.max(rb));
+        if conflict.contains(&pair) {
             continue;
         }
-        let (big, small) = if members[ra].len() >= members[rb].len() { (ra, rb) } else { (rb, ra) };
+        let (big, small) = if ranges[ra].len().max(1) >= ranges[rb].len().max(1) { (ra, rb) } else { (rb, ra) };
+        if group_tracks(tracks, &ranges[small], small).any(|(c, t0, t1)| overlaps(tracks, &ranges[big], big, c, t0, t1)) {
+            conflict.insert(pair);
+            continue;
+        }
+        let moved: Vec<(i64, f64, f64)> = group_tracks(tracks, &ranges[small], small).collect();
+        ranges[small] = Ranges::new();
+        if ranges[big].is_empty() {
+            let s = &tracks[big];
+            ranges[big].insert((s.camera, time_key(s.t0)), (s.t0, s.t1));
+        }
+        for (c, t0, t1) in moved {
+            ranges[big].insert((c, time_key(t0)), (t0, t1));
+        }
         uf.attach(small, big);
-        let moved = std::mem::take(&mut members[small]);
-        members[big].extend(moved);
         accepted[l] = true;
     }
-    let mut label: HashMap<usize, i64> = HashMap::new();
+    let mut label: Vec<i64> = vec![i64::MAX; n];
     for (k, t) in tracks.iter().enumerate() {
         let r = uf.find(k);
-        let e = label.entry(r).or_insert(t.id);
-        *e = (*e).min(t.id);
+        label[r] = label[r].min(t.id);
     }
-    let groups = (0..tracks.len()).map(|k| label[&uf.find(k)]).collect();
+    let groups = (0..n).map(|k| label[uf.find(k)]).collect();
     Ok((groups, accepted))
 }
 
@@ -281,6 +340,94 @@ mod tests {
         assert_eq!(consistent_groups(&tracks, &[(1, 9)]).unwrap_err(), MergeError::UnknownTrack { link: 1, id: 9 });
         assert_eq!(consistent_groups(&[s(1, 1, 0.0, 1.0), s(1, 2, 0.0, 1.0)], &[]).unwrap_err(), MergeError::DuplicateTrack(1));
         assert!(consistent_groups(&[s(1, 1, 2.0, 1.0)], &[]).is_err());
+    }
+
+    /// The obviously right version of [`consistent_groups`] (the one before issue 19): every
+    /// link compares all members of both groups, O(L · g²).
+    fn consistent_groups_slow(tracks: &[Span], links: &[(i64, i64)]) -> Result<(Vec<i64>, Vec<bool>), MergeError> {
+        let mut index: HashMap<i64, usize> = HashMap::new();
+        for (k, s) in tracks.iter().enumerate() {
+            if !(s.t0 <= s.t1) || !s.t0.is_finite() || !s.t1.is_finite() {
+                return Err(MergeError::TimeRange { id: s.id });
+            }
+            if index.insert(s.id, k).is_some() {
+                return Err(MergeError::DuplicateTrack(s.id));
+            }
+        }
+        for (l, &(a, b)) in links.iter().enumerate() {
+            for id in [a, b] {
+                if !index.contains_key(&id) {
+                    return Err(MergeError::UnknownTrack { link: l + 1, id });
+                }
+            }
+        }
+        let mut group: Vec<usize> = (0..tracks.len()).collect();
+        let mut accepted = vec![false; links.len()];
+        for (l, &(a, b)) in links.iter().enumerate() {
+            let (ga, gb) = (group[index[&a]], group[index[&b]]);
+            if ga == gb {
+                continue;
+            }
+            let clash = (0..tracks.len()).filter(|&x| group[x] == ga).any(|x| {
+                (0..tracks.len()).filter(|&y| group[y] == gb).any(|y| {
+                    let (p, q) = (&tracks[x], &tracks[y]);
+                    p.camera == q.camera && p.t0 <= q.t1 && q.t0 <= p.t1
+                })
+            });
+            if !clash {
+                group.iter_mut().filter(|g| **g == gb).for_each(|g| *g = ga);
+                accepted[l] = true;
+            }
+        }
+        let groups = (0..tracks.len()).map(|k| (0..tracks.len()).filter(|&y| group[y] == group[k]).map(|y| tracks[y].id).min().unwrap()).collect();
+        Ok((groups, accepted))
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(500))]
+        /// Issue 19: the small-to-large grouping equals the all-pairs one, for tracks of 1-3
+        /// cameras on a coarse time grid (touching and equal ranges, -0 and 0), links in any
+        /// order, repeated and sometimes naming an unknown track.
+        #[test]
+        fn groups_equal_the_all_pairs_version(
+            raw in proptest::collection::vec((0i64..3, -3i32..12, 0i32..4), 0..24),
+            links in proptest::collection::vec((0usize..26, 0usize..26), 0..40),
+        ) {
+            let tracks: Vec<Span> = raw.iter().enumerate().map(|(k, &(camera, t0, d))| {
+                let t0 = if t0 == 0 && k % 2 == 1 { -0.0 } else { t0 as f64 * 0.5 };
+                Span { id: 100 - 3 * k as i64, camera, t0, t1: t0 + d as f64 * 0.5 }
+            }).collect();
+            // ids of tracks, and 24/25 for tracks that do not exist
+            let id = |k: usize| if k < tracks.len() { tracks[k].id } else { 1000 + k as i64 };
+            let mut pairs: Vec<(i64, i64)> = links.iter().map(|&(a, b)| (id(a % (tracks.len() + 1)), id(b % (tracks.len() + 1)))).collect();
+            if links.len() % 3 != 0 {
+                // mostly valid links: unknown ones only in a third of the cases
+                pairs.retain(|&(a, b)| a < 1000 && b < 1000);
+            }
+            proptest::prop_assert_eq!(consistent_groups(&tracks, &pairs), consistent_groups_slow(&tracks, &pairs));
+        }
+    }
+
+    /// Issue 19: long chains are near-linear (120k links took 22 s with the all-pairs check),
+    /// and a bad link is reported before any grouping work.
+    #[test]
+    fn long_chains_and_links_checked_first() {
+        let n = 200_000usize;
+        // one camera, consecutive disjoint pieces: one chain of n tracks
+        let tracks: Vec<Span> = (0..n).map(|k| Span { id: k as i64, camera: 1, t0: k as f64, t1: k as f64 + 0.5 }).collect();
+        let mut links: Vec<(i64, i64)> = (1..n).map(|k| (k as i64 - 1, k as i64)).collect();
+        let (g, acc) = consistent_groups(&tracks, &links).unwrap();
+        assert!(g.iter().all(|&x| x == 0) && acc.iter().all(|&a| a));
+        // a second chain in the same camera overlapping the first everywhere: every cross link refused
+        let two: Vec<Span> = tracks.iter().flat_map(|s| [*s, Span { id: s.id + n as i64, t0: s.t0 + 0.25, t1: s.t1 + 0.25, ..*s }]).collect();
+        let mut l2 = links.clone();
+        l2.extend((1..n).map(|k| (k as i64 - 1 + n as i64, k as i64 + n as i64)));
+        l2.extend((0..n).map(|k| (k as i64, ((k * 7919) % n + n) as i64)));
+        let (g2, acc2) = consistent_groups(&two, &l2).unwrap();
+        assert_eq!(g2.iter().filter(|&&x| x == 0).count(), n);
+        assert!(acc2[2 * (n - 1)..].iter().all(|&a| !a));
+        links.push((5, -1));
+        assert_eq!(consistent_groups(&tracks, &links).unwrap_err(), MergeError::UnknownTrack { link: n, id: -1 });
     }
 
     /// Position of a source at time `t` by linear interpolation, if `t` lies inside it and the

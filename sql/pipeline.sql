@@ -13,12 +13,34 @@
 -- load: the input's columns by name (input_columns maps yours: 'camera=cam_id, t=time'); t may
 -- be seconds (any number) or a TIMESTAMP / TIMESTAMPTZ (then epoch seconds); estimated may be
 -- absent (then every point is real).
--- the input: a file (Parquet, CSV, JSON; a path or glob) or a table name. query() with a FROM
--- string works in DuckDB 1.5 and 2.0 (query_table('file.parquet') is a table name in 1.5).
-SET VARIABLE input_query = 'FROM ' || CASE
-    WHEN regexp_matches(getvariable('pipeline_input'), '(\.(parquet|csv|tsv|txt|json|jsonl|ndjson|gz|zst)$)|[/\\*]')
-    THEN '''' || replace(getvariable('pipeline_input'), '''', '''''') || ''''
-    ELSE getvariable('pipeline_input') END;
+-- the input: a table or view of this database, or a file (Parquet, CSV, JSON; a path or glob).
+-- It is resolved as exactly one of those and QUOTED, never pasted into SQL: a name that is a
+-- table or view (as name, schema.name or catalog.schema.name, case-insensitive) becomes a
+-- quoted identifier; anything else is a file path, a quoted string literal. A user's table or
+-- view wins over a TEMP one of the same name (the pipeline's own working tables are TEMP: a
+-- second run on `points` reads the user's main.points, not the working table). query() with a
+-- FROM string works in DuckDB 1.5 and 2.0 (query_table('file.parquet') is a table name in 1.5).
+SELECT CASE WHEN getvariable('pipeline_input') IS NULL OR trim(getvariable('pipeline_input')) = ''
+            THEN error('load: the input is empty; SET VARIABLE pipeline_input = ''points.parquet'' (a file, a glob or a table name)') END;
+SET VARIABLE input_query = (
+    WITH relations AS (
+        SELECT database_name, schema_name, table_name AS name, temporary FROM duckdb_tables()
+        UNION ALL SELECT database_name, schema_name, view_name, temporary FROM duckdb_views() WHERE NOT internal),
+    hit AS (
+        SELECT * FROM relations
+        WHERE lower(getvariable('pipeline_input')) IN (lower(name), lower(schema_name || '.' || name), lower(database_name || '.' || schema_name || '.' || name))
+        ORDER BY temporary, database_name, schema_name LIMIT 1)
+    SELECT 'FROM ' || coalesce(
+        (SELECT CASE WHEN temporary AND lower(name) = 'points'
+                     THEN error('load: the input ' || getvariable('pipeline_input') || ' is the pipeline''s own working table (temp.points); '
+                                || 'give your table another name, or pass it qualified, e.g. main.points')
+                     ELSE '"' || replace(database_name, '"', '""') || '"."' || replace(schema_name, '"', '""') || '"."' || replace(name, '"', '""') || '"' END
+         FROM hit),
+        '''' || replace(getvariable('pipeline_input'), '''', '''''') || ''''));
+-- not a table: it must name at least one file (glob() reads no file and obeys enable_external_access)
+SELECT CASE WHEN getvariable('input_query') LIKE 'FROM ''%' AND NOT EXISTS (FROM glob(getvariable('pipeline_input')))
+            THEN error('load: the input ' || getvariable('pipeline_input') || ' is neither a table or view of this database nor an existing file '
+                       || '(fix: the path of a Parquet, CSV or JSON file, a glob such as ''data/*.parquet'', or a table name)') END;
 SET VARIABLE input_map = map_from_entries(
     [(trim(split_part(kv, '=', 1)), trim(split_part(kv, '=', 2)))
      for kv in string_split(coalesce(getvariable('input_columns'), ''), ',') if trim(kv) <> '']);
@@ -39,9 +61,16 @@ WHERE NOT (d.column_type IN ('TINYINT', 'SMALLINT', 'INTEGER', 'BIGINT', 'HUGEIN
         OR (w.name IN ('t', 'x', 'y') AND (d.column_type IN ('FLOAT', 'DOUBLE') OR d.column_type LIKE 'DECIMAL%'))
         OR (w.name = 't' AND (d.column_type LIKE 'TIMESTAMP%' OR d.column_type = 'DATE'))
         OR (w.name = 'estimated' AND d.column_type = 'BOOLEAN'));
+-- t: a TIMESTAMPTZ is an instant: its epoch seconds, whatever the session's TimeZone (a cast to
+-- TIMESTAMP would go through it: 5 h early in New York, and an hour jump at a daylight-saving
+-- change). A TIMESTAMP without time zone is read as UTC.
+SET VARIABLE input_t_tz = (SELECT coalesce(any_value(d.column_type = 'TIMESTAMP WITH TIME ZONE'), false)
+                           FROM (DESCRIBE FROM query(getvariable('input_query'))) d
+                           WHERE d.column_name = coalesce(getvariable('input_map')['t'], 't'));
 CREATE OR REPLACE TEMP TABLE points AS
 SELECT camera::INTEGER AS camera, track_id::BIGINT AS track_id, class::VARCHAR AS class,
-       coalesce(try_cast(t AS DOUBLE), epoch(try_cast(t AS TIMESTAMP))) AS t,
+       CASE WHEN getvariable('input_t_tz') THEN epoch(try_cast(t AS TIMESTAMPTZ))
+            ELSE coalesce(try_cast(t AS DOUBLE), epoch(try_cast(t AS TIMESTAMP))) END AS t,
        x::DOUBLE AS x, y::DOUBLE AS y, coalesce(estimated::INTEGER, 0) AS estimated
 FROM (SELECT COLUMNS(lambda c: c = coalesce(getvariable('input_map')['camera'], 'camera')) AS camera,
              COLUMNS(lambda c: c = coalesce(getvariable('input_map')['track_id'], 'track_id')) AS track_id,
@@ -62,6 +91,40 @@ FROM (SELECT count(*) AS n,
                         coalesce(class, 'NULL'), coalesce(t::VARCHAR, 'NULL'), coalesce(x::VARCHAR, 'NULL'), coalesce(y::VARCHAR, 'NULL')) ORDER BY camera, track_id, t)
                  FILTER (WHERE NOT coalesce(camera IS NOT NULL AND track_id IS NOT NULL AND class IS NOT NULL AND isfinite(t) AND isfinite(x) AND isfinite(y), false)) AS first_bad
       FROM points);
+-- only estimated points: nothing was observed (estimated <> 0 on every row)
+SELECT CASE WHEN count(*) FILTER (WHERE estimated = 0) = 0
+            THEN error('load: every one of the ' || count(*) || ' rows of the input ' || getvariable('pipeline_input') || ' is estimated (estimated <> 0); '
+                       || 'trajdb needs observed points (estimated = 0). If your column means something else, map another with input_columns, e.g. ''estimated=is_predicted''') END
+FROM points;
+-- exact repeats of (camera, track_id, t): a file loaded twice, a camera exported twice. Each
+-- (camera, track_id, t) is kept once (the first by estimated, x, y, class), and the repeats are
+-- counted in load_duplicates (the run's warnings say how many). Without this, a repeated
+-- camera aligned nothing and a repeated input failed deep inside a stage.
+CREATE OR REPLACE TEMP TABLE load_duplicates AS
+SELECT camera, track_id, t, count(*) - 1 AS repeats, count(DISTINCT (x, y)) > 1 AS conflicting
+FROM points GROUP BY camera, track_id, t HAVING count(*) > 1;
+DELETE FROM points WHERE rowid IN (
+    SELECT rowid FROM points SEMI JOIN load_duplicates USING (camera, track_id, t)
+    QUALIFY row_number() OVER (PARTITION BY camera, track_id, t ORDER BY estimated, x, y, class, rowid) > 1);
+-- units: the sampling period and the speeds of road users are known to within a factor of a
+-- few; times in milliseconds (1.7e12) or coordinates in millimetres give implausible ones (and,
+-- left alone, 0 road users): a clear error naming the column and the unit it seems to be in.
+-- Measured on a sample of the observed points (median period and median speed of moving points).
+SELECT CASE
+    WHEN period > 20 THEN error(format('load: column t looks like {} rather than seconds: the median time between a track''s points is {} '
+        || '(road-user cameras sample every 0.01-2 s). Fix: give t in seconds, e.g. a view with t / {} AS t, or a TIMESTAMP',
+        CASE WHEN period > 2e4 THEN 'microseconds' ELSE 'milliseconds' END, round(period, 3), CASE WHEN period > 2e4 THEN '1e6' ELSE '1000' END))
+    WHEN speed > 150 THEN error(format('load: columns x, y do not look like metres: the median speed of moving points is {} units/s, and road '
+        || 'users move at 0.5-40 m/s. In millimetres, x / 1000 gives {} m/s; in centimetres, x / 100 gives {} m/s. Fix: give x, y in metres '
+        || '(e.g. a view with x / 1000 AS x, y / 1000 AS y)', round(speed, 1), round(speed / 1000, 2), round(speed / 100, 2)))
+    WHEN speed < 0.02 THEN error(format('load: the median speed of moving points is {} m/s, too slow for road users (0.5-40 m/s): t may be in '
+        || 'milliseconds (median period {} units) or x, y in kilometres. Fix: give t in seconds and x, y in metres', speed, round(period, 4)))
+    END
+FROM (SELECT median(dt) FILTER (WHERE dt > 0) AS period,
+             median(sqrt(dx * dx + dy * dy) / dt) FILTER (WHERE dt > 0 AND sqrt(dx * dx + dy * dy) > 0) AS speed
+      FROM (SELECT t - lag(t) OVER w AS dt, x - lag(x) OVER w AS dx, y - lag(y) OVER w AS dy
+            FROM (FROM points WHERE estimated = 0 USING SAMPLE 200000 ROWS (reservoir, 7))
+            WINDOW w AS (PARTITION BY camera, track_id ORDER BY t)));
 -- a track is (camera, track_id) whatever its class does: a classifier that flickers between
 -- classes gets the track's majority class (ties: the first class name), and the flicker is
 -- listed in load_class_flicker (camera, track_id, class kept, classes with their point counts)

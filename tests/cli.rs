@@ -418,7 +418,7 @@ fn pipeline_maps_columns_timestamps_and_fails_cleanly() {
 }
 
 /// Issue 17, pipeline integrity: faulty inputs give a clear message, the exit code says whether
-/// results exist, and a failed run leaves no results (neither partial nor an earlier run's).
+/// results exist, and a failed run leaves no partial results and keeps an earlier run's intact.
 #[test]
 fn pipeline_on_faulty_input_says_what_is_wrong() {
     let dir = std::env::temp_dir().join(format!("trajdb-faulty-{}", std::process::id()));
@@ -451,12 +451,13 @@ fn pipeline_on_faulty_input_says_what_is_wrong() {
     assert!(err.contains("warning: 1 tracks change class partway; each keeps its majority class"), "{err}");
     assert!(out.join("merged.parquet").exists());
 
-    // a failed run removes the earlier results; the error names the column and the fix
+    // a failed run keeps the earlier results as they were; the error names the column and the fix
     let text_t = make("text_t.parquet", &format!("SELECT * REPLACE (t::VARCHAR || 's' AS t) FROM '{p}'"));
     let (ok, _, err) = run(&text_t, o, &[]);
     assert!(!ok);
     assert!(err.contains("column t is VARCHAR, not a number (seconds) or a TIMESTAMP") && err.contains("fix: cast it"), "{err}");
-    assert!(!out.exists(), "an earlier run's results stayed in place after a failed run");
+    assert!(out.join("merged.parquet").exists(), "a failed run must keep the earlier results");
+    assert!(!std::fs::read_dir(&out).unwrap().any(|e| e.unwrap().file_name().to_string_lossy().starts_with(".trajdb-partial")));
 
     let text_cam = make("text_cam.parquet", &format!("SELECT * REPLACE ('cam' || camera AS camera) FROM '{p}'"));
     let (ok, _, err) = run(&text_cam, o, &[]);
@@ -469,7 +470,7 @@ fn pipeline_on_faulty_input_says_what_is_wrong() {
     let empty = make("empty.parquet", &format!("SELECT * FROM '{p}' WHERE false"));
     let (ok, _, err) = run(&empty, o, &[]);
     assert!(!ok && err.contains("has no rows"), "{err}");
-    assert!(!out.exists());
+    assert!(out.join("merged.parquet").exists());
 
     // one camera, and cameras that share no time: results, with a warning that says why
     let one = make("one.parquet", &format!("SELECT * FROM '{p}' WHERE camera = 1"));

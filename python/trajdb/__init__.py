@@ -13,8 +13,8 @@ report.html).
 """
 import glob
 import hashlib
+import json
 import os
-import shutil
 import tempfile
 import time
 import warnings
@@ -143,80 +143,106 @@ def _literal(v):
 
 
 def set_params(con, params, who):
-    """Sets pipeline parameters (`trajdb params`) as DuckDB variables; names must be identifiers."""
+    """Sets every pipeline parameter for one run: the given ones (checked by the extension against
+    the declared table of `trajdb params`: name, type and range), every other one back to its
+    default, so that nothing leaks from an earlier run on the same connection."""
+    values = {}
     for k, v in (params or {}).items():
-        if not str(k).isidentifier():
-            raise ValueError(f"{who}: parameter names are identifiers (see `trajdb params`), got {k!r}")
-        con.execute(f"SET VARIABLE {k} = {_literal(v)}")
+        if isinstance(v, bool):
+            v = "true" if v else "false"
+        elif isinstance(v, (int, float)):
+            v = repr(v)
+        elif not isinstance(v, str):
+            raise TypeError(f"{who}: parameter {k} must be a number, a boolean or text, got {type(v).__name__}")
+        values[str(k)] = v
+    try:
+        script = con.execute("SELECT trajdb_params_sql(?)", [json.dumps(values)]).fetchone()[0]
+    except duckdb.Error as e:
+        raise ValueError(f"{who}: {e}") from None
+    _run(con, script)
+
+
+def _input_name(con, input):
+    """The input as the pipeline's load reads it (sql/pipeline.sql resolves and quotes it): a path,
+    glob or table name as given; a DataFrame or Arrow object is registered under a name of its own."""
+    if isinstance(input, str):
+        return input, None
+    if isinstance(input, os.PathLike):
+        return os.fspath(input), None
+    name = "trajdb_input_" + hashlib.sha256(os.urandom(16)).hexdigest()[:12]
+    con.register(name, input)
+    return name, name
 
 
 def pipeline(con, input, out=None, **params):
-    """The whole pipeline on `input` (a Parquet / CSV file or a table name), as `trajdb pipeline`:
-    parameters by keyword (`merge_eta=0.6`; `trajdb params` lists them), then the stages; with
-    `out`, the result files and report.html are written there. The tables (merged, matches, ...) stay in `con`."""
+    """The whole pipeline on `input` (a Parquet / CSV / JSON file or glob, a table or view name, or
+    a pandas / Arrow / Polars object), as `trajdb pipeline`: parameters by keyword (`merge_eta=0.6`;
+    `trajdb params` lists them; an unknown name or a bad value is an error), then the stages; with
+    `out`, the result files and report.html are written there. The tables (merged, matches, ...)
+    stay in `con`.
+
+    `out` is a new folder, an empty one, or one holding an earlier trajdb result set; anything
+    else (a folder with your files in it, the input's folder, '') is refused before any work. A
+    failed run leaves the earlier results as they were; trajdb deletes only files it wrote itself
+    (README: "Never failing badly")."""
     set_params(con, params, "trajdb.pipeline")
-    con.execute(f"SET VARIABLE pipeline_input = {_literal(input)}")
+    name, registered = _input_name(con, input)
+    staging = None
     try:
+        if out is not None:
+            # the results folder is checked and claimed before any work (src/app/outdir.rs)
+            staging = con.execute("SELECT trajdb_results_begin(?, ?)", [os.fspath(out), name]).fetchone()[0]
+        con.execute("SET VARIABLE pipeline_input = ?", [name])
         timings = _run_timed(con, "sql/pipeline.sql")
-    except BaseException:
-        if out is not None:  # no stale results from an earlier run
-            shutil.rmtree(os.path.abspath(out), ignore_errors=True)
-        raise
-    for w in warnings_of(con):
-        warnings.warn(f"trajdb.pipeline: {w}", stacklevel=2)
-    if out is not None:
-        # into a sibling folder, renamed into place when every file is written: a failed run
-        # leaves neither half-written nor stale results in `out`
-        out = os.path.abspath(out)
-        parent = os.path.dirname(out)
-        os.makedirs(parent, exist_ok=True)
-        partial = tempfile.mkdtemp(prefix=f".{os.path.basename(out)}.partial-", dir=parent)
-        try:
-            con.execute(f"SET VARIABLE out_dir = {_literal(partial)}")
+        read(con, "sql/warnings.sql")
+        for w in warnings_of(con):
+            warnings.warn(f"trajdb.pipeline: {w}", stacklevel=2)
+        if staging is not None:
+            con.execute("SET VARIABLE out_dir = ?", [staging])
             t = time.perf_counter()
             read(con, "sql/export.sql")
             timings.append(("write", time.perf_counter() - t))
             con.execute("CREATE OR REPLACE TEMP TABLE pipeline_timings (stage VARCHAR, seconds DOUBLE)")
             con.executemany("INSERT INTO pipeline_timings VALUES (?, ?)", timings)
             read(con, "sql/report.sql")
-        except BaseException:
-            shutil.rmtree(partial, ignore_errors=True)
-            shutil.rmtree(out, ignore_errors=True)
-            raise
-        shutil.rmtree(out, ignore_errors=True)
-        os.replace(partial, out)
+            s, staging = staging, None
+            con.execute("SELECT trajdb_results_end(?, true)", [s]).fetchall()
+    except BaseException:
+        if staging is not None:  # the earlier results stay; this run's staging folder goes
+            try:
+                con.execute("SELECT trajdb_results_end(?, false)", [staging]).fetchall()
+            except duckdb.Error:
+                pass
+        raise
+    finally:
+        if registered:
+            con.unregister(registered)
     return con
 
 
 def warnings_of(con):
-    """What a finished pipeline run should tell its user: one camera, cameras left out of the
-    common frame, tracks whose class flickered (empty input is an error in the load)."""
-    cams, aligned, flicker = con.sql(
-        "SELECT (SELECT count(DISTINCT camera) FROM points), (SELECT count(*) FROM align_frames), (SELECT count(*) FROM load_class_flicker)"
-    ).fetchall()[0]
-    out = []
-    if cams == 1:
-        out.append("one camera: nothing to align or match across cameras; road users are that camera's tracks, linked within it")
-    elif aligned < cams:
-        left = [r[0] for r in con.sql("SELECT DISTINCT camera FROM points ANTI JOIN align_frames USING (camera) ORDER BY camera").fetchall()]
-        out.append(f"{aligned} of {cams} cameras in one frame: cameras {left} share no consistent track pairs with the others "
-                   "(no common time, or no common view); their tracks are road users of their own")
-    if flicker > 0:
-        out.append(f"{flicker} tracks change class partway; each keeps its majority class (table load_class_flicker)")
-    return out
+    """What a finished pipeline run should tell its user (sql/warnings.sql: one camera, cameras
+    left out of the common frame, class flicker, repeated rows)."""
+    return [r[0] for r in con.sql("SELECT message FROM pipeline_warnings ORDER BY k").fetchall()]
 
 
 def simulate(con, out, **params):
     """`trajdb simulate` in stock DuckDB: the scenario files in `out` (trajdb_simulate(); named
     parameters as there, e.g. cameras=3, minutes=5, seed=1), plus points.parquet typed as the
     shared scenarios. Returns the one summary row (dir, objects, cameras, tracks, points)."""
-    args = ", ".join([_literal(os.path.abspath(out))] + [f"{k} := {_literal(v)}" for k, v in params.items()])
-    row = con.sql(f"FROM trajdb_simulate({args})").fetchall()[0]
-    csv, pq = _literal(os.path.join(os.path.abspath(out), "points.csv")), _literal(os.path.join(os.path.abspath(out), "points.parquet"))
+    for k in params:
+        if not str(k).isidentifier():
+            raise ValueError(f"trajdb.simulate: parameter names are those of trajdb_simulate (cameras, minutes, seed, ...), got {k!r}")
+    # names are identifiers (DuckDB refuses unknown ones); values and paths are bound parameters
+    args = "".join(f", {k} := ?" for k in params)
+    out = os.path.abspath(os.fspath(out))
+    row = con.execute(f"FROM trajdb_simulate(?{args})", [out, *params.values()]).fetchall()[0]
+    con.execute("SET VARIABLE trajdb_sim_csv = ?", [os.path.join(out, "points.csv")])
+    con.execute("SET VARIABLE trajdb_sim_parquet = ?", [os.path.join(out, "points.parquet")])
     con.execute(
-        f"""COPY (SELECT camera::INTEGER AS camera, track_id::BIGINT AS track_id, class::VARCHAR AS class, t::DOUBLE AS t,
+        """COPY (SELECT camera::INTEGER AS camera, track_id::BIGINT AS track_id, class::VARCHAR AS class, t::DOUBLE AS t,
                         x::DOUBLE AS x, y::DOUBLE AS y, speed::DOUBLE AS speed, estimated::INTEGER AS estimated
-                 FROM read_csv({csv}, header = true)) TO {pq} (FORMAT parquet)"""
+                 FROM read_csv(getvariable('trajdb_sim_csv'), header = true)) TO (getvariable('trajdb_sim_parquet')) (FORMAT parquet)"""
     )
     return row
 
@@ -226,8 +252,8 @@ def score(con, scenario, results):
     Returns {'rot_deg', 'trans_m', 'clock_s', 'match_f1', 'idf1', 'exact'} (worst camera pair,
     overall match F1 and road-user identity); the tables s_pair_err, s_identity and
     s_class_scores stay in `con`."""
-    con.execute(f"SET VARIABLE score_scenario = {_literal(os.path.abspath(scenario))}")
-    con.execute(f"SET VARIABLE score_results = {_literal(os.path.abspath(results))}")
+    con.execute("SET VARIABLE score_scenario = ?", [os.path.abspath(scenario)])
+    con.execute("SET VARIABLE score_results = ?", [os.path.abspath(results)])
     read(con, "sql/score.sql")
     rot, trans, clock = con.sql("SELECT max(rot_deg), max(trans_m), max(clock_err_s) FROM s_pair_err WHERE cam_from < cam_to").fetchall()[0]
     p, r = con.sql("SELECT precision, recall FROM s_class_scores WHERE class = '*'").fetchall()[0]

@@ -370,6 +370,10 @@ def _struct(table, struct_type):
     return pa.StructArray.from_arrays(cols, fields=list(struct_type))
 
 
+# What write() puts into its folder: the only entries it may delete there.
+_OUTPUT_ENTRIES = ("road_users", "matches", "transforms", "calibration", "_SUCCESS")
+
+
 def write(result, path, mode="overwrite"):
     """Writes a Result as partitioned Parquet under `path` (a local path or any URI pyarrow.fs
     reaches: s3://, gs://, hdfs://):
@@ -379,20 +383,34 @@ def write(result, path, mode="overwrite"):
         _SUCCESS                                   written last
     One file per partition, named by the partition: a task that Spark retries writes the same
     file again (into a temporary name, then moved into place), so output is never duplicated.
-    mode 'overwrite' removes what `path` held first."""
+    mode 'overwrite' replaces an earlier result set in `path` (only the entries above are deleted);
+    a folder holding anything else is refused."""
     from pyarrow import fs as pafs
 
     if mode not in ("overwrite", "error"):
         raise ValueError(f"trajdb.spark.write: mode is 'overwrite' or 'error', got {mode!r}")
     filesystem, root = pafs.FileSystem.from_uri(path if "://" in path else os.path.abspath(path))
     info = filesystem.get_file_info(root)
-    if info.type != pafs.FileType.NotFound:
-        if mode == "error":
-            raise FileExistsError(f"trajdb.spark.write: {path} exists (mode='overwrite' replaces it)")
-        if info.type == pafs.FileType.Directory:
-            filesystem.delete_dir(root)
-        else:
-            filesystem.delete_file(root)
+    if info.type == pafs.FileType.File:
+        raise FileExistsError(f"trajdb.spark.write: {path} is a file; name a folder for the results")
+    if info.type == pafs.FileType.Directory:
+        # only an earlier trajdb result set is replaced, and only its own entries are deleted:
+        # a folder holding anything else (the user's files) is refused, whatever the mode
+        entries = filesystem.get_file_info(pafs.FileSelector(root, recursive=False))
+        names = {e.base_name for e in entries}
+        foreign = sorted(names - set(_OUTPUT_ENTRIES))
+        if foreign:
+            raise FileExistsError(
+                f"trajdb.spark.write: {path} holds files that trajdb did not write (e.g. {foreign[0]!r}); "
+                "write into a new folder, an empty one, or one with earlier trajdb results"
+            )
+        if names and mode == "error":
+            raise FileExistsError(f"trajdb.spark.write: {path} holds earlier results (mode='overwrite' replaces them)")
+        if "_SUCCESS" in names:
+            filesystem.delete_file(f"{root}/_SUCCESS")  # first: a half-replaced set is never marked complete
+        for e in entries:
+            if e.base_name in _OUTPUT_ENTRIES and e.type == pafs.FileType.Directory:
+                filesystem.delete_dir(e.path)
     filesystem.create_dir(root)
     geo = _geo_metadata()
     for name, df, parts, order in (

@@ -3,6 +3,7 @@
 //!
 //! | module | what |
 //! |---|---|
+//! | [`outdir`] | the results folder: what may be written and deleted (pure std) |
 //! | [`simulate`] | synthetic multi-camera intersection traffic with ground truth (pure Rust) |
 //! | `params` | the one declared table of pipeline parameters; generates sql/params.sql |
 //! | `sql` | the embedded SQL files, `.read` includes, statement splitting, the stage list |
@@ -12,13 +13,13 @@
 //! | `shell` | running SQL scripts and printing results |
 //! | `demo` | `trajdb demo`, `trajdb demo --sql`, `trajdb simulate` |
 
+pub mod outdir;
+pub mod params;
 pub mod report;
 pub mod simulate;
 
 #[cfg(feature = "bundled")]
 pub mod demo;
-#[cfg(feature = "bundled")]
-pub mod params;
 #[cfg(feature = "bundled")]
 pub mod pipeline;
 #[cfg(feature = "bundled")]

@@ -23,66 +23,77 @@ pub struct Param {
     pub default: &'static str,
     pub stage: &'static str,
     pub description: &'static str,
+    /// The closed range a number must lie in (integers and doubles; `auto` is always allowed
+    /// where the parameter is measured). Every number is finite.
+    pub lo: f64,
+    pub hi: f64,
 }
 
 const fn d(name: &'static str, default: &'static str, stage: &'static str, description: &'static str) -> Param {
-    Param { name, kind: Kind::Double, default, stage, description }
+    Param { name, kind: Kind::Double, default, stage, description, lo: 0.0, hi: f64::INFINITY }
 }
 const fn i(name: &'static str, default: &'static str, stage: &'static str, description: &'static str) -> Param {
-    Param { name, kind: Kind::Integer, default, stage, description }
+    Param { name, kind: Kind::Integer, default, stage, description, lo: 0.0, hi: f64::INFINITY }
 }
 const fn b(name: &'static str, default: &'static str, stage: &'static str, description: &'static str) -> Param {
-    Param { name, kind: Kind::Boolean, default, stage, description }
+    Param { name, kind: Kind::Boolean, default, stage, description, lo: 0.0, hi: f64::INFINITY }
 }
 const fn s(name: &'static str, default: &'static str, stage: &'static str, description: &'static str) -> Param {
-    Param { name, kind: Kind::Text, default, stage, description }
+    Param { name, kind: Kind::Text, default, stage, description, lo: 0.0, hi: f64::INFINITY }
 }
 
-/// Every parameter of every stage, in stage order. The defaults and the measurements behind
+impl Param {
+    /// This parameter, its numbers restricted to `[lo, hi]`.
+    const fn within(self, lo: f64, hi: f64) -> Param {
+        Param { lo, hi, ..self }
+    }
+}
+
+/// Every parameter of every stage, in stage order. Numbers are >= 0 unless a range says otherwise. The defaults and the measurements behind
 /// them are explained at the top of each stage file.
 pub const PARAMS: &[Param] = &[
     s("input_columns", "''", "load", "your column names, as 'camera=cam_id, track_id=id, t=time' (any of camera, track_id, class, t, x, y, estimated; unnamed ones keep their name; estimated may be absent)"),
     b("clean_drop_estimated_tails", "false", "clean", "drop a track whose last clean_xi points are all estimated"),
-    i("clean_xi", "3", "clean", "points of the estimated tail rule"),
-    i("clean_min_points", "auto", "clean", "a track with fewer real points than this ... (auto: 2, the least that shows motion)"),
+    i("clean_xi", "3", "clean", "points of the estimated tail rule").within(1.0, 1e6),
+    i("clean_min_points", "auto", "clean", "a track with fewer real points than this ... (auto: 2, the least that shows motion)").within(1.0, 1e9),
     d("clean_min_duration_s", "auto", "clean", "... and spanning less than this many seconds is dropped (auto: 1.5 sampling periods)"),
-    d("clean_max_speed", "70.0", "clean", "a track whose median real speed exceeds this (m/s) is implausible and dropped"),
-    d("quality_max_gap", "2.5", "quality", "a broken piece may resume up to this many seconds later"),
+    d("clean_max_speed", "70.0", "clean", "a track whose median real speed exceeds this (m/s) is implausible and dropped").within(1e-09, 1e6),
+    d("quality_max_gap", "2.5", "quality", "a broken piece may resume up to this many seconds later").within(0.0, 86400.0),
     d("quality_max_dist", "2.0", "quality", "... within this many metres of where the track would be at its final velocity"),
     d("quality_max_accel", "auto", "quality", "second linking pass: a leftover start may lie max_dist + accel * gap^2 / 2 from the prediction (m/s^2; auto: the class's measured 95th percentile acceleration, see quality.sql)"),
     d("quality_inset", "1.0", "quality", "endpoints closer than this (m) to the view's edge are entries and exits"),
-    i("align_min_points", "10", "align", "tracks need at least this many real points to form hypotheses"),
+    i("align_min_points", "10", "align", "tracks need at least this many real points to form hypotheses").within(2.0, 1e9),
     d("align_min_overlap_s", "2.0", "align", "track pairs overlap at least this long in time (s)"),
-    i("align_min_pairs", "10", "align", "a hypothesis needs at least this many time-interpolated point pairs"),
+    i("align_min_pairs", "10", "align", "a hypothesis needs at least this many time-interpolated point pairs").within(3.0, 1e9),
     d("align_min_span_m", "3.0", "align", "... and its moving points span at least this many metres"),
-    i("align_max_hypotheses", "4000", "align", "at most this many track pairs per camera pair are scanned (a hash sample of a long day)"),
-    d("align_max_clock_offset_s", "1.0", "align", "clock offsets between two cameras are searched up to this many seconds either way"),
-    d("align_bin_s", "0.05", "align", "vote bin (and scan step) of the clock offset (s)"),
-    d("align_clock_step_s", "0.005", "align", "step of the joint clock offset search around the winning bin (s)"),
+    i("align_max_hypotheses", "4000", "align", "at most this many track pairs per camera pair are scanned (a hash sample of a long day)").within(1.0, 1e9),
+    d("align_max_clock_offset_s", "1.0", "align", "clock offsets between two cameras are searched up to this many seconds either way").within(0.0, 172800.0),
+    d("align_bin_s", "0.05", "align", "vote bin (and scan step) of the clock offset (s)").within(1e-06, 86400.0),
+    d("align_clock_step_s", "0.005", "align", "step of the joint clock offset search around the winning bin (s)").within(1e-06, 86400.0),
     d("align_max_rms_m", "auto", "align", "hypotheses fitting their own pairs within this RMS (m) vote (auto: 0.1 + 3 sigma_pair)"),
-    d("align_bin_deg", "2.0", "align", "vote bin of the rotation (degrees)"),
-    d("align_bin_m", "1.0", "align", "vote bin of the translation (m)"),
-    d("align_agree_deg", "3.0", "align", "a hypothesis agrees with the winning bin within this rotation (degrees)"),
+    d("align_bin_deg", "2.0", "align", "vote bin of the rotation (degrees)").within(1e-06, 180.0),
+    d("align_bin_m", "1.0", "align", "vote bin of the translation (m)").within(1e-06, 10000000.0),
+    d("align_agree_deg", "3.0", "align", "a hypothesis agrees with the winning bin within this rotation (degrees)").within(0.0, 180.0),
     d("align_agree_m", "2.0", "align", "... and this translation (m)"),
-    i("align_min_support", "3", "align", "a camera pair needs at least this many agreeing track pairs"),
-    d("align_trim", "0.1", "align", "share of point pairs the trimmed refit leaves out"),
+    i("align_min_support", "3", "align", "a camera pair needs at least this many agreeing track pairs").within(1.0, 1e9),
+    d("align_trim", "0.1", "align", "share of point pairs the trimmed refit leaves out").within(0.0, 0.9),
     d("align_refine_rms_m", "auto", "align", "second pass: track pairs within this RMS (m) of the first fit are kept (auto: 0.05 + 2 sigma_pair)"),
     s("overlap_method", "'convex'", "overlap", "view polygon hull: 'convex' or 'concave'"),
-    d("overlap_concavity", "2.0", "overlap", "concavity of the concave hull"),
+    d("overlap_concavity", "2.0", "overlap", "concavity of the concave hull").within(1e-09, 1e6),
     d("overlap_radius_m", "2.0", "overlap", "density rule: a point counts with overlap_min_neighbours others within this radius (m)"),
-    i("overlap_min_neighbours", "3", "overlap", "density rule: neighbours a point needs"),
-    d("overlap_shrink_sigmas", "1.0", "overlap", "each view polygon is shrunk by this many times the camera's measured noise"),
-    d("merge_epsilon", "auto", "merge", "LCSS epsilon (m) for matching and merging (auto: per camera pair, 3.03 x the measured residual sigma: 99% of true pairs)"),
-    d("merge_time_window", "0.25", "merge", "LCSS time window T (s)"),
-    i("merge_min_points", "auto", "merge", "LCSS xi: points a track needs inside the overlap (auto: 2 real samples of the slowest camera on the common clock, >= 3)"),
-    d("merge_eta", "0.5", "merge", "eta-bar: the lowest similarity that links two tracks"),
-    d("merge_resample_s", "0.1", "merge", "common clock period (s); 0 keeps the raw samples"),
-    d("merge_resample_max_gap", "1.0", "merge", "the common clock does not bridge gaps longer than this (s)"),
-    i("cluster_camera", "auto", "cluster", "the camera whose tracks are clustered (auto: the camera with the most real tracks; ties: the lowest id)"),
+    i("overlap_min_neighbours", "3", "overlap", "density rule: neighbours a point needs").within(0.0, 1e6),
+    d("overlap_shrink_sigmas", "1.0", "overlap", "each view polygon is shrunk by this many times the camera's measured noise").within(0.0, 100.0),
+    d("merge_epsilon", "auto", "merge", "LCSS epsilon (m) for matching and merging (auto: per camera pair, 3.03 x the measured residual sigma: 99% of true pairs)").within(1e-09, 1e6),
+    d("merge_time_window", "0.25", "merge", "LCSS time window T (s)").within(0.0, 86400.0),
+    i("merge_min_points", "auto", "merge", "LCSS xi: points a track needs inside the overlap (auto: 2 real samples of the slowest camera on the common clock, >= 3)").within(1.0, 1e9),
+    d("merge_eta", "0.5", "merge", "eta-bar: the lowest similarity that links two tracks").within(1e-09, 1.0),
+    d("merge_resample_s", "0.1", "merge", "common clock period (s); 0 keeps the raw samples").within(0.0, 3600.0),
+    d("merge_resample_max_gap", "1.0", "merge", "the common clock does not bridge gaps longer than this (s)").within(0.0, 86400.0),
+    i("cluster_camera", "auto", "cluster", "the camera whose tracks are clustered (auto: the camera with the most real tracks; ties: the lowest id)").within(-2147483648.0, 2147483647.0),
     s("cluster_classes", "''", "cluster", "the classes clustered, as 'car, pedestrian' ('' : every class)"),
-    i("cluster_delta", "5", "cluster", "Buzan's delta: samples of time warping"),
-    d("cluster_epsilon", "2.0", "cluster", "Buzan's epsilon (m)"),
-    d("cluster_rho", "0.5", "cluster", "Buzan's rho: length ratio below which tracks are not compared"),
+    i("cluster_delta", "5", "cluster", "Buzan's delta: samples of time warping").within(0.0, 1e9),
+    d("cluster_epsilon", "2.0", "cluster", "Buzan's epsilon (m)").within(1e-09, 1e6),
+    d("cluster_rho", "0.5", "cluster", "Buzan's rho: length ratio below which tracks are not compared").within(0.0, 1.0),
     d("cluster_threshold", "0.5", "cluster", "average-linkage cut height"),
     b("cluster_translation_invariant", "false", "cluster", "use S2 (shapes anywhere) instead of S1 (routes)"),
 ];
@@ -111,9 +122,14 @@ impl Param {
                 if !x.is_finite() {
                     return Err(bad("a finite number"));
                 }
+                self.in_range(x, value)?;
                 format!("{x:?}::DOUBLE")
             }
-            Kind::Integer => format!("{}::BIGINT", v.parse::<i64>().map_err(|_| bad("an integer or auto"))?),
+            Kind::Integer => {
+                let n = v.parse::<i64>().map_err(|_| bad("an integer or auto"))?;
+                self.in_range(n as f64, value)?;
+                format!("{n}::BIGINT")
+            }
             Kind::Boolean => match v.to_ascii_lowercase().as_str() {
                 "true" => "true".into(),
                 "false" => "false".into(),
@@ -124,6 +140,23 @@ impl Param {
                 format!("'{}'", inner.replace('\'', "''"))
             }
         })
+    }
+}
+
+impl Param {
+    fn in_range(&self, x: f64, value: &str) -> Result<(), Box<dyn Error>> {
+        if x < self.lo || x > self.hi {
+            let r = |v: f64| if v.is_infinite() { "inf".to_string() } else { format!("{v}") };
+            return Err(format!(
+                "pipeline: parameter {} must be in [{}, {}], got {value:?} (see `trajdb params`: {})",
+                self.name,
+                r(self.lo),
+                r(self.hi),
+                self.description
+            )
+            .into());
+        }
+        Ok(())
     }
 }
 
@@ -221,11 +254,28 @@ mod tests {
     }
 
     #[test]
+    fn numbers_outside_their_range_are_refused() {
+        let eta = find("merge_eta").unwrap();
+        for bad in ["2", "0", "-0.1", "nan", "inf"] {
+            assert!(eta.literal(bad).is_err(), "{bad}");
+        }
+        let e = eta.literal("2").unwrap_err().to_string();
+        assert!(e.contains("merge_eta must be in [0.000000001, 1], got \"2\""), "{e}");
+        assert!(find("clean_xi").unwrap().literal("-3").is_err());
+        assert!(find("align_max_clock_offset_s").unwrap().literal("3600").is_ok());
+        for p in PARAMS {
+            assert!(p.lo <= p.hi && !p.lo.is_nan(), "{}", p.name);
+        }
+    }
+
+    #[cfg(feature = "bundled")]
+    #[test]
     fn sql_params_file_is_generated_from_the_table() {
         let file = include_str!("../../sql/params.sql");
         assert_eq!(file, params_sql(), "sql/params.sql is stale: run `trajdb params --sql > sql/params.sql`");
     }
 
+    #[cfg(feature = "bundled")]
     #[test]
     fn every_parameter_is_read_by_its_stage_file() {
         for p in PARAMS {

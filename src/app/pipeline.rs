@@ -95,15 +95,15 @@ pub fn run(con: &Connection, input: &str, out: &Path, overrides: &[(String, Stri
     set_params(con, overrides)?;
     let t_all = Instant::now();
     con.execute_batch(&format!("SET VARIABLE pipeline_input = {};", sql::sql_string(input)))?;
-    let mut timings = run_sql_file(con, "sql/pipeline.sql").inspect_err(|_| remove_stale(out))?;
-    // The result files go to a sibling folder first and replace `out` only when all are written:
-    // a failed run leaves no half-written output (and an earlier result in `out` stays).
-    let name = out.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_else(|| "results".into());
-    let parent = out.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
-    std::fs::create_dir_all(parent)?;
-    let partial = parent.join(format!(".{name}.partial-{}", std::process::id()));
+    // the results folder is checked (and claimed) before any work: a folder with the user's
+    // own files, '', '/', or the input's folder is refused here (src/app/outdir.rs)
+    let claim = super::outdir::claim(&out.to_string_lossy(), &[input])?;
+    let mut timings = run_sql_file(con, "sql/pipeline.sql")?;
+    // The result files go to the claim's staging folder first and replace the earlier results
+    // file by file only when all are written: a failed run leaves no half-written output, and
+    // the earlier results in `out` stay as they were (outdir.rs).
+    let partial = claim.partial.clone();
     let written = (|| -> Result<(), Box<dyn Error>> {
-        std::fs::create_dir_all(&partial)?;
         let t = Instant::now();
         con.execute_batch(&format!("SET VARIABLE out_dir = {};", sql::sql_string(&partial.to_string_lossy())))?;
         con.execute_batch(&sql::expand_reads(sql::file("sql/export.sql").expect("sql/export.sql"))?).map_err(|e| stage_error("export", &e.to_string()))?;
@@ -115,26 +115,13 @@ pub fn run(con: &Connection, input: &str, out: &Path, overrides: &[(String, Stri
         Ok(())
     })();
     if let Err(e) = written {
-        std::fs::remove_dir_all(&partial).ok();
-        remove_stale(out);
+        claim.abort();
         return Err(e);
     }
-    if out.exists() {
-        std::fs::remove_dir_all(out)?;
-    }
-    std::fs::rename(&partial, out)?;
+    claim.commit()?;
     eprintln!("[trajdb] total    {:>7.2} s", t_all.elapsed().as_secs_f64());
     summary(con, out)?;
     Ok(())
-}
-
-/// A failed run leaves no results: an earlier run's files in `out` would look like its own.
-fn remove_stale(out: &Path) {
-    if out.join("transforms.csv").exists() || out.join("merged.parquet").exists() {
-        if std::fs::remove_dir_all(out).is_ok() {
-            eprintln!("[trajdb] removed the earlier results in {}: they are not this run's", out.display());
-        }
-    }
 }
 
 /// What was found, in a few lines (stderr): road users per class, cross-camera links,
@@ -167,31 +154,12 @@ fn summary(con: &Connection, out: &Path) -> Result<(), Box<dyn Error>> {
     Ok(())
 }
 
-/// What a finished run should tell its user (the same as trajdb.warnings_of in Python): one
-/// camera, cameras left out of the common frame, tracks whose class flickered.
+/// What a finished run should tell its user: the rows of sql/warnings.sql's pipeline_warnings
+/// (the same table every runner reads).
 pub fn warnings(con: &Connection) -> Result<Vec<String>, Box<dyn Error>> {
-    let (cams, aligned, flicker): (i64, i64, i64) = con.query_row(
-        "SELECT (SELECT count(DISTINCT camera) FROM points), (SELECT count(*) FROM align_frames), (SELECT count(*) FROM load_class_flicker)",
-        [],
-        |r| Ok((r.get(0)?, r.get(1)?, r.get(2)?)),
-    )?;
-    let mut out = Vec::new();
-    if cams == 1 {
-        out.push("one camera: nothing to align or match across cameras; road users are that camera's tracks, linked within it".to_string());
-    } else if aligned < cams {
-        let left: Vec<i64> = con
-            .prepare("SELECT DISTINCT camera FROM points ANTI JOIN align_frames USING (camera) ORDER BY camera")?
-            .query_map([], |r| r.get(0))?
-            .collect::<Result<_, _>>()?;
-        out.push(format!(
-            "{aligned} of {cams} cameras in one frame: cameras {left:?} share no consistent track pairs with the others \
-             (no common time, or no common view); their tracks are road users of their own"
-        ));
-    }
-    if flicker > 0 {
-        out.push(format!("{flicker} tracks change class partway; each keeps its majority class (table load_class_flicker)"));
-    }
-    Ok(out)
+    con.execute_batch(sql::file("sql/warnings.sql").expect("sql/warnings.sql"))?;
+    let rows = con.prepare("SELECT message FROM pipeline_warnings ORDER BY k")?.query_map([], |r| r.get(0))?.collect::<Result<_, _>>()?;
+    Ok(rows)
 }
 
 #[cfg(test)]

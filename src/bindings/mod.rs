@@ -13,6 +13,7 @@ pub mod lcss;
 pub mod matching;
 pub mod merge;
 pub mod meta;
+pub mod params;
 pub mod registry;
 pub mod report;
 pub mod simulate;
@@ -24,7 +25,7 @@ use registry::{Doc, Function};
 
 /// Every function, in reference order.
 pub fn functions() -> Vec<&'static Function> {
-    [traj::FUNCTIONS, lcss::FUNCTIONS, align::FUNCTIONS, geometry::FUNCTIONS, matching::FUNCTIONS, merge::FUNCTIONS, cluster::FUNCTIONS, events::FUNCTIONS, meta::FUNCTIONS, simulate::FUNCTIONS, report::FUNCTIONS]
+    [traj::FUNCTIONS, lcss::FUNCTIONS, align::FUNCTIONS, geometry::FUNCTIONS, matching::FUNCTIONS, merge::FUNCTIONS, cluster::FUNCTIONS, events::FUNCTIONS, meta::FUNCTIONS, params::FUNCTIONS, simulate::FUNCTIONS, report::FUNCTIONS]
         .into_iter()
         .flatten()
         .collect()

@@ -1,0 +1,23 @@
+-- trajdb: what a finished pipeline run should tell its user, one row each, in table
+-- pipeline_warnings (k, message). Every runner (trajdb pipeline, trajdb.pipeline in Python, the
+-- DuckDB CLI after `.read sql/pipeline.sql`) reads this one table.
+-- reads: points, align_frames, load_class_flicker, load_duplicates   makes: pipeline_warnings
+CREATE OR REPLACE TEMP TABLE pipeline_warnings AS
+WITH c AS (SELECT (SELECT count(DISTINCT camera) FROM points) AS cams, (SELECT count(*) FROM align_frames) AS aligned,
+                  (SELECT count(*) FROM load_class_flicker) AS flicker,
+                  (SELECT coalesce(sum(repeats), 0) FROM load_duplicates) AS repeats,
+                  (SELECT count(*) FILTER (WHERE conflicting) FROM load_duplicates) AS conflicting)
+SELECT 1 AS k, 'one camera: nothing to align or match across cameras; road users are that camera''s tracks, linked within it' AS message
+FROM c WHERE cams = 1
+UNION ALL
+SELECT 2, format('{} of {} cameras in one frame: cameras {} share no consistent track pairs with the others (no common time, or no common view); '
+                 || 'their tracks are road users of their own', aligned, cams,
+                 (SELECT list(DISTINCT camera ORDER BY camera) FROM points ANTI JOIN align_frames USING (camera))::VARCHAR)
+FROM c WHERE cams > 1 AND aligned < cams
+UNION ALL
+SELECT 3, format('{} tracks change class partway; each keeps its majority class (table load_class_flicker)', flicker)
+FROM c WHERE flicker > 0
+UNION ALL
+SELECT 4, format('{} input rows repeat the (camera, track_id, t) of another row ({} of those times with other x, y); each was kept once '
+                 || '(table load_duplicates)', repeats, conflicting)
+FROM c WHERE repeats > 0;

@@ -1,0 +1,540 @@
+//! The results folder (`out`): the one place that decides what trajdb may write and delete.
+//!
+//! The rules (README, "Never failing badly"):
+//! - `out` is a folder that does not exist yet, an empty folder, or a folder holding an earlier
+//!   trajdb result set, recognised by the manifest [`MANIFEST`] that trajdb writes into it. Any
+//!   other `out` (a folder with the user's own files, a file, `''`, `/`, the home folder, the
+//!   input's own folder) is refused before any work.
+//! - `out` must not be or contain the input.
+//! - trajdb deletes only (a) the files named in its own manifest, each a plain file name inside
+//!   `out`, when a new run replaces them, and (b) its own staging folder `out/.trajdb-partial-*`
+//!   with what it wrote there. It never removes `out` itself, nor any folder it did not create.
+//!   That is guaranteed by construction: this module is the only code of trajdb that removes
+//!   anything from a results folder ([`remove_own_file`] and [`remove_partial`] are the only
+//!   calls of `remove_file` / `remove_dir` on it), and both check the name they remove against
+//!   the manifest or the staging prefix first.
+//! - A run writes into `out/.trajdb-partial-<pid>-<n>/`; [`Claim::commit`] moves each file into
+//!   place with `rename` (atomic per file), deletes the files of the previous manifest that this
+//!   run did not write, then writes the new manifest (atomically). A failed run calls
+//!   [`Claim::abort`]: its staging folder goes, the previous results stay intact. A run killed
+//!   with `kill -9` leaves its staging folder; the next run on `out` removes it (it is ours).
+//! - Two runs on one `out`: the lock file [`LOCK`] is created with `create_new`; the second run
+//!   fails at once with an error naming the lock. A lock whose process is gone (a killed run)
+//!   is taken over.
+//! - Folders are created with the process's normal permissions (umask), not 0700.
+//!
+//! Pure std: used by the `trajdb` binary and, through the extension, by every other runner.
+
+use std::fmt;
+use std::fs;
+use std::io::Write as _;
+use std::path::{Component, Path, PathBuf};
+
+/// The manifest: a results folder that trajdb made holds this file; one result file name a line.
+pub const MANIFEST: &str = ".trajdb-results";
+/// The lock file of a run in progress (its content: the process id).
+pub const LOCK: &str = ".trajdb-lock";
+/// The prefix of a run's staging folder inside `out`.
+pub const PARTIAL_PREFIX: &str = ".trajdb-partial-";
+const MANIFEST_HEAD: &str = "# trajdb results: the files below were written by trajdb and may be replaced by its next run into this folder\n";
+
+/// Why a results folder cannot be used (or an I/O failure), with the fix.
+#[derive(Debug)]
+pub struct OutError(pub String);
+
+impl fmt::Display for OutError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+impl std::error::Error for OutError {}
+
+fn err<T>(msg: String) -> Result<T, OutError> {
+    Err(OutError(msg))
+}
+
+fn io(what: &str, p: &Path, e: std::io::Error) -> OutError {
+    OutError(format!("results folder: cannot {what} {}: {e}", p.display()))
+}
+
+/// `p` made absolute and resolved: the longest existing prefix through `canonicalize` (symbolic
+/// links followed), the rest appended lexically; `..` in the rest is refused.
+fn resolve(p: &Path) -> Result<PathBuf, OutError> {
+    let abs = if p.is_absolute() { p.to_path_buf() } else { std::env::current_dir().map_err(|e| io("read the working folder", p, e))?.join(p) };
+    let mut existing = abs.clone();
+    let mut rest: Vec<std::ffi::OsString> = Vec::new();
+    loop {
+        if let Ok(c) = existing.canonicalize() {
+            let mut out = c;
+            for part in rest.iter().rev() {
+                out.push(part);
+            }
+            return Ok(out);
+        }
+        match (existing.file_name(), existing.parent()) {
+            (Some(name), Some(parent)) => {
+                rest.push(name.to_os_string());
+                existing = parent.to_path_buf();
+            }
+            _ => {
+                // a trailing `..` or `.` of a path that does not exist
+                if abs.components().any(|c| matches!(c, Component::ParentDir)) {
+                    return err(format!("results folder {}: a path through '..' into a folder that does not exist", p.display()));
+                }
+                return Ok(abs);
+            }
+        }
+    }
+}
+
+/// The folder part of an input that is a file path or glob (`data/*.parquet` -> `data`), resolved.
+fn input_path(input: &str) -> Option<PathBuf> {
+    if input.is_empty() || input.contains("://") {
+        return None;
+    }
+    let cut = input.find(['*', '?', '[', '{']).map(|k| &input[..k]).unwrap_or(input);
+    let p = Path::new(cut);
+    // a pattern: the folder it lies in ("data/*.parquet" -> "data", "data/pts*" -> "data")
+    let p = if cut.len() < input.len() && !cut.ends_with('/') { p.parent().unwrap_or(Path::new(".")) } else { p };
+    let p = if p.as_os_str().is_empty() { Path::new(".") } else { p };
+    if !p.exists() {
+        return None; // a table name, or a file that does not exist (the load will say so)
+    }
+    resolve(p).ok()
+}
+
+/// The file names listed in `dir`'s manifest; `None` when `dir` has no manifest. A name that is
+/// not a plain file name (a separator, `..`) makes the manifest invalid: nothing is trusted.
+fn read_manifest(dir: &Path) -> Result<Option<Vec<String>>, OutError> {
+    let path = dir.join(MANIFEST);
+    let text = match fs::read_to_string(&path) {
+        Ok(t) => t,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
+        Err(e) => return Err(io("read", &path, e)),
+    };
+    let mut names = Vec::new();
+    for line in text.lines().map(str::trim).filter(|l| !l.is_empty() && !l.starts_with('#')) {
+        if !plain_name(line) {
+            return err(format!(
+                "results folder {}: its {MANIFEST} lists {line:?}, which is not a plain file name; trajdb will not delete by it (remove the folder yourself, or pick another out)",
+                dir.display()
+            ));
+        }
+        names.push(line.to_string());
+    }
+    Ok(Some(names))
+}
+
+/// A file name with no separator, not `.`/`..`, not one of trajdb's own control names.
+fn plain_name(s: &str) -> bool {
+    !s.is_empty() && s != "." && s != ".." && !s.contains(['/', '\\', '\0']) && s != MANIFEST && s != LOCK && !s.starts_with(PARTIAL_PREFIX)
+}
+
+/// Is the process `pid` alive? (Linux: /proc; elsewhere assume yes, so a lock is never stolen.)
+fn alive(pid: u32) -> bool {
+    if pid == std::process::id() {
+        return true;
+    }
+    if Path::new("/proc/self").exists() {
+        Path::new(&format!("/proc/{pid}")).exists()
+    } else {
+        true
+    }
+}
+
+/// A results folder claimed for one run: the lock is held, the staging folder exists.
+#[derive(Debug)]
+pub struct Claim {
+    pub out: PathBuf,
+    pub partial: PathBuf,
+    previous: Vec<String>,
+    /// `out` did not exist: a failed first run removes it again (when it holds only the manifest)
+    created: bool,
+    done: bool,
+}
+
+static SEQ: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+
+/// Checks `out` against the rules above and claims it: creates it (and its parents) when
+/// missing, takes the lock, removes stale staging folders of killed runs, creates this run's
+/// staging folder. `inputs` are the run's input strings (paths, globs or table names).
+pub fn claim(out: &str, inputs: &[&str]) -> Result<Claim, OutError> {
+    if out.trim().is_empty() {
+        return err("results folder: out is '' (empty); name a new folder, e.g. out='results'".into());
+    }
+    let dir = resolve(Path::new(out))?;
+    if dir.parent().is_none() {
+        return err(format!("results folder: out {out:?} is the root folder; name a new folder, e.g. out='results'"));
+    }
+    for input in inputs {
+        if let Some(inp) = input_path(input) {
+            if inp.starts_with(&dir) {
+                return err(format!(
+                    "results folder: out {out:?} ({}) is or contains the input {input:?}; results go into a folder of their own, e.g. out='results'",
+                    dir.display()
+                ));
+            }
+        }
+    }
+    let created = !dir.exists();
+    let previous = if dir.exists() {
+        if !dir.is_dir() {
+            return err(format!("results folder: out {out:?} ({}) is a file, not a folder; name a new folder", dir.display()));
+        }
+        match read_manifest(&dir)? {
+            Some(names) => names,
+            None => {
+                let mut entries = fs::read_dir(&dir).map_err(|e| io("list", &dir, e))?;
+                if let Some(first) = entries.next() {
+                    let first = first.map_err(|e| io("list", &dir, e))?.file_name();
+                    return err(format!(
+                        "results folder: out {out:?} ({}) already holds files that trajdb did not write (e.g. {:?}); \
+                         trajdb writes only into a new folder, an empty one, or one with its own earlier results: name another out, e.g. out='{}'",
+                        dir.display(),
+                        first.to_string_lossy(),
+                        Path::new(out).join("trajdb-results").display()
+                    ));
+                }
+                Vec::new()
+            }
+        }
+    } else {
+        fs::create_dir_all(&dir).map_err(|e| io("create", &dir, e))?;
+        Vec::new()
+    };
+    // the manifest first: from now on the folder is recognisably trajdb's
+    if !dir.join(MANIFEST).exists() {
+        write_manifest(&dir, &previous)?;
+    }
+    take_lock(&dir, out)?;
+    let claim = (|| {
+        remove_stale_partials(&dir)?;
+        let n = SEQ.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        let partial = dir.join(format!("{PARTIAL_PREFIX}{}-{n}", std::process::id()));
+        fs::create_dir(&partial).map_err(|e| io("create", &partial, e))?;
+        Ok(Claim { out: dir.clone(), partial, previous, created, done: false })
+    })();
+    if claim.is_err() {
+        let _ = fs::remove_file(dir.join(LOCK));
+    }
+    claim
+}
+
+fn take_lock(dir: &Path, out: &str) -> Result<(), OutError> {
+    let lock = dir.join(LOCK);
+    for _ in 0..2 {
+        match fs::OpenOptions::new().write(true).create_new(true).open(&lock) {
+            Ok(mut f) => {
+                let _ = write!(f, "{}", std::process::id());
+                return Ok(());
+            }
+            Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {
+                let pid: Option<u32> = fs::read_to_string(&lock).ok().and_then(|s| s.trim().parse().ok());
+                match pid {
+                    Some(p) if !alive(p) => {
+                        // a killed run's lock: its process is gone
+                        let _ = fs::remove_file(&lock);
+                    }
+                    _ => {
+                        return err(format!(
+                            "results folder: another trajdb run is writing into out {out:?} (lock {} held by process {}); wait for it, or \
+                             pick another out (if no run is active, delete the lock file)",
+                            lock.display(),
+                            pid.map(|p| p.to_string()).unwrap_or_else(|| "?".into())
+                        ))
+                    }
+                }
+            }
+            Err(e) => return Err(io("create", &lock, e)),
+        }
+    }
+    err(format!("results folder: cannot take the lock {}", lock.display()))
+}
+
+/// Staging folders of runs whose process is gone (`kill -9`): ours by name, inside our folder.
+fn remove_stale_partials(dir: &Path) -> Result<(), OutError> {
+    for entry in fs::read_dir(dir).map_err(|e| io("list", dir, e))?.flatten() {
+        let name = entry.file_name().to_string_lossy().into_owned();
+        if let Some(rest) = name.strip_prefix(PARTIAL_PREFIX) {
+            let pid: Option<u32> = rest.split('-').next().and_then(|p| p.parse().ok());
+            if pid.is_some_and(|p| p != std::process::id() && !alive(p)) {
+                remove_partial(dir, &entry.path())?;
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Removes a staging folder of ours: its name carries our prefix and it lies directly in `dir`;
+/// only the plain files in it (what the export wrote) and then the empty folder are removed.
+fn remove_partial(dir: &Path, partial: &Path) -> Result<(), OutError> {
+    let ours = partial.parent() == Some(dir) && partial.file_name().is_some_and(|n| n.to_string_lossy().starts_with(PARTIAL_PREFIX));
+    if !ours {
+        return err(format!("results folder: refusing to remove {}: not a staging folder of trajdb", partial.display()));
+    }
+    if let Ok(entries) = fs::read_dir(partial) {
+        for e in entries.flatten() {
+            if e.file_type().is_ok_and(|t| t.is_file()) {
+                let _ = fs::remove_file(e.path());
+            }
+        }
+    }
+    // remove_dir, not remove_dir_all: a folder someone else put in there stops it
+    fs::remove_dir(partial).map_err(|e| io("remove the staging folder", partial, e))
+}
+
+/// Removes one result file of an earlier run: a plain name listed in the manifest.
+fn remove_own_file(dir: &Path, name: &str, manifest: &[String]) -> Result<(), OutError> {
+    if !plain_name(name) || !manifest.iter().any(|m| m == name) {
+        return err(format!("results folder: refusing to remove {name:?}: not a result file that trajdb wrote"));
+    }
+    let p = dir.join(name);
+    match fs::symlink_metadata(&p) {
+        Ok(m) if m.is_file() => fs::remove_file(&p).map_err(|e| io("remove", &p, e)),
+        Ok(_) => Ok(()), // a folder or link under that name is not ours: left alone
+        Err(_) => Ok(()),
+    }
+}
+
+fn write_manifest(dir: &Path, names: &[String]) -> Result<(), OutError> {
+    let tmp = dir.join(format!("{MANIFEST}.{}.tmp", std::process::id()));
+    let mut text = String::from(MANIFEST_HEAD);
+    for n in names {
+        text.push_str(n);
+        text.push('\n');
+    }
+    fs::write(&tmp, text).map_err(|e| io("write", &tmp, e))?;
+    fs::rename(&tmp, dir.join(MANIFEST)).map_err(|e| io("write", &dir.join(MANIFEST), e))
+}
+
+impl Claim {
+    /// Moves this run's files into place, removes the earlier run's files that this run did not
+    /// write, writes the manifest, drops the staging folder and the lock. Returns the file names.
+    pub fn commit(mut self) -> Result<Vec<String>, OutError> {
+        let mut names = Vec::new();
+        for e in fs::read_dir(&self.partial).map_err(|e| io("list", &self.partial, e))? {
+            let e = e.map_err(|e| io("list", &self.partial, e))?;
+            let name = e.file_name().to_string_lossy().into_owned();
+            if e.file_type().is_ok_and(|t| t.is_file()) && plain_name(&name) {
+                names.push(name);
+            }
+        }
+        names.sort();
+        // a name this run writes must not be a file of the user's: the folder held only our
+        // files when it was claimed, but check again (a user may have added one meanwhile)
+        for n in &names {
+            let target = self.out.join(n);
+            if target.exists() && !self.previous.contains(n) {
+                return err(format!(
+                    "results folder {}: {n} appeared there during the run and is not trajdb's; nothing was replaced",
+                    self.out.display()
+                ));
+            }
+        }
+        // the manifest lists old and new names while files move, so that a run killed in
+        // between leaves every file listed (and removable by the next run)
+        let mut both: Vec<String> = self.previous.iter().chain(names.iter()).cloned().collect();
+        both.sort();
+        both.dedup();
+        write_manifest(&self.out, &both)?;
+        for n in &names {
+            let (from, to) = (self.partial.join(n), self.out.join(n));
+            fs::rename(&from, &to).map_err(|e| io("move a result file into", &to, e))?;
+        }
+        for old in self.previous.clone() {
+            if !names.contains(&old) {
+                remove_own_file(&self.out, &old, &both)?;
+            }
+        }
+        write_manifest(&self.out, &names)?;
+        self.finish();
+        Ok(names)
+    }
+
+    /// A failed run: the staging folder goes, the earlier results stay as they were.
+    pub fn abort(mut self) {
+        self.finish();
+        if self.created && self.previous.is_empty() {
+            // the folder this run created, holding nothing but the manifest: gone again
+            let only_manifest = fs::read_dir(&self.out).map(|d| d.flatten().all(|e| e.file_name() == MANIFEST)).unwrap_or(false);
+            if only_manifest {
+                let _ = fs::remove_file(self.out.join(MANIFEST));
+                let _ = fs::remove_dir(&self.out);
+            }
+        }
+    }
+
+    fn finish(&mut self) {
+        if !self.done {
+            self.done = true;
+            let _ = remove_partial(&self.out, &self.partial);
+            let _ = fs::remove_file(self.out.join(LOCK));
+        }
+    }
+}
+
+impl Drop for Claim {
+    fn drop(&mut self) {
+        self.finish();
+    }
+}
+
+/// Claims that outlive one SQL call (the extension's `trajdb_results_begin` / `_end`): by
+/// staging folder path.
+pub mod open {
+    use super::*;
+    use std::sync::Mutex;
+
+    static OPEN: Mutex<Vec<Claim>> = Mutex::new(Vec::new());
+
+    /// [`claim`], kept open; returns the staging folder to export into.
+    pub fn begin(out: &str, inputs: &[&str]) -> Result<PathBuf, OutError> {
+        let c = claim(out, inputs)?;
+        let p = c.partial.clone();
+        OPEN.lock().unwrap_or_else(|e| e.into_inner()).push(c);
+        Ok(p)
+    }
+
+    /// Commits (or, with `commit` false, aborts) the claim whose staging folder is `partial`.
+    pub fn end(partial: &str, commit: bool) -> Result<Vec<String>, OutError> {
+        let c = {
+            let mut open = OPEN.lock().unwrap_or_else(|e| e.into_inner());
+            let k = open
+                .iter()
+                .position(|c| c.partial == Path::new(partial))
+                .ok_or_else(|| OutError(format!("results folder: no run of this process is writing into {partial:?}")))?;
+            open.swap_remove(k)
+        };
+        if commit {
+            c.commit()
+        } else {
+            c.abort();
+            Ok(Vec::new())
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn tmp(name: &str) -> PathBuf {
+        let d = std::env::temp_dir().join(format!("trajdb-outdir-{}-{name}", std::process::id()));
+        let _ = fs::remove_dir_all(&d);
+        fs::create_dir_all(&d).unwrap();
+        d
+    }
+
+    fn run(out: &Path, files: &[&str]) -> Result<Vec<String>, OutError> {
+        let c = claim(out.to_str().unwrap(), &[])?;
+        for f in files {
+            fs::write(c.partial.join(f), f).unwrap();
+        }
+        c.commit()
+    }
+
+    #[test]
+    fn a_folder_with_user_files_is_refused_and_untouched() {
+        let d = tmp("user");
+        fs::write(d.join("notes.txt"), "mine").unwrap();
+        let e = claim(d.to_str().unwrap(), &[]).unwrap_err().to_string();
+        assert!(e.contains("already holds files that trajdb did not write") && e.contains("notes.txt"), "{e}");
+        assert_eq!(fs::read_to_string(d.join("notes.txt")).unwrap(), "mine");
+        assert_eq!(fs::read_dir(&d).unwrap().count(), 1);
+    }
+
+    #[test]
+    fn empty_root_home_and_input_folder_are_refused() {
+        assert!(claim("", &[]).unwrap_err().to_string().contains("empty"));
+        assert!(claim("   ", &[]).is_err());
+        assert!(claim("/", &[]).unwrap_err().to_string().contains("root"));
+        let d = tmp("input");
+        fs::write(d.join("points.parquet"), "x").unwrap();
+        let input = d.join("points.parquet");
+        let e = claim(d.to_str().unwrap(), &[input.to_str().unwrap()]).unwrap_err().to_string();
+        assert!(e.contains("is or contains the input"), "{e}");
+        let e = claim(d.to_str().unwrap(), &[&format!("{}/*.parquet", d.display())]).unwrap_err().to_string();
+        assert!(e.contains("is or contains the input"), "{e}");
+        // x/y/.. is x, which holds the user's file
+        fs::create_dir_all(d.join("y")).unwrap();
+        assert!(claim(d.join("y").join("..").to_str().unwrap(), &[]).is_err());
+        assert!(input.exists());
+        let f = d.join("points.parquet");
+        assert!(claim(f.to_str().unwrap(), &[]).unwrap_err().to_string().contains("is a file"));
+    }
+
+    #[test]
+    fn reruns_replace_only_their_own_files() {
+        let d = tmp("rerun");
+        let out = d.join("results");
+        assert_eq!(run(&out, &["a.csv", "b.csv"]).unwrap(), ["a.csv", "b.csv"]);
+        assert!(out.join(MANIFEST).exists());
+        // the second run writes a.csv and c.csv: b.csv (ours) goes, a user's file added later
+        // under another name stays
+        fs::write(out.join("mine.txt"), "mine").unwrap();
+        assert_eq!(run(&out, &["a.csv", "c.csv"]).unwrap(), ["a.csv", "c.csv"]);
+        assert!(!out.join("b.csv").exists());
+        assert_eq!(fs::read_to_string(out.join("mine.txt")).unwrap(), "mine");
+        assert_eq!(fs::read_to_string(out.join("a.csv")).unwrap(), "a.csv");
+        let left: Vec<String> = fs::read_dir(&out).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
+        assert!(!left.iter().any(|n| n.starts_with(PARTIAL_PREFIX) || n == LOCK), "{left:?}");
+    }
+
+    #[test]
+    fn a_failed_run_keeps_the_previous_results_and_its_staging_goes() {
+        let d = tmp("fail");
+        let out = d.join("r");
+        run(&out, &["a.csv"]).unwrap();
+        let c = claim(out.to_str().unwrap(), &[]).unwrap();
+        fs::write(c.partial.join("a.csv"), "half").unwrap();
+        let partial = c.partial.clone();
+        c.abort();
+        assert!(!partial.exists());
+        // a failed first run removes the folder it created
+        let c = claim(d.join("new").to_str().unwrap(), &[]).unwrap();
+        c.abort();
+        assert!(!d.join("new").exists());
+        assert_eq!(fs::read_to_string(out.join("a.csv")).unwrap(), "a.csv");
+        assert!(!out.join(LOCK).exists());
+    }
+
+    #[test]
+    fn a_second_run_on_the_same_folder_fails_clearly_and_a_dead_lock_is_taken_over() {
+        let d = tmp("lock");
+        let out = d.join("r");
+        run(&out, &["a.csv"]).unwrap();
+        let first = claim(out.to_str().unwrap(), &[]).unwrap();
+        let e = claim(out.to_str().unwrap(), &[]).unwrap_err().to_string();
+        assert!(e.contains("another trajdb run is writing"), "{e}");
+        first.abort();
+        // a killed run: its lock names a process that is gone, its staging folder is left
+        fs::write(out.join(LOCK), "999999999").unwrap();
+        fs::create_dir(out.join(format!("{PARTIAL_PREFIX}999999999-0"))).unwrap();
+        fs::write(out.join(format!("{PARTIAL_PREFIX}999999999-0")).join("a.csv"), "x").unwrap();
+        run(&out, &["a.csv"]).unwrap();
+        assert!(!out.join(format!("{PARTIAL_PREFIX}999999999-0")).exists());
+    }
+
+    #[test]
+    fn a_hostile_manifest_deletes_nothing() {
+        let d = tmp("hostile");
+        let out = d.join("r");
+        fs::create_dir_all(&out).unwrap();
+        fs::write(d.join("victim.txt"), "mine").unwrap();
+        fs::write(out.join(MANIFEST), "../victim.txt\n").unwrap();
+        assert!(claim(out.to_str().unwrap(), &[]).unwrap_err().to_string().contains("not a plain file name"));
+        assert!(d.join("victim.txt").exists());
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn a_new_results_folder_has_normal_permissions() {
+        use std::os::unix::fs::PermissionsExt;
+        let d = tmp("perm");
+        let out = d.join("r");
+        run(&out, &["a.csv"]).unwrap();
+        let mode = fs::metadata(&out).unwrap().permissions().mode() & 0o777;
+        assert_ne!(mode, 0o700, "{mode:o}");
+        assert_eq!(mode & 0o055, fs::metadata(&d).unwrap().permissions().mode() & 0o055);
+    }
+}

@@ -1,0 +1,232 @@
+#!/usr/bin/env python3
+"""The pipeline runner as a careless or hostile user meets it, through the loadable extension in
+PyPI DuckDB (issue 25): every case here failed before the fix.
+
+- the results folder: a folder with the user's files, '', '/', 'x/y/..', the input's own folder,
+  a failed run (the earlier results stay, no staging folder is left), two runs at once, the
+  folder's permissions, a hostile manifest;
+- injection: an input string that is SQL (chr(47) tricks, a smuggled COPY), parameter names and
+  values (unknown names, NaN, out of range), simulate keyword names;
+- parameters do not leak from one run into the next on the same connection;
+- the input `points` (a user's table of the pipeline's working table's name), TIMESTAMPTZ under two
+  session time zones, exact duplicate rows, times in milliseconds and coordinates in millimetres,
+  an all-estimated input;
+- metamorphic: rows shuffled, track ids relabelled, the input duplicated give the same road users.
+
+usage: python3 tests/test_safety_python.py path/to/trajdb.duckdb_extension
+"""
+import os
+import stat
+import subprocess
+import sys
+import tempfile
+import threading
+import warnings
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, os.path.join(HERE, "..", "python"))
+os.environ["TRAJDB_EXTENSION"] = os.path.abspath(sys.argv[1])
+
+import duckdb  # noqa: E402
+import trajdb  # noqa: E402
+
+FAILED = []
+
+
+def check(name, cond, detail=""):
+    print(("ok   " if cond else "FAIL ") + name + ("" if cond else f": {detail}"))
+    if not cond:
+        FAILED.append(name)
+
+
+def raises(fn, *needles):
+    try:
+        fn()
+    except Exception as e:  # noqa: BLE001
+        msg = str(e)
+        return all(n in msg for n in needles), msg
+    return False, "no error"
+
+
+def tree(d):
+    out = {}
+    for root, dirs, files in os.walk(d):
+        for f in files:
+            p = os.path.join(root, f)
+            with open(p, "rb") as fh:
+                out[os.path.relpath(p, d)] = fh.read()
+    return out
+
+
+def road_users(con, relabel=None):
+    """The road users as a set of frozensets of (camera, track_id); `relabel` maps ids back."""
+    rows = con.sql("SELECT [(s.camera, s.track_id) FOR s IN sources] FROM merged").fetchall()
+    f = relabel or (lambda c, t: (c, t))
+    return {frozenset(f(c, t) for c, t in r[0]) for r in rows}
+
+
+def main():
+    w = tempfile.mkdtemp(prefix="trajdb-safety-")
+    con = trajdb.connect()
+    trajdb.simulate(con, os.path.join(w, "scene"), cameras=2, minutes=1, seed=3)
+    scene = os.path.join(w, "scene", "points.parquet")
+    con.execute("CREATE TABLE scene AS FROM read_parquet(?)", [scene])
+
+    # ---- 1. the results folder
+    user = os.path.join(w, "user")
+    os.makedirs(user)
+    with open(os.path.join(user, "notes.txt"), "w") as f:
+        f.write("mine")
+    before = tree(user)
+    ok, msg = raises(lambda: trajdb.pipeline(con, os.path.join(w, "typo.parquet"), out=user), "did not write")
+    check("out with the user's files is refused before any work (a typo'd input)", ok, msg)
+    check("... and the user's files are untouched", tree(user) == before)
+    ok, msg = raises(lambda: trajdb.pipeline(con, scene, out=user), "did not write")
+    check("out with the user's files is refused (a good input)", ok and tree(user) == before, msg)
+    ok, msg = raises(lambda: trajdb.pipeline(con, scene, out=""), "empty")
+    check("out='' is refused", ok, msg)
+    ok, msg = raises(lambda: trajdb.pipeline(con, scene, out="/"), "root")
+    check("out='/' is refused", ok, msg)
+    os.makedirs(os.path.join(user, "y"))
+    ok, msg = raises(lambda: trajdb.pipeline(con, scene, out=os.path.join(user, "y", "..")), "did not write")
+    check("out='x/y/..' is x, refused", ok and os.path.exists(os.path.join(user, "notes.txt")), msg)
+    ok, msg = raises(lambda: trajdb.pipeline(con, scene, out=os.path.join(w, "scene")), "")
+    check("out = the input's folder is refused, the input stays", not ok or os.path.exists(scene), msg)
+    check("... the input's folder", os.path.exists(scene) and ("input" in msg or "did not write" in msg), msg)
+    home = os.path.expanduser("~")
+    ok, msg = raises(lambda: trajdb.pipeline(con, scene, out=home), "")
+    check("out = the home folder is refused", "did not write" in msg or "input" in msg, msg)
+
+    res = os.path.join(w, "results")
+    trajdb.pipeline(con, scene, out=res)
+    first = tree(res)
+    check("a run writes the results and its manifest", "merged.parquet" in first and ".trajdb-results" in first, sorted(first))
+    mode = stat.S_IMODE(os.stat(res).st_mode)
+    check("the results folder has normal permissions", mode != 0o700 and mode & 0o005, oct(mode))
+    with open(os.path.join(res, "my_notes.txt"), "w") as f:
+        f.write("mine")
+    ok, msg = raises(lambda: trajdb.pipeline(con, os.path.join(w, "typo.parquet"), out=res), "typo")
+    after = tree(res)
+    check("a failed run keeps the earlier results and the user's file", ok and all(after.get(k) == v for k, v in first.items()) and "my_notes.txt" in after, msg)
+    check("... and leaves no staging folder or lock", not any(".trajdb-partial" in k or ".trajdb-lock" in k for k in after) and
+          not any(n.startswith(".trajdb-partial") for n in os.listdir(res)), sorted(os.listdir(res)))
+    trajdb.pipeline(con, scene, out=res)
+    check("a rerun replaces its own files and keeps the user's", "my_notes.txt" in os.listdir(res) and "merged.parquet" in os.listdir(res))
+    ok, msg = raises(lambda: trajdb.pipeline(con, os.path.join(res, "merged.parquet"), out=res), "input")
+    check("out containing the input is refused", ok, msg)
+    # two runs at once on one folder: one wins, the other fails clearly; neither corrupts
+    errs = []
+
+    def run_one():
+        try:
+            c = trajdb.connect()
+            trajdb.pipeline(c, scene, out=os.path.join(w, "race"))
+        except Exception as e:  # noqa: BLE001
+            errs.append(str(e))
+
+    ts = [threading.Thread(target=run_one) for _ in range(2)]
+    [t.start() for t in ts]
+    [t.join() for t in ts]
+    race = os.listdir(os.path.join(w, "race"))
+    check("two runs on one out: at most one fails, with a clear error", len(errs) <= 1 and all("another trajdb run" in e for e in errs), errs)
+    check("... and the folder holds one complete result set", "merged.parquet" in race and not any(n.startswith(".trajdb-partial") or n == ".trajdb-lock" for n in race), race)
+    # a hostile manifest: names outside the folder are never deleted
+    hostile = os.path.join(w, "hostile")
+    os.makedirs(hostile)
+    with open(os.path.join(hostile, ".trajdb-results"), "w") as f:
+        f.write("../victim.txt\n")
+    with open(os.path.join(w, "victim.txt"), "w") as f:
+        f.write("mine")
+    ok, msg = raises(lambda: trajdb.pipeline(con, scene, out=hostile), "plain file name")
+    check("a manifest naming ../victim.txt deletes nothing", ok and os.path.exists(os.path.join(w, "victim.txt")), msg)
+
+    # ---- 2. injection
+    marker = os.path.join(w, "pwned")
+    for evil in [
+        f"scene; COPY (SELECT 1) TO '{marker}'",
+        f"(SELECT 1); COPY (SELECT 1) TO '{marker}' --",
+        "read_text('/etc/passwd')",
+        f"trajdb_simulate('{w}' || chr(47) || 'evil')",
+        "scene' ; SELECT trajdb_limit('lcss_cells', 1) --",
+    ]:
+        ok, msg = raises(lambda: trajdb.pipeline(con, evil), "neither a table")
+        check(f"input {evil[:40]!r} is a (missing) file name, not SQL", ok and not os.path.exists(marker) and "root:" not in msg
+              and not os.path.exists(os.path.join(w, "evil")), msg)
+    check("... the work limits were not changed", con.sql("SELECT trajdb_limit('lcss_cells')").fetchall()[0][0] == 10_000_000_000)
+    for bad, needle in [({"merge_etta": 0.5}, "unknown parameter"), ({"merge_eta": float("nan")}, "merge_eta"), ({"merge_eta": 2}, "merge_eta must be in"),
+                        ({"merge_eta": "0.5; DROP TABLE scene"}, "merge_eta"), ({"x = 1; COPY": 1}, "unknown parameter")]:
+        ok, msg = raises(lambda: trajdb.pipeline(con, "scene", **bad), needle)
+        check(f"parameter {bad} is refused", ok, msg)
+    ok, msg = raises(lambda: trajdb.simulate(con, os.path.join(w, "sim2"), **{"cameras := 2, seed": 1}), "parameter names")
+    check("simulate keyword names are identifiers", ok, msg)
+    check("the user's table survived", con.sql("SELECT count(*) > 0 FROM scene").fetchall()[0][0])
+
+    # ---- parameters do not leak into the next run
+    trajdb.pipeline(con, "scene", merge_eta=0.9)
+    eta1 = con.sql("SELECT getvariable('merge_eta')").fetchall()[0][0]
+    trajdb.pipeline(con, "scene")
+    eta2 = con.sql("SELECT getvariable('merge_eta')").fetchall()[0][0]
+    check("a parameter of one run does not leak into the next", eta1 == 0.9 and eta2 == 0.5, (eta1, eta2))
+    base = road_users(con)
+    check("the scene has road users seen by two cameras", any(len(r) > 1 for r in base) and len(base) > 10, len(base))
+
+    # ---- the input named points, twice
+    con.execute("CREATE OR REPLACE TABLE points AS FROM scene")
+    trajdb.pipeline(con, "points")
+    a = road_users(con)
+    trajdb.pipeline(con, "points")
+    b = road_users(con)
+    check("a user's table named points gives the same road users on the second run", a == b == base, (len(a), len(b), len(base)))
+    check("... and is still the user's table", con.sql("SELECT count(*) FROM memory.main.points").fetchall() == con.sql("SELECT count(*) FROM scene").fetchall())
+    con.execute("DROP TABLE memory.main.points")
+
+    # ---- metamorphic: shuffled rows, relabelled ids, duplicated input, TIMESTAMPTZ in two zones
+    con.execute("CREATE TABLE shuffled AS FROM scene ORDER BY hash(camera, track_id, t, 17)")
+    trajdb.pipeline(con, "shuffled")
+    check("rows shuffled: the same road users", road_users(con) == base)
+    con.execute("CREATE TABLE relabelled AS SELECT * REPLACE (track_id * 7919 + 1000003 - camera AS track_id) FROM scene")
+    trajdb.pipeline(con, "relabelled")
+    back = {(c, t * 7919 + 1000003 - c): (c, t) for c, t in con.sql("SELECT DISTINCT camera, track_id FROM scene").fetchall()}
+    check("track ids relabelled: the same road users", road_users(con, lambda c, t: back[(c, t)]) == base)
+    con.execute("CREATE TABLE doubled AS FROM scene UNION ALL FROM scene")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        trajdb.pipeline(con, "doubled")
+    check("the input twice: the same road users", road_users(con) == base)
+    check("... with a warning that counts the repeats", any("repeat the (camera, track_id, t)" in str(x.message) for x in caught), [str(x.message) for x in caught])
+    con.execute("CREATE TABLE one_cam_twice AS FROM scene UNION ALL (FROM scene WHERE camera = (SELECT min(camera) FROM scene))")
+    trajdb.pipeline(con, "one_cam_twice")
+    check("one camera twice: the same road users", road_users(con) == base)
+    con.execute("CREATE TABLE tz AS SELECT * REPLACE (to_timestamp(t + 1790000000) AS t) FROM scene")
+    got = []
+    for zone in ["UTC", "America/New_York"]:
+        con.execute(f"SET TimeZone = '{zone}'")
+        trajdb.pipeline(con, "tz")
+        got.append((road_users(con), con.sql("SELECT min(t) FROM points").fetchall()[0][0]))
+    con.execute("SET TimeZone = 'UTC'")
+    check("TIMESTAMPTZ: the same road users and epoch seconds under UTC and New York", got[0] == got[1] and got[0][0] == base, [g[1] for g in got])
+
+    # ---- units, estimated-only
+    con.execute("CREATE TABLE ms AS SELECT * REPLACE (t * 1000 AS t) FROM scene")
+    ok, msg = raises(lambda: trajdb.pipeline(con, "ms"), "column t looks like milliseconds")
+    check("times in milliseconds: a clear error", ok, msg)
+    con.execute("CREATE TABLE mm AS SELECT * REPLACE (x * 1000 AS x, y * 1000 AS y) FROM scene")
+    ok, msg = raises(lambda: trajdb.pipeline(con, "mm"), "millimetres")
+    check("coordinates in millimetres: a clear error", ok, msg)
+    con.execute("CREATE TABLE km AS SELECT * REPLACE (x / 1000 AS x, y / 1000 AS y) FROM scene")
+    ok, msg = raises(lambda: trajdb.pipeline(con, "km"), "too slow for road users")
+    check("coordinates in kilometres: a clear error", ok, msg)
+    con.execute("CREATE TABLE est AS SELECT * REPLACE (1 AS estimated) FROM scene")
+    ok, msg = raises(lambda: trajdb.pipeline(con, "est"), "is estimated")
+    check("an all-estimated input: an error about the data, not the internals", ok and "meta row" not in msg, msg)
+
+    # ---- the DuckDB CLI route (.read) resolves the input the same way: a hostile variable
+    if not FAILED:
+        print("test_safety_python: OK", f"(duckdb {duckdb.__version__})")
+    else:
+        print(f"test_safety_python: {len(FAILED)} FAILED: {FAILED}")
+        sys.exit(1)
+
+
+if __name__ == "__main__":
+    main()

@@ -38,7 +38,9 @@ SET VARIABLE input_query = (
          FROM hit),
         '''' || replace(getvariable('pipeline_input'), '''', '''''') || ''''));
 -- not a table: it must name at least one file (glob() reads no file and obeys enable_external_access)
-SELECT CASE WHEN getvariable('input_query') LIKE 'FROM ''%' AND NOT EXISTS (FROM glob(getvariable('pipeline_input')))
+-- (a table input globs nothing: a sandboxed connection, enable_external_access = false, still reads tables)
+SELECT CASE WHEN getvariable('input_query') LIKE 'FROM ''%'
+             AND NOT EXISTS (FROM glob(CASE WHEN getvariable('input_query') LIKE 'FROM ''%' THEN [getvariable('pipeline_input')] ELSE []::VARCHAR[] END))
             THEN error('load: the input ' || getvariable('pipeline_input') || ' is neither a table or view of this database nor an existing file '
                        || '(fix: the path of a Parquet, CSV or JSON file, a glob such as ''data/*.parquet'', or a table name)') END;
 SET VARIABLE input_map = map_from_entries(

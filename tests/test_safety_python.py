@@ -220,7 +220,26 @@ def main():
     ok, msg = raises(lambda: trajdb.pipeline(con, "est"), "is estimated")
     check("an all-estimated input: an error about the data, not the internals", ok and "meta row" not in msg, msg)
 
-    # ---- the DuckDB CLI route (.read) resolves the input the same way: a hostile variable
+    # ---- a sandboxed connection (enable_external_access = false): tables still run, files are
+    # neither read nor written, and nothing is created on disk
+    sb = trajdb.connect()
+    sb.execute("CREATE TABLE scene AS FROM read_parquet(?)", [scene])
+    sb.execute("SET enable_external_access = false")
+    trajdb.pipeline(sb, "scene")
+    check("sandboxed: a table input runs", sb.sql("SELECT count(*) FROM merged").fetchall()[0][0] > 0)
+    ok, msg = raises(lambda: trajdb.pipeline(sb, scene), "")
+    check("sandboxed: a file input is refused", "disabled" in msg or "external access" in msg.lower(), msg)
+    ok, msg = raises(lambda: trajdb.pipeline(sb, "scene", out=os.path.join(w, "sandboxed")), "")
+    check("sandboxed: out is refused and nothing is created", ("disabled" in msg or "external access" in msg.lower()) and not os.path.exists(os.path.join(w, "sandboxed")), msg)
+    ok, msg = raises(lambda: sb.execute("SELECT trajdb_results_begin(?, 'scene')", [os.path.join(w, "sandboxed2")]).fetchall(), "")
+    check("sandboxed: trajdb_results_begin creates nothing", not os.path.exists(os.path.join(w, "sandboxed2")), msg)
+
+    # ---- the DuckDB CLI route: `.read sql/pipeline.sql` with a hostile pipeline_input
+    cli = trajdb.connect()
+    cli.execute("CREATE TABLE scene AS FROM read_parquet(?)", [scene])
+    cli.execute("SET VARIABLE pipeline_input = ?", [f"scene; COPY (SELECT 1) TO '{marker}'"])
+    ok, msg = raises(lambda: trajdb.read(cli, "sql/pipeline.sql"), "neither a table")
+    check("the .read route quotes pipeline_input too", ok and not os.path.exists(marker), msg)
     if not FAILED:
         print("test_safety_python: OK", f"(duckdb {duckdb.__version__})")
     else:

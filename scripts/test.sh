@@ -8,7 +8,9 @@
 #   3. the function reference docs/functions.md is up to date
 #   4. loadable extension: build, footer, the same .slt files, the fuzz cases and the README's
 #      examples in stock DuckDB (PyPI duckdb); concurrency, interrupt and work limits
-#      (tests/test_robust_python.py); the Python package (pip install . into a fresh venv) against
+#      (tests/test_robust_python.py); the runner as a careless or hostile user meets it: results
+#      folder, injection, sandbox, parameters, metamorphic pipeline runs (tests/test_safety_python.py);
+#      the Python package (pip install . into a fresh venv) against
 #      the binary
 #   5. round trip with DuckDB spatial (PyPI duckdb 1.5.5 + duckdb-extension-spatial, own venv), and
 #      the .slt suite, fuzz cases, robustness tests and README examples again in that DuckDB 1.5.5
@@ -53,6 +55,7 @@ python3 tests/test_footer.py && python3 tests/test_footer.py trajdb.duckdb_exten
 "$VENV/bin/python" tests/run_slt_python.py trajdb.duckdb_extension
 "$VENV/bin/python" tests/run_fuzz_python.py trajdb.duckdb_extension "$FUZZ_CASES"
 "$VENV/bin/python" tests/test_robust_python.py trajdb.duckdb_extension
+"$VENV/bin/python" tests/test_safety_python.py trajdb.duckdb_extension
 "$VENV/bin/python" tests/test_readme.py trajdb.duckdb_extension
 tests/test_python_package.sh
 
@@ -64,6 +67,7 @@ if [ ! -x "$SPATIAL_VENV/bin/python" ]; then python3 -m venv "$SPATIAL_VENV"; fi
 "$SPATIAL_VENV/bin/python" tests/run_slt_python.py trajdb.duckdb_extension
 "$SPATIAL_VENV/bin/python" tests/run_fuzz_python.py trajdb.duckdb_extension "$FUZZ_CASES"
 "$SPATIAL_VENV/bin/python" tests/test_robust_python.py trajdb.duckdb_extension
+"$SPATIAL_VENV/bin/python" tests/test_safety_python.py trajdb.duckdb_extension
 "$SPATIAL_VENV/bin/python" tests/test_readme.py trajdb.duckdb_extension
 
 echo "== 6/6 trajdb.spark in Spark local mode against trajdb pipeline per site"

@@ -514,3 +514,36 @@ fn closed_stdout_is_not_a_panic() {
     assert!(!err.contains("panicked"), "{err}");
     assert!(o.status.success(), "status {:?}: {err}", o.status);
 }
+
+/// Issue 25, the binary as a careless or hostile user meets it: the results folder rules of
+/// src/app/outdir.rs (a folder with the user's files, '', the input's folder are refused before
+/// any work and left untouched; a failed run keeps the earlier results), an --input that is SQL
+/// is a missing file, not a statement, and parameter values outside their range are refused.
+#[test]
+fn pipeline_never_touches_what_it_did_not_write() {
+    let (dir, res) = simulated_run("safety", &["--cameras", "2", "--minutes", "1", "--seed", "4"], &[]);
+    let input = dir.join("points.parquet");
+    let i = input.to_str().unwrap();
+    let user = dir.join("user");
+    std::fs::create_dir_all(&user).unwrap();
+    std::fs::write(user.join("notes.txt"), "mine").unwrap();
+    for out in [user.to_str().unwrap(), "", dir.to_str().unwrap()] {
+        let (ok, _, err) = trajdb(&["pipeline", "--input", i, "--out", out], None);
+        assert!(!ok && (err.contains("did not write") || err.contains("empty") || err.contains("input")), "{out}: {err}");
+    }
+    assert_eq!(std::fs::read_to_string(user.join("notes.txt")).unwrap(), "mine");
+    assert!(input.exists());
+    // a typo'd input into the earlier results: refused by the load, the results stay
+    let typo = dir.join("typo.parquet");
+    let (ok, _, err) = trajdb(&["pipeline", "--input", typo.to_str().unwrap(), "--out", res.to_str().unwrap()], None);
+    assert!(!ok && err.contains("neither a table or view"), "{err}");
+    assert!(res.join("merged.parquet").exists() && res.join(".trajdb-results").exists());
+    let marker = dir.join("pwned");
+    let evil = format!("points; COPY (SELECT 1) TO '{}'", marker.display());
+    let (ok, _, err) = trajdb(&["pipeline", "--input", &evil, "--out", dir.join("r2").to_str().unwrap()], None);
+    assert!(!ok && !marker.exists() && err.contains("neither a table or view"), "{err}");
+    let (ok, _, err) = trajdb(&["pipeline", "--input", i, "--out", dir.join("r3").to_str().unwrap(), "--param", "merge_eta=2"], None);
+    assert!(!ok && err.contains("merge_eta must be in"), "{err}");
+    assert!(!dir.join("r3").exists());
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -213,11 +213,19 @@ pub fn params_sql() -> String {
     s
 }
 
-/// A table of the parameters for `trajdb params`.
+/// A table of the parameters for `trajdb params`: name, stage, default, the range a number must
+/// lie in, description.
 pub fn table() -> String {
-    let mut s = format!("{:<32} {:<8} {:<10} {}\n", "name", "stage", "default", "description");
+    let mut s = format!("{:<32} {:<8} {:<10} {:<18} {}\n", "name", "stage", "default", "range", "description");
     for p in PARAMS {
-        let _ = writeln!(s, "{:<32} {:<8} {:<10} {}", p.name, p.stage, p.default, p.description);
+        let range = match p.kind {
+            Kind::Double | Kind::Integer => {
+                let r = |v: f64| if v.is_infinite() { "inf".to_string() } else { format!("{v}") };
+                format!("[{}, {}]", r(p.lo), r(p.hi))
+            }
+            _ => String::new(),
+        };
+        let _ = writeln!(s, "{:<32} {:<8} {:<10} {:<18} {}", p.name, p.stage, p.default, range, p.description);
     }
     s
 }

@@ -27,9 +27,12 @@ pub struct Limit {
 pub static LCSS_CELLS: Limit = Limit::new("lcss_cells", "LCSS table cells", 10_000_000_000);
 pub static CPD_PAIR_VISITS: Limit = Limit::new("cpd_pair_visits", "point-pair visits (pairs in the time band x max_iter)", 20_000_000_000);
 pub static OUTPUT_POINTS: Limit = Limit::new("output_points", "output points", 50_000_000);
+pub static MEMORY_BYTES: Limit = Limit::new("memory_bytes", "bytes of working memory", 4_000_000_000);
+pub static SHIFT_PAIR_FITS: Limit = Limit::new("shift_pair_fits", "point-pair fits (shifts x points)", 2_000_000_000);
+pub static LABEL_PAIRS: Limit = Limit::new("label_pairs", "child pairs compared", 1_000_000_000);
 
 /// Every limit, in the order of the table above.
-pub static ALL: [&Limit; 3] = [&LCSS_CELLS, &CPD_PAIR_VISITS, &OUTPUT_POINTS];
+pub static ALL: [&Limit; 6] = [&LCSS_CELLS, &CPD_PAIR_VISITS, &OUTPUT_POINTS, &MEMORY_BYTES, &SHIFT_PAIR_FITS, &LABEL_PAIRS];
 
 impl Limit {
     const fn new(name: &'static str, counts: &'static str, default: u64) -> Limit {
@@ -117,7 +120,7 @@ mod tests {
         assert!(OUTPUT_POINTS.check(50_000_000).is_ok());
         let e = OUTPUT_POINTS.check(50_000_001).unwrap_err();
         assert!(e.to_string().contains("raise it with SELECT trajdb_limit('output_points', 50000001)"), "{e}");
-        assert_eq!(find("nope").unwrap_err().to_string(), "name must be one of lcss_cells, cpd_pair_visits, output_points, got 'nope'");
+        assert_eq!(find("nope").unwrap_err().to_string(), "name must be one of lcss_cells, cpd_pair_visits, output_points, memory_bytes, shift_pair_fits, label_pairs, got 'nope'");
         assert_eq!(set("lcss_cells", 0).unwrap_err(), LimitError::Value(0));
         // tests share the process: set the value it already has
         let v = CPD_PAIR_VISITS.get();

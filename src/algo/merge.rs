@@ -90,15 +90,17 @@ pub fn merge_pair(a: &Weighted, b: &Weighted, matches: &[(usize, usize)]) -> Wei
 }
 
 /// Θ(a, b) of eq. 2.11 in one call (`trajectory_merge(a, b, ...)`): the LCSS pairs inside
-/// `region` (eq. 2.10), merged.
-pub fn merge_two(a: Traj<'_>, b: Traj<'_>, p: &TimeWindowParams, region: Option<&Region>) -> OwnedTraj {
-    let m = matches_in(a, b, p, region);
-    merge_pair(&Weighted::from_traj(a), &Weighted::from_traj(b), &m).into_traj()
+/// `region` (eq. 2.10), merged. The LCSS is checked against the limits `lcss_cells` and
+/// `memory_bytes` ([`matches_in`]).
+pub fn merge_two(a: Traj<'_>, b: Traj<'_>, p: &TimeWindowParams, region: Option<&Region>) -> Result<OwnedTraj, MergeError> {
+    let m = matches_in(a, b, p, region).map_err(MergeError::Lcss)?;
+    Ok(merge_pair(&Weighted::from_traj(a), &Weighted::from_traj(b), &m).into_traj())
 }
 
 /// φ_{N−1}: merges `trajs` in the given order, step i (i ≥ 1) restricted to `regions[i − 1]`
 /// when regions are given (then exactly one per step, else [`MergeError::Regions`]). Returns
-/// the merged trajectory and the number of matched pairs at each step.
+/// the merged trajectory and the number of matched pairs at each step. Each step's LCSS is
+/// checked against the limits before it runs ([`matches_in`]).
 pub fn merge_chain(trajs: &[Traj<'_>], p: &TimeWindowParams, regions: Option<&[&Region]>) -> Result<(OwnedTraj, Vec<usize>), MergeError> {
     if let Some(r) = regions {
         if r.len() + 1 != trajs.len().max(1) {
@@ -110,7 +112,7 @@ pub fn merge_chain(trajs: &[Traj<'_>], p: &TimeWindowParams, regions: Option<&[&
     let mut counts = Vec::with_capacity(trajs.len().saturating_sub(1));
     for (k, next) in trajs.iter().enumerate().skip(1) {
         let region = regions.map(|r| r[k - 1]);
-        let m = matches_in(phi.view(), *next, p, region);
+        let m = matches_in(phi.view(), *next, p, region).map_err(MergeError::Lcss)?;
         counts.push(m.len());
         phi = merge_pair(&phi, &Weighted::from_traj(*next), &m);
     }
@@ -128,6 +130,8 @@ pub enum MergeError {
     TimeRange { id: i64 },
     /// [`merge_chain`] got a region list whose length is not one per merge step.
     Regions { steps: usize, got: usize },
+    /// The LCSS of a merge step is over a limit.
+    Lcss(crate::algo::lcss::LcssError),
 }
 
 impl fmt::Display for MergeError {
@@ -139,6 +143,7 @@ impl fmt::Display for MergeError {
             MergeError::Regions { steps, got } => {
                 write!(f, "regions needs one polygon per merge step (len(trajs) - 1 = {steps}), got {got}")
             }
+            MergeError::Lcss(e) => e.fmt(f),
         }
     }
 }
@@ -272,7 +277,7 @@ mod tests {
         // A: t 0..0.9, B: t 0.5..1.4 shifted 0.2 m in y; overlap t 0.5..0.9 matches
         let (a, b) = (line(0.0, 10, 0.0), line(0.5, 10, 0.2));
         let p = TimeWindowParams::new(0.5, 0.05, 1).unwrap();
-        let m = matches_in(a.view(), b.view(), &p, None);
+        let m = matches_in(a.view(), b.view(), &p, None).unwrap();
         assert_eq!(m.len(), 5);
         let merged = merge_pair(&Weighted::from_traj(a.view()), &Weighted::from_traj(b.view()), &m).into_traj();
         assert_eq!(merged.t.len(), 15); // 10 + 10 - 5

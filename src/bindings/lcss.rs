@@ -146,32 +146,35 @@ fn tw_params<'a>(a: &Args<'a>) -> impl Fn(usize) -> Result<Option<TimeWindowPara
     }
 }
 
-/// Runs `f(a, b, params, region)` for every row of a time-window call.
-fn time_window_rows<T>(
+/// Runs `f(a, b, params, region)` for every row of a time-window call; the first error stops it.
+fn time_window_rows<T, E: Error + 'static>(
     a: &Args<'_>,
-    f: impl Fn(crate::algo::traj::Traj<'_>, crate::algo::traj::Traj<'_>, &TimeWindowParams, Option<&crate::algo::geometry::region::Region>) -> T,
+    f: impl Fn(crate::algo::traj::Traj<'_>, crate::algo::traj::Traj<'_>, &TimeWindowParams, Option<&crate::algo::geometry::region::Region>) -> Result<T, E>,
 ) -> Result<Vec<Option<T>>, Box<dyn Error>> {
     let (ta, tb, params, region) = (a.traj(0), a.traj(1), tw_params(a), a.opt_region(5));
     a.map(|r| {
         let (Some(x), Some(y), Some(p)) = (ta.get(r)?, tb.get(r)?, params(r)?) else { return Ok(None) };
         let Some(reg) = region.get(r)? else { return Ok(None) };
         tw::check_work(x.t, y.t, p.time_window())?;
-        Ok(Some(f(x, y, &p, reg.as_deref())))
+        Ok(Some(f(x, y, &p, reg.as_deref())?))
     })
 }
 
+/// For the infallible forms.
+type Never = std::convert::Infallible;
+
 fn length(a: &Args<'_>, out: &mut Out<'_>) -> R {
-    out.flat(&time_window_rows(a, |x, y, p, reg| tw::length_in(x, y, p, reg) as i64)?);
+    out.flat(&time_window_rows(a, |x, y, p, reg| Ok::<_, Never>(tw::length_in(x, y, p, reg) as i64))?);
     Ok(())
 }
 
 fn similarity(a: &Args<'_>, out: &mut Out<'_>) -> R {
-    out.flat(&time_window_rows(a, tw::similarity_in)?);
+    out.flat(&time_window_rows(a, |x, y, p, reg| Ok::<_, Never>(tw::similarity_in(x, y, p, reg)))?);
     Ok(())
 }
 
 fn distance(a: &Args<'_>, out: &mut Out<'_>) -> R {
-    out.flat(&time_window_rows(a, |x, y, p, reg| 1.0 - tw::similarity_in(x, y, p, reg))?);
+    out.flat(&time_window_rows(a, |x, y, p, reg| Ok::<_, Never>(1.0 - tw::similarity_in(x, y, p, reg)))?);
     Ok(())
 }
 
@@ -188,23 +191,26 @@ fn matches(a: &Args<'_>, out: &mut Out<'_>) -> R {
     Ok(())
 }
 
-/// Runs `f(a, b, params)` for every row of a series call.
-fn series_rows<T>(a: &Args<'_>, f: impl Fn(crate::algo::traj::Series<'_>, crate::algo::traj::Series<'_>, &TimeWindowParams) -> T) -> Result<Vec<Option<T>>, Box<dyn Error>> {
+/// Runs `f(a, b, params)` for every row of a series call; the first error stops it.
+fn series_rows<T, E: Error + 'static>(
+    a: &Args<'_>,
+    f: impl Fn(crate::algo::traj::Series<'_>, crate::algo::traj::Series<'_>, &TimeWindowParams) -> Result<T, E>,
+) -> Result<Vec<Option<T>>, Box<dyn Error>> {
     let (sa, sb, params) = (a.series(0), a.series(1), tw_params(a));
     a.map(|r| {
         let (Some(x), Some(y), Some(p)) = (sa.get(r)?, sb.get(r)?, params(r)?) else { return Ok(None) };
         tw::check_work(x.t, y.t, p.time_window())?;
-        Ok(Some(f(x, y, &p)))
+        Ok(Some(f(x, y, &p)?))
     })
 }
 
 fn series_length(a: &Args<'_>, out: &mut Out<'_>) -> R {
-    out.flat(&series_rows(a, |x, y, p| tw::series_length(x, y, p) as i64)?);
+    out.flat(&series_rows(a, |x, y, p| Ok::<_, Never>(tw::series_length(x, y, p) as i64))?);
     Ok(())
 }
 
 fn series_similarity(a: &Args<'_>, out: &mut Out<'_>) -> R {
-    out.flat(&series_rows(a, tw::series_similarity)?);
+    out.flat(&series_rows(a, |x, y, p| Ok::<_, Never>(tw::series_similarity(x, y, p)))?);
     Ok(())
 }
 

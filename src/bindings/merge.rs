@@ -83,7 +83,7 @@ fn merge_pair(a: &Args<'_>, out: &mut Out<'_>) -> R {
         let Some(mp) = min_points.as_ref().map_or(Some(1), |c| c.get(r)) else { return Ok(None) };
         let p = TimeWindowParams::new(e, t, mp)?;
         let Some(reg) = region.get(r)? else { return Ok(None) };
-        Ok(Some(merge::merge_two(x, y, &p, reg.as_deref())))
+        Ok(Some(merge::merge_two(x, y, &p, reg.as_deref())?))
     })?;
     out.trajs(&vals);
     Ok(())

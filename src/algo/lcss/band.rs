@@ -24,7 +24,8 @@
 //!
 //! # Complexity
 //! [`lcss_len`]: O(n + m + Σ_i w_i) time, where `w_i = hi_i - lo_i`, and O(m) memory.
-//! [`BandTable`] (for backtracking): same time, O(n + Σ w_i) memory, and
+//! [`BandTable`] (for backtracking): same time, O(n + Σ w_i) memory (4 bytes a cell of the rows
+//! that hold a match, allocated fallibly; [`table_bytes`] bounds it before the work), and
 //! O((n + m) log n) for the backtrack itself.
 
 /// Checks, in debug builds, the band contract: ranges inside `0..=m` and monotone.
@@ -38,12 +39,13 @@ fn debug_check(prev: &mut (usize, usize), lo: usize, hi: usize, m: usize) {
 /// Runs the banded recurrence row by row. For every row `i`, `visit(i, lo, hi, cells)` gets the
 /// row's effective band and, when it is non-empty, the new values of columns `lo+1..=hi`
 /// (1-based). Rows whose band holds no match are reported with `hi = lo`: they leave the
-/// table unchanged (C[i][j] = C[i-1][j] for all j), so they are skipped. Returns `C[n][m]`.
-fn run_rows<B, M, V>(n: usize, m: usize, mut band: B, mut is_match: M, mut visit: V) -> usize
+/// table unchanged (C[i][j] = C[i-1][j] for all j), so they are skipped. Returns `C[n][m]`,
+/// or `None` as soon as `visit` returns false.
+fn run_rows<B, M, V>(n: usize, m: usize, mut band: B, mut is_match: M, mut visit: V) -> Option<usize>
 where
     B: FnMut(usize) -> (usize, usize),
     M: FnMut(usize, usize) -> bool,
-    V: FnMut(usize, usize, usize, &[u32]),
+    V: FnMut(usize, usize, usize, &[u32]) -> bool,
 {
     // row[c] = C[i][c] for c <= filled (1-based columns); C[i][c] = row[filled] for c > filled.
     let mut row = vec![0u32; m + 1];
@@ -63,7 +65,9 @@ where
             hits.push(h);
         }
         if !any {
-            visit(i, lo, lo, &[]);
+            if !visit(i, lo, lo, &[]) {
+                return None;
+            }
             continue;
         }
         if filled < hi {
@@ -80,9 +84,11 @@ where
             row[c] = v;
             left = v;
         }
-        visit(i, lo, hi, &row[lo + 1..=hi]);
+        if !visit(i, lo, hi, &row[lo + 1..=hi]) {
+            return None;
+        }
     }
-    row[filled] as usize
+    Some(row[filled] as usize)
 }
 
 /// Length of the banded LCSS of `n` rows against `m` columns.
@@ -97,7 +103,13 @@ where
     if n == 0 || m == 0 {
         return 0;
     }
-    run_rows(n, m, band, is_match, |_, _, _, _| {})
+    run_rows(n, m, band, is_match, |_, _, _, _| true).unwrap_or(0)
+}
+
+/// The most bytes a [`BandTable`] of `n` rows and `cells` band cells can take: 4 bytes a cell
+/// (rows without a match take none) and 32 bytes a row.
+pub fn table_bytes(n: usize, cells: u128) -> u128 {
+    cells * 4 + (n as u128 + 1) * 32
 }
 
 /// The band cells of the LCSS table, kept for backtracking.
@@ -113,27 +125,37 @@ pub struct BandTable {
 
 impl BandTable {
     /// Fills the band cells; same contract as [`lcss_len`]. Rows without a match are stored
-    /// as empty bands, which is exact (see [`run_rows`]).
-    pub fn build<B, M>(n: usize, m: usize, band: B, is_match: M) -> Self
+    /// as empty bands, which is exact (see [`run_rows`]). Every allocation is fallible: when
+    /// one fails, the work stops and `Err` gives the bytes the table had reached.
+    pub fn build<B, M>(n: usize, m: usize, band: B, is_match: M) -> Result<Self, u128>
     where
         B: FnMut(usize) -> (usize, usize),
         M: FnMut(usize, usize) -> bool,
     {
-        let mut t = BandTable {
-            lo: Vec::with_capacity(n),
-            hi: Vec::with_capacity(n),
-            off: Vec::with_capacity(n),
-            vals: Vec::new(),
-            ne: vec![0; n + 1],
-        };
-        run_rows(n, m, band, is_match, |i, lo, hi, cells| {
+        let mut t = BandTable { lo: Vec::new(), hi: Vec::new(), off: Vec::new(), vals: Vec::new(), ne: Vec::new() };
+        let rows_ok = t.lo.try_reserve_exact(n).is_ok()
+            && t.hi.try_reserve_exact(n).is_ok()
+            && t.off.try_reserve_exact(n).is_ok()
+            && t.ne.try_reserve_exact(n + 1).is_ok();
+        if !rows_ok {
+            return Err(table_bytes(n, 0));
+        }
+        t.ne.resize(n + 1, 0);
+        let done = run_rows(n, m, band, is_match, |i, lo, hi, cells| {
+            if t.vals.try_reserve(cells.len()).is_err() {
+                return false;
+            }
             t.lo.push(lo);
             t.hi.push(hi);
             t.off.push(t.vals.len());
             t.ne[i + 1] = if lo < hi { i + 1 } else { t.ne[i] };
             t.vals.extend_from_slice(cells);
+            true
         });
-        t
+        match done {
+            Some(_) => Ok(t),
+            None => Err(table_bytes(n, t.vals.len() as u128 * 2)),
+        }
     }
 
     /// `C[i][j]` for 1-based `i`, `j` (0 when either is 0). O(log n).
@@ -239,7 +261,7 @@ mod tests {
             if a.len() <= 7 && b.len() <= 7 {
                 prop_assert_eq!(naive::recursive(a.len(), b.len(), allowed), want);
             }
-            let t = BandTable::build(a.len(), b.len(), index_band(b.len(), d), allowed);
+            let t = BandTable::build(a.len(), b.len(), index_band(b.len(), d), allowed).unwrap();
             for i in 0..=a.len() { for j in 0..=b.len() {
                 prop_assert_eq!(t.get(i, j), full[i][j], "cell {} {}", i, j);
             }}
@@ -254,7 +276,7 @@ mod tests {
     fn empty_inputs() {
         assert_eq!(lcss_len(0, 5, |_| (0, 5), |_, _| true), 0);
         assert_eq!(lcss_len(5, 0, |_| (0, 0), |_, _| true), 0);
-        let t = BandTable::build(3, 0, |_| (0, 0), |_, _| true);
+        let t = BandTable::build(3, 0, |_| (0, 0), |_, _| true).unwrap();
         assert!(t.backtrack(0, |_, _| true).is_empty());
     }
 }

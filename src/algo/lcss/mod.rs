@@ -29,6 +29,10 @@ pub enum LcssError {
     TooLarge { candidates: usize, limit: usize },
     /// The LCSS table would have more cells than the work limit `lcss_cells`.
     Work(crate::algo::limits::Exceeded),
+    /// The traceback table of the matched pairs would take more bytes than `memory_bytes`.
+    Memory(crate::algo::limits::Exceeded),
+    /// The traceback table could not be allocated (it had reached `bytes`).
+    Alloc { bytes: u128 },
 }
 
 impl fmt::Display for LcssError {
@@ -44,6 +48,14 @@ impl fmt::Display for LcssError {
                 "delta is too large for these trajectories: {candidates} candidate translations (limit {limit}); reduce delta"
             ),
             LcssError::Work(e) => e.fmt(f),
+            LcssError::Memory(e) => write!(
+                f,
+                "{e}, or shorten the trajectories or time_window: the matched pairs need the LCSS table inside the time band, 4 bytes a cell"
+            ),
+            LcssError::Alloc { bytes } => write!(
+                f,
+                "the LCSS table of the matched pairs could not be allocated (about {bytes} bytes); shorten the trajectories or time_window"
+            ),
         }
     }
 }

@@ -17,10 +17,12 @@
 //!
 //! # Complexity
 //! O(n + m + Σ w_i) time, with w_i the number of points of B within T of a_i, and O(m)
-//! memory ([`length`], [`similarity`]); [`matches`] needs O(n + Σ w_i) memory.
+//! memory ([`length`], [`similarity`]); [`matches`] needs O(n + Σ w_i) memory, 4 bytes a band
+//! cell, checked against the limit `memory_bytes` before the work and allocated fallibly.
 
-use super::band::{lcss_len, BandTable};
+use super::band::{lcss_len, table_bytes, BandTable};
 use super::LcssError;
+use crate::algo::limits;
 use crate::algo::geometry::region::{clip, Region};
 use crate::algo::traj::{Series, Traj};
 
@@ -156,7 +158,7 @@ fn pruned_bands(a: Traj<'_>, b: Traj<'_>, eps: f64, tw: f64) -> Vec<(usize, usiz
 pub fn check_work(a_t: &[f64], b_t: &[f64], tw: f64) -> Result<(), LcssError> {
     let mut band = time_band(a_t, b_t, tw);
     let cells: u128 = (0..a_t.len()).map(|i| band(i)).map(|(lo, hi)| hi.saturating_sub(lo) as u128).sum();
-    crate::algo::limits::LCSS_CELLS.check(cells).map_err(LcssError::Work)
+    limits::LCSS_CELLS.check(cells).map_err(LcssError::Work)
 }
 
 /// `L_{ε,T,ξ}(A, B)` of eq. 2.9. Inputs must satisfy [`Traj::validate`].
@@ -186,19 +188,36 @@ pub fn similarity(a: Traj<'_>, b: Traj<'_>, p: &TimeWindowParams) -> f64 {
     ratio(length(a, b, p), a.len(), b.len())
 }
 
-/// The matched pairs `(i, j)` (0-based, increasing) of one longest common subsequence.
-pub fn matches(a: Traj<'_>, b: Traj<'_>, p: &TimeWindowParams) -> Vec<(usize, usize)> {
+/// The check before a traceback table is built from `bands`: the bytes it may take
+/// ([`table_bytes`]) against the limit `memory_bytes`.
+fn check_table(bands: impl Iterator<Item = (usize, usize)>, n: usize) -> Result<(), LcssError> {
+    let cells: u128 = bands.map(|(lo, hi)| hi.saturating_sub(lo) as u128).sum();
+    limits::MEMORY_BYTES.check(table_bytes(n, cells)).map_err(LcssError::Memory)
+}
+
+/// Builds the traceback table and backtracks it, turning a failed allocation into an error.
+fn traceback(n: usize, m: usize, band: impl FnMut(usize) -> (usize, usize), is_match: impl Fn(usize, usize) -> bool + Copy) -> Result<Vec<(usize, usize)>, LcssError> {
+    let table = BandTable::build(n, m, band, is_match).map_err(|bytes| LcssError::Alloc { bytes })?;
+    Ok(table.backtrack(m, is_match))
+}
+
+/// The matched pairs `(i, j)` (0-based, increasing) of one longest common subsequence. The
+/// traceback keeps the LCSS table inside the time band (after pruning; rows without a match
+/// take nothing): its cells are checked against `lcss_cells` and its bytes against
+/// `memory_bytes` before the work, and it is allocated fallibly ([`LcssError::Alloc`]).
+pub fn matches(a: Traj<'_>, b: Traj<'_>, p: &TimeWindowParams) -> Result<Vec<(usize, usize)>, LcssError> {
     if p.too_short(a.len(), b.len()) || !may_match(a, b, p.epsilon, p.time_window) {
-        return Vec::new();
+        return Ok(Vec::new());
     }
     let e2 = p.epsilon * p.epsilon;
     let is_match = |i: usize, j: usize| {
         let (dx, dy) = (a.x[i] - b.x[j], a.y[i] - b.y[j]);
         dx * dx + dy * dy < e2
     };
+    check_work(a.t, b.t, p.time_window)?;
     let bands = pruned_bands(a, b, p.epsilon, p.time_window);
-    let table = BandTable::build(a.len(), b.len(), |i| bands[i], is_match);
-    table.backtrack(b.len(), is_match)
+    check_table(bands.iter().copied(), a.len())?;
+    traceback(a.len(), b.len(), |i| bands[i], is_match)
 }
 
 /// The positions in `a` and in `b` of the points a region kept.
@@ -228,10 +247,10 @@ pub fn similarity_in(a: Traj<'_>, b: Traj<'_>, p: &TimeWindowParams, region: Opt
 }
 
 /// [`matches`] inside `region`, as 0-based positions into the full `a` and `b`.
-pub fn matches_in(a: Traj<'_>, b: Traj<'_>, p: &TimeWindowParams, region: Option<&Region>) -> Vec<(usize, usize)> {
+pub fn matches_in(a: Traj<'_>, b: Traj<'_>, p: &TimeWindowParams, region: Option<&Region>) -> Result<Vec<(usize, usize)>, LcssError> {
     match restricted(a, b, region, |a, b| matches(a, b, p)) {
         (m, None) => m,
-        (m, Some((ia, ib))) => m.into_iter().map(|(i, j)| (ia[i], ib[j])).collect(),
+        (m, Some((ia, ib))) => Ok(m?.into_iter().map(|(i, j)| (ia[i], ib[j])).collect()),
     }
 }
 
@@ -249,15 +268,17 @@ pub fn series_similarity(a: Series<'_>, b: Series<'_>, p: &TimeWindowParams) -> 
     ratio(series_length(a, b, p), a.len(), b.len())
 }
 
-/// Matched pairs of the 1-D form.
-pub fn series_matches(a: Series<'_>, b: Series<'_>, p: &TimeWindowParams) -> Vec<(usize, usize)> {
+/// Matched pairs of the 1-D form (checked and allocated as [`matches`]).
+pub fn series_matches(a: Series<'_>, b: Series<'_>, p: &TimeWindowParams) -> Result<Vec<(usize, usize)>, LcssError> {
     if p.too_short(a.len(), b.len()) {
-        return Vec::new();
+        return Ok(Vec::new());
     }
     let eps = p.epsilon;
     let is_match = |i: usize, j: usize| (a.v[i] - b.v[j]).abs() < eps;
-    let table = BandTable::build(a.len(), b.len(), time_band(a.t, b.t, p.time_window), is_match);
-    table.backtrack(b.len(), is_match)
+    check_work(a.t, b.t, p.time_window)?;
+    let mut band = time_band(a.t, b.t, p.time_window);
+    check_table((0..a.len()).map(&mut band), a.len())?;
+    traceback(a.len(), b.len(), time_band(a.t, b.t, p.time_window), is_match)
 }
 
 #[cfg(test)]
@@ -303,7 +324,7 @@ mod tests {
             }
             prop_assert_eq!(length(a, b, &p) as u32, want);
             prop_assert_eq!(length(b, a, &p) as u32, want, "symmetry");
-            let m = matches(a, b, &p);
+            let m = matches(a, b, &p).unwrap();
             prop_assert_eq!(m.len() as u32, want);
             for &(i, j) in &m { prop_assert!(ok(i, j)); }
             for w in m.windows(2) { prop_assert!(w[0].0 < w[1].0 && w[0].1 < w[1].1); }
@@ -315,7 +336,7 @@ mod tests {
             let l1 = series_length(Series::new(&at, &ax), Series::new(&bt, &bx), &p);
             let l2 = length(Traj::new(&at, &ax, &zeros_a), Traj::new(&bt, &bx, &zeros_b), &p);
             prop_assert_eq!(l1, l2);
-            prop_assert_eq!(series_matches(Series::new(&at, &ax), Series::new(&bt, &bx), &p).len(), l1);
+            prop_assert_eq!(series_matches(Series::new(&at, &ax), Series::new(&bt, &bx), &p).unwrap().len(), l1);
         }
     }
 
@@ -348,10 +369,41 @@ mod tests {
             let want = naive::table(at.len(), bt.len(), ok)[at.len()][bt.len()];
             let (a, b) = (Traj::new(&at, &ax, &ay), Traj::new(&bt, &bx, &by));
             prop_assert_eq!(length(a, b, &p) as u32, want);
-            let m = matches(a, b, &p);
+            let m = matches(a, b, &p).unwrap();
             prop_assert_eq!(m.len() as u32, want);
             for &(i, j) in &m { prop_assert!(ok(i, j)); }
         }
+    }
+
+    /// Issue 19: `lcss_matches(tr, tr, 1, 'inf')` on 100k points is inside `lcss_cells` (1e10)
+    /// but its traceback table (40 GB) aborted the host under a memory limit: now refused
+    /// before any allocation, naming `memory_bytes` and what to shorten.
+    #[test]
+    fn a_huge_traceback_is_refused_before_it_is_allocated() {
+        let n = 100_000;
+        let t: Vec<f64> = (0..n).map(|k| k as f64 * 0.1).collect();
+        let x: Vec<f64> = (0..n).map(|k| k as f64).collect();
+        let y = vec![0.0; n];
+        let a = Traj::new(&t, &x, &y);
+        let p = TimeWindowParams::new(1.0, f64::INFINITY, 0).unwrap();
+        let e = matches(a, a, &p).unwrap_err();
+        assert_eq!(e, LcssError::Memory(limits::MEMORY_BYTES.check(table_bytes(n, (n * n) as u128)).unwrap_err()));
+        let msg = e.to_string();
+        assert!(msg.contains("memory_bytes") && msg.contains("shorten the trajectories or time_window"), "{msg}");
+        let s = Series::new(&t, &x);
+        assert!(matches!(series_matches(s, s, &p).unwrap_err(), LcssError::Memory(_)));
+        // over lcss_cells: refused by the work limit first, without the O(n m / 64) pruning
+        let long: Vec<f64> = (0..200_000).map(|k| k as f64).collect();
+        let z = vec![0.0; 200_000];
+        let b = Traj::new(&long, &long, &z);
+        assert!(matches!(matches(b, b, &p).unwrap_err(), LcssError::Work(_)));
+        // the same with a time window fits easily
+        let q = TimeWindowParams::new(1.0, 0.15, 0).unwrap();
+        assert_eq!(matches(a, a, &q).unwrap().len(), n);
+        assert_eq!(
+            LcssError::Alloc { bytes: 123 }.to_string(),
+            "the LCSS table of the matched pairs could not be allocated (about 123 bytes); shorten the trajectories or time_window"
+        );
     }
 
     #[test]
@@ -375,7 +427,7 @@ mod tests {
         let (a, b) = (Traj::new(&at, &ax, &y), Traj::new(&bt, &bx, &y));
         assert_eq!(length(a, b, &p), 10);
         assert_eq!(similarity(a, b, &p), 1.0);
-        assert_eq!(matches(a, b, &p), (0..10).map(|k| (k, k)).collect::<Vec<_>>());
+        assert_eq!(matches(a, b, &p).unwrap(), (0..10).map(|k| (k, k)).collect::<Vec<_>>());
         // ξ larger than either side gives 0.
         let p = TimeWindowParams::new(0.5, 1.0, 11).unwrap();
         assert_eq!(similarity(a, b, &p), 0.0);

@@ -38,6 +38,8 @@ use std::fmt::Write as _;
 use std::io::{BufWriter, Write};
 use std::path::Path;
 
+use super::outdir;
+
 /// Simulation parameters (validated by [`SimParams::validate`]).
 #[derive(Clone, Debug)]
 pub struct SimParams {
@@ -86,6 +88,8 @@ impl Default for SimParams {
 pub enum SimError {
     Param(String),
     Io(std::io::Error),
+    /// The folder cannot take the scenario (not new, empty or an earlier scenario; locked; ...).
+    Folder(String),
 }
 
 impl std::fmt::Display for SimError {
@@ -93,6 +97,7 @@ impl std::fmt::Display for SimError {
         match self {
             SimError::Param(s) => write!(f, "simulate: {s}"),
             SimError::Io(e) => write!(f, "simulate: {e}"),
+            SimError::Folder(e) => write!(f, "simulate: {e}"),
         }
     }
 }
@@ -100,6 +105,11 @@ impl std::error::Error for SimError {}
 impl From<std::io::Error> for SimError {
     fn from(e: std::io::Error) -> Self {
         SimError::Io(e)
+    }
+}
+impl From<outdir::OutError> for SimError {
+    fn from(e: outdir::OutError) -> Self {
+        SimError::Folder(e.0)
     }
 }
 
@@ -621,12 +631,64 @@ fn wkt(ring: &[[f64; 2]; 4]) -> String {
     s
 }
 
+/// Simulates into folder `dir`: claims the folder first (before any work: it must be new, empty
+/// or hold an earlier scenario; [`outdir`]), simulates, writes the files into the claim's
+/// staging folder and moves them into place ([`Scenario::write`]). A failure leaves `dir` as it
+/// was.
+pub fn simulate_into(p: &SimParams, dir: &Path, command: &str) -> Result<Scenario, SimError> {
+    p.validate()?;
+    let claim = claim(dir)?;
+    match simulate(p).and_then(|s| s.write_files(&claim.partial, command).map(|()| s)) {
+        Ok(s) => {
+            claim.commit()?;
+            Ok(s)
+        }
+        Err(e) => {
+            claim.abort();
+            Err(e)
+        }
+    }
+}
+
+/// The scenario's files: a new, empty or earlier-scenario folder, with its lock and staging
+/// folder ([`outdir::claim`]).
+fn claim(dir: &Path) -> Result<outdir::Claim, SimError> {
+    let out = dir.to_str().ok_or_else(|| SimError::Folder(format!("the folder name {} is not UTF-8; name another folder", dir.display())))?;
+    Ok(outdir::claim(out, &[])?)
+}
+
 impl Scenario {
     /// Writes points.csv, cameras.csv, truth.csv, world.csv (unless world_rate_hz = 0),
-    /// objects.csv and README.txt into `dir` (created if needed). points.parquet is the
-    /// caller's (it needs DuckDB).
+    /// objects.csv and README.txt into `dir` (created if needed).
+    ///
+    /// Never loses a file: `dir` must be new, empty, or hold an earlier trajdb scenario or result
+    /// set (its manifest `.trajdb-results` lists what trajdb wrote); any other folder is refused
+    /// before anything is written. The files are written into a staging folder inside `dir` and
+    /// renamed into place, so a failure leaves the earlier scenario (or nothing) behind, never a
+    /// half-written one; files of the earlier scenario that this one does not write go.
+    /// `more` writes further files into the staging folder before the move (the `trajdb
+    /// simulate` command's points.parquet, which needs DuckDB).
+    pub fn write_with(&self, dir: &Path, command: &str, more: impl FnOnce(&Path) -> Result<(), SimError>) -> Result<(), SimError> {
+        let claim = claim(dir)?;
+        match self.write_files(&claim.partial, command).and_then(|()| more(&claim.partial)) {
+            Ok(()) => {
+                claim.commit()?;
+                Ok(())
+            }
+            Err(e) => {
+                claim.abort();
+                Err(e)
+            }
+        }
+    }
+
+    /// [`Scenario::write_with`] without further files.
     pub fn write(&self, dir: &Path, command: &str) -> Result<(), SimError> {
-        std::fs::create_dir_all(dir)?;
+        self.write_with(dir, command, |_| Ok(()))
+    }
+
+    /// Writes the files into `dir`, an existing folder of our own (the staging folder).
+    fn write_files(&self, dir: &Path, command: &str) -> Result<(), SimError> {
         let file = |n: &str| -> Result<BufWriter<std::fs::File>, SimError> { Ok(BufWriter::new(std::fs::File::create(dir.join(n))?)) };
         let mut f = file("points.csv")?;
         writeln!(f, "camera,track_id,class,t,x,y,speed,estimated")?;
@@ -782,6 +844,76 @@ mod tests {
         let s = simulate(&small()).unwrap();
         let shared = s.objects.iter().filter(|o| o.samples.iter().any(|q| s.cameras[0].sees(q[1], q[2]) && s.cameras[1].sees(q[1], q[2]))).count();
         assert!(shared > 10, "{shared}");
+    }
+
+    fn tiny() -> SimParams {
+        SimParams { cameras: 1, minutes: 0.3, seed: 5, ..SimParams::default() }
+    }
+
+    fn tmp(name: &str) -> std::path::PathBuf {
+        let d = std::env::temp_dir().join(format!("trajdb-simwrite-{}-{name}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&d);
+        std::fs::create_dir_all(&d).unwrap();
+        d
+    }
+
+    fn names(d: &Path) -> Vec<String> {
+        let mut v: Vec<String> = std::fs::read_dir(d).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
+        v.sort();
+        v
+    }
+
+    #[test]
+    fn a_folder_with_a_users_file_is_refused_and_the_file_untouched() {
+        let d = tmp("user");
+        std::fs::write(d.join("points.csv"), "my own points").unwrap();
+        let s = simulate(&tiny()).unwrap();
+        for e in [s.write(&d, "test").unwrap_err(), simulate_into(&tiny(), &d, "test").unwrap_err()] {
+            let e = e.to_string();
+            assert!(e.contains("did not write") && e.contains("points.csv"), "{e}");
+        }
+        assert_eq!(std::fs::read_to_string(d.join("points.csv")).unwrap(), "my own points");
+        assert_eq!(names(&d), ["points.csv"]);
+        // a file where the folder should be, and no folder at all
+        let e = s.write(&d.join("points.csv"), "test").unwrap_err().to_string();
+        assert!(e.contains("is a file"), "{e}");
+        assert!(s.write(Path::new(""), "test").unwrap_err().to_string().contains("empty"));
+        let _ = std::fs::remove_dir_all(&d);
+    }
+
+    #[test]
+    fn a_rerun_replaces_its_own_scenario_whole_and_keeps_other_files() {
+        let d = tmp("rerun").join("sim");
+        let a = simulate_into(&tiny(), &d, "test a").unwrap();
+        assert_eq!(names(&d), [outdir::MANIFEST, "README.txt", "cameras.csv", "objects.csv", "points.csv", "truth.csv", "world.csv"]);
+        let manifest = std::fs::read_to_string(d.join(outdir::MANIFEST)).unwrap();
+        assert!(manifest.lines().any(|l| l == "points.csv"), "{manifest}");
+        assert_eq!(std::fs::read_to_string(d.join("points.csv")).unwrap().lines().count(), a.points.len() + 1);
+        // a file the user adds later is not trajdb's: it stays; world.csv (not written now) goes
+        std::fs::write(d.join("notes.txt"), "mine").unwrap();
+        let b = simulate_into(&SimParams { seed: 6, world_rate_hz: 0.0, ..tiny() }, &d, "test b").unwrap();
+        assert_eq!(names(&d), [outdir::MANIFEST, "README.txt", "cameras.csv", "notes.txt", "objects.csv", "points.csv", "truth.csv"]);
+        assert_eq!(std::fs::read_to_string(d.join("points.csv")).unwrap().lines().count(), b.points.len() + 1);
+        assert!(std::fs::read_to_string(d.join("README.txt")).unwrap().contains("`test b`"));
+        assert_eq!(std::fs::read_to_string(d.join("notes.txt")).unwrap(), "mine");
+        let _ = std::fs::remove_dir_all(d.parent().unwrap());
+    }
+
+    #[test]
+    fn a_failed_write_leaves_the_earlier_scenario_and_no_half_files() {
+        let d = tmp("fail").join("sim");
+        simulate_into(&tiny(), &d, "test").unwrap();
+        let before: Vec<(String, Vec<u8>)> = names(&d).into_iter().map(|n| (n.clone(), std::fs::read(d.join(&n)).unwrap())).collect();
+        let s = simulate(&SimParams { seed: 99, ..tiny() }).unwrap();
+        let e = s.write_with(&d, "test", |_| Err(SimError::Param("disk full".into()))).unwrap_err();
+        assert!(e.to_string().contains("disk full"));
+        let after: Vec<(String, Vec<u8>)> = names(&d).into_iter().map(|n| (n.clone(), std::fs::read(d.join(&n)).unwrap())).collect();
+        assert!(before == after, "the earlier scenario changed");
+        // bad parameters: refused before the folder is even created
+        let fresh = d.parent().unwrap().join("never");
+        assert!(simulate_into(&SimParams { cameras: 0, ..tiny() }, &fresh, "test").is_err());
+        assert!(!fresh.exists());
+        let _ = std::fs::remove_dir_all(d.parent().unwrap());
     }
 
     #[test]

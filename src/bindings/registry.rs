@@ -11,8 +11,14 @@
 //!
 //! DuckDB's C API has no parameter names for scalar functions (`duckdb_functions()` lists them
 //! as `col0, col1, ...`), so the names live in the generated reference instead.
+//!
+//! Every registration of one database shares one [`Limits`] (the work limits of
+//! `trajdb_limit`): the scalar dispatcher and the table adapter (`vector::table`) run each call
+//! inside its scope, so limits set in one database never bind another.
 
 use super::vector::{Args, Out};
+use crate::algo::limits::{self, Limits};
+use std::sync::Arc;
 use duckdb::core::{LogicalTypeHandle, LogicalTypeId};
 use duckdb::vscalar::{ScalarFunctionSignature, VScalar};
 use duckdb::Connection;
@@ -133,11 +139,15 @@ pub struct Signature {
     pub kernel: Kernel,
 }
 
-/// A table function's documented shape; it registers itself.
+/// A table function's documented shape: positional and named parameters, result columns; it
+/// registers itself (`vector::table::register::<T>`) under the function's name with the
+/// database's limits.
 #[derive(Clone, Copy)]
 pub struct Table {
+    pub params: &'static [Param],
+    pub named: &'static [Param],
     pub columns: &'static [(&'static str, Ty)],
-    pub register: fn(&Connection) -> duckdb::Result<()>,
+    pub register: fn(&Connection, &'static str, &Arc<Limits>) -> duckdb::Result<()>,
 }
 
 /// The one description of an SQL function.
@@ -216,7 +226,13 @@ impl Function {
         let signatures = match &self.table {
             Some(t) => {
                 let cols: Vec<String> = t.columns.iter().map(|(n, ty)| format!("{n} {}", ty.sql())).collect();
-                format!("{}() -> TABLE({})", self.name, cols.join(", "))
+                let args: Vec<String> = t
+                    .params
+                    .iter()
+                    .map(|p| format!("{} {}", p.name, p.ty.sql()))
+                    .chain(t.named.iter().map(|p| format!("{} := {}", p.name, p.ty.sql())))
+                    .collect();
+                format!("{}({}) -> TABLE({})", self.name, args.join(", "), cols.join(", "))
             }
             None => self.signatures.iter().map(|s| s.render(self.name)).collect::<Vec<_>>().join("\n"),
         };
@@ -250,11 +266,12 @@ pub fn markdown(docs: &[Doc]) -> String {
     s
 }
 
-/// The function and signature a registered overload runs.
-#[derive(Clone, Copy)]
+/// The function and signature a registered overload runs, and its database's limits.
+#[derive(Clone)]
 pub struct Bound {
     name: &'static str,
     sig: &'static Signature,
+    limits: Arc<Limits>,
 }
 
 thread_local! {
@@ -278,7 +295,8 @@ impl VScalar for Dispatch {
     ) -> Result<(), Box<dyn Error>> {
         let args = Args::new(input, b.sig.params);
         let mut out = Out::new(output);
-        (b.sig.kernel)(&args, &mut out).map_err(|e| format!("{}: {e}", b.name).into())
+        // the error is formatted inside the scope too: a message may read the limit it names
+        limits::with_scope(&b.limits, || (b.sig.kernel)(&args, &mut out).map_err(|e| format!("{}: {e}", b.name).into()))
     }
 
     fn signatures() -> Vec<ScalarFunctionSignature> {
@@ -291,16 +309,17 @@ impl VScalar for Dispatch {
 }
 
 /// Registers `functions` on `con`: every overload of every scalar signature, and the table
-/// functions.
+/// functions, all sharing one new set of [`Limits`] (call once per database).
 pub fn register(con: &Connection, functions: &[&'static Function]) -> duckdb::Result<()> {
+    let limits = Arc::new(Limits::default());
     for f in functions {
         if let Some(t) = &f.table {
-            (t.register)(con)?;
+            (t.register)(con, f.name, &limits)?;
             continue;
         }
         for sig in f.signatures {
             REGISTERING.with(|c| c.set(Some(sig)));
-            let r = con.register_scalar_function_with_state::<Dispatch>(f.name, &Bound { name: f.name, sig });
+            let r = con.register_scalar_function_with_state::<Dispatch>(f.name, &Bound { name: f.name, sig, limits: Arc::clone(&limits) });
             REGISTERING.with(|c| c.set(None));
             r?;
         }

@@ -1,35 +1,37 @@
 //! SQL: `trajdb_simulate(dir, ...)`, the simulator as a table function, so that stock DuckDB
 //! makes the same scenarios as `trajdb simulate`. The simulator: `src/app/simulate.rs`.
 
-use super::registry::{Function, Table, Ty};
-use super::vector::chunk_set_i64;
+use super::registry::{p, Function, Param, Table, Ty};
+use super::vector::table::{self, BindArgs, Rows, TableFn};
 use crate::app::simulate::{self, SimParams};
-use duckdb::core::{DataChunkHandle, Inserter, LogicalTypeHandle, LogicalTypeId};
-use duckdb::vtab::{BindInfo, InitInfo, TableFunctionInfo, VTab};
-use duckdb::Connection;
+use std::error::Error;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 const COLUMNS: &[(&str, Ty)] = &[("dir", Ty::Varchar), ("objects", Ty::Bigint), ("cameras", Ty::Bigint), ("tracks", Ty::Bigint), ("points", Ty::Bigint)];
 
-/// The named parameters (all optional; defaults of `trajdb simulate`): name, type.
-const NAMED: &[(&str, LogicalTypeId)] = &[
-    ("cameras", LogicalTypeId::Bigint),
-    ("minutes", LogicalTypeId::Double),
-    ("seed", LogicalTypeId::Bigint),
-    ("rate_hz", LogicalTypeId::Double),
-    ("traffic", LogicalTypeId::Double),
-    ("pedestrians", LogicalTypeId::Double),
-    ("noise_sigma_min", LogicalTypeId::Double),
-    ("noise_sigma_max", LogicalTypeId::Double),
-    ("noise_tracks_per_min", LogicalTypeId::Double),
-    ("clock_offset_max", LogicalTypeId::Double),
-    ("world_rate_hz", LogicalTypeId::Double),
+/// The named parameters (all optional; defaults of `trajdb simulate`).
+const NAMED: &[Param] = &[
+    p("cameras", Ty::Bigint),
+    p("minutes", Ty::Double),
+    p("seed", Ty::Bigint),
+    p("rate_hz", Ty::Double),
+    p("traffic", Ty::Double),
+    p("pedestrians", Ty::Double),
+    p("noise_sigma_min", Ty::Double),
+    p("noise_sigma_max", Ty::Double),
+    p("noise_tracks_per_min", Ty::Double),
+    p("clock_offset_max", Ty::Double),
+    p("world_rate_hz", Ty::Double),
 ];
+
+const TABLE: Table = Table { params: &[p("dir", Ty::Varchar)], named: NAMED, columns: COLUMNS, register: table::register::<SimulateTable> };
 
 pub static FUNCTIONS: &[Function] = &[Function {
     name: "trajdb_simulate",
     description: "Simulates an intersection seen by several cameras (the simulator of `trajdb simulate`, same seed, same scenario) and writes \
-                  the scenario files into dir: points.csv (the input of sql/pipeline.sql), cameras.csv, truth.csv, world.csv, objects.csv and \
+                  the scenario files into dir, a new or empty folder or one holding an earlier scenario (any other folder is refused, and \
+                  files are replaced whole, never half-written; it writes only where COPY ... TO may: enable_external_access, \
+                  allowed_directories): points.csv (the input of sql/pipeline.sql), cameras.csv, truth.csv, world.csv, objects.csv and \
                   README.txt. One row: dir and the counts. Named parameters (defaults): cameras (3), minutes (5), seed (1), rate_hz (10), \
                   traffic (1), pedestrians (1), noise_sigma_min / noise_sigma_max (0.05 / 0.15 m), noise_tracks_per_min (1), clock_offset_max \
                   (0 s), world_rate_hz (10).",
@@ -37,7 +39,7 @@ pub static FUNCTIONS: &[Function] = &[Function {
     maths: "src/app/simulate.rs",
     binding: file!(),
     signatures: &[],
-    table: Some(Table { columns: COLUMNS, register }),
+    table: Some(TABLE),
 }];
 
 struct SimulateTable;
@@ -51,23 +53,25 @@ pub struct Once {
     done: AtomicBool,
 }
 
-impl VTab for SimulateTable {
-    type InitData = Once;
-    type BindData = Bind;
+impl TableFn for SimulateTable {
+    const TABLE: &'static Table = &TABLE;
+    type Bind = Bind;
+    type Scan = Once;
 
-    fn bind(bind: &BindInfo) -> Result<Self::BindData, Box<dyn std::error::Error>> {
-        for (name, ty) in COLUMNS {
-            bind.add_result_column(name, ty.logical());
+    fn bind(args: &BindArgs<'_>) -> Result<Bind, Box<dyn Error>> {
+        let dir = args.text(0)?.ok_or("dir is NULL; name a new (or empty) folder for the scenario, e.g. trajdb_simulate('sim')")?;
+        if dir.trim().is_empty() {
+            return Err("dir is '' (empty); name a new (or empty) folder for the scenario, e.g. trajdb_simulate('sim')".into());
         }
-        let dir = bind.get_parameter(0).to_string();
+        // the connection's sandbox, before any work (a statement prepared before
+        // SET enable_external_access = false was prepared by whoever could still write)
+        args.file_access().may_write_into(&dir)?;
         let mut p = SimParams::default();
-        let num = |name: &str| -> Option<f64> { bind.get_named_parameter(name).filter(|v| !v.is_null()).map(|v| v.to_double()) };
-        let int = |name: &str| -> Option<i64> { bind.get_named_parameter(name).filter(|v| !v.is_null()).map(|v| v.to_int64()) };
-        if let Some(v) = int("cameras") {
-            p.cameras = usize::try_from(v).map_err(|_| format!("trajdb_simulate: cameras must be >= 1, got {v}"))?;
+        if let Some(v) = args.named_bigint("cameras")? {
+            p.cameras = usize::try_from(v).map_err(|_| format!("cameras must be >= 1, got {v}"))?;
         }
-        if let Some(v) = int("seed") {
-            p.seed = u64::try_from(v).map_err(|_| format!("trajdb_simulate: seed must be >= 0, got {v}"))?;
+        if let Some(v) = args.named_bigint("seed")? {
+            p.seed = u64::try_from(v).map_err(|_| format!("seed must be >= 0, got {v}"))?;
         }
         for (name, slot) in [
             ("minutes", &mut p.minutes),
@@ -80,48 +84,34 @@ impl VTab for SimulateTable {
             ("clock_offset_max", &mut p.clock_offset_max),
             ("world_rate_hz", &mut p.world_rate_hz),
         ] {
-            if let Some(v) = num(name) {
+            if let Some(v) = args.named_double(name)? {
                 *slot = v;
             }
         }
         // noise_sigma_min alone: one sigma for every camera
-        if num("noise_sigma_min").is_some() && num("noise_sigma_max").is_none() {
+        if args.named_double("noise_sigma_min")?.is_some() && args.named_double("noise_sigma_max")?.is_none() {
             p.noise_sigma.1 = p.noise_sigma.0;
         }
-        p.validate().map_err(|e| format!("trajdb_simulate: {}", e.to_string().trim_start_matches("simulate: ")))?;
+        p.validate().map_err(|e| e.to_string().trim_start_matches("simulate: ").to_string())?;
         Ok(Bind { dir, params: p })
     }
 
-    fn init(_: &InitInfo) -> Result<Self::InitData, Box<dyn std::error::Error>> {
+    fn init(_: &Bind) -> Result<Once, Box<dyn Error>> {
         Ok(Once { done: AtomicBool::new(false) })
     }
 
-    fn func(func: &TableFunctionInfo<Self>, output: &mut DataChunkHandle) -> Result<(), Box<dyn std::error::Error>> {
-        if func.get_init_data().done.swap(true, Ordering::SeqCst) {
-            output.set_len(0);
-            return Ok(());
+    fn func(b: &Bind, once: &Once, out: &mut Rows<'_>) -> Result<usize, Box<dyn Error>> {
+        if once.done.swap(true, Ordering::SeqCst) {
+            return Ok(0);
         }
-        let b = func.get_bind_data();
-        let s = simulate::simulate(&b.params).map_err(|e| format!("trajdb_simulate: {e}"))?;
-        s.write(std::path::Path::new(&b.dir), &format!("trajdb_simulate('{}', ...)", b.dir)).map_err(|e| format!("trajdb_simulate: {e}"))?;
-        let tracks = s.truth.len() as i64;
-        output.flat_vector(0).insert(0, b.dir.as_str());
-        for (k, v) in [s.objects.len() as i64, s.cameras.len() as i64, tracks, s.points.len() as i64].into_iter().enumerate() {
-            chunk_set_i64(output, k + 1, 0, v);
+        let quoted = format!("'{}'", b.dir.replace('\'', "''"));
+        let command = format!("trajdb_simulate({quoted}, ...)");
+        let s = simulate::simulate_into(&b.params, std::path::Path::new(&b.dir), &command)
+            .map_err(|e| format!("dir {quoted}: {}", e.to_string().trim_start_matches("simulate: ")))?;
+        out.text(0, 0, &b.dir);
+        for (k, v) in [s.objects.len(), s.cameras.len(), s.truth.len(), s.points.len()].into_iter().enumerate() {
+            out.bigint(k + 1, 0, i64::try_from(v).unwrap_or(i64::MAX));
         }
-        output.set_len(1);
-        Ok(())
+        Ok(1)
     }
-
-    fn parameters() -> Option<Vec<LogicalTypeHandle>> {
-        Some(vec![LogicalTypeHandle::from(LogicalTypeId::Varchar)])
-    }
-
-    fn named_parameters() -> Option<Vec<(String, LogicalTypeHandle)>> {
-        Some(NAMED.iter().map(|(n, t)| (n.to_string(), LogicalTypeHandle::from(*t))).collect())
-    }
-}
-
-fn register(con: &Connection) -> duckdb::Result<()> {
-    con.register_table_function::<SimulateTable>("trajdb_simulate")
 }

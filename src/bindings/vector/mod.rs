@@ -1,5 +1,6 @@
 //! The only place that touches DuckDB vectors: every `unsafe` block and FFI call of the
-//! bindings is in this module (`read.rs`, `write.rs`).
+//! bindings is in this module (`read.rs`, `write.rs`; `table.rs`: table functions' arguments,
+//! settings and rows).
 //!
 //! A kernel gets an [`Args`] (the input chunk with its declared parameters) and an [`Out`] (the
 //! result vector). It reads with the typed column readers of [`Args`], calls `crate::algo`, and
@@ -16,6 +17,7 @@
 //!   empty trajectory.
 
 mod read;
+pub mod table;
 mod write;
 
 pub use read::{I64ListCol, OptCol, OptRegionCol, PrimCol, RegionCol, RegionListCol, Rows, SeriesCol, StructCol, StructListCol, TextCol, Traj3Col, TrajCol, TrajListCol};

@@ -1,0 +1,323 @@
+//! Table functions: the one generic `VTab` of every trajdb table function ([`Tab`]), its safe
+//! bind-time readers ([`BindArgs`]) and its output ([`Rows`]).
+//!
+//! A table function implements [`TableFn`] (bind, init, one chunk of rows) and is described by a
+//! [`Table`] descriptor; [`register`] registers it with the database's [`Limits`]. [`Tab`] then
+//! - declares the descriptor's positional and named parameters and result columns;
+//! - reads every argument through [`BindArgs`], which looks at a value's NULL-ness and type
+//!   before converting it: DuckDB's converters throw a C++ exception on a NULL value (for
+//!   example `duckdb_get_varchar`), which Rust cannot catch, so the host process aborted on
+//!   `FROM trajdb_simulate(NULL)`;
+//! - runs bind, init and every chunk inside the database's limit scope
+//!   ([`crate::algo::limits::with_scope`]) and prefixes every error with the function's name.
+//!
+//! # NULL policy (table functions)
+//! A NULL positional argument reaches the function as `None` ([`BindArgs::text`]), which decides
+//! (trajdb_simulate: an error). A named argument given as NULL (`cameras := NULL`) is an error
+//! naming it: leave it out for its default.
+
+use crate::algo::limits::{self, Limits};
+use crate::bindings::registry::{Param, Table};
+use duckdb::core::{DataChunkHandle, Inserter, LogicalTypeHandle, LogicalTypeId};
+use duckdb::vtab::{BindInfo, InitInfo, TableFunctionInfo, VTab, Value};
+use duckdb::Connection;
+use std::error::Error;
+use std::marker::PhantomData;
+use std::path::{Component, Path, PathBuf};
+use std::sync::Arc;
+
+type Res<T> = Result<T, Box<dyn Error>>;
+
+/// One trajdb table function: what [`Tab`] calls. Errors are prefixed with the function name.
+pub trait TableFn: Sized + Send + Sync + 'static {
+    /// Its descriptor (parameters, named parameters, result columns).
+    const TABLE: &'static Table;
+    /// What bind decides (the arguments, read and checked).
+    type Bind: Send + Sync + 'static;
+    /// The scan state shared by the threads that call [`TableFn::func`].
+    type Scan: Send + Sync + 'static;
+    fn bind(args: &BindArgs<'_>) -> Res<Self::Bind>;
+    fn init(bind: &Self::Bind) -> Res<Self::Scan>;
+    /// Writes the next rows (at most [`Rows::CAPACITY`]) and returns how many; 0 ends the scan.
+    fn func(bind: &Self::Bind, scan: &Self::Scan, out: &mut Rows<'_>) -> Res<usize>;
+}
+
+/// What one registration carries into DuckDB's catalog (one per database).
+#[derive(Clone)]
+struct TabInfo {
+    name: &'static str,
+    limits: Arc<Limits>,
+}
+
+/// The bind data of [`Tab`]: the registration, and the function's own.
+pub struct Bound<B> {
+    info: TabInfo,
+    data: B,
+}
+
+/// The generic `VTab` behind every [`TableFn`].
+pub struct Tab<T>(PhantomData<T>);
+
+fn prefixed(name: &str, e: Box<dyn Error>) -> Box<dyn Error> {
+    format!("{name}: {e}").into()
+}
+
+impl<T: TableFn> VTab for Tab<T> {
+    type BindData = Bound<T::Bind>;
+    type InitData = T::Scan;
+
+    fn bind(bind: &BindInfo) -> Res<Self::BindData> {
+        // SAFETY: `register::<T>` registered this function with a `TabInfo` as its extra info,
+        // which DuckDB owns for as long as the function's catalog entry exists.
+        let info = unsafe { bind.get_extra_info::<TabInfo>().as_ref() }.ok_or("a trajdb table function registered without its TabInfo")?.clone();
+        for (name, ty) in T::TABLE.columns {
+            bind.add_result_column(name, ty.logical());
+        }
+        let args = BindArgs { info: bind, table: T::TABLE };
+        // errors are formatted inside the scope too: a message may read the limit it names
+        let data = limits::with_scope(&info.limits, || T::bind(&args).map_err(|e| prefixed(info.name, e)))?;
+        Ok(Bound { info, data })
+    }
+
+    fn init(init: &InitInfo) -> Res<Self::InitData> {
+        // SAFETY: DuckDB hands init the bind data that `bind` above returned (a `Bound<T::Bind>`,
+        // boxed by duckdb-rs), alive until the scan ends.
+        let b = unsafe { init.get_bind_data::<Bound<T::Bind>>().as_ref() }.ok_or("a trajdb table function initialised without its bind data")?;
+        limits::with_scope(&b.info.limits, || T::init(&b.data).map_err(|e| prefixed(b.info.name, e)))
+    }
+
+    fn func(func: &TableFunctionInfo<Self>, output: &mut DataChunkHandle) -> Res<()> {
+        let b = func.get_bind_data();
+        let mut rows = Rows { chunk: output };
+        let n = limits::with_scope(&b.info.limits, || T::func(&b.data, func.get_init_data(), &mut rows).map_err(|e| prefixed(b.info.name, e)))?;
+        output.set_len(n.min(Rows::CAPACITY));
+        Ok(())
+    }
+
+    fn parameters() -> Option<Vec<LogicalTypeHandle>> {
+        Some(T::TABLE.params.iter().map(|p| p.ty.logical()).collect())
+    }
+
+    fn named_parameters() -> Option<Vec<(String, LogicalTypeHandle)>> {
+        Some(T::TABLE.named.iter().map(|p| (p.name.to_string(), p.ty.logical())).collect())
+    }
+}
+
+/// Registers table function `T` as `name` on `con`, bound to the database's `limits`.
+pub fn register<T: TableFn>(con: &Connection, name: &'static str, limits: &Arc<Limits>) -> duckdb::Result<()> {
+    con.register_table_function_with_extra_info::<Tab<T>, TabInfo>(name, &TabInfo { name, limits: Arc::clone(limits) })
+}
+
+/// The arguments of one table-function call, read safely (module doc).
+pub struct BindArgs<'a> {
+    info: &'a BindInfo,
+    table: &'static Table,
+}
+
+/// `v`'s type is `want` (DuckDB casts arguments to the declared types; anything else is a bug
+/// that must not reach a converter).
+fn check_type(v: &Value, want: LogicalTypeId, what: &str) -> Res<()> {
+    let got = v.logical_type_id();
+    if got != want {
+        return Err(format!("{what} arrived as {got:?}, not {want:?} (please report this)").into());
+    }
+    Ok(())
+}
+
+impl BindArgs<'_> {
+    fn param(&self, k: usize) -> Res<&'static Param> {
+        self.table.params.get(k).ok_or_else(|| format!("argument {} is not declared", k + 1).into())
+    }
+
+    fn named_param(&self, name: &str) -> Res<&'static Param> {
+        self.table.named.iter().find(|p| p.name == name).ok_or_else(|| format!("named parameter {name} is not declared").into())
+    }
+
+    /// Positional VARCHAR argument `k`; `None` when it is NULL.
+    pub fn text(&self, k: usize) -> Res<Option<String>> {
+        let p = self.param(k)?;
+        if (self.info.get_parameter_count() as usize) <= k {
+            return Err(format!("{} is missing", p.name).into());
+        }
+        let v = self.info.get_parameter(k as u64);
+        if v.is_null() {
+            return Ok(None);
+        }
+        check_type(&v, LogicalTypeId::Varchar, p.name)?;
+        Ok(Some(v.to_string()))
+    }
+
+    /// A named argument that is present: `None` when left out; NULL is an error naming it.
+    fn named(&self, name: &str, want: LogicalTypeId) -> Res<Option<Value>> {
+        let p = self.named_param(name)?;
+        let Some(v) = self.info.get_named_parameter(name) else { return Ok(None) };
+        if v.is_null() {
+            return Err(format!("{name} := NULL; leave {name} out for its default, or give a {} value", p.ty.sql()).into());
+        }
+        check_type(&v, want, name)?;
+        Ok(Some(v))
+    }
+
+    /// A named BIGINT argument (`None`: left out).
+    pub fn named_bigint(&self, name: &str) -> Res<Option<i64>> {
+        Ok(self.named(name, LogicalTypeId::Bigint)?.map(|v| v.to_int64()))
+    }
+
+    /// A named DOUBLE argument (`None`: left out).
+    pub fn named_double(&self, name: &str) -> Res<Option<f64>> {
+        Ok(self.named(name, LogicalTypeId::Double)?.map(|v| v.to_double()))
+    }
+
+    /// DuckDB's file-access settings as the calling connection sees them.
+    ///
+    /// Read through the bind's client context (`duckdb_table_function_get_client_context` +
+    /// `duckdb_client_context_get_config_option`, C API v1 from DuckDB 1.5): the caller's own
+    /// view, with no connection kept by the extension (a connection kept from load time would
+    /// hold the database open until the process ends). Only settings every supported DuckDB
+    /// has are read: a debug DuckDB build aborts on an unknown name.
+    pub fn file_access(&self) -> FileAccess {
+        // a DuckDB without the function (older than 1.5) panics in duckdb-rs's loader wrapper:
+        // caught, and then nothing is known, which refuses the write
+        let get = |name: &str| std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| self.info.get_config_option(name))).ok().flatten();
+        let external = get("enable_external_access").filter(|v| !v.is_null() && v.logical_type_id() == LogicalTypeId::Boolean).map(|v| v.to_bool());
+        let mut allowed_directories = Vec::new();
+        if let Some(list) = get("allowed_directories").and_then(|v| v.to_list()) {
+            for item in list {
+                if !item.is_null() && item.logical_type_id() == LogicalTypeId::Varchar {
+                    allowed_directories.push(item.to_string());
+                }
+            }
+        }
+        let disabled = get("disabled_filesystems").filter(|v| !v.is_null() && v.logical_type_id() == LogicalTypeId::Varchar).map(|v| v.to_string()).unwrap_or_default();
+        FileAccess { external, allowed_directories, local_disabled: disabled.split(',').any(|f| f.trim().eq_ignore_ascii_case("LocalFileSystem")) }
+    }
+}
+
+/// DuckDB's settings that decide which files SQL may touch (as `COPY ... TO` obeys them).
+#[derive(Clone, Debug, PartialEq)]
+pub struct FileAccess {
+    /// `enable_external_access`; `None` when it could not be read.
+    pub external: Option<bool>,
+    /// `allowed_directories`: with external access off, folders that stay allowed.
+    pub allowed_directories: Vec<String>,
+    /// `disabled_filesystems` names `LocalFileSystem`.
+    pub local_disabled: bool,
+}
+
+/// `p` made absolute and resolved: the longest existing prefix through `canonicalize` (links
+/// followed), the rest appended; `..` in the rest is refused (it could leave an allowed folder).
+fn resolve(p: &Path) -> Result<PathBuf, String> {
+    let abs = if p.is_absolute() { p.to_path_buf() } else { std::env::current_dir().map_err(|e| format!("cannot read the working folder: {e}"))?.join(p) };
+    let mut existing = abs.as_path();
+    let mut rest = Vec::new();
+    loop {
+        if let Ok(c) = existing.canonicalize() {
+            if rest.iter().any(|c: &Component| !matches!(c, Component::Normal(_) | Component::CurDir)) {
+                return Err(format!("{} goes through '..' below a folder that does not exist", p.display()));
+            }
+            return Ok(rest.iter().rev().fold(c, |acc, c| acc.join(c)));
+        }
+        let mut comps = existing.components();
+        let Some(last) = comps.next_back() else { return Ok(abs) };
+        rest.push(last);
+        existing = comps.as_path();
+    }
+}
+
+impl FileAccess {
+    /// `Ok` when DuckDB's settings let SQL write files into folder `dir` (what `COPY ... TO`
+    /// into it would be allowed): external access on, or `dir` inside one of
+    /// `allowed_directories` (resolved, links followed; `allowed_paths` names single files
+    /// and does not cover a folder). Otherwise the reason and the fix.
+    pub fn may_write_into(&self, dir: &str) -> Result<(), String> {
+        if self.local_disabled {
+            return Err(format!(
+                "cannot write into {dir:?}: this database's disabled_filesystems setting disables LocalFileSystem (COPY TO a local file is refused as well)"
+            ));
+        }
+        match self.external {
+            Some(true) => Ok(()),
+            None => Err(format!(
+                "cannot write into {dir:?}: this DuckDB does not let the extension read enable_external_access (DuckDB 1.5 or newer does), \
+                 and files are written only where that setting can be checked"
+            )),
+            Some(false) => {
+                let target = resolve(Path::new(dir))?;
+                let inside = self.allowed_directories.iter().filter(|a| !a.trim().is_empty()).any(|a| resolve(Path::new(a)).is_ok_and(|a| target.starts_with(a)));
+                if inside {
+                    Ok(())
+                } else {
+                    Err(format!(
+                        "cannot write into {dir:?}: enable_external_access is false (this connection is sandboxed, as for COPY ... TO) and {} is not inside \
+                         allowed_directories ({}); use a folder inside one of them, or have the database's owner add one \
+                         (SET allowed_directories = ['...'] before SET enable_external_access = false)",
+                        target.display(),
+                        if self.allowed_directories.is_empty() { "none".to_string() } else { self.allowed_directories.join(", ") }
+                    ))
+                }
+            }
+        }
+    }
+}
+
+/// The output chunk of one [`TableFn::func`] call, written by row and column.
+pub struct Rows<'a> {
+    chunk: &'a mut DataChunkHandle,
+}
+
+impl Rows<'_> {
+    /// Rows one call may write (DuckDB's standard vector size).
+    pub const CAPACITY: usize = 2048;
+
+    /// Writes text into column `col` (a VARCHAR column) at `row`.
+    pub fn text(&mut self, col: usize, row: usize, v: &str) {
+        assert!(row < Self::CAPACITY, "a data chunk holds {} rows", Self::CAPACITY);
+        self.chunk.flat_vector(col).insert(row, v);
+    }
+
+    /// Writes `v` into column `col` (a BIGINT column) at `row`.
+    pub fn bigint(&mut self, col: usize, row: usize, v: i64) {
+        super::chunk_set_i64(self.chunk, col, row, v);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn access(external: Option<bool>, dirs: &[&str]) -> FileAccess {
+        FileAccess { external, allowed_directories: dirs.iter().map(|s| s.to_string()).collect(), local_disabled: false }
+    }
+
+    #[test]
+    fn sandbox_rules() {
+        let base = std::env::temp_dir().join(format!("trajdb-access-{}", std::process::id()));
+        let ok = base.join("ok");
+        std::fs::create_dir_all(&ok).unwrap();
+        let (okd, based) = (ok.to_str().unwrap().to_string(), base.to_str().unwrap().to_string());
+        assert!(access(Some(true), &[]).may_write_into("/anywhere").is_ok());
+        let e = access(Some(false), &[]).may_write_into(&okd).unwrap_err();
+        assert!(e.contains("enable_external_access is false") && e.contains("allowed_directories (none)"), "{e}");
+        assert!(access(None, &[]).may_write_into(&okd).unwrap_err().contains("enable_external_access"));
+        // inside an allowed folder (also a new subfolder), with DuckDB's trailing slash
+        let sandbox = access(Some(false), &[&format!("{okd}/")]);
+        assert!(sandbox.may_write_into(&okd).is_ok());
+        assert!(sandbox.may_write_into(&format!("{okd}/new/deeper")).is_ok());
+        // a sibling, the parent, a name that only starts the same, and '..' out of it
+        assert!(sandbox.may_write_into(&based).is_err());
+        assert!(sandbox.may_write_into(&format!("{okd}x")).is_err());
+        assert!(sandbox.may_write_into(&format!("{okd}/../escape")).is_err());
+        assert!(sandbox.may_write_into(&format!("{okd}/new/../../escape")).is_err());
+        // a link inside the allowed folder that points out of it
+        #[cfg(unix)]
+        {
+            let _ = std::fs::remove_file(ok.join("link"));
+            std::os::unix::fs::symlink(&base, ok.join("link")).unwrap();
+            assert!(sandbox.may_write_into(&format!("{okd}/link/out")).is_err());
+        }
+        let mut off = access(Some(true), &[]);
+        off.local_disabled = true;
+        assert!(off.may_write_into(&okd).unwrap_err().contains("disabled_filesystems"));
+        let _ = std::fs::remove_dir_all(&base);
+    }
+}

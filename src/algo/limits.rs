@@ -44,7 +44,7 @@ pub static LCSS_CELLS: Limit = Limit::new("lcss_cells", "LCSS table cells", 10_0
 pub static CPD_PAIR_VISITS: Limit = Limit::new("cpd_pair_visits", "point-pair visits (pairs in the time band x max_iter)", 20_000_000_000);
 pub static OUTPUT_POINTS: Limit = Limit::new("output_points", "output points", 50_000_000);
 pub static MEMORY_BYTES: Limit = Limit::new("memory_bytes", "bytes of working memory", 4_000_000_000);
-pub static SHIFT_PAIR_FITS: Limit = Limit::new("shift_pair_fits", "point-pair fits (shifts x points)", 2_000_000_000);
+pub static SHIFT_PAIR_FITS: Limit = Limit::new("shift_pair_fits", "point-pair fits (shifts x points)", 200_000_000);
 pub static LABEL_PAIRS: Limit = Limit::new("label_pairs", "child pairs compared", 1_000_000_000);
 
 /// Every limit, in the order of the table above.

@@ -33,23 +33,33 @@ pub struct Pairs {
 pub fn correspond(fixed: Traj<'_>, moving: Traj<'_>, max_gap: f64) -> Result<Pairs, ParamError> {
     let max_gap = positive_or_inf("max_gap", max_gap)?;
     let mut out = Pairs::default();
+    correspond_into(fixed, moving, 0.0, max_gap, &mut out);
+    Ok(out)
+}
+
+/// [`correspond`] with the moving times read as `t − dt`, appended to `out`: the moving track
+/// is not copied (the shifted times are computed where they are read, by the same subtraction,
+/// so the pairs are those of `correspond` on a shifted copy). `max_gap` already checked.
+pub(crate) fn correspond_into(fixed: Traj<'_>, moving: Traj<'_>, dt: f64, max_gap: f64, out: &mut Pairs) {
     let m = moving.len();
     if m == 0 {
-        return Ok(out);
+        return;
     }
-    let mut j = 0usize; // moving.t[j] <= t < moving.t[j + 1]
+    let mt = |j: usize| moving.t[j] - dt;
+    let (first, last) = (mt(0), mt(m - 1));
+    let mut j = 0usize; // mt(j) <= t < mt(j + 1)
     for i in 0..fixed.len() {
         let t = fixed.t[i];
-        if t < moving.t[0] || t > moving.t[m - 1] {
+        if t < first || t > last {
             continue;
         }
-        while j + 1 < m && moving.t[j + 1] <= t {
+        while j + 1 < m && mt(j + 1) <= t {
             j += 1;
         }
-        let (x, y, u) = if moving.t[j] == t || j + 1 == m {
+        let (x, y, u) = if mt(j) == t || j + 1 == m {
             (moving.x[j], moving.y[j], 0.0)
         } else {
-            let (t0, t1) = (moving.t[j], moving.t[j + 1]);
+            let (t0, t1) = (mt(j), mt(j + 1));
             if t1 - t0 > max_gap {
                 continue;
             }
@@ -63,7 +73,6 @@ pub fn correspond(fixed: Traj<'_>, moving: Traj<'_>, max_gap: f64) -> Result<Pai
         out.mx.push(x);
         out.my.push(y);
     }
-    Ok(out)
 }
 
 /// `(σf² + σm²) / (σf² + σm²·(u² + (1 − u)²))`: the squared residual of a pair whose moving

@@ -66,14 +66,22 @@ impl Transform2 {
     }
     #[inline]
     pub fn apply(&self, x: f64, y: f64) -> (f64, f64) {
+        self.mapper()(x, y)
+    }
+    /// [`Transform2::apply`] with the matrix (a `sin_cos`) computed once, for loops over many
+    /// points: the same operations, so the same results.
+    #[inline]
+    pub fn mapper(&self) -> impl Fn(f64, f64) -> (f64, f64) + Copy {
         let m = self.matrix();
-        (m[0][0] * x + m[0][1] * y + self.tx, m[1][0] * x + m[1][1] * y + self.ty)
+        let (tx, ty) = (self.tx, self.ty);
+        move |x, y| (m[0][0] * x + m[0][1] * y + tx, m[1][0] * x + m[1][1] * y + ty)
     }
     /// Every point of `tr` mapped (`transform_apply`); t unchanged. O(n).
     pub fn apply_traj(&self, tr: Traj<'_>) -> OwnedTraj {
         let mut o = OwnedTraj::default();
+        let map = self.mapper();
         for k in 0..tr.len() {
-            let (x, y) = self.apply(tr.x[k], tr.y[k]);
+            let (x, y) = map(tr.x[k], tr.y[k]);
             o.push(tr.t[k], x, y);
         }
         o
@@ -125,6 +133,13 @@ impl std::error::Error for RigidError {}
 /// Weighted 2-D Umeyama fit of `fixed ≈ s·R·moving + t` (s = 1 unless `with_scale`).
 /// `w` may be empty (all ones). Returns the transform and the weighted RMS residual.
 pub fn fit(fx: &[f64], fy: &[f64], mx: &[f64], my: &[f64], w: &[f64], with_scale: bool) -> Result<(Transform2, f64), RigidError> {
+    let t = fit_transform(fx, fy, mx, my, w, with_scale)?;
+    let rms = residual_rms(&t, fx, fy, mx, my, w);
+    Ok((t, rms))
+}
+
+/// [`fit`] without the residual.
+fn fit_transform(fx: &[f64], fy: &[f64], mx: &[f64], my: &[f64], w: &[f64], with_scale: bool) -> Result<Transform2, RigidError> {
     let n = fx.len();
     let wt = |k: usize| if w.is_empty() { 1.0 } else { w[k] };
     let sw: f64 = (0..n).map(wt).sum();
@@ -161,8 +176,7 @@ pub fn fit(fx: &[f64], fy: &[f64], mx: &[f64], my: &[f64], w: &[f64], with_scale
     let (px, py) = t.apply(cmx, cmy);
     t.tx = cfx - px;
     t.ty = cfy - py;
-    let rms = residual_rms(&t, fx, fy, mx, my, w);
-    Ok((t, rms))
+    Ok(t)
 }
 
 /// Checks that every pair `(fx, fy) <- (mx, my)` is finite (the input rule of [`fit_trimmed`]
@@ -179,9 +193,10 @@ pub fn check_pairs(fx: &[f64], fy: &[f64], mx: &[f64], my: &[f64]) -> Result<(),
 /// Weighted RMS of `|fixed − T(moving)|`.
 pub fn residual_rms(t: &Transform2, fx: &[f64], fy: &[f64], mx: &[f64], my: &[f64], w: &[f64]) -> f64 {
     let (mut s, mut sw) = (0.0, 0.0);
+    let map = t.mapper();
     for k in 0..fx.len() {
         let q = if w.is_empty() { 1.0 } else { w[k] };
-        let (px, py) = t.apply(mx[k], my[k]);
+        let (px, py) = map(mx[k], my[k]);
         s += q * ((fx[k] - px).powi(2) + (fy[k] - py).powi(2));
         sw += q;
     }
@@ -210,31 +225,36 @@ pub fn fit_trimmed(fx: &[f64], fy: &[f64], mx: &[f64], my: &[f64], trim: f64, wi
     }
     let n = fx.len();
     let keep = ((1.0 - trim) * n as f64).ceil() as usize;
-    let (mut t, _) = fit(fx, fy, mx, my, &[], with_scale)?;
+    let mut t = fit_transform(fx, fy, mx, my, &[], with_scale)?;
     let mut inliers = vec![true; n];
+    // buffers reused by every step
+    let mut next = vec![false; n];
+    let mut w = vec![0.0; n];
+    let mut r: Vec<(f64, usize)> = Vec::with_capacity(n);
     for _ in 0..50 {
-        let mut r: Vec<(f64, usize)> = (0..n)
-            .map(|k| {
-                let (px, py) = t.apply(mx[k], my[k]);
-                ((fx[k] - px).powi(2) + (fy[k] - py).powi(2), k)
-            })
-            .collect();
+        let map = t.mapper();
+        r.clear();
+        r.extend((0..n).map(|k| {
+            let (px, py) = map(mx[k], my[k]);
+            ((fx[k] - px).powi(2) + (fy[k] - py).powi(2), k)
+        }));
         // the keep smallest residuals (ties by index, so the set is deterministic): O(n)
         let kk = keep.max(2).min(n);
         if kk < n {
             r.select_nth_unstable_by(kk - 1, |a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
         }
-        let mut next = vec![false; n];
+        next.fill(false);
         for &(_, k) in &r[..kk] {
             next[k] = true;
         }
-        let w: Vec<f64> = next.iter().map(|&b| b as u8 as f64).collect();
-        let (t2, _) = fit(fx, fy, mx, my, &w, with_scale)?;
-        t = t2;
+        for (wk, &b) in w.iter_mut().zip(&next) {
+            *wk = b as u8 as f64;
+        }
+        t = fit_transform(fx, fy, mx, my, &w, with_scale)?;
         if next == inliers {
             break;
         }
-        inliers = next;
+        std::mem::swap(&mut inliers, &mut next);
     }
     let w: Vec<f64> = inliers.iter().map(|&b| b as u8 as f64).collect();
     let rms = residual_rms(&t, fx, fy, mx, my, &w);

@@ -21,13 +21,16 @@
 //!   more directions, or turning tracks, can, and the joint fit uses all of them at once.
 //!
 //! # Complexity
-//! [`scan`]: O(S·K·log m) for S = 2·⌊max/step⌋ + 1 shifts and K ≤ [`SCAN_PAIRS`] pairs per shift. [`joint`]: O(S·I·P log P) for P point
-//! pairs over all track pairs and I ≤ 50 trimming rounds.
+//! [`scan`]: O(S·K·log m) for S = 2·⌊max/step⌋ + 1 shifts and K ≤ [`SCAN_PAIRS`] pairs per shift. [`joint`]: O(W·S·I·P) for P point
+//! pairs over all track pairs, I ≤ 50 trimming rounds (each O(P): a selection, not a sort) and
+//! W ≤ 1 + [`MAX_WALKS`] grid passes; W·S·(points) is bounded by the work limit `shift_pair_fits`.
 
-use super::correspond::{correspond, interpolation_weight, Pairs};
+use super::correspond::{correspond_into, interpolation_weight, Pairs};
 use super::rigid::{self, RigidError, Transform2};
-use crate::algo::traj::{OwnedTraj, Traj};
+use crate::algo::limits;
+use crate::algo::traj::Traj;
 use crate::algo::{finite, non_negative, positive, positive_or_inf, ParamError};
+use rayon::prelude::*;
 use std::fmt;
 
 /// Errors of this module.
@@ -39,6 +42,8 @@ pub enum ShiftError {
     TooManyShifts { max: f64, step: f64 },
     /// `joint` was given different numbers of fixed and moving tracks.
     Lengths { fixed: usize, moving: usize },
+    /// `joint` would fit more point pairs than the work limit `shift_pair_fits`.
+    Work(limits::Exceeded),
 }
 
 impl fmt::Display for ShiftError {
@@ -50,6 +55,7 @@ impl fmt::Display for ShiftError {
                 write!(f, "max_shift / step must give at most {MAX_SHIFTS} shifts, got max_shift {max} and step {step}")
             }
             ShiftError::Lengths { fixed, moving } => write!(f, "fixed and moving must list as many tracks, got {fixed} and {moving}"),
+            ShiftError::Work(e) => write!(f, "{e}, or search fewer shifts (a larger step or a smaller half_width) or fewer points"),
         }
     }
 }
@@ -119,19 +125,13 @@ pub struct ShiftFit {
     pub span: f64,
 }
 
-/// `moving` with its times mapped to the fixed clock: `t − dt`.
-fn shifted(moving: Traj<'_>, dt: f64) -> OwnedTraj {
-    OwnedTraj { t: moving.t.iter().map(|t| t - dt).collect(), x: moving.x.to_vec(), y: moving.y.to_vec() }
-}
-
-/// [`correspond`] with the moving times read as `t − dt` (`dt` finite).
+/// [`correspond`](super::correspond::correspond) with the moving times read as `t − dt` (`dt` finite).
 pub fn correspond_at(fixed: Traj<'_>, moving: Traj<'_>, dt: f64, max_gap: f64) -> Result<Pairs, ParamError> {
     let dt = finite("shift", dt)?;
-    if dt == 0.0 {
-        return correspond(fixed, moving, max_gap);
-    }
-    let m = shifted(moving, dt);
-    correspond(fixed, m.view(), max_gap)
+    let max_gap = positive_or_inf("max_gap", max_gap)?;
+    let mut out = Pairs::default();
+    correspond_into(fixed, moving, dt, max_gap, &mut out);
+    Ok(out)
 }
 
 /// `(fixed[i], moving[i])` pairs for [`joint`]; the two lists must be as long.
@@ -215,17 +215,12 @@ pub fn scan(fixed: Traj<'_>, moving: Traj<'_>, grid: &ShiftGrid, max_gap: f64) -
     Ok(out)
 }
 
-/// All track pairs' point pairs at one shift, concatenated.
+/// All track pairs' point pairs at one shift, concatenated (`max_gap` already checked).
 fn joint_pairs(tracks: &[(Traj<'_>, Traj<'_>)], dt: f64, max_gap: f64) -> Result<Pairs, ParamError> {
+    let dt = finite("shift", dt)?;
     let mut all = Pairs::default();
     for &(f, m) in tracks {
-        let p = correspond_at(f, m, dt, max_gap)?;
-        all.t.extend(p.t);
-        all.u.extend(p.u);
-        all.fx.extend(p.fx);
-        all.fy.extend(p.fy);
-        all.mx.extend(p.mx);
-        all.my.extend(p.my);
+        correspond_into(f, m, dt, max_gap, &mut all);
     }
     Ok(all)
 }
@@ -251,8 +246,9 @@ fn joint_at(tracks: &[(Traj<'_>, Traj<'_>)], dt: f64, max_gap: f64, trim: f64, n
             // the objective compared across shifts: the mean interpolation-weighted squared
             // residual of the kept pairs (see correspond::interpolation_weight)
             let (mut s, mut k) = (0.0, 0usize);
+            let map = f.transform.mapper();
             for i in (0..p.t.len()).filter(|&i| f.inliers[i]) {
-                let (x, y) = f.transform.apply(p.mx[i], p.my[i]);
+                let (x, y) = map(p.mx[i], p.my[i]);
                 s += interpolation_weight(p.u[i], noise.fixed, noise.moving) * ((p.fx[i] - x).powi(2) + (p.fy[i] - y).powi(2));
                 k += 1;
             }
@@ -264,10 +260,22 @@ fn joint_at(tracks: &[(Traj<'_>, Traj<'_>)], dt: f64, max_gap: f64, trim: f64, n
     }
 }
 
+/// The work of `passes` grid passes of [`joint`]: every pass fits the point pairs of every
+/// shift, at most one pair per point of the fixed and moving tracks. Checked against the limit
+/// `shift_pair_fits` before each pass (the first pass and every walk of the grid), so the
+/// whole call stays within it.
+pub fn check_joint_work(tracks: &[(Traj<'_>, Traj<'_>)], grid: &ShiftGrid, passes: u128) -> Result<(), ShiftError> {
+    let points: u128 = tracks.iter().map(|(f, m)| (f.len() + m.len()) as u128).sum();
+    let needed = passes * (2 * grid.k as u128 + 1) * points;
+    limits::SHIFT_PAIR_FITS.check(needed).map_err(ShiftError::Work)
+}
+
 /// See the module docs: the shift of `grid` (refined between grid points) and the transform
 /// that fit all `(fixed, moving)` track pairs best together, trimming `trim` of the point pairs;
 /// `noise` weighs the residuals of interpolated pairs ([`interpolation_weight`]).
-/// `None` when no shift gives a fit (fewer than 2 point pairs).
+/// `None` when no shift gives a fit (fewer than 2 point pairs). The work (shifts × points, per
+/// grid pass) is checked against the limit `shift_pair_fits` before each pass
+/// ([`check_joint_work`]); the shifts of a pass are fitted in parallel.
 pub fn joint(tracks: &[(Traj<'_>, Traj<'_>)], grid: &ShiftGrid, max_gap: f64, trim: f64, noise: Noise) -> Result<Option<ShiftFit>, ShiftError> {
     let max_gap = positive_or_inf("max_gap", max_gap)?;
     let centre0 = grid.centre;
@@ -281,7 +289,11 @@ pub fn joint(tracks: &[(Traj<'_>, Traj<'_>)], grid: &ShiftGrid, max_gap: f64, tr
     let mut grid = *grid;
     let mut walks = 0;
     let (fits, i) = loop {
-        let fits: Vec<Option<ShiftFit>> = grid.shifts().map(|dt| joint_at(tracks, dt, max_gap, trim, noise)).collect::<Result<_, _>>()?;
+        check_joint_work(tracks, &grid, walks as u128 + 1)?;
+        // the shifts are independent: fitted in parallel, the first error in grid order wins
+        let shifts: Vec<f64> = grid.shifts().collect();
+        let fits: Vec<Result<Option<ShiftFit>, ShiftError>> = shifts.par_iter().map(|&dt| joint_at(tracks, dt, max_gap, trim, noise)).collect();
+        let fits: Vec<Option<ShiftFit>> = fits.into_iter().collect::<Result<_, _>>()?;
         let Some(i) = fits.iter().enumerate().filter_map(|(i, f)| f.as_ref().map(|f| (i, f))).min_by(|a, b| a.1.rms.total_cmp(&b.1.rms)).map(|x| x.0)
         else {
             return Ok(None);
@@ -316,6 +328,7 @@ pub fn joint(tracks: &[(Traj<'_>, Traj<'_>)], grid: &ShiftGrid, max_gap: f64, tr
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::algo::traj::OwnedTraj;
 
     /// A road user on a curve, sampled at `rate` with phase `phase`, in world coordinates.
     fn curve(t0: f64, t1: f64, rate: f64, phase: f64, f: impl Fn(f64) -> (f64, f64)) -> OwnedTraj {
@@ -478,6 +491,37 @@ mod tests {
         let w = joint(&views, &g, 0.5, 0.1, Noise::new(sf, sm).unwrap()).unwrap().unwrap();
         assert!(w.dt.abs() <= 0.01, "{w:?}");
         assert!(Noise::new(-1.0, 0.0).is_err());
+    }
+
+    /// Issue 19: 20k points × 20,001 shifts took 78 s and could not be interrupted; it is
+    /// refused before any work, naming the limit and what to reduce.
+    #[test]
+    fn joint_work_is_limited_before_the_work() {
+        let a = curve(0.0, 1000.0, 10.0, 0.0, turning);
+        let b = observe(&curve(0.0, 1000.0, 10.0, 0.03, turning), &Transform2::new(0.3, 1.0, 2.0, 1.0), 0.2);
+        let points = (a.t.len() + b.t.len()) as u128;
+        assert_eq!(points, 20_000);
+        let g = ShiftGrid::new(0.0, 1.0, 1e-4).unwrap();
+        assert_eq!(g.shifts().count(), 20_001);
+        let e = joint(&[(a.view(), b.view())], &g, 0.5, 0.1, Noise::default()).unwrap_err();
+        assert_eq!(e, ShiftError::Work(limits::SHIFT_PAIR_FITS.check(20_001 * points).unwrap_err()));
+        let msg = e.to_string();
+        assert!(msg.contains("trajdb_limit('shift_pair_fits', 400020000)") && msg.contains("search fewer shifts"), "{msg}");
+        // a usual grid on the same tracks is within the limit
+        assert!(check_joint_work(&[(a.view(), b.view())], &ShiftGrid::new(0.2, 0.2, 0.005).unwrap(), 1 + MAX_WALKS as u128).is_ok());
+    }
+
+    proptest::proptest! {
+        /// correspond_at reads the shifted times in place: the same pairs, bit for bit, as
+        /// `correspond` on a shifted copy (the code before issue 19).
+        #[test]
+        fn correspond_at_equals_a_shifted_copy(phase in 0.0f64..0.1, dt in -3.0f64..3.0, len in 0.5f64..4.0, gap in proptest::sample::select(vec![0.05, 0.5, f64::INFINITY])) {
+            let w = curve(0.0, len, 10.0, 0.0, turning);
+            let m = curve(0.0, len, 7.0, phase, turning);
+            let copy = OwnedTraj { t: m.t.iter().map(|t| t - dt).collect(), x: m.x.clone(), y: m.y.clone() };
+            let want = super::super::correspond::correspond(w.view(), copy.view(), gap).unwrap();
+            proptest::prop_assert_eq!(correspond_at(w.view(), m.view(), dt, gap).unwrap(), want);
+        }
     }
 
     #[test]

@@ -24,7 +24,7 @@
 //! | `cpd_pair_visits` | point pairs visited by one `cpd_align`: pairs in the time band × max_iter | 2e10 |
 //! | `output_points` | points (or rows) one call returns | 5e7 |
 //! | `memory_bytes` | bytes of the working tables one call allocates beyond its input and output (LCSS traceback, `traj_events` pairs, distance matrices, `trajdb_simulate`) | 4e9 |
-//! | `shift_pair_fits` | point pairs one `rigid_fit_shifted` fits: shifts (times the grid walks it may make) × points of all track pairs | 2e9 |
+//! | `shift_pair_fits` | point pairs one `rigid_fit_shifted` fits: shifts × points of all track pairs, summed over its grid passes (checked before each) | 2e8 |
 //! | `label_pairs` | child pairs `traj_labels` compares (eq. 5: k(k−1)/2 for a split or merge into k tracks, summed) | 1e9 |
 
 use std::cell::RefCell;

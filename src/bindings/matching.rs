@@ -86,7 +86,10 @@ fn assign_pairs(a: &Args<'_>, out: &mut Out<'_>) -> R {
     let vals = a.map(|r| {
         let Some(rows) = edges.get(r)? else { return Ok(None) };
         let e = triples(&rows);
-        let chosen = assign::assign_max(&e).map_err(|x| format!("edges {x}"))?;
+        let chosen = assign::assign_max(&e).map_err(|x| match x {
+            assign::AssignError::Weight { .. } => format!("edges {x}"),
+            _ => x.to_string(),
+        })?;
         Ok(Some(chosen.into_iter().map(|k| e[k]).collect()))
     })?;
     write_triples(out, &vals);

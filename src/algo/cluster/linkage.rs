@@ -66,6 +66,8 @@ pub enum ClusterError {
     TooMany(usize),
     /// The condensed matrix could not be allocated (bytes needed).
     Memory { items: usize, bytes: usize },
+    /// The condensed matrix would take more bytes than the limit `memory_bytes`.
+    Limit(crate::algo::limits::Exceeded),
 }
 
 impl fmt::Display for ClusterError {
@@ -90,6 +92,7 @@ impl fmt::Display for ClusterError {
                 "{items} items need a {:.1} GiB distance matrix, which could not be allocated; cluster fewer at once (e.g. per class or hour)",
                 *bytes as f64 / (1u64 << 30) as f64
             ),
+            ClusterError::Limit(e) => write!(f, "{e}, or cluster fewer items at once (e.g. per class or hour): n items need n(n-1)/2 x 8 bytes"),
         }
     }
 }
@@ -199,7 +202,8 @@ fn finish(pairs: &[(i64, i64, f64)], ids: Vec<i64>, lookup: impl Fn(i64) -> usiz
     // Condensed upper triangle, row-major: (i, j), i < j at i*n - i(i+1)/2 + j - i - 1.
     let len = n * (n - 1) / 2;
     let inf = f64::INFINITY.to_bits();
-    // fallible: too little memory is an error, never an abort of the host process
+    // bounded by the limit, and fallible: too little memory is an error, never an abort of the host
+    crate::algo::limits::MEMORY_BYTES.check(len as u128 * 8).map_err(ClusterError::Limit)?;
     let mut cells: Vec<AtomicU64> = Vec::new();
     cells.try_reserve_exact(len).map_err(|_| ClusterError::Memory { items: n, bytes: len * 8 })?;
     cells.resize_with(len, || AtomicU64::new(inf));
@@ -329,6 +333,17 @@ pub fn flat(d: &Dendrogram, cut: Cut) -> Vec<u32> {
 #[allow(clippy::needless_range_loop)]
 mod tests {
     use super::*;
+
+    /// Issue 19: a condensed matrix above `memory_bytes` (40k items: 6.4 GB) is refused
+    /// before it is allocated.
+    #[test]
+    fn a_matrix_above_the_memory_limit_is_refused_first() {
+        let pairs: Vec<(i64, i64, f64)> = (0..40_000).map(|k| (k, k + 1, 1.0)).collect();
+        let e = dendrogram(&pairs, Linkage::Single).unwrap_err();
+        let len = 40_001u128 * 40_000 / 2;
+        assert_eq!(e, ClusterError::Limit(crate::algo::limits::MEMORY_BYTES.check(len * 8).unwrap_err()));
+        assert!(e.to_string().contains("cluster fewer items at once"), "{e}");
+    }
     use proptest::prelude::*;
 
     /// Naive O(n³) agglomerative clustering with the textbook cluster distances (no

@@ -52,6 +52,8 @@ pub enum TrajClusterError {
     Work(crate::algo::limits::Exceeded),
     /// The condensed distance matrix could not be allocated.
     Memory { items: usize, bytes: usize },
+    /// The condensed distance matrix would take more bytes than the limit `memory_bytes`.
+    MemoryLimit(crate::algo::limits::Exceeded),
 }
 
 impl fmt::Display for TrajClusterError {
@@ -67,6 +69,9 @@ impl fmt::Display for TrajClusterError {
                 "{items} trajectories need a {:.1} GiB distance matrix, which could not be allocated; cluster fewer at once (e.g. per class or hour)",
                 *bytes as f64 / (1u64 << 30) as f64
             ),
+            TrajClusterError::MemoryLimit(e) => {
+                write!(f, "{e}, or cluster fewer trajectories at once (e.g. per class or hour): n need n(n-1)/2 x 8 bytes")
+            }
         }
     }
 }
@@ -89,6 +94,7 @@ pub fn distances(trajs: &[Traj<'_>], p: &IndexParams, sim: Similarity) -> Result
         .collect();
     let eps = p.epsilon();
     let len = n * (n - 1) / 2;
+    crate::algo::limits::MEMORY_BYTES.check(len as u128 * 8).map_err(TrajClusterError::MemoryLimit)?;
     let mut m: Vec<f64> = Vec::new();
     m.try_reserve_exact(len).map_err(|_| TrajClusterError::Memory { items: n, bytes: len * 8 })?;
     m.resize(len, f64::INFINITY);
@@ -211,6 +217,20 @@ pub fn cluster_trajectories(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Issue 19: a matrix above `memory_bytes` (here 40k trajectories, 6.4 GB) is refused
+    /// before it is allocated, naming the limit and what to reduce.
+    #[test]
+    fn a_matrix_above_the_memory_limit_is_refused_first() {
+        let n = 40_000;
+        let (t, x, y) = (vec![0.0], vec![0.0], vec![0.0]);
+        let trajs: Vec<Traj<'_>> = (0..n).map(|_| Traj::new(&t, &x, &y)).collect();
+        let p = IndexParams::new(1, 1.0, None).unwrap();
+        let e = distances(&trajs, &p, Similarity::S1).unwrap_err();
+        let len = (n * (n - 1) / 2) as u128;
+        assert_eq!(e, TrajClusterError::MemoryLimit(crate::algo::limits::MEMORY_BYTES.check(len * 8).unwrap_err()));
+        assert!(e.to_string().contains("cluster fewer trajectories at once"), "{e}");
+    }
 
     fn line(y: f64, n: usize, dx: f64) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
         ((0..n).map(|k| k as f64).collect(), (0..n).map(|k| k as f64 * dx).collect(), vec![y; n])

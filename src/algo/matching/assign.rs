@@ -10,7 +10,9 @@
 //! only overlaps a few others in time), so components are small.
 //!
 //! # Complexity
-//! O(E α(V)) for the components, then O(k³) per component of k nodes instead of O(V³).
+//! O(E α(V)) for the components, then O(k³) per component of k nodes instead of O(V³), and
+//! O(k²) memory (24 bytes a cell), checked against the limit `memory_bytes` before the work and
+//! allocated fallibly.
 
 use crate::algo::graph;
 use std::fmt;
@@ -19,6 +21,10 @@ use std::fmt;
 pub enum AssignError {
     Weight { index: usize, value: f64 },
     Solver,
+    /// A component's dense matrix (24 bytes a cell) would take more than the limit `memory_bytes`.
+    Memory(crate::algo::limits::Exceeded),
+    /// A component's dense matrix could not be allocated (rows, columns).
+    Alloc { rows: usize, cols: usize },
 }
 
 impl fmt::Display for AssignError {
@@ -26,6 +32,16 @@ impl fmt::Display for AssignError {
         match self {
             AssignError::Weight { index, value } => write!(f, "weight [{}] must be finite and >= 0, got {value}", index + 1),
             AssignError::Solver => write!(f, "the assignment solver failed"),
+            AssignError::Memory(e) => write!(
+                f,
+                "{e}: a connected component of the candidate pairs is solved as a dense matrix (24 bytes a cell); pass fewer candidate pairs \
+                 (a stricter threshold), or use hungarian_match, which keeps them sparse"
+            ),
+            AssignError::Alloc { rows, cols } => write!(
+                f,
+                "a connected component of {rows} x {cols} candidates needs a dense matrix that could not be allocated; pass fewer candidate pairs, \
+                 or use hungarian_match, which keeps them sparse"
+            ),
         }
     }
 }
@@ -43,11 +59,20 @@ pub fn assign_max(edges: &[(i64, i64, f64)]) -> Result<Vec<usize>, AssignError> 
     let b: Vec<i64> = edges.iter().map(|e| e.1).collect();
     let ((na, a_of), (nb, b_of)) = (graph::dense_ids(&a), graph::dense_ids(&b));
     let g = graph::bipartite_components(&a_of, na, &b_of, nb);
+    // the largest component's dense matrix, against the limit, before any solving
+    let cells = (0..g.len()).map(|c| g.n_a[c] as u128 * g.n_b[c] as u128).max().unwrap_or(0);
+    let cell_bytes = (std::mem::size_of::<f64>() + std::mem::size_of::<Option<usize>>()) as u128;
+    crate::algo::limits::MEMORY_BYTES.check(cells * cell_bytes).map_err(AssignError::Memory)?;
     let mut chosen = Vec::new();
     for c in 0..g.len() {
         let (nr, nc) = (g.n_a[c] as usize, g.n_b[c] as usize);
-        let mut w = vec![0.0; nr * nc];
-        let mut best: Vec<Option<usize>> = vec![None; nr * nc];
+        let alloc = AssignError::Alloc { rows: nr, cols: nc };
+        let mut w: Vec<f64> = Vec::new();
+        let mut best: Vec<Option<usize>> = Vec::new();
+        w.try_reserve_exact(nr * nc).map_err(|_| alloc.clone())?;
+        best.try_reserve_exact(nr * nc).map_err(|_| alloc)?;
+        w.resize(nr * nc, 0.0);
+        best.resize(nr * nc, None);
         for &k in g.edges_of(c) {
             let k = k as usize;
             let cell = g.loc_a[k] as usize * nc + g.loc_b[k] as usize;
@@ -117,6 +142,18 @@ mod tests {
             a.dedup(); b.dedup();
             prop_assert_eq!((a.len(), b.len()), (la, lb), "one to one");
         }
+    }
+
+    /// Issue 19: one long chain of candidates is one component, solved densely: 15k x 15k
+    /// cells (5.4 GB) are refused before anything is allocated.
+    #[test]
+    fn a_component_above_the_memory_limit_is_refused_first() {
+        let n = 15_000i64;
+        let edges: Vec<(i64, i64, f64)> = (0..n).flat_map(|k| [(k, k, 0.5), (k, k + 1, 0.4)]).collect();
+        let e = assign_max(&edges).unwrap_err();
+        let cells = n as u128 * (n as u128 + 1);
+        assert_eq!(e, AssignError::Memory(crate::algo::limits::MEMORY_BYTES.check(cells * 24).unwrap_err()));
+        assert!(e.to_string().contains("use hungarian_match"), "{e}");
     }
 
     #[test]

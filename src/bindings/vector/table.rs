@@ -15,6 +15,11 @@
 //! A NULL positional argument reaches the function as `None` ([`BindArgs::text`]), which decides
 //! (trajdb_simulate: an error). A named argument given as NULL (`cameras := NULL`) is an error
 //! naming it: leave it out for its default.
+//!
+//! Named parameters are registered as `ANY` and converted here, so that a value of the wrong
+//! type is an error naming the function and the parameter in every DuckDB (1.5 said only
+//! `Failed to cast value: Could not convert string 'x' to INT64`); the reference shows their
+//! declared types.
 
 use crate::algo::limits::{self, Limits};
 use crate::bindings::registry::{Param, Table};
@@ -99,7 +104,7 @@ impl<T: TableFn> VTab for Tab<T> {
     }
 
     fn named_parameters() -> Option<Vec<(String, LogicalTypeHandle)>> {
-        Some(T::TABLE.named.iter().map(|p| (p.name.to_string(), p.ty.logical())).collect())
+        Some(T::TABLE.named.iter().map(|p| (p.name.to_string(), LogicalTypeHandle::from(LogicalTypeId::Any))).collect())
     }
 }
 
@@ -112,6 +117,15 @@ pub fn register<T: TableFn>(con: &Connection, name: &'static str, limits: &Arc<L
 pub struct BindArgs<'a> {
     info: &'a BindInfo,
     table: &'static Table,
+}
+
+/// An SQL type name for messages.
+fn type_name(t: LogicalTypeId) -> String {
+    match t {
+        LogicalTypeId::StringLiteral => "VARCHAR".into(),
+        LogicalTypeId::IntegerLiteral => "INTEGER".into(),
+        other => format!("{other:?}").to_uppercase(),
+    }
 }
 
 /// `v`'s type is `want` (DuckDB casts arguments to the declared types; anything else is a bug
@@ -147,25 +161,52 @@ impl BindArgs<'_> {
         Ok(Some(v.to_string()))
     }
 
-    /// A named argument that is present: `None` when left out; NULL is an error naming it.
-    fn named(&self, name: &str, want: LogicalTypeId) -> Res<Option<Value>> {
+    /// A named argument that is present, with its declared parameter: `None` when left out;
+    /// NULL is an error naming it.
+    fn named(&self, name: &str) -> Res<Option<(&'static Param, Value)>> {
         let p = self.named_param(name)?;
         let Some(v) = self.info.get_named_parameter(name) else { return Ok(None) };
         if v.is_null() {
             return Err(format!("{name} := NULL; leave {name} out for its default, or give a {} value", p.ty.sql()).into());
         }
-        check_type(&v, want, name)?;
-        Ok(Some(v))
+        Ok(Some((p, v)))
     }
 
-    /// A named BIGINT argument (`None`: left out).
+    /// A named BIGINT argument (`None`: left out): an integer, or a number or text that is a
+    /// whole number in BIGINT's range.
     pub fn named_bigint(&self, name: &str) -> Res<Option<i64>> {
-        Ok(self.named(name, LogicalTypeId::Bigint)?.map(|v| v.to_int64()))
+        let Some((p, v)) = self.named(name)? else { return Ok(None) };
+        use LogicalTypeId as L;
+        let ty = v.logical_type_id();
+        if matches!(ty, L::Tinyint | L::Smallint | L::Integer | L::Bigint | L::UTinyint | L::USmallint | L::UInteger) {
+            return Ok(Some(v.to_int64()));
+        }
+        let numeric = matches!(ty, L::UBigint | L::Hugeint | L::UHugeint | L::Decimal | L::Float | L::Double | L::IntegerLiteral);
+        let text = v.to_string();
+        let t = text.trim();
+        let whole = t.parse::<i64>().ok().or_else(|| t.parse::<f64>().ok().filter(|f| f.fract() == 0.0 && f.abs() < 9.2e18).map(|f| f as i64));
+        match whole {
+            Some(n) if numeric || matches!(ty, L::Varchar | L::StringLiteral) => Ok(Some(n)),
+            _ => Err(format!("{name} must be a whole number ({}), got {} {text:?}", p.ty.sql(), type_name(ty)).into()),
+        }
     }
 
-    /// A named DOUBLE argument (`None`: left out).
+    /// A named DOUBLE argument (`None`: left out): a number, or text that reads as one.
     pub fn named_double(&self, name: &str) -> Res<Option<f64>> {
-        Ok(self.named(name, LogicalTypeId::Double)?.map(|v| v.to_double()))
+        let Some((p, v)) = self.named(name)? else { return Ok(None) };
+        use LogicalTypeId as L;
+        let ty = v.logical_type_id();
+        if matches!(
+            ty,
+            L::Tinyint | L::Smallint | L::Integer | L::Bigint | L::UTinyint | L::USmallint | L::UInteger | L::UBigint | L::Hugeint | L::UHugeint | L::Decimal | L::Float | L::Double
+        ) {
+            return Ok(Some(v.to_double()));
+        }
+        let text = v.to_string();
+        match text.trim().parse::<f64>() {
+            Ok(f) if matches!(ty, L::Varchar | L::StringLiteral | L::IntegerLiteral) => Ok(Some(f)),
+            _ => Err(format!("{name} must be a number ({}), got {} {text:?}", p.ty.sql(), type_name(ty)).into()),
+        }
     }
 
     /// DuckDB's file-access settings as the calling connection sees them.

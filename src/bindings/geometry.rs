@@ -179,7 +179,7 @@ fn overlap(a: &Args<'_>, out: &mut Out<'_>) -> R {
     let (pa, pb) = (a.region(0), a.region(1));
     let vals = a.map(|r| {
         let (Some(x), Some(y)) = (pa.get(r)?, pb.get(r)?) else { return Ok(None) };
-        Ok(Some(polygon::to_wkb(&polygon::overlap(x.polygons(), y.polygons()))))
+        Ok(Some(polygon::to_wkb(&polygon::overlap(&x, &y))))
     })?;
     out.blobs(&vals);
     Ok(())
@@ -187,7 +187,7 @@ fn overlap(a: &Args<'_>, out: &mut Out<'_>) -> R {
 
 fn union(a: &Args<'_>, out: &mut Out<'_>) -> R {
     let l = a.region_list(0);
-    out.blobs(&a.map(|r| Ok(l.get(r)?.map(|ps| polygon::to_wkb(&polygon::union_all(ps.iter().map(|p| p.polygons()))))))?);
+    out.blobs(&a.map(|r| Ok(l.get(r)?.map(|ps| polygon::to_wkb(&polygon::union_all(ps.iter())))))?);
     Ok(())
 }
 
@@ -195,7 +195,7 @@ fn buffer(a: &Args<'_>, out: &mut Out<'_>) -> R {
     let (pc, d) = (a.region(0), a.double(1));
     let vals = a.map(|r| {
         let (Some(x), Some(d)) = (pc.get(r)?, d.get(r)) else { return Ok(None) };
-        Ok(Some(polygon::to_wkb(&polygon::buffer(x.polygons(), d)?)))
+        Ok(Some(polygon::to_wkb(&polygon::buffer(&x, d)?)))
     })?;
     out.blobs(&vals);
     Ok(())
@@ -203,7 +203,7 @@ fn buffer(a: &Args<'_>, out: &mut Out<'_>) -> R {
 
 fn area(a: &Args<'_>, out: &mut Out<'_>) -> R {
     let pc = a.region(0);
-    out.flat(&a.map(|r| Ok(pc.get(r)?.map(|x| polygon::area(x.polygons()))))?);
+    out.flat(&a.map(|r| Ok(pc.get(r)?.map(|x| polygon::area(&x))))?);
     Ok(())
 }
 

@@ -43,6 +43,8 @@ pub enum HullError {
     NotFinite { index: usize, field: &'static str },
     /// 0-based index of a point beyond ±MAX_COORD, and the field.
     Magnitude { index: usize, field: &'static str },
+    /// The hull is too large to validate or index.
+    Polygon(super::region::RegionError),
 }
 
 impl fmt::Display for HullError {
@@ -58,6 +60,7 @@ impl fmt::Display for HullError {
             HullError::Magnitude { index, field } => {
                 write!(f, "points[{}].{field} is beyond ±{:e} (polygon areas would overflow)", index + 1, super::region::MAX_COORD)
             }
+            HullError::Polygon(e) => write!(f, "the hull {e}"),
         }
     }
 }
@@ -261,11 +264,14 @@ pub fn view_polygon(x: &[f64], y: &[f64], params: &HullParams) -> Result<MultiPo
     };
     let out = MultiPolygon(vec![normalise(hull)]);
     // Nearly collinear points can give a sliver whose ring touches itself in floating point:
-    // that is no area either, and every polygon function would refuse it.
-    if super::region::Region::from_multipolygon(out.clone()).is_err() {
-        return Ok(empty());
+    // that is no area either, and every polygon function would refuse it. The result is the
+    // gate's normalised polygon (counter-clockwise), like every polygon trajdb returns.
+    use super::region::{Region, RegionError};
+    match Region::from_multipolygon(out) {
+        Ok(r) => Ok(r.into_polygons()),
+        Err(e @ (RegionError::TooComplex { .. } | RegionError::TooLarge { .. })) => Err(HullError::Polygon(e)),
+        Err(_) => Ok(empty()),
     }
-    Ok(out)
 }
 
 /// Closed exterior ring, no holes (both hulls are simple polygons).

@@ -2,10 +2,18 @@
 //!
 //! | file | SQL | what |
 //! |---|---|---|
-//! | [`region`] | every polygon argument, `polygon_contains`, `traj_clip`, `traj_points_inside` | WKT/WKB parsing and validation, prepared point-in-polygon (slab index), clipping |
+//! | [`region`] | every polygon argument, `polygon_contains`, `traj_clip`, `traj_points_inside` | WKT/WKB parsing (nesting capped), prepared point-in-polygon (slab index), clipping |
+//! | [`valid`] | every polygon argument | the one gate: ring orientation normalised (shells counter-clockwise, holes clockwise), invalid polygons refused |
 //! | [`hull`] | `view_polygon` | convex / concave hull with a density rule |
 //! | [`polygon`] | `polygon_overlap`, `polygon_union`, `polygon_buffer`, `polygon_area`, `polygon_to_wkt` | boolean operations (geo / i_overlay), area, WKB/WKT output |
+//!
+//! Every polygon argument of every SQL function becomes a [`region::Region`], whose only
+//! constructor runs [`valid::normalise`]; the operations of [`polygon`] take `Region`s. So every
+//! function sees the same polygon: counter-clockwise shells, clockwise holes, and valid (an
+//! invalid polygon is an error naming the rule it breaks, in every function alike; [`valid`]
+//! explains why it is refused rather than repaired).
 
 pub mod hull;
 pub mod polygon;
 pub mod region;
+pub mod valid;

@@ -1,19 +1,23 @@
 //! Polygon regions (the thesis's overlap `P^{k∩l}`, sections 2.3 and 4.3.2) read from WKT or
 //! WKB, validated once, and prepared for fast repeated point-in-polygon tests.
 //!
-//! * Parsing uses the `wkt` and `wkb` crates.
-//! * Validation: every vertex must be finite and every ring simple. Self-intersection is found
-//!   with `geo`'s sweep-line [`Intersections`] (a simplified Bentley–Ottmann); a ring that
-//!   crosses or touches itself anywhere except between consecutive edges is rejected rather
-//!   than silently reinterpreted (a bow-tie has no agreed inside). Relations *between* rings
-//!   (holes touching the shell) are not checked; containment then follows the even–odd rule.
+//! * Parsing uses the `wkt` and `wkb` crates. Both parse GEOMETRYCOLLECTIONs recursively, one
+//!   stack frame per level: the `wkb` reader stops at 128 levels, and [`Region::from_wkt`]
+//!   counts the parenthesis depth first (a linear scan; WKT has no string literals) and
+//!   refuses more than [`MAX_WKT_DEPTH`] = 128 levels before the parser sees the text (10,000
+//!   levels overflowed the stack and killed the host). A polygon needs 2 levels, a
+//!   MULTIPOLYGON 3.
+//! * Validation and ring orientation: [`super::valid`], the one gate every polygon passes
+//!   ([`Region::from_multipolygon`]). Shells come out counter-clockwise, holes clockwise;
+//!   invalid polygons are refused (the module documents the rules and why they are not repaired).
 //! * Containment ([`Region::contains`]) is boundary-inclusive: a point on an edge counts as
 //!   inside (the region is closed, like `ST_Intersects`, unlike `ST_Contains`).
 //!
 //! # The prepared index, and why it is hand-written
-//! Each polygon's edges are bucketed into horizontal slabs (as many slabs as edges). A query
-//! rejects on the bounding box, picks its slab in O(1) and runs the crossing-number test over
-//! the few edges in it, with `geo`'s robust `orient2d` for the side and on-edge tests.
+//! Each polygon's edges are bucketed into horizontal slabs ([`Slabs`]: about as many slabs as
+//! edges, fewer when the edges are tall, so that the index stays O(V)). A query rejects on the
+//! bounding box, picks its slab in O(1) and runs the crossing-number test over the edges in it,
+//! with `geo`'s robust `orient2d` for the side and on-edge tests.
 //! `geo` 0.33 has `IntervalTreeMultiPolygon`, but its public API answers only `Contains`
 //! (boundary excluded), and `Intersects<Coord>` on a plain `MultiPolygon` is O(V). The bench
 //! `cargo bench --no-default-features --bench polygon` measures all three on a 50-vertex
@@ -21,12 +25,14 @@
 //! and sub-linear, so it is used. A property test checks it against `geo`'s `Intersects`.
 //!
 //! # Complexity
-//! Parsing and preparing is O(V log V) for V vertices (plus the sweep's x-overlap pairs).
-//! [`Region::contains`] is O(1) outside the bounding box and O(edges in one slab) inside it,
-//! which is O(1) for polygons whose edges are spread in y; [`inside_indices`] is O(n) such tests.
+//! Parsing is O(n) for n bytes or V vertices; validation is O(V log V + m) (see [`super::valid`]);
+//! preparing is O(V). [`Region::contains`] is O(1) outside the bounding box and O(edges in one
+//! slab) inside it, which is O(1) for polygons whose edges are spread in y (and O(V) for a comb
+//! whose every edge spans its height: a horizontal ray then crosses them all);
+//! [`inside_indices`] is O(n) such tests.
 
-use geo::sweep::{Cross, Intersections};
-use geo::{BoundingRect, Coord, GeoNum, Geometry, Kernel, Line, LineIntersection, MultiPolygon, Orientation, Rect};
+use super::valid::{self, RingId};
+use geo::{BoundingRect, Coord, GeoNum, Geometry, Kernel, MultiPolygon, Orientation, Rect};
 use crate::algo::traj::{OwnedTraj, Traj};
 use crate::algo::{finite, ParamError};
 use std::fmt;
@@ -48,6 +54,58 @@ pub enum RegionError {
     ShortRing { points: usize },
     /// A vertex beyond ±[`MAX_COORD`]: areas and intersections would overflow.
     Magnitude { x: f64, y: f64 },
+    /// WKT nested deeper than [`MAX_WKT_DEPTH`] parentheses.
+    WktTooDeep { depth: usize },
+    /// A ring with fewer than 3 distinct corners.
+    Degenerate { ring: RingId, corners: usize },
+    /// Two rings cross (near the given point).
+    Crossing { a: RingId, b: RingId, x: f64, y: f64 },
+    /// Two rings share a stretch of boundary (from the given point).
+    SharedBoundary { a: RingId, b: RingId, x: f64, y: f64 },
+    /// A hole is not inside its shell (the point is in the hole, outside the shell).
+    HoleOutside { hole: RingId, x: f64, y: f64 },
+    /// A hole lies inside another hole of the same polygon.
+    HoleInHole { inner: RingId, outer: RingId, x: f64, y: f64 },
+    /// Parts `a` and `b` (0-based) of a MULTIPOLYGON overlap (the point is in both).
+    PartsOverlap { a: usize, b: usize, x: f64, y: f64 },
+    /// Validation would need more than [`valid::MAX_EDGE_TESTS`] edge-pair tests.
+    TooComplex { tests: u64, cap: u64 },
+    /// The index of a polygon this large could not be allocated.
+    TooLarge { edges: usize },
+}
+
+/// Deepest parenthesis nesting accepted in WKT, as the `wkb` reader's 128 GEOMETRYCOLLECTION
+/// levels (a POLYGON needs 2, a MULTIPOLYGON 3).
+pub const MAX_WKT_DEPTH: usize = 128;
+
+/// The deepest parenthesis nesting of `s` (a `)` without its `(` counts as nothing, so this is
+/// never below the depth the parser would reach). O(n), no recursion.
+pub fn wkt_depth(s: &str) -> usize {
+    let (mut depth, mut deepest) = (0usize, 0usize);
+    for b in s.bytes() {
+        match b {
+            b'(' => {
+                depth += 1;
+                deepest = deepest.max(depth);
+            }
+            b')' => depth = depth.saturating_sub(1),
+            _ => {}
+        }
+    }
+    deepest
+}
+
+const REPAIR: &str = "fix the data, or repair it with ST_MakeValid and the method you mean";
+const UNITE: &str = "pass them as separate elements of polygon_union to unite them";
+
+/// How to fix a problem between rings `a` and `b`: parts of a MULTIPOLYGON that meet can be
+/// united by polygon_union.
+fn repair(a: &RingId, b: &RingId) -> String {
+    if a.polygon != b.polygon {
+        format!("if the polygons are meant to overlap, {UNITE}; else {REPAIR}")
+    } else {
+        REPAIR.to_string()
+    }
 }
 
 /// Largest |coordinate| of a polygon vertex: products of two coordinates (areas, orientation
@@ -68,6 +126,44 @@ impl fmt::Display for RegionError {
                 write!(f, "is not a valid polygon: a ring has {points} points, fewer than 4 (3 corners and the closing point)")
             }
             RegionError::Magnitude { x, y } => write!(f, "has a vertex ({x:?} {y:?}) beyond ±{MAX_COORD:e}"),
+            RegionError::WktTooDeep { depth } => write!(
+                f,
+                "is WKT nested {depth} parentheses deep, above the cap of {MAX_WKT_DEPTH} \
+                 (a POLYGON needs 2, a MULTIPOLYGON 3); pass a POLYGON or MULTIPOLYGON"
+            ),
+            RegionError::Degenerate { ring, corners } => {
+                write!(f, "is not a valid polygon: {ring} has {corners} distinct corners, fewer than 3")
+            }
+            RegionError::Crossing { a, b, x, y } => {
+                write!(f, "is not a valid polygon: {a} and {b} cross at ({x} {y}); {}", repair(a, b))
+            }
+            RegionError::SharedBoundary { a, b, x, y } => write!(
+                f,
+                "is not a valid polygon: {a} and {b} share a stretch of boundary from ({x} {y}) \
+                 (rings may touch only at points); {}",
+                repair(a, b)
+            ),
+            RegionError::HoleOutside { hole, x, y } => write!(
+                f,
+                "is not a valid polygon: {hole} is not inside its shell ({x} {y} is in the hole, outside the shell); {REPAIR}"
+            ),
+            RegionError::HoleInHole { inner, outer, x, y } => {
+                write!(f, "is not a valid polygon: {inner} lies inside {outer} (at {x} {y}); {REPAIR}")
+            }
+            RegionError::PartsOverlap { a, b, x, y } => write!(
+                f,
+                "is not a valid polygon: polygons {} and {} of the MULTIPOLYGON overlap (at {x} {y}); \
+                 {UNITE}, or {REPAIR}",
+                a + 1,
+                b + 1
+            ),
+            RegionError::TooComplex { tests, cap } => write!(
+                f,
+                "is too complex to validate: {tests} edge-pair tests, above the cap of {cap}; simplify it (fewer vertices)"
+            ),
+            RegionError::TooLarge { edges } => {
+                write!(f, "has {edges} edges: the index could not be allocated; simplify it (fewer vertices)")
+            }
         }
     }
 }
@@ -94,9 +190,77 @@ struct SlabIndex {
     edges: Vec<Edge>,
 }
 
+/// Items with y-ranges bucketed into horizontal slabs of `[y0, y0 + height]`: `items[start[s]..
+/// start[s + 1]]` are the items whose range meets slab `s`. The slab count adapts so that the
+/// entries stay O(n) however tall the items are (at most `2n + n · nslab · (mean height /
+/// height)`, about 4n): with one slab per item a comb of 40,000 full-height edges needed
+/// 88 GB and aborted the host.
+pub(super) struct Slabs {
+    y0: f64,
+    inv_h: f64,
+    start: Vec<u32>,
+    items: Vec<u32>,
+}
+
+impl Slabs {
+    /// Errors only when the index cannot be allocated.
+    pub(super) fn new(ranges: &[(f64, f64)], y0: f64, height: f64) -> Result<Self, RegionError> {
+        let n = ranges.len();
+        let too_large = || RegionError::TooLarge { edges: n };
+        if n >= (u32::MAX / 8) as usize {
+            return Err(too_large());
+        }
+        let cap = n.clamp(1, 1 << 16);
+        let (nslab, inv_h) = if height > 0.0 {
+            let span: f64 = ranges.iter().map(|&(lo, hi)| (hi - lo) / height).sum();
+            let nslab = if span > 0.0 { ((2.0 * n as f64 / span) as usize).clamp(1, cap) } else { cap };
+            (nslab, nslab as f64 / height)
+        } else {
+            (1, 0.0)
+        };
+        let mut slabs = Slabs { y0, inv_h, start: Vec::new(), items: Vec::new() };
+        slabs.start.try_reserve_exact(nslab + 1).map_err(|_| too_large())?;
+        slabs.start.resize(nslab + 1, 0);
+        for &(lo, hi) in ranges {
+            for s in slabs.slab(lo)..=slabs.slab(hi) {
+                slabs.start[s + 1] += 1;
+            }
+        }
+        for s in 0..nslab {
+            slabs.start[s + 1] += slabs.start[s];
+        }
+        let total = slabs.start[nslab] as usize;
+        slabs.items.try_reserve_exact(total).map_err(|_| too_large())?;
+        slabs.items.resize(total, 0);
+        let mut fill: Vec<u32> = Vec::new();
+        fill.try_reserve_exact(nslab).map_err(|_| too_large())?;
+        fill.extend_from_slice(&slabs.start[..nslab]);
+        for (k, &(lo, hi)) in ranges.iter().enumerate() {
+            for s in slabs.slab(lo)..=slabs.slab(hi) {
+                slabs.items[fill[s] as usize] = k as u32;
+                fill[s] += 1;
+            }
+        }
+        Ok(slabs)
+    }
+
+    /// The slab of `y` (clamped to the first and last).
+    #[inline]
+    fn slab(&self, y: f64) -> usize {
+        (((y - self.y0) * self.inv_h) as usize).min(self.start.len() - 2)
+    }
+
+    /// The items whose range may contain `y`.
+    pub(super) fn get(&self, y: f64) -> &[u32] {
+        let s = self.slab(y);
+        &self.items[self.start[s] as usize..self.start[s + 1] as usize]
+    }
+}
+
 impl SlabIndex {
-    fn new(poly: &geo::Polygon<f64>) -> Option<Self> {
-        let bbox = poly.bounding_rect()?;
+    /// `None` for a polygon without edges.
+    fn new(poly: &geo::Polygon<f64>) -> Result<Option<Self>, RegionError> {
+        let Some(bbox) = poly.bounding_rect() else { return Ok(None) };
         let all: Vec<Edge> = std::iter::once(poly.exterior())
             .chain(poly.interiors())
             .flat_map(|r| r.lines())
@@ -109,28 +273,15 @@ impl SlabIndex {
                 x_hi: l.start.x.max(l.end.x),
             })
             .collect();
-        let nslab = all.len().clamp(1, 1 << 16);
-        let (y0, height) = (bbox.min().y, bbox.height());
-        let inv_h = if height > 0.0 { nslab as f64 / height } else { 0.0 };
-        let slab = |y: f64| (((y - y0) * inv_h) as usize).min(nslab - 1);
-        let mut count = vec![0u32; nslab + 1];
-        for e in &all {
-            for s in slab(e.y_lo)..=slab(e.y_hi) {
-                count[s + 1] += 1;
-            }
+        if all.is_empty() {
+            return Ok(None);
         }
-        for s in 0..nslab {
-            count[s + 1] += count[s];
-        }
-        let mut fill = count.clone();
-        let mut edges = vec![all.first().copied()?; count[nslab] as usize];
-        for e in &all {
-            for s in slab(e.y_lo)..=slab(e.y_hi) {
-                edges[fill[s] as usize] = *e;
-                fill[s] += 1;
-            }
-        }
-        Some(SlabIndex { bbox, y0, inv_h, start: count, edges })
+        let ranges: Vec<(f64, f64)> = all.iter().map(|e| (e.y_lo, e.y_hi)).collect();
+        let slabs = Slabs::new(&ranges, bbox.min().y, bbox.height())?;
+        let mut edges = Vec::new();
+        edges.try_reserve_exact(slabs.items.len()).map_err(|_| RegionError::TooLarge { edges: all.len() })?;
+        edges.extend(slabs.items.iter().map(|&k| all[k as usize]));
+        Ok(Some(SlabIndex { bbox, y0: slabs.y0, inv_h: slabs.inv_h, start: slabs.start, edges }))
     }
 
     /// Boundary-inclusive containment; `x`, `y` finite.
@@ -187,56 +338,6 @@ fn kind(g: &Geometry<f64>) -> &'static str {
     }
 }
 
-/// A ring edge tagged with its position, so that the sweep can tell neighbours apart.
-#[derive(Clone, Copy, Debug)]
-struct RingEdge {
-    line: Line<f64>,
-    k: usize,
-}
-impl Cross for RingEdge {
-    type Scalar = f64;
-    fn line(&self) -> Line<f64> {
-        self.line
-    }
-}
-
-/// First point where `ring` (closed, repeated points removed) crosses or touches itself.
-/// O((V + m) log V) with m the x-overlapping edge pairs (geo's sweep).
-fn ring_self_intersection(ring: &geo::LineString<f64>) -> Option<Coord<f64>> {
-    let edges: Vec<RingEdge> = ring
-        .lines()
-        .filter(|l| l.start != l.end)
-        .enumerate()
-        .map(|(k, line)| RingEdge { line, k })
-        .collect();
-    let n = edges.len();
-    if n < 3 {
-        // A ring of fewer than three edges has no area; it cannot "contain" anything and the
-        // crossing test treats it as empty, so it is harmless.
-        return None;
-    }
-    let lines: Vec<Line<f64>> = edges.iter().map(|e| e.line).collect();
-    for (a, b, hit) in Intersections::from_iter(edges) {
-        let (i, j) = (a.k.min(b.k), a.k.max(b.k));
-        // The vertex consecutive edges share: end of the earlier = start of the later.
-        let shared = if j == i + 1 {
-            Some(lines[i].end)
-        } else if i == 0 && j == n - 1 {
-            Some(lines[0].start)
-        } else {
-            None
-        };
-        match hit {
-            // Consecutive edges may meet only at their shared vertex.
-            LineIntersection::SinglePoint { intersection, .. } if Some(intersection) == shared => {}
-            LineIntersection::SinglePoint { intersection, .. } => return Some(intersection),
-            // Overlapping collinear edges: a spike or a doubled-back ring.
-            LineIntersection::Collinear { intersection } => return Some(intersection.start),
-        }
-    }
-    None
-}
-
 impl Region {
     pub fn from_geometry(g: Geometry<f64>) -> Result<Self, RegionError> {
         let poly = match g {
@@ -248,30 +349,27 @@ impl Region {
         Self::from_multipolygon(poly)
     }
 
-    /// Validates (finite vertices, simple rings) and prepares `poly`.
-    /// Polygons with an empty shell (`POLYGON EMPTY` parts) are dropped.
-    pub fn from_multipolygon(mut poly: MultiPolygon<f64>) -> Result<Self, RegionError> {
-        poly.0.retain(|p| !p.exterior().0.is_empty());
-        let rings = || poly.0.iter().flat_map(|p| std::iter::once(p.exterior()).chain(p.interiors()));
-        if !rings().flat_map(|r| r.0.iter()).all(|c| c.x.is_finite() && c.y.is_finite()) {
-            return Err(RegionError::NotFinite);
+    /// The one gate: validates `poly` and normalises its rings ([`valid::normalise`]), then
+    /// prepares the index. Polygons with an empty shell (`POLYGON EMPTY` parts) are dropped.
+    pub fn from_multipolygon(poly: MultiPolygon<f64>) -> Result<Self, RegionError> {
+        let poly = valid::normalise(poly)?;
+        let mut index = Vec::new();
+        for p in &poly.0 {
+            if let Some(ix) = SlabIndex::new(p)? {
+                index.push(ix);
+            }
         }
-        if let Some(c) = rings().flat_map(|r| r.0.iter()).find(|c| c.x.abs() > MAX_COORD || c.y.abs() > MAX_COORD) {
-            return Err(RegionError::Magnitude { x: c.x, y: c.y });
-        }
-        if let Some(r) = rings().find(|r| r.0.len() < 4) {
-            return Err(RegionError::ShortRing { points: r.0.len() });
-        }
-        if let Some(c) = rings().find_map(ring_self_intersection) {
-            return Err(RegionError::SelfIntersection { x: c.x, y: c.y });
-        }
-        let index = poly.0.iter().filter_map(SlabIndex::new).collect();
         Ok(Region { poly, index })
     }
 
     /// Parses `POLYGON (...)` or `MULTIPOLYGON (...)` (EMPTY allowed: it contains nothing).
+    /// Text nested deeper than [`MAX_WKT_DEPTH`] parentheses is refused before parsing.
     pub fn from_wkt(s: &str) -> Result<Self, RegionError> {
         use wkt::TryFromWkt;
+        let depth = wkt_depth(s);
+        if depth > MAX_WKT_DEPTH {
+            return Err(RegionError::WktTooDeep { depth });
+        }
         let g: Geometry<f64> = Geometry::try_from_wkt_str(s.trim()).map_err(|e| RegionError::Wkt(e.to_string()))?;
         Self::from_geometry(g)
     }
@@ -286,8 +384,14 @@ impl Region {
         Self::from_geometry(g)
     }
 
+    /// The polygons: valid, shells counter-clockwise, holes clockwise.
     pub fn polygons(&self) -> &MultiPolygon<f64> {
         &self.poly
+    }
+
+    /// [`Region::polygons`], by value.
+    pub fn into_polygons(self) -> MultiPolygon<f64> {
+        self.poly
     }
 
     /// [`Region::contains`] for a point that must be finite (`polygon_contains`).
@@ -386,6 +490,34 @@ mod tests {
         // degenerate (zero-area) polygon contains only its boundary
         let flat = Region::from_wkt("POLYGON ((0 0, 10 0, 5 0, 0 0))");
         assert!(flat.is_err() || !flat.unwrap().contains(20.0, 0.0));
+    }
+
+    /// The issue's host crash: WKT nested 10,000 levels deep overflowed the stack in the `wkt`
+    /// parser. Now refused before parsing, in a thread with a small stack (256 KiB; DuckDB's
+    /// threads have more), while the deepest accepted nesting still parses there.
+    #[test]
+    fn deep_wkt_and_wkb_are_refused_without_recursing() {
+        let run = |f: Box<dyn FnOnce() -> Result<Region, RegionError> + Send>| std::thread::Builder::new().stack_size(256 << 10).spawn(f).unwrap().join().unwrap();
+        let deep = |n: usize| format!("{}POINT(0 0){}", "GEOMETRYCOLLECTION(".repeat(n), ")".repeat(n));
+        let e = run(Box::new(move || Region::from_wkt(&deep(10_000)))).unwrap_err();
+        assert_eq!(e, RegionError::WktTooDeep { depth: 10_001 });
+        assert_eq!(e.to_string(), "is WKT nested 10001 parentheses deep, above the cap of 128 (a POLYGON needs 2, a MULTIPOLYGON 3); pass a POLYGON or MULTIPOLYGON");
+        // unbalanced text counts its deepest open nesting; a stray ')' never lowers it below 0
+        assert_eq!(wkt_depth(&"(".repeat(500)), 500);
+        assert_eq!(wkt_depth(&format!("))))){}", "(".repeat(200))), 200);
+        assert_eq!(wkt_depth("MULTIPOLYGON (((0 0, 1 0, 1 1, 0 0)), ((5 5, 6 5, 6 6, 5 5)))"), 3);
+        // 128 levels (127 collections around a point) reach the parser and its answer
+        assert_eq!(run(Box::new(move || Region::from_wkt(&deep(127)))).unwrap_err(), RegionError::NotPolygon("GEOMETRYCOLLECTION"));
+        assert_eq!(run(Box::new(move || Region::from_wkt(&deep(128)))).unwrap_err(), RegionError::WktTooDeep { depth: 129 });
+        // WKB: the wkb reader stops at 128 collection levels itself
+        let wkb = |n: usize| {
+            let mut b: Vec<u8> = [1u8, 7, 0, 0, 0, 1, 0, 0, 0].repeat(n);
+            b.extend_from_slice(&[1, 1, 0, 0, 0]);
+            b.extend_from_slice(&[0u8; 16]);
+            b
+        };
+        assert!(matches!(run(Box::new(move || Region::from_wkb(&wkb(10_000)))), Err(RegionError::Wkb(_))));
+        assert_eq!(run(Box::new(move || Region::from_wkb(&wkb(100)))).unwrap_err(), RegionError::NotPolygon("GEOMETRYCOLLECTION"));
     }
 
     fn lcg(seed: &mut u64) -> f64 {

@@ -2,9 +2,15 @@
 //! polygon.rs for the boolean operations and output, region.rs for parsing, point-in-polygon
 //! and clipping).
 //!
-//! Polygon arguments are WKT `VARCHAR` or WKB `BLOB`; polygon results are little-endian WKB
-//! `BLOB`s that DuckDB spatial's `ST_GeomFromWKB` reads. A polygon repeated over rows is
-//! parsed, validated and indexed once per chunk (see the vector module's `RegionCol`).
+//! Polygon arguments are WKT `VARCHAR`, WKB `BLOB` or `GEOMETRY`; polygon results are
+//! little-endian WKB `BLOB`s that DuckDB spatial's `ST_GeomFromWKB` reads. A polygon repeated
+//! over rows is parsed, validated and indexed once per chunk (see the vector module's `RegionCol`).
+//!
+//! Every polygon argument becomes a `Region` (src/algo/geometry/region.rs), whose constructor is
+//! the one gate of src/algo/geometry/valid.rs: rings are rewound (shells counter-clockwise,
+//! holes clockwise) and invalid polygons are refused, with the same error in every function
+//! below; valid.rs says why they are refused rather than repaired. WKT nested deeper than 128
+//! parentheses is refused before it is parsed. Each description ends with [`polygon_rules!`].
 
 use super::registry::{p, Function, Signature, Ty, GEOMETRY, GEOMETRY_LIST, TRAJ};
 use super::vector::{Args, Out};
@@ -12,6 +18,17 @@ use crate::algo::geometry::{hull, polygon, region};
 use std::error::Error;
 
 type R = Result<(), Box<dyn Error>>;
+
+/// The rules every polygon argument follows, appended to each description.
+macro_rules! polygon_rules {
+    () => {
+        " Polygon arguments may wind their rings either way (they are normalised: shells counter-clockwise, holes clockwise). \
+         An invalid polygon is an error, the same in every polygon function, never repaired (a repair is a guess): rings that cross \
+         themselves or each other or share a stretch of boundary, a hole outside its shell or inside another hole, or overlapping \
+         parts of one MULTIPOLYGON (to unite those, pass them as separate elements of polygon_union). WKT nested more than 128 \
+         parentheses deep is refused."
+    };
+}
 const POLYGON: &str = "src/algo/geometry/polygon.rs";
 const REGION: &str = "src/algo/geometry/region.rs";
 const XY: Ty = Ty::List(&Ty::Struct(&[("x", Ty::Double), ("y", Ty::Double)]));
@@ -41,7 +58,7 @@ pub static FUNCTIONS: &[Function] = &[
                       Robust option: with radius and min_neighbours, a point counts only if at least min_neighbours other points \
                       lie within radius metres (the DBSCAN core-point rule), so a few spurious detections cannot inflate the view; \
                       filter estimated points with WHERE. Fewer than 3 distinct points, or collinear points, give POLYGON EMPTY (documented rule, never an error). \
-                      NaN or infinite coordinates are an error.",
+                      NaN or infinite coordinates are an error. The result is a valid polygon with its shell counter-clockwise.",
         example: "SELECT polygon_to_wkt(view_polygon([{'x': 0, 'y': 0}, {'x': 4, 'y': 0}, {'x': 1, 'y': 1}, {'x': 0, 'y': 4}], 'convex')); -- POLYGON ((4 0, 0 4, 0 0, 4 0))",
         maths: "src/algo/geometry/hull.rs",
         binding: file!(),
@@ -50,9 +67,12 @@ pub static FUNCTIONS: &[Function] = &[
     },
     Function {
         name: "polygon_overlap",
-        description: "The intersection P^k ∩ P^l (thesis 2.3): POLYGON, MULTIPOLYGON when the overlap falls apart, or POLYGON EMPTY. \
-                      For the multi-camera overlap (P^k1 ∪ … ∪ P^ki-1) ∩ P^ki use polygon_overlap(polygon_union(list), p). \
-                      Boolean operations come from the geo crate (i_overlay).",
+        description: concat!(
+            "The intersection P^k ∩ P^l (thesis 2.3): POLYGON, MULTIPOLYGON when the overlap falls apart, or POLYGON EMPTY. \
+             For the multi-camera overlap (P^k1 ∪ … ∪ P^ki-1) ∩ P^ki use polygon_overlap(polygon_union(list), p). \
+             Boolean operations come from the geo crate (i_overlay).",
+            polygon_rules!()
+        ),
         example: "SELECT polygon_to_wkt(polygon_overlap('POLYGON ((0 0, 4 0, 4 4, 0 4, 0 0))', 'POLYGON ((2 2, 6 2, 6 6, 2 6, 2 2))')); -- POLYGON ((2 4, 2 2, 4 2, 4 4, 2 4))",
         maths: POLYGON,
         binding: file!(),
@@ -61,7 +81,11 @@ pub static FUNCTIONS: &[Function] = &[
     },
     Function {
         name: "polygon_union",
-        description: "The union of a list of polygons (use list(p) to aggregate). An empty list gives POLYGON EMPTY; a NULL element is an error.",
+        description: concat!(
+            "The union of a list of polygons (use list(p) to aggregate); holes stay holes where no other polygon covers them. \
+             An empty list gives POLYGON EMPTY; a NULL element is an error.",
+            polygon_rules!()
+        ),
         example: "SELECT polygon_area(polygon_union(['POLYGON ((0 0, 4 0, 4 4, 0 4, 0 0))', 'POLYGON ((2 2, 6 2, 6 6, 2 6, 2 2))'])); -- 28.0",
         maths: POLYGON,
         binding: file!(),
@@ -75,9 +99,12 @@ pub static FUNCTIONS: &[Function] = &[
     },
     Function {
         name: "polygon_buffer",
-        description: "Moves the boundary outward by distance (> 0) or inward (< 0), with round joins, like ST_Buffer on a polygon. \
+        description: concat!(
+            "Moves the boundary outward by distance (> 0) or inward (< 0), with round joins, like ST_Buffer on a polygon. \
                       sql/overlap.sql shrinks each view polygon by the camera's measured position noise, because the hull of noisy \
                       points overshoots the true view edge. Shrinking past the middle gives POLYGON EMPTY. distance must be finite.",
+            polygon_rules!()
+        ),
         example: "SELECT polygon_area(polygon_buffer('POLYGON ((0 0, 10 0, 10 10, 0 10, 0 0))', -1)); -- 64.0",
         maths: POLYGON,
         binding: file!(),
@@ -86,7 +113,7 @@ pub static FUNCTIONS: &[Function] = &[
     },
     Function {
         name: "polygon_area",
-        description: "Area (holes subtracted; 0 for POLYGON EMPTY), in the square units of the coordinates.",
+        description: concat!("Area (holes subtracted; 0 for POLYGON EMPTY), in the square units of the coordinates.", polygon_rules!()),
         example: "SELECT polygon_area('POLYGON ((0 0, 4 0, 4 4, 0 4, 0 0), (1 1, 2 1, 2 2, 1 2, 1 1))'); -- 15.0",
         maths: POLYGON,
         binding: file!(),
@@ -95,9 +122,12 @@ pub static FUNCTIONS: &[Function] = &[
     },
     Function {
         name: "polygon_contains",
-        description: "True when (x, y) lies in the closed polygon: points on the boundary count as inside \
+        description: concat!(
+            "True when (x, y) lies in the closed polygon: points on the boundary count as inside \
                       (like ST_Intersects, unlike ST_Contains). Uses a prepared slab index (about 24 million tests per second per core \
                       for a 50-vertex polygon). NaN or infinite x/y is an error.",
+            polygon_rules!()
+        ),
         example: "SELECT polygon_contains('POLYGON ((0 0, 4 0, 4 4, 0 4, 0 0))', 4, 2); -- true",
         maths: REGION,
         binding: file!(),
@@ -111,7 +141,11 @@ pub static FUNCTIONS: &[Function] = &[
     },
     Function {
         name: "polygon_to_wkt",
-        description: "WKT text of a polygon, in DuckDB spatial's ST_AsText style. Use it to read view_polygon / polygon_overlap / polygon_union results.",
+        description: concat!(
+            "WKT text of a polygon, in DuckDB spatial's ST_AsText style. Use it to read view_polygon / polygon_overlap / polygon_union results. \
+             The text is of the normalised polygon: rings rewound, repeated points dropped.",
+            polygon_rules!()
+        ),
         example: "SELECT polygon_to_wkt('POLYGON((0 0,1 0,1 1,0 0))'); -- POLYGON ((0 0, 1 0, 1 1, 0 0))",
         maths: POLYGON,
         binding: file!(),
@@ -120,9 +154,12 @@ pub static FUNCTIONS: &[Function] = &[
     },
     Function {
         name: "polygon_to_geometry",
-        description: "The polygon as DuckDB's core GEOMETRY (DuckDB 1.5+), for GEOMETRY functions and GeoParquet writers: \
+        description: concat!(
+            "The polygon as DuckDB's core GEOMETRY (DuckDB 1.5+), for GEOMETRY functions and GeoParquet writers: \
                       view_polygon, polygon_overlap, polygon_union and polygon_buffer return WKB (BLOB), which hosts without the type also read. \
-                      The polygon is validated as everywhere (WKT, WKB or GEOMETRY in).",
+                      The polygon is validated and normalised as everywhere (WKT, WKB or GEOMETRY in).",
+            polygon_rules!()
+        ),
         example: "SELECT polygon_to_geometry(view_polygon([{'x': 0, 'y': 0}, {'x': 4, 'y': 0}, {'x': 0, 'y': 4}], 'convex'))::VARCHAR; -- POLYGON ((0 0, 4 0, 0 4, 0 0))",
         maths: POLYGON,
         binding: file!(),
@@ -131,7 +168,10 @@ pub static FUNCTIONS: &[Function] = &[
     },
     Function {
         name: "traj_clip",
-        description: "The points of the trajectory that lie in the closed polygon, in their original order (an empty list when none does).",
+        description: concat!(
+            "The points of the trajectory that lie in the closed polygon, in their original order (an empty list when none does).",
+            polygon_rules!()
+        ),
         example: "SELECT traj_clip([{'t': 0, 'x': 1, 'y': 1}, {'t': 1, 'x': 9, 'y': 1}, {'t': 2, 'x': 2, 'y': 2}], 'POLYGON ((0 0, 4 0, 4 4, 0 4, 0 0))'); -- [{'t': 0.0, 'x': 1.0, 'y': 1.0}, {'t': 2.0, 'x': 2.0, 'y': 2.0}]",
         maths: REGION,
         binding: file!(),
@@ -140,7 +180,10 @@ pub static FUNCTIONS: &[Function] = &[
     },
     Function {
         name: "traj_points_inside",
-        description: "How many points of the trajectory lie in the closed polygon (len(traj_clip(traj, p)) without building the list).",
+        description: concat!(
+            "How many points of the trajectory lie in the closed polygon (len(traj_clip(traj, p)) without building the list).",
+            polygon_rules!()
+        ),
         example: "SELECT traj_points_inside([{'t': 0, 'x': 1, 'y': 1}, {'t': 1, 'x': 9, 'y': 1}, {'t': 2, 'x': 2, 'y': 2}], 'POLYGON ((0 0, 4 0, 4 4, 0 4, 0 0))'); -- 2",
         maths: REGION,
         binding: file!(),

@@ -63,8 +63,11 @@ impl TableFn for SimulateTable {
         if dir.trim().is_empty() {
             return Err("dir is '' (empty); name a new (or empty) folder for the scenario, e.g. trajdb_simulate('sim')".into());
         }
-        // the connection's sandbox, before any work (a statement prepared before
-        // SET enable_external_access = false was prepared by whoever could still write)
+        // the connection's sandbox, before any work. Checked at bind, as DuckDB's own readers
+        // check their files: DuckDB 2.0 binds a prepared statement again at EXECUTE, 1.5 does
+        // not, so there a statement PREPAREd before SET enable_external_access = false still
+        // writes; it was prepared by whoever could write then (the setting cannot be turned
+        // back on, so nothing prepared after it escapes).
         args.file_access().may_write_into(&dir)?;
         let mut p = SimParams::default();
         if let Some(v) = args.named_bigint("cameras")? {

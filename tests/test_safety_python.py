@@ -108,7 +108,7 @@ def main():
     ok, msg = raises(lambda: trajdb.pipeline(con, os.path.join(w, "typo.parquet"), out=res), "typo")
     after = tree(res)
     check("a failed run keeps the earlier results and the user's file", ok and all(after.get(k) == v for k, v in first.items()) and "my_notes.txt" in after, msg)
-    check("... and leaves no staging folder or lock", not any(".trajdb-partial" in k or ".trajdb-lock" in k for k in after) and
+    check("... and leaves no staging folder", not any(".trajdb-partial" in k for k in after) and
           not any(n.startswith(".trajdb-partial") for n in os.listdir(res)), sorted(os.listdir(res)))
     trajdb.pipeline(con, scene, out=res)
     check("a rerun replaces its own files and keeps the user's", "my_notes.txt" in os.listdir(res) and "merged.parquet" in os.listdir(res))
@@ -129,7 +129,7 @@ def main():
     [t.join() for t in ts]
     race = os.listdir(os.path.join(w, "race"))
     check("two runs on one out: at most one fails, with a clear error", len(errs) <= 1 and all("another trajdb run" in e for e in errs), errs)
-    check("... and the folder holds one complete result set", "merged.parquet" in race and not any(n.startswith(".trajdb-partial") or n == ".trajdb-lock" for n in race), race)
+    check("... and the folder holds one complete result set", "merged.parquet" in race and not any(n.startswith(".trajdb-partial") for n in race), race)
     # a hostile manifest: names outside the folder are never deleted
     hostile = os.path.join(w, "hostile")
     os.makedirs(hostile)
@@ -137,8 +137,12 @@ def main():
         f.write("../victim.txt\n")
     with open(os.path.join(w, "victim.txt"), "w") as f:
         f.write("mine")
+    ok, msg = raises(lambda: trajdb.pipeline(con, scene, out=hostile), "not written by trajdb")
+    check("a manifest trajdb did not write (naming ../victim.txt) deletes nothing", ok and os.path.exists(os.path.join(w, "victim.txt")), msg)
+    with open(os.path.join(hostile, ".trajdb-results"), "w") as f:
+        f.write("# trajdb results: the files below were written by trajdb and may be replaced by its next run into this folder\n../victim.txt\n")
     ok, msg = raises(lambda: trajdb.pipeline(con, scene, out=hostile), "plain file name")
-    check("a manifest naming ../victim.txt deletes nothing", ok and os.path.exists(os.path.join(w, "victim.txt")), msg)
+    check("a manifest in trajdb's form naming ../victim.txt deletes nothing", ok and os.path.exists(os.path.join(w, "victim.txt")), msg)
 
     # ---- 2. injection
     marker = os.path.join(w, "pwned")
@@ -195,7 +199,9 @@ def main():
     check("the input twice: the same road users", road_users(con) == base)
     check("... with a warning that counts the repeats", any("repeat the (camera, track_id, t)" in str(x.message) for x in caught), [str(x.message) for x in caught])
     con.execute("CREATE TABLE one_cam_twice AS FROM scene UNION ALL (FROM scene WHERE camera = (SELECT min(camera) FROM scene))")
-    trajdb.pipeline(con, "one_cam_twice")
+    with warnings.catch_warnings(record=True):
+        warnings.simplefilter("always")
+        trajdb.pipeline(con, "one_cam_twice")
     check("one camera twice: the same road users", road_users(con) == base)
     con.execute("CREATE TABLE tz AS SELECT * REPLACE (to_timestamp(t + 1790000000) AS t) FROM scene")
     got = []
@@ -230,8 +236,8 @@ def main():
     ok, msg = raises(lambda: trajdb.pipeline(sb, scene), "")
     check("sandboxed: a file input is refused", "disabled" in msg or "external access" in msg.lower(), msg)
     ok, msg = raises(lambda: trajdb.pipeline(sb, "scene", out=os.path.join(w, "sandboxed")), "")
-    check("sandboxed: out is refused and nothing is created", ("disabled" in msg or "external access" in msg.lower()) and not os.path.exists(os.path.join(w, "sandboxed")), msg)
-    ok, msg = raises(lambda: sb.execute("SELECT trajdb_results_begin(?, 'scene')", [os.path.join(w, "sandboxed2")]).fetchall(), "")
+    check("sandboxed: out is refused and nothing is created", ("disabled" in msg or "enable_external_access is false" in msg) and not os.path.exists(os.path.join(w, "sandboxed")), msg)
+    ok, msg = raises(lambda: sb.execute("FROM trajdb_results_begin(?, 'scene')", [os.path.join(w, "sandboxed2")]).fetchall(), "")
     check("sandboxed: trajdb_results_begin creates nothing", not os.path.exists(os.path.join(w, "sandboxed2")), msg)
 
     # ---- the DuckDB CLI route: `.read sql/pipeline.sql` with a hostile pipeline_input

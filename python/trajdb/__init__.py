@@ -191,7 +191,8 @@ def pipeline(con, input, out=None, **params):
     try:
         if out is not None:
             # the results folder is checked and claimed before any work (src/app/outdir.rs)
-            staging = con.execute("SELECT trajdb_results_begin(?, ?)", [os.fspath(out), name]).fetchone()[0]
+            out = os.fspath(out)
+            staging = con.execute("FROM trajdb_results_begin(?, ?)", [out, name]).fetchone()[0]
         con.execute("SET VARIABLE pipeline_input = ?", [name])
         timings = _run_timed(con, "sql/pipeline.sql")
         read(con, "sql/warnings.sql")
@@ -205,12 +206,12 @@ def pipeline(con, input, out=None, **params):
             con.execute("CREATE OR REPLACE TEMP TABLE pipeline_timings (stage VARCHAR, seconds DOUBLE)")
             con.executemany("INSERT INTO pipeline_timings VALUES (?, ?)", timings)
             read(con, "sql/report.sql")
-            s, staging = staging, None
-            con.execute("SELECT trajdb_results_end(?, true)", [s]).fetchall()
+            staging = None
+            con.execute("FROM trajdb_results_end(?, true)", [out]).fetchall()
     except BaseException:
         if staging is not None:  # the earlier results stay; this run's staging folder goes
             try:
-                con.execute("SELECT trajdb_results_end(?, false)", [staging]).fetchall()
+                con.execute("FROM trajdb_results_end(?, false)", [out]).fetchall()
             except duckdb.Error:
                 pass
         raise

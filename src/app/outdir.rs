@@ -18,9 +18,9 @@
 //!   run did not write, then writes the new manifest (atomically). A failed run calls
 //!   [`Claim::abort`]: its staging folder goes, the previous results stay intact. A run killed
 //!   with `kill -9` leaves its staging folder; the next run on `out` removes it (it is ours).
-//! - Two runs on one `out`: the lock file [`LOCK`] is created with `create_new`; the second run
-//!   fails at once with an error naming the lock. A lock whose process is gone (a killed run)
-//!   is taken over.
+//! - Two runs on one `out`: each takes an advisory lock (`flock`) on [`LOCK`]; the second run
+//!   fails at once with an error naming the first. The system releases the lock when a process
+//!   ends, however it ends, so a killed run leaves no stale lock.
 //! - Folders are created with the process's normal permissions (umask), not 0700.
 //!
 //! Pure std: used by the `trajdb` binary and, through the extension, by every other runner.
@@ -87,12 +87,17 @@ fn resolve(p: &Path) -> Result<PathBuf, OutError> {
     }
 }
 
-/// The folder part of an input that is a file path or glob (`data/*.parquet` -> `data`), resolved.
-fn input_path(input: &str) -> Option<PathBuf> {
+/// The folder part of an input that is a file path or glob (`data/*.parquet` -> `data`),
+/// resolved, and whether the pattern reaches into sub-folders (`data/*/x.csv`, `data/**`).
+fn input_path(input: &str) -> Option<(PathBuf, bool)> {
     if input.is_empty() || input.contains("://") {
         return None;
     }
-    let cut = input.find(['*', '?', '[', '{']).map(|k| &input[..k]).unwrap_or(input);
+    let input = expand_home(input);
+    let input = input.as_str();
+    let wild = input.find(['*', '?', '[', '{']);
+    let deep = wild.is_some_and(|k| input[k..].contains('/'));
+    let cut = wild.map(|k| &input[..k]).unwrap_or(input);
     let p = Path::new(cut);
     // a pattern: the folder it lies in ("data/*.parquet" -> "data", "data/pts*" -> "data")
     let p = if cut.len() < input.len() && !cut.ends_with('/') { p.parent().unwrap_or(Path::new(".")) } else { p };
@@ -100,18 +105,39 @@ fn input_path(input: &str) -> Option<PathBuf> {
     if !p.exists() {
         return None; // a table name, or a file that does not exist (the load will say so)
     }
-    resolve(p).ok()
+    resolve(p).ok().map(|p| (p, deep))
+}
+
+/// A leading `~` or `~/` is the home folder, as in a shell and in DuckDB's own paths.
+fn expand_home(p: &str) -> String {
+    match (p.strip_prefix('~'), std::env::var("HOME")) {
+        (Some(rest), Ok(home)) if rest.is_empty() || rest.starts_with('/') => format!("{home}{rest}"),
+        _ => p.to_string(),
+    }
 }
 
 /// The file names listed in `dir`'s manifest; `None` when `dir` has no manifest. A name that is
 /// not a plain file name (a separator, `..`) makes the manifest invalid: nothing is trusted.
 fn read_manifest(dir: &Path) -> Result<Option<Vec<String>>, OutError> {
     let path = dir.join(MANIFEST);
-    let text = match fs::read_to_string(&path) {
-        Ok(t) => t,
+    match fs::symlink_metadata(&path) {
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
         Err(e) => return Err(io("read", &path, e)),
-    };
+        Ok(m) if !m.is_file() => {
+            return err(format!(
+                "results folder {}: its {MANIFEST} is not a plain file (a link or a folder); trajdb will not delete by it (pick another out)",
+                dir.display()
+            ))
+        }
+        Ok(_) => {}
+    }
+    let text = fs::read_to_string(&path).map_err(|e| io("read", &path, e))?;
+    if !text.starts_with(MANIFEST_HEAD.trim_end()) {
+        return err(format!(
+            "results folder {}: its {MANIFEST} was not written by trajdb (its first line is not trajdb's); trajdb will not delete by it (pick another out)",
+            dir.display()
+        ));
+    }
     let mut names = Vec::new();
     for line in text.lines().map(str::trim).filter(|l| !l.is_empty() && !l.starts_with('#')) {
         if !plain_name(line) {
@@ -130,26 +156,16 @@ fn plain_name(s: &str) -> bool {
     !s.is_empty() && s != "." && s != ".." && !s.contains(['/', '\\', '\0']) && s != MANIFEST && s != LOCK && !s.starts_with(PARTIAL_PREFIX)
 }
 
-/// Is the process `pid` alive? (Linux: /proc; elsewhere assume yes, so a lock is never stolen.)
-fn alive(pid: u32) -> bool {
-    if pid == std::process::id() {
-        return true;
-    }
-    if Path::new("/proc/self").exists() {
-        Path::new(&format!("/proc/{pid}")).exists()
-    } else {
-        true
-    }
-}
-
 /// A results folder claimed for one run: the lock is held, the staging folder exists.
 #[derive(Debug)]
 pub struct Claim {
     pub out: PathBuf,
     pub partial: PathBuf,
     previous: Vec<String>,
-    /// `out` did not exist: a failed first run removes it again (when it holds only the manifest)
-    created: bool,
+    /// The folders this claim created (`out` and any missing parents, innermost first): a
+    /// failed first run removes them again while they hold nothing else.
+    created: Vec<PathBuf>,
+    lock: Option<fs::File>,
     done: bool,
 }
 
@@ -162,21 +178,30 @@ pub fn claim(out: &str, inputs: &[&str]) -> Result<Claim, OutError> {
     if out.trim().is_empty() {
         return err("results folder: out is '' (empty); name a new folder, e.g. out='results'".into());
     }
-    let dir = resolve(Path::new(out))?;
+    let dir = resolve(Path::new(&expand_home(out)))?;
     if dir.parent().is_none() {
         return err(format!("results folder: out {out:?} is the root folder; name a new folder, e.g. out='results'"));
     }
     for input in inputs {
-        if let Some(inp) = input_path(input) {
+        if let Some((inp, deep)) = input_path(input) {
             if inp.starts_with(&dir) {
                 return err(format!(
                     "results folder: out {out:?} ({}) is or contains the input {input:?}; results go into a folder of their own, e.g. out='results'",
                     dir.display()
                 ));
             }
+            // a pattern that reaches into sub-folders would read the results as input next time
+            if deep && dir.starts_with(&inp) {
+                return err(format!(
+                    "results folder: out {out:?} ({}) lies under the folders the input pattern {input:?} reads, so the next run would read the \
+                     results as input; put the results outside {}",
+                    dir.display(),
+                    inp.display()
+                ));
+            }
         }
     }
-    let created = !dir.exists();
+    let mut created = Vec::new();
     let previous = if dir.exists() {
         if !dir.is_dir() {
             return err(format!("results folder: out {out:?} ({}) is a file, not a folder; name a new folder", dir.display()));
@@ -199,6 +224,14 @@ pub fn claim(out: &str, inputs: &[&str]) -> Result<Claim, OutError> {
             }
         }
     } else {
+        let mut d = dir.as_path();
+        while !d.exists() {
+            created.push(d.to_path_buf());
+            d = match d.parent() {
+                Some(p) => p,
+                None => break,
+            };
+        }
         fs::create_dir_all(&dir).map_err(|e| io("create", &dir, e))?;
         Vec::new()
     };
@@ -206,60 +239,48 @@ pub fn claim(out: &str, inputs: &[&str]) -> Result<Claim, OutError> {
     if !dir.join(MANIFEST).exists() {
         write_manifest(&dir, &previous)?;
     }
-    take_lock(&dir, out)?;
-    let claim = (|| {
-        remove_stale_partials(&dir)?;
-        let n = SEQ.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-        let partial = dir.join(format!("{PARTIAL_PREFIX}{}-{n}", std::process::id()));
-        fs::create_dir(&partial).map_err(|e| io("create", &partial, e))?;
-        Ok(Claim { out: dir.clone(), partial, previous, created, done: false })
-    })();
-    if claim.is_err() {
-        let _ = fs::remove_file(dir.join(LOCK));
-    }
-    claim
+    let lock = take_lock(&dir, out)?;
+    // holding the lock, every staging folder in `out` is a dead run's (or an aborted one's)
+    remove_stale_partials(&dir)?;
+    let n = SEQ.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let partial = dir.join(format!("{PARTIAL_PREFIX}{}-{n}", std::process::id()));
+    fs::create_dir(&partial).map_err(|e| io("create", &partial, e))?;
+    Ok(Claim { out: dir, partial, previous, created, lock: Some(lock), done: false })
 }
 
-fn take_lock(dir: &Path, out: &str) -> Result<(), OutError> {
+/// The run's lock: an advisory lock (`flock`) on `out/.trajdb-lock`, held by the open file for
+/// as long as the claim lives and released by the system when the process ends however it ends
+/// (so a killed run never leaves a stale lock, and no pid is trusted). The file itself stays:
+/// deleting it while another process waits on it would let two runs in.
+fn take_lock(dir: &Path, out: &str) -> Result<fs::File, OutError> {
     let lock = dir.join(LOCK);
-    for _ in 0..2 {
-        match fs::OpenOptions::new().write(true).create_new(true).open(&lock) {
-            Ok(mut f) => {
-                let _ = write!(f, "{}", std::process::id());
-                return Ok(());
-            }
-            Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {
-                let pid: Option<u32> = fs::read_to_string(&lock).ok().and_then(|s| s.trim().parse().ok());
-                match pid {
-                    Some(p) if !alive(p) => {
-                        // a killed run's lock: its process is gone
-                        let _ = fs::remove_file(&lock);
-                    }
-                    _ => {
-                        return err(format!(
-                            "results folder: another trajdb run is writing into out {out:?} (lock {} held by process {}); wait for it, or \
-                             pick another out (if no run is active, delete the lock file)",
-                            lock.display(),
-                            pid.map(|p| p.to_string()).unwrap_or_else(|| "?".into())
-                        ))
-                    }
-                }
-            }
-            Err(e) => return Err(io("create", &lock, e)),
-        }
+    if fs::symlink_metadata(&lock).is_ok_and(|m| !m.is_file()) {
+        return err(format!("results folder: {} is not a file that trajdb made; remove it, or pick another out", lock.display()));
     }
-    err(format!("results folder: cannot take the lock {}", lock.display()))
+    let f = fs::OpenOptions::new().write(true).create(true).truncate(false).open(&lock).map_err(|e| io("create", &lock, e))?;
+    match f.try_lock() {
+        Ok(()) => {
+            let _ = f.set_len(0);
+            let _ = write!(&f, "{}", std::process::id());
+            Ok(f)
+        }
+        Err(fs::TryLockError::WouldBlock) => {
+            let pid = fs::read_to_string(&lock).unwrap_or_default();
+            err(format!(
+                "results folder: another trajdb run is writing into out {out:?} (process {}); wait for it to finish, or pick another out",
+                if pid.trim().is_empty() { "?" } else { pid.trim() }
+            ))
+        }
+        Err(fs::TryLockError::Error(e)) => Err(io("lock", &lock, e)),
+    }
 }
 
 /// Staging folders of runs whose process is gone (`kill -9`): ours by name, inside our folder.
 fn remove_stale_partials(dir: &Path) -> Result<(), OutError> {
     for entry in fs::read_dir(dir).map_err(|e| io("list", dir, e))?.flatten() {
         let name = entry.file_name().to_string_lossy().into_owned();
-        if let Some(rest) = name.strip_prefix(PARTIAL_PREFIX) {
-            let pid: Option<u32> = rest.split('-').next().and_then(|p| p.parse().ok());
-            if pid.is_some_and(|p| p != std::process::id() && !alive(p)) {
-                remove_partial(dir, &entry.path())?;
-            }
+        if name.starts_with(PARTIAL_PREFIX) && entry.file_type().is_ok_and(|t| t.is_dir()) {
+            remove_partial(dir, &entry.path())?;
         }
     }
     Ok(())
@@ -322,13 +343,25 @@ impl Claim {
         names.sort();
         // a name this run writes must not be a file of the user's: the folder held only our
         // files when it was claimed, but check again (a user may have added one meanwhile)
+        // and every target must be replaceable (absent, or a plain file of ours): checked for
+        // all before the first is moved, so that a refusal never leaves a mixed set
         for n in &names {
             let target = self.out.join(n);
-            if target.exists() && !self.previous.contains(n) {
-                return err(format!(
-                    "results folder {}: {n} appeared there during the run and is not trajdb's; nothing was replaced",
-                    self.out.display()
-                ));
+            match fs::symlink_metadata(&target) {
+                Err(_) => {}
+                Ok(m) if m.is_file() && self.previous.contains(n) => {}
+                Ok(m) if !m.is_file() => {
+                    return err(format!(
+                        "results folder {}: {n} there is a folder or a link, not a result file of trajdb's; nothing was replaced (move it away and run again)",
+                        self.out.display()
+                    ))
+                }
+                Ok(_) => {
+                    return err(format!(
+                        "results folder {}: {n} appeared there during the run and is not trajdb's; nothing was replaced",
+                        self.out.display()
+                    ))
+                }
             }
         }
         // the manifest lists old and new names while files move, so that a run killed in
@@ -354,12 +387,20 @@ impl Claim {
     /// A failed run: the staging folder goes, the earlier results stay as they were.
     pub fn abort(mut self) {
         self.finish();
-        if self.created && self.previous.is_empty() {
-            // the folder this run created, holding nothing but the manifest: gone again
-            let only_manifest = fs::read_dir(&self.out).map(|d| d.flatten().all(|e| e.file_name() == MANIFEST)).unwrap_or(false);
-            if only_manifest {
+        if !self.created.is_empty() {
+            // the folder this run created, holding nothing but the manifest and the lock: gone
+            // again, and the parents it created while they are empty (remove_dir only removes
+            // an empty folder)
+            let ours = |n: &std::ffi::OsStr| n == MANIFEST || n == LOCK;
+            let only_ours = fs::read_dir(&self.out).map(|d| d.flatten().all(|e| ours(&e.file_name()))).unwrap_or(false);
+            if only_ours {
                 let _ = fs::remove_file(self.out.join(MANIFEST));
-                let _ = fs::remove_dir(&self.out);
+                let _ = fs::remove_file(self.out.join(LOCK));
+                for d in &self.created {
+                    if fs::remove_dir(d).is_err() {
+                        break;
+                    }
+                }
             }
         }
     }
@@ -368,7 +409,7 @@ impl Claim {
         if !self.done {
             self.done = true;
             let _ = remove_partial(&self.out, &self.partial);
-            let _ = fs::remove_file(self.out.join(LOCK));
+            self.lock = None; // releases the flock; the file stays (see take_lock)
         }
     }
 }
@@ -395,15 +436,18 @@ pub mod open {
         Ok(p)
     }
 
-    /// Commits (or, with `commit` false, aborts) the claim whose staging folder is `partial`.
-    pub fn end(partial: &str, commit: bool) -> Result<Vec<String>, OutError> {
+    /// Commits (or, with `commit` false, aborts) this process's open claim on `out` (the folder
+    /// given to [`begin`], or its staging folder). Aborting when no claim is open is nothing to
+    /// do (`Ok` with no names); committing then is an error.
+    pub fn end(out: &str, commit: bool) -> Result<Vec<String>, OutError> {
+        let dir = resolve(Path::new(&expand_home(out))).ok();
         let c = {
             let mut open = OPEN.lock().unwrap_or_else(|e| e.into_inner());
-            let k = open
-                .iter()
-                .position(|c| c.partial == Path::new(partial))
-                .ok_or_else(|| OutError(format!("results folder: no run of this process is writing into {partial:?}")))?;
-            open.swap_remove(k)
+            match open.iter().position(|c| Some(&c.out) == dir.as_ref() || c.partial == Path::new(out)) {
+                Some(k) => open.swap_remove(k),
+                None if !commit => return Ok(Vec::new()),
+                None => return err(format!("results folder: no run of this process is writing into {out:?} (start one with trajdb_results_begin)")),
+            }
         };
         if commit {
             c.commit()
@@ -455,6 +499,10 @@ mod tests {
         assert!(e.contains("is or contains the input"), "{e}");
         let e = claim(d.to_str().unwrap(), &[&format!("{}/*.parquet", d.display())]).unwrap_err().to_string();
         assert!(e.contains("is or contains the input"), "{e}");
+        // a pattern into sub-folders: results beneath it would be read next time
+        let e = claim(d.join("results").to_str().unwrap(), &[&format!("{}/*/*.csv", d.display())]).unwrap_err().to_string();
+        assert!(e.contains("lies under the folders the input pattern"), "{e}");
+        assert!(!d.join("results").exists());
         // x/y/.. is x, which holds the user's file
         fs::create_dir_all(d.join("y")).unwrap();
         assert!(claim(d.join("y").join("..").to_str().unwrap(), &[]).is_err());
@@ -477,7 +525,8 @@ mod tests {
         assert_eq!(fs::read_to_string(out.join("mine.txt")).unwrap(), "mine");
         assert_eq!(fs::read_to_string(out.join("a.csv")).unwrap(), "a.csv");
         let left: Vec<String> = fs::read_dir(&out).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
-        assert!(!left.iter().any(|n| n.starts_with(PARTIAL_PREFIX) || n == LOCK), "{left:?}");
+        assert!(!left.iter().any(|n| n.starts_with(PARTIAL_PREFIX)), "{left:?}");
+        claim(out.to_str().unwrap(), &[]).unwrap().abort(); // the lock was released
     }
 
     #[test]
@@ -491,11 +540,19 @@ mod tests {
         c.abort();
         assert!(!partial.exists());
         // a failed first run removes the folder it created
-        let c = claim(d.join("new").to_str().unwrap(), &[]).unwrap();
+        let c = claim(d.join("new").join("deeper").to_str().unwrap(), &[]).unwrap();
         c.abort();
         assert!(!d.join("new").exists());
+        // a folder in place of a result file: refused before anything moves
+        let c = claim(out.to_str().unwrap(), &[]).unwrap();
+        fs::write(c.partial.join("a.csv"), "new").unwrap();
+        fs::write(c.partial.join("b.csv"), "new").unwrap();
+        fs::create_dir(out.join("b.csv")).unwrap();
+        assert!(c.commit().unwrap_err().to_string().contains("folder or a link"));
         assert_eq!(fs::read_to_string(out.join("a.csv")).unwrap(), "a.csv");
-        assert!(!out.join(LOCK).exists());
+        fs::remove_dir(out.join("b.csv")).unwrap();
+        assert_eq!(fs::read_to_string(out.join("a.csv")).unwrap(), "a.csv");
+        claim(out.to_str().unwrap(), &[]).unwrap().abort(); // the lock was released
     }
 
     #[test]
@@ -507,7 +564,8 @@ mod tests {
         let e = claim(out.to_str().unwrap(), &[]).unwrap_err().to_string();
         assert!(e.contains("another trajdb run is writing"), "{e}");
         first.abort();
-        // a killed run: its lock names a process that is gone, its staging folder is left
+        // a killed run: its lock file is left (unlocked: the system released it), and its
+        // staging folder
         fs::write(out.join(LOCK), "999999999").unwrap();
         fs::create_dir(out.join(format!("{PARTIAL_PREFIX}999999999-0"))).unwrap();
         fs::write(out.join(format!("{PARTIAL_PREFIX}999999999-0")).join("a.csv"), "x").unwrap();
@@ -515,14 +573,23 @@ mod tests {
         assert!(!out.join(format!("{PARTIAL_PREFIX}999999999-0")).exists());
     }
 
+    #[cfg(unix)]
     #[test]
     fn a_hostile_manifest_deletes_nothing() {
         let d = tmp("hostile");
         let out = d.join("r");
         fs::create_dir_all(&out).unwrap();
         fs::write(d.join("victim.txt"), "mine").unwrap();
-        fs::write(out.join(MANIFEST), "../victim.txt\n").unwrap();
+        fs::write(out.join(MANIFEST), format!("{MANIFEST_HEAD}../victim.txt\n")).unwrap();
         assert!(claim(out.to_str().unwrap(), &[]).unwrap_err().to_string().contains("not a plain file name"));
+        assert!(d.join("victim.txt").exists());
+        // a manifest trajdb did not write, or one that is a link to the user's list of files
+        fs::write(out.join(MANIFEST), "victim.txt\n").unwrap();
+        assert!(claim(out.to_str().unwrap(), &[]).unwrap_err().to_string().contains("not written by trajdb"));
+        fs::remove_file(out.join(MANIFEST)).unwrap();
+        fs::write(d.join("list.txt"), format!("{MANIFEST_HEAD}victim.txt\n")).unwrap();
+        std::os::unix::fs::symlink(d.join("list.txt"), out.join(MANIFEST)).unwrap();
+        assert!(claim(out.to_str().unwrap(), &[]).unwrap_err().to_string().contains("not a plain file"));
         assert!(d.join("victim.txt").exists());
     }
 

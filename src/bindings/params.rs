@@ -2,13 +2,19 @@
 //! Spark tasks, any host) so that none of them re-implements the checks:
 //! - `trajdb_params_sql(json)`: the `SET VARIABLE` script for every declared parameter (its
 //!   default, or the value given), each name and value checked (src/app/params.rs);
-//! - `trajdb_results_begin(out, input)` / `trajdb_results_end(staging, commit)`: claim the results
+//! - `trajdb_results_begin(out, input)` / `trajdb_results_end(out, commit)`: claim the results
 //!   folder and replace the earlier results (src/app/outdir.rs: the only code that may delete).
+//!   Table functions, not scalars: they run exactly once per statement (a scalar with side
+//!   effects may be evaluated again by the optimizer), and their bind sees the connection's
+//!   file-access settings (enable_external_access, allowed_directories), which they obey as
+//!   COPY ... TO does.
 
-use super::registry::{p, Function, Signature, Ty};
+use super::registry::{p, Function, Signature, Table, Ty};
+use super::vector::table::{self, BindArgs, Rows, TableFn};
 use super::vector::{Args, Out};
 use crate::app::{outdir, params};
 use std::error::Error;
+use std::sync::Mutex;
 
 pub static FUNCTIONS: &[Function] = &[PARAMS_SQL, RESULTS_BEGIN, RESULTS_END];
 
@@ -47,57 +53,111 @@ fn params_sql(a: &Args<'_>, out: &mut Out<'_>) -> Result<(), Box<dyn Error>> {
     Ok(())
 }
 
-const RESULTS_BEGIN: Function = Function {
-    name: "trajdb_results_begin",
-    description: "Claims the results folder `out` for one pipeline run and returns the staging folder to write the result files into \
-                  (inside `out`). Refused before any work: '' or NULL, '/', a file, a folder holding files that trajdb did not write, a \
-                  folder that is or contains `input`, a folder another run is writing into. A new folder is created with normal \
-                  permissions. End the run with trajdb_results_end.",
-    example: "SELECT trajdb_results_end(trajdb_results_begin('/tmp/trajdb-example-results', 'points.parquet'), false); -- ",
-    maths: "src/app/outdir.rs",
-    binding: file!(),
-    signatures: &[Signature { params: &[p("out", Ty::Varchar), p("input", Ty::Varchar)], arities: &[], returns: Ty::Varchar, kernel: results_begin }],
-    table: None,
+const BEGIN_TABLE: Table = Table {
+    params: &[p("out", Ty::Varchar), p("input", Ty::Varchar)],
+    named: &[],
+    columns: &[("staging", Ty::Varchar)],
+    register: table::register::<Begin>,
 };
 
-fn results_begin(a: &Args<'_>, out: &mut Out<'_>) -> Result<(), Box<dyn Error>> {
-    let (dir, input) = (a.text(0), a.text(1));
-    let vals = a.map(|r| {
-        let d = dir.get(r).ok_or("out is NULL: name a results folder")?;
-        sandbox_check(&d)?;
-        let i = input.get(r).unwrap_or_default();
-        Ok(Some(outdir::open::begin(&d, &[&i])?.to_string_lossy().into_owned()))
-    })?;
-    out.text(&vals);
-    Ok(())
+const RESULTS_BEGIN: Function = Function {
+    name: "trajdb_results_begin",
+    description: "Claims the results folder `out` for one pipeline run and returns (one row, column staging) the folder to write the result \
+                  files into, inside `out`. Refused before any work: NULL or '', '/', a file, a folder holding files that trajdb did not \
+                  write, a folder that is or contains `input` (a path or glob; a table name is not checked), a folder another run is \
+                  writing into, and any folder where COPY ... TO may not write (enable_external_access, allowed_directories). A new \
+                  folder is created with normal permissions. End the run with trajdb_results_end.",
+    example: "SELECT count(*) FROM trajdb_results_begin('/tmp/trajdb-example-results', 'points.parquet'); -- 1",
+    maths: "src/app/outdir.rs",
+    binding: file!(),
+    signatures: &[],
+    table: Some(BEGIN_TABLE),
+};
+
+/// What a statement's bind decided, done once by the scan.
+pub struct Job {
+    out: String,
+    input: String,
+    commit: bool,
 }
+
+/// The rows to emit (the side effect runs once, on the first call).
+pub struct Once(Mutex<Option<Vec<String>>>);
+
+fn once(job: &Job, scan: &Once, out: &mut Rows<'_>, run: impl FnOnce(&Job) -> Result<Vec<String>, outdir::OutError>) -> Result<usize, Box<dyn Error>> {
+    let mut state = scan.0.lock().unwrap_or_else(|e| e.into_inner());
+    let rows = match state.as_mut() {
+        Some(rows) => rows,
+        None => state.insert(run(job)?),
+    };
+    let n = rows.len().min(Rows::CAPACITY);
+    for (k, v) in rows.drain(..n).enumerate() {
+        out.text(0, k, &v);
+    }
+    Ok(n)
+}
+
+struct Begin;
+
+impl TableFn for Begin {
+    const TABLE: &'static Table = &BEGIN_TABLE;
+    type Bind = Job;
+    type Scan = Once;
+
+    fn bind(args: &BindArgs<'_>) -> Result<Job, Box<dyn Error>> {
+        let out = args.text(0)?.ok_or("out is NULL; name a results folder, e.g. 'results'")?;
+        if out.trim().is_empty() {
+            return Err("out is '' (empty); name a results folder, e.g. 'results'".into());
+        }
+        args.file_access().may_write_into(&out)?;
+        Ok(Job { out, input: args.text(1)?.unwrap_or_default(), commit: true })
+    }
+    fn init(_: &Job) -> Result<Once, Box<dyn Error>> {
+        Ok(Once(Mutex::new(None)))
+    }
+    fn func(job: &Job, scan: &Once, out: &mut Rows<'_>) -> Result<usize, Box<dyn Error>> {
+        once(job, scan, out, |j| Ok(vec![outdir::open::begin(&j.out, &[&j.input])?.to_string_lossy().into_owned()]))
+    }
+}
+
+const END_TABLE: Table = Table {
+    params: &[p("out", Ty::Varchar), p("commit", Ty::Boolean)],
+    named: &[],
+    columns: &[("file", Ty::Varchar)],
+    register: table::register::<End>,
+};
 
 const RESULTS_END: Function = Function {
     name: "trajdb_results_end",
-    description: "Ends a run that trajdb_results_begin started. With commit true, the files in the staging folder replace the earlier \
-                  results (file by file; earlier result files this run did not write are removed, files that trajdb did not write are \
-                  never touched) and their names are returned, comma-separated; with false the staging folder is removed and the \
-                  earlier results stay as they were.",
-    example: "SELECT trajdb_results_end(trajdb_results_begin('/tmp/trajdb-example-results', 'points.parquet'), true); -- ",
+    description: "Ends the run that trajdb_results_begin started on `out` (the same folder, or its staging folder). With commit true, the files \
+                  in the staging folder replace the earlier results (all targets are checked first, then each file is renamed into place; \
+                  earlier result files this run did not write are removed; files that trajdb did not write are never touched) and one row \
+                  per file is returned; with false the staging folder is removed, the earlier results stay as they were, and no row is \
+                  returned (also when no run was open). Obeys enable_external_access and allowed_directories as COPY ... TO does.",
+    example: "SELECT count(*) FROM trajdb_results_end('/tmp/trajdb-example-results', false); -- 0",
     maths: "src/app/outdir.rs",
     binding: file!(),
-    signatures: &[Signature { params: &[p("staging", Ty::Varchar), p("commit", Ty::Boolean)], arities: &[], returns: Ty::Varchar, kernel: results_end }],
-    table: None,
+    signatures: &[],
+    table: Some(END_TABLE),
 };
 
-fn results_end(a: &Args<'_>, out: &mut Out<'_>) -> Result<(), Box<dyn Error>> {
-    let (staging, commit) = (a.text(0), a.opt_boolean(1));
-    let vals = a.map(|r| {
-        let s = staging.get(r).ok_or("staging is NULL")?;
-        let c = commit.or(r, false).ok_or("commit is NULL: true or false")?;
-        Ok(Some(outdir::open::end(&s, c)?.join(",")))
-    })?;
-    out.text(&vals);
-    Ok(())
-}
+struct End;
 
-/// The file-system rule of every function of ours that writes: DuckDB's enable_external_access.
-// TODO(h3's sandbox module): replace by the shared check once it lands.
-fn sandbox_check(_path: &str) -> Result<(), Box<dyn Error>> {
-    Ok(())
+impl TableFn for End {
+    const TABLE: &'static Table = &END_TABLE;
+    type Bind = Job;
+    type Scan = Once;
+
+    fn bind(args: &BindArgs<'_>) -> Result<Job, Box<dyn Error>> {
+        let out = args.text(0)?.ok_or("out is NULL; the folder given to trajdb_results_begin")?;
+        let commit = args.boolean(1)?.ok_or("commit is NULL; true (replace the results) or false (abort the run)")?;
+        args.file_access().may_write_into(&out)?;
+        Ok(Job { out, input: String::new(), commit })
+    }
+    fn init(_: &Job) -> Result<Once, Box<dyn Error>> {
+        Ok(Once(Mutex::new(None)))
+    }
+    fn func(job: &Job, scan: &Once, out: &mut Rows<'_>) -> Result<usize, Box<dyn Error>> {
+        once(job, scan, out, |j| outdir::open::end(&j.out, j.commit))
+    }
 }

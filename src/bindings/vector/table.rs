@@ -161,6 +161,20 @@ impl BindArgs<'_> {
         Ok(Some(v.to_string()))
     }
 
+    /// Positional BOOLEAN argument `k`; `None` when it is NULL.
+    pub fn boolean(&self, k: usize) -> Res<Option<bool>> {
+        let p = self.param(k)?;
+        if (self.info.get_parameter_count() as usize) <= k {
+            return Err(format!("{} is missing", p.name).into());
+        }
+        let v = self.info.get_parameter(k as u64);
+        if v.is_null() {
+            return Ok(None);
+        }
+        check_type(&v, LogicalTypeId::Boolean, p.name)?;
+        Ok(Some(v.to_bool()))
+    }
+
     /// A named argument that is present, with its declared parameter: `None` when left out;
     /// NULL is an error naming it.
     fn named(&self, name: &str) -> Res<Option<(&'static Param, Value)>> {

@@ -29,7 +29,9 @@
 //! ids increasing with start time, and speed by finite differences.
 //!
 //! Cost: O(objects × samples) time and memory; a 12-hour day of 2 cameras (≈ 12k objects) takes
-//! a few seconds.
+//! a few seconds. The memory is counted against the limit `memory_bytes` (default 4e9) before
+//! it is allocated ([`simulate`]): a scenario larger than that (the largest parameters allow
+//! hundreds of GB) is an error that says what to reduce.
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -330,11 +332,15 @@ fn time_along(n: usize, v0: f64, slow: &[(f64, f64, f64)], stop: Option<(f64, f6
 }
 
 /// Samples a timed path every WORLD_DT seconds (linear interpolation); adds `lateral` metres to
-/// the left of the direction of travel.
-fn sample_world(path: &[[f64; 2]], times: &[f64], lateral: f64) -> Vec<[f64; 3]> {
-    let mut out = Vec::new();
+/// the left of the direction of travel. The samples are counted against `budget` before they are
+/// allocated (fallibly).
+fn sample_world(path: &[[f64; 2]], times: &[f64], lateral: f64, budget: &mut Budget) -> Result<Vec<[f64; 3]>, SimError> {
     let t_end = *times.last().unwrap();
     let mut t = (times[0] / WORLD_DT).ceil() * WORLD_DT;
+    let n = ((t_end - t) / WORLD_DT).max(0.0) as usize + 2;
+    budget.charge(n, std::mem::size_of::<[f64; 3]>())?;
+    let mut out = Vec::new();
+    budget.reserve(&mut out, n)?;
     let mut j = 0;
     while t <= t_end {
         while j + 1 < times.len() - 1 && times[j + 1] < t {
@@ -345,10 +351,72 @@ fn sample_world(path: &[[f64; 2]], times: &[f64], lateral: f64) -> Vec<[f64; 3]>
         let (a, b) = (path[j], path[j + 1]);
         let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
         let l = (dx * dx + dy * dy).sqrt().max(1e-12);
-        out.push([t, a[0] + f * dx - lateral * dy / l, a[1] + f * dy + lateral * dx / l]);
+        budget.push(&mut out, [t, a[0] + f * dx - lateral * dy / l, a[1] + f * dy + lateral * dx / l])?;
         t += WORLD_DT;
     }
-    out
+    Ok(out)
+}
+
+/// The memory one simulation holds, counted against the limit `memory_bytes` before it is
+/// allocated (and every large allocation fallible), so that a scenario too large is an error
+/// that says what to reduce, never an abort of the host process.
+struct Budget {
+    used: u128,
+    limit: u64,
+}
+
+impl Budget {
+    fn new() -> Self {
+        Budget { used: 0, limit: crate::algo::limits::MEMORY_BYTES.get() }
+    }
+
+    fn too_large(&self) -> SimError {
+        SimError::Param(format!(
+            "this scenario needs more than memory_bytes = {} bytes; reduce minutes, traffic or pedestrians (or cameras, rate_hz, \
+             noise_tracks_per_min), or raise the limit (in SQL: SELECT trajdb_limit('memory_bytes', {}))",
+            self.limit,
+            self.limit.saturating_mul(4)
+        ))
+    }
+
+    /// Counts `n` items of `each` bytes.
+    fn charge(&mut self, n: usize, each: usize) -> Result<(), SimError> {
+        self.used = self.used.saturating_add(n as u128 * each as u128);
+        if self.used > self.limit as u128 {
+            return Err(self.too_large());
+        }
+        Ok(())
+    }
+
+    /// Gives back `n` items of `each` bytes (freed).
+    fn release(&mut self, n: usize, each: usize) {
+        self.used = self.used.saturating_sub(n as u128 * each as u128);
+    }
+
+    /// Room for `n` more items, or the error.
+    fn reserve<T>(&self, v: &mut Vec<T>, n: usize) -> Result<(), SimError> {
+        v.try_reserve(n).map_err(|_| self.too_large())
+    }
+
+    /// A push that cannot abort the process.
+    fn push<T>(&self, v: &mut Vec<T>, x: T) -> Result<(), SimError> {
+        if v.len() == v.capacity() {
+            self.reserve(v, v.len().max(16))?;
+        }
+        v.push(x);
+        Ok(())
+    }
+}
+
+/// About the fewest bytes a scenario takes, before any work: the expected road users times the
+/// fewest world samples one can have (a car crossing at 14 m/s: 10 s; a pedestrian: 59 s), and
+/// the spurious tracks (at least 3 points each).
+fn expected_bytes(p: &SimParams) -> f64 {
+    let (vehicles, walkers) = (p.minutes * p.traffic * 13.0, p.minutes * p.traffic * 3.0 * p.pedestrians);
+    let sample = std::mem::size_of::<[f64; 3]>() as f64;
+    let noise = p.cameras as f64 * (p.noise_tracks_per_min * p.minutes).round() * 3.0;
+    let point = (std::mem::size_of::<(f64, f64, f64, bool)>() + std::mem::size_of::<PointRow>()) as f64;
+    (vehicles * 10.0 + walkers * 59.0) / WORLD_DT * sample + noise * point
 }
 
 fn uniform(rng: &mut ChaCha8Rng, lo: f64, hi: f64) -> f64 {
@@ -359,8 +427,8 @@ fn uniform(rng: &mut ChaCha8Rng, lo: f64, hi: f64) -> f64 {
     }
 }
 
-/// Generates the road users.
-fn objects(p: &SimParams, rng: &mut ChaCha8Rng) -> Vec<Object> {
+/// Generates the road users (their samples counted against `budget`).
+fn objects(p: &SimParams, rng: &mut ChaCha8Rng, budget: &mut Budget) -> Result<Vec<Object>, SimError> {
     let horizon = p.minutes * 60.0;
     let rates = [10.0, 1.0, 2.0, 3.0];
     let mut out = Vec::new();
@@ -376,11 +444,13 @@ fn objects(p: &SimParams, rng: &mut ChaCha8Rng) -> Vec<Object> {
         let exp = Exp::new(r * p.traffic / 60.0).unwrap();
         let mut t = exp.sample(rng);
         while t < horizon {
-            arrivals.push((t, c));
+            budget.charge(1, std::mem::size_of::<(f64, usize)>())?;
+            budget.push(&mut arrivals, (t, c))?;
             t += exp.sample(rng);
         }
     }
     arrivals.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let n_arrivals = arrivals.len();
     for (t_arr, c) in arrivals {
         let class = CLASSES[c];
         if c < 3 {
@@ -416,12 +486,9 @@ fn objects(p: &SimParams, rng: &mut ChaCha8Rng) -> Vec<Object> {
             }
             lane_last[a][kind] = (t0, v, times[stop_i]);
             let names = ["E", "N", "W", "S"];
-            out.push(Object {
-                id: 0,
-                class,
-                route: format!("{class}:{}->{}", names[a], names[b]),
-                samples: sample_world(&path, &times, 0.0),
-            });
+            let samples = sample_world(&path, &times, 0.0, budget)?;
+            budget.charge(1, std::mem::size_of::<Object>() + 32)?;
+            budget.push(&mut out, Object { id: 0, class, route: format!("{class}:{}->{}", names[a], names[b]), samples })?;
         } else {
             // pedestrian: sidewalk graph; node (arm, side) is the curb point at CROSS metres
             let (mut a, mut side) = (rng.gen_range(0..4usize), if rng.gen_bool(0.5) { 1.0 } else { -1.0 });
@@ -462,19 +529,22 @@ fn objects(p: &SimParams, rng: &mut ChaCha8Rng) -> Vec<Object> {
             let path = resample(&poly);
             let v = uniform(rng, 1.0, 1.6);
             let times = time_along(path.len(), v, &[], waits.first().copied(), 0.8, 1.0, t_arr);
-            let samples = sample_world(&path, &times, 0.0);
+            let samples = sample_world(&path, &times, 0.0, budget)?;
             let pair = rng.gen_bool(0.15);
-            out.push(Object { id: 0, class, route: format!("pedestrian:{hops} hops"), samples });
+            budget.charge(1, std::mem::size_of::<Object>() + 32)?;
+            budget.push(&mut out, Object { id: 0, class, route: format!("pedestrian:{hops} hops"), samples })?;
             if pair {
-                let samples = sample_world(&path, &times, 0.7);
-                out.push(Object { id: 0, class, route: format!("pedestrian:{hops} hops, walking in a pair"), samples });
+                let samples = sample_world(&path, &times, 0.7, budget)?;
+                budget.charge(1, std::mem::size_of::<Object>() + 48)?;
+                budget.push(&mut out, Object { id: 0, class, route: format!("pedestrian:{hops} hops, walking in a pair"), samples })?;
             }
         }
     }
+    budget.release(n_arrivals, std::mem::size_of::<(f64, usize)>());
     for (i, o) in out.iter_mut().enumerate() {
         o.id = i as i64;
     }
-    out
+    Ok(out)
 }
 
 fn place_cameras(p: &SimParams, rng: &mut ChaCha8Rng) -> Vec<Camera> {
@@ -521,15 +591,24 @@ fn at(o: &Object, t: f64) -> Option<(f64, f64)> {
 /// One camera's view of one object: (object id or −1, class, world samples (t, x, y, estimated)).
 type SeenTrack = (i64, &'static str, Vec<(f64, f64, f64, bool)>);
 
-/// Runs the simulation.
+/// Runs the simulation. Its memory is counted against the limit `memory_bytes`: a scenario
+/// whose expected road users alone exceed it is refused before any work ([`expected_bytes`]),
+/// and the samples, tracks and points are counted as they are made (an error as soon as they
+/// pass it; every large allocation fallible).
 pub fn simulate(p: &SimParams) -> Result<Scenario, SimError> {
     p.validate()?;
+    let mut budget = Budget::new();
+    if expected_bytes(p) > budget.limit as f64 {
+        return Err(budget.too_large());
+    }
     let mut rng = ChaCha8Rng::seed_from_u64(p.seed);
-    let objects = objects(p, &mut rng);
+    let objects = objects(p, &mut rng, &mut budget)?;
     let cameras = place_cameras(p, &mut rng);
     let mut points = Vec::new();
     let mut truth = Vec::new();
+    const SEEN: usize = std::mem::size_of::<(f64, f64, f64, bool)>();
     for cam in &cameras {
+        let mut seen = 0usize;
         let dt = 1.0 / cam.rate_hz;
         let noise = Normal::new(0.0, cam.sigma.max(1e-12)).unwrap();
         let mut tracks: Vec<SeenTrack> = Vec::new();
@@ -545,7 +624,11 @@ pub fn simulate(p: &SimParams) -> Result<Scenario, SimError> {
                 }
                 k += 1;
                 match at(o, t) {
-                    Some((x, y)) if cam.sees(x, y) => run.push((t, x, y, false)),
+                    Some((x, y)) if cam.sees(x, y) => {
+                        budget.charge(1, SEEN)?;
+                        seen += 1;
+                        budget.push(&mut run, (t, x, y, false))?;
+                    }
                     _ => {
                         if !run.is_empty() {
                             runs.push(std::mem::take(&mut run));
@@ -566,11 +649,13 @@ pub fn simulate(p: &SimParams) -> Result<Scenario, SimError> {
                     let second: Vec<_> = r.iter().copied().filter(|q| q.0 > cut + gap).collect();
                     for part in [first, second] {
                         if part.len() >= 3 {
-                            tracks.push((o.id, o.class, part));
+                            budget.charge(part.len(), SEEN)?;
+                            seen += part.len();
+                            budget.push(&mut tracks, (o.id, o.class, part))?;
                         }
                     }
                 } else {
-                    tracks.push((o.id, o.class, r));
+                    budget.push(&mut tracks, (o.id, o.class, r))?;
                 }
             }
         }
@@ -581,7 +666,9 @@ pub fn simulate(p: &SimParams) -> Result<Scenario, SimError> {
                 let (vx, vy) = ((b.1 - a.1) / dt, (b.2 - a.2) / dt);
                 for j in 1..=rng.gen_range(2..=5) {
                     let h = j as f64 * dt;
-                    tr.push((b.0 + h, b.1 + vx * h, b.2 + vy * h, true));
+                    budget.charge(1, SEEN)?;
+                    seen += 1;
+                    budget.push(tr, (b.0 + h, b.1 + vx * h, b.2 + vy * h, true))?;
                 }
             }
         }
@@ -594,16 +681,21 @@ pub fn simulate(p: &SimParams) -> Result<Scenario, SimError> {
             let y = v[0][1] + fa * (v[1][1] - v[0][1]) + fb * (v[3][1] - v[0][1]);
             let (sp, hd) = (uniform(&mut rng, 0.0, 2.0), uniform(&mut rng, 0.0, std::f64::consts::TAU));
             let t0 = cam.phase + (uniform(&mut rng, 0.0, p.minutes * 60.0) / dt).floor() * dt;
-            let n = rng.gen_range(3..=8);
+            // i32, as the type inference gave it before: the draw (and so the scenario) stays the same
+            let n: i32 = rng.gen_range(3..=8);
+            budget.charge(n as usize, SEEN)?;
+            seen += n as usize;
             let pts = (0..n).map(|j| (t0 + j as f64 * dt, x + sp * hd.cos() * j as f64 * dt, y + sp * hd.sin() * j as f64 * dt, true)).collect();
-            tracks.push((-1, CLASSES[rng.gen_range(0..4)], pts));
+            budget.push(&mut tracks, (-1, CLASSES[rng.gen_range(0..4)], pts))?;
         }
         // fresh ids increasing with start time
         tracks.sort_by(|a, b| a.2[0].0.total_cmp(&b.2[0].0));
         let mut id = rng.gen_range(1000..5000i64);
         for (obj, class, tr) in tracks {
             id += rng.gen_range(1..=3);
-            truth.push((cam.id, id, obj, obj < 0));
+            budget.charge(1 + tr.len(), std::mem::size_of::<PointRow>())?;
+            budget.reserve(&mut points, tr.len())?;
+            budget.push(&mut truth, (cam.id, id, obj, obj < 0))?;
             let local: Vec<(f64, f64, f64, bool)> = tr
                 .iter()
                 .map(|&(t, x, y, e)| {
@@ -617,6 +709,8 @@ pub fn simulate(p: &SimParams) -> Result<Scenario, SimError> {
                 points.push(PointRow { camera: cam.id, track_id: id, class, t, x, y, speed, estimated: e });
             }
         }
+        // this camera's tracks are gone: only its points stay
+        budget.release(seen, SEEN);
     }
     Ok(Scenario { params: p.clone(), objects, cameras, points, truth })
 }
@@ -914,6 +1008,25 @@ mod tests {
         assert!(simulate_into(&SimParams { cameras: 0, ..tiny() }, &fresh, "test").is_err());
         assert!(!fresh.exists());
         let _ = std::fs::remove_dir_all(d.parent().unwrap());
+    }
+
+    /// Issue 19: the documented maximum parameters (hundreds of GB) aborted the host under a
+    /// memory limit; now refused before any work, and a scenario that passes the estimate but
+    /// grows beyond `memory_bytes` stops with the same error while it is made.
+    #[test]
+    fn scenarios_beyond_memory_bytes_are_errors() {
+        use crate::algo::limits::{with_scope, Limits};
+        let max = SimParams { cameras: 16, minutes: 1440.0, rate_hz: 100.0, traffic: 50.0, pedestrians: 50.0, noise_tracks_per_min: 1e300, ..small() };
+        let e = simulate(&max).unwrap_err().to_string();
+        assert!(e.starts_with("simulate: this scenario needs more than memory_bytes = ") && e.contains("reduce minutes, traffic or pedestrians"), "{e}");
+        assert!(simulate(&SimParams { noise_tracks_per_min: 1e12, ..small() }).is_err());
+        let l = std::sync::Arc::new(Limits::default());
+        l.set("memory_bytes", 1_000_000).unwrap();
+        let e = with_scope(&l, || simulate(&small())).unwrap_err().to_string();
+        assert!(e.contains("memory_bytes = 1000000 bytes"), "{e}");
+        assert!(expected_bytes(&small()) < 1e6);
+        // the default limit holds the usual scenarios
+        assert!(simulate(&small()).is_ok());
     }
 
     #[test]

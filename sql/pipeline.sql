@@ -28,12 +28,13 @@ SET VARIABLE input_query = (
         UNION ALL SELECT database_name, schema_name, view_name, temporary FROM duckdb_views() WHERE NOT internal),
     hit AS (
         SELECT * FROM relations
-        WHERE lower(getvariable('pipeline_input')) IN (lower(name), lower(schema_name || '.' || name), lower(database_name || '.' || schema_name || '.' || name))
+        WHERE lower(getvariable('pipeline_input')) IN (lower(name), lower(schema_name || '.' || name), lower(database_name || '.' || name),
+                                                       lower(database_name || '.' || schema_name || '.' || name))
         ORDER BY temporary, database_name, schema_name LIMIT 1)
     SELECT 'FROM ' || coalesce(
         (SELECT CASE WHEN temporary AND lower(name) = 'points'
                      THEN error('load: the input ' || getvariable('pipeline_input') || ' is the pipeline''s own working table (temp.points); '
-                                || 'give your table another name, or pass it qualified, e.g. main.points')
+                                || 'give your table another name (the pipeline works in temp.points)')
                      ELSE '"' || replace(database_name, '"', '""') || '"."' || replace(schema_name, '"', '""') || '"."' || replace(name, '"', '""') || '"' END
          FROM hit),
         '''' || replace(getvariable('pipeline_input'), '''', '''''') || ''''));
@@ -43,13 +44,27 @@ SELECT CASE WHEN getvariable('input_query') LIKE 'FROM ''%'
              AND NOT EXISTS (FROM glob(CASE WHEN getvariable('input_query') LIKE 'FROM ''%' THEN [getvariable('pipeline_input')] ELSE []::VARCHAR[] END))
             THEN error('load: the input ' || getvariable('pipeline_input') || ' is neither a table or view of this database nor an existing file '
                        || '(fix: the path of a Parquet, CSV or JSON file, a glob such as ''data/*.parquet'', or a table name)') END;
+-- input_columns: 'role=column, ...' with roles camera, track_id, class, t, x, y, estimated, each
+-- at most once and each onto its own column (names compared case-insensitively, as DuckDB does)
+SELECT CASE
+    WHEN len(unknown) > 0 THEN error('load: input_columns names ' || array_to_string(unknown, ', ') || ', which is not a role; the roles are camera, track_id, class, t, x, y, estimated (e.g. ''camera=cam_id, t=time'')')
+    WHEN len(roles) <> len(list_distinct(roles)) THEN error('load: input_columns gives a role twice: ' || getvariable('input_columns'))
+    WHEN len(cols) <> len(list_distinct(cols)) THEN error('load: input_columns reads two roles from one column: ' || getvariable('input_columns'))
+    WHEN list_contains(roles, '') OR list_contains(cols, '') THEN error('load: input_columns must be ''role=column, ...'', got ''' || getvariable('input_columns') || '''') END
+FROM (SELECT [r for r in roles if NOT list_contains(['camera', 'track_id', 'class', 't', 'x', 'y', 'estimated'], r)] AS unknown, roles, cols
+      FROM (SELECT [lower(trim(split_part(kv, '=', 1))) for kv in kvs] AS roles, [lower(trim(split_part(kv, '=', 2))) for kv in kvs] AS cols
+            FROM (SELECT [kv for kv in string_split(coalesce(getvariable('input_columns'), ''), ',') if trim(kv) <> ''] AS kvs)));
 SET VARIABLE input_map = map_from_entries(
-    [(trim(split_part(kv, '=', 1)), trim(split_part(kv, '=', 2)))
+    [(lower(trim(split_part(kv, '=', 1))), lower(trim(split_part(kv, '=', 2))))
      for kv in string_split(coalesce(getvariable('input_columns'), ''), ',') if trim(kv) <> '']);
+SELECT CASE WHEN len(eff) <> len(list_distinct(eff))
+            THEN error('load: input_columns ''' || getvariable('input_columns') || ''' reads two roles from one column (roles read as: '
+                       || array_to_string([r || '=' || coalesce(getvariable('input_map')[r], r) for r in ['camera', 'track_id', 'class', 't', 'x', 'y', 'estimated']], ', ') || ')') END
+FROM (SELECT [coalesce(getvariable('input_map')[r], r) for r in ['camera', 'track_id', 'class', 't', 'x', 'y', 'estimated']] AS eff);
 SELECT CASE WHEN len(missing) > 0 THEN error('load: the input ' || getvariable('pipeline_input') || ' has no column '
                                                || array_to_string(missing, ', ') || ' (its columns: ' || array_to_string(cols, ', ') || ')') END
 FROM (SELECT cols, [coalesce(getvariable('input_map')[n], n) for n in ['camera', 'track_id', 'class', 't', 'x', 'y']
-                    if NOT list_contains(cols, coalesce(getvariable('input_map')[n], n))] AS missing
+                    if NOT list_contains([lower(c) for c in cols], coalesce(getvariable('input_map')[n], n))] AS missing
       FROM (SELECT list(column_name) AS cols FROM (DESCRIBE FROM query(getvariable('input_query')))));
 -- the input's types, before anything is read: numbers where numbers are needed
 SELECT CASE WHEN count(*) > 0 THEN error('load: ' || string_agg('column ' || d.column_name || ' is ' || d.column_type || ', not ' || w.want, '; ' ORDER BY w.k)
@@ -58,35 +73,37 @@ SELECT CASE WHEN count(*) > 0 THEN error('load: ' || string_agg('column ' || d.c
 FROM (DESCRIBE FROM query(getvariable('input_query'))) d
 JOIN (VALUES (1, 'camera', 'an integer'), (2, 'track_id', 'an integer'), (3, 't', 'a number (seconds) or a TIMESTAMP'),
              (4, 'x', 'a number'), (5, 'y', 'a number'), (6, 'estimated', 'an integer or a BOOLEAN')) w(k, name, want)
-  ON d.column_name = coalesce(getvariable('input_map')[w.name], w.name)
+  ON lower(d.column_name) = coalesce(getvariable('input_map')[w.name], w.name)
 WHERE NOT (d.column_type IN ('TINYINT', 'SMALLINT', 'INTEGER', 'BIGINT', 'HUGEINT', 'UTINYINT', 'USMALLINT', 'UINTEGER', 'UBIGINT', 'UHUGEINT')
         OR (w.name IN ('t', 'x', 'y') AND (d.column_type IN ('FLOAT', 'DOUBLE') OR d.column_type LIKE 'DECIMAL%'))
-        OR (w.name = 't' AND (d.column_type LIKE 'TIMESTAMP%' OR d.column_type = 'DATE'))
+        OR (w.name = 't' AND d.column_type LIKE 'TIMESTAMP%')
         OR (w.name = 'estimated' AND d.column_type = 'BOOLEAN'));
 -- t: a TIMESTAMPTZ is an instant: its epoch seconds, whatever the session's TimeZone (a cast to
 -- TIMESTAMP would go through it: 5 h early in New York, and an hour jump at a daylight-saving
 -- change). A TIMESTAMP without time zone is read as UTC.
-SET VARIABLE input_t_tz = (SELECT coalesce(any_value(d.column_type = 'TIMESTAMP WITH TIME ZONE'), false)
-                           FROM (DESCRIBE FROM query(getvariable('input_query'))) d
-                           WHERE d.column_name = coalesce(getvariable('input_map')['t'], 't'));
+SET VARIABLE input_t_type = (SELECT any_value(d.column_type) FROM (DESCRIBE FROM query(getvariable('input_query'))) d
+                             WHERE lower(d.column_name) = coalesce(getvariable('input_map')['t'], 't'));
+SET VARIABLE input_t_tz = coalesce(getvariable('input_t_type') = 'TIMESTAMP WITH TIME ZONE', false);
 CREATE OR REPLACE TEMP TABLE points AS
-SELECT camera::INTEGER AS camera, track_id::BIGINT AS track_id, class::VARCHAR AS class,
+SELECT try_cast(camera AS INTEGER) AS camera, try_cast(track_id AS BIGINT) AS track_id, class::VARCHAR AS class,
        CASE WHEN getvariable('input_t_tz') THEN epoch(try_cast(t AS TIMESTAMPTZ))
             ELSE coalesce(try_cast(t AS DOUBLE), epoch(try_cast(t AS TIMESTAMP))) END AS t,
        x::DOUBLE AS x, y::DOUBLE AS y, coalesce(estimated::INTEGER, 0) AS estimated
-FROM (SELECT COLUMNS(lambda c: c = coalesce(getvariable('input_map')['camera'], 'camera')) AS camera,
-             COLUMNS(lambda c: c = coalesce(getvariable('input_map')['track_id'], 'track_id')) AS track_id,
-             COLUMNS(lambda c: c = coalesce(getvariable('input_map')['class'], 'class')) AS class,
-             COLUMNS(lambda c: c = coalesce(getvariable('input_map')['t'], 't')) AS t,
-             COLUMNS(lambda c: c = coalesce(getvariable('input_map')['x'], 'x')) AS x,
-             COLUMNS(lambda c: c = coalesce(getvariable('input_map')['y'], 'y')) AS y,
-             COLUMNS(lambda c: c = coalesce(getvariable('input_map')['estimated'], 'estimated')) AS estimated
+FROM (SELECT COLUMNS(lambda c: lower(c) = coalesce(getvariable('input_map')['camera'], 'camera')) AS camera,
+             COLUMNS(lambda c: lower(c) = coalesce(getvariable('input_map')['track_id'], 'track_id')) AS track_id,
+             COLUMNS(lambda c: lower(c) = coalesce(getvariable('input_map')['class'], 'class')) AS class,
+             COLUMNS(lambda c: lower(c) = coalesce(getvariable('input_map')['t'], 't')) AS t,
+             COLUMNS(lambda c: lower(c) = coalesce(getvariable('input_map')['x'], 'x')) AS x,
+             COLUMNS(lambda c: lower(c) = coalesce(getvariable('input_map')['y'], 'y')) AS y,
+             COLUMNS(lambda c: lower(c) = coalesce(getvariable('input_map')['estimated'], 'estimated')) AS estimated
       FROM (SELECT * FROM query(getvariable('input_query'))
             UNION ALL BY NAME SELECT NULL AS estimated WHERE false));
 -- no rows, or rows the stages cannot use: a clear error, not an empty result
 SELECT CASE WHEN n = 0 THEN error('load: the input ' || getvariable('pipeline_input') || ' has no rows')
-            WHEN bad > 0 THEN error('load: ' || bad || ' of ' || n || ' rows have a NULL, NaN or infinite camera, track_id, class, t, x or y (the first: '
-                                    || coalesce(first_bad, '?') || '); drop or fill them before the pipeline') END
+            WHEN bad > 0 THEN error('load: ' || bad || ' of ' || n || ' rows have a NULL, NaN or infinite camera, track_id, class, t, x or y, '
+                                    || 'or a camera id beyond a 32-bit INTEGER or a track_id beyond BIGINT (shown as NULL; the first: '
+                                    || coalesce(first_bad, '?') || '); drop or fill them before the pipeline, and renumber ids that do not fit '
+                                    || 'with dense_rank() OVER (ORDER BY id)') END
 FROM (SELECT count(*) AS n,
              count(*) FILTER (WHERE NOT coalesce(camera IS NOT NULL AND track_id IS NOT NULL AND class IS NOT NULL AND isfinite(t) AND isfinite(x) AND isfinite(y), false)) AS bad,
              first(format('camera {}, track_id {}, class {}, t {}, x {}, y {}', coalesce(camera::VARCHAR, 'NULL'), coalesce(track_id::VARCHAR, 'NULL'),
@@ -108,6 +125,11 @@ FROM points GROUP BY camera, track_id, t HAVING count(*) > 1;
 DELETE FROM points WHERE rowid IN (
     SELECT rowid FROM points SEMI JOIN load_duplicates USING (camera, track_id, t)
     QUALIFY row_number() OVER (PARTITION BY camera, track_id, t ORDER BY estimated, x, y, class, rowid) > 1);
+-- a 32-bit FLOAT t far from 0 has lost its sub-seconds (epoch seconds step by 128 s)
+SELECT CASE WHEN getvariable('input_t_type') = 'FLOAT' AND max(abs(t)) > 1e5
+            THEN error(format('load: column t is FLOAT (32-bit): at {} its steps are {} s, too coarse for time stamps. Fix: store t as DOUBLE or a TIMESTAMP',
+                              max(abs(t)), 2.0 ** (floor(log2(max(abs(t)))) - 23))) END
+FROM points;
 -- units: the sampling period and the speeds of road users are known to within a factor of a
 -- few; times in milliseconds (1.7e12) or coordinates in millimetres give implausible ones (and,
 -- left alone, 0 road users): a clear error naming the column and the unit it seems to be in.

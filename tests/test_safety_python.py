@@ -226,6 +226,26 @@ def main():
     ok, msg = raises(lambda: trajdb.pipeline(con, "est"), "is estimated")
     check("an all-estimated input: an error about the data, not the internals", ok and "meta row" not in msg, msg)
 
+    # ---- careless column mappings and types
+    for cols, needle in [("camera=a, camera=b", "gives a role twice"), ("camera=track_id", "two roles from one column"), ("time=t", "not a role")]:
+        ok, msg = raises(lambda: trajdb.pipeline(con, "scene", input_columns=cols), needle)
+        check(f"input_columns {cols!r}: a clear error", ok, msg)
+    con.execute("CREATE TABLE upper_cols AS SELECT camera AS Camera, track_id AS Track_ID, class AS CLASS, t AS T, x AS X, y AS Y, estimated FROM scene")
+    trajdb.pipeline(con, "upper_cols")
+    check("column names match case-insensitively", road_users(con) == base)
+    con.execute("CREATE TABLE big_cam AS SELECT * REPLACE (camera::BIGINT + 5000000000 AS camera) FROM scene")
+    ok, msg = raises(lambda: trajdb.pipeline(con, "big_cam"), "beyond a 32-bit INTEGER")
+    check("a camera id beyond INTEGER: the load's error", ok, msg)
+    con.execute("CREATE TABLE float_t AS SELECT * REPLACE ((t + 1.79e9)::FLOAT AS t) FROM scene")
+    ok, msg = raises(lambda: trajdb.pipeline(con, "float_t"), "is FLOAT (32-bit)")
+    check("epoch seconds in a FLOAT: a clear error", ok, msg)
+    con.execute("CREATE TABLE date_t AS SELECT * REPLACE (DATE '2026-01-01' + (t // 86400)::INTEGER AS t) FROM scene")
+    ok, msg = raises(lambda: trajdb.pipeline(con, "date_t"), "column t is DATE")
+    check("a DATE t: refused as a type", ok, msg)
+    con.execute("CREATE TABLE twin AS FROM scene UNION ALL SELECT * REPLACE (camera + 10 AS camera) FROM scene WHERE camera = (SELECT min(camera) FROM scene)")
+    ok, msg = raises(lambda: trajdb.pipeline(con, "twin"), "epsilon")
+    check("a camera exported twice under another id runs (noise-free pair)", not ok, msg)
+
     # ---- a sandboxed connection (enable_external_access = false): tables still run, files are
     # neither read nor written, and nothing is created on disk
     sb = trajdb.connect()

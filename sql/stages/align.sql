@@ -146,7 +146,9 @@ d AS (
 )
 SELECT p.cam_a, p.cam_b, coalesce(d.sigma_d, p.sigma_pair_m) AS sigma_d_m, coalesce(d.n_pairs, 0) AS n_pairs,
        CASE WHEN d.sigma_d IS NULL THEN 'camera noise' ELSE 'matched residuals' END AS source,
-       coalesce(getvariable('merge_epsilon'), sqrt(2 * ln(100)) * coalesce(d.sigma_d, p.sigma_pair_m)) AS merge_epsilon
+       -- at least 1 mm: noise-free input (a camera exported twice, simulated exact points)
+       -- measures sigma = 0, and LCSS needs epsilon > 0; 1 mm is below any camera's noise
+       coalesce(getvariable('merge_epsilon'), greatest(sqrt(2 * ln(100)) * coalesce(d.sigma_d, p.sigma_pair_m), 1e-3)) AS merge_epsilon
 FROM calib_pairs p LEFT JOIN d ON d.cam_fixed = p.cam_a AND d.cam_moving = p.cam_b;
 
 -- 4. spanning tree: widest path from every camera to the reference camera (the one with the

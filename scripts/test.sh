@@ -10,6 +10,8 @@
 #      examples in stock DuckDB (PyPI duckdb); concurrency, interrupt and work limits
 #      (tests/test_robust_python.py); the runner as a careless or hostile user meets it: results
 #      folder, injection, sandbox, parameters, metamorphic pipeline runs (tests/test_safety_python.py);
+#      NULL / hostile arguments to every table function in a child process, the sandbox, per-database
+#      work limits (tests/test_sandbox_python.py);
 #      the Python package (pip install . into a fresh venv) against
 #      the binary
 #   5. round trip with DuckDB spatial (PyPI duckdb 1.5.5 + duckdb-extension-spatial, own venv), and
@@ -56,6 +58,7 @@ python3 tests/test_footer.py && python3 tests/test_footer.py trajdb.duckdb_exten
 "$VENV/bin/python" tests/run_fuzz_python.py trajdb.duckdb_extension "$FUZZ_CASES"
 "$VENV/bin/python" tests/test_robust_python.py trajdb.duckdb_extension
 "$VENV/bin/python" tests/test_safety_python.py trajdb.duckdb_extension
+"$VENV/bin/python" tests/test_sandbox_python.py trajdb.duckdb_extension
 "$VENV/bin/python" tests/test_readme.py trajdb.duckdb_extension
 tests/test_python_package.sh
 
@@ -68,6 +71,7 @@ if [ ! -x "$SPATIAL_VENV/bin/python" ]; then python3 -m venv "$SPATIAL_VENV"; fi
 "$SPATIAL_VENV/bin/python" tests/run_fuzz_python.py trajdb.duckdb_extension "$FUZZ_CASES"
 "$SPATIAL_VENV/bin/python" tests/test_robust_python.py trajdb.duckdb_extension
 "$SPATIAL_VENV/bin/python" tests/test_safety_python.py trajdb.duckdb_extension
+"$SPATIAL_VENV/bin/python" tests/test_sandbox_python.py trajdb.duckdb_extension
 "$SPATIAL_VENV/bin/python" tests/test_readme.py trajdb.duckdb_extension
 
 echo "== 6/6 trajdb.spark in Spark local mode against trajdb pipeline per site"

@@ -16,10 +16,10 @@
 //! (trajdb_simulate: an error). A named argument given as NULL (`cameras := NULL`) is an error
 //! naming it: leave it out for its default.
 //!
-//! Named parameters are registered as `ANY` and converted here, so that a value of the wrong
-//! type is an error naming the function and the parameter in every DuckDB (1.5 said only
-//! `Failed to cast value: Could not convert string 'x' to INT64`); the reference shows their
-//! declared types.
+//! Parameters (positional and named) are registered as `ANY` and converted here, so that a
+//! value of the wrong type is an error naming the function and the parameter in every DuckDB
+//! (DuckDB's own cast said only `Failed to cast value: Could not convert string 'x' to INT64`);
+//! the reference shows their declared types.
 
 use crate::algo::limits::{self, Limits};
 use crate::bindings::registry::{Param, Table};
@@ -100,7 +100,7 @@ impl<T: TableFn> VTab for Tab<T> {
     }
 
     fn parameters() -> Option<Vec<LogicalTypeHandle>> {
-        Some(T::TABLE.params.iter().map(|p| p.ty.logical()).collect())
+        Some(T::TABLE.params.iter().map(|_| LogicalTypeHandle::from(LogicalTypeId::Any)).collect())
     }
 
     fn named_parameters() -> Option<Vec<(String, LogicalTypeHandle)>> {
@@ -128,16 +128,6 @@ fn type_name(t: LogicalTypeId) -> String {
     }
 }
 
-/// `v`'s type is `want` (DuckDB casts arguments to the declared types; anything else is a bug
-/// that must not reach a converter).
-fn check_type(v: &Value, want: LogicalTypeId, what: &str) -> Res<()> {
-    let got = v.logical_type_id();
-    if got != want {
-        return Err(format!("{what} arrived as {got:?}, not {want:?} (please report this)").into());
-    }
-    Ok(())
-}
-
 impl BindArgs<'_> {
     fn param(&self, k: usize) -> Res<&'static Param> {
         self.table.params.get(k).ok_or_else(|| format!("argument {} is not declared", k + 1).into())
@@ -147,32 +137,40 @@ impl BindArgs<'_> {
         self.table.named.iter().find(|p| p.name == name).ok_or_else(|| format!("named parameter {name} is not declared").into())
     }
 
-    /// Positional VARCHAR argument `k`; `None` when it is NULL.
-    pub fn text(&self, k: usize) -> Res<Option<String>> {
+    /// Positional argument `k`, present and not NULL (`None` when NULL), with its declaration.
+    fn positional(&self, k: usize) -> Res<Option<(&'static Param, Value)>> {
         let p = self.param(k)?;
         if (self.info.get_parameter_count() as usize) <= k {
             return Err(format!("{} is missing", p.name).into());
         }
         let v = self.info.get_parameter(k as u64);
-        if v.is_null() {
-            return Ok(None);
+        Ok((!v.is_null()).then_some((p, v)))
+    }
+
+    /// Positional VARCHAR argument `k`; `None` when it is NULL.
+    pub fn text(&self, k: usize) -> Res<Option<String>> {
+        let Some((p, v)) = self.positional(k)? else { return Ok(None) };
+        let ty = v.logical_type_id();
+        if !matches!(ty, LogicalTypeId::Varchar | LogicalTypeId::StringLiteral) {
+            return Err(format!("{} must be text (VARCHAR), got {} {:?}", p.name, type_name(ty), v.to_string()).into());
         }
-        check_type(&v, LogicalTypeId::Varchar, p.name)?;
         Ok(Some(v.to_string()))
     }
 
-    /// Positional BOOLEAN argument `k`; `None` when it is NULL.
+    /// Positional BOOLEAN argument `k` (true / false, or the text 'true' / 'false'); `None` when
+    /// it is NULL.
     pub fn boolean(&self, k: usize) -> Res<Option<bool>> {
-        let p = self.param(k)?;
-        if (self.info.get_parameter_count() as usize) <= k {
-            return Err(format!("{} is missing", p.name).into());
+        let Some((p, v)) = self.positional(k)? else { return Ok(None) };
+        let ty = v.logical_type_id();
+        if ty == LogicalTypeId::Boolean {
+            return Ok(Some(v.to_bool()));
         }
-        let v = self.info.get_parameter(k as u64);
-        if v.is_null() {
-            return Ok(None);
+        let text = v.to_string();
+        match text.trim().to_ascii_lowercase().as_str() {
+            "true" if matches!(ty, LogicalTypeId::Varchar | LogicalTypeId::StringLiteral) => Ok(Some(true)),
+            "false" if matches!(ty, LogicalTypeId::Varchar | LogicalTypeId::StringLiteral) => Ok(Some(false)),
+            _ => Err(format!("{} must be true or false (BOOLEAN), got {} {text:?}", p.name, type_name(ty)).into()),
         }
-        check_type(&v, LogicalTypeId::Boolean, p.name)?;
-        Ok(Some(v.to_bool()))
     }
 
     /// A named argument that is present, with its declared parameter: `None` when left out;

@@ -260,6 +260,44 @@ def main():
     ok, msg = raises(lambda: sb.execute("FROM trajdb_results_begin(?, 'scene')", [os.path.join(w, "sandboxed2")]).fetchall(), "")
     check("sandboxed: trajdb_results_begin creates nothing", not os.path.exists(os.path.join(w, "sandboxed2")), msg)
 
+    # ---- fuzz: random `out` strings against a tree of the user's files. Through the SQL functions
+    # every runner uses (trajdb_results_begin / _end, src/app/outdir.rs), 300 cases: whatever
+    # is refused or written, no file of the user's changes or disappears.
+    import random
+    rnd = random.Random(25)
+    tree_root = os.path.join(w, "fuzz")
+    for d in ["a", "a/b", "results", "data"]:
+        os.makedirs(os.path.join(tree_root, d), exist_ok=True)
+    for f in ["a/x.txt", "a/b/y.txt", "data/points.parquet", "z.txt", "results/notes.txt"]:
+        with open(os.path.join(tree_root, f), "w") as fh:
+            fh.write(f)
+    user_files = tree(tree_root)
+    old_cwd, old_home = os.getcwd(), os.environ.get("HOME")
+    os.chdir(tree_root)
+    os.environ["HOME"] = os.path.join(tree_root, "a")
+    parts = ["", ".", "..", "/", "a", "b", "results", "data", "new", "~", " ", "'", '"', ";", "*", "\n", "x.txt", "z.txt", "points.parquet", ".trajdb-results"]
+    fc = trajdb.connect()
+    fuzz_errors, claimed = [], 0
+    for _ in range(300):
+        out = "/".join(rnd.choice(parts) for _ in range(rnd.randint(1, 4)))
+        inp = rnd.choice(["scene", "data/points.parquet", "data/*.parquet", "*/*.txt", "a"])
+        try:
+            fc.execute("FROM trajdb_results_begin(?, ?)", [out, inp]).fetchall()
+        except duckdb.Error:
+            continue
+        claimed += 1
+        try:
+            fc.execute("FROM trajdb_results_end(?, ?)", [out, rnd.random() < 0.7]).fetchall()
+        except duckdb.Error as e:
+            fuzz_errors.append(f"{out!r}: {e}")
+    os.chdir(old_cwd)
+    if old_home is not None:
+        os.environ["HOME"] = old_home
+    now = tree(tree_root)
+    lost = [k for k, v in user_files.items() if now.get(k) != v]
+    check("fuzz: 300 random out strings change no file of the user's", not lost, lost)
+    check(f"fuzz: every claimed run ends cleanly ({claimed} of 300 claimed, the rest refused)", not fuzz_errors and claimed > 20, fuzz_errors[:3])
+
     # ---- the DuckDB CLI route: `.read sql/pipeline.sql` with a hostile pipeline_input
     cli = trajdb.connect()
     cli.execute("CREATE TABLE scene AS FROM read_parquet(?)", [scene])

@@ -234,17 +234,26 @@ def simulate(con, out, **params):
     for k in params:
         if not str(k).isidentifier():
             raise ValueError(f"trajdb.simulate: parameter names are those of trajdb_simulate (cameras, minutes, seed, ...), got {k!r}")
-    # names are identifiers (DuckDB refuses unknown ones); values and paths are bound parameters
+    # names are identifiers (DuckDB refuses unknown ones); values and paths are bound parameters.
+    # The scenario and points.parquet go into one claim of `out` (src/app/outdir.rs), so that
+    # points.parquet is in the manifest: a later scenario into `out` replaces it with the rest.
     args = "".join(f", {k} := ?" for k in params)
     out = os.path.abspath(os.fspath(out))
-    row = con.execute(f"FROM trajdb_simulate(?{args})", [out, *params.values()]).fetchall()[0]
-    con.execute("SET VARIABLE trajdb_sim_csv = ?", [os.path.join(out, "points.csv")])
-    con.execute("SET VARIABLE trajdb_sim_parquet = ?", [os.path.join(out, "points.parquet")])
-    con.execute(
-        """COPY (SELECT camera::INTEGER AS camera, track_id::BIGINT AS track_id, class::VARCHAR AS class, t::DOUBLE AS t,
-                        x::DOUBLE AS x, y::DOUBLE AS y, speed::DOUBLE AS speed, estimated::INTEGER AS estimated
-                 FROM read_csv(getvariable('trajdb_sim_csv'), header = true)) TO (getvariable('trajdb_sim_parquet')) (FORMAT parquet)"""
-    )
+    staging = con.execute("FROM trajdb_results_begin(?, '')", [out]).fetchone()[0]
+    try:
+        row = con.execute(f"FROM trajdb_simulate(?{args})", [staging, *params.values()]).fetchall()[0]
+        con.execute("SET VARIABLE trajdb_sim_csv = ?", [os.path.join(staging, "points.csv")])
+        con.execute("SET VARIABLE trajdb_sim_parquet = ?", [os.path.join(staging, "points.parquet")])
+        con.execute(
+            """COPY (SELECT camera::INTEGER AS camera, track_id::BIGINT AS track_id, class::VARCHAR AS class, t::DOUBLE AS t,
+                            x::DOUBLE AS x, y::DOUBLE AS y, speed::DOUBLE AS speed, estimated::INTEGER AS estimated
+                     FROM read_csv(getvariable('trajdb_sim_csv'), header = true)) TO (getvariable('trajdb_sim_parquet')) (FORMAT parquet)"""
+        )
+        con.execute("FROM trajdb_results_end(?, true)", [out]).fetchall()
+    except BaseException:
+        con.execute("FROM trajdb_results_end(?, false)", [out]).fetchall()
+        raise
+    row = (out,) + tuple(row[1:])
     return row
 
 

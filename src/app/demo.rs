@@ -85,16 +85,20 @@ pub fn simulate(db: Option<&str>, p: &super::simulate::SimParams, out: &str, com
     let t = std::time::Instant::now();
     let s = super::simulate::simulate(p)?;
     let dir = std::path::Path::new(out);
-    s.write(dir, &format!("trajdb {command}"))?;
     let con = crate::open(db)?;
-    let q = |f: &str| super::sql::sql_string(&dir.join(f).to_string_lossy());
-    con.execute_batch(&format!(
-        "COPY (SELECT camera::INTEGER AS camera, track_id::BIGINT AS track_id, class::VARCHAR AS class, t::DOUBLE AS t,
-                      x::DOUBLE AS x, y::DOUBLE AS y, speed::DOUBLE AS speed, estimated::INTEGER AS estimated
-               FROM read_csv({}, header = true)) TO {} (FORMAT parquet)",
-        q("points.csv"),
-        q("points.parquet")
-    ))?;
+    // points.parquet is written into the claim's staging folder with the other files, so it is
+    // in the manifest and a later scenario into this folder replaces it (src/app/outdir.rs)
+    s.write_with(dir, &format!("trajdb {command}"), |staging| {
+        let q = |f: &str| super::sql::sql_string(&staging.join(f).to_string_lossy());
+        con.execute_batch(&format!(
+            "COPY (SELECT camera::INTEGER AS camera, track_id::BIGINT AS track_id, class::VARCHAR AS class, t::DOUBLE AS t,
+                          x::DOUBLE AS x, y::DOUBLE AS y, speed::DOUBLE AS speed, estimated::INTEGER AS estimated
+                   FROM read_csv({}, header = true)) TO {} (FORMAT parquet)",
+            q("points.csv"),
+            q("points.parquet")
+        ))
+        .map_err(|e| super::simulate::SimError::Param(format!("writing points.parquet: {e}")))
+    })?;
     eprintln!(
         "[trajdb] simulate {:>7.2} s  {} objects, {} cameras, {} tracks, {} points -> {out}",
         t.elapsed().as_secs_f64(),

@@ -33,6 +33,16 @@ WHERE estimated = 0
 GROUP BY camera, track_id, class
 HAVING count(*) >= getvariable('align_min_points');
 
+-- Each camera's centroid (the mean of its real points), the origin every vote is taken about.
+-- A hypothesis (theta, tx, ty) is a rotation about the moving frame's ORIGIN: an angle error
+-- dtheta moves tx, ty by |p| dtheta for points p far from it, 17 m per km (a frame in UTM or a
+-- state plane, x ~ 5e5, y ~ 5.7e6, aligned no camera at all). Where the hypothesis puts the
+-- moving camera's centroid, relative to the fixed camera's centroid, moves only by the view's
+-- own size times dtheta, and does not change when either camera's frame is moved: hypotheses
+-- vote and agree in (theta, qx, qy, dt) instead of (theta, tx, ty, dt).
+CREATE OR REPLACE TEMP TABLE align_centroids AS
+SELECT camera, avg(x) AS cx, avg(y) AS cy FROM points WHERE estimated = 0 GROUP BY camera;
+
 -- 1. hypotheses. Clocks may differ (dt = moving clock - fixed clock, up to
 --    align_max_clock_offset_s either way): each track pair is fitted at every shift dt on a grid
 --    of align_bin_s (rigid_fit_scan, src/algo/align/shift.rs). A straight track fits at every
@@ -56,9 +66,14 @@ cand AS (
     JOIN align_tracks a ON a.camera = p.cam_fixed AND a.track_id = p.track_fixed
     JOIN align_tracks b ON b.camera = p.cam_moving AND b.track_id = p.track_moving
 )
-SELECT h.cam_fixed, h.cam_moving, track_fixed, track_moving, f.dt, f.theta, f.tx, f.ty, f.rms
+SELECT h.cam_fixed, h.cam_moving, track_fixed, track_moving, f.dt, f.theta, f.tx, f.ty, f.rms,
+       -- where the hypothesis puts the moving camera's centroid, relative to the fixed camera's
+       -- centroid (see align_centroids): the vote's position, invariant to either frame's origin
+       cos(f.theta) * m.cx - sin(f.theta) * m.cy + f.tx - fc.cx AS qx,
+       sin(f.theta) * m.cx + cos(f.theta) * m.cy + f.ty - fc.cy AS qy
 FROM (SELECT cam_fixed, cam_moving, track_fixed, track_moving, unnest(fits) AS f FROM cand) h
 JOIN calib_pairs c ON c.cam_a = h.cam_fixed AND c.cam_b = h.cam_moving
+JOIN align_centroids fc ON fc.camera = h.cam_fixed JOIN align_centroids m ON m.camera = h.cam_moving
 WHERE f.n >= getvariable('align_min_pairs') AND f.span >= getvariable('align_min_span_m')
   AND f.rms < c.align_max_rms_m;
 
@@ -70,15 +85,15 @@ CREATE OR REPLACE TEMP TABLE align_best AS
 WITH bins AS (
     SELECT cam_fixed, cam_moving,
            round(degrees(theta) / getvariable('align_bin_deg')) * getvariable('align_bin_deg') AS theta_deg,
-           round(tx / getvariable('align_bin_m')) * getvariable('align_bin_m') AS tx,
-           round(ty / getvariable('align_bin_m')) * getvariable('align_bin_m') AS ty,
+           round(qx / getvariable('align_bin_m')) * getvariable('align_bin_m') AS qx,
+           round(qy / getvariable('align_bin_m')) * getvariable('align_bin_m') AS qy,
            round(dt / getvariable('align_bin_s')) * getvariable('align_bin_s') AS dt
     FROM align_hyp
 )
-SELECT cam_fixed, cam_moving, theta_deg, tx, ty, dt, count(*) AS votes
+SELECT cam_fixed, cam_moving, theta_deg, qx, qy, dt, count(*) AS votes
 FROM bins
-GROUP BY cam_fixed, cam_moving, theta_deg, tx, ty, dt
-QUALIFY row_number() OVER (PARTITION BY cam_fixed, cam_moving ORDER BY votes DESC, abs(dt), theta_deg, tx, ty) = 1;
+GROUP BY cam_fixed, cam_moving, theta_deg, qx, qy, dt
+QUALIFY row_number() OVER (PARTITION BY cam_fixed, cam_moving ORDER BY votes DESC, abs(dt), theta_deg, qx, qy) = 1;
 
 -- 3. the agreeing hypotheses at the winning shift (angle difference wrapped to [-180, 180)) are
 --    the pre-matched track pairs: same road user in both cameras, found without any coordinates
@@ -90,7 +105,7 @@ JOIN align_tracks a ON a.camera = h.cam_fixed AND a.track_id = h.track_fixed
 JOIN align_tracks m ON m.camera = h.cam_moving AND m.track_id = h.track_moving
 WHERE abs(h.dt - b.dt) < 0.5 * getvariable('align_bin_s')
   AND abs(((degrees(h.theta) - b.theta_deg + 540) % 360) - 180) <= getvariable('align_agree_deg')
-  AND abs(h.tx - b.tx) <= getvariable('align_agree_m') AND abs(h.ty - b.ty) <= getvariable('align_agree_m');
+  AND abs(h.qx - b.qx) <= getvariable('align_agree_m') AND abs(h.qy - b.qy) <= getvariable('align_agree_m');
 
 --    refit all their tracks together at every shift within one vote bin of the winner, on a
 --    grid of align_clock_step_s (rigid_fit_shifted): tracks in several directions pin the

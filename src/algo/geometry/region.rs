@@ -244,16 +244,30 @@ impl Slabs {
         Ok(slabs)
     }
 
+    /// How many slabs.
+    pub(super) fn len(&self) -> usize {
+        self.start.len() - 1
+    }
+
+    /// The items of slab `s`.
+    pub(super) fn items(&self, s: usize) -> &[u32] {
+        &self.items[self.start[s] as usize..self.start[s + 1] as usize]
+    }
+
+    /// The items of slab `s`, to reorder.
+    pub(super) fn items_mut(&mut self, s: usize) -> &mut [u32] {
+        &mut self.items[self.start[s] as usize..self.start[s + 1] as usize]
+    }
+
     /// The slab of `y` (clamped to the first and last).
     #[inline]
-    fn slab(&self, y: f64) -> usize {
+    pub(super) fn slab(&self, y: f64) -> usize {
         (((y - self.y0) * self.inv_h) as usize).min(self.start.len() - 2)
     }
 
     /// The items whose range may contain `y`.
     pub(super) fn get(&self, y: f64) -> &[u32] {
-        let s = self.slab(y);
-        &self.items[self.start[s] as usize..self.start[s + 1] as usize]
+        self.items(self.slab(y))
     }
 }
 

@@ -178,9 +178,11 @@ impl StartGrid {
             y0 = y0.min(tracks[k].y0);
             y1 = y1.max(tracks[k].y0);
         }
-        // cells of the search radius, but never finer than a millionth of the extent
+        // cells of the search radius; coarser when the starts are sparse (about 4 a cell, fewer
+        // cells to visit and a smaller table), and never finer than a millionth of the extent
         let spread = (x1 - x0).max(y1 - y0);
-        let mut cell = radius.max(spread * 1e-6);
+        let sparse = 2.0 * ((x1 - x0) * (y1 - y0) / starts.len().max(1) as f64).sqrt();
+        let mut cell = radius.max(spread * 1e-6).max(if sparse.is_finite() { sparse } else { 0.0 });
         if !(cell > 0.0 && cell.is_finite()) {
             cell = if spread.is_finite() && spread > 0.0 { spread } else { 1.0 };
         }
@@ -306,13 +308,22 @@ fn events_capped(tracks: &[Endpoints], interior: Option<&Region>, p: &EventParam
         }
         Ok(())
     };
-    for (ka, a) in tracks.iter().enumerate() {
-        if !inside(a.x1, a.y1) {
-            continue;
+    // the ends in time order, so that the time window of the starts only moves forward (two
+    // pointers instead of two binary searches, which missed the cache on every end)
+    let mut ends: Vec<usize> = (0..tracks.len()).filter(|&k| inside(tracks[k].x1, tracks[k].y1)).collect();
+    ends.sort_by(|&a, &b| tracks[a].t1.total_cmp(&tracks[b].t1).then(tracks[a].id.cmp(&tracks[b].id)));
+    let (mut lo, mut hi) = (0usize, 0usize);
+    for &ka in &ends {
+        let a = &tracks[ka];
+        // the time window: starts with t0 >= a.t1 and fl(t0 - a.t1) <= max_gap; both bounds are
+        // monotone in t0 and only grow with a.t1
+        while lo < start_t.len() && start_t[lo] < a.t1 {
+            lo += 1;
         }
-        // the time window: starts with t0 >= a.t1 and fl(t0 - a.t1) <= max_gap (monotone in t0)
-        let lo = start_t.partition_point(|&t| t < a.t1);
-        let hi = lo + start_t[lo..].partition_point(|&t| t - a.t1 <= p.max_gap);
+        hi = hi.max(lo);
+        while hi < start_t.len() && start_t[hi] - a.t1 <= p.max_gap {
+            hi += 1;
+        }
         if hi - lo <= 16 {
             for &kb in &starts[lo..hi] {
                 test(ka, kb, &mut near)?;

@@ -302,7 +302,8 @@ fn events_capped(tracks: &[Endpoints], interior: Option<&Region>, p: &EventParam
                 return Err(EventError::TooManyPairs { cap, limit: limit.name, value: limit.get() });
             }
             if near.len() == near.capacity() {
-                near.try_reserve(near.len().max(1024)).map_err(|_| EventError::TooManyPairs { cap: near.len() as u64, limit: limits::MEMORY_BYTES.name, value: limits::MEMORY_BYTES.get() })?;
+                // doubling, but never past the cap
+                near.try_reserve(near.len().max(1024).min((cap - near.len() as u64) as usize)).map_err(|_| EventError::TooManyPairs { cap: near.len() as u64, limit: limits::MEMORY_BYTES.name, value: limits::MEMORY_BYTES.get() })?;
             }
             near.push((ka, kb, gap, dist));
         }

@@ -29,7 +29,8 @@
 //! [`consistent_groups`]: O((T + L) log² T) for T tracks and L links (small-to-large merging of
 //! per-camera interval sets), plus O(min(|A|, |B|) log T) once per pair of groups in conflict.
 
-use crate::algo::lcss::time_window::{matches_in, TimeWindowParams};
+use crate::algo::lcss::time_window::{band_cells, matches_in, TimeWindowParams};
+use crate::algo::lcss::LcssError;
 use crate::algo::geometry::region::Region;
 use crate::algo::graph::UnionFind;
 use crate::algo::traj::{OwnedTraj, Traj};
@@ -100,7 +101,8 @@ pub fn merge_two(a: Traj<'_>, b: Traj<'_>, p: &TimeWindowParams, region: Option<
 /// φ_{N−1}: merges `trajs` in the given order, step i (i ≥ 1) restricted to `regions[i − 1]`
 /// when regions are given (then exactly one per step, else [`MergeError::Regions`]). Returns
 /// the merged trajectory and the number of matched pairs at each step. Each step's LCSS is
-/// checked against the limits before it runs ([`matches_in`]).
+/// checked against the limits before it runs ([`matches_in`]), and the cells of all steps so
+/// far against `lcss_cells`.
 pub fn merge_chain(trajs: &[Traj<'_>], p: &TimeWindowParams, regions: Option<&[&Region]>) -> Result<(OwnedTraj, Vec<usize>), MergeError> {
     if let Some(r) = regions {
         if r.len() + 1 != trajs.len().max(1) {
@@ -110,7 +112,12 @@ pub fn merge_chain(trajs: &[Traj<'_>], p: &TimeWindowParams, regions: Option<&[&
     let Some(first) = trajs.first() else { return Ok((OwnedTraj::default(), vec![])) };
     let mut phi = Weighted::from_traj(*first);
     let mut counts = Vec::with_capacity(trajs.len().saturating_sub(1));
+    // the cells of all steps so far, against lcss_cells before each step: the whole chain stays
+    // within the limit, not only each step
+    let mut cells: u128 = 0;
     for (k, next) in trajs.iter().enumerate().skip(1) {
+        cells += band_cells(&phi.t, next.t, p.time_window());
+        crate::algo::limits::LCSS_CELLS.check(cells).map_err(|e| MergeError::Lcss(LcssError::Work(e)))?;
         let region = regions.map(|r| r[k - 1]);
         let m = matches_in(phi.view(), *next, p, region).map_err(MergeError::Lcss)?;
         counts.push(m.len());
@@ -131,7 +138,7 @@ pub enum MergeError {
     /// [`merge_chain`] got a region list whose length is not one per merge step.
     Regions { steps: usize, got: usize },
     /// The LCSS of a merge step is over a limit.
-    Lcss(crate::algo::lcss::LcssError),
+    Lcss(LcssError),
 }
 
 impl fmt::Display for MergeError {
@@ -318,6 +325,25 @@ mod tests {
         assert_eq!(merge_chain(&[], &p, None).unwrap().0.t.len(), 0);
         assert_eq!(merge_chain(&[a.view()], &p, None).unwrap().0, a);
         assert_eq!(merge_chain(&[a.view(), b.view()], &p, Some(&[])).unwrap_err(), MergeError::Regions { steps: 1, got: 0 });
+    }
+
+    /// Issue 19: the LCSS of every step is bounded, and so is the chain: the cells of all
+    /// steps add up against lcss_cells.
+    #[test]
+    fn chains_are_bounded_by_the_cells_of_all_steps() {
+        use crate::algo::limits::{with_scope, Limits};
+        let p = TimeWindowParams::new(1.0, f64::INFINITY, 1).unwrap();
+        let (a, b) = (line(0.0, 40, 0.0), line(0.0, 40, 5.0));
+        let l = std::sync::Arc::new(Limits::default());
+        l.set("lcss_cells", 2500).unwrap();
+        // step 1: 40 x 40 = 1600 cells (nothing matches 5 m away: 80 points merged); step 2: 80 x 40 more
+        assert!(with_scope(&l, || merge_chain(&[a.view(), b.view()], &p, None)).is_ok());
+        let e = with_scope(&l, || merge_chain(&[a.view(), b.view(), a.view()], &p, None)).unwrap_err();
+        assert!(matches!(&e, MergeError::Lcss(LcssError::Work(x)) if x.needed == 1600 + 80 * 40), "{e}");
+        l.set("lcss_cells", 10_000_000_000).unwrap();
+        l.set("memory_bytes", 1000).unwrap();
+        let e = with_scope(&l, || merge_two(a.view(), a.view(), &p, None)).unwrap_err();
+        assert!(e.to_string().contains("memory_bytes"), "{e}");
     }
 
     #[test]

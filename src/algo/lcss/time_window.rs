@@ -156,9 +156,13 @@ fn pruned_bands(a: Traj<'_>, b: Traj<'_>, eps: f64, tw: f64) -> Vec<(usize, usiz
 /// The cells of the LCSS table inside the time band (before pruning), against the work limit
 /// `lcss_cells`: `Err` before a call would run for long. O(n + m); `times` of A and B sorted.
 pub fn check_work(a_t: &[f64], b_t: &[f64], tw: f64) -> Result<(), LcssError> {
+    limits::LCSS_CELLS.check(band_cells(a_t, b_t, tw)).map_err(LcssError::Work)
+}
+
+/// The cells of the LCSS table inside the time band (before pruning). O(n + m); sorted times.
+pub fn band_cells(a_t: &[f64], b_t: &[f64], tw: f64) -> u128 {
     let mut band = time_band(a_t, b_t, tw);
-    let cells: u128 = (0..a_t.len()).map(|i| band(i)).map(|(lo, hi)| hi.saturating_sub(lo) as u128).sum();
-    limits::LCSS_CELLS.check(cells).map_err(LcssError::Work)
+    (0..a_t.len()).map(|i| band(i)).map(|(lo, hi)| hi.saturating_sub(lo) as u128).sum()
 }
 
 /// `L_{ε,T,ξ}(A, B)` of eq. 2.9. Inputs must satisfy [`Traj::validate`].

@@ -236,9 +236,10 @@ impl Slabs {
         fill.try_reserve_exact(nslab).map_err(|_| too_large())?;
         fill.extend_from_slice(&slabs.start[..nslab]);
         for (k, &(lo, hi)) in ranges.iter().enumerate() {
-            for s in slabs.slab(lo)..=slabs.slab(hi) {
-                slabs.items[fill[s] as usize] = k as u32;
-                fill[s] += 1;
+            let (first, last) = (slabs.slab(lo), slabs.slab(hi));
+            for f in &mut fill[first..=last] {
+                slabs.items[*f as usize] = k as u32;
+                *f += 1;
             }
         }
         Ok(slabs)

@@ -69,6 +69,7 @@ fn bench(c: &mut Criterion) {
         LineString(bpoly.0[0].exterior().0.iter().map(|c| Coord { x: c.x + 20.0, y: c.y }).collect()),
         vec![],
     )]);
+    let (a, shifted) = (Region::from_multipolygon(a).unwrap(), Region::from_multipolygon(shifted).unwrap());
     let mut g = c.benchmark_group("overlap");
     g.bench_function("intersection_200x200_vertices", |b| b.iter(|| overlap(black_box(&a), &shifted)));
     g.finish();

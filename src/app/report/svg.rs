@@ -182,7 +182,7 @@ mod tests {
     #[test]
     fn rings_of_polygons_and_multipolygons() {
         assert_eq!(rings("POLYGON EMPTY").len(), 0);
-        let r = rings("MULTIPOLYGON (((0 0, 1 0, 1 1, 0 0)), ((5 5, 6 5, 6 6, 5 5), (5.1 5.1, 5.2 5.1, 5.2 5.2, 5.1 5.1)))");
+        let r = rings("MULTIPOLYGON (((0 0, 1 0, 1 1, 0 0)), ((5 5, 6 5, 6 6, 5 5), (5.5 5.2, 5.8 5.2, 5.8 5.5, 5.5 5.2)))");
         assert_eq!(r.len(), 3);
         assert!(r[1].contains(&(6.0, 6.0)));
     }

@@ -80,14 +80,21 @@ WHERE NOT (d.column_type IN ('TINYINT', 'SMALLINT', 'INTEGER', 'BIGINT', 'HUGEIN
         OR (w.name = 'estimated' AND d.column_type = 'BOOLEAN'));
 -- t: a TIMESTAMPTZ is an instant: its epoch seconds, whatever the session's TimeZone (a cast to
 -- TIMESTAMP would go through it: 5 h early in New York, and an hour jump at a daylight-saving
--- change). A TIMESTAMP without time zone is read as UTC.
+-- change). The input is read through epoch() of that column (its name quoted as an
+-- identifier), so that no other input type ever meets a TIMESTAMPTZ cast (DuckDB without ICU
+-- has none). A TIMESTAMP without time zone is read as UTC.
 SET VARIABLE input_t_type = (SELECT any_value(d.column_type) FROM (DESCRIBE FROM query(getvariable('input_query'))) d
                              WHERE lower(d.column_name) = coalesce(getvariable('input_map')['t'], 't'));
-SET VARIABLE input_t_tz = coalesce(getvariable('input_t_type') = 'TIMESTAMP WITH TIME ZONE', false);
+SET VARIABLE input_query = (
+    SELECT CASE WHEN getvariable('input_t_type') = 'TIMESTAMP WITH TIME ZONE'
+                THEN 'SELECT * REPLACE (epoch(' || q || ') AS ' || q || ') ' || getvariable('input_query')
+                ELSE getvariable('input_query') END
+    FROM (SELECT '"' || replace(any_value(d.column_name), '"', '""') || '"' AS q
+          FROM (DESCRIBE FROM query(getvariable('input_query'))) d
+          WHERE lower(d.column_name) = coalesce(getvariable('input_map')['t'], 't')));
 CREATE OR REPLACE TEMP TABLE points AS
 SELECT try_cast(camera AS INTEGER) AS camera, try_cast(track_id AS BIGINT) AS track_id, class::VARCHAR AS class,
-       CASE WHEN getvariable('input_t_tz') THEN epoch(try_cast(t AS TIMESTAMPTZ))
-            ELSE coalesce(try_cast(t AS DOUBLE), epoch(try_cast(t AS TIMESTAMP))) END AS t,
+       coalesce(try_cast(t AS DOUBLE), epoch(try_cast(t AS TIMESTAMP))) AS t,
        x::DOUBLE AS x, y::DOUBLE AS y, coalesce(estimated::INTEGER, 0) AS estimated
 FROM (SELECT COLUMNS(lambda c: lower(c) = coalesce(getvariable('input_map')['camera'], 'camera')) AS camera,
              COLUMNS(lambda c: lower(c) = coalesce(getvariable('input_map')['track_id'], 'track_id')) AS track_id,

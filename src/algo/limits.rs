@@ -26,6 +26,7 @@
 //! | `memory_bytes` | bytes of the working tables one call allocates beyond its input and output (LCSS traceback, `traj_events` pairs, distance matrices, `trajdb_simulate`) | 4e9 |
 //! | `shift_pair_fits` | point pairs one `rigid_fit_shifted` fits: shifts × points of all track pairs, summed over its grid passes (checked before each) | 2e8 |
 //! | `label_pairs` | child pairs `traj_labels` compares (eq. 5: k(k−1)/2 for a split or merge into k tracks, summed) | 1e9 |
+//! | `assign_steps` | `assign_pairs`' dense solves: rows × columns × min(rows, columns) of each connected component, summed (the O(k³) bound of the shortest-augmenting-path solver) | 2e11 |
 
 use std::cell::RefCell;
 use std::fmt;
@@ -46,9 +47,10 @@ pub static OUTPUT_POINTS: Limit = Limit::new("output_points", "output points", 5
 pub static MEMORY_BYTES: Limit = Limit::new("memory_bytes", "bytes of working memory", 4_000_000_000);
 pub static SHIFT_PAIR_FITS: Limit = Limit::new("shift_pair_fits", "point-pair fits (shifts x points)", 200_000_000);
 pub static LABEL_PAIRS: Limit = Limit::new("label_pairs", "child pairs compared", 1_000_000_000);
+pub static ASSIGN_STEPS: Limit = Limit::new("assign_steps", "dense assignment steps (rows x columns x min(rows, columns), summed over components)", 200_000_000_000);
 
 /// Every limit, in the order of the table above.
-pub static ALL: [&Limit; 6] = [&LCSS_CELLS, &CPD_PAIR_VISITS, &OUTPUT_POINTS, &MEMORY_BYTES, &SHIFT_PAIR_FITS, &LABEL_PAIRS];
+pub static ALL: [&Limit; 7] = [&LCSS_CELLS, &CPD_PAIR_VISITS, &OUTPUT_POINTS, &MEMORY_BYTES, &SHIFT_PAIR_FITS, &LABEL_PAIRS, &ASSIGN_STEPS];
 
 impl Limit {
     const fn new(name: &'static str, counts: &'static str, default: u64) -> Limit {

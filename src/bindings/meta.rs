@@ -24,8 +24,8 @@ const TRAJDB_LIMIT: Function = Function {
     description: "Reads or sets a work limit, the most work one call may do (src/algo/limits.rs): 'lcss_cells' (cells of one LCSS table; traj_cluster with S2 sums them over pairs and translations, \
                   default 1e10), 'cpd_pair_visits' (pairs in cpd_align's time band x max_iter, default 2e10), 'output_points' (points one \
                   call returns, default 5e7), 'memory_bytes' (working memory of one call beyond its input and output, default 4e9), \
-                  'shift_pair_fits' (point pairs one rigid_fit_shifted fits, default 2e9), 'label_pairs' (child pairs traj_labels compares, \
-                  default 1e9). A call above a limit stops at once with an error that names it. With a value it sets the limit \
+                  'shift_pair_fits' (point pairs one rigid_fit_shifted fits, default 2e8), 'label_pairs' (child pairs traj_labels compares, \
+                  default 1e9), 'assign_steps' (assign_pairs' dense solves, rows x columns x min of each component, default 2e11). A call above a limit stops at once with an error that names it. With a value it sets the limit \
                   for this database (every connection to it; other databases in the process keep their own) and returns the previous one. \
                   DuckDB's C API lets no extension see Ctrl-C inside a call: the limits keep every call short instead.",
     example: "SELECT trajdb_limit('lcss_cells'); -- 10000000000",

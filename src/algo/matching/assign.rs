@@ -12,7 +12,7 @@
 //! # Complexity
 //! O(E α(V)) for the components, then O(k³) per component of k nodes instead of O(V³), and
 //! O(k²) memory (24 bytes a cell), checked against the limit `memory_bytes` before the work and
-//! allocated fallibly.
+//! allocated fallibly; the solver's O(k³) steps are checked against `assign_steps`.
 
 use crate::algo::graph;
 use std::fmt;
@@ -23,6 +23,8 @@ pub enum AssignError {
     Solver,
     /// A component's dense matrix (24 bytes a cell) would take more than the limit `memory_bytes`.
     Memory(crate::algo::limits::Exceeded),
+    /// The dense solves would take more than the limit `assign_steps`.
+    Steps(crate::algo::limits::Exceeded),
     /// A component's dense matrix could not be allocated (rows, columns).
     Alloc { rows: usize, cols: usize },
 }
@@ -35,6 +37,11 @@ impl fmt::Display for AssignError {
             AssignError::Memory(e) => write!(
                 f,
                 "{e}: a connected component of the candidate pairs is solved as a dense matrix (24 bytes a cell); pass fewer candidate pairs \
+                 (a stricter threshold), or use hungarian_match, which keeps them sparse"
+            ),
+            AssignError::Steps(e) => write!(
+                f,
+                "{e}: the connected components of the candidate pairs are solved densely in O(k^3); pass fewer candidate pairs \
                  (a stricter threshold), or use hungarian_match, which keeps them sparse"
             ),
             AssignError::Alloc { rows, cols } => write!(
@@ -63,6 +70,9 @@ pub fn assign_max(edges: &[(i64, i64, f64)]) -> Result<Vec<usize>, AssignError> 
     let cells = (0..g.len()).map(|c| g.n_a[c] as u128 * g.n_b[c] as u128).max().unwrap_or(0);
     let cell_bytes = (std::mem::size_of::<f64>() + std::mem::size_of::<Option<usize>>()) as u128;
     crate::algo::limits::MEMORY_BYTES.check(cells * cell_bytes).map_err(AssignError::Memory)?;
+    // and the solver's time: O(rows x columns x min(rows, columns)) per component
+    let steps: u128 = (0..g.len()).map(|c| g.n_a[c] as u128 * g.n_b[c] as u128 * (g.n_a[c].min(g.n_b[c]) as u128)).sum();
+    crate::algo::limits::ASSIGN_STEPS.check(steps).map_err(AssignError::Steps)?;
     let mut chosen = Vec::new();
     for c in 0..g.len() {
         let (nr, nc) = (g.n_a[c] as usize, g.n_b[c] as usize);

@@ -384,8 +384,17 @@ impl Claim {
         Ok(names)
     }
 
-    /// A failed run: the staging folder goes, the earlier results stay as they were.
+    /// A failed run: the staging folder goes, the earlier results stay as they were. (Dropping
+    /// a claim that was neither committed nor aborted does the same: a runner that returns
+    /// early on an error aborts by leaving.)
     pub fn abort(mut self) {
+        self.abort_inner();
+    }
+
+    fn abort_inner(&mut self) {
+        if self.done {
+            return;
+        }
         self.finish();
         if !self.created.is_empty() {
             // the folder this run created, holding nothing but the manifest and the lock: gone
@@ -416,7 +425,7 @@ impl Claim {
 
 impl Drop for Claim {
     fn drop(&mut self) {
-        self.finish();
+        self.abort_inner();
     }
 }
 

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Scale benchmarks of issue 19 ("no host crash, no unbounded call"), run with the loadable
+"""Scale benchmarks of issue 25 ("no host crash, no unbounded call"), run with the loadable
 extension in Python DuckDB. Timing only: nothing here is a test.
 
 Each case runs in a child process with a time limit and an address-space limit, so that an old

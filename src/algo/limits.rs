@@ -189,7 +189,7 @@ mod tests {
         assert!(OUTPUT_POINTS.check(50_000_000).is_ok());
         let e = OUTPUT_POINTS.check(50_000_001).unwrap_err();
         assert!(e.to_string().contains("raise it with SELECT trajdb_limit('output_points', 50000001)"), "{e}");
-        assert_eq!(find("nope").unwrap_err().to_string(), "name must be one of lcss_cells, cpd_pair_visits, output_points, memory_bytes, shift_pair_fits, label_pairs, got 'nope'");
+        assert_eq!(find("nope").unwrap_err().to_string(), "name must be one of lcss_cells, cpd_pair_visits, output_points, memory_bytes, shift_pair_fits, label_pairs, assign_steps, got 'nope'");
         let mine = Arc::new(Limits::default());
         assert_eq!(mine.set("lcss_cells", 0).unwrap_err(), LimitError::Value(0));
         assert_eq!(mine.set("CPD_PAIR_VISITS", 7).unwrap(), CPD_PAIR_VISITS.default);

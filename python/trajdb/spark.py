@@ -153,11 +153,10 @@ def _typed(points):
     )
 
 
-def _defaults(params):
-    """The parameter values a run uses (sql/params.sql's defaults under `params`)."""
-    import duckdb
-
-    con = duckdb.connect()
+def _defaults(params, extension=None):
+    """The parameter values a run uses (sql/params.sql's defaults under `params`, checked by the
+    extension's declared parameter table)."""
+    con = W.connect(extension or W._default_extension())
     W._set_params(con, params)
     W._run(con, W.sql_file("sql/params.sql"))
     return {k: con.execute(f"SELECT getvariable('{k}')").fetchone()[0] for k in ("merge_time_window", "quality_max_gap")}
@@ -183,7 +182,7 @@ def pipeline(points, window_s=3600.0, halo_s=None, calibrate_s=86400.0, calibrat
     spark = points.sparkSession
     sc = spark.sparkContext
     params = dict(params or {})
-    reach = max(v for v in _defaults(params).values())
+    reach = max(v for v in _defaults(params, extension).values())
     ext = os.path.abspath(extension or W._default_extension())
     sc.addFile(ext)
     sc.addPyFile(_package_zip())

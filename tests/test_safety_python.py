@@ -288,6 +288,20 @@ def main():
     check("fuzz: 300 random out strings change no file of the user's", not lost, lost)
     check(f"fuzz: every claimed run ends cleanly ({claimed} of 300 claimed, the rest refused)", not fuzz_errors and claimed > 20, fuzz_errors[:3])
 
+    # ---- `~` is the same folder for the sandbox check and for the writer: a connection allowed
+    # only its working folder cannot write into the home folder through '~/...'
+    old_cwd = os.getcwd()
+    os.chdir(w)
+    tl = trajdb.connect()
+    tl.execute("SET allowed_directories = [?]", [w])
+    tl.execute("SET enable_external_access = false")
+    escape = "~/trajdb-sandbox-escape-" + str(os.getpid())
+    ok, msg = raises(lambda: tl.execute("FROM trajdb_results_begin(?, '')", [escape]).fetchall(), "enable_external_access is false")
+    check("sandboxed: '~/x' is the home folder for the check too (refused)", ok and not os.path.exists(os.path.expanduser(escape)), msg)
+    ok, msg = raises(lambda: tl.execute("FROM trajdb_simulate(?)", [escape]).fetchall(), "enable_external_access is false")
+    check("sandboxed: trajdb_simulate('~/x') refused", ok and not os.path.exists(os.path.expanduser(escape)), msg)
+    os.chdir(old_cwd)
+
     # ---- the DuckDB CLI route: `.read sql/pipeline.sql` with a hostile pipeline_input
     cli = trajdb.connect()
     cli.execute("CREATE TABLE scene AS FROM read_parquet(?)", [scene])

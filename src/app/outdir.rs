@@ -108,6 +108,12 @@ fn input_path(input: &str) -> Option<(PathBuf, bool)> {
     resolve(p).ok().map(|p| (p, deep))
 }
 
+/// `p` as every writer of trajdb uses it (and as the sandbox check sees it): `~` expanded, made
+/// absolute, the longest existing prefix resolved through `canonicalize`.
+pub fn absolute(p: &str) -> Result<PathBuf, OutError> {
+    resolve(Path::new(&expand_home(p)))
+}
+
 /// A leading `~` or `~/` is the home folder, as in a shell and in DuckDB's own paths.
 fn expand_home(p: &str) -> String {
     match (p.strip_prefix('~'), std::env::var("HOME")) {
@@ -165,6 +171,9 @@ pub struct Claim {
     /// The folders this claim created (`out` and any missing parents, innermost first): a
     /// failed first run removes them again while they hold nothing else.
     created: Vec<PathBuf>,
+    /// This claim wrote the first manifest into `out` (new or empty): a failed run removes it
+    /// again, so that an empty folder of the user's stays as it was.
+    fresh: bool,
     lock: Option<fs::File>,
     done: bool,
 }
@@ -178,7 +187,7 @@ pub fn claim(out: &str, inputs: &[&str]) -> Result<Claim, OutError> {
     if out.trim().is_empty() {
         return err("results folder: out is '' (empty); name a new folder, e.g. out='results'".into());
     }
-    let dir = resolve(Path::new(&expand_home(out)))?;
+    let dir = absolute(out)?;
     if dir.parent().is_none() {
         return err(format!("results folder: out {out:?} is the root folder; name a new folder, e.g. out='results'"));
     }
@@ -236,7 +245,8 @@ pub fn claim(out: &str, inputs: &[&str]) -> Result<Claim, OutError> {
         Vec::new()
     };
     // the manifest first: from now on the folder is recognisably trajdb's
-    if !dir.join(MANIFEST).exists() {
+    let fresh = !dir.join(MANIFEST).exists();
+    if fresh {
         write_manifest(&dir, &previous)?;
     }
     let lock = take_lock(&dir, out)?;
@@ -245,7 +255,7 @@ pub fn claim(out: &str, inputs: &[&str]) -> Result<Claim, OutError> {
     let n = SEQ.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
     let partial = dir.join(format!("{PARTIAL_PREFIX}{}-{n}", std::process::id()));
     fs::create_dir(&partial).map_err(|e| io("create", &partial, e))?;
-    Ok(Claim { out: dir, partial, previous, created, lock: Some(lock), done: false })
+    Ok(Claim { out: dir, partial, previous, created, fresh, lock: Some(lock), done: false })
 }
 
 /// The run's lock: an advisory lock (`flock`) on `out/.trajdb-lock`, held by the open file for
@@ -260,6 +270,19 @@ fn take_lock(dir: &Path, out: &str) -> Result<fs::File, OutError> {
     let f = fs::OpenOptions::new().write(true).create(true).truncate(false).open(&lock).map_err(|e| io("create", &lock, e))?;
     match f.try_lock() {
         Ok(()) => {
+            // the file locked must still be the one at the path (a run that removed its lock
+            // file in between would otherwise let two runs in)
+            #[cfg(unix)]
+            {
+                use std::os::unix::fs::MetadataExt;
+                let same = match (f.metadata(), fs::symlink_metadata(&lock)) {
+                    (Ok(a), Ok(b)) => a.ino() == b.ino() && a.dev() == b.dev(),
+                    _ => false,
+                };
+                if !same {
+                    return err(format!("results folder: another trajdb run changed out {out:?} while this one started; run again"));
+                }
+            }
             let _ = f.set_len(0);
             let _ = write!(&f, "{}", std::process::id());
             Ok(f)
@@ -324,7 +347,11 @@ fn write_manifest(dir: &Path, names: &[String]) -> Result<(), OutError> {
         text.push_str(n);
         text.push('\n');
     }
-    fs::write(&tmp, text).map_err(|e| io("write", &tmp, e))?;
+    let _ = fs::remove_file(&tmp); // a leftover of a killed run of this pid (a plain name of ours)
+    // create_new: never through a link someone planted under this name
+    let mut f = fs::OpenOptions::new().write(true).create_new(true).open(&tmp).map_err(|e| io("write", &tmp, e))?;
+    f.write_all(text.as_bytes()).map_err(|e| io("write", &tmp, e))?;
+    drop(f);
     fs::rename(&tmp, dir.join(MANIFEST)).map_err(|e| io("write", &dir.join(MANIFEST), e))
 }
 
@@ -395,20 +422,22 @@ impl Claim {
         if self.done {
             return;
         }
+        // while the lock is still held: the staging folder, then, where this claim wrote the
+        // first manifest and the folder holds nothing but it and the lock, those two files
+        let _ = remove_partial(&self.out, &self.partial);
+        let ours = |n: &std::ffi::OsStr| n == MANIFEST || n == LOCK;
+        let only_ours = self.fresh && fs::read_dir(&self.out).map(|d| d.flatten().all(|e| ours(&e.file_name()))).unwrap_or(false);
+        if only_ours {
+            let _ = fs::remove_file(self.out.join(MANIFEST));
+            let _ = fs::remove_file(self.out.join(LOCK));
+        }
         self.finish();
-        if !self.created.is_empty() {
-            // the folder this run created, holding nothing but the manifest and the lock: gone
-            // again, and the parents it created while they are empty (remove_dir only removes
-            // an empty folder)
-            let ours = |n: &std::ffi::OsStr| n == MANIFEST || n == LOCK;
-            let only_ours = fs::read_dir(&self.out).map(|d| d.flatten().all(|e| ours(&e.file_name()))).unwrap_or(false);
-            if only_ours {
-                let _ = fs::remove_file(self.out.join(MANIFEST));
-                let _ = fs::remove_file(self.out.join(LOCK));
-                for d in &self.created {
-                    if fs::remove_dir(d).is_err() {
-                        break;
-                    }
+        if only_ours {
+            // the folders this run created, while they are empty (remove_dir only removes an
+            // empty folder)
+            for d in &self.created {
+                if fs::remove_dir(d).is_err() {
+                    break;
                 }
             }
         }
@@ -449,7 +478,7 @@ pub mod open {
     /// given to [`begin`], or its staging folder). Aborting when no claim is open is nothing to
     /// do (`Ok` with no names); committing then is an error.
     pub fn end(out: &str, commit: bool) -> Result<Vec<String>, OutError> {
-        let dir = resolve(Path::new(&expand_home(out))).ok();
+        let dir = absolute(out).ok();
         let c = {
             let mut open = OPEN.lock().unwrap_or_else(|e| e.into_inner());
             match open.iter().position(|c| Some(&c.out) == dir.as_ref() || c.partial == Path::new(out)) {
@@ -548,6 +577,10 @@ mod tests {
         let partial = c.partial.clone();
         c.abort();
         assert!(!partial.exists());
+        // a failed first run into an empty folder of the user's leaves it empty
+        fs::create_dir(d.join("empty")).unwrap();
+        claim(d.join("empty").to_str().unwrap(), &[]).unwrap().abort();
+        assert_eq!(fs::read_dir(d.join("empty")).unwrap().count(), 0);
         // a failed first run removes the folder it created
         let c = claim(d.join("new").join("deeper").to_str().unwrap(), &[]).unwrap();
         c.abort();

@@ -28,7 +28,7 @@ use duckdb::vtab::{BindInfo, InitInfo, TableFunctionInfo, VTab, Value};
 use duckdb::Connection;
 use std::error::Error;
 use std::marker::PhantomData;
-use std::path::{Component, Path, PathBuf};
+use std::path::PathBuf;
 use std::sync::Arc;
 
 type Res<T> = Result<T, Box<dyn Error>>;
@@ -257,24 +257,12 @@ pub struct FileAccess {
     pub local_disabled: bool,
 }
 
-/// `p` made absolute and resolved: the longest existing prefix through `canonicalize` (links
-/// followed), the rest appended; `..` in the rest is refused (it could leave an allowed folder).
-fn resolve(p: &Path) -> Result<PathBuf, String> {
-    let abs = if p.is_absolute() { p.to_path_buf() } else { std::env::current_dir().map_err(|e| format!("cannot read the working folder: {e}"))?.join(p) };
-    let mut existing = abs.as_path();
-    let mut rest = Vec::new();
-    loop {
-        if let Ok(c) = existing.canonicalize() {
-            if rest.iter().any(|c: &Component| !matches!(c, Component::Normal(_) | Component::CurDir)) {
-                return Err(format!("{} goes through '..' below a folder that does not exist", p.display()));
-            }
-            return Ok(rest.iter().rev().fold(c, |acc, c| acc.join(c)));
-        }
-        let mut comps = existing.components();
-        let Some(last) = comps.next_back() else { return Ok(abs) };
-        rest.push(last);
-        existing = comps.as_path();
-    }
+/// `p` as trajdb's writers will use it: `~` expanded, made absolute, the longest existing
+/// prefix resolved through `canonicalize` (links followed), `..` below a missing folder refused.
+/// The same function as the writers' own ([`crate::app::outdir::absolute`]), so that the folder
+/// checked here is the folder written.
+fn resolve(p: &str) -> Result<PathBuf, String> {
+    crate::app::outdir::absolute(p).map_err(|e| e.to_string())
 }
 
 impl FileAccess {
@@ -295,8 +283,8 @@ impl FileAccess {
                  and files are written only where that setting can be checked"
             )),
             Some(false) => {
-                let target = resolve(Path::new(dir))?;
-                let inside = self.allowed_directories.iter().filter(|a| !a.trim().is_empty()).any(|a| resolve(Path::new(a)).is_ok_and(|a| target.starts_with(a)));
+                let target = resolve(dir)?;
+                let inside = self.allowed_directories.iter().filter(|a| !a.trim().is_empty()).any(|a| resolve(a).is_ok_and(|a| target.starts_with(a)));
                 if inside {
                     Ok(())
                 } else {

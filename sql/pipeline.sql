@@ -16,9 +16,10 @@
 -- the input: a table or view of this database, or a file (Parquet, CSV, JSON; a path or glob).
 -- It is resolved as exactly one of those and QUOTED, never pasted into SQL: a name that is a
 -- table or view (as name, schema.name or catalog.schema.name, case-insensitive) becomes a
--- quoted identifier; anything else is a file path, a quoted string literal. A user's table or
--- view wins over a TEMP one of the same name (the pipeline's own working tables are TEMP: a
--- second run on `points` reads the user's main.points, not the working table). query() with a
+-- quoted identifier; anything else is a file path, a quoted string literal. A name is looked up
+-- as DuckDB does (TEMP first, then the current catalog and schema), except that the pipeline's
+-- own working table temp.points comes last (a second run on `points` reads the user's
+-- main.points); a name found in two catalogs or schemas at the same rank is an error. query() with a
 -- FROM string works in DuckDB 1.5 and 2.0 (query_table('file.parquet') is a table name in 1.5).
 SELECT CASE WHEN getvariable('pipeline_input') IS NULL OR trim(getvariable('pipeline_input')) = ''
             THEN error('load: the input is empty; SET VARIABLE pipeline_input = ''points.parquet'' (a file, a glob or a table name)') END;
@@ -26,15 +27,26 @@ SET VARIABLE input_query = (
     WITH relations AS (
         SELECT database_name, schema_name, table_name AS name, temporary FROM duckdb_tables()
         UNION ALL SELECT database_name, schema_name, view_name, temporary FROM duckdb_views() WHERE NOT internal),
-    hit AS (
-        SELECT * FROM relations
+    hits AS (
+        -- DuckDB's own order for a name: a TEMP table or view (a registered DataFrame) first,
+        -- then the current catalog and schema, then the rest; the pipeline's working table
+        -- temp.points last (a user's points elsewhere wins over it)
+        SELECT *, CASE WHEN temporary AND lower(name) = 'points' THEN 3
+                       WHEN temporary THEN 0
+                       WHEN database_name = current_database() AND schema_name = current_schema() THEN 1
+                       ELSE 2 END AS rank
+        FROM relations
         WHERE lower(getvariable('pipeline_input')) IN (lower(name), lower(schema_name || '.' || name), lower(database_name || '.' || name),
-                                                       lower(database_name || '.' || schema_name || '.' || name))
-        ORDER BY temporary, database_name, schema_name LIMIT 1)
+                                                       lower(database_name || '.' || schema_name || '.' || name))),
+    hit AS (
+        SELECT *, count(*) OVER (PARTITION BY rank) AS tied FROM hits QUALIFY rank = min(rank) OVER () ORDER BY database_name, schema_name LIMIT 1)
     SELECT 'FROM ' || coalesce(
         (SELECT CASE WHEN temporary AND lower(name) = 'points'
                      THEN error('load: the input ' || getvariable('pipeline_input') || ' is the pipeline''s own working table (temp.points); '
                                 || 'give your table another name (the pipeline works in temp.points)')
+                     WHEN tied > 1
+                     THEN error('load: the input ' || getvariable('pipeline_input') || ' names ' || tied || ' tables or views in different catalogs or schemas; '
+                                || 'write it as catalog.schema.name')
                      ELSE '"' || replace(database_name, '"', '""') || '"."' || replace(schema_name, '"', '""') || '"."' || replace(name, '"', '""') || '"' END
          FROM hit),
         '''' || replace(getvariable('pipeline_input'), '''', '''''') || ''''));
@@ -137,6 +149,13 @@ SELECT CASE WHEN getvariable('input_t_type') = 'FLOAT' AND max(abs(t)) > 1e5
             THEN error(format('load: column t is FLOAT (32-bit): at {} its steps are {} s, too coarse for time stamps. Fix: store t as DOUBLE or a TIMESTAMP',
                               max(abs(t)), 2.0 ** (floor(log2(max(abs(t)))) - 23))) END
 FROM points;
+-- 32-bit FLOAT coordinates far from 0 have lost their centimetres (UTM y ~ 5.7e6 steps by 0.5 m)
+SET VARIABLE input_float_xy = (SELECT coalesce(list(w ORDER BY w), []) FROM (DESCRIBE FROM query(getvariable('input_query'))) d, (VALUES ('x'), ('y')) v(w)
+                               WHERE lower(d.column_name) = coalesce(getvariable('input_map')[w], w) AND d.column_type = 'FLOAT');
+SELECT CASE WHEN len(getvariable('input_float_xy')) > 0 AND greatest(max(abs(x)), max(abs(y))) > 1e4
+            THEN error(format('load: columns x, y are FLOAT (32-bit): at {} their steps are {} m, too coarse for positions. Fix: store x, y as DOUBLE',
+                              greatest(max(abs(x)), max(abs(y))), 2.0 ** (floor(log2(greatest(max(abs(x)), max(abs(y))))) - 23))) END
+FROM points;
 -- units: the sampling period and the speeds of road users are known to within a factor of a
 -- few; times in milliseconds (1.7e12) or coordinates in millimetres give implausible ones (and,
 -- left alone, 0 road users): a clear error naming the column and the unit it seems to be in.
@@ -154,7 +173,9 @@ SELECT CASE
 FROM (SELECT median(dt) FILTER (WHERE dt > 0) AS period,
              median(sqrt(dx * dx + dy * dy) / dt) FILTER (WHERE dt > 0 AND sqrt(dx * dx + dy * dy) > 0) AS speed
       FROM (SELECT t - lag(t) OVER w AS dt, x - lag(x) OVER w AS dx, y - lag(y) OVER w AS dy
-            FROM (FROM points WHERE estimated = 0 USING SAMPLE 200000 ROWS (reservoir, 7))
+            -- whole tracks (at most 2,000, drawn by a hash of their ids): lag() over a row
+            -- sample would measure the gaps between sampled rows, not between samples
+            FROM points WHERE estimated = 0 AND hash(camera, track_id) % greatest(1, (SELECT count(DISTINCT (camera, track_id)) FROM points) // 2000) = 0
             WINDOW w AS (PARTITION BY camera, track_id ORDER BY t)));
 -- a track is (camera, track_id) whatever its class does: a classifier that flickers between
 -- classes gets the track's majority class (ties: the first class name), and the flicker is

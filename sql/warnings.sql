@@ -1,7 +1,7 @@
 -- trajdb: what a finished pipeline run should tell its user, one row each, in table
 -- pipeline_warnings (k, message). Every runner (trajdb pipeline, trajdb.pipeline in Python, the
 -- DuckDB CLI after `.read sql/pipeline.sql`) reads this one table.
--- reads: points, align_frames, load_class_flicker, load_duplicates   makes: pipeline_warnings
+-- reads: points, align_frames, load_class_flicker, load_duplicates; parameters: cluster_classes   makes: pipeline_warnings
 CREATE OR REPLACE TEMP TABLE pipeline_warnings AS
 WITH c AS (SELECT (SELECT count(DISTINCT camera) FROM points) AS cams, (SELECT count(*) FROM align_frames) AS aligned,
                   (SELECT count(*) FROM load_class_flicker) AS flicker,
@@ -20,4 +20,10 @@ FROM c WHERE flicker > 0
 UNION ALL
 SELECT 4, format('{} input rows repeat the (camera, track_id, t) of another row ({} of those times with other x, y); each was kept once '
                  || '(table load_duplicates)', repeats, conflicting)
-FROM c WHERE repeats > 0;
+FROM c WHERE repeats > 0
+UNION ALL
+SELECT 5, format('cluster_classes names {} that the input does not have (its classes: {}); nothing of that name was clustered',
+                 list_filter(wanted, lambda w: NOT list_contains(have, w))::VARCHAR, have::VARCHAR)
+FROM (SELECT [lower(trim(x)) FOR x IN string_split(coalesce(getvariable('cluster_classes'), ''), ',') IF trim(x) <> ''] AS wanted,
+             (SELECT list(DISTINCT lower(class) ORDER BY lower(class)) FROM points) AS have)
+WHERE len(list_filter(wanted, lambda w: NOT list_contains(have, w))) > 0;

@@ -174,6 +174,28 @@ def main():
     base = road_users(con)
     check("the scene has road users seen by two cameras", any(len(r) > 1 for r in base) and len(base) > 10, len(base))
 
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        trajdb.pipeline(con, "scene", cluster_classes="cars, pedestrian")
+    check("a class name the input lacks (cluster_classes='cars'): a warning", any("cluster_classes names [cars]" in str(x.message) for x in caught),
+          [str(x.message) for x in caught])
+
+    # ---- a name is looked up as DuckDB does: a registered DataFrame / TEMP table first, then the
+    # current catalog; the same name in two attached catalogs is an error, not a guess
+    con.execute("ATTACH ':memory:' AS archive")
+    con.execute("CREATE TABLE archive.main.trips AS FROM scene WHERE camera = (SELECT min(camera) FROM scene)")
+    con.execute("CREATE TABLE trips AS FROM scene")
+    trajdb.pipeline(con, "trips")
+    check("a name in the current catalog wins over an attached one", road_users(con) == base)
+    con.execute("CREATE TEMP TABLE trips AS FROM scene")
+    trajdb.pipeline(con, "trips")
+    check("... and a TEMP table of that name wins, as in DuckDB", road_users(con) == base)
+    con.execute("CREATE TABLE archive.main.legs AS FROM scene")
+    con.execute("ATTACH ':memory:' AS archive2")
+    con.execute("CREATE TABLE archive2.main.legs AS FROM scene")
+    ok, msg = raises(lambda: trajdb.pipeline(con, "legs"), "names 2 tables or views")
+    check("the same name in two attached catalogs: an error", ok, msg)
+
     # ---- the input named points, twice
     con.execute("CREATE OR REPLACE TABLE points AS FROM scene")
     trajdb.pipeline(con, "points")
@@ -221,6 +243,7 @@ def main():
         ("a camera id beyond INTEGER", "SELECT * REPLACE (camera::BIGINT + 5000000000 AS camera) FROM scene", "beyond a 32-bit INTEGER"),
         ("epoch seconds in a FLOAT", "SELECT * REPLACE ((t + 1.79e9)::FLOAT AS t) FROM scene", "is FLOAT (32-bit)"),
         ("a DATE t", "SELECT * REPLACE (DATE '2026-01-01' + (t // 86400)::INTEGER AS t) FROM scene", "column t is DATE"),
+        ("UTM coordinates in a FLOAT", "SELECT * REPLACE ((x + 4.6e5)::FLOAT AS x, (y + 5.7e6)::FLOAT AS y) FROM scene", "are FLOAT (32-bit)"),
     ]
     for k, (label, q, needle) in enumerate(refused):
         con.execute(f"CREATE TABLE refused_{k} AS {q}")

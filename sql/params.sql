@@ -23,7 +23,7 @@ SET VARIABLE align_min_overlap_s = coalesce(getvariable('align_min_overlap_s'), 
 SET VARIABLE align_min_pairs = coalesce(getvariable('align_min_pairs'), 10::BIGINT); -- a hypothesis needs at least this many time-interpolated point pairs
 SET VARIABLE align_min_span_m = coalesce(getvariable('align_min_span_m'), 3.0::DOUBLE); -- ... and its moving points span at least this many metres
 SET VARIABLE align_max_hypotheses = coalesce(getvariable('align_max_hypotheses'), 4000::BIGINT); -- at most this many track pairs per camera pair are scanned (a hash sample of a long day)
-SET VARIABLE align_max_clock_offset_s = coalesce(getvariable('align_max_clock_offset_s'), 1.0::DOUBLE); -- clock offsets between two cameras are searched up to this many seconds either way
+SET VARIABLE align_max_clock_offset_s = coalesce(getvariable('align_max_clock_offset_s'), 1.0::DOUBLE); -- clock offsets between two cameras are searched up to this many seconds either way first; a camera pair whose winner lies at the edge, or is too weak, is searched again over 4x and 16x this range
 SET VARIABLE align_bin_s = coalesce(getvariable('align_bin_s'), 0.05::DOUBLE); -- vote bin (and scan step) of the clock offset (s)
 SET VARIABLE align_clock_step_s = coalesce(getvariable('align_clock_step_s'), 0.005::DOUBLE); -- step of the joint clock offset search around the winning bin (s)
 SET VARIABLE align_max_rms_m = coalesce(getvariable('align_max_rms_m'), NULL::DOUBLE); -- hypotheses fitting their own pairs within this RMS (m) vote (auto: 0.1 + 3 sigma_pair)
@@ -76,7 +76,7 @@ CREATE OR REPLACE TEMP TABLE pipeline_params AS SELECT * FROM (VALUES
     ('align_min_pairs', coalesce(getvariable('align_min_pairs')::VARCHAR, 'auto'), 'align', 'a hypothesis needs at least this many time-interpolated point pairs'),
     ('align_min_span_m', coalesce(getvariable('align_min_span_m')::VARCHAR, 'auto'), 'align', '... and its moving points span at least this many metres'),
     ('align_max_hypotheses', coalesce(getvariable('align_max_hypotheses')::VARCHAR, 'auto'), 'align', 'at most this many track pairs per camera pair are scanned (a hash sample of a long day)'),
-    ('align_max_clock_offset_s', coalesce(getvariable('align_max_clock_offset_s')::VARCHAR, 'auto'), 'align', 'clock offsets between two cameras are searched up to this many seconds either way'),
+    ('align_max_clock_offset_s', coalesce(getvariable('align_max_clock_offset_s')::VARCHAR, 'auto'), 'align', 'clock offsets between two cameras are searched up to this many seconds either way first; a camera pair whose winner lies at the edge, or is too weak, is searched again over 4x and 16x this range'),
     ('align_bin_s', coalesce(getvariable('align_bin_s')::VARCHAR, 'auto'), 'align', 'vote bin (and scan step) of the clock offset (s)'),
     ('align_clock_step_s', coalesce(getvariable('align_clock_step_s')::VARCHAR, 'auto'), 'align', 'step of the joint clock offset search around the winning bin (s)'),
     ('align_max_rms_m', coalesce(getvariable('align_max_rms_m')::VARCHAR, 'auto'), 'align', 'hypotheses fitting their own pairs within this RMS (m) vote (auto: 0.1 + 3 sigma_pair)'),

@@ -3,7 +3,8 @@
 tracks) must be identical when
 - every camera's frame is moved far from the origin (+1e6 m; UTM-sized x ~ 4.6e5, y ~ 5.7e6),
 - one camera's frame is rotated by 57 degrees and moved by hundreds of km,
-- every clock is shifted by a Unix epoch (2026), or one camera's clock by 0.7 s,
+- every clock is shifted by a Unix epoch (2026), or one camera's clock by 0.7 s or -3.6 s
+  (beyond the first +-1 s search: align.sql widens the search for such pairs),
 on a simulated scene and on the shared scenes from real trajectories (when ../shared/data is
 beside the clone). Before align.sql voted about each camera's centroid, frames in UTM aligned no
 camera at all.
@@ -29,6 +30,7 @@ CHANGES = [
      "CASE WHEN camera = (SELECT max(camera) FROM base) THEN x * sin(1.0) + y * cos(1.0) - 2e5 ELSE y END AS y) FROM base"),
     ("every clock + a 2026 epoch", "SELECT * REPLACE (t + 1.79e9 AS t) FROM base"),
     ("one clock +0.7 s", "SELECT * REPLACE (CASE WHEN camera = (SELECT max(camera) FROM base) THEN t + 0.7 ELSE t END AS t) FROM base"),
+    ("one clock -3.6 s (beyond the first search range)", "SELECT * REPLACE (CASE WHEN camera = (SELECT max(camera) FROM base) THEN t - 3.6 ELSE t END AS t) FROM base"),
 ]
 
 

@@ -31,7 +31,7 @@ SITE_TABLES = (
     "view_polygons", "view_overlaps", "view_merge_order", "view_overlaps_chain",
 )
 # Intermediate tables (and a macro) of the site's alignment: made by the site run only, never shipped.
-SITE_WORK_TABLES = ("align_centroids", "align_tracks", "align_hyp", "align_best", "align_support", "align_refit", "align_pairs", "align_edges", "view_points")
+SITE_WORK_TABLES = ("align_centroids", "align_scan", "align_hyp_wide", "align_best_wide", "align_tracks", "align_hyp", "align_best", "align_support", "align_refit", "align_pairs", "align_edges", "view_points")
 # The stages a site's calibration runs (and nothing after them); windows skip clustering, which
 # is an analysis of a whole period, not of a window (run traj_cluster on the road users).
 CALIBRATION_STAGES = ("calibrate", "clean", "quality", "align", "overlap")

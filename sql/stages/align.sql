@@ -43,25 +43,41 @@ HAVING count(*) >= getvariable('align_min_points');
 CREATE OR REPLACE TEMP TABLE align_centroids AS
 SELECT camera, avg(x) AS cx, avg(y) AS cy FROM points WHERE estimated = 0 GROUP BY camera;
 
--- 1. hypotheses. Clocks may differ (dt = moving clock - fixed clock, up to
---    align_max_clock_offset_s either way): each track pair is fitted at every shift dt on a grid
---    of align_bin_s (rigid_fit_scan, src/algo/align/shift.rs). A straight track fits at every
---    shift, its translation sliding along the road; a turning one only near its true offset.
---    A camera pair needs a few hundred agreeing pairs, not every pair of a 12-hour day: at most
+-- 1. hypotheses. Clocks may differ (dt = moving clock - fixed clock): each track pair is fitted
+--    at every shift dt on a grid of align_bin_s within +-max_off of its camera pair
+--    (rigid_fit_scan, src/algo/align/shift.rs). A straight track fits at every shift, its
+--    translation sliding along the road; a turning one only near its true offset. A camera pair
+--    needs a few hundred agreeing pairs, not every pair of a 12-hour day: at most
 --    align_max_hypotheses track pairs per camera pair are scanned, drawn evenly by a hash of
 --    their ids (all of them on the shared scenes' busiest pair: 18k candidates -> 4k).
-CREATE OR REPLACE TEMP TABLE align_hyp AS
-WITH pairs AS (
-    SELECT a.camera AS cam_fixed, b.camera AS cam_moving, a.track_id AS track_fixed, b.track_id AS track_moving
+--    The search range is not a fixed bound (a camera 1.56 s off was placed at the edge of a
+--    +-1 s range, 0.995 s): pass 1 searches +-align_max_clock_offset_s; a camera pair whose
+--    winning offset lies within two bins of the edge, or whose winner has fewer than
+--    align_min_support votes (none at all: no common time within the range), or a small winner
+--    (under 4 x align_min_support) with fewer than twice the votes of the next bin (a chance
+--    coincidence of a few pairs, not a peak; a true peak's neighbours on the same road can come
+--    close to it, so large winners are trusted: a heuristic, not yet measured), is searched again over 4 times the range (passes 2 and 3: up to 16 x), and keeps the wider
+--    search's winner when it has more votes. A pair truly in range wins inside it and is never
+--    searched again, so in-range results are those of a single pass.
+CREATE OR REPLACE TEMP TABLE align_scan AS
+SELECT DISTINCT a.camera AS cam_fixed, b.camera AS cam_moving, getvariable('align_max_clock_offset_s') AS max_off, 1 AS pass
+FROM (SELECT DISTINCT camera, class FROM align_tracks) a JOIN (SELECT DISTINCT camera, class FROM align_tracks) b
+  ON a.camera < b.camera AND a.class = b.class;
+
+CREATE OR REPLACE TEMP MACRO align_hypotheses(pass_no) AS TABLE
+WITH range AS (SELECT coalesce(max(max_off), 0) AS r FROM align_scan WHERE pass = pass_no),
+pairs AS (
+    SELECT a.camera AS cam_fixed, b.camera AS cam_moving, a.track_id AS track_fixed, b.track_id AS track_moving, s.max_off
     FROM align_tracks a JOIN align_tracks b
       ON a.camera < b.camera AND a.class = b.class
-     AND a.t0 <= b.t1 + getvariable('align_max_clock_offset_s') - getvariable('align_min_overlap_s')
-     AND b.t0 <= a.t1 + getvariable('align_max_clock_offset_s') - getvariable('align_min_overlap_s')
+     AND a.t0 <= b.t1 + (SELECT r FROM range) - getvariable('align_min_overlap_s')
+     AND b.t0 <= a.t1 + (SELECT r FROM range) - getvariable('align_min_overlap_s')
+    JOIN align_scan s ON s.cam_fixed = a.camera AND s.cam_moving = b.camera AND s.pass = pass_no
     QUALIFY row_number() OVER (PARTITION BY a.camera, b.camera ORDER BY hash(a.track_id, b.track_id), a.track_id, b.track_id)
             <= getvariable('align_max_hypotheses')
 ),
 cand AS (
-    SELECT p.*, rigid_fit_scan(a.traj, b.traj, getvariable('align_max_clock_offset_s'), getvariable('align_bin_s')) AS fits
+    SELECT p.*, rigid_fit_scan(a.traj, b.traj, p.max_off, getvariable('align_bin_s')) AS fits
     FROM pairs p
     JOIN align_tracks a ON a.camera = p.cam_fixed AND a.track_id = p.track_fixed
     JOIN align_tracks b ON b.camera = p.cam_moving AND b.track_id = p.track_moving
@@ -77,23 +93,54 @@ JOIN align_centroids fc ON fc.camera = h.cam_fixed JOIN align_centroids m ON m.c
 WHERE f.n >= getvariable('align_min_pairs') AND f.span >= getvariable('align_min_span_m')
   AND f.rms < c.align_max_rms_m;
 
--- 2. vote in (theta, tx, ty, dt) bins: the true bin collects every true track pair (straight
+-- 2. vote in (theta, qx, qy, dt) bins: the true bin collects every true track pair (straight
 --    ones vote along a line through it), a wrong one only the pairs that happen to cross it.
 --    Ties go to the smaller offset: one road in one direction cannot tell an offset from a
 --    translation along it, and then the synchronised reading is the safer one.
-CREATE OR REPLACE TEMP TABLE align_best AS
+CREATE OR REPLACE TEMP MACRO align_vote(hyp) AS TABLE
 WITH bins AS (
     SELECT cam_fixed, cam_moving,
            round(degrees(theta) / getvariable('align_bin_deg')) * getvariable('align_bin_deg') AS theta_deg,
            round(qx / getvariable('align_bin_m')) * getvariable('align_bin_m') AS qx,
            round(qy / getvariable('align_bin_m')) * getvariable('align_bin_m') AS qy,
            round(dt / getvariable('align_bin_s')) * getvariable('align_bin_s') AS dt
-    FROM align_hyp
+    FROM query_table(hyp)
 )
-SELECT cam_fixed, cam_moving, theta_deg, qx, qy, dt, count(*) AS votes
-FROM bins
-GROUP BY cam_fixed, cam_moving, theta_deg, qx, qy, dt
+SELECT cam_fixed, cam_moving, theta_deg, qx, qy, dt, votes,
+       -- the second bin's votes: a true offset stands far above every other bin; a winner that
+       -- does not is a chance coincidence of a few pairs
+       coalesce(nth_value(votes, 2) OVER (PARTITION BY cam_fixed, cam_moving ORDER BY votes DESC, abs(dt), theta_deg, qx, qy
+                                          ROWS BETWEEN UNBOUNDED PRECEDING AND UNBOUNDED FOLLOWING), 0) AS runner_up
+FROM (SELECT cam_fixed, cam_moving, theta_deg, qx, qy, dt, count(*) AS votes FROM bins GROUP BY cam_fixed, cam_moving, theta_deg, qx, qy, dt)
 QUALIFY row_number() OVER (PARTITION BY cam_fixed, cam_moving ORDER BY votes DESC, abs(dt), theta_deg, qx, qy) = 1;
+
+CREATE OR REPLACE TEMP TABLE align_hyp AS FROM align_hypotheses(1);
+CREATE OR REPLACE TEMP TABLE align_best AS FROM align_vote('align_hyp');
+
+-- passes 2 and 3: the pairs at the edge of their range, or without a winner, searched 4 x wider
+CREATE OR REPLACE TEMP MACRO align_widen(pass_no) AS TABLE
+SELECT s.cam_fixed, s.cam_moving, 4 * s.max_off AS max_off, pass_no AS pass
+FROM align_scan s LEFT JOIN align_best b USING (cam_fixed, cam_moving)
+WHERE s.pass = pass_no - 1
+  AND (b.dt IS NULL OR b.votes < getvariable('align_min_support')
+       OR (b.votes < 2 * b.runner_up AND b.votes < 4 * getvariable('align_min_support'))
+       OR abs(b.dt) >= s.max_off - 2 * getvariable('align_bin_s'));
+
+INSERT INTO align_scan FROM align_widen(2);
+CREATE OR REPLACE TEMP TABLE align_hyp_wide AS FROM align_hypotheses(2);
+CREATE OR REPLACE TEMP TABLE align_best_wide AS FROM align_vote('align_hyp_wide');
+DELETE FROM align_hyp WHERE (cam_fixed, cam_moving) IN (
+    SELECT (w.cam_fixed, w.cam_moving) FROM align_best_wide w LEFT JOIN align_best b USING (cam_fixed, cam_moving) WHERE w.votes > coalesce(b.votes, 0));
+INSERT INTO align_hyp FROM align_hyp_wide WHERE (cam_fixed, cam_moving) NOT IN (SELECT (cam_fixed, cam_moving) FROM align_hyp);
+CREATE OR REPLACE TEMP TABLE align_best AS FROM align_vote('align_hyp');
+
+INSERT INTO align_scan FROM align_widen(3);
+CREATE OR REPLACE TEMP TABLE align_hyp_wide AS FROM align_hypotheses(3);
+CREATE OR REPLACE TEMP TABLE align_best_wide AS FROM align_vote('align_hyp_wide');
+DELETE FROM align_hyp WHERE (cam_fixed, cam_moving) IN (
+    SELECT (w.cam_fixed, w.cam_moving) FROM align_best_wide w LEFT JOIN align_best b USING (cam_fixed, cam_moving) WHERE w.votes > coalesce(b.votes, 0));
+INSERT INTO align_hyp FROM align_hyp_wide WHERE (cam_fixed, cam_moving) NOT IN (SELECT (cam_fixed, cam_moving) FROM align_hyp);
+CREATE OR REPLACE TEMP TABLE align_best AS FROM align_vote('align_hyp');
 
 -- 3. the agreeing hypotheses at the winning shift (angle difference wrapped to [-180, 180)) are
 --    the pre-matched track pairs: same road user in both cameras, found without any coordinates

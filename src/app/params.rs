@@ -67,7 +67,7 @@ pub const PARAMS: &[Param] = &[
     i("align_min_pairs", "10", "align", "a hypothesis needs at least this many time-interpolated point pairs").within(3.0, 1e9),
     d("align_min_span_m", "3.0", "align", "... and its moving points span at least this many metres"),
     i("align_max_hypotheses", "4000", "align", "at most this many track pairs per camera pair are scanned (a hash sample of a long day)").within(1.0, 1e9),
-    d("align_max_clock_offset_s", "1.0", "align", "clock offsets between two cameras are searched up to this many seconds either way").within(0.0, 172800.0),
+    d("align_max_clock_offset_s", "1.0", "align", "clock offsets between two cameras are searched up to this many seconds either way first; a camera pair whose winner lies at the edge, or is too weak, is searched again over 4x and 16x this range").within(0.0, 172800.0),
     d("align_bin_s", "0.05", "align", "vote bin (and scan step) of the clock offset (s)").within(1e-06, 86400.0),
     d("align_clock_step_s", "0.005", "align", "step of the joint clock offset search around the winning bin (s)").within(1e-06, 86400.0),
     d("align_max_rms_m", "auto", "align", "hypotheses fitting their own pairs within this RMS (m) vote (auto: 0.1 + 3 sigma_pair)"),

@@ -30,8 +30,8 @@ SITE_TABLES = (
     "align_frames", "calib_match", "calibration_summary",
     "view_polygons", "view_overlaps", "view_merge_order", "view_overlaps_chain",
 )
-# Intermediate tables (and a macro) of the site's alignment: made by the site run only, never shipped.
-SITE_WORK_TABLES = ("align_centroids", "align_scan", "align_hyp_wide", "align_best_wide", "align_tracks", "align_hyp", "align_best", "align_support", "align_refit", "align_pairs", "align_edges", "view_points")
+# Intermediate tables (and macros) of the site's alignment: made by the site run only, never shipped.
+SITE_WORK_TABLES = ("align_centroids", "align_scan", "align_hypotheses", "align_vote", "align_widen", "align_hyp_wide", "align_best_wide", "align_tracks", "align_hyp", "align_best", "align_support", "align_refit", "align_pairs", "align_edges", "view_points")
 # The stages a site's calibration runs (and nothing after them); windows skip clustering, which
 # is an analysis of a whole period, not of a window (run traj_cluster on the road users).
 CALIBRATION_STAGES = ("calibrate", "clean", "quality", "align", "overlap")

@@ -9,7 +9,9 @@
 CREATE OR REPLACE TEMP TABLE s_points AS SELECT * FROM read_parquet(getvariable('score_scenario') || '/points.parquet');
 CREATE OR REPLACE TEMP TABLE s_cameras AS SELECT * FROM read_csv(getvariable('score_scenario') || '/cameras.csv');
 CREATE OR REPLACE TEMP TABLE s_truth AS SELECT * FROM read_csv(getvariable('score_scenario') || '/truth.csv');
-CREATE OR REPLACE TEMP TABLE s_tf AS SELECT * FROM read_csv(getvariable('score_results') || '/transforms.csv');
+-- typed: a run that placed no camera pair writes empty transform columns (read as VARCHAR otherwise)
+CREATE OR REPLACE TEMP TABLE s_tf AS SELECT * FROM read_csv(getvariable('score_results') || '/transforms.csv', header = true,
+    types = {'cam_from': 'INTEGER', 'cam_to': 'INTEGER', 'theta_rad': 'DOUBLE', 'tx': 'DOUBLE', 'ty': 'DOUBLE', 'clock_offset_s': 'DOUBLE'});
 CREATE OR REPLACE TEMP TABLE s_matches AS SELECT * FROM read_csv(getvariable('score_results') || '/matches.csv');
 CREATE OR REPLACE TEMP TABLE s_links AS SELECT * FROM read_csv(getvariable('score_results') || '/links.csv');
 

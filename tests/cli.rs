@@ -547,3 +547,15 @@ fn pipeline_never_touches_what_it_did_not_write() {
     assert!(!dir.join("r3").exists());
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// `trajdb score` on a run that placed no camera pair (transforms.csv with its header only, as
+/// the pipeline writes it then): a score that says so, not a type error.
+#[test]
+fn score_says_when_no_camera_pair_was_placed() {
+    let (dir, res) = simulated_run("unplaced", &["--cameras", "2", "--minutes", "1", "--seed", "9"], &[]);
+    std::fs::write(res.join("transforms.csv"), "cam_from,cam_to,theta_rad,tx,ty,clock_offset_s\n").unwrap();
+    let (ok, text, err) = trajdb(&["score", dir.to_str().unwrap(), "--results", res.to_str().unwrap()], None);
+    assert!(ok, "{err}");
+    assert!(text.contains("camera pairs: none placed") && text.contains("matches"), "{text}");
+    std::fs::remove_dir_all(&dir).ok();
+}

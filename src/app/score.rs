@@ -46,7 +46,8 @@ fn paths(con: &Connection) -> Result<(), Box<dyn Error>> {
 /// against `scenario` (points.parquet, cameras.csv, truth.csv, world.csv when present): rotation /
 /// translation / clock error per camera pair, road-user identity, merged path error, and match precision /
 /// recall / F1 overall and per class. Prints the tables; returns (worst rotation error in
-/// degrees, worst translation error in metres, overall F1).
+/// degrees, worst translation error in metres, overall F1); the errors are infinite when no
+/// camera pair was placed.
 pub fn score(con: &Connection, scenario: &Path, results: &Path) -> Result<(f64, f64, f64), Box<dyn Error>> {
     con.execute_batch(&format!(
         "SET VARIABLE score_scenario = {}; SET VARIABLE score_results = {};",
@@ -54,14 +55,24 @@ pub fn score(con: &Connection, scenario: &Path, results: &Path) -> Result<(f64, 
         sql::sql_string(&results.to_string_lossy())
     ))?;
     con.execute_batch(sql::file("sql/score.sql").expect("sql/score.sql"))?;
-    let (rot, trans, clock): (f64, f64, f64) =
+    let (rot, trans, clock): (Option<f64>, Option<f64>, Option<f64>) =
         con.query_row("SELECT max(rot_deg), max(trans_m), max(clock_err_s) FROM s_pair_err WHERE cam_from < cam_to", [], |r| Ok((r.get(0)?, r.get(1)?, r.get(2)?)))?;
-    crate::outln!("camera pairs: worst rotation error {rot:.3} deg, worst translation error {trans:.3} m, worst clock offset error {:.1} ms", clock * 1e3);
+    match (rot, trans, clock) {
+        (Some(rot), Some(trans), Some(clock)) => crate::outln!(
+            "camera pairs: worst rotation error {rot:.3} deg, worst translation error {trans:.3} m, worst clock offset error {:.1} ms",
+            clock * 1e3
+        ),
+        // a run that placed no camera pair (transforms.csv without values): a score, not an error
+        _ => crate::outln!("camera pairs: none placed (transforms.csv has no transform)"),
+    }
     let mut pe = con.prepare("SELECT cam_from, cam_to, rot_deg, trans_m, clock_err_s FROM s_pair_err WHERE cam_from < cam_to ORDER BY 1, 2")?;
     let mut q = pe.query([])?;
     while let Some(r) = q.next()? {
-        let (a, b, rd, tm, ce): (i64, i64, f64, f64, f64) = (r.get(0)?, r.get(1)?, r.get(2)?, r.get(3)?, r.get(4)?);
-        crate::outln!("  {a} -> {b}: rotation {rd:.3} deg, translation {tm:.3} m, clock offset {:.1} ms", ce * 1e3);
+        let (a, b, rd, tm, ce): (i64, i64, Option<f64>, Option<f64>, Option<f64>) = (r.get(0)?, r.get(1)?, r.get(2)?, r.get(3)?, r.get(4)?);
+        match (rd, tm, ce) {
+            (Some(rd), Some(tm), Some(ce)) => crate::outln!("  {a} -> {b}: rotation {rd:.3} deg, translation {tm:.3} m, clock offset {:.1} ms", ce * 1e3),
+            _ => crate::outln!("  {a} -> {b}: not placed"),
+        }
     }
     identity(con)?;
     if scenario.join("world.csv").exists() {
@@ -81,7 +92,8 @@ pub fn score(con: &Connection, scenario: &Path, results: &Path) -> Result<(f64, 
         }
         crate::outln!("  {:<14} {p:>9.3} {rc:>7.3} {f1:>6.3} {nt:>10} {np:>10} {nn:>8}", if c == "*" { "all" } else { &c });
     }
-    Ok((rot, trans, all_f1))
+    // no camera pair placed: infinitely far from any target
+    Ok((rot.unwrap_or(f64::INFINITY), trans.unwrap_or(f64::INFINITY), all_f1))
 }
 
 #[cfg(test)]

@@ -130,6 +130,29 @@ def main():
     race = os.listdir(os.path.join(w, "race"))
     check("two runs on one out: at most one fails, with a clear error", len(errs) <= 1 and all("another trajdb run" in e for e in errs), errs)
     check("... and the folder holds one complete result set", "merged.parquet" in race and not any(n.startswith(".trajdb-partial") for n in race), race)
+    # the same race, 40 times on new folders, through the claim alone (4 threads each): exactly
+    # one claim wins each time, every other fails with the clear error
+    race_errs, race_wins = [], 0
+    for k in range(40):
+        target = os.path.join(w, "races", str(k))
+        got = []
+
+        def claim_one(target=target, got=got):
+            c = trajdb.connect()
+            try:
+                got.append(("ok", c.execute("FROM trajdb_results_begin(?, '')", [target]).fetchall()))
+            except duckdb.Error as e:
+                got.append(("err", str(e)))
+            finally:
+                c.close()
+
+        ts = [threading.Thread(target=claim_one) for _ in range(4)]
+        [t.start() for t in ts]
+        [t.join() for t in ts]
+        race_wins += sum(1 for g in got if g[0] == "ok")
+        race_errs += [g[1] for g in got if g[0] == "err" and "another trajdb run" not in g[1]]
+    check(f"40 races of 4 claims: only clear refusals ({race_wins} claims won)", not race_errs and race_wins >= 40, race_errs[:2])
+
     # a hostile manifest: names outside the folder are never deleted
     hostile = os.path.join(w, "hostile")
     os.makedirs(hostile)

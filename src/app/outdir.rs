@@ -211,25 +211,27 @@ pub fn claim(out: &str, inputs: &[&str]) -> Result<Claim, OutError> {
         }
     }
     let mut created = Vec::new();
-    let previous = if dir.exists() {
+    if dir.exists() {
         if !dir.is_dir() {
             return err(format!("results folder: out {out:?} ({}) is a file, not a folder; name a new folder", dir.display()));
         }
-        match read_manifest(&dir)? {
-            Some(names) => names,
-            None => {
-                let mut entries = fs::read_dir(&dir).map_err(|e| io("list", &dir, e))?;
-                if let Some(first) = entries.next() {
-                    let first = first.map_err(|e| io("list", &dir, e))?.file_name();
-                    return err(format!(
-                        "results folder: out {out:?} ({}) already holds files that trajdb did not write (e.g. {:?}); \
-                         trajdb writes only into a new folder, an empty one, or one with its own earlier results: name another out, e.g. out='{}'",
-                        dir.display(),
-                        first.to_string_lossy(),
-                        Path::new(out).join("trajdb-results").display()
-                    ));
-                }
-                Vec::new()
+        if read_manifest(&dir)?.is_none() {
+            // no manifest: only trajdb's own control entries (another run's lock, a staging
+            // folder) may be there; anything else is the user's
+            let foreign = fs::read_dir(&dir).map_err(|e| io("list", &dir, e))?.flatten().map(|e| e.file_name()).find(|n| {
+                let n = n.to_string_lossy();
+                // (the manifest itself: another run wrote it since the read above; it is
+                // read again, and checked, under the lock)
+                n != LOCK && n != MANIFEST && !n.starts_with(PARTIAL_PREFIX) && !n.starts_with(&format!("{MANIFEST}."))
+            });
+            if let Some(first) = foreign {
+                return err(format!(
+                    "results folder: out {out:?} ({}) already holds files that trajdb did not write (e.g. {:?}); \
+                     trajdb writes only into a new folder, an empty one, or one with its own earlier results: name another out, e.g. out='{}'",
+                    dir.display(),
+                    first.to_string_lossy(),
+                    Path::new(out).join("trajdb-results").display()
+                ));
             }
         }
     } else {
@@ -242,14 +244,17 @@ pub fn claim(out: &str, inputs: &[&str]) -> Result<Claim, OutError> {
             };
         }
         fs::create_dir_all(&dir).map_err(|e| io("create", &dir, e))?;
-        Vec::new()
-    };
-    // the manifest first: from now on the folder is recognisably trajdb's
-    let fresh = !dir.join(MANIFEST).exists();
-    if fresh {
-        write_manifest(&dir, &previous)?;
     }
+    // the lock first, then everything else under it: the manifest read (another run may have
+    // committed meanwhile) or written (a new folder becomes recognisably trajdb's)
     let lock = take_lock(&dir, out)?;
+    let (previous, fresh) = match read_manifest(&dir)? {
+        Some(names) => (names, false),
+        None => {
+            write_manifest(&dir, &[])?;
+            (Vec::new(), true)
+        }
+    };
     // holding the lock, every staging folder in `out` is a dead run's (or an aborted one's)
     remove_stale_partials(&dir)?;
     let n = SEQ.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
@@ -341,7 +346,8 @@ fn remove_own_file(dir: &Path, name: &str, manifest: &[String]) -> Result<(), Ou
 }
 
 fn write_manifest(dir: &Path, names: &[String]) -> Result<(), OutError> {
-    let tmp = dir.join(format!("{MANIFEST}.{}.tmp", std::process::id()));
+    let n = SEQ.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let tmp = dir.join(format!("{MANIFEST}.{}-{n}.tmp", std::process::id()));
     let mut text = String::from(MANIFEST_HEAD);
     for n in names {
         text.push_str(n);

@@ -56,6 +56,8 @@ SELECT CASE WHEN getvariable('input_query') LIKE 'FROM ''%'
              AND NOT EXISTS (FROM glob(CASE WHEN getvariable('input_query') LIKE 'FROM ''%' THEN [getvariable('pipeline_input')] ELSE []::VARCHAR[] END))
             THEN error('load: the input ' || getvariable('pipeline_input') || ' is neither a table or view of this database nor an existing file '
                        || '(fix: the path of a Parquet, CSV or JSON file, a glob such as ''data/*.parquet'', or a table name)') END;
+-- the input's columns and types, described once (a CSV is sniffed once, not once per check)
+CREATE OR REPLACE TEMP TABLE load_columns AS SELECT column_name, column_type FROM (DESCRIBE FROM query(getvariable('input_query')));
 -- input_columns: 'role=column, ...' with roles camera, track_id, class, t, x, y, estimated, each
 -- at most once and each onto its own column (names compared case-insensitively, as DuckDB does)
 SELECT CASE
@@ -77,12 +79,12 @@ SELECT CASE WHEN len(missing) > 0 THEN error('load: the input ' || getvariable('
                                                || array_to_string(missing, ', ') || ' (its columns: ' || array_to_string(cols, ', ') || ')') END
 FROM (SELECT cols, [coalesce(getvariable('input_map')[n], n) for n in ['camera', 'track_id', 'class', 't', 'x', 'y']
                     if NOT list_contains([lower(c) for c in cols], coalesce(getvariable('input_map')[n], n))] AS missing
-      FROM (SELECT list(column_name) AS cols FROM (DESCRIBE FROM query(getvariable('input_query')))));
+      FROM (SELECT list(column_name) AS cols FROM load_columns));
 -- the input's types, before anything is read: numbers where numbers are needed
 SELECT CASE WHEN count(*) > 0 THEN error('load: ' || string_agg('column ' || d.column_name || ' is ' || d.column_type || ', not ' || w.want, '; ' ORDER BY w.k)
     || ' (fix: cast it when you read the file, e.g. read_csv(''points.csv'', types = {''t'': ''DOUBLE''}), or map another column with input_columns'
     || '; camera and track ids that are text can be numbered with dense_rank() OVER (ORDER BY id))') END
-FROM (DESCRIBE FROM query(getvariable('input_query'))) d
+FROM load_columns d
 JOIN (VALUES (1, 'camera', 'an integer'), (2, 'track_id', 'an integer'), (3, 't', 'a number (seconds) or a TIMESTAMP'),
              (4, 'x', 'a number'), (5, 'y', 'a number'), (6, 'estimated', 'an integer or a BOOLEAN')) w(k, name, want)
   ON lower(d.column_name) = coalesce(getvariable('input_map')[w.name], w.name)
@@ -95,14 +97,14 @@ WHERE NOT (d.column_type IN ('TINYINT', 'SMALLINT', 'INTEGER', 'BIGINT', 'HUGEIN
 -- change). The input is read through epoch() of that column (its name quoted as an
 -- identifier), so that no other input type ever meets a TIMESTAMPTZ cast (DuckDB without ICU
 -- has none). A TIMESTAMP without time zone is read as UTC.
-SET VARIABLE input_t_type = (SELECT any_value(d.column_type) FROM (DESCRIBE FROM query(getvariable('input_query'))) d
+SET VARIABLE input_t_type = (SELECT any_value(d.column_type) FROM load_columns d
                              WHERE lower(d.column_name) = coalesce(getvariable('input_map')['t'], 't'));
 SET VARIABLE input_query = (
     SELECT CASE WHEN getvariable('input_t_type') = 'TIMESTAMP WITH TIME ZONE'
                 THEN 'SELECT * REPLACE (epoch(' || q || ') AS ' || q || ') ' || getvariable('input_query')
                 ELSE getvariable('input_query') END
     FROM (SELECT '"' || replace(any_value(d.column_name), '"', '""') || '"' AS q
-          FROM (DESCRIBE FROM query(getvariable('input_query'))) d
+          FROM load_columns d
           WHERE lower(d.column_name) = coalesce(getvariable('input_map')['t'], 't')));
 CREATE OR REPLACE TEMP TABLE points AS
 SELECT try_cast(camera AS INTEGER) AS camera, try_cast(track_id AS BIGINT) AS track_id, class::VARCHAR AS class,
@@ -150,7 +152,7 @@ SELECT CASE WHEN getvariable('input_t_type') = 'FLOAT' AND max(abs(t)) > 1e5
                               max(abs(t)), 2.0 ** (floor(log2(max(abs(t)))) - 23))) END
 FROM points;
 -- 32-bit FLOAT coordinates far from 0 have lost their centimetres (UTM y ~ 5.7e6 steps by 0.5 m)
-SET VARIABLE input_float_xy = (SELECT coalesce(list(w ORDER BY w), []) FROM (DESCRIBE FROM query(getvariable('input_query'))) d, (VALUES ('x'), ('y')) v(w)
+SET VARIABLE input_float_xy = (SELECT coalesce(list(w ORDER BY w), []) FROM load_columns d, (VALUES ('x'), ('y')) v(w)
                                WHERE lower(d.column_name) = coalesce(getvariable('input_map')[w], w) AND d.column_type = 'FLOAT');
 SELECT CASE WHEN len(getvariable('input_float_xy')) > 0 AND greatest(max(abs(x)), max(abs(y))) > 1e4
             THEN error(format('load: columns x, y are FLOAT (32-bit): at {} their steps are {} m, too coarse for positions. Fix: store x, y as DOUBLE',

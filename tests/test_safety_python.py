@@ -229,6 +229,13 @@ def main():
     check("... and is still the user's table", con.sql("SELECT count(*) FROM memory.main.points").fetchall() == con.sql("SELECT count(*) FROM scene").fetchall())
     con.execute("DROP TABLE memory.main.points")
 
+    # ---- an object as input (a DuckDB relation here; pandas / Arrow / Polars go the same way,
+    # through con.register under a name of trajdb's own, unregistered afterwards)
+    before_views = con.sql("SELECT count(*) FROM duckdb_views() WHERE NOT internal").fetchall()
+    trajdb.pipeline(con, con.sql("FROM scene ORDER BY hash(t)"))
+    check("a relation object as input: the same road users", road_users(con) == base)
+    check("... and its registration is gone", con.sql("SELECT count(*) FROM duckdb_views() WHERE NOT internal").fetchall() == before_views)
+
     # ---- metamorphic: shuffled rows, relabelled ids, duplicated input, TIMESTAMPTZ in two zones
     con.execute("CREATE TABLE shuffled AS FROM scene ORDER BY hash(camera, track_id, t, 17)")
     trajdb.pipeline(con, "shuffled")

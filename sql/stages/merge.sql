@@ -60,32 +60,76 @@ JOIN (SELECT c.camera, coalesce(a.to_reference, {'theta': 0.0::DOUBLE, 'tx': 0.0
 WHERE p.estimated = 0
 GROUP BY p.camera, p.track_id, p.class;
 
+-- per camera pair: the slower camera's sampling period and the step of the common clock
+CREATE OR REPLACE TEMP TABLE merge_periods AS
+SELECT a.camera AS cam_a, b.camera AS cam_b,
+       greatest(coalesce(a.period_s, 0), coalesce(b.period_s, 0), 1e-3) AS period_max,
+       CASE WHEN getvariable('merge_resample_s') > 0 THEN getvariable('merge_resample_s') ELSE greatest(coalesce(a.period_s, 0), 1e-3) END AS step_s
+FROM calib_cameras a JOIN calib_cameras b ON a.camera < b.camera;
+
 CREATE OR REPLACE TEMP TABLE merge_scores AS
-SELECT a.uid AS uid_a, b.uid AS uid_b, a.camera AS camera_a, b.camera AS camera_b,
-       lcss_similarity(a.traj, b.traj, c.merge_epsilon, getvariable('merge_time_window'),
-                       calibrated('merge_min_points')::BIGINT, o.polygon) AS eta
-FROM merge_tracks a
-JOIN merge_tracks b
-  ON a.camera < b.camera AND a.class = b.class
- AND a.t0 <= b.t1 + getvariable('merge_time_window') AND b.t0 <= a.t1 + getvariable('merge_time_window')
-JOIN view_overlaps o ON o.class = a.class AND o.cam_a = a.camera AND o.cam_b = b.camera AND o.area_m2 > 0
-JOIN calib_match c ON c.cam_a = a.camera AND c.cam_b = b.camera;
+WITH l AS (
+    SELECT a.uid AS uid_a, b.uid AS uid_b, a.camera AS camera_a, b.camera AS camera_b, a.t0 AS t0_a, a.t1 AS t1_a, b.t0 AS t0_b, b.t1 AS t1_b,
+           lcss_similarity(a.traj, b.traj, c.merge_epsilon, getvariable('merge_time_window'),
+                           calibrated('merge_min_points')::BIGINT, o.polygon) AS eta,
+           c.sigma_d_m, a.traj AS traj_a, b.traj AS traj_b
+    FROM merge_tracks a
+    JOIN merge_tracks b
+      ON a.camera < b.camera AND a.class = b.class
+     AND a.t0 <= b.t1 + getvariable('merge_time_window') AND b.t0 <= a.t1 + getvariable('merge_time_window')
+    JOIN view_overlaps o ON o.class = a.class AND o.cam_a = a.camera AND o.cam_b = b.camera AND o.area_m2 > 0
+    JOIN calib_match c ON c.cam_a = a.camera AND c.cam_b = b.camera
+),
+-- the whole common time of the candidates (LCSS eta >= merge_eta): squared distances at every
+-- common time step, wherever the two tracks are, inside the overlap polygon or not
+d AS (
+    SELECT l.* EXCLUDE (traj_a, traj_b),
+           CASE WHEN l.eta >= getvariable('merge_eta')
+                THEN [(c.fx - c.mx) ** 2 + (c.fy - c.my) ** 2
+                      FOR c IN traj_correspond(l.traj_a, l.traj_b, greatest(getvariable('merge_resample_max_gap'), 1.5 * m.period_max))] END AS d2,
+           m.period_max, m.step_s
+    FROM l JOIN merge_periods m ON m.cam_a = l.camera_a AND m.cam_b = l.camera_b
+),
+r AS (
+    SELECT d.* EXCLUDE (d2), len(d2) AS n_common, list_avg(d2) AS msd,
+           -- independent samples: one per sampling period of the slower camera
+           greatest(len(d2) * least(step_s / period_max, 1.0), 1.0) AS n_eff,
+           list_avg(d2) / greatest(2 * sigma_d_m ** 2, 1e-12) AS r
+    FROM d
+)
+SELECT r.*,
+       -- the gate: chi2(2 n_eff) / (2 n_eff) at 0.999 (Wilson-Hilferty), at least merge_gate_floor
+       greatest((1 - 2 / (9 * 2 * n_eff) + 3.09 * sqrt(2 / (9 * 2 * n_eff))) ** 3, 2.0) AS r_gate,
+       n_eff * (greatest((1 - 2 / (9 * 2 * n_eff) + 3.09 * sqrt(2 / (9 * 2 * n_eff))) ** 3, 2.0) - r) AS score,
+       eta >= getvariable('merge_eta') AND n_common > 0
+         AND r <= greatest((1 - 2 / (9 * 2 * n_eff) + 3.09 * sqrt(2 / (9 * 2 * n_eff))) ** 3, 2.0) AS candidate
+FROM r;
 
 CREATE OR REPLACE TEMP TABLE merge_links AS
 WITH h AS (
-    SELECT unnest(hungarian_match(list({'a': uid_a, 'b': uid_b, 'score': eta}), true, getvariable('merge_eta'))) AS m
-    FROM merge_scores WHERE eta >= getvariable('merge_eta')
+    SELECT unnest(hungarian_match(list({'a': uid_a, 'b': uid_b, 'score': score}), true)) AS m
+    FROM merge_scores WHERE candidate
     GROUP BY camera_a, camera_b
+),
+-- a second piece of a track one camera split: a candidate Hungarian did not take, kept only when
+-- it is the best (lowest r) of every candidate of either track that overlaps it in time
+s AS (
+    SELECT s.* FROM merge_scores s
+    WHERE s.candidate AND NOT EXISTS (SELECT 1 FROM h WHERE h.m.a = s.uid_a AND h.m.b = s.uid_b)
+      AND NOT EXISTS (SELECT 1 FROM merge_scores o
+                      WHERE o.candidate AND o.camera_a = s.camera_a AND o.camera_b = s.camera_b
+                        AND (o.uid_a = s.uid_a OR o.uid_b = s.uid_b) AND NOT (o.uid_a = s.uid_a AND o.uid_b = s.uid_b)
+                        AND o.r <= s.r
+                        AND CASE WHEN o.uid_a = s.uid_a THEN o.t0_b <= s.t1_b AND s.t0_b <= o.t1_b
+                                 ELSE o.t0_a <= s.t1_a AND s.t0_a <= o.t1_a END)
 )
-SELECT m.a AS uid_a, m.b AS uid_b, m.score AS eta, 'hungarian' AS kind FROM h
+SELECT m.a AS uid_a, m.b AS uid_b, s.eta, m.score, 'hungarian' AS kind
+FROM h JOIN merge_scores s ON s.uid_a = h.m.a AND s.uid_b = h.m.b
 UNION ALL
-SELECT s.uid_a, s.uid_b, s.eta, 'split'
-FROM merge_scores s
-WHERE s.eta >= getvariable('merge_eta')
-  AND NOT EXISTS (SELECT 1 FROM h WHERE h.m.a = s.uid_a AND h.m.b = s.uid_b)
+SELECT uid_a, uid_b, eta, score, 'split' FROM s
 UNION ALL
 -- within-camera links the constant-velocity rule missed (quality.sql, pass 2), offered last
-SELECT ta.uid, tb.uid, NULL, 'reach'
+SELECT ta.uid, tb.uid, NULL, NULL, 'reach'
 FROM quality_reach_links r
 JOIN merge_tracks ta ON ta.camera = r.camera AND ta.track_id = r.from_id
 JOIN merge_tracks tb ON tb.camera = r.camera AND tb.track_id = r.to_id;
@@ -95,7 +139,7 @@ SELECT g.id AS uid, g.grp AS road_user
 FROM (
     SELECT unnest(merge_groups(
         (SELECT list({'id': uid, 'camera': camera, 't0': t0, 't1': t1}) FROM merge_tracks),
-        (SELECT coalesce(list({'a': uid_a, 'b': uid_b} ORDER BY kind = 'reach', kind = 'split', eta DESC, uid_a, uid_b), [])
+        (SELECT coalesce(list({'a': uid_a, 'b': uid_b} ORDER BY kind = 'reach', kind = 'split', score DESC, uid_a, uid_b), [])
          FROM merge_links))) AS g
 );
 

@@ -1,17 +1,30 @@
 -- trajdb score: a pipeline's result files against a scenario's ground truth (the format of
 -- ../shared/data: points.parquet, cameras.csv, truth.csv). Set score_scenario and
 -- score_results (directories) first; `trajdb score SCENARIO --results DIR` does, and prints
--- s_pair_err and s_class_scores.
+-- s_pair_err, s_identity (with s_hota) and s_class_scores. docs/scoring.md explains every figure.
 --
--- A true pair is the same object seen by two cameras at the same time for at least 1 s, with
--- at least 3 points of each track inside the true overlap of the two views.
+-- A true pair is the same object seen by two cameras at the same time (world time) for at least
+-- 1 s, with at least 3 points of each track inside the true overlap of the two views.
+--
+-- Clocks (simulator truth, cameras.csv): t_cam = (1 + clock_drift_ppm 1e-6) t_world + clock_offset_s;
+-- a cameras.csv without clock_offset_s / clock_drift_ppm has offset / drift 0.
 
 CREATE OR REPLACE TEMP TABLE s_points AS SELECT * FROM read_parquet(getvariable('score_scenario') || '/points.parquet');
-CREATE OR REPLACE TEMP TABLE s_cameras AS SELECT * FROM read_csv(getvariable('score_scenario') || '/cameras.csv');
+-- the clock columns are optional: UNION BY NAME adds them as NULL when the file lacks them
+CREATE OR REPLACE TEMP TABLE s_cameras AS
+SELECT * REPLACE (coalesce(TRY_CAST(clock_offset_s AS DOUBLE), 0.0) AS clock_offset_s,
+                  coalesce(TRY_CAST(clock_drift_ppm AS DOUBLE), 0.0) AS clock_drift_ppm)
+FROM (FROM read_csv(getvariable('score_scenario') || '/cameras.csv')
+      UNION ALL BY NAME (SELECT NULL::DOUBLE AS clock_offset_s, NULL::DOUBLE AS clock_drift_ppm WHERE false));
 CREATE OR REPLACE TEMP TABLE s_truth AS SELECT * FROM read_csv(getvariable('score_scenario') || '/truth.csv');
--- typed: a run that placed no camera pair writes empty transform columns (read as VARCHAR otherwise)
-CREATE OR REPLACE TEMP TABLE s_tf AS SELECT * FROM read_csv(getvariable('score_results') || '/transforms.csv', header = true,
-    types = {'cam_from': 'INTEGER', 'cam_to': 'INTEGER', 'theta_rad': 'DOUBLE', 'tx': 'DOUBLE', 'ty': 'DOUBLE', 'clock_offset_s': 'DOUBLE'});
+-- read as text and typed here: a run that placed no camera pair writes empty transform columns, and
+-- results older than the clock drift lack clock_drift_ppm (drift 0). transforms.csv's clock model:
+-- t_from = (1 + clock_drift_ppm 1e-6) t_to + clock_offset_s.
+CREATE OR REPLACE TEMP TABLE s_tf AS
+SELECT cam_from::INTEGER AS cam_from, cam_to::INTEGER AS cam_to, theta_rad::DOUBLE AS theta_rad, tx::DOUBLE AS tx, ty::DOUBLE AS ty,
+       clock_offset_s::DOUBLE AS clock_offset_s, coalesce(clock_drift_ppm::DOUBLE, 0.0) AS clock_drift_ppm
+FROM (FROM read_csv(getvariable('score_results') || '/transforms.csv', header = true, all_varchar = true)
+      UNION ALL BY NAME (SELECT NULL::VARCHAR AS clock_drift_ppm WHERE false));
 CREATE OR REPLACE TEMP TABLE s_matches AS SELECT * FROM read_csv(getvariable('score_results') || '/matches.csv');
 CREATE OR REPLACE TEMP TABLE s_links AS SELECT * FROM read_csv(getvariable('score_results') || '/links.csv');
 
@@ -19,29 +32,46 @@ CREATE OR REPLACE TEMP TABLE s_links AS SELECT * FROM read_csv(getvariable('scor
 CREATE OR REPLACE TEMP TABLE s_true AS
 SELECT camera, {'theta': theta_rad, 'tx': tx, 'ty': ty, 'scale': 1.0} AS tf, view_wkt_world FROM s_cameras;
 
--- rotation error, the translation error at the centroid of the moving camera's points, and the
--- clock offset error (cameras.csv without clock_offset_s: synchronised clocks)
+-- Per placed pair (a = cam_from, b = cam_to): the rotation error, the translation error at the
+-- centroid of the moving camera's points, the clock error and the drift error.
+-- Clock error: the largest |estimated t_a - true t_a| at the two ends of camera b's recorded
+-- span (the error is linear in time, so the ends hold its maximum). With world time w,
+-- t_b = (1 + d_b) w + o_b, true t_a = (1 + d_a) w + o_a, estimated t_a = (1 + e) t_b + C:
+--   est - true = w (e + d_b + e d_b - d_a) + (C - (o_a - o_b)) + e o_b
+-- each term a difference formed before anything large is added (offsets of hours, clocks at
+-- Unix epochs: w, o ~ 1.8e9 s lose nothing below a microsecond).
+-- Drift error: |e - true pairwise drift| in ppm, true = ((1 + d_a) / (1 + d_b) - 1) 1e6 = (D_a - D_b) / (1 + D_b 1e-6).
 CREATE OR REPLACE TEMP TABLE s_pair_err AS
 WITH c AS (SELECT camera, avg(x) AS mx, avg(y) AS my FROM s_points GROUP BY camera),
-     e AS (SELECT e.cam_from, e.cam_to, e.theta_rad, e.clock_offset_s AS dt_est, a.clock_offset_s - b.clock_offset_s AS dt_true,
+     span AS (SELECT p.camera, min(p.t) AS t0, max(p.t) AS t1 FROM s_points p WHERE p.estimated = 0 GROUP BY p.camera),
+     e AS (SELECT e.cam_from, e.cam_to, e.theta_rad, e.clock_offset_s AS c_est, e.clock_drift_ppm * 1e-6 AS e_est, e.clock_drift_ppm AS drift_est_ppm,
+                  a.clock_offset_s AS o_a, b.clock_offset_s AS o_b, a.clock_drift_ppm * 1e-6 AS d_a, b.clock_drift_ppm * 1e-6 AS d_b,
+                  (a.clock_drift_ppm - b.clock_drift_ppm) / (1.0 + b.clock_drift_ppm * 1e-6) AS drift_true_ppm,
+                  -- camera b's recorded span in world time
+                  coalesce((s.t0 - b.clock_offset_s) / (1.0 + b.clock_drift_ppm * 1e-6), 0.0) AS w0,
+                  coalesce((s.t1 - b.clock_offset_s) / (1.0 + b.clock_drift_ppm * 1e-6), 0.0) AS w1,
                   transform_point({'theta': e.theta_rad, 'tx': e.tx, 'ty': e.ty, 'scale': 1.0}, c.mx, c.my) AS est,
                   transform_point(tt, c.mx, c.my) AS tru, tt.theta AS true_theta
            FROM s_tf e
            JOIN s_cameras a ON a.camera = e.cam_from JOIN s_cameras b ON b.camera = e.cam_to
            JOIN s_true ta ON ta.camera = e.cam_from JOIN s_true tb ON tb.camera = e.cam_to
-           JOIN c ON c.camera = e.cam_from,
-           LATERAL (SELECT transform_compose(transform_invert(tb.tf), ta.tf) AS tt))
+           JOIN c ON c.camera = e.cam_from
+           LEFT JOIN span s ON s.camera = e.cam_to,
+           LATERAL (SELECT transform_compose(transform_invert(tb.tf), ta.tf) AS tt)),
+     k AS (SELECT *, e_est + d_b + e_est * d_b - d_a AS rate_err, (c_est - (o_a - o_b)) + e_est * o_b AS err_at_0 FROM e)
 SELECT cam_from, cam_to,
        abs(((degrees(theta_rad - true_theta) + 540) % 360) - 180) AS rot_deg,
        sqrt((est.x - tru.x) ** 2 + (est.y - tru.y) ** 2) AS trans_m,
-       abs(dt_est - coalesce(dt_true, 0.0)) AS clock_err_s
-FROM e;
+       greatest(abs(w0 * rate_err + err_at_0), abs(w1 * rate_err + err_at_0)) AS clock_err_s,
+       abs(drift_est_ppm - drift_true_ppm) AS drift_err_ppm
+FROM k;
 
--- world positions of the real points, with the object of each track
+-- world positions and world times of the real points, with the object of each track
 CREATE OR REPLACE TEMP TABLE s_world AS
 SELECT camera, track_id, class, t, object_id, w.x AS wx, w.y AS wy
-FROM (SELECT p.camera, p.track_id, p.class, p.t, tr.object_id, transform_point(c.tf, p.x, p.y) AS w
-      FROM s_points p JOIN s_true c USING (camera) JOIN s_truth tr USING (camera, track_id)
+FROM (SELECT p.camera, p.track_id, p.class, (p.t - k.clock_offset_s) / (1.0 + k.clock_drift_ppm * 1e-6) AS t, tr.object_id,
+             transform_point(c.tf, p.x, p.y) AS w
+      FROM s_points p JOIN s_true c USING (camera) JOIN s_cameras k USING (camera) JOIN s_truth tr USING (camera, track_id)
       WHERE p.estimated = 0 AND tr.is_noise = 0);
 
 CREATE OR REPLACE TEMP TABLE s_true_pairs AS
@@ -144,6 +174,45 @@ FROM pieces
 WINDOW w AS (PARTITION BY camera, linked_id ORDER BY t0, track_id)
 QUALIFY b IS NOT NULL;
 
+-- HOTA (Luiten et al. 2021) at the track level: the detection is given (every real point of a
+-- track is an observation), so only the association of observations to road users is scored.
+-- Observations: the real points (estimated = 0) of every track. A track of a real object
+-- (truth.csv is_noise = 0, object_id <> -1) gives its object g; noise and spurious tracks (or
+-- tracks truth.csv lacks) give none. Its prediction p is the road user whose sources hold it.
+-- TP: observations of an object in a road user; FN: of an object in none; FP: of noise in a road user.
+--   DetA = TP / (TP + FN + FP)
+--   AssA = 1/TP sum over TP c of TPA(c) / (TPA(c) + FNA(c) + FPA(c)), with c's (g, p):
+--          TPA = n_gp, FNA = n_g - n_gp, FPA = n_p - n_gp (n_g: all observations of g; n_p: all
+--          observations in p, noise too), so AssA = sum over (g, p) of n_gp^2 / (n_g + n_p - n_gp) / TP
+--   HOTA = sqrt(DetA AssA)
+-- Per class: the observations of that class only (an object's class; a noise track's own class).
+CREATE OR REPLACE TEMP TABLE s_hota_tracks AS
+WITH tw AS (SELECT camera, track_id, mode(class) AS class, count(*) AS w FROM s_points WHERE estimated = 0 GROUP BY camera, track_id)
+SELECT tw.camera, tw.track_id, coalesce(o.class, tw.class) AS class, tw.w::DOUBLE AS w,
+       CASE WHEN g.object_id <> -1 THEN g.object_id END AS g, r.road_user AS p
+FROM tw
+LEFT JOIN s_gt_tracks g USING (camera, track_id)
+LEFT JOIN s_objects o ON o.object_id = g.object_id
+LEFT JOIN s_ru r USING (camera, track_id);
+
+CREATE OR REPLACE TEMP TABLE s_hota AS
+WITH cls AS (SELECT DISTINCT class FROM s_hota_tracks UNION SELECT '*'),
+     o AS (SELECT cls.class AS k, h.g, h.p, h.w FROM cls JOIN s_hota_tracks h ON cls.class IN ('*', h.class)),
+     gp AS (SELECT k, g, p, sum(w) AS n_gp FROM o WHERE g IS NOT NULL AND p IS NOT NULL GROUP BY k, g, p),
+     ng AS (SELECT k, g, sum(w) AS n_g FROM o WHERE g IS NOT NULL GROUP BY k, g),
+     np AS (SELECT k, p, sum(w) AS n_p FROM o WHERE p IS NOT NULL GROUP BY k, p),
+     ass AS (SELECT gp.k, sum(n_gp * n_gp / (n_g + n_p - n_gp)) AS s
+             FROM gp JOIN ng ON ng.k = gp.k AND ng.g = gp.g JOIN np ON np.k = gp.k AND np.p = gp.p GROUP BY gp.k),
+     det AS (SELECT k, coalesce(sum(w) FILTER (WHERE g IS NOT NULL AND p IS NOT NULL), 0) AS tp,
+                    coalesce(sum(w) FILTER (WHERE g IS NOT NULL AND p IS NULL), 0) AS fn,
+                    coalesce(sum(w) FILTER (WHERE g IS NULL AND p IS NOT NULL), 0) AS fp
+             FROM o GROUP BY k),
+     r AS (SELECT cls.class, coalesce(det.tp, 0) AS tp, coalesce(det.fn, 0) AS fn, coalesce(det.fp, 0) AS fp,
+                  coalesce(det.tp / nullif(det.tp + det.fn + det.fp, 0), 0.0) AS deta,
+                  coalesce(ass.s / nullif(det.tp, 0), 0.0) AS assa
+           FROM cls LEFT JOIN det ON det.k = cls.class LEFT JOIN ass ON ass.k = cls.class)
+SELECT class, tp, fn, fp, sqrt(deta * assa) AS hota, deta, assa FROM r;
+
 -- one row per class and '*': identity measures
 CREATE OR REPLACE TEMP TABLE s_identity AS
 WITH cls AS (SELECT DISTINCT class FROM s_objects UNION SELECT '*'),
@@ -164,6 +233,9 @@ SELECT cls.class,
        (SELECT count(*) FILTER (WHERE ga.object_id = gb.object_id) FROM s_pred_links l
           LEFT JOIN s_gt_tracks ga ON ga.camera = l.camera AND ga.track_id = l.a
           LEFT JOIN s_gt_tracks gb ON gb.camera = l.camera AND gb.track_id = l.b
-          WHERE cls.class = '*' OR ga.class = cls.class) AS links_correct
+          WHERE cls.class = '*' OR ga.class = cls.class) AS links_correct,
+       (SELECT hota FROM s_hota h WHERE h.class = cls.class) AS hota,
+       (SELECT deta FROM s_hota h WHERE h.class = cls.class) AS deta,
+       (SELECT assa FROM s_hota h WHERE h.class = cls.class) AS assa
 FROM cls;
 

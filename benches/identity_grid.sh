@@ -10,12 +10,14 @@ T="${CARGO_TARGET_DIR:-$HOME/.cache/trajdb-target}/release/trajdb"
 OUT="${1:-/tmp/trajdb-grid}"
 DATA="$(cd "$(dirname "$0")/../.." && pwd)/shared/data"
 row() { # name dir
+  # worst camera pair: rotation (deg), translation (m), clock drift error (ppm), clock error (ms,
+  # worst over the recording); then IDF1, HOTA, exact, link precision, break recall, match F1
   s=$($T score "$2" --results "$2/r")
-  w=$(echo "$s" | head -1 | grep -oE "[0-9.]+ deg|[0-9.]+ m|[0-9.]+ ms" | tr '\n' ' ')
-  id=$(echo "$s" | sed -n '/road users/,/^matches/p' | grep -m1 "^  all" | awk '{print "IDF1 "$2" exact "$3" linkP "$5" breakR "$6}')
+  w=$(echo "$s" | head -1 | grep -oE "[0-9.]+ deg|[0-9.]+ m|[0-9.]+ ppm|[0-9.]+ ms" | tr '\n' ' ')
+  id=$(echo "$s" | sed -n '/road users/,/^matches/p' | grep -m1 "^  all" | awk '{print "IDF1 "$2" HOTA "$9" exact "$3" linkP "$5" breakR "$6}')
   m=$(echo "$s" | tail -1 | awk '{print "matchF1 "$4}')
-  printf "%-78s %-28s %s %s\n" "$1" "$w" "$id" "$m"
-  if [ -n "$PER_CLASS" ]; then echo "$s" | sed -n '/road users/,/^matches/p' | grep -vE "^(road|matches|  class)" | grep -v "^  all"; fi
+  printf "%-78s %-38s %s %s\n" "$1" "$w" "$id" "$m"
+  if [ -n "$PER_CLASS" ]; then echo "$s" | sed -En '/^road users/,/^(merged|matches)/{/^(road|merged|matches|  class|  all)/!p}'; fi
 }
 for sc in dut_intersection_3cam dut_roundabout_2cam; do
   mkdir -p $OUT/$sc

@@ -258,17 +258,31 @@ def simulate(con, out, **params):
 
 
 def score(con, scenario, results):
-    """`trajdb score`: the results folder against the scenario's ground truth (sql/score.sql).
-    Returns {'rot_deg', 'trans_m', 'clock_s', 'match_f1', 'idf1', 'exact'} (worst camera pair,
-    overall match F1 and road-user identity); the tables s_pair_err, s_identity and
-    s_class_scores stay in `con`."""
+    """`trajdb score`: the results folder against the scenario's ground truth (sql/score.sql;
+    docs/scoring.md). Returns {'rot_deg', 'trans_m', 'clock_s', 'drift_ppm', 'match_f1', 'idf1',
+    'hota', 'deta', 'assa', 'exact'} (worst camera pair: clock_s the worst clock error over the
+    recording, drift_ppm the worst pairwise drift error; overall match F1, road-user identity and
+    HOTA); the tables s_pair_err, s_identity, s_hota and s_class_scores stay in `con`."""
     con.execute("SET VARIABLE score_scenario = ?", [os.path.abspath(scenario)])
     con.execute("SET VARIABLE score_results = ?", [os.path.abspath(results)])
     read(con, "sql/score.sql")
-    rot, trans, clock = con.sql("SELECT max(rot_deg), max(trans_m), max(clock_err_s) FROM s_pair_err WHERE cam_from < cam_to").fetchall()[0]
+    rot, trans, clock, drift = con.sql(
+        "SELECT max(rot_deg), max(trans_m), max(clock_err_s), max(drift_err_ppm) FROM s_pair_err WHERE cam_from < cam_to"
+    ).fetchall()[0]
     p, r = con.sql("SELECT precision, recall FROM s_class_scores WHERE class = '*'").fetchall()[0]
-    idf1, exact = con.sql("SELECT idf1, exact_share FROM s_identity WHERE class = '*'").fetchall()[0]
-    return {"rot_deg": rot, "trans_m": trans, "clock_s": clock, "match_f1": 2 * p * r / (p + r) if p + r > 0 else 0.0, "idf1": idf1, "exact": exact}
+    idf1, exact, hota, deta, assa = con.sql("SELECT idf1, exact_share, hota, deta, assa FROM s_identity WHERE class = '*'").fetchall()[0]
+    return {
+        "rot_deg": rot,
+        "trans_m": trans,
+        "clock_s": clock,
+        "drift_ppm": drift,
+        "match_f1": 2 * p * r / (p + r) if p + r > 0 else 0.0,
+        "idf1": idf1,
+        "hota": hota,
+        "deta": deta,
+        "assa": assa,
+        "exact": exact,
+    }
 
 
 def demo(out="trajdb-demo", **params):

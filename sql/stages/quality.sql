@@ -68,40 +68,107 @@ SELECT q.camera, q.class,
 FROM quality_endpoints q JOIN quality_views v USING (camera)
 GROUP BY q.camera, q.class;
 
--- Pass 2, the acceleration allowance (max_dist + accel gap^2/2, accel the class's measured 95th
--- percentile unless quality_max_accel is given), among the ends and starts pass 1 left unlinked.
--- Applied to all endpoints at once it turned one-to-one breaks into split/merge ambiguities
--- (recall on the real DUT pedestrians fell 0.732 -> 0.658) and linked wrong pieces at 2 Hz
--- (precision 0.944). Restricted to the leftovers it only adds candidates, and they are not
--- applied here: merge.sql offers them to merge_groups() after every cross-camera link, so a
--- 'reach' link that would join two road users other cameras see apart at the same time is
--- refused. An end or start pass 1 already linked is moved out of the view (x = 1e300:
--- traj_events ignores endpoints outside `interior`).
-CREATE OR REPLACE TEMP TABLE quality_reach AS
-WITH used_end AS (SELECT DISTINCT camera, ev.from_id AS track_id FROM quality_events_cv WHERE ev.kind = 'broken'),
-used_start AS (SELECT DISTINCT camera, ev.to_id AS track_id FROM quality_events_cv WHERE ev.kind = 'broken'),
-reach AS (
-    SELECT q.camera, q.class,
-           unnest(traj_events(list({'id': e.id, 't0': e.t0,
-                                    'x0': CASE WHEN us.track_id IS NULL THEN e.x0 ELSE 1e300 END, 'y0': e.y0,
-                                    't1': e.t1,
-                                    'x1': CASE WHEN ue.track_id IS NULL THEN e.x1 ELSE 1e300 END, 'y1': e.y1,
-                                    'vx1': e.vx1, 'vy1': e.vy1}),
-                              getvariable('quality_max_gap'), getvariable('quality_max_dist'), any_value(v.interior),
-                              coalesce(getvariable('quality_max_accel'), any_value(c.accel_p95), 0.0))) AS ev
-    FROM quality_endpoints q JOIN quality_views v USING (camera) LEFT JOIN calib_classes c USING (class)
-    LEFT JOIN used_end ue ON ue.camera = q.camera AND ue.track_id = q.track_id
-    LEFT JOIN used_start us ON us.camera = q.camera AND us.track_id = q.track_id
-    GROUP BY q.camera, q.class
+-- Break links, by design from the measured noise (calib_cameras.sigma_m, calib_classes.accel_p95):
+-- every end a and every start b of one camera and class, with 0 <= gap = b.t0 - a.t1 <= quality_max_gap
+-- and both endpoints inside the view (more than quality_inset from its edge), are compared at the
+-- middle of the gap tau: a's last quality_fit_window seconds and b's first, each a least-squares
+-- line x(t) = xbar + v (t - tbar), are extrapolated to tau. With the camera's sigma, a line fitted to
+-- n points predicts x(tau) with variance sigma^2 (1/n + (tau - tbar)^2 / Sxx) per axis (position and
+-- velocity noise in one term: a 10 Hz track's velocity over 0.4 s has sigma 1 m/s at sigma = 0.3 m,
+-- and a waiting pedestrian's predicted position wanders by metres). So d = x_a(tau) - x_b(tau) has
+--   var_cv = var_a + var_b                                       (constant velocity)
+--   var    = var_cv + (sigma_acc gap^2 / 2)^2, sigma_acc = accel_p95 / 2.45 (Rayleigh: p95 = 2.45 sigma)
+-- and z^2 = |d|^2 / var is chi2(2) for the true continuation. A pair is a candidate when
+-- z^2 <= 9.21 (chi2(2) at 0.99). Its log-likelihood l = -z^2/2 - ln(var) ranks the candidates, and
+-- a link is taken only when it is the mutual best of its end and its start and beats every other
+-- candidate of either by l_best - l_other >= ln(100): the likelihood ratio test, 1 wrong link in
+-- 100 at most when two people could both have made the gap (a crowd waiting 0.6-2 m apart). A
+-- winner within the constant-velocity gate (z_cv^2 <= 9.21) is linked here ('broken'); one that
+-- needs the acceleration allowance is a 'reach' candidate, offered to merge_groups() after every
+-- cross-camera link (merge.sql), so other cameras can refuse it. Ambiguous gaps are not linked:
+-- if another camera sees the road user through the gap, its matches join the pieces (merge.sql,
+-- 'split' links, exported as links).
+CREATE OR REPLACE TEMP TABLE quality_fit AS
+WITH p AS (
+    SELECT p.camera, p.track_id, p.t, p.x, p.y,
+           p.t - max(p.t) OVER w AS te, p.t - min(p.t) OVER w AS ts,
+           greatest(1.0, 3 * coalesce(c.period_s, 0)) AS win
+    FROM points p LEFT JOIN calib_cameras c USING (camera)
+    WHERE p.estimated = 0
+    WINDOW w AS (PARTITION BY p.camera, p.track_id)
 )
-SELECT camera, class, ev FROM reach WHERE ev.kind = 'broken';
+SELECT camera, track_id,
+       count(*) FILTER (WHERE te >= -win) AS n1, avg(te) FILTER (WHERE te >= -win) AS tbar1,
+       avg(x) FILTER (WHERE te >= -win) AS xbar1, avg(y) FILTER (WHERE te >= -win) AS ybar1,
+       coalesce(regr_slope(x, te) FILTER (WHERE te >= -win), 0) AS vx1, coalesce(regr_slope(y, te) FILTER (WHERE te >= -win), 0) AS vy1,
+       coalesce(regr_sxx(x, te) FILTER (WHERE te >= -win), 0) AS sxx1,
+       count(*) FILTER (WHERE ts <= win) AS n0, avg(ts) FILTER (WHERE ts <= win) AS tbar0,
+       avg(x) FILTER (WHERE ts <= win) AS xbar0, avg(y) FILTER (WHERE ts <= win) AS ybar0,
+       coalesce(regr_slope(x, ts) FILTER (WHERE ts <= win), 0) AS vx0, coalesce(regr_slope(y, ts) FILTER (WHERE ts <= win), 0) AS vy0,
+       coalesce(regr_sxx(x, ts) FILTER (WHERE ts <= win), 0) AS sxx0
+FROM p GROUP BY camera, track_id;
 
--- every event: pass 1, and the pass-2 candidates as kind 'reach'
+CREATE OR REPLACE TEMP TABLE quality_candidates AS
+WITH e AS (
+    SELECT q.camera, q.class, q.track_id, q.e.t1 AS t1, q.e.t0 AS t0, f.*  EXCLUDE (camera, track_id),
+           greatest(coalesce(c.sigma_m, 0), 1e-3) ** 2 AS s2,
+           (coalesce(getvariable('quality_max_accel'), k.accel_p95, 0.0) / 2.45) ** 2 AS sa2,
+           polygon_contains(v.interior, q.e.x1, q.e.y1) AS end_inside,
+           polygon_contains(v.interior, q.e.x0, q.e.y0) AS start_inside
+    FROM quality_endpoints q JOIN quality_fit f USING (camera, track_id) JOIN quality_views v USING (camera)
+    LEFT JOIN calib_cameras c USING (camera) LEFT JOIN calib_classes k USING (class)
+),
+-- time buckets of quality_max_gap: a start lies in its end's bucket or the next
+pairs AS (
+    SELECT a.camera, a.class, a.track_id AS from_id, b.track_id AS to_id, b.t0 - a.t1 AS gap,
+           (a.t1 + b.t0) / 2 AS tau, a.t1 AS t1, b.t0 AS t0,
+           a.xbar1 + a.vx1 * ((b.t0 - a.t1) / 2 - a.tbar1) - (b.xbar0 + b.vx0 * (-(b.t0 - a.t1) / 2 - b.tbar0)) AS dx,
+           a.ybar1 + a.vy1 * ((b.t0 - a.t1) / 2 - a.tbar1) - (b.ybar0 + b.vy0 * (-(b.t0 - a.t1) / 2 - b.tbar0)) AS dy,
+           a.s2 * (1.0 / a.n1 + ((b.t0 - a.t1) / 2 - a.tbar1) ** 2 / a.sxx1)
+             + b.s2 * (1.0 / b.n0 + (-(b.t0 - a.t1) / 2 - b.tbar0) ** 2 / b.sxx0) AS var_cv,
+           a.sa2 * ((b.t0 - a.t1) ** 2 / 2) ** 2 AS var_acc,
+           b.vx0 - a.vx1 AS dvx, b.vy0 - a.vy1 AS dvy,
+           a.s2 / a.sxx1 + b.s2 / b.sxx0 AS varv_cv,
+           a.sa2 * (b.t0 - a.t1) ** 2 AS varv_acc
+    FROM e a
+    JOIN e b ON a.camera = b.camera AND a.class = b.class
+            AND floor(b.t0 / getvariable('quality_max_gap')) - floor(a.t1 / getvariable('quality_max_gap')) IN (0, 1)
+    WHERE a.end_inside AND b.start_inside AND a.track_id <> b.track_id
+      AND b.t0 >= a.t1 AND b.t0 - a.t1 <= getvariable('quality_max_gap')
+      AND a.sxx1 > 0 AND b.sxx0 > 0
+),
+z AS (
+    SELECT *, (dx * dx + dy * dy) / var_cv + (dvx * dvx + dvy * dvy) / varv_cv AS z2_cv,
+           (dx * dx + dy * dy) / (var_cv + var_acc) + (dvx * dvx + dvy * dvy) / (varv_cv + varv_acc) AS z2,
+           -((dx * dx + dy * dy) / (var_cv + var_acc) + (dvx * dvx + dvy * dvy) / (varv_cv + varv_acc)) / 2
+             - ln(var_cv + var_acc) - ln(varv_cv + varv_acc) AS ll
+    FROM pairs
+)
+SELECT camera, class, from_id, to_id, gap, sqrt(dx * dx + dy * dy) AS distance, z2_cv, z2, ll,
+       -- the best other candidate of the end, and of the start
+       max(ll) OVER (PARTITION BY camera, from_id ORDER BY ll DESC ROWS BETWEEN 1 FOLLOWING AND UNBOUNDED FOLLOWING) AS ll_next_end,
+       max(ll) OVER (PARTITION BY camera, to_id ORDER BY ll DESC ROWS BETWEEN 1 FOLLOWING AND UNBOUNDED FOLLOWING) AS ll_next_start,
+       row_number() OVER (PARTITION BY camera, from_id ORDER BY ll DESC, to_id) = 1
+         AND row_number() OVER (PARTITION BY camera, to_id ORDER BY ll DESC, from_id) = 1 AS mutual_best
+FROM z WHERE z2 <= 13.28;
+
+CREATE OR REPLACE TEMP TABLE quality_breaks AS
+SELECT *, CASE WHEN z2_cv <= 13.28 THEN 'broken' ELSE 'reach' END AS kind
+FROM quality_candidates
+WHERE mutual_best AND coalesce(ll - ll_next_end, 1e300) >= ln(100) AND coalesce(ll - ll_next_start, 1e300) >= ln(100);
+
+-- the 'reach' links (quality_reach keeps the shape of the events)
+CREATE OR REPLACE TEMP TABLE quality_reach AS
+SELECT camera, class, {'kind': 'broken', 'from_id': from_id, 'to_id': to_id, 'gap': gap, 'distance': distance} AS ev
+FROM quality_breaks WHERE kind = 'reach';
+
+-- every event: traj_events' splits and merges (the paper's rules, for quality_flags), the links,
+-- and the other candidates (kind 'candidate': sql/window.sql follows them as edges)
 CREATE OR REPLACE TEMP TABLE quality_events AS
-SELECT camera, class, ev FROM quality_events_cv
+SELECT camera, class, ev FROM quality_events_cv WHERE ev.kind IN ('split', 'merge')
 UNION ALL
-SELECT camera, class, {'kind': 'reach', 'from_id': ev.from_id, 'to_id': ev.to_id, 'gap': ev.gap, 'distance': ev.distance}
-FROM quality_reach;
+SELECT c.camera, c.class, {'kind': coalesce(b.kind, 'candidate'), 'from_id': c.from_id, 'to_id': c.to_id, 'gap': c.gap, 'distance': c.distance}
+FROM quality_candidates c LEFT JOIN quality_breaks b USING (camera, from_id, to_id);
 
 CREATE OR REPLACE TEMP TABLE quality_labels AS
 SELECT camera, class, l.id AS track_id, l.label, l.coherence
@@ -120,8 +187,8 @@ FROM (
     SELECT camera,
            unnest(merge_groups(
                list({'id': track_id, 'camera': camera, 't0': e.t0, 't1': e.t1}),
-               coalesce((SELECT list({'a': ev.from_id, 'b': ev.to_id} ORDER BY ev.distance, ev.from_id)
-                         FROM quality_events_cv x WHERE x.camera = q.camera AND ev.kind = 'broken'), []))) AS g
+               coalesce((SELECT list({'a': b.from_id, 'b': b.to_id} ORDER BY b.ll DESC, b.from_id)
+                         FROM quality_breaks b WHERE b.camera = q.camera AND b.kind = 'broken'), []))) AS g
     FROM quality_endpoints q
     GROUP BY camera
 );

@@ -9,6 +9,7 @@
 -- and clock. Output:
 --   calib_cameras(camera, period_s, jitter_s, sigma_m, n_intervals, n_triples)   per camera
 --   calib_classes(class, accel_p95, n)                                          per class
+--   calib_fit_window(camera, class, fit_window_s)                              per camera and class
 --   calib_pairs(cam_a, cam_b, sigma_pair_m, align_max_rms_m, align_refine_rms_m)  per camera pair (a < b)
 --   calibration(parameter, measured, given, rule)                               derived pipeline-wide values
 --   the macro calibrated('name'): the --param / SET VARIABLE value if given, else the derived one.
@@ -76,6 +77,19 @@ a AS (
 )
 SELECT class, quantile_cont(accel, 0.95) AS accel_p95, count(*) AS n
 FROM a GROUP BY class;
+
+-- the velocity window of quality.sql's break links, per camera and class: a least-squares line
+-- over the last (first) W seconds of a track has velocity variance 12 sigma^2 period / W^3 per
+-- axis, and a road user accelerating at sigma_acc = accel_p95 / 2.45 (Rayleigh: p95 = 2.45 sigma)
+-- biases it by about sigma_acc W / 2; the sum is least at W^5 = 72 sigma^2 period / sigma_acc^2.
+-- At least 3 periods (a slope and its scatter need 3 points). Pedestrians at 10 Hz, sigma 0.3 m:
+-- 1.1 s; at 2 Hz: 1.6 s; cars (accel_p95 ~ 4 m/s^2) at 10 Hz, sigma 0.1 m: 0.5 s.
+CREATE OR REPLACE TEMP TABLE calib_fit_window AS
+SELECT c.camera, k.class,
+       greatest(3 * c.period_s,
+                (72 * greatest(c.sigma_m, 1e-3) ** 2 * c.period_s / greatest(k.accel_p95 / 2.45, 1e-3) ** 2) ** 0.2) AS fit_window_s
+FROM calib_cameras c CROSS JOIN calib_classes k
+WHERE c.period_s > 0;
 
 CREATE OR REPLACE TEMP TABLE calib_pairs AS
 SELECT a.camera AS cam_a, b.camera AS cam_b,

@@ -92,8 +92,8 @@ CREATE OR REPLACE TEMP TABLE quality_fit AS
 WITH p AS (
     SELECT p.camera, p.track_id, p.t, p.x, p.y,
            p.t - max(p.t) OVER w AS te, p.t - min(p.t) OVER w AS ts,
-           greatest(1.0, 3 * coalesce(c.period_s, 0)) AS win
-    FROM points p LEFT JOIN calib_cameras c USING (camera)
+           coalesce(w.fit_window_s, 1.0) AS win
+    FROM points p LEFT JOIN calib_fit_window w USING (camera, class)
     WHERE p.estimated = 0
     WINDOW w AS (PARTITION BY p.camera, p.track_id)
 )

@@ -226,18 +226,19 @@ def pipeline(points, window_s=3600.0, halo_s=None, calibrate_s=86400.0, calibrat
         raise ValueError(f"trajdb.spark.pipeline: sites {sorted(missing)} have no points in their calibration window")
     offsets = []
     for s, t in sites.items():
-        for r in W.from_ipc(t["align_frames"]).select(["camera", "clock_offset_s"]).to_pylist():
-            offsets.append((s, int(r["camera"]), float(r["clock_offset_s"] or 0.0)))
-    off_df = spark.createDataFrame(offsets, "site string, camera int, clock_offset_s double")
+        for r in W.from_ipc(t["align_frames"]).select(["camera", "clock_offset_s", "clock_drift"]).to_pylist():
+            offsets.append((s, int(r["camera"]), float(r["clock_offset_s"] or 0.0), float(r["clock_drift"] or 0.0)))
+    off_df = spark.createDataFrame(offsets, "site string, camera int, clock_offset_s double, clock_drift double")
 
-    # 2. every track's span on its site's reference clock (t - clock offset, as align.sql does)
+    # 2. every track's span on its site's reference clock ((t - O) / (1 + D), as align.sql does)
     tracks = (
         pts.groupBy("site", "camera", "track_id")
         .agg(F.min("t").alias("t0"), F.max("t").alias("t1"), F.min(F.when(F.col("estimated") == 0, F.col("t"))).alias("t0_real"))
         .join(F.broadcast(off_df), ["site", "camera"], "left")
         .withColumn("off", F.coalesce("clock_offset_s", F.lit(0.0)))
-        .select("site", "camera", "track_id", (F.col("t0") - F.col("off")).alias("t0"), (F.col("t1") - F.col("off")).alias("t1"),
-                (F.col("t0_real") - F.col("off")).alias("t0_real"))
+        .withColumn("rate", F.lit(1.0) + F.coalesce("clock_drift", F.lit(0.0)))
+        .select("site", "camera", "track_id", ((F.col("t0") - F.col("off")) / F.col("rate")).alias("t0"),
+                ((F.col("t1") - F.col("off")) / F.col("rate")).alias("t1"), ((F.col("t0_real") - F.col("off")) / F.col("rate")).alias("t0_real"))
     ).cache()
     if halo_s is None:
         # before: the reach of a candidate link; after: the longest usual track too (p99 per

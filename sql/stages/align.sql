@@ -40,8 +40,23 @@ HAVING count(*) >= getvariable('align_min_points');
 -- moving camera's centroid, relative to the fixed camera's centroid, moves only by the view's
 -- own size times dtheta, and does not change when either camera's frame is moved: hypotheses
 -- vote and agree in (theta, qx, qy, dt) instead of (theta, tx, ty, dt).
+-- t_origin (the camera's first real time) plays the same part for clocks: what depends on
+-- time is taken relative to it, so that shifting a camera's clock changes nothing but its offset.
 CREATE OR REPLACE TEMP TABLE align_centroids AS
-SELECT camera, avg(x) AS cx, avg(y) AS cy FROM points WHERE estimated = 0 GROUP BY camera;
+SELECT camera, avg(x) AS cx, avg(y) AS cy, min(t) AS t_origin FROM points WHERE estimated = 0 GROUP BY camera;
+
+-- 0. the coarse clock offset of every camera pair, over EVERY lag the recordings allow: the
+--    cross-correlation peak of the two cameras' activity (tracks in view over time;
+--    activity_lag, src/algo/align/xcorr.rs). No range is assumed: a camera seconds, hours or
+--    a day off, or on another epoch, is found the same way. It is coarse (a road user is in both
+--    views at once only inside their overlap, so mostly one-way traffic between the views puts
+--    the peak a few seconds off): step 1 searches around it, widening when needed. Bins of
+--    half the first search range (the finest offset step 1 can still correct). With
+--    align_max_clock_offset_s = 0 (the user says the clocks agree) the centre is 0.
+CREATE OR REPLACE TEMP TABLE align_activity AS
+SELECT camera, list({'t': t, 'v': v} ORDER BY t, v) AS events
+FROM (SELECT camera, t0 AS t, 1.0 AS v FROM align_tracks UNION ALL SELECT camera, t1, -1.0 FROM align_tracks)
+GROUP BY camera;
 
 -- 1. hypotheses. Clocks may differ (dt = moving clock - fixed clock): each track pair is fitted
 --    at every shift dt on a grid of align_bin_s within +-max_off of its camera pair
@@ -59,35 +74,56 @@ SELECT camera, avg(x) AS cx, avg(y) AS cy FROM points WHERE estimated = 0 GROUP 
 --    close to it, so large winners are trusted: a heuristic, not yet measured), is searched again over 4 times the range (passes 2 and 3: up to 16 x), and keeps the wider
 --    search's winner when it has more votes. A pair truly in range wins inside it and is never
 --    searched again, so in-range results are those of a single pass.
+CREATE OR REPLACE TEMP TABLE align_coarse AS
+SELECT p.cam_fixed, p.cam_moving, l.dt AS centre, l.score, l.runner_up, l.half_width_s
+FROM (SELECT DISTINCT a.camera AS cam_fixed, b.camera AS cam_moving
+      FROM (SELECT DISTINCT camera, class FROM align_tracks) a JOIN (SELECT DISTINCT camera, class FROM align_tracks) b
+        ON a.camera < b.camera AND a.class = b.class) p
+JOIN align_activity ea ON ea.camera = p.cam_fixed JOIN align_activity eb ON eb.camera = p.cam_moving,
+LATERAL (SELECT CASE WHEN getvariable('align_max_clock_offset_s') > 0
+                     THEN activity_lag(ea.events, eb.events, getvariable('align_max_clock_offset_s') / 2) END AS l);
+
 CREATE OR REPLACE TEMP TABLE align_scan AS
-SELECT DISTINCT a.camera AS cam_fixed, b.camera AS cam_moving, getvariable('align_max_clock_offset_s') AS max_off, 1 AS pass
-FROM (SELECT DISTINCT camera, class FROM align_tracks) a JOIN (SELECT DISTINCT camera, class FROM align_tracks) b
-  ON a.camera < b.camera AND a.class = b.class;
+SELECT cam_fixed, cam_moving, coalesce(centre, 0.0) AS centre, getvariable('align_max_clock_offset_s') AS max_off, 1 AS pass
+FROM align_coarse;
+
+--    Which track pairs are sampled, and the order of the refit's lists, depend on the tracks'
+--    content (start time relative to the camera's t_origin, in ms), never on their ids: the same
+--    recording with relabelled ids gives the same offsets to the last bit.
+CREATE OR REPLACE TEMP TABLE align_keys AS
+SELECT t.camera, t.track_id, round((t.t0 - c.t_origin) * 1000)::BIGINT AS k0, round((t.t1 - c.t_origin) * 1000)::BIGINT AS k1
+FROM align_tracks t JOIN align_centroids c USING (camera);
 
 CREATE OR REPLACE TEMP MACRO align_hypotheses(pass_no) AS TABLE
-WITH range AS (SELECT coalesce(max(max_off), 0) AS r FROM align_scan WHERE pass = pass_no),
+WITH moving AS (
+    -- the moving camera's tracks on the fixed camera's clock as far as the coarse centre knows it
+    SELECT s.cam_fixed, s.cam_moving, s.centre, s.max_off, b.track_id, b.class, b.t0 - s.centre AS t0, b.t1 - s.centre AS t1
+    FROM align_tracks b JOIN align_scan s ON s.cam_moving = b.camera AND s.pass = pass_no
+),
 pairs AS (
-    SELECT a.camera AS cam_fixed, b.camera AS cam_moving, a.track_id AS track_fixed, b.track_id AS track_moving, s.max_off
-    FROM align_tracks a JOIN align_tracks b
-      ON a.camera < b.camera AND a.class = b.class
-     AND a.t0 <= b.t1 + (SELECT r FROM range) - getvariable('align_min_overlap_s')
-     AND b.t0 <= a.t1 + (SELECT r FROM range) - getvariable('align_min_overlap_s')
-    JOIN align_scan s ON s.cam_fixed = a.camera AND s.cam_moving = b.camera AND s.pass = pass_no
-    QUALIFY row_number() OVER (PARTITION BY a.camera, b.camera ORDER BY hash(a.track_id, b.track_id), a.track_id, b.track_id)
+    SELECT a.camera AS cam_fixed, b.cam_moving, a.track_id AS track_fixed, b.track_id AS track_moving, b.centre, b.max_off
+    FROM align_tracks a JOIN moving b
+      ON a.camera = b.cam_fixed AND a.class = b.class
+     AND a.t0 <= b.t1 + b.max_off - getvariable('align_min_overlap_s')
+     AND b.t0 <= a.t1 + b.max_off - getvariable('align_min_overlap_s')
+    JOIN align_keys ka ON ka.camera = a.camera AND ka.track_id = a.track_id
+    JOIN align_keys kb ON kb.camera = b.cam_moving AND kb.track_id = b.track_id
+    QUALIFY row_number() OVER (PARTITION BY a.camera, b.cam_moving ORDER BY hash(ka.k0, ka.k1, kb.k0, kb.k1), ka.k0, ka.k1, kb.k0, kb.k1, a.track_id, b.track_id)
             <= getvariable('align_max_hypotheses')
 ),
 cand AS (
-    SELECT p.*, rigid_fit_scan(a.traj, b.traj, p.max_off, getvariable('align_bin_s')) AS fits
+    SELECT p.*, rigid_fit_scan(a.traj, list_transform(b.traj, lambda q: {'t': q.t - p.centre, 'x': q.x, 'y': q.y}),
+                               p.max_off, getvariable('align_bin_s')) AS fits
     FROM pairs p
     JOIN align_tracks a ON a.camera = p.cam_fixed AND a.track_id = p.track_fixed
     JOIN align_tracks b ON b.camera = p.cam_moving AND b.track_id = p.track_moving
 )
-SELECT h.cam_fixed, h.cam_moving, track_fixed, track_moving, f.dt, f.theta, f.tx, f.ty, f.rms,
+SELECT h.cam_fixed, h.cam_moving, track_fixed, track_moving, h.centre + f.dt AS dt, f.dt AS dt_rel, h.centre, f.theta, f.tx, f.ty, f.rms,
        -- where the hypothesis puts the moving camera's centroid, relative to the fixed camera's
        -- centroid (see align_centroids): the vote's position, invariant to either frame's origin
        cos(f.theta) * m.cx - sin(f.theta) * m.cy + f.tx - fc.cx AS qx,
        sin(f.theta) * m.cx + cos(f.theta) * m.cy + f.ty - fc.cy AS qy
-FROM (SELECT cam_fixed, cam_moving, track_fixed, track_moving, unnest(fits) AS f FROM cand) h
+FROM (SELECT cam_fixed, cam_moving, track_fixed, track_moving, centre, unnest(fits) AS f FROM cand) h
 JOIN calib_pairs c ON c.cam_a = h.cam_fixed AND c.cam_b = h.cam_moving
 JOIN align_centroids fc ON fc.camera = h.cam_fixed JOIN align_centroids m ON m.camera = h.cam_moving
 WHERE f.n >= getvariable('align_min_pairs') AND f.span >= getvariable('align_min_span_m')
@@ -103,28 +139,29 @@ WITH bins AS (
            round(degrees(theta) / getvariable('align_bin_deg')) * getvariable('align_bin_deg') AS theta_deg,
            round(qx / getvariable('align_bin_m')) * getvariable('align_bin_m') AS qx,
            round(qy / getvariable('align_bin_m')) * getvariable('align_bin_m') AS qy,
-           round(dt / getvariable('align_bin_s')) * getvariable('align_bin_s') AS dt
+           round(dt_rel / getvariable('align_bin_s')) * getvariable('align_bin_s') AS dt_rel, centre
     FROM query_table(hyp)
 )
-SELECT cam_fixed, cam_moving, theta_deg, qx, qy, dt, votes,
+SELECT cam_fixed, cam_moving, theta_deg, qx, qy, centre + dt_rel AS dt, dt_rel, centre, votes,
        -- the second bin's votes: a true offset stands far above every other bin; a winner that
        -- does not is a chance coincidence of a few pairs
-       coalesce(nth_value(votes, 2) OVER (PARTITION BY cam_fixed, cam_moving ORDER BY votes DESC, abs(dt), theta_deg, qx, qy
+       coalesce(nth_value(votes, 2) OVER (PARTITION BY cam_fixed, cam_moving ORDER BY votes DESC, abs(dt_rel), theta_deg, qx, qy
                                           ROWS BETWEEN UNBOUNDED PRECEDING AND UNBOUNDED FOLLOWING), 0) AS runner_up
-FROM (SELECT cam_fixed, cam_moving, theta_deg, qx, qy, dt, count(*) AS votes FROM bins GROUP BY cam_fixed, cam_moving, theta_deg, qx, qy, dt)
-QUALIFY row_number() OVER (PARTITION BY cam_fixed, cam_moving ORDER BY votes DESC, abs(dt), theta_deg, qx, qy) = 1;
+FROM (SELECT cam_fixed, cam_moving, theta_deg, qx, qy, dt_rel, any_value(centre) AS centre, count(*) AS votes
+      FROM bins GROUP BY cam_fixed, cam_moving, theta_deg, qx, qy, dt_rel)
+QUALIFY row_number() OVER (PARTITION BY cam_fixed, cam_moving ORDER BY votes DESC, abs(dt_rel), theta_deg, qx, qy) = 1;
 
 CREATE OR REPLACE TEMP TABLE align_hyp AS FROM align_hypotheses(1);
 CREATE OR REPLACE TEMP TABLE align_best AS FROM align_vote('align_hyp');
 
 -- passes 2 and 3: the pairs at the edge of their range, or without a winner, searched 4 x wider
 CREATE OR REPLACE TEMP MACRO align_widen(pass_no) AS TABLE
-SELECT s.cam_fixed, s.cam_moving, 4 * s.max_off AS max_off, pass_no AS pass
+SELECT s.cam_fixed, s.cam_moving, s.centre, 4 * s.max_off AS max_off, pass_no AS pass
 FROM align_scan s LEFT JOIN align_best b USING (cam_fixed, cam_moving)
 WHERE s.pass = pass_no - 1
   AND (b.dt IS NULL OR b.votes < getvariable('align_min_support')
        OR (b.votes < 2 * b.runner_up AND b.votes < 4 * getvariable('align_min_support'))
-       OR abs(b.dt) >= s.max_off - 2 * getvariable('align_bin_s'));
+       OR abs(b.dt_rel) >= s.max_off - 2 * getvariable('align_bin_s'));
 
 INSERT INTO align_scan FROM align_widen(2);
 CREATE OR REPLACE TEMP TABLE align_hyp_wide AS FROM align_hypotheses(2);
@@ -162,8 +199,8 @@ WHERE abs(h.dt - b.dt) < 0.5 * getvariable('align_bin_s')
 --    refit (align_refit) runs again after the second pass below, on the kept pairs.
 CREATE OR REPLACE TEMP MACRO align_refit() AS TABLE
 SELECT s.cam_fixed, s.cam_moving,
-       rigid_fit_shifted(list(s.traj_fixed ORDER BY s.track_fixed, s.track_moving),
-                         list(s.traj_moving ORDER BY s.track_fixed, s.track_moving),
+       rigid_fit_shifted(list(s.traj_fixed ORDER BY s.traj_fixed[1].t, s.traj_moving[1].t, s.track_fixed, s.track_moving),
+                         list(s.traj_moving ORDER BY s.traj_fixed[1].t, s.traj_moving[1].t, s.track_fixed, s.track_moving),
                          any_value(b.dt), getvariable('align_bin_s'), getvariable('align_clock_step_s'),
                          0.5, getvariable('align_trim'), any_value(cf.sigma_m), any_value(cm.sigma_m)) AS fit,
        count(*) AS support
@@ -171,6 +208,104 @@ FROM align_support s JOIN align_best b USING (cam_fixed, cam_moving)
 JOIN calib_cameras cf ON cf.camera = s.cam_fixed JOIN calib_cameras cm ON cm.camera = s.cam_moving
 GROUP BY s.cam_fixed, s.cam_moving
 HAVING count(*) >= getvariable('align_min_support');
+
+CREATE OR REPLACE TEMP TABLE align_pairs AS FROM align_refit();
+
+-- 3b. clock drift. A camera clock running fast or slow by tens to hundreds of ppm (0.36 s over
+--    30 minutes at 200 ppm) fits no single offset: the clock model of a camera pair is
+--    t_moving = (1 + D) t_fixed + O. With the transform of the first refit KNOWN, every
+--    candidate track pair (its hypothesis agrees with the winner in rotation and position, at
+--    any offset) has its own offset (rigid_shift_under: even a straight track pins it, since a
+--    shift slides the road user along the road), with a standard error from the residual's
+--    curvature; D is the slope of those offsets against time, by weighted least squares (1/se^2),
+--    refitted once without the pairs beyond 3 robust standard deviations (a wrong pair of two
+--    people side by side). D is used only where the recording shows it: at least 8 pairs and
+--    |D| > 3 x its standard error; otherwise D = 0 and everything below is exactly as without
+--    this step. The search per pair reaches as far as the pair's offset search did
+--    (max_off of its last pass), so the drift a recording can show is measured, not bounded by
+--    a constant.
+CREATE OR REPLACE TEMP TABLE align_drift_pairs AS
+WITH cand AS (
+    SELECT DISTINCT h.cam_fixed, h.cam_moving, h.track_fixed, h.track_moving
+    FROM align_hyp h JOIN align_best b USING (cam_fixed, cam_moving)
+    WHERE abs(((degrees(h.theta) - b.theta_deg + 540) % 360) - 180) <= getvariable('align_agree_deg')
+      AND abs(h.qx - b.qx) <= getvariable('align_agree_m') AND abs(h.qy - b.qy) <= getvariable('align_agree_m')
+),
+coarse AS (
+    SELECT c.*, a.traj AS traj_fixed, m.traj AS traj_moving, (a.t0 + a.t1) / 2 - fc.t_origin AS x, cp.align_refine_rms_m AS gate,
+           {'theta': p.fit.theta, 'tx': p.fit.tx, 'ty': p.fit.ty, 'scale': p.fit.scale} AS tf,
+           rigid_shift_under(a.traj, m.traj, {'theta': p.fit.theta, 'tx': p.fit.tx, 'ty': p.fit.ty, 'scale': p.fit.scale},
+                             p.fit.dt, s.max_off, getvariable('align_bin_s'), 0.5, getvariable('align_min_pairs')) AS r
+    FROM cand c JOIN align_pairs p USING (cam_fixed, cam_moving)
+    JOIN (SELECT cam_fixed, cam_moving, max(max_off) AS max_off FROM align_scan GROUP BY ALL) s USING (cam_fixed, cam_moving)
+    JOIN align_tracks a ON a.camera = c.cam_fixed AND a.track_id = c.track_fixed
+    JOIN align_tracks m ON m.camera = c.cam_moving AND m.track_id = c.track_moving
+    JOIN align_centroids fc ON fc.camera = c.cam_fixed
+    JOIN calib_pairs cp ON cp.cam_a = c.cam_fixed AND cp.cam_b = c.cam_moving
+    WHERE p.fit IS NOT NULL
+)
+SELECT cam_fixed, cam_moving, track_fixed, track_moving, x, traj_fixed, traj_moving,
+       rigid_shift_under(traj_fixed, traj_moving, tf, r.dt, getvariable('align_bin_s'), getvariable('align_clock_step_s'), 0.5,
+                         getvariable('align_min_pairs')) AS r, gate
+FROM coarse
+WHERE r IS NOT NULL AND NOT r.at_edge AND r.rms < gate;
+
+CREATE OR REPLACE TEMP MACRO align_wls(src) AS TABLE
+SELECT cam_fixed, cam_moving, count(*) AS n, max(x) - min(x) AS x_span,
+       (sum(w) * sum(w * x * y) - sum(w * x) * sum(w * y)) / nullif(sum(w) * sum(w * x * x) - sum(w * x) ** 2, 0) AS slope,
+       sum(w) / nullif(sum(w) * sum(w * x * x) - sum(w * x) ** 2, 0) AS slope_var0,
+       sum(w * x) AS swx, sum(w * y) AS swy, sum(w) AS sw
+FROM query_table(src) GROUP BY cam_fixed, cam_moving;
+
+CREATE OR REPLACE TEMP TABLE align_drift_obs AS
+SELECT cam_fixed, cam_moving, track_fixed, track_moving, x, r.dt AS y, 1 / greatest(r.se, getvariable('align_clock_step_s')) ** 2 AS w
+FROM align_drift_pairs WHERE isfinite(r.se);
+
+CREATE OR REPLACE TEMP TABLE align_drift_fit1 AS
+SELECT *, (swy - slope * swx) / sw AS intercept FROM align_wls('align_drift_obs');
+
+CREATE OR REPLACE TEMP TABLE align_drift_kept AS
+WITH z AS (
+    SELECT o.*, (o.y - f.intercept - f.slope * o.x) * sqrt(o.w) AS z
+    FROM align_drift_obs o JOIN align_drift_fit1 f USING (cam_fixed, cam_moving)
+    WHERE f.slope IS NOT NULL
+)
+SELECT z.* EXCLUDE (z), z.z FROM z
+JOIN (SELECT cam_fixed, cam_moving, 1.4826 * median(abs(z)) AS s FROM z GROUP BY ALL) m USING (cam_fixed, cam_moving)
+WHERE abs(z.z) <= 3 * m.s;
+
+CREATE OR REPLACE TEMP TABLE align_drift AS
+WITH f AS (SELECT *, (swy - slope * swx) / sw AS intercept FROM align_wls('align_drift_kept')),
+chi AS (
+    SELECT k.cam_fixed, k.cam_moving, sum(k.w * (k.y - f.intercept - f.slope * k.x) ** 2) AS chi2
+    FROM align_drift_kept k JOIN f USING (cam_fixed, cam_moving) GROUP BY ALL
+)
+SELECT f.cam_fixed, f.cam_moving, f.n, f.x_span, f.slope AS drift_fit, f.intercept,
+       sqrt(f.slope_var0 * greatest(chi.chi2 / greatest(f.n - 2, 1), 1e-12)) AS drift_se,
+       CASE WHEN f.n >= 8 AND abs(f.slope) > 3 * sqrt(f.slope_var0 * greatest(chi.chi2 / greatest(f.n - 2, 1), 1e-12))
+            THEN f.slope ELSE 0.0 END AS drift
+FROM f JOIN chi USING (cam_fixed, cam_moving)
+WHERE f.slope IS NOT NULL;
+
+--    a pair with drift: its support becomes the kept drift pairs, the moving tracks' times
+--    warped onto the fixed camera's rate about the moving camera's t_origin T0m,
+--    u = t - D / (1 + D) (t - T0m) = t_fixed + c, and the refit finds c (and the transform from
+--    the whole recording). O = c (1 + D) - D T0m below.
+CREATE OR REPLACE TEMP TABLE align_support AS
+SELECT * FROM align_support WHERE (cam_fixed, cam_moving) NOT IN (SELECT (cam_fixed, cam_moving) FROM align_drift WHERE drift <> 0)
+UNION ALL
+SELECT k.cam_fixed, k.cam_moving, k.track_fixed, k.track_moving, p.traj_fixed,
+       list_transform(p.traj_moving, lambda q: {'t': q.t - d.drift / (1 + d.drift) * (q.t - mc.t_origin), 'x': q.x, 'y': q.y}) AS traj_moving
+FROM align_drift_kept k JOIN align_drift d USING (cam_fixed, cam_moving)
+JOIN align_drift_pairs p USING (cam_fixed, cam_moving, track_fixed, track_moving)
+JOIN align_centroids mc ON mc.camera = k.cam_moving
+WHERE d.drift <> 0;
+
+-- the refit's centre for a drifted pair: c = (a + D (T0m - T0f)) / (1 + D), a the fitted offset at T0f
+UPDATE align_best b SET dt = (d.intercept + d.drift * (mc.t_origin - fc.t_origin)) / (1 + d.drift)
+FROM align_drift d, align_centroids mc, align_centroids fc
+WHERE d.cam_fixed = b.cam_fixed AND d.cam_moving = b.cam_moving AND d.drift <> 0
+  AND mc.camera = b.cam_moving AND fc.camera = b.cam_fixed;
 
 CREATE OR REPLACE TEMP TABLE align_pairs AS FROM align_refit();
 
@@ -215,32 +350,50 @@ FROM calib_pairs p LEFT JOIN d ON d.cam_fixed = p.cam_a AND d.cam_moving = p.cam
 
 -- 4. spanning tree: widest path from every camera to the reference camera (the one with the
 --    most support), composing moving -> fixed transforms (inverted when walked backwards).
+--    Clocks: each edge src -> dst carries t_src = (1 + D) t_dst + O (O = c (1 + D) - D T0m for a
+--    drifted pair, see 3b; O = c when D = 0); walked backwards, D' = -D / (1 + D), O' = -O / (1 + D).
+CREATE OR REPLACE TEMP TABLE align_clock AS
+SELECT p.cam_fixed, p.cam_moving, coalesce(d.drift, 0.0) AS drift,
+       CASE WHEN coalesce(d.drift, 0.0) <> 0 THEN d.drift_se ELSE 0.0 END AS drift_se,
+       d.drift_fit, d.drift_se AS drift_fit_se, coalesce(d.n, 0) AS drift_pairs,
+       p.fit.dt * (1 + coalesce(d.drift, 0.0)) - coalesce(d.drift, 0.0) * mc.t_origin AS offset
+FROM align_pairs p LEFT JOIN align_drift d USING (cam_fixed, cam_moving)
+JOIN align_centroids mc ON mc.camera = p.cam_moving;
+
 CREATE OR REPLACE TEMP TABLE align_edges AS
-SELECT cam_moving AS src, cam_fixed AS dst, support,
-       {'theta': fit.theta, 'tx': fit.tx, 'ty': fit.ty, 'scale': fit.scale} AS tf, fit.dt AS dt
-FROM align_pairs
+SELECT p.cam_moving AS src, p.cam_fixed AS dst, p.support,
+       {'theta': p.fit.theta, 'tx': p.fit.tx, 'ty': p.fit.ty, 'scale': p.fit.scale} AS tf, c.offset AS dt, c.drift, c.drift_se
+FROM align_pairs p JOIN align_clock c USING (cam_fixed, cam_moving)
 UNION ALL
-SELECT cam_fixed, cam_moving, support,
-       transform_invert({'theta': fit.theta, 'tx': fit.tx, 'ty': fit.ty, 'scale': fit.scale}), -fit.dt
-FROM align_pairs;
+SELECT p.cam_fixed, p.cam_moving, p.support,
+       transform_invert({'theta': p.fit.theta, 'tx': p.fit.tx, 'ty': p.fit.ty, 'scale': p.fit.scale}),
+       -c.offset / (1 + c.drift), -c.drift / (1 + c.drift), c.drift_se
+FROM align_pairs p JOIN align_clock c USING (cam_fixed, cam_moving);
 
 CREATE OR REPLACE TEMP TABLE align_frames AS
 WITH RECURSIVE
 ref AS (
     SELECT src AS camera FROM align_edges GROUP BY src ORDER BY sum(support) DESC, src LIMIT 1
 ),
-walk(camera, node, tf, dt, bottleneck, hops, visited) AS (
-    -- start at each camera with the identity, walk edges towards the reference; clock offsets
-    -- (edge src clock - dst clock) add up along the path to camera clock - reference clock
-    SELECT camera, camera, {'theta': 0.0::DOUBLE, 'tx': 0.0::DOUBLE, 'ty': 0.0::DOUBLE, 'scale': 1.0::DOUBLE}, 0.0::DOUBLE, 1e18::DOUBLE, 0, [camera]
+walk(camera, node, tf, dt, drift, drift_var, bottleneck, hops, visited) AS (
+    -- start at each camera with the identity, walk edges towards the reference; clocks compose:
+    -- t_cam = (1 + Dw) t_node + Ow and t_node = (1 + De) t_dst + Oe give
+    -- t_cam = (1 + Dw)(1 + De) t_dst + (1 + Dw) Oe + Ow
+    SELECT camera, camera, {'theta': 0.0::DOUBLE, 'tx': 0.0::DOUBLE, 'ty': 0.0::DOUBLE, 'scale': 1.0::DOUBLE}, 0.0::DOUBLE, 0.0::DOUBLE, 0.0::DOUBLE,
+           1e18::DOUBLE, 0, [camera]
     FROM (SELECT DISTINCT camera FROM points)
     UNION ALL
-    SELECT w.camera, e.dst, transform_compose(e.tf, w.tf), w.dt + e.dt, least(w.bottleneck, e.support), w.hops + 1,
+    SELECT w.camera, e.dst, transform_compose(e.tf, w.tf),
+           CASE WHEN w.drift = 0 THEN w.dt + e.dt ELSE (1 + w.drift) * e.dt + w.dt END,
+           CASE WHEN w.drift = 0 AND e.drift = 0 THEN 0.0 ELSE w.drift + e.drift + w.drift * e.drift END,
+           w.drift_var + e.drift_se ** 2,
+           least(w.bottleneck, e.support), w.hops + 1,
            list_append(w.visited, e.dst)
     FROM walk w JOIN align_edges e ON e.src = w.node
     WHERE NOT list_contains(w.visited, e.dst) AND w.node <> (SELECT camera FROM ref)
 )
-SELECT w.camera, (SELECT camera FROM ref) AS reference, w.tf AS to_reference, w.dt AS clock_offset_s, w.hops,
+SELECT w.camera, (SELECT camera FROM ref) AS reference, w.tf AS to_reference, w.dt AS clock_offset_s,
+       w.drift AS clock_drift, sqrt(w.drift_var) AS clock_drift_se, w.hops,
        CASE WHEN w.hops = 0 THEN NULL ELSE w.bottleneck END AS bottleneck_support
 FROM walk w
 WHERE w.node = (SELECT camera FROM ref)
@@ -254,7 +407,9 @@ FROM calib_cameras c LEFT JOIN align_frames f USING (camera),
      LATERAL (VALUES ('sampling period', c.period_s, 's', 'median interval between consecutive real points'),
                      ('sampling jitter', c.jitter_s, 's', 'median absolute deviation of the intervals'),
                      ('position noise sigma', c.sigma_m, 'm', 'median second difference of evenly sampled points'),
-                     ('clock offset', f.clock_offset_s, 's', 'camera clock minus reference clock, fitted with the transform')) q(quantity, value, unit, how)
+                     ('clock offset', f.clock_offset_s, 's', 'O in t_camera = (1 + D) t_reference + O, fitted with the transform'),
+                     ('clock drift', f.clock_drift * 1e6, 'ppm', 'D in t_camera = (1 + D) t_reference + O: the slope of per-pair offsets over the recording; 0 when not shown (|D| <= 3 se or under 8 pairs)'),
+                     ('clock drift se', f.clock_drift_se * 1e6, 'ppm', 'standard error of the clock drift (0 when the drift is 0)')) q(quantity, value, unit, how)
 UNION ALL
 SELECT 'cameras ' || m.cam_a || '-' || m.cam_b, q.quantity, q.value, q.unit, q.how
 FROM calib_match m JOIN calib_pairs p USING (cam_a, cam_b),
@@ -275,26 +430,30 @@ SELECT 'pipeline', 'reference camera', any_value(reference), '',
        'merged.parquet and every later stage are in this camera''s frame and on its clock'
 FROM align_frames;
 
--- 5. every later stage works on the reference camera's clock: t := t - clock_offset_s.
+-- 5. every later stage works on the reference camera's clock: t := (t - O) / (1 + D).
 CREATE OR REPLACE TEMP TABLE points AS
-SELECT p.* REPLACE (p.t - coalesce(f.clock_offset_s, 0.0) AS t)
+SELECT p.* REPLACE (CASE WHEN coalesce(f.clock_drift, 0.0) = 0 THEN p.t - coalesce(f.clock_offset_s, 0.0)
+                         ELSE (p.t - f.clock_offset_s) / (1 + f.clock_drift) END AS t)
 FROM points p LEFT JOIN align_frames f USING (camera);
 
 SELECT camera, reference, round(degrees(to_reference.theta), 3) AS theta_deg,
        round(to_reference.tx, 3) AS tx, round(to_reference.ty, 3) AS ty,
-       round(clock_offset_s, 3) AS clock_offset_s, hops,
+       round(clock_offset_s, 3) AS clock_offset_s, round(clock_drift * 1e6, 1) AS clock_drift_ppm, hops,
        bottleneck_support::BIGINT AS support
 FROM align_frames ORDER BY camera;
 
 -- The stage's results (sql/export.sql writes them; python/trajdb/windows.py reads them per window).
 -- Table macros: they read the tables when called. Unordered: the caller orders.
 
--- transforms: cam_from-local into cam_to-local, every ordered pair of aligned cameras, and
--- clock_offset_s = cam_from's clock minus cam_to's clock (a road user seen by cam_to at t is
--- seen by cam_from at t + clock_offset_s)
+-- transforms: cam_from-local into cam_to-local, every ordered pair of aligned cameras, and the
+-- clocks: t_from = (1 + clock_drift_ppm 1e-6) t_to + clock_offset_s (a road user seen by cam_to
+-- at t is seen by cam_from at that time on its clock; without drift, t + clock_offset_s)
 CREATE OR REPLACE TEMP MACRO result_transforms() AS TABLE
 SELECT a.camera AS cam_from, b.camera AS cam_to, tf.theta AS theta_rad, tf.tx, tf.ty,
-       a.clock_offset_s - b.clock_offset_s AS clock_offset_s
+       CASE WHEN a.clock_drift = 0 AND b.clock_drift = 0 THEN a.clock_offset_s - b.clock_offset_s
+            ELSE a.clock_offset_s - (1 + a.clock_drift) / (1 + b.clock_drift) * b.clock_offset_s END AS clock_offset_s,
+       CASE WHEN a.clock_drift = 0 AND b.clock_drift = 0 THEN 0.0
+            ELSE ((1 + a.clock_drift) / (1 + b.clock_drift) - 1) * 1e6 END AS clock_drift_ppm
 FROM align_frames a, align_frames b,
      LATERAL (SELECT transform_compose(transform_invert(b.to_reference), a.to_reference) AS tf)
 WHERE a.camera <> b.camera;

@@ -1,13 +1,15 @@
 //! SQL: camera alignment. Maths: `src/algo/align/` (cpd.rs and cpd3.rs for `cpd_align`, rigid.rs
 //! for the fit and the transforms, correspond.rs for `traj_correspond`).
 
-use super::registry::{p, Function, Param, Signature, Ty, TRAJ, TRANSFORM};
+use super::registry::{p, Function, Param, Signature, Ty, SERIES, TRAJ, TRANSFORM};
 use super::vector::{Args, Column, Out, StructCol, Value};
 use crate::algo::align::correspond::Pairs;
 use crate::algo::align::cpd::{self, CpdParams};
 use crate::algo::align::cpd3;
 use crate::algo::align::rigid::{self, Transform2};
 use crate::algo::align::shift::{self, ShiftGrid};
+use crate::algo::align::shift_under;
+use crate::algo::align::xcorr;
 use std::error::Error;
 
 type R = Result<(), Box<dyn Error>>;
@@ -211,6 +213,56 @@ pub static FUNCTIONS: &[Function] = &[
                 ("n", Ty::Bigint),
             ]),
             kernel: rigid_fit_shifted,
+        }],
+        table: None,
+    },
+    Function {
+        name: "activity_lag",
+        description: "The coarse clock offset of two cameras from their activity alone, over every lag the recordings allow (no search range): \
+                      each camera's events (t, v) add v from time t on (align.sql: +1 where a track starts, -1 where it ends, so the activity is \
+                      the number of tracks in view); both step functions are binned at bin_s from their OWN first event (so shifting one clock \
+                      moves dt by exactly that), their means removed, and cross-correlated by FFT. dt = b's clock minus a's clock at the \
+                      normalised peak score (refined by a parabola); runner_up is the best correlation outside the peak's main lobe (where it \
+                      is above half the peak) and half_width_s half that lobe's width. Coarse by nature (a few seconds where traffic drives \
+                      mostly one way between the views): rigid_fit_scan searches around it. NULL when either series is empty or constant. \
+                      Events must be sorted by t. O(n log n) for n bins; the memory_bytes limit applies.",
+        example: "SELECT round(activity_lag([{'t':0,'v':1},{'t':5,'v':-1},{'t':9,'v':1},{'t':12,'v':-1}], [{'t':100,'v':1},{'t':105,'v':-1},{'t':109,'v':1},{'t':112,'v':-1}], 0.5).dt, 3); -- 100.0",
+        maths: "src/algo/align/xcorr.rs",
+        binding: file!(),
+        signatures: &[Signature {
+            params: &[p("a", SERIES), p("b", SERIES), p("bin_s", Ty::Double)],
+            arities: &[],
+            returns: Ty::Struct(&[("dt", Ty::Double), ("score", Ty::Double), ("runner_up", Ty::Double), ("half_width_s", Ty::Double)]),
+            kernel: activity_lag,
+        }],
+        table: None,
+    },
+    Function {
+        name: "rigid_shift_under",
+        description: "The clock offset of ONE track pair under a KNOWN transform tf (moving frame into fixed frame): the dt (moving clock minus \
+                      fixed clock) on the grid centre + k step, |k step| <= half_width, that minimises the mean squared distance between the \
+                      fixed points and the transformed moving track interpolated at t + dt (gaps over max_gap, default 0.5 s, not bridged), \
+                      refined by a parabola. With the transform known even a straight track pins its offset. rms and n are those of the best \
+                      grid shift; se is the offset's standard error from the curvature (infinite when flat); at_edge: the minimum is on the \
+                      grid's edge. Shifts pairing fewer than min_pairs (default 10) points are not compared. NULL when none pairs enough. \
+                      align.sql measures clock drift from these offsets over the recording. O(S (n + m)) for S shifts.",
+        example: "SELECT round(rigid_shift_under([{'t':0,'x':0,'y':0},{'t':1,'x':1,'y':0},{'t':2,'x':2,'y':0},{'t':3,'x':3,'y':0}], [{'t':0.5,'x':0,'y':0},{'t':1.5,'x':1,'y':0},{'t':2.5,'x':2,'y':0},{'t':3.5,'x':3,'y':0}], {'theta':0,'tx':0,'ty':0,'scale':1}, 0.5, 0.2, 0.1, 2.0, 2).dt, 3); -- 0.5",
+        maths: "src/algo/align/shift_under.rs",
+        binding: file!(),
+        signatures: &[Signature {
+            params: &[
+                p("fixed", TRAJ),
+                p("moving", TRAJ),
+                p("tf", TRANSFORM),
+                p("centre", Ty::Double),
+                p("half_width", Ty::Double),
+                p("step", Ty::Double),
+                p("max_gap", Ty::Double),
+                p("min_pairs", Ty::Bigint),
+            ],
+            arities: &[6, 7, 8],
+            returns: Ty::Struct(&[("dt", Ty::Double), ("rms", Ty::Double), ("n", Ty::Bigint), ("se", Ty::Double), ("at_edge", Ty::Boolean)]),
+            kernel: rigid_shift_under,
         }],
         table: None,
     },
@@ -445,6 +497,35 @@ fn rigid_fit_shifted(a: &Args<'_>, out: &mut Out<'_>) -> R {
         let mut v: Vec<Value> = [fit.dt, t.theta, t.tx, t.ty, t.scale, fit.rms].map(Value::F64).to_vec();
         v.push(Value::I64(fit.n as i64));
         Ok(Some(v))
+    })?;
+    out.structs(&vals);
+    Ok(())
+}
+
+fn activity_lag(a: &Args<'_>, out: &mut Out<'_>) -> R {
+    let (sa, sb, bin) = (a.series(0), a.series(1), a.double(2));
+    let vals = a.map(|r| {
+        let (Some(x), Some(y), Some(bin)) = (sa.get(r)?, sb.get(r)?, bin.get(r)) else { return Ok(None) };
+        Ok(xcorr::activity_lag(x, y, bin)?.map(|l| [l.dt, l.score, l.runner_up, l.half_width_s].map(Value::F64).to_vec()))
+    })?;
+    out.structs(&vals);
+    Ok(())
+}
+
+fn rigid_shift_under(a: &Args<'_>, out: &mut Out<'_>) -> R {
+    let (fixed, moving, tf) = (a.traj(0), a.traj(1), a.structure(2));
+    let (centre, half, step, gap, minp) = (a.double(3), a.double(4), a.double(5), a.opt_double(6), a.opt_bigint(7));
+    let vals = a.map(|r| {
+        let (Some(f), Some(m), Some(t), Some(c), Some(h), Some(s)) = (fixed.get(r)?, moving.get(r)?, transform(&tf, a, 2, r)?, centre.get(r), half.get(r), step.get(r)) else {
+            return Ok(None);
+        };
+        let (Some(g), Some(mp)) = (gap.or(r, 0.5), minp.or(r, 10)) else { return Ok(None) };
+        if mp < 2 {
+            return Err(format!("min_pairs must be >= 2, got {mp}").into());
+        }
+        let grid = ShiftGrid::new(c, h, s)?;
+        Ok(shift_under::best_shift_under(f, m, &t, &grid, g, mp as usize)?
+            .map(|b| vec![Value::F64(b.dt), Value::F64(b.rms), Value::I64(b.n as i64), Value::F64(b.se), Value::Bool(b.at_edge)]))
     })?;
     out.structs(&vals);
     Ok(())

@@ -15,6 +15,7 @@
 //! | [`matching`] | one-to-one assignment: `hungarian_match` (scipy semantics, sparse JV) and `assign_pairs` (lsap) |
 //! | [`cluster`] | agglomerative clustering with cannot-links, and trajectories clustered in one call |
 //! | [`merge`] | Θ(A, B) of eq. 2.11 for N cameras, and consistent road-user groups |
+//! | [`fuse`] | fused paths: constant-velocity Kalman filter + RTS smoother over every camera's observations of one road user (seed 003 §3.8) |
 //! | [`events`] | broken / split / merge events within one camera, object / fragment / group labels |
 //! | [`graph`] | union–find and the connected components of a bipartite edge list (shared) |
 //! | [`limits`] | work limits per call (LCSS cells, CPD pair visits, output points), raised with `trajdb_limit` |
@@ -27,6 +28,7 @@ use std::fmt;
 pub mod align;
 pub mod cluster;
 pub mod events;
+pub mod fuse;
 pub mod geometry;
 pub mod graph;
 pub mod lcss;

@@ -50,7 +50,9 @@ WITH c AS (SELECT camera, avg(x) AS mx, avg(y) AS my FROM s_points GROUP BY came
                   -- camera b's recorded span in world time
                   coalesce((s.t0 - b.clock_offset_s) / (1.0 + b.clock_drift_ppm * 1e-6), 0.0) AS w0,
                   coalesce((s.t1 - b.clock_offset_s) / (1.0 + b.clock_drift_ppm * 1e-6), 0.0) AS w1,
-                  transform_point({'theta': e.theta_rad, 'tx': e.tx, 'ty': e.ty, 'scale': 1.0}, c.mx, c.my) AS est,
+                  -- a pair written without a transform (empty fields) is not placed: NULL errors, not an error
+                  CASE WHEN e.theta_rad IS NOT NULL AND e.tx IS NOT NULL AND e.ty IS NOT NULL
+                       THEN transform_point({'theta': e.theta_rad, 'tx': e.tx, 'ty': e.ty, 'scale': 1.0}, c.mx, c.my) END AS est,
                   transform_point(tt, c.mx, c.my) AS tru, tt.theta AS true_theta
            FROM s_tf e
            JOIN s_cameras a ON a.camera = e.cam_from JOIN s_cameras b ON b.camera = e.cam_to

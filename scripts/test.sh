@@ -76,6 +76,7 @@ if [ ! -x "$SPATIAL_VENV/bin/python" ]; then python3 -m venv "$SPATIAL_VENV"; fi
 "$SPATIAL_VENV/bin/python" tests/test_robust_python.py trajdb.duckdb_extension
 "$SPATIAL_VENV/bin/python" tests/test_safety_python.py trajdb.duckdb_extension
 "$SPATIAL_VENV/bin/python" tests/test_sandbox_python.py trajdb.duckdb_extension
+"$SPATIAL_VENV/bin/python" tests/test_score_python.py trajdb.duckdb_extension
 "$SPATIAL_VENV/bin/python" tests/test_readme.py trajdb.duckdb_extension
 
 echo "== 6/6 trajdb.spark in Spark local mode against trajdb pipeline per site"

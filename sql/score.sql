@@ -163,17 +163,18 @@ FROM s_objects o JOIN placed p USING (object_id) LEFT JOIN ru_real u ON u.road_u
 -- camera; it is found when links.csv puts both in one chain. A predicted link is two
 -- consecutive pieces of one chain; it is correct when both are real tracks of one object.
 CREATE OR REPLACE TEMP TABLE s_breaks AS
-SELECT g.camera, g.class, g.track_id AS a, lead(g.track_id) OVER w AS b
+-- (window names distinct across the file: DuckDB 1.5's extract_statements refuses a repeated one)
+SELECT g.camera, g.class, g.track_id AS a, lead(g.track_id) OVER w_break AS b
 FROM s_gt_tracks g
-WINDOW w AS (PARTITION BY g.camera, g.object_id ORDER BY g.t0, g.track_id)
+WINDOW w_break AS (PARTITION BY g.camera, g.object_id ORDER BY g.t0, g.track_id)
 QUALIFY b IS NOT NULL;
 
 CREATE OR REPLACE TEMP TABLE s_pred_links AS
 WITH pieces AS (SELECT l.camera, l.track_id, l.linked_id, tw.t0
                 FROM s_links l LEFT JOIN s_track_w tw USING (camera, track_id))
-SELECT camera, track_id AS a, lead(track_id) OVER w AS b
+SELECT camera, track_id AS a, lead(track_id) OVER w_link AS b
 FROM pieces
-WINDOW w AS (PARTITION BY camera, linked_id ORDER BY t0, track_id)
+WINDOW w_link AS (PARTITION BY camera, linked_id ORDER BY t0, track_id)
 QUALIFY b IS NOT NULL;
 
 -- HOTA (Luiten et al. 2021) at the track level: the detection is given (every real point of a

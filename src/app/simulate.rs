@@ -18,6 +18,13 @@
 //! - Arrivals are Poisson per class (per minute: car 10, heavy vehicle 1, cyclist 2,
 //!   pedestrian 3, times `traffic`). A vehicle entering a lane less than 2.5 s behind the
 //!   previous one on that lane waits, and never cruises faster than it (no driving through).
+//! - Waiting groups (`waiting_groups` per minute, default 0; [`waiting_groups`]): 2–8
+//!   pedestrians and cyclists standing 0.6–2 m apart at a crossing's kerb for 10–60 s, then
+//!   starting together and crossing: the crowd that defeats association on real intersections.
+//!
+//! Every option beyond the original ones draws from a random stream of its own, and draws
+//! nothing at its default: the scenario of the original options stays byte for byte the same.
+//! docs/simulate.md describes every option, its range and the truth files.
 //!
 //! # The cameras
 //! N rotated rectangular views (48 m × 36 m) around the centre, long axis pointing at it, so that
@@ -64,6 +71,9 @@ pub struct SimParams {
     pub clock_offset_max: f64,
     /// Sampling rate of world.csv (Hz); 0 skips world.csv.
     pub world_rate_hz: f64,
+    /// Groups of pedestrians and cyclists waiting at a crossing's kerb, per minute (0: none;
+    /// [`waiting_groups`]).
+    pub waiting_groups: f64,
 }
 
 impl Default for SimParams {
@@ -81,6 +91,7 @@ impl Default for SimParams {
             noise_tracks_per_min: 1.0,
             clock_offset_max: 0.0,
             world_rate_hz: 10.0,
+            waiting_groups: 0.0,
         }
     }
 }
@@ -150,6 +161,12 @@ impl SimParams {
         }
         if !(self.world_rate_hz.is_finite() && self.world_rate_hz >= 0.0) {
             return bad(format!("world_rate_hz must be >= 0, got {}", self.world_rate_hz));
+        }
+        if !(self.waiting_groups.is_finite() && (0.0..=MAX_WAITING_GROUPS).contains(&self.waiting_groups)) {
+            return bad(format!(
+                "waiting_groups must be in [0, {MAX_WAITING_GROUPS}] groups per minute, got {}; give e.g. 2 (0 = no waiting groups)",
+                self.waiting_groups
+            ));
         }
         Ok(())
     }
@@ -416,7 +433,9 @@ fn expected_bytes(p: &SimParams) -> f64 {
     let sample = std::mem::size_of::<[f64; 3]>() as f64;
     let noise = p.cameras as f64 * (p.noise_tracks_per_min * p.minutes).round() * 3.0;
     let point = (std::mem::size_of::<(f64, f64, f64, bool)>() + std::mem::size_of::<PointRow>()) as f64;
-    (vehicles * 10.0 + walkers * 59.0) / WORLD_DT * sample + noise * point
+    // a waiting group: at least 2 people standing 10 s and crossing in 5 s
+    let grouped = p.minutes * p.waiting_groups * 2.0;
+    (vehicles * 10.0 + walkers * 59.0 + grouped * 15.0) / WORLD_DT * sample + noise * point
 }
 
 fn uniform(rng: &mut ChaCha8Rng, lo: f64, hi: f64) -> f64 {
@@ -541,10 +560,184 @@ fn objects(p: &SimParams, rng: &mut ChaCha8Rng, budget: &mut Budget) -> Result<V
         }
     }
     budget.release(n_arrivals, std::mem::size_of::<(f64, usize)>());
+    waiting_groups(p, budget, &mut out)?;
     for (i, o) in out.iter_mut().enumerate() {
         o.id = i as i64;
     }
     Ok(out)
+}
+
+/// The most waiting groups per minute (`waiting_groups`).
+pub const MAX_WAITING_GROUPS: f64 = 60.0;
+/// A waiting group's members stand this far from their nearest neighbour (m).
+pub const GROUP_SPACING: (f64, f64) = (0.6, 2.0);
+/// A waiting group stands for this long (s), from its last member's arrival to the green.
+pub const GROUP_WAIT: (f64, f64) = (10.0, 60.0);
+/// Members arrive at their spots within this long before the last one (s).
+const GROUP_ARRIVAL_SPREAD: f64 = 2.0;
+/// Each member starts this long after the green (s).
+const GROUP_START_DELAY: f64 = 1.0;
+/// Cyclists' cruise speed range (m/s) in waiting groups.
+const CYCLIST_SPEED: (f64, f64) = (3.0, 7.0);
+
+/// A random stream of its own for each optional degradation (ChaCha8 streams of the seed), so
+/// that an option left at its default draws nothing and the scenario stays what it was.
+fn stream(seed: u64, k: u64) -> ChaCha8Rng {
+    let mut r = ChaCha8Rng::seed_from_u64(seed);
+    r.set_stream(k);
+    r
+}
+const STREAM_GROUPS: u64 = 1;
+
+/// Waiting groups at crossings (issue 26): group events arrive as a Poisson process,
+/// `waiting_groups` per minute, each at one crossing (arm a) on one kerb, or on both kerbs at once
+/// with probability 1/2 (one green for both). A group has 2–8 members, each a pedestrian or (with
+/// probability 0.3) a cyclist. The members arrive one by one within [`GROUP_ARRIVAL_SPREAD`] s,
+/// from along the sidewalk or round the corner, and stand still on the pavement at the kerb,
+/// each 0.6–2 m from its nearest neighbour ([`GROUP_SPACING`]: positions drawn one by one, each
+/// at a random distance in that range from a random earlier member, refused when closer than
+/// 0.6 m to any), for W ∈ [10, 60] s drawn per group ([`GROUP_WAIT`]), from the last arrival to
+/// the green, swaying slowly by 3–15 cm about the spot (standing people are not frozen). At the green each starts from rest after 0–1 s, crosses straight over (keeping
+/// its place in the group's width) and leaves along the far sidewalk or round the far corner:
+/// pedestrians at 1.0–1.6 m/s, cyclists at 3–7 m/s. Every member is one object, seen by the
+/// cameras like any other road user. Times before 0 are cut (a group already there at the
+/// start). Drawn from a random stream of its own: other road users are unchanged.
+fn waiting_groups(p: &SimParams, budget: &mut Budget, out: &mut Vec<Object>) -> Result<(), SimError> {
+    if p.waiting_groups <= 0.0 {
+        return Ok(());
+    }
+    let rng = &mut stream(p.seed, STREAM_GROUPS);
+    let horizon = p.minutes * 60.0;
+    let exp = Exp::new(p.waiting_groups / 60.0).unwrap();
+    let names = ["E", "N", "W", "S"];
+    let mut t = exp.sample(rng);
+    let mut g = 0usize;
+    while t < horizon {
+        let a = rng.gen_range(0..4usize);
+        let wait = uniform(rng, GROUP_WAIT.0, GROUP_WAIT.1);
+        let green = t + GROUP_ARRIVAL_SPREAD + wait;
+        let s0 = if rng.gen_bool(0.5) { 1.0 } else { -1.0 };
+        let sides: &[f64] = if rng.gen_bool(0.5) { &[1.0, -1.0] } else { &[1.0] };
+        for &k in sides {
+            let side = s0 * k;
+            let spots = group_spots(rng);
+            g += 1;
+            for (m, &(d, l)) in spots.iter().enumerate() {
+                let cyclist = rng.gen_bool(0.3);
+                let class = if cyclist { "cyclist" } else { "pedestrian" };
+                let arrive = t + uniform(rng, 0.0, GROUP_ARRIVAL_SPREAD);
+                let start = green + uniform(rng, 0.0, GROUP_START_DELAY);
+                let samples = group_member(rng, a, side, (d, l), cyclist, arrive, start, budget)?;
+                if samples.is_empty() {
+                    continue;
+                }
+                budget.charge(1, std::mem::size_of::<Object>() + 64)?;
+                let route = format!(
+                    "{class}:waiting group {g} ({} people) at crossing {}{}; member {}; waits {wait:.1} s",
+                    spots.len(),
+                    names[a],
+                    if side > 0.0 { "+" } else { "-" },
+                    m + 1
+                );
+                budget.push(out, Object { id: 0, class, route, samples })?;
+            }
+        }
+        t += exp.sample(rng);
+    }
+    Ok(())
+}
+
+/// The standing spots of one waiting group, in kerb coordinates (d along the arm from the centre,
+/// l from the centre line towards the group's sidewalk): 2–8 people, each 0.6–2 m from its
+/// nearest neighbour, on the pavement (l ≥ 6.8 m, the road edge being at 6 m) beside the
+/// crosswalk (d within ±4 m of it).
+fn group_spots(rng: &mut ChaCha8Rng) -> Vec<(f64, f64)> {
+    let n = rng.gen_range(2..=8usize);
+    let mut spots = vec![(CROSS + uniform(rng, -1.0, 1.0), 6.8 + uniform(rng, 0.0, 0.4))];
+    for _ in 1..n {
+        for _try in 0..200 {
+            let j = rng.gen_range(0..spots.len());
+            let r = uniform(rng, GROUP_SPACING.0, GROUP_SPACING.1);
+            let phi = uniform(rng, 0.0, std::f64::consts::TAU);
+            let c = (spots[j].0 + r * phi.cos(), spots[j].1 + r * phi.sin());
+            let ok = (CROSS - 4.0..=CROSS + 4.0).contains(&c.0)
+                && (6.8..=11.0).contains(&c.1)
+                && spots.iter().all(|q| (q.0 - c.0).hypot(q.1 - c.1) >= GROUP_SPACING.0);
+            if ok {
+                spots.push(c);
+                break;
+            }
+        }
+    }
+    spots
+}
+
+/// One waiting-group member's world samples: it arrives at its spot `at` (kerb coordinates of arm
+/// `a`, side `side`) at time `arrive`, stands, starts from rest at `start`, crosses the arm and
+/// leaves. Samples before t = 0 are dropped.
+#[allow(clippy::too_many_arguments)]
+fn group_member(
+    rng: &mut ChaCha8Rng,
+    a: usize,
+    side: f64,
+    at: (f64, f64),
+    cyclist: bool,
+    arrive: f64,
+    start: f64,
+    budget: &mut Budget,
+) -> Result<Vec<[f64; 3]>, SimError> {
+    let u = arm(a);
+    let n = [-u[1], u[0]];
+    let kerb = |a: usize, side: f64, d: f64, l: f64| -> [f64; 2] {
+        let u = arm(a);
+        let n = [-u[1], u[0]];
+        [d * u[0] + side * l * n[0], d * u[1] + side * l * n[1]]
+    };
+    let spot = [at.0 * u[0] + side * at.1 * n[0], at.0 * u[1] + side * at.1 * n[1]];
+    let w = WALK + uniform(rng, -0.8, 0.8);
+    // from along the sidewalk, or round the corner from the neighbouring arm on this side
+    let mut approach = if rng.gen_bool(0.5) {
+        vec![kerb(a, side, 50.0, w)]
+    } else {
+        let b = if side > 0.0 { (a + 1) % 4 } else { (a + 3) % 4 };
+        let ub = arm(b);
+        vec![kerb(b, -side, 50.0, w), [w * u[0] + w * ub[0], w * u[1] + w * ub[1]]]
+    };
+    approach.push(spot);
+    // straight over to the far kerb, then along the far sidewalk or round the far corner
+    let far = kerb(a, -side, at.0 + uniform(rng, -0.5, 0.5), 6.8 + uniform(rng, 0.0, 1.2));
+    let w2 = WALK + uniform(rng, -0.8, 0.8);
+    let mut leave = vec![spot, far];
+    if rng.gen_bool(0.5) {
+        leave.push(kerb(a, -side, 50.0, w2));
+    } else {
+        let b = if -side > 0.0 { (a + 1) % 4 } else { (a + 3) % 4 };
+        let ub = arm(b);
+        leave.push([w2 * u[0] + w2 * ub[0], w2 * u[1] + w2 * ub[1]]);
+        leave.push(kerb(b, side, 50.0, w2));
+    }
+    let (v, acc, brake) = if cyclist { (uniform(rng, CYCLIST_SPEED.0, CYCLIST_SPEED.1), 1.0, 1.5) } else { (uniform(rng, 1.0, 1.6), 0.8, 1.0) };
+    let (pa, pl) = (resample(&approach), resample(&leave));
+    // the approach ends at rest on the spot; the departure starts from rest
+    let ta = time_along(pa.len(), v, &[], Some((f64::MAX, 0.0)), acc, brake, 0.0);
+    let shift = arrive - ta[ta.len() - 1];
+    let tl = time_along(pl.len(), v, &[], Some((0.0, 0.0)), acc, brake, start);
+    let path: Vec<[f64; 2]> = pa.iter().chain(pl.iter()).copied().collect();
+    let times: Vec<f64> = ta.iter().map(|t| t + shift).chain(tl.iter().copied()).collect();
+    let mut samples = sample_world(&path, &times, 0.0, budget)?;
+    // people standing are not frozen: a slow sway of a few centimetres about the spot (two
+    // sines of 7-20 s, faded in and out over the wait)
+    let amp = uniform(rng, 0.03, 0.15);
+    let (f1, f2) = (uniform(rng, 0.05, 0.15), uniform(rng, 0.05, 0.15));
+    let (p1, p2) = (uniform(rng, 0.0, std::f64::consts::TAU), uniform(rng, 0.0, std::f64::consts::TAU));
+    for q in samples.iter_mut().filter(|q| q[0] > arrive && q[0] < start) {
+        let (dt, tau) = (q[0] - arrive, std::f64::consts::TAU);
+        let fade = (std::f64::consts::PI * dt / (start - arrive)).sin();
+        q[1] += amp * fade * (tau * f1 * dt + p1).sin();
+        q[2] += amp * fade * (tau * f2 * dt + p2).sin();
+    }
+    samples.retain(|s| s[0] >= 0.0);
+    Ok(samples)
 }
 
 fn place_cameras(p: &SimParams, rng: &mut ChaCha8Rng) -> Vec<Camera> {
@@ -822,7 +1015,12 @@ impl Scenario {
         let mut f = file("objects.csv")?;
         writeln!(f, "object_id,class,source")?;
         for o in &self.objects {
-            writeln!(f, "{},{},sim:{}", o.id, o.class, o.route)?;
+            // quoted when it holds a comma ("..., walking in a pair" broke the row before)
+            if o.route.contains([',', '"']) {
+                writeln!(f, "{},{},\"sim:{}\"", o.id, o.class, o.route.replace('"', "\"\""))?;
+            } else {
+                writeln!(f, "{},{},sim:{}", o.id, o.class, o.route)?;
+            }
         }
         f.flush()?;
         if self.params.world_rate_hz > 0.0 {
@@ -1031,6 +1229,84 @@ mod tests {
         assert!(simulate(&small()).is_ok());
     }
 
+    /// The members of each waiting group, by group number (from the route).
+    fn groups(s: &Scenario) -> std::collections::BTreeMap<usize, Vec<&Object>> {
+        let mut g: std::collections::BTreeMap<usize, Vec<&Object>> = Default::default();
+        for o in &s.objects {
+            if let Some(rest) = o.route.split("waiting group ").nth(1) {
+                g.entry(rest.split(' ').next().unwrap().parse().unwrap()).or_default().push(o);
+            }
+        }
+        g
+    }
+
+    /// The interval an object stands (the longest run of steps slower than 0.5 m/s) and its mean
+    /// position there: (from, to, x, y).
+    fn standing(o: &Object) -> (f64, f64, f64, f64) {
+        let s = &o.samples;
+        let slow = |j: usize| (s[j + 1][1] - s[j][1]).hypot(s[j + 1][2] - s[j][2]) / (s[j + 1][0] - s[j][0]) < 0.5;
+        let (mut best, mut i) = ((0, 0), 0);
+        while i + 1 < s.len() {
+            let mut j = i;
+            while j + 1 < s.len() && slow(j) {
+                j += 1;
+            }
+            if s[j][0] - s[i][0] > s[best.1][0] - s[best.0][0] {
+                best = (i, j);
+            }
+            i = j + 1;
+        }
+        let n = (best.1 - best.0 + 1) as f64;
+        let (x, y) = s[best.0..=best.1].iter().fold((0.0, 0.0), |a, q| (a.0 + q[1] / n, a.1 + q[2] / n));
+        (s[best.0][0], s[best.1][0], x, y)
+    }
+
+    #[test]
+    fn waiting_groups_stand_together_then_cross() {
+        let base = simulate(&SimParams { minutes: 4.0, ..small() }).unwrap();
+        let s = simulate(&SimParams { waiting_groups: 4.0, ..base.params.clone() }).unwrap();
+        // the other road users are unchanged (the groups draw from a stream of their own)
+        assert!(s.objects.len() > base.objects.len());
+        for (a, b) in base.objects.iter().zip(&s.objects) {
+            assert!(a.route == b.route && a.samples == b.samples);
+        }
+        let g = groups(&s);
+        assert!(g.len() >= 3, "{}", g.len());
+        let (mut cyclists, mut people) = (0, 0);
+        for (k, members) in &g {
+            let wait: f64 = members[0].route.split("waits ").nth(1).unwrap().trim_end_matches(" s").parse().unwrap();
+            assert!((GROUP_WAIT.0..=GROUP_WAIT.1 + 0.05).contains(&wait), "{wait}");
+            let st: Vec<_> = members.iter().map(|o| standing(o)).collect();
+            for (i, (o, a)) in members.iter().zip(&st).enumerate() {
+                people += 1;
+                cyclists += usize::from(o.class == "cyclist");
+                // stands from its arrival (within 2 s before the last) to its start (0-1 s after the green);
+                // a group already there at t = 0 is cut
+                let d = a.1 - a.0;
+                // (slower than 0.5 m/s: also the last and first ~0.6 s of walking)
+                if a.0 > 0.0 {
+                    assert!(d >= wait - 0.1 && d <= wait + 3.0 + 1.5, "group {k}: stands {d} s for a wait of {wait}");
+                }
+                // 0.6-2 m from its nearest neighbour (mean positions: the sway is 3-15 cm), all standing at once for the wait
+                let near = st.iter().enumerate().filter(|(j, _)| *j != i).map(|(_, b)| (a.2 - b.2).hypot(a.3 - b.3)).fold(f64::INFINITY, f64::min);
+                assert!((GROUP_SPACING.0 - 0.15..=GROUP_SPACING.1 + 0.15).contains(&near), "group {k}: nearest {near} m");
+                for b in &st {
+                    assert!(a.1.min(b.1) - a.0.max(b.0) >= wait - 0.1 || a.0.min(b.0) <= 0.0);
+                    assert!((a.1 - b.1).abs() <= 1.0 + 0.7, "starts together");
+                }
+                // then it moves: at walking or cycling speed, and it crosses the road
+                let vmax = o.samples.windows(2).map(|w| (w[1][1] - w[0][1]).hypot(w[1][2] - w[0][2]) / (w[1][0] - w[0][0])).fold(0.0, f64::max);
+                assert!(vmax <= if o.class == "cyclist" { 7.01 } else { 1.61 }, "{vmax}");
+                let last = o.samples[o.samples.len() - 1];
+                assert!(last[0] > a.1 + 5.0);
+            }
+        }
+        assert!(cyclists > 0 && cyclists < people, "{cyclists} of {people}");
+        // seen by the cameras like anyone else
+        let truth: std::collections::HashSet<i64> = s.truth.iter().map(|t| t.2).collect();
+        assert!(g.values().flatten().filter(|o| truth.contains(&o.id)).count() * 2 > people);
+    }
+
     #[test]
     fn bad_parameters_are_errors() {
         for p in [
@@ -1039,6 +1315,9 @@ mod tests {
             SimParams { rate_hz: f64::NAN, ..small() },
             SimParams { noise_sigma: (0.2, 0.1), ..small() },
             SimParams { p_break: 2.0, ..small() },
+            SimParams { waiting_groups: -1.0, ..small() },
+            SimParams { waiting_groups: f64::NAN, ..small() },
+            SimParams { waiting_groups: 61.0, ..small() },
         ] {
             assert!(simulate(&p).unwrap_err().to_string().starts_with("simulate: "));
         }

@@ -45,7 +45,7 @@ pub fn demo_sql(db: Option<&str>, format: Format) -> Result<(), Box<dyn std::err
 
 /// `simulate` options: --cameras N --minutes M --seed S --out DIR [--rate-hz R] [--traffic X]
 /// [--pedestrians X] [--noise-sigma S | LO,HI] [--noise-tracks-per-min K] [--clock-offset-max S]
-/// [--world-rate-hz R (0: no world.csv)] [--waiting-groups G].
+/// [--world-rate-hz R (0: no world.csv)] [--waiting-groups G] [--cyclists X].
 pub fn parse_simulate(args: &[String]) -> Result<(super::simulate::SimParams, String), Box<dyn std::error::Error>> {
     let mut p = super::simulate::SimParams::default();
     let mut out = None;
@@ -74,6 +74,7 @@ pub fn parse_simulate(args: &[String]) -> Result<(super::simulate::SimParams, St
             "--clock-offset-max" => p.clock_offset_max = num(a, val(a)?)?,
             "--world-rate-hz" => p.world_rate_hz = num(a, val(a)?)?,
             "--waiting-groups" => p.waiting_groups = num(a, val(a)?)?,
+            "--cyclists" => p.cyclists = num(a, val(a)?)?,
             "--out" => out = Some(val(a)?),
             other => return Err(format!("simulate: unknown option {other:?}\n{}", super::USAGE).into()),
         }

@@ -15,8 +15,8 @@
 //!   limits, and (sometimes) a stop of a few seconds at the stop line (12 m from the centre).
 //! - Pedestrians walk the sidewalks, cross 1–2 crosswalks (sometimes waiting at the curb), and
 //!   sometimes walk in pairs side by side (0.7 m apart): the hard case for matching.
-//! - Arrivals are Poisson per class (per minute: car 10, heavy vehicle 1, cyclist 2,
-//!   pedestrian 3, times `traffic`). A vehicle entering a lane less than 2.5 s behind the
+//! - Arrivals are Poisson per class (per minute: car 10, heavy vehicle 1, cyclist 2 times
+//!   `cyclists`, pedestrian 3 times `pedestrians`; all times `traffic`). A vehicle entering a lane less than 2.5 s behind the
 //!   previous one on that lane waits, and never cruises faster than it (no driving through).
 //! - Waiting groups (`waiting_groups` per minute, default 0; [`waiting_groups`]): 2–8
 //!   pedestrians and cyclists standing 0.6–2 m apart at a crossing's kerb for 10–60 s, then
@@ -74,6 +74,9 @@ pub struct SimParams {
     /// Groups of pedestrians and cyclists waiting at a crossing's kerb, per minute (0: none;
     /// [`waiting_groups`]).
     pub waiting_groups: f64,
+    /// Extra multiplier of the cyclist arrival rate (cyclists in the bike lanes; 5 gives 10 a
+    /// minute at traffic 1).
+    pub cyclists: f64,
 }
 
 impl Default for SimParams {
@@ -92,6 +95,7 @@ impl Default for SimParams {
             clock_offset_max: 0.0,
             world_rate_hz: 10.0,
             waiting_groups: 0.0,
+            cyclists: 1.0,
         }
     }
 }
@@ -143,6 +147,9 @@ impl SimParams {
         }
         if !(self.pedestrians.is_finite() && self.pedestrians >= 0.0 && self.pedestrians <= 50.0) {
             return bad(format!("pedestrians must be in [0, 50], got {}", self.pedestrians));
+        }
+        if !(self.cyclists.is_finite() && (0.0..=50.0).contains(&self.cyclists)) {
+            return bad(format!("cyclists must be in [0, 50] (a multiplier of 2 cyclists a minute), got {}; give e.g. 5 (1 = the default rate)", self.cyclists));
         }
         let (lo, hi) = self.noise_sigma;
         if !(lo.is_finite() && hi.is_finite() && lo >= 0.0 && hi >= lo) {
@@ -429,7 +436,7 @@ impl Budget {
 /// fewest world samples one can have (a car crossing at 14 m/s: 10 s; a pedestrian: 59 s), and
 /// the spurious tracks (at least 3 points each).
 fn expected_bytes(p: &SimParams) -> f64 {
-    let (vehicles, walkers) = (p.minutes * p.traffic * 13.0, p.minutes * p.traffic * 3.0 * p.pedestrians);
+    let (vehicles, walkers) = (p.minutes * p.traffic * (11.0 + 2.0 * p.cyclists), p.minutes * p.traffic * 3.0 * p.pedestrians);
     let sample = std::mem::size_of::<[f64; 3]>() as f64;
     let noise = p.cameras as f64 * (p.noise_tracks_per_min * p.minutes).round() * 3.0;
     let point = (std::mem::size_of::<(f64, f64, f64, bool)>() + std::mem::size_of::<PointRow>()) as f64;
@@ -456,7 +463,11 @@ fn objects(p: &SimParams, rng: &mut ChaCha8Rng, budget: &mut Budget) -> Result<V
     let mut lane_last: [[(f64, f64, f64); 2]; 4] = [[(-1e9, f64::INFINITY, -1e9); 2]; 4];
     let mut arrivals: Vec<(f64, usize)> = Vec::new();
     for (c, r) in rates.iter().enumerate() {
-        let r = if c == 3 { r * p.pedestrians } else { *r };
+        let r = match c {
+            3 => r * p.pedestrians,
+            2 => r * p.cyclists,
+            _ => *r,
+        };
         if r <= 0.0 {
             continue;
         }
@@ -1305,6 +1316,24 @@ mod tests {
         // seen by the cameras like anyone else
         let truth: std::collections::HashSet<i64> = s.truth.iter().map(|t| t.2).collect();
         assert!(g.values().flatten().filter(|o| truth.contains(&o.id)).count() * 2 > people);
+    }
+
+    #[test]
+    fn cyclists_multiply_the_cyclist_rate() {
+        let count = |s: &Scenario, c: &str| s.objects.iter().filter(|o| o.class == c).count();
+        let base = simulate(&SimParams { minutes: 4.0, ..small() }).unwrap();
+        let many = simulate(&SimParams { cyclists: 5.0, ..base.params.clone() }).unwrap();
+        let none = simulate(&SimParams { cyclists: 0.0, ..base.params.clone() }).unwrap();
+        assert!(count(&many, "cyclist") > 3 * count(&base, "cyclist"), "{} vs {}", count(&many, "cyclist"), count(&base, "cyclist"));
+        assert_eq!(count(&none, "cyclist"), 0);
+        // ride the bike lanes (5 m from the centre line) at 3-7 m/s
+        for o in many.objects.iter().filter(|o| o.class == "cyclist") {
+            let q = o.samples[0];
+            assert!((q[1].abs().min(q[2].abs()) - BIKE).abs() < 1e-6, "{q:?}");
+            let v = o.samples.windows(2).map(|w| (w[1][1] - w[0][1]).hypot(w[1][2] - w[0][2]) / (w[1][0] - w[0][0])).fold(0.0, f64::max);
+            assert!((3.0..=7.0).contains(&v), "{v}");
+        }
+        assert!(simulate(&SimParams { cyclists: 51.0, ..small() }).unwrap_err().to_string().contains("cyclists must be in [0, 50]"));
     }
 
     #[test]

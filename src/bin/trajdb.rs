@@ -47,6 +47,7 @@ fn simulate_args(cmd: Command, out_default: Option<&'static str>) -> Command {
     .arg(num("rate-hz", d.rate_hz.to_string(), "camera sampling rate (Hz)"))
     .arg(num("traffic", d.traffic.to_string(), "traffic volume multiplier"))
     .arg(num("pedestrians", d.pedestrians.to_string(), "extra pedestrian multiplier (a crowd: 10)"))
+    .arg(num("cyclists", d.cyclists.to_string(), "extra cyclist multiplier (bike lanes; 2 a minute at 1)"))
     .arg(num("noise-sigma", format!("{},{}", d.noise_sigma.0, d.noise_sigma.1), "camera position noise sigma (m): S, or LO,HI drawn per camera"))
     .arg(num("noise-tracks-per-min", d.noise_tracks_per_min.to_string(), "spurious tracks per camera and minute"))
     .arg(num("clock-offset-max", d.clock_offset_max.to_string(), "camera clocks offset by a uniform draw in +-X s"))
@@ -57,7 +58,7 @@ fn simulate_args(cmd: Command, out_default: Option<&'static str>) -> Command {
 /// The simulator's options back as `--name value` pairs for `app::demo::parse_simulate`, which
 /// validates them.
 fn simulate_argv(m: &ArgMatches) -> Vec<String> {
-    let names = ["out", "cameras", "minutes", "seed", "rate-hz", "traffic", "pedestrians", "noise-sigma", "noise-tracks-per-min", "clock-offset-max", "world-rate-hz", "waiting-groups"];
+    let names = ["out", "cameras", "minutes", "seed", "rate-hz", "traffic", "pedestrians", "noise-sigma", "noise-tracks-per-min", "clock-offset-max", "world-rate-hz", "waiting-groups", "cyclists"];
     let mut v = Vec::new();
     for n in names {
         if let Some(x) = m.get_one::<String>(n) {

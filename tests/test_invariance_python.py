@@ -3,8 +3,10 @@
 tracks) must be identical when
 - every camera's frame is moved far from the origin (+1e6 m; UTM-sized x ~ 4.6e5, y ~ 5.7e6),
 - one camera's frame is rotated by 57 degrees and moved by hundreds of km,
-- every clock is shifted by a Unix epoch (2026), or one camera's clock by 0.7 s or -3.6 s
-  (beyond the first +-1 s search: align.sql widens the search for such pairs),
+- every clock is shifted by a Unix epoch (2026), or one camera's clock by 0.7 s, -3.6 s, 61.3 s,
+  -1 h or a day less 0.3 s (align.sql's coarse offset comes from the activity cross-correlation
+  over every lag, and the exact search is centred on it),
+- the track ids are relabelled (another integer per track) or the rows reordered,
 on a simulated scene and on the shared scenes from real trajectories (when ../shared/data is
 beside the clone). Before align.sql voted about each camera's centroid, frames in UTM aligned no
 camera at all.
@@ -31,11 +33,43 @@ CHANGES = [
     ("every clock + a 2026 epoch", "SELECT * REPLACE (t + 1.79e9 AS t) FROM base"),
     ("one clock +0.7 s", "SELECT * REPLACE (CASE WHEN camera = (SELECT max(camera) FROM base) THEN t + 0.7 ELSE t END AS t) FROM base"),
     ("one clock -3.6 s (beyond the first search range)", "SELECT * REPLACE (CASE WHEN camera = (SELECT max(camera) FROM base) THEN t - 3.6 ELSE t END AS t) FROM base"),
+    ("one clock +61.3 s", "SELECT * REPLACE (CASE WHEN camera = (SELECT min(camera) FROM base) THEN t + 61.3 ELSE t END AS t) FROM base"),
+    ("one clock -1 h", "SELECT * REPLACE (CASE WHEN camera = (SELECT max(camera) FROM base) THEN t - 3600 ELSE t END AS t) FROM base"),
+    ("one clock + a day less 0.3 s", "SELECT * REPLACE (CASE WHEN camera = (SELECT max(camera) FROM base) THEN t + 86399.7 ELSE t END AS t) FROM base"),
+    ("track ids relabelled", "SELECT * REPLACE (track_id * 7919 + 13 AS track_id) FROM base"),
+    ("rows reordered", "SELECT * FROM base ORDER BY hash(t, x, track_id) DESC"),
 ]
+# what each change does to a camera's clock (s), and how a relabelled id maps back
+CLOCK = {"every clock + a 2026 epoch": lambda c, cams: 1.79e9, "one clock +0.7 s": lambda c, cams: 0.7 * (c == max(cams)),
+         "one clock -3.6 s (beyond the first search range)": lambda c, cams: -3.6 * (c == max(cams)),
+         "one clock +61.3 s": lambda c, cams: 61.3 * (c == min(cams)), "one clock -1 h": lambda c, cams: -3600.0 * (c == max(cams)),
+         "one clock + a day less 0.3 s": lambda c, cams: 86399.7 * (c == max(cams))}
+UNLABEL = {"track ids relabelled": lambda i: (i - 13) // 7919}
 
 
-def users(con):
-    return {frozenset((s["camera"], s["track_id"]) for s in r[0]) for r in con.sql("SELECT sources FROM merged").fetchall()}
+def users(con, unlabel=lambda i: i):
+    return {frozenset((s["camera"], unlabel(s["track_id"])) for s in r[0]) for r in con.sql("SELECT sources FROM merged").fetchall()}
+
+
+def frames(con):
+    """camera -> (rotation to the reference, clock offset O, drift D) and the reference camera"""
+    rows = con.sql("SELECT camera, reference, to_reference.theta, clock_offset_s, clock_drift FROM align_frames").fetchall()
+    return {r[0]: (r[2], r[3], r[4]) for r in rows}, (rows[0][1] if rows else None)
+
+
+def clocks_agree(before, after, shift, cams):
+    """The offsets equal up to the applied change: O'_c - O'_ref = O_c - O_ref + X_c - X_ref
+    (within 1 ms), the same drift (0.1 ppm) and rotation (1e-5 rad)."""
+    (fb, rb), (fa, ra) = before, after
+    if rb != ra or fb.keys() != fa.keys():
+        return False
+    x = {c: shift(c, cams) for c in cams}
+    for c in fb:
+        exp = fb[c][1] + x[c] - x[rb]
+        if abs(fa[c][1] - exp) > 1e-3 or abs(fa[c][2] - fb[c][2]) > 1e-7 or abs(fa[c][0] - fb[c][0]) > 1e-5:
+            print(f"     camera {c}: offset {fa[c][1]:.6f} (expected {exp:.6f}), drift {fa[c][2]:.3g} vs {fb[c][2]:.3g}, theta {fa[c][0]:.7f} vs {fb[c][0]:.7f}")
+            return False
+    return True
 
 
 def main():
@@ -54,12 +88,15 @@ def main():
         con = trajdb.connect()
         con.execute("CREATE TABLE base AS FROM read_parquet(?)", [path])
         trajdb.pipeline(con, "base")
-        base, cams = users(con), con.sql("SELECT count(*) FROM align_frames").fetchall()[0][0]
+        base, cams, fb = users(con), con.sql("SELECT count(*) FROM align_frames").fetchall()[0][0], frames(con)
+        cam_ids = [r[0] for r in con.sql("SELECT DISTINCT camera FROM base").fetchall()]
         for change, q in CHANGES:
             con.execute(f"CREATE OR REPLACE TABLE v AS {q}")
             trajdb.pipeline(con, "v")
-            got = users(con)
+            got = users(con, UNLABEL.get(change, lambda i: i))
             ok = got == base and con.sql("SELECT count(*) FROM align_frames").fetchall()[0][0] == cams
+            if ok and (change in CLOCK or change in UNLABEL or change == "rows reordered"):
+                ok = clocks_agree(fb, frames(con), CLOCK.get(change, lambda c, cams: 0.0), cam_ids)
             print(("ok   " if ok else "FAIL ") + f"{name}: {change}: {len(got)} road users" + ("" if ok else f", {len(got ^ base)} differ from the {len(base)} of the original"))
             if not ok:
                 failed.append(f"{name}: {change}")

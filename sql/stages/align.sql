@@ -24,14 +24,6 @@
 -- >= align_min_support agreeing hypotheses; the refit trims align_trim of the pairs, and the
 -- second pass keeps track pairs within align_refine_rms_m RMS of the first fit.
 
-CREATE OR REPLACE TEMP TABLE align_tracks AS
-SELECT camera, track_id, class,
-       list({'t': t, 'x': x, 'y': y} ORDER BY t) AS traj,
-       min(t) AS t0, max(t) AS t1
-FROM points
-WHERE estimated = 0
-GROUP BY camera, track_id, class
-HAVING count(*) >= getvariable('align_min_points');
 
 -- Each camera's centroid (the mean of its real points), the origin every vote is taken about.
 -- A hypothesis (theta, tx, ty) is a rotation about the moving frame's ORIGIN: an angle error
@@ -40,10 +32,22 @@ HAVING count(*) >= getvariable('align_min_points');
 -- moving camera's centroid, relative to the fixed camera's centroid, moves only by the view's
 -- own size times dtheta, and does not change when either camera's frame is moved: hypotheses
 -- vote and agree in (theta, qx, qy, dt) instead of (theta, tx, ty, dt).
--- t_origin (the camera's first real time) plays the same part for clocks: what depends on
--- time is taken relative to it, so that shifting a camera's clock changes nothing but its offset.
+-- t_origin (the camera's first real time) plays the same part for clocks: every time in this
+-- stage is relative to its camera's t_origin, rounded to the microsecond, so that shifting a
+-- camera's clock (by a second, a day, or a Unix epoch) gives the same numbers to the last bit
+-- and changes nothing but the camera's offset (a clock an hour off once moved the refit's
+-- support by one pair through the rounding of t ~ 3600 against t ~ 100; at t ~ 1.8e9 a double
+-- resolves only 0.24 us). Offsets found here are between relative clocks; align_clock turns
+-- them into the cameras' own clocks.
 CREATE OR REPLACE TEMP TABLE align_centroids AS
 SELECT camera, avg(x) AS cx, avg(y) AS cy, min(t) AS t_origin FROM points WHERE estimated = 0 GROUP BY camera;
+
+CREATE OR REPLACE TEMP TABLE align_tracks AS
+SELECT camera, track_id, class, list({'t': tr, 'x': x, 'y': y} ORDER BY tr) AS traj, min(tr) AS t0, max(tr) AS t1
+FROM (SELECT p.camera, p.track_id, p.class, round((p.t - c.t_origin) * 1e6) / 1e6 AS tr, p.x, p.y
+      FROM points p JOIN align_centroids c USING (camera) WHERE p.estimated = 0)
+GROUP BY camera, track_id, class
+HAVING count(*) >= getvariable('align_min_points');
 
 -- 0. the coarse clock offset of every camera pair, over EVERY lag the recordings allow: the
 --    cross-correlation peak of the two cameras' activity (tracks in view over time;
@@ -91,8 +95,7 @@ FROM align_coarse;
 --    content (start time relative to the camera's t_origin, in ms), never on their ids: the same
 --    recording with relabelled ids gives the same offsets to the last bit.
 CREATE OR REPLACE TEMP TABLE align_keys AS
-SELECT t.camera, t.track_id, round((t.t0 - c.t_origin) * 1000)::BIGINT AS k0, round((t.t1 - c.t_origin) * 1000)::BIGINT AS k1
-FROM align_tracks t JOIN align_centroids c USING (camera);
+SELECT camera, track_id, round(t0 * 1000)::BIGINT AS k0, round(t1 * 1000)::BIGINT AS k1 FROM align_tracks;
 
 CREATE OR REPLACE TEMP MACRO align_hypotheses(pass_no) AS TABLE
 WITH moving AS (
@@ -232,7 +235,7 @@ WITH cand AS (
       AND abs(h.qx - b.qx) <= getvariable('align_agree_m') AND abs(h.qy - b.qy) <= getvariable('align_agree_m')
 ),
 coarse AS (
-    SELECT c.*, a.traj AS traj_fixed, m.traj AS traj_moving, (a.t0 + a.t1) / 2 - fc.t_origin AS x, cp.align_refine_rms_m AS gate,
+    SELECT c.*, a.traj AS traj_fixed, m.traj AS traj_moving, (a.t0 + a.t1) / 2 AS x, cp.align_refine_rms_m AS gate,
            {'theta': p.fit.theta, 'tx': p.fit.tx, 'ty': p.fit.ty, 'scale': p.fit.scale} AS tf,
            rigid_shift_under(a.traj, m.traj, {'theta': p.fit.theta, 'tx': p.fit.tx, 'ty': p.fit.ty, 'scale': p.fit.scale},
                              p.fit.dt, s.max_off, getvariable('align_bin_s'), 0.5, getvariable('align_min_pairs')) AS r
@@ -240,7 +243,6 @@ coarse AS (
     JOIN (SELECT cam_fixed, cam_moving, max(max_off) AS max_off FROM align_scan GROUP BY ALL) s USING (cam_fixed, cam_moving)
     JOIN align_tracks a ON a.camera = c.cam_fixed AND a.track_id = c.track_fixed
     JOIN align_tracks m ON m.camera = c.cam_moving AND m.track_id = c.track_moving
-    JOIN align_centroids fc ON fc.camera = c.cam_fixed
     JOIN calib_pairs cp ON cp.cam_a = c.cam_fixed AND cp.cam_b = c.cam_moving
     WHERE p.fit IS NOT NULL
 )
@@ -287,25 +289,22 @@ SELECT f.cam_fixed, f.cam_moving, f.n, f.x_span, f.slope AS drift_fit, f.interce
 FROM f JOIN chi USING (cam_fixed, cam_moving)
 WHERE f.slope IS NOT NULL;
 
---    a pair with drift: its support becomes the kept drift pairs, the moving tracks' times
---    warped onto the fixed camera's rate about the moving camera's t_origin T0m,
---    u = t - D / (1 + D) (t - T0m) = t_fixed + c, and the refit finds c (and the transform from
---    the whole recording). O = c (1 + D) - D T0m below.
+--    a pair with drift: on the relative clocks the fit says y = (1 + D) x + a (x, y: fixed and
+--    moving times). Its support becomes the kept drift pairs, the moving tracks' times warped
+--    onto the fixed camera's rate, u = y / (1 + D) = x + c, and the refit finds c (near
+--    a / (1 + D)) and the transform from the whole recording; align_clock: O_rel = c (1 + D).
 CREATE OR REPLACE TEMP TABLE align_support AS
 SELECT * FROM align_support WHERE (cam_fixed, cam_moving) NOT IN (SELECT (cam_fixed, cam_moving) FROM align_drift WHERE drift <> 0)
 UNION ALL
 SELECT k.cam_fixed, k.cam_moving, k.track_fixed, k.track_moving, p.traj_fixed,
-       list_transform(p.traj_moving, lambda q: {'t': q.t - d.drift / (1 + d.drift) * (q.t - mc.t_origin), 'x': q.x, 'y': q.y}) AS traj_moving
+       list_transform(p.traj_moving, lambda q: {'t': q.t / (1 + d.drift), 'x': q.x, 'y': q.y}) AS traj_moving
 FROM align_drift_kept k JOIN align_drift d USING (cam_fixed, cam_moving)
 JOIN align_drift_pairs p USING (cam_fixed, cam_moving, track_fixed, track_moving)
-JOIN align_centroids mc ON mc.camera = k.cam_moving
 WHERE d.drift <> 0;
 
--- the refit's centre for a drifted pair: c = (a + D (T0m - T0f)) / (1 + D), a the fitted offset at T0f
-UPDATE align_best b SET dt = (d.intercept + d.drift * (mc.t_origin - fc.t_origin)) / (1 + d.drift)
-FROM align_drift d, align_centroids mc, align_centroids fc
-WHERE d.cam_fixed = b.cam_fixed AND d.cam_moving = b.cam_moving AND d.drift <> 0
-  AND mc.camera = b.cam_moving AND fc.camera = b.cam_fixed;
+UPDATE align_best b SET dt = d.intercept / (1 + d.drift)
+FROM align_drift d
+WHERE d.cam_fixed = b.cam_fixed AND d.cam_moving = b.cam_moving AND d.drift <> 0;
 
 CREATE OR REPLACE TEMP TABLE align_pairs AS FROM align_refit();
 
@@ -350,15 +349,18 @@ FROM calib_pairs p LEFT JOIN d ON d.cam_fixed = p.cam_a AND d.cam_moving = p.cam
 
 -- 4. spanning tree: widest path from every camera to the reference camera (the one with the
 --    most support), composing moving -> fixed transforms (inverted when walked backwards).
---    Clocks: each edge src -> dst carries t_src = (1 + D) t_dst + O (O = c (1 + D) - D T0m for a
---    drifted pair, see 3b; O = c when D = 0); walked backwards, D' = -D / (1 + D), O' = -O / (1 + D).
+--    Clocks: each edge src -> dst carries t_src = (1 + D) t_dst + O on the cameras' own clocks.
+--    On the relative clocks y = (1 + D) x + O_rel (O_rel = c (1 + D), c the refit's offset), so
+--    with the origins o_m, o_f: O = O_rel + o_m - (1 + D) o_f (O = c + o_m - o_f when D = 0).
+--    Walked backwards, D' = -D / (1 + D), O' = -O / (1 + D).
 CREATE OR REPLACE TEMP TABLE align_clock AS
 SELECT p.cam_fixed, p.cam_moving, coalesce(d.drift, 0.0) AS drift,
        CASE WHEN coalesce(d.drift, 0.0) <> 0 THEN d.drift_se ELSE 0.0 END AS drift_se,
        d.drift_fit, d.drift_se AS drift_fit_se, coalesce(d.n, 0) AS drift_pairs,
-       p.fit.dt * (1 + coalesce(d.drift, 0.0)) - coalesce(d.drift, 0.0) * mc.t_origin AS offset
+       CASE WHEN coalesce(d.drift, 0.0) = 0 THEN p.fit.dt + (mc.t_origin - fc.t_origin)
+            ELSE p.fit.dt * (1 + d.drift) + (mc.t_origin - fc.t_origin) - d.drift * fc.t_origin END AS offset
 FROM align_pairs p LEFT JOIN align_drift d USING (cam_fixed, cam_moving)
-JOIN align_centroids mc ON mc.camera = p.cam_moving;
+JOIN align_centroids mc ON mc.camera = p.cam_moving JOIN align_centroids fc ON fc.camera = p.cam_fixed;
 
 CREATE OR REPLACE TEMP TABLE align_edges AS
 SELECT p.cam_moving AS src, p.cam_fixed AS dst, p.support,

@@ -45,7 +45,8 @@ pub fn demo_sql(db: Option<&str>, format: Format) -> Result<(), Box<dyn std::err
 
 /// `simulate` options: --cameras N --minutes M --seed S --out DIR [--rate-hz R] [--traffic X]
 /// [--pedestrians X] [--noise-sigma S | LO,HI] [--noise-tracks-per-min K] [--clock-offset-max S]
-/// [--world-rate-hz R (0: no world.csv)] [--waiting-groups G] [--cyclists X].
+/// [--world-rate-hz R (0: no world.csv)] [--waiting-groups G] [--cyclists X]
+/// [--clock-drift-ppm D] [--clock-epoch S].
 pub fn parse_simulate(args: &[String]) -> Result<(super::simulate::SimParams, String), Box<dyn std::error::Error>> {
     let mut p = super::simulate::SimParams::default();
     let mut out = None;
@@ -75,6 +76,8 @@ pub fn parse_simulate(args: &[String]) -> Result<(super::simulate::SimParams, St
             "--world-rate-hz" => p.world_rate_hz = num(a, val(a)?)?,
             "--waiting-groups" => p.waiting_groups = num(a, val(a)?)?,
             "--cyclists" => p.cyclists = num(a, val(a)?)?,
+            "--clock-drift-ppm" => p.clock_drift_ppm = num(a, val(a)?)?,
+            "--clock-epoch" => p.clock_epoch = num(a, val(a)?)?,
             "--out" => out = Some(val(a)?),
             other => return Err(format!("simulate: unknown option {other:?}\n{}", super::USAGE).into()),
         }

@@ -77,6 +77,11 @@ pub struct SimParams {
     /// Extra multiplier of the cyclist arrival rate (cyclists in the bike lanes; 5 gives 10 a
     /// minute at traffic 1).
     pub cyclists: f64,
+    /// Camera clocks run fast or slow by a uniform draw in ±this (ppm):
+    /// t_cam = (1 + drift·1e-6) · t_world + clock_offset_s.
+    pub clock_drift_ppm: f64,
+    /// Seconds added to every camera's clock alike (e.g. 1.78e9, Unix time in 2026).
+    pub clock_epoch: f64,
 }
 
 impl Default for SimParams {
@@ -96,6 +101,8 @@ impl Default for SimParams {
             world_rate_hz: 10.0,
             waiting_groups: 0.0,
             cyclists: 1.0,
+            clock_drift_ppm: 0.0,
+            clock_epoch: 0.0,
         }
     }
 }
@@ -163,8 +170,23 @@ impl SimParams {
         if !(self.noise_tracks_per_min.is_finite() && self.noise_tracks_per_min >= 0.0) {
             return bad(format!("noise_tracks_per_min must be >= 0, got {}", self.noise_tracks_per_min));
         }
-        if !(self.clock_offset_max.is_finite() && self.clock_offset_max >= 0.0) {
-            return bad(format!("clock_offset_max must be >= 0, got {}", self.clock_offset_max));
+        if !(self.clock_offset_max.is_finite() && (0.0..=MAX_CLOCK_OFFSET).contains(&self.clock_offset_max)) {
+            return bad(format!(
+                "clock_offset_max must be in [0, {MAX_CLOCK_OFFSET:e}] s, got {}; give e.g. 3600 (an hour) or 86400 (a day)",
+                self.clock_offset_max
+            ));
+        }
+        if !(self.clock_drift_ppm.is_finite() && (0.0..=MAX_CLOCK_DRIFT_PPM).contains(&self.clock_drift_ppm)) {
+            return bad(format!(
+                "clock_drift_ppm must be in [0, {MAX_CLOCK_DRIFT_PPM:e}] ppm (each camera draws its drift in +-this), got {}; give e.g. 200",
+                self.clock_drift_ppm
+            ));
+        }
+        if !(self.clock_epoch.is_finite() && self.clock_epoch.abs() <= MAX_CLOCK_EPOCH) {
+            return bad(format!(
+                "clock_epoch must be in [-{MAX_CLOCK_EPOCH:e}, {MAX_CLOCK_EPOCH:e}] s, got {}; give e.g. 1.78e9 (Unix time in 2026)",
+                self.clock_epoch
+            ));
         }
         if !(self.world_rate_hz.is_finite() && self.world_rate_hz >= 0.0) {
             return bad(format!("world_rate_hz must be >= 0, got {}", self.world_rate_hz));
@@ -178,6 +200,14 @@ impl SimParams {
         Ok(())
     }
 }
+
+/// The largest `clock_offset_max` (s): beyond days, f64 time stamps lose microseconds.
+pub const MAX_CLOCK_OFFSET: f64 = 1e7;
+/// The largest `clock_drift_ppm` (1 %).
+pub const MAX_CLOCK_DRIFT_PPM: f64 = 1e4;
+/// The largest |`clock_epoch`| (s; 1e10 s is the year 2286, and a time stamp's unit in the last
+/// place is still 2 µs).
+pub const MAX_CLOCK_EPOCH: f64 = 1e10;
 
 /// Road-user classes, as written in the `class` column.
 pub const CLASSES: [&str; 4] = ["car", "heavy_vehicle", "cyclist", "pedestrian"];
@@ -199,13 +229,24 @@ pub struct Camera {
     pub tx: f64,
     pub ty: f64,
     pub view_world: [[f64; 2]; 4],
+    /// Includes `clock_epoch`: t_cam = (1 + clock_drift_ppm·1e-6) · t_world + clock_offset.
     pub clock_offset: f64,
+    pub clock_drift_ppm: f64,
     pub sigma: f64,
     pub rate_hz: f64,
     pub phase: f64,
 }
 
 impl Camera {
+    /// The camera's clock at world time `t`: (1 + drift·1e-6) · t + offset (exactly t + offset
+    /// without drift).
+    pub fn clock(&self, t: f64) -> f64 {
+        (1.0 + self.clock_drift_ppm * 1e-6) * t + self.clock_offset
+    }
+    /// The camera's frame period in world time: its frames are 1/rate_hz apart on its own clock.
+    fn world_period(&self) -> f64 {
+        (1.0 / self.rate_hz) / (1.0 + self.clock_drift_ppm * 1e-6)
+    }
     fn to_local(&self, x: f64, y: f64) -> (f64, f64) {
         let (s, c) = self.theta.sin_cos();
         let (dx, dy) = (x - self.tx, y - self.ty);
@@ -599,6 +640,7 @@ fn stream(seed: u64, k: u64) -> ChaCha8Rng {
     r
 }
 const STREAM_GROUPS: u64 = 1;
+const STREAM_DRIFT: u64 = 2;
 
 /// Waiting groups at crossings (issue 26): group events arrive as a Poisson process,
 /// `waiting_groups` per minute, each at one crossing (arm a) on one kerb, or on both kerbs at once
@@ -752,6 +794,24 @@ fn group_member(
 }
 
 fn place_cameras(p: &SimParams, rng: &mut ChaCha8Rng) -> Vec<Camera> {
+    let mut cams = place_cameras_rigid(p, rng);
+    // the clock degradations, from a stream of their own (nothing drawn at their defaults)
+    if p.clock_drift_ppm > 0.0 {
+        let rng = &mut stream(p.seed, STREAM_DRIFT);
+        for c in &mut cams {
+            c.clock_drift_ppm = uniform(rng, -p.clock_drift_ppm, p.clock_drift_ppm);
+        }
+    }
+    if p.clock_epoch != 0.0 {
+        for c in &mut cams {
+            c.clock_offset += p.clock_epoch;
+        }
+    }
+    cams
+}
+
+/// The cameras' views, frames, offsets, noise and phases (the draws of the original simulator).
+fn place_cameras_rigid(p: &SimParams, rng: &mut ChaCha8Rng) -> Vec<Camera> {
     let base = uniform(rng, 0.0, std::f64::consts::TAU);
     (0..p.cameras)
         .map(|k| {
@@ -769,6 +829,7 @@ fn place_cameras(p: &SimParams, rng: &mut ChaCha8Rng) -> Vec<Camera> {
                 ty: uniform(rng, -60.0, 60.0),
                 view_world: [corner(-1.0, -1.0), corner(1.0, -1.0), corner(1.0, 1.0), corner(-1.0, 1.0)],
                 clock_offset: uniform(rng, -p.clock_offset_max, p.clock_offset_max),
+                clock_drift_ppm: 0.0,
                 sigma: uniform(rng, p.noise_sigma.0, p.noise_sigma.1),
                 rate_hz: p.rate_hz,
                 phase: uniform(rng, 0.0, 1.0 / p.rate_hz),
@@ -813,7 +874,8 @@ pub fn simulate(p: &SimParams) -> Result<Scenario, SimError> {
     const SEEN: usize = std::mem::size_of::<(f64, f64, f64, bool)>();
     for cam in &cameras {
         let mut seen = 0usize;
-        let dt = 1.0 / cam.rate_hz;
+        // the frames are 1/rate_hz apart on the camera's clock: dt in world time
+        let dt = cam.world_period();
         let noise = Normal::new(0.0, cam.sigma.max(1e-12)).unwrap();
         let mut tracks: Vec<SeenTrack> = Vec::new();
         for o in &objects {
@@ -904,7 +966,7 @@ pub fn simulate(p: &SimParams) -> Result<Scenario, SimError> {
                 .iter()
                 .map(|&(t, x, y, e)| {
                     let (lx, ly) = cam.to_local(x + noise.sample(&mut rng), y + noise.sample(&mut rng));
-                    (t + cam.clock_offset, lx, ly, e)
+                    (cam.clock(t), lx, ly, e)
                 })
                 .collect();
             for (j, &(t, x, y, e)) in local.iter().enumerate() {
@@ -995,7 +1057,7 @@ impl Scenario {
         }
         f.flush()?;
         let mut f = file("cameras.csv")?;
-        writeln!(f, "camera,theta_rad,tx,ty,view_wkt_world,view_wkt_local,clock_offset_s,noise_sigma_m,rate_hz,phase_s")?;
+        writeln!(f, "camera,theta_rad,tx,ty,view_wkt_world,view_wkt_local,clock_offset_s,noise_sigma_m,rate_hz,phase_s,clock_drift_ppm")?;
         for c in &self.cameras {
             let local = c.view_world.map(|q| {
                 let (x, y) = c.to_local(q[0], q[1]);
@@ -1003,7 +1065,7 @@ impl Scenario {
             });
             writeln!(
                 f,
-                "{},{},{},{},\"{}\",\"{}\",{},{},{},{}",
+                "{},{},{},{},\"{}\",\"{}\",{},{},{},{},{}",
                 c.id,
                 c.theta,
                 c.tx,
@@ -1013,7 +1075,8 @@ impl Scenario {
                 c.clock_offset,
                 c.sigma,
                 c.rate_hz,
-                c.phase
+                c.phase,
+                c.clock_drift_ppm
             )?;
         }
         f.flush()?;
@@ -1074,8 +1137,8 @@ impl Scenario {
             let n_tr = self.truth.iter().filter(|t| t.0 == c.id).count();
             let _ = writeln!(
                 s,
-                "  cam {}: theta {:.4} rad, t=({:.3},{:.3}) m, sigma {:.3} m, rate {} Hz phase {:.4} s, clock offset {:+.3} s; {} points, {} tracks",
-                c.id, c.theta, c.tx, c.ty, c.sigma, c.rate_hz, c.phase, c.clock_offset, n_pts, n_tr
+                "  cam {}: theta {:.4} rad, t=({:.3},{:.3}) m, sigma {:.3} m, rate {} Hz phase {:.4} s, clock offset {:+.3} s, drift {:+.1} ppm; {} points, {} tracks",
+                c.id, c.theta, c.tx, c.ty, c.sigma, c.rate_hz, c.phase, c.clock_offset, c.clock_drift_ppm, n_pts, n_tr
             );
         }
         let _ = writeln!(s, "Files: points.csv / points.parquet (the input), cameras.csv, truth.csv, world.csv, objects.csv (ground truth), as in ../shared/data.");
@@ -1336,6 +1399,45 @@ mod tests {
         assert!(simulate(&SimParams { cyclists: 51.0, ..small() }).unwrap_err().to_string().contains("cyclists must be in [0, 50]"));
     }
 
+    /// The truth's clock model holds exactly: every point's world time, from its camera time
+    /// through t_world = (t_cam − clock_offset) / (1 + drift·1e-6), puts the object where the
+    /// point is; the frames are 1/rate_hz apart on the camera's own clock.
+    #[test]
+    fn clock_drift_offsets_and_epoch_follow_the_truth() {
+        let p = SimParams { noise_sigma: (0.0, 0.0), p_est: 0.0, noise_tracks_per_min: 0.0, clock_drift_ppm: 300.0, clock_offset_max: 3600.0, clock_epoch: 1.78e9, ..small() };
+        let s = simulate(&p).unwrap();
+        let truth: std::collections::HashMap<(i64, i64), i64> = s.truth.iter().map(|t| ((t.0, t.1), t.2)).collect();
+        for c in &s.cameras {
+            assert!(c.clock_drift_ppm.abs() <= 300.0 && c.clock_drift_ppm != 0.0);
+            assert!((c.clock_offset - 1.78e9).abs() <= 3600.0);
+        }
+        assert!(s.cameras.iter().any(|c| (c.clock_offset - 1.78e9).abs() > 60.0));
+        for p in s.points.iter().step_by(17) {
+            let cam = &s.cameras[p.camera as usize];
+            let tw = (p.t - cam.clock_offset) / (1.0 + cam.clock_drift_ppm * 1e-6);
+            let (c, sn) = (cam.theta.cos(), cam.theta.sin());
+            let (wx, wy) = (c * p.x - sn * p.y + cam.tx, sn * p.x + c * p.y + cam.ty);
+            let (ex, ey) = at(&s.objects[truth[&(p.camera, p.track_id)] as usize], tw).unwrap();
+            // 1e-6 s of time stamp rounding at 1.78e9 s is < 1e-5 m at 14 m/s
+            assert!((wx - ex).hypot(wy - ey) < 1e-4, "{} {}", wx - ex, wy - ey);
+        }
+        for w in s.points.windows(2).filter(|w| w[0].camera == w[1].camera && w[0].track_id == w[1].track_id) {
+            let frames = (w[1].t - w[0].t) * s.cameras[w[0].camera as usize].rate_hz;
+            assert!((frames - frames.round()).abs() < 1e-4 && frames.round() >= 1.0, "{frames}");
+        }
+        // without drift and epoch: exactly t_world + offset, and the same scenario
+        let a = simulate(&SimParams { clock_drift_ppm: 0.0, clock_epoch: 0.0, ..p.clone() }).unwrap();
+        let b = simulate(&SimParams { clock_drift_ppm: 0.0, ..p.clone() }).unwrap();
+        assert!(a.points.len() == b.points.len() && a.points.iter().zip(&b.points).all(|(q, r)| (q.t + 1.78e9 - r.t).abs() < 1e-6 && q.x == r.x));
+        // drift changes the times, not the scene
+        assert_eq!(a.objects.len(), s.objects.len());
+        // over 30 minutes 300 ppm is 0.54 s: the drift is visible in the time stamps
+        let long = simulate(&SimParams { minutes: 30.0, clock_drift_ppm: 300.0, cameras: 2, ..SimParams::default() }).unwrap();
+        let last = long.points.iter().filter(|q| q.camera == 1).map(|q| q.t).fold(0.0, f64::max);
+        let c1 = &long.cameras[1];
+        assert!((c1.clock(last) - last).abs() > 0.0 && (last * c1.clock_drift_ppm * 1e-6).abs() < 0.6);
+    }
+
     #[test]
     fn bad_parameters_are_errors() {
         for p in [
@@ -1347,6 +1449,11 @@ mod tests {
             SimParams { waiting_groups: -1.0, ..small() },
             SimParams { waiting_groups: f64::NAN, ..small() },
             SimParams { waiting_groups: 61.0, ..small() },
+            SimParams { clock_drift_ppm: 1.1e4, ..small() },
+            SimParams { clock_drift_ppm: -1.0, ..small() },
+            SimParams { clock_offset_max: 1.1e7, ..small() },
+            SimParams { clock_epoch: f64::INFINITY, ..small() },
+            SimParams { clock_epoch: -2e10, ..small() },
         ] {
             assert!(simulate(&p).unwrap_err().to_string().starts_with("simulate: "));
         }

@@ -24,6 +24,8 @@ const NAMED: &[Param] = &[
     p("world_rate_hz", Ty::Double),
     p("waiting_groups", Ty::Double),
     p("cyclists", Ty::Double),
+    p("clock_drift_ppm", Ty::Double),
+    p("clock_epoch", Ty::Double),
 ];
 
 const TABLE: Table = Table { params: &[p("dir", Ty::Varchar)], named: NAMED, columns: COLUMNS, register: table::register::<SimulateTable> };
@@ -37,7 +39,9 @@ pub static FUNCTIONS: &[Function] = &[Function {
                   README.txt. One row: dir and the counts. Named parameters (defaults): cameras (3), minutes (5), seed (1), rate_hz (10), \
                   traffic (1), pedestrians (1), noise_sigma_min / noise_sigma_max (0.05 / 0.15 m), noise_tracks_per_min (1), clock_offset_max \
                   (0 s), world_rate_hz (10), waiting_groups (0 per minute: groups of 2-8 pedestrians and cyclists standing 0.6-2 m apart \
-                  at a crossing's kerb for 10-60 s, then crossing together), cyclists (1: a multiplier of the 2 cyclists a minute in the bike lanes); \
+                  at a crossing's kerb for 10-60 s, then crossing together), cyclists (1: a multiplier of the 2 cyclists a minute in the bike lanes), \
+                  clock_drift_ppm (0: each camera's clock runs fast or slow by a draw in +-this; t_cam = (1 + drift 1e-6) t_world + \
+                  clock_offset_s), clock_epoch (0 s: added to every clock, e.g. 1.78e9); \
                   docs/simulate.md.",
     example: "SELECT objects > 0 FROM trajdb_simulate('/tmp/trajdb-sim-example', cameras := 2, minutes := 1, seed := 3); -- true",
     maths: "src/app/simulate.rs",
@@ -92,6 +96,8 @@ impl TableFn for SimulateTable {
             ("world_rate_hz", &mut p.world_rate_hz),
             ("waiting_groups", &mut p.waiting_groups),
             ("cyclists", &mut p.cyclists),
+            ("clock_drift_ppm", &mut p.clock_drift_ppm),
+            ("clock_epoch", &mut p.clock_epoch),
         ] {
             if let Some(v) = args.named_double(name)? {
                 *slot = v;

@@ -7,4 +7,5 @@
 .read sql/stages/align.sql
 .read sql/stages/overlap.sql
 .read sql/stages/merge.sql
+.read sql/stages/fuse.sql
 .read sql/stages/cluster.sql

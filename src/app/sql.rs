@@ -171,10 +171,10 @@ mod tests {
 
     #[test]
     fn one_stage_list_for_every_runner() {
-        assert_eq!(stages(), ["calibrate", "clean", "quality", "align", "overlap", "merge", "cluster"]);
+        assert_eq!(stages(), ["calibrate", "clean", "quality", "align", "overlap", "merge", "fuse", "cluster"]);
         let p = parts("sql/pipeline.sql").unwrap();
         let names: Vec<&str> = p.iter().map(|x| x.0.as_str()).collect();
-        assert_eq!(names, ["setup", "calibrate", "clean", "quality", "align", "overlap", "merge", "cluster"]);
+        assert_eq!(names, ["setup", "calibrate", "clean", "quality", "align", "overlap", "merge", "fuse", "cluster"]);
         assert!(p[0].1.contains("coalesce(getvariable('merge_eta')") && p[0].1.contains("pipeline_input"));
         for s in stages() {
             let text = file(&format!("sql/stages/{s}.sql")).unwrap();

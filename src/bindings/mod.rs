@@ -8,6 +8,7 @@
 pub mod align;
 pub mod cluster;
 pub mod events;
+pub mod fuse;
 pub mod geometry;
 pub mod lcss;
 pub mod matching;
@@ -25,7 +26,7 @@ use registry::{Doc, Function};
 
 /// Every function, in reference order.
 pub fn functions() -> Vec<&'static Function> {
-    [traj::FUNCTIONS, lcss::FUNCTIONS, align::FUNCTIONS, geometry::FUNCTIONS, matching::FUNCTIONS, merge::FUNCTIONS, cluster::FUNCTIONS, events::FUNCTIONS, meta::FUNCTIONS, params::FUNCTIONS, simulate::FUNCTIONS, report::FUNCTIONS]
+    [traj::FUNCTIONS, lcss::FUNCTIONS, align::FUNCTIONS, geometry::FUNCTIONS, matching::FUNCTIONS, merge::FUNCTIONS, fuse::FUNCTIONS, cluster::FUNCTIONS, events::FUNCTIONS, meta::FUNCTIONS, params::FUNCTIONS, simulate::FUNCTIONS, report::FUNCTIONS]
         .into_iter()
         .flatten()
         .collect()

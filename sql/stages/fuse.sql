@@ -1,0 +1,104 @@
+-- trajdb pipeline: fused paths (issue 26, part 4; docs/fusion.md). Runs after merge.sql.
+--
+-- merge.sql's paths (trajectory_merge, thesis eq. 2.11) put the midpoint of LCSS pairs beside
+-- the unmatched points of every camera: on dut_intersection_3cam 40% of multi-camera road users
+-- had time steps under 1 us, traj_speeds gave up to 1e13 m/s, and length_m / duration_s
+-- overstated the mean speed by 23-45%. Here every road user's path is instead the smoothed
+-- estimate of one constant-velocity motion model from ALL its real observations in every
+-- camera, each with its camera's measured noise (traj_fuse: Kalman filter + Rauch-Tung-Striebel
+-- smoother, seed 003 eq. 3.10-3.15, src/algo/fuse/), on the common clock.
+--
+-- Reads: points (real points, t on the reference clock since align.sql), align_frames
+--   (to_reference), merge_tracks (camera, track_id, class -> uid), merge_groups (uid ->
+--   road_user), merged (the road users), calib_cameras.sigma_m (per camera), calib_classes.accel_p95
+--   (per class).
+-- Makes:
+--   fuse_q(class, accel_p95, q)                    the acceleration noise density per class (m^2/s^3)
+--   fuse_paths(road_user, n_cameras, q, traj, sigma, sigma_m)   the fused path, per-point sigma (m)
+--   merged                                          replaced: traj = the fused path, plus sigma_m
+--                                                   (median per-point sigma) and sigma (per point)
+--   result_road_users()                             redefined: merged.parquet gets sigma_m and sigma
+-- Parameters: merge_resample_s, merge_resample_max_gap (the common clock merge.sql uses: the
+--   fused path is sampled at t = k * merge_resample_s and not across gaps longer than
+--   merge_resample_max_gap between observations; 0 = one point per distinct observation time).
+--
+-- Measured noise, not guessed:
+--  * sigma: each observation's camera's position noise (calibrate.sql, calib_cameras.sigma_m:
+--    the median second difference of its tracks); a camera that measured none takes the largest
+--    of the others; at least 1 mm (noise-free input measures 0, and the filter needs sigma > 0).
+--  * q: the continuous white-noise-acceleration density. calibrate.sql measures per class the
+--    95th percentile of |p(t+1) - 2 p(t) + p(t-1)| on tracks resampled to 1 s. Under the model
+--    that second difference is Gaussian per axis with variance q * 2 tau^3 / 3 (tau = 1 s: the
+--    triangle kernel's integral), so its 2-D length is Rayleigh with scale sqrt(2 q / 3), whose
+--    95th percentile is sqrt(2 ln 20) times the scale: q = 1.5 * (accel_p95 / sqrt(2 ln 20))^2
+--    = 0.2504 accel_p95^2. The measurement includes position noise (it overstates q): that
+--    errs on the side of following manoeuvres (less smoothing), never of cutting corners. A
+--    class calibrate.sql could not measure takes the largest q of the others.
+--  * Which road users: every one (one camera too): a single camera's path is smoothed the same
+--    way (its error against world.csv falls by about half, and its length stops counting the
+--    noise); see docs/fusion.md for the measurement.
+
+CREATE OR REPLACE TEMP TABLE fuse_q AS
+SELECT class, accel_p95, 1.5 * (accel_p95 / sqrt(2 * ln(20))) ** 2 AS q
+FROM calib_classes WHERE isfinite(accel_p95);
+
+CREATE OR REPLACE TEMP TABLE fuse_paths AS
+WITH cam AS (
+    SELECT c.camera, coalesce(a.to_reference, {'theta': 0.0::DOUBLE, 'tx': 0.0::DOUBLE, 'ty': 0.0::DOUBLE, 'scale': 1.0::DOUBLE}) AS to_reference,
+           greatest(coalesce(s.sigma_m, (SELECT max(sigma_m) FROM calib_cameras), 0.0), 1e-3) AS sigma
+    FROM (SELECT DISTINCT camera FROM points) c
+    LEFT JOIN align_frames a USING (camera) LEFT JOIN calib_cameras s USING (camera)
+),
+obs AS (
+    SELECT g.road_user, any_value(t.class) AS class, count(DISTINCT p.camera) AS n_cameras,
+           -- ties in t broken by camera, track and position: the same list in every run and window
+           list({'t': p.t, 'x': w.x, 'y': w.y, 'sigma': c.sigma} ORDER BY p.t, p.camera, p.track_id, p.x, p.y) AS obs
+    FROM points p
+    JOIN merge_tracks t USING (camera, track_id, class)
+    JOIN merge_groups g USING (uid)
+    JOIN cam c USING (camera),
+    LATERAL (SELECT transform_point(c.to_reference, p.x, p.y) AS w)
+    WHERE p.estimated = 0
+    GROUP BY g.road_user
+),
+oq AS (
+    SELECT o.*, coalesce(q.q, (SELECT max(q) FROM fuse_q)) AS q FROM obs o LEFT JOIN fuse_q q USING (class)
+),
+f AS (
+    SELECT road_user, n_cameras, q,
+           CASE WHEN getvariable('merge_resample_s') > 0
+                THEN traj_fuse(obs, q, getvariable('merge_resample_s'), getvariable('merge_resample_max_gap')) END AS clock_traj,
+           CASE WHEN getvariable('merge_resample_s') > 0
+                THEN traj_fuse_sigma(obs, q, getvariable('merge_resample_s'), getvariable('merge_resample_max_gap')) END AS clock_sigma,
+           obs
+    FROM oq
+)
+-- a path shorter than one clock step has no clock point: one point per observation time instead
+SELECT road_user, n_cameras, q,
+       CASE WHEN len(clock_traj) > 0 THEN clock_traj ELSE traj_fuse(obs, q) END AS traj,
+       [s.v FOR s IN CASE WHEN len(clock_traj) > 0 THEN clock_sigma ELSE traj_fuse_sigma(obs, q) END] AS sigma
+FROM f;
+
+-- merged: the fused path replaces the merged one (a road user without a q, when no class could
+-- be measured, keeps it); sigma_m = the median per-point sigma
+CREATE OR REPLACE TEMP TABLE merged AS
+SELECT m.* REPLACE (coalesce(f.traj, m.traj) AS traj),
+       CASE WHEN f.traj IS NOT NULL THEN list_median(f.sigma) END AS sigma_m,
+       CASE WHEN f.traj IS NOT NULL THEN f.sigma END AS sigma
+FROM merged m LEFT JOIN fuse_paths f USING (road_user);
+
+SELECT n_cameras, count(*) AS road_users, round(median(list_median(sigma)), 4) AS median_sigma_m
+FROM fuse_paths GROUP BY n_cameras ORDER BY n_cameras;
+
+-- road users (merged.parquet): merge.sql's definition, plus sigma_m (the median of the
+-- per-point 1-sigma position error per axis, m) and sigma (one per point of traj, m).
+CREATE OR REPLACE TEMP MACRO result_road_users() AS TABLE
+SELECT m.road_user, m.class, m.n_tracks,
+       (SELECT list({'camera': l.camera, 'track_id': l.track_id} ORDER BY l.camera, q.e.t0, l.track_id)
+        FROM unnest(m.sources) u(s)
+        JOIN quality_links l ON l.camera = s.camera AND l.linked_id = s.track_id
+        LEFT JOIN quality_endpoints q ON q.camera = l.camera AND q.track_id = l.track_id) AS sources,
+       traj_time_range(m.traj).t_start AS t_start, traj_time_range(m.traj).t_end AS t_end,
+       traj_duration(m.traj) AS duration_s, traj_length_m(m.traj) AS length_m,
+       traj_to_wkb(m.traj, true) AS geometry, m.traj, m.sigma_m, m.sigma
+FROM merged m;

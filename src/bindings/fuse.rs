@@ -1,0 +1,79 @@
+//! SQL: fused paths (one road user's observations from every camera, smoothed into one path).
+//! Maths: `src/algo/fuse/` (constant-velocity Kalman filter + RTS smoother, seed 003 §3.8).
+
+use super::registry::{p, Function, Param, Signature, Ty, SERIES, TRAJ};
+use super::vector::{Args, Column, Out};
+use crate::algo::fuse::{self, FusedPath, Obs};
+use crate::algo::traj::OwnedTraj;
+use std::error::Error;
+
+type R = Result<(), Box<dyn Error>>;
+const MATHS: &str = "src/algo/fuse/smooth.rs, src/algo/fuse/sample.rs";
+
+/// `STRUCT(t DOUBLE, x DOUBLE, y DOUBLE, sigma DOUBLE)[]`: observations with their noise.
+const OBS: Ty = Ty::List(&Ty::Struct(&[("t", Ty::Double), ("x", Ty::Double), ("y", Ty::Double), ("sigma", Ty::Double)]));
+const PARAMS: [Param; 4] = [p("obs", OBS), p("q", Ty::Double), p("period", Ty::Double), p("max_gap", Ty::Double)];
+
+pub static FUNCTIONS: &[Function] = &[
+    Function {
+        name: "traj_fuse",
+        description: "One road user's observations from any number of cameras, fused into one path: a constant-velocity Kalman filter and \
+                      Rauch-Tung-Striebel smoother (seed 003 eq. 3.10-3.15). obs: every observation (t, x, y in one frame and on one clock, \
+                      sigma = its camera's position noise in metres per axis, e.g. calib_cameras.sigma_m), ordered by t; observations less than \
+                      1 microsecond apart are one time. q: the white-acceleration noise density in m^2/s^3 per axis (the velocity wanders by \
+                      sqrt(q dt) in dt seconds; 0 = a straight line at one velocity; the pipeline uses 0.25 x the class's 95th-percentile \
+                      acceleration squared, see docs/fusion.md). Without period: one point per distinct time; with period: the smoothed path at \
+                      t = k * period (the clock of traj_resample), not across gaps longer than max_gap seconds (default: no limit) between \
+                      observations. The result is an ordinary TRAJ (traj_speeds etc. take it); traj_fuse_sigma gives each point's uncertainty. \
+                      O(n) per call. Errors: sigma <= 0, q < 0, NaN / infinite values, unsorted t, period / max_gap <= 0.",
+        example: "SELECT traj_fuse([{'t': 0, 'x': 0, 'y': 0, 'sigma': 0.1}, {'t': 1, 'x': 1, 'y': 0, 'sigma': 0.1}, {'t': 1, 'x': 1, 'y': 0, 'sigma': 0.2}, {'t': 2, 'x': 2, 'y': 0, 'sigma': 0.1}], 0.5); -- [{'t': 0.0, 'x': 0.0, 'y': 0.0}, {'t': 1.0, 'x': 1.0, 'y': 0.0}, {'t': 2.0, 'x': 2.0, 'y': 0.0}]",
+        maths: MATHS,
+        binding: file!(),
+        signatures: &[Signature { params: &PARAMS, arities: &[2, 3, 4], returns: TRAJ, kernel: fuse_traj }],
+        table: None,
+    },
+    Function {
+        name: "traj_fuse_sigma",
+        description: "The uncertainty of traj_fuse's path (same arguments, same points): per point t and v = the 1-sigma position error per axis \
+                      of the fused position in metres, sqrt of the mean of the smoothed position covariance's diagonal. Smaller than any one \
+                      camera's sigma where several cameras or many samples agree; it grows where the path is bridged between observations.",
+        example: "SELECT traj_fuse_sigma([{'t': 0, 'x': 0, 'y': 0, 'sigma': 0.1}, {'t': 0, 'x': 0.1, 'y': 0, 'sigma': 0.1}], 0.5); -- [{'t': 0.0, 'v': 0.07071067811865477}]",
+        maths: MATHS,
+        binding: file!(),
+        signatures: &[Signature { params: &PARAMS, arities: &[2, 3, 4], returns: SERIES, kernel: fuse_sigma }],
+        table: None,
+    },
+];
+
+/// The fused path of every row (`None`: a NULL argument).
+fn fused(a: &Args<'_>) -> Result<Vec<Option<FusedPath>>, Box<dyn Error>> {
+    let (obs, q) = (a.struct_list(0), a.double(1));
+    let period = a.given(2).then(|| a.double(2));
+    let gap = a.opt_double(3);
+    let name = a.name(0);
+    a.map(|r| {
+        let (Some(o), Some(q)) = (obs.get(r)?, q.get(r)) else { return Ok(None) };
+        let clock = match &period {
+            None => None,
+            Some(c) => {
+                let (Some(p), Some(g)) = (c.get(r), gap.or(r, f64::INFINITY)) else { return Ok(None) };
+                Some((p, g))
+            }
+        };
+        let ob = Obs::new(o.f64(0), o.f64(1), o.f64(2), o.f64(3));
+        Ok(Some(fuse::fuse(ob, q, clock).map_err(|e| e.describe(name))?))
+    })
+}
+
+fn fuse_traj(a: &Args<'_>, out: &mut Out<'_>) -> R {
+    let vals: Vec<Option<OwnedTraj>> = fused(a)?.into_iter().map(|f| f.map(|f| OwnedTraj { t: f.t, x: f.x, y: f.y })).collect();
+    out.trajs(&vals);
+    Ok(())
+}
+
+fn fuse_sigma(a: &Args<'_>, out: &mut Out<'_>) -> R {
+    let vals = fused(a)?;
+    let cols: Vec<_> = vals.iter().map(|v| v.as_ref().map(|f| vec![Column::F64(&f.t), Column::F64(&f.sigma)])).collect();
+    out.struct_lists(&cols);
+    Ok(())
+}

@@ -46,7 +46,7 @@ pub fn demo_sql(db: Option<&str>, format: Format) -> Result<(), Box<dyn std::err
 /// `simulate` options: --cameras N --minutes M --seed S --out DIR [--rate-hz R] [--traffic X]
 /// [--pedestrians X] [--noise-sigma S | LO,HI] [--noise-tracks-per-min K] [--clock-offset-max S]
 /// [--world-rate-hz R (0: no world.csv)] [--waiting-groups G] [--cyclists X]
-/// [--clock-drift-ppm D] [--clock-epoch S].
+/// [--clock-drift-ppm D] [--clock-epoch S] [--time-jitter-s SIGMA].
 pub fn parse_simulate(args: &[String]) -> Result<(super::simulate::SimParams, String), Box<dyn std::error::Error>> {
     let mut p = super::simulate::SimParams::default();
     let mut out = None;
@@ -78,6 +78,7 @@ pub fn parse_simulate(args: &[String]) -> Result<(super::simulate::SimParams, St
             "--cyclists" => p.cyclists = num(a, val(a)?)?,
             "--clock-drift-ppm" => p.clock_drift_ppm = num(a, val(a)?)?,
             "--clock-epoch" => p.clock_epoch = num(a, val(a)?)?,
+            "--time-jitter-s" => p.time_jitter_s = num(a, val(a)?)?,
             "--out" => out = Some(val(a)?),
             other => return Err(format!("simulate: unknown option {other:?}\n{}", super::USAGE).into()),
         }

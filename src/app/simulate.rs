@@ -82,6 +82,9 @@ pub struct SimParams {
     pub clock_drift_ppm: f64,
     /// Seconds added to every camera's clock alike (e.g. 1.78e9, Unix time in 2026).
     pub clock_epoch: f64,
+    /// Each reported time stamp is off the real capture time by N(0, σ) with this σ (s),
+    /// clipped to ±0.45 frame periods so that times stay increasing within a track.
+    pub time_jitter_s: f64,
 }
 
 impl Default for SimParams {
@@ -103,6 +106,7 @@ impl Default for SimParams {
             cyclists: 1.0,
             clock_drift_ppm: 0.0,
             clock_epoch: 0.0,
+            time_jitter_s: 0.0,
         }
     }
 }
@@ -180,6 +184,13 @@ impl SimParams {
             return bad(format!(
                 "clock_drift_ppm must be in [0, {MAX_CLOCK_DRIFT_PPM:e}] ppm (each camera draws its drift in +-this), got {}; give e.g. 200",
                 self.clock_drift_ppm
+            ));
+        }
+        if !(self.time_jitter_s.is_finite() && self.time_jitter_s >= 0.0 && self.time_jitter_s < 1.0 / self.rate_hz) {
+            return bad(format!(
+                "time_jitter_s must be >= 0 and below the frame period (1/rate_hz = {} s), got {}; give e.g. 0.01",
+                1.0 / self.rate_hz,
+                self.time_jitter_s
             ));
         }
         if !(self.clock_epoch.is_finite() && self.clock_epoch.abs() <= MAX_CLOCK_EPOCH) {
@@ -641,6 +652,9 @@ fn stream(seed: u64, k: u64) -> ChaCha8Rng {
 }
 const STREAM_GROUPS: u64 = 1;
 const STREAM_DRIFT: u64 = 2;
+const STREAM_JITTER: u64 = 3;
+/// Time-stamp jitter is clipped to this many frame periods (so a track's times stay increasing).
+pub const JITTER_CLIP: f64 = 0.45;
 
 /// Waiting groups at crossings (issue 26): group events arrive as a Poisson process,
 /// `waiting_groups` per minute, each at one crossing (arm a) on one kerb, or on both kerbs at once
@@ -872,6 +886,8 @@ pub fn simulate(p: &SimParams) -> Result<Scenario, SimError> {
     let mut points = Vec::new();
     let mut truth = Vec::new();
     const SEEN: usize = std::mem::size_of::<(f64, f64, f64, bool)>();
+    // time-stamp jitter, from a stream of its own (none drawn without it)
+    let mut jitter = (p.time_jitter_s > 0.0).then(|| (stream(p.seed, STREAM_JITTER), Normal::new(0.0, p.time_jitter_s).unwrap()));
     for cam in &cameras {
         let mut seen = 0usize;
         // the frames are 1/rate_hz apart on the camera's clock: dt in world time
@@ -966,7 +982,8 @@ pub fn simulate(p: &SimParams) -> Result<Scenario, SimError> {
                 .iter()
                 .map(|&(t, x, y, e)| {
                     let (lx, ly) = cam.to_local(x + noise.sample(&mut rng), y + noise.sample(&mut rng));
-                    (cam.clock(t), lx, ly, e)
+                    let off = jitter.as_mut().map_or(0.0, |(r, n)| n.sample(r).clamp(-JITTER_CLIP / cam.rate_hz, JITTER_CLIP / cam.rate_hz));
+                    (cam.clock(t) + off, lx, ly, e)
                 })
                 .collect();
             for (j, &(t, x, y, e)) in local.iter().enumerate() {
@@ -1439,6 +1456,28 @@ mod tests {
     }
 
     #[test]
+    fn time_jitter_moves_stamps_not_positions() {
+        let p = SimParams { rate_hz: 10.0, ..small() };
+        let a = simulate(&p).unwrap();
+        let b = simulate(&SimParams { time_jitter_s: 0.01, ..p.clone() }).unwrap();
+        assert_eq!(a.points.len(), b.points.len());
+        let d: Vec<f64> = a.points.iter().zip(&b.points).map(|(q, r)| {
+            assert!(q.x == r.x && q.y == r.y && q.track_id == r.track_id);
+            r.t - q.t
+        }).collect();
+        let sd = (d.iter().map(|e| e * e).sum::<f64>() / d.len() as f64).sqrt();
+        assert!((sd - 0.01).abs() < 0.0005, "{sd}");
+        assert!(d.iter().all(|e| e.abs() <= JITTER_CLIP / 10.0 + 1e-12));
+        // clipped: a jitter near the period keeps every track's times increasing
+        let c = simulate(&SimParams { time_jitter_s: 0.099, ..p.clone() }).unwrap();
+        for w in c.points.windows(2).filter(|w| w[0].camera == w[1].camera && w[0].track_id == w[1].track_id) {
+            assert!(w[1].t > w[0].t);
+        }
+        let e = simulate(&SimParams { time_jitter_s: 0.1, ..p }).unwrap_err().to_string();
+        assert!(e.contains("time_jitter_s must be >= 0 and below the frame period (1/rate_hz = 0.1 s), got 0.1"), "{e}");
+    }
+
+    #[test]
     fn bad_parameters_are_errors() {
         for p in [
             SimParams { cameras: 0, ..small() },
@@ -1454,6 +1493,8 @@ mod tests {
             SimParams { clock_offset_max: 1.1e7, ..small() },
             SimParams { clock_epoch: f64::INFINITY, ..small() },
             SimParams { clock_epoch: -2e10, ..small() },
+            SimParams { time_jitter_s: -0.1, ..small() },
+            SimParams { time_jitter_s: f64::NAN, ..small() },
         ] {
             assert!(simulate(&p).unwrap_err().to_string().starts_with("simulate: "));
         }

@@ -26,6 +26,7 @@ const NAMED: &[Param] = &[
     p("cyclists", Ty::Double),
     p("clock_drift_ppm", Ty::Double),
     p("clock_epoch", Ty::Double),
+    p("time_jitter_s", Ty::Double),
 ];
 
 const TABLE: Table = Table { params: &[p("dir", Ty::Varchar)], named: NAMED, columns: COLUMNS, register: table::register::<SimulateTable> };
@@ -41,7 +42,8 @@ pub static FUNCTIONS: &[Function] = &[Function {
                   (0 s), world_rate_hz (10), waiting_groups (0 per minute: groups of 2-8 pedestrians and cyclists standing 0.6-2 m apart \
                   at a crossing's kerb for 10-60 s, then crossing together), cyclists (1: a multiplier of the 2 cyclists a minute in the bike lanes), \
                   clock_drift_ppm (0: each camera's clock runs fast or slow by a draw in +-this; t_cam = (1 + drift 1e-6) t_world + \
-                  clock_offset_s), clock_epoch (0 s: added to every clock, e.g. 1.78e9); \
+                  clock_offset_s), clock_epoch (0 s: added to every clock, e.g. 1.78e9), \
+                  time_jitter_s (0: each time stamp off the capture time by N(0, this), clipped to 0.45 frame periods); \
                   docs/simulate.md.",
     example: "SELECT objects > 0 FROM trajdb_simulate('/tmp/trajdb-sim-example', cameras := 2, minutes := 1, seed := 3); -- true",
     maths: "src/app/simulate.rs",
@@ -98,6 +100,7 @@ impl TableFn for SimulateTable {
             ("cyclists", &mut p.cyclists),
             ("clock_drift_ppm", &mut p.clock_drift_ppm),
             ("clock_epoch", &mut p.clock_epoch),
+            ("time_jitter_s", &mut p.time_jitter_s),
         ] {
             if let Some(v) = args.named_double(name)? {
                 *slot = v;

@@ -47,6 +47,8 @@ fn identity(con: &Connection) -> Result<(), Box<dyn Error>> {
 /// (`sql/score_path.sql`).
 fn paths(con: &Connection) -> Result<(), Box<dyn Error>> {
     con.execute_batch(sql::file("sql/score_path.sql").expect("sql/score_path.sql"))?;
+    let f = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:.3}"));
+    let name = |c: &str| if c == "*" { "all".to_string() } else { c.to_string() };
     crate::outln!("merged paths against world.csv (each road user's mapped object, at the same time):");
     crate::outln!("  {:<14} {:>9} {:>9} {:>9} {:>9} {:>18}", "class", "points", "median m", "p95 m", "max m", "road users > 1 m");
     let mut st = con.prepare("SELECT class, points, median_m, p95_m, max_m, off_1m FROM s_path_summary ORDER BY class = '*', class")?;
@@ -54,8 +56,37 @@ fn paths(con: &Connection) -> Result<(), Box<dyn Error>> {
     while let Some(r) = q.next()? {
         let (c, n, med, p95, max, off): (String, i64, Option<f64>, Option<f64>, Option<f64>, i64) =
             (r.get(0)?, r.get(1)?, r.get(2)?, r.get(3)?, r.get(4)?, r.get(5)?);
-        let f = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:.3}"));
-        crate::outln!("  {:<14} {n:>9} {:>9} {:>9} {:>9} {off:>18}", if c == "*" { "all" } else { &c }, f(med), f(p95), f(max));
+        crate::outln!("  {:<14} {n:>9} {:>9} {:>9} {:>9} {off:>18}", name(&c), f(med), f(p95), f(max));
+    }
+    crate::outln!("fused vs the best single camera (road users seen by >= 2 cameras; each camera mapped by the pipeline's transforms.csv,");
+    crate::outln!("the best = lowest median error, over its time span; ratio = fused / best, target <= 0.6):");
+    crate::outln!("  {:<14} {:>11} {:>12} {:>9} {:>11} {:>9} {:>13} {:>10}", "class", "road users", "fused med m", "p95 m", "best med m", "p95 m", "ratio median", "ratio p95");
+    let mut st = con.prepare(
+        "SELECT class, road_users, fused_median_m, fused_p95_m, best_median_m, best_p95_m FROM s_fuse_vs_best ORDER BY class = '*', class",
+    )?;
+    let mut q = st.query([])?;
+    while let Some(r) = q.next()? {
+        let (c, n, fm, fp, bm, bp): (String, i64, Option<f64>, Option<f64>, Option<f64>, Option<f64>) =
+            (r.get(0)?, r.get(1)?, r.get(2)?, r.get(3)?, r.get(4)?, r.get(5)?);
+        let ratio = |a: Option<f64>, b: Option<f64>| match (a, b) {
+            (Some(a), Some(b)) if b > 0.0 => format!("{:.2}", a / b),
+            _ => "-".to_string(),
+        };
+        crate::outln!("  {:<14} {n:>11} {:>12} {:>9} {:>11} {:>9} {:>13} {:>10}", name(&c), f(fm), f(fp), f(bm), f(bp), ratio(fm, bm), ratio(fp, bp));
+    }
+    crate::outln!("fused path steps (jump: consecutive points whose errors differ by > 1 m; mean speed = length_m / duration_s against the");
+    crate::outln!("true path's over the same time, road users seen >= 1 s, as over- (+) or understatement):");
+    crate::outln!("  {:<14} {:>9} {:>10} {:>12} {:>14} {:>17} {:>14}", "class", "jumps>1m", "max jump m", "min step s", "max speed m/s", "mean speed median", "mean speed p95");
+    let mut st = con.prepare(
+        "SELECT class, jumps_1m, max_jump_m, min_step_s, max_speed, speed_over_median, speed_over_p95 FROM s_path_quality ORDER BY class = '*', class",
+    )?;
+    let mut q = st.query([])?;
+    while let Some(r) = q.next()? {
+        let (c, j, mj, ms, mv, om, op): (String, i64, Option<f64>, Option<f64>, Option<f64>, Option<f64>, Option<f64>) =
+            (r.get(0)?, r.get(1)?, r.get(2)?, r.get(3)?, r.get(4)?, r.get(5)?, r.get(6)?);
+        let pct = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{:+.1}%", v * 100.0));
+        let g = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:.3e}"));
+        crate::outln!("  {:<14} {j:>9} {:>10} {:>12} {:>14} {:>17} {:>14}", name(&c), f(mj), g(ms), f(mv), pct(om), pct(op));
     }
     Ok(())
 }

@@ -137,7 +137,8 @@ fn simulate_is_deterministic_and_checks_its_options() {
     for (bad, msg) in [
         (vec!["--cameras", "0"], "cameras must be in 1..=16"),
         (vec!["--minutes", "x"], "--minutes must be a number"),
-        (vec!["--rate-hz", "-1"], "rate_hz must be in (0, 100]"),
+        (vec!["--rate-hz", "-1"], "rate_hz must be in (0, 1000] Hz, got -1"),
+        (vec!["--rate-hz", "2,x"], "rate_hz must be a number or a comma list"),
         (vec!["--bogus", "1"], "unexpected argument '--bogus'"),
     ] {
         let (ok, err, _) = run("c", &bad);

@@ -43,7 +43,7 @@ pub fn demo_sql(db: Option<&str>, format: Format) -> Result<(), Box<dyn std::err
     run_script(&con, script, format, &mut std::io::stdout().lock())
 }
 
-/// `simulate` options: --cameras N --minutes M --seed S --out DIR [--rate-hz R] [--traffic X]
+/// `simulate` options: --cameras N --minutes M --seed S --out DIR [--rate-hz R | R1,R2,...] [--traffic X]
 /// [--pedestrians X] [--noise-sigma S | LO,HI] [--noise-tracks-per-min K] [--clock-offset-max S]
 /// [--world-rate-hz R (0: no world.csv)] [--waiting-groups G] [--cyclists X]
 /// [--clock-drift-ppm D] [--clock-epoch S] [--time-jitter-s SIGMA].
@@ -58,7 +58,7 @@ pub fn parse_simulate(args: &[String]) -> Result<(super::simulate::SimParams, St
             "--cameras" => p.cameras = num(a, val(a)?)? as usize,
             "--minutes" => p.minutes = num(a, val(a)?)?,
             "--seed" => p.seed = val(a)?.parse().map_err(|_| "simulate: --seed must be a non-negative integer")?,
-            "--rate-hz" => p.rate_hz = num(a, val(a)?)?,
+            "--rate-hz" => p.rate_hz = super::simulate::parse_rates(&val(a)?)?,
             "--traffic" => p.traffic = num(a, val(a)?)?,
             "--pedestrians" => p.pedestrians = num(a, val(a)?)?,
             "--noise-sigma" => {

@@ -55,8 +55,9 @@ pub struct SimParams {
     pub cameras: usize,
     pub minutes: f64,
     pub seed: u64,
-    /// Camera sampling rate (Hz).
-    pub rate_hz: f64,
+    /// Camera sampling rates (Hz): camera k samples at `rate_hz[k % len]` (one rate for every
+    /// camera, or a list such as 2, 5, 7.5, 10, 12.5, 15, 25, 30).
+    pub rate_hz: Vec<f64>,
     /// Traffic volume multiplier (1 = the default arrival rates).
     pub traffic: f64,
     /// Extra multiplier of the pedestrian arrival rate (a crowd: 10 gives 30 a minute at traffic 1).
@@ -93,7 +94,7 @@ impl Default for SimParams {
             cameras: 3,
             minutes: 5.0,
             seed: 1,
-            rate_hz: 10.0,
+            rate_hz: vec![10.0],
             traffic: 1.0,
             pedestrians: 1.0,
             noise_sigma: (0.05, 0.15),
@@ -150,8 +151,13 @@ impl SimParams {
         if !(self.minutes.is_finite() && self.minutes > 0.0 && self.minutes <= 24.0 * 60.0) {
             return bad(format!("minutes must be in (0, 1440], got {}", self.minutes));
         }
-        if !(self.rate_hz.is_finite() && self.rate_hz > 0.0 && self.rate_hz <= 100.0) {
-            return bad(format!("rate_hz must be in (0, 100], got {}", self.rate_hz));
+        if self.rate_hz.is_empty() || self.rate_hz.len() > 64 {
+            return bad(format!("rate_hz must list 1 to 64 rates (Hz; one per camera, cycled), got {}; give e.g. 10 or 2,5,7.5,10", self.rate_hz.len()));
+        }
+        for &r in &self.rate_hz {
+            if !(r.is_finite() && r > 0.0 && r <= MAX_RATE_HZ) {
+                return bad(format!("rate_hz must be in (0, {MAX_RATE_HZ}] Hz, got {r}; give e.g. 10 (or a list, one per camera: 2,5,7.5,10)"));
+            }
         }
         if !(self.traffic.is_finite() && self.traffic > 0.0 && self.traffic <= 50.0) {
             return bad(format!("traffic must be in (0, 50], got {}", self.traffic));
@@ -186,10 +192,11 @@ impl SimParams {
                 self.clock_drift_ppm
             ));
         }
-        if !(self.time_jitter_s.is_finite() && self.time_jitter_s >= 0.0 && self.time_jitter_s < 1.0 / self.rate_hz) {
+        let fastest = self.rate_hz.iter().copied().fold(0.0, f64::max);
+        if !(self.time_jitter_s.is_finite() && self.time_jitter_s >= 0.0 && self.time_jitter_s < 1.0 / fastest) {
             return bad(format!(
                 "time_jitter_s must be >= 0 and below the frame period (1/rate_hz = {} s), got {}; give e.g. 0.01",
-                1.0 / self.rate_hz,
+                1.0 / fastest,
                 self.time_jitter_s
             ));
         }
@@ -210,6 +217,20 @@ impl SimParams {
         }
         Ok(())
     }
+}
+
+/// The fastest camera (Hz).
+pub const MAX_RATE_HZ: f64 = 1000.0;
+
+/// Reads `rate_hz`: one number, or a comma list of numbers (one per camera, cycled).
+pub fn parse_rates(text: &str) -> Result<Vec<f64>, SimError> {
+    text.split(',')
+        .map(|r| {
+            r.trim().parse::<f64>().map_err(|_| {
+                SimError::Param(format!("rate_hz must be a number or a comma list of numbers (Hz, one per camera), got {text:?}; give e.g. 10 or 2,5,7.5,10"))
+            })
+        })
+        .collect()
 }
 
 /// The largest `clock_offset_max` (s): beyond days, f64 time stamps lose microseconds.
@@ -845,8 +866,8 @@ fn place_cameras_rigid(p: &SimParams, rng: &mut ChaCha8Rng) -> Vec<Camera> {
                 clock_offset: uniform(rng, -p.clock_offset_max, p.clock_offset_max),
                 clock_drift_ppm: 0.0,
                 sigma: uniform(rng, p.noise_sigma.0, p.noise_sigma.1),
-                rate_hz: p.rate_hz,
-                phase: uniform(rng, 0.0, 1.0 / p.rate_hz),
+                rate_hz: p.rate_hz[k % p.rate_hz.len()],
+                phase: uniform(rng, 0.0, 1.0 / p.rate_hz[k % p.rate_hz.len()]),
             }
         })
         .collect()
@@ -1307,7 +1328,7 @@ mod tests {
     #[test]
     fn scenarios_beyond_memory_bytes_are_errors() {
         use crate::algo::limits::{with_scope, Limits};
-        let max = SimParams { cameras: 16, minutes: 1440.0, rate_hz: 100.0, traffic: 50.0, pedestrians: 50.0, noise_tracks_per_min: 1e300, ..small() };
+        let max = SimParams { cameras: 16, minutes: 1440.0, rate_hz: vec![1000.0], traffic: 50.0, pedestrians: 50.0, noise_tracks_per_min: 1e300, ..small() };
         let e = simulate(&max).unwrap_err().to_string();
         assert!(e.starts_with("simulate: this scenario needs more than memory_bytes = ") && e.contains("reduce minutes, traffic or pedestrians"), "{e}");
         assert!(simulate(&SimParams { noise_tracks_per_min: 1e12, ..small() }).is_err());
@@ -1457,7 +1478,7 @@ mod tests {
 
     #[test]
     fn time_jitter_moves_stamps_not_positions() {
-        let p = SimParams { rate_hz: 10.0, ..small() };
+        let p = SimParams { rate_hz: vec![10.0], ..small() };
         let a = simulate(&p).unwrap();
         let b = simulate(&SimParams { time_jitter_s: 0.01, ..p.clone() }).unwrap();
         assert_eq!(a.points.len(), b.points.len());
@@ -1478,11 +1499,36 @@ mod tests {
     }
 
     #[test]
+    fn each_camera_its_own_frame_rate() {
+        let rates = vec![2.0, 5.0, 7.5, 10.0, 12.5, 15.0, 25.0, 30.0];
+        let s = simulate(&SimParams { cameras: 10, rate_hz: rates.clone(), ..small() }).unwrap();
+        for c in &s.cameras {
+            assert_eq!(c.rate_hz, rates[c.id as usize % rates.len()]);
+            assert!(c.phase >= 0.0 && c.phase < 1.0 / c.rate_hz);
+            // every step within a track is a whole number of this camera's periods
+            let mut steps = 0;
+            for w in s.points.windows(2).filter(|w| w[0].camera == c.id && w[1].camera == c.id && w[0].track_id == w[1].track_id) {
+                let frames = (w[1].t - w[0].t) * c.rate_hz;
+                assert!((frames - frames.round()).abs() < 1e-6 && frames.round() >= 1.0, "cam {}: {frames}", c.id);
+                steps += usize::from(frames.round() == 1.0);
+            }
+            assert!(steps > 100, "cam {}: {steps}", c.id);
+        }
+        // a single rate is the old scenario
+        assert_eq!(simulate(&SimParams { rate_hz: vec![10.0; 3], ..small() }).unwrap().points.len(), simulate(&small()).unwrap().points.len());
+        assert_eq!(parse_rates("2, 5,7.5").unwrap(), [2.0, 5.0, 7.5]);
+        assert!(parse_rates("2,,5").unwrap_err().to_string().contains("comma list"));
+    }
+
+    #[test]
     fn bad_parameters_are_errors() {
         for p in [
             SimParams { cameras: 0, ..small() },
             SimParams { minutes: -1.0, ..small() },
-            SimParams { rate_hz: f64::NAN, ..small() },
+            SimParams { rate_hz: vec![f64::NAN], ..small() },
+            SimParams { rate_hz: vec![], ..small() },
+            SimParams { rate_hz: vec![10.0, 0.0], ..small() },
+            SimParams { rate_hz: vec![1001.0], ..small() },
             SimParams { noise_sigma: (0.2, 0.1), ..small() },
             SimParams { p_break: 2.0, ..small() },
             SimParams { waiting_groups: -1.0, ..small() },

@@ -44,7 +44,7 @@ fn simulate_args(cmd: Command, out_default: Option<&'static str>) -> Command {
     .arg(num("cameras", d.cameras.to_string(), "number of cameras (1-64)"))
     .arg(num("minutes", d.minutes.to_string(), "simulated minutes"))
     .arg(num("seed", d.seed.to_string(), "random seed (the same seed gives the same files)"))
-    .arg(num("rate-hz", d.rate_hz.to_string(), "camera sampling rate (Hz)"))
+    .arg(num("rate-hz", d.rate_hz.iter().map(f64::to_string).collect::<Vec<_>>().join(","), "camera sampling rate (Hz): R, or R1,R2,... one per camera (cycled)"))
     .arg(num("traffic", d.traffic.to_string(), "traffic volume multiplier"))
     .arg(num("pedestrians", d.pedestrians.to_string(), "extra pedestrian multiplier (a crowd: 10)"))
     .arg(num("cyclists", d.cyclists.to_string(), "extra cyclist multiplier (bike lanes; 2 a minute at 1)"))

@@ -14,7 +14,7 @@ const NAMED: &[Param] = &[
     p("cameras", Ty::Bigint),
     p("minutes", Ty::Double),
     p("seed", Ty::Bigint),
-    p("rate_hz", Ty::Double),
+    p("rate_hz", Ty::OneOf(&[Ty::Double, Ty::Varchar])),
     p("traffic", Ty::Double),
     p("pedestrians", Ty::Double),
     p("noise_sigma_min", Ty::Double),
@@ -37,7 +37,8 @@ pub static FUNCTIONS: &[Function] = &[Function {
                   the scenario files into dir, a new or empty folder or one holding an earlier scenario (any other folder is refused, and \
                   files are replaced whole, never half-written; it writes only where COPY ... TO may: enable_external_access, \
                   allowed_directories): points.csv (the input of sql/pipeline.sql), cameras.csv, truth.csv, world.csv, objects.csv and \
-                  README.txt. One row: dir and the counts. Named parameters (defaults): cameras (3), minutes (5), seed (1), rate_hz (10), \
+                  README.txt. One row: dir and the counts. Named parameters (defaults): cameras (3), minutes (5), seed (1), rate_hz (10 Hz; or a list \
+                  as text, one per camera, cycled: '2,5,7.5,10'), \
                   traffic (1), pedestrians (1), noise_sigma_min / noise_sigma_max (0.05 / 0.15 m), noise_tracks_per_min (1), clock_offset_max \
                   (0 s), world_rate_hz (10), waiting_groups (0 per minute: groups of 2-8 pedestrians and cyclists standing 0.6-2 m apart \
                   at a crossing's kerb for 10-60 s, then crossing together), cyclists (1: a multiplier of the 2 cyclists a minute in the bike lanes), \
@@ -88,7 +89,6 @@ impl TableFn for SimulateTable {
         }
         for (name, slot) in [
             ("minutes", &mut p.minutes),
-            ("rate_hz", &mut p.rate_hz),
             ("traffic", &mut p.traffic),
             ("pedestrians", &mut p.pedestrians),
             ("noise_sigma_min", &mut p.noise_sigma.0),
@@ -105,6 +105,15 @@ impl TableFn for SimulateTable {
             if let Some(v) = args.named_double(name)? {
                 *slot = v;
             }
+        }
+        // rate_hz: a number, or text: one number or a comma list (one per camera, cycled)
+        match args.named_double("rate_hz") {
+            Ok(Some(v)) => p.rate_hz = vec![v],
+            Ok(None) => {}
+            Err(e) => match args.named_text("rate_hz") {
+                Ok(Some(t)) => p.rate_hz = simulate::parse_rates(&t).map_err(|e| e.to_string().trim_start_matches("simulate: ").to_string())?,
+                _ => return Err(e),
+            },
         }
         // noise_sigma_min alone: one sigma for every camera
         if args.named_double("noise_sigma_min")?.is_some() && args.named_double("noise_sigma_max")?.is_none() {

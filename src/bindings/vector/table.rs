@@ -203,6 +203,16 @@ impl BindArgs<'_> {
         }
     }
 
+    /// A named VARCHAR argument (`None`: left out); another type is an error naming it.
+    pub fn named_text(&self, name: &str) -> Res<Option<String>> {
+        let Some((p, v)) = self.named(name)? else { return Ok(None) };
+        let ty = v.logical_type_id();
+        if !matches!(ty, LogicalTypeId::Varchar | LogicalTypeId::StringLiteral) {
+            return Err(format!("{name} must be text ({}), got {} {:?}", p.ty.sql(), type_name(ty), v.to_string()).into());
+        }
+        Ok(Some(v.to_string()))
+    }
+
     /// A named DOUBLE argument (`None`: left out): a number, or text that reads as one.
     pub fn named_double(&self, name: &str) -> Res<Option<f64>> {
         let Some((p, v)) = self.named(name)? else { return Ok(None) };

@@ -46,7 +46,8 @@ pub fn demo_sql(db: Option<&str>, format: Format) -> Result<(), Box<dyn std::err
 /// `simulate` options: --cameras N --minutes M --seed S --out DIR [--rate-hz R | R1,R2,...] [--traffic X]
 /// [--pedestrians X] [--noise-sigma S | LO,HI] [--noise-tracks-per-min K] [--clock-offset-max S]
 /// [--world-rate-hz R (0: no world.csv)] [--waiting-groups G] [--cyclists X]
-/// [--clock-drift-ppm D] [--clock-epoch S] [--time-jitter-s SIGMA].
+/// [--clock-drift-ppm D] [--clock-epoch S] [--time-jitter-s SIGMA]
+/// [--origin none | utm | X,Y].
 pub fn parse_simulate(args: &[String]) -> Result<(super::simulate::SimParams, String), Box<dyn std::error::Error>> {
     let mut p = super::simulate::SimParams::default();
     let mut out = None;
@@ -79,6 +80,7 @@ pub fn parse_simulate(args: &[String]) -> Result<(super::simulate::SimParams, St
             "--clock-drift-ppm" => p.clock_drift_ppm = num(a, val(a)?)?,
             "--clock-epoch" => p.clock_epoch = num(a, val(a)?)?,
             "--time-jitter-s" => p.time_jitter_s = num(a, val(a)?)?,
+            "--origin" => p.origin = super::simulate::Origin::parse(&val(a)?)?,
             "--out" => out = Some(val(a)?),
             other => return Err(format!("simulate: unknown option {other:?}\n{}", super::USAGE).into()),
         }

@@ -86,6 +86,45 @@ pub struct SimParams {
     /// Each reported time stamp is off the real capture time by N(0, σ) with this σ (s),
     /// clipped to ±0.45 frame periods so that times stay increasing within a track.
     pub time_jitter_s: f64,
+    /// Where the cameras' local frames lie ([`Origin`]).
+    pub origin: Origin,
+}
+
+/// Where each camera's local frame lies: every local coordinate gets an offset O (p_local' =
+/// p_local + O, so t' = t − R(θ)·O and p_world = R(θ) p_local' + t' still holds).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Origin {
+    /// No offset: local coordinates within about 100 m of 0.
+    Near,
+    /// UTM-like: each camera its own O, x in [4.5e5, 5e5], y in [5.7e6, 5.75e6] m.
+    Utm,
+    /// The same O = (x, y) for every camera.
+    At(f64, f64),
+}
+
+impl Origin {
+    /// `none`, `utm`, or `X,Y` (m).
+    pub fn parse(text: &str) -> Result<Origin, SimError> {
+        let bad = || SimError::Param(format!("origin must be none, utm or X,Y (metres), got {text:?}; give e.g. utm or 480000,5700000"));
+        match text.trim().to_ascii_lowercase().as_str() {
+            "none" | "" => Ok(Origin::Near),
+            "utm" => Ok(Origin::Utm),
+            xy => {
+                let (x, y) = xy.split_once(',').ok_or_else(bad)?;
+                Ok(Origin::At(x.trim().parse().map_err(|_| bad())?, y.trim().parse().map_err(|_| bad())?))
+            }
+        }
+    }
+}
+
+impl std::fmt::Display for Origin {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Origin::Near => write!(f, "none"),
+            Origin::Utm => write!(f, "utm"),
+            Origin::At(x, y) => write!(f, "{x},{y}"),
+        }
+    }
 }
 
 impl Default for SimParams {
@@ -108,6 +147,7 @@ impl Default for SimParams {
             clock_drift_ppm: 0.0,
             clock_epoch: 0.0,
             time_jitter_s: 0.0,
+            origin: Origin::Near,
         }
     }
 }
@@ -192,6 +232,11 @@ impl SimParams {
                 self.clock_drift_ppm
             ));
         }
+        if let Origin::At(x, y) = self.origin {
+            if !(x.is_finite() && y.is_finite() && x.abs() <= MAX_ORIGIN && y.abs() <= MAX_ORIGIN) {
+                return bad(format!("origin must lie within +-{MAX_ORIGIN:e} m, got {x},{y}; give e.g. utm or 480000,5700000"));
+            }
+        }
         let fastest = self.rate_hz.iter().copied().fold(0.0, f64::max);
         if !(self.time_jitter_s.is_finite() && self.time_jitter_s >= 0.0 && self.time_jitter_s < 1.0 / fastest) {
             return bad(format!(
@@ -218,6 +263,9 @@ impl SimParams {
         Ok(())
     }
 }
+
+/// The largest |x|, |y| of `origin` (m).
+pub const MAX_ORIGIN: f64 = 1e7;
 
 /// The fastest camera (Hz).
 pub const MAX_RATE_HZ: f64 = 1000.0;
@@ -674,6 +722,7 @@ fn stream(seed: u64, k: u64) -> ChaCha8Rng {
 const STREAM_GROUPS: u64 = 1;
 const STREAM_DRIFT: u64 = 2;
 const STREAM_JITTER: u64 = 3;
+const STREAM_ORIGIN: u64 = 4;
 /// Time-stamp jitter is clipped to this many frame periods (so a track's times stay increasing).
 pub const JITTER_CLIP: f64 = 0.45;
 
@@ -840,6 +889,19 @@ fn place_cameras(p: &SimParams, rng: &mut ChaCha8Rng) -> Vec<Camera> {
     if p.clock_epoch != 0.0 {
         for c in &mut cams {
             c.clock_offset += p.clock_epoch;
+        }
+    }
+    // frames far from the origin: p_local' = p_local + O, so t' = t − R(θ)·O
+    if p.origin != Origin::Near {
+        let rng = &mut stream(p.seed, STREAM_ORIGIN);
+        for c in &mut cams {
+            let (ox, oy) = match p.origin {
+                Origin::At(x, y) => (x, y),
+                _ => (uniform(rng, 4.5e5, 5e5), uniform(rng, 5.7e6, 5.75e6)),
+            };
+            let (sn, cs) = c.theta.sin_cos();
+            c.tx -= cs * ox - sn * oy;
+            c.ty -= sn * ox + cs * oy;
         }
     }
     cams
@@ -1518,6 +1580,44 @@ mod tests {
         assert_eq!(simulate(&SimParams { rate_hz: vec![10.0; 3], ..small() }).unwrap().points.len(), simulate(&small()).unwrap().points.len());
         assert_eq!(parse_rates("2, 5,7.5").unwrap(), [2.0, 5.0, 7.5]);
         assert!(parse_rates("2,,5").unwrap_err().to_string().contains("comma list"));
+    }
+
+    #[test]
+    fn frames_far_from_the_origin_stay_consistent() {
+        let near = simulate(&SimParams { noise_sigma: (0.0, 0.0), p_est: 0.0, ..small() }).unwrap();
+        for origin in [Origin::Utm, Origin::At(-3e6, 9e6)] {
+            let s = simulate(&SimParams { origin, ..near.params.clone() }).unwrap();
+            assert_eq!(s.points.len(), near.points.len());
+            for (c, c0) in s.cameras.iter().zip(&near.cameras) {
+                assert_eq!((c.theta, c.view_world), (c0.theta, c0.view_world));
+                // p_world = R p_local + t, for the view's corners and for every point
+                let (cs, sn) = (c.theta.cos(), c.theta.sin());
+                let world = |x: f64, y: f64| (cs * x - sn * y + c.tx, sn * x + cs * y + c.ty);
+                for q in c.view_world {
+                    let (lx, ly) = c.to_local(q[0], q[1]);
+                    let (wx, wy) = world(lx, ly);
+                    assert!((wx - q[0]).hypot(wy - q[1]) < 1e-8);
+                    if origin == Origin::Utm {
+                        assert!((4.5e5 - 100.0..5e5 + 100.0).contains(&lx) && (5.7e6 - 100.0..5.75e6 + 100.0).contains(&ly), "{lx} {ly}");
+                    }
+                }
+            }
+            for (p, p0) in s.points.iter().zip(&near.points).step_by(13) {
+                let c = &s.cameras[p.camera as usize];
+                let (wx, wy) = (c.theta.cos() * p.x - c.theta.sin() * p.y + c.tx, c.theta.sin() * p.x + c.theta.cos() * p.y + c.ty);
+                let c0 = &near.cameras[p.camera as usize];
+                let (vx, vy) = (c0.theta.cos() * p0.x - c0.theta.sin() * p0.y + c0.tx, c0.theta.sin() * p0.x + c0.theta.cos() * p0.y + c0.ty);
+                assert!(p.t == p0.t && (wx - vx).hypot(wy - vy) < 1e-6);
+                if let Origin::At(ox, oy) = origin {
+                    assert!((p.x - p0.x - ox).abs() < 1e-6 && (p.y - p0.y - oy).abs() < 1e-6);
+                }
+            }
+        }
+        assert!(matches!(Origin::parse(" UTM ").unwrap(), Origin::Utm));
+        assert_eq!(Origin::parse("450000, 5.7e6").unwrap(), Origin::At(450000.0, 5.7e6));
+        assert_eq!(Origin::parse("none").unwrap(), Origin::Near);
+        assert!(Origin::parse("5").unwrap_err().to_string().contains("origin must be none, utm or X,Y"));
+        assert!(simulate(&SimParams { origin: Origin::At(2e7, 0.0), ..small() }).unwrap_err().to_string().contains("origin must lie within"));
     }
 
     #[test]

@@ -27,6 +27,7 @@ const NAMED: &[Param] = &[
     p("clock_drift_ppm", Ty::Double),
     p("clock_epoch", Ty::Double),
     p("time_jitter_s", Ty::Double),
+    p("origin", Ty::Varchar),
 ];
 
 const TABLE: Table = Table { params: &[p("dir", Ty::Varchar)], named: NAMED, columns: COLUMNS, register: table::register::<SimulateTable> };
@@ -44,7 +45,9 @@ pub static FUNCTIONS: &[Function] = &[Function {
                   at a crossing's kerb for 10-60 s, then crossing together), cyclists (1: a multiplier of the 2 cyclists a minute in the bike lanes), \
                   clock_drift_ppm (0: each camera's clock runs fast or slow by a draw in +-this; t_cam = (1 + drift 1e-6) t_world + \
                   clock_offset_s), clock_epoch (0 s: added to every clock, e.g. 1.78e9), \
-                  time_jitter_s (0: each time stamp off the capture time by N(0, this), clipped to 0.45 frame periods); \
+                  time_jitter_s (0: each time stamp off the capture time by N(0, this), clipped to 0.45 frame periods), \
+                  origin ('none'; 'utm': each camera's local coordinates near x 4.5e5-5e5, y 5.7e6 m; 'X,Y': added to every local \
+                  coordinate; cameras.csv tx, ty follow); \
                   docs/simulate.md.",
     example: "SELECT objects > 0 FROM trajdb_simulate('/tmp/trajdb-sim-example', cameras := 2, minutes := 1, seed := 3); -- true",
     maths: "src/app/simulate.rs",
@@ -114,6 +117,9 @@ impl TableFn for SimulateTable {
                 Ok(Some(t)) => p.rate_hz = simulate::parse_rates(&t).map_err(|e| e.to_string().trim_start_matches("simulate: ").to_string())?,
                 _ => return Err(e),
             },
+        }
+        if let Some(t) = args.named_text("origin")? {
+            p.origin = simulate::Origin::parse(&t).map_err(|e| e.to_string().trim_start_matches("simulate: ").to_string())?;
         }
         // noise_sigma_min alone: one sigma for every camera
         if args.named_double("noise_sigma_min")?.is_some() && args.named_double("noise_sigma_max")?.is_none() {

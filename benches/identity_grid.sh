@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Road-user identity across recordings unlike ours (issue 14): the shared scenes plus simulated
 # days over frame rate, camera count, clock offset, position noise, traffic and a pedestrian
-# crowd, each run with the DEFAULT command (no per-scenario parameters), then `trajdb score`.
+# crowd, and (issue 26) waiting groups, cyclists, clock drift, offsets of hours, an epoch, time-stamp
+# jitter, mixed frame rates, UTM-sized frames and combinations of them, each run with the DEFAULT command (no per-scenario parameters), then `trajdb score`.
 # One line per scenario: worst camera pair (rotation, translation, clock offset error), IDF1,
 # objects exactly reconstructed, within-camera link precision and break recall, cross-camera
 # match F1. With PER_CLASS=1 the per-class identity rows follow each line.
@@ -39,4 +40,29 @@ for args in "${GRID[@]}"; do
   $T simulate --minutes 5 --seed 1 $args --out $d >/dev/null 2>&1
   $T pipeline --input $d/points.parquet --out $d/r 2>/dev/null >/dev/null
   row "simulate --minutes 5 --seed 1 $args" $d
+done
+# Issue 26: what the world makes (docs/simulate.md): one cell per degradation, then combined
+# "torture" cells. Each cell names its own minutes.
+GRID26=(
+  "--minutes 5 --cameras 3 --rate-hz 10 --waiting-groups 2"
+  "--minutes 5 --cameras 3 --rate-hz 10 --waiting-groups 4 --pedestrians 5"
+  "--minutes 5 --cameras 3 --rate-hz 10 --cyclists 5"
+  "--minutes 30 --cameras 3 --rate-hz 10 --clock-drift-ppm 100"
+  "--minutes 30 --cameras 3 --rate-hz 10 --clock-drift-ppm 300"
+  "--minutes 5 --cameras 3 --rate-hz 10 --clock-offset-max 60"
+  "--minutes 5 --cameras 3 --rate-hz 10 --clock-offset-max 3600"
+  "--minutes 5 --cameras 3 --rate-hz 10 --clock-offset-max 0.5 --clock-epoch 1.78e9"
+  "--minutes 5 --cameras 3 --rate-hz 25 --time-jitter-s 0.01"
+  "--minutes 5 --cameras 8 --rate-hz 2,5,7.5,10,12.5,15,25,30"
+  "--minutes 5 --cameras 3 --rate-hz 10 --origin utm"
+  "--minutes 5 --cameras 3 --rate-hz 25 --noise-sigma 0.4"
+  "--minutes 10 --cameras 5 --rate-hz 2,7.5,12.5,25,30 --clock-drift-ppm 200 --clock-offset-max 3600 --origin utm --waiting-groups 2 --noise-sigma 0.05,0.4"
+  "--minutes 30 --cameras 4 --rate-hz 5,10,15,30 --clock-drift-ppm 300 --clock-offset-max 86400 --clock-epoch 1.78e9 --time-jitter-s 0.01 --cyclists 3 --noise-sigma 0.1,0.3"
+  "--minutes 5 --cameras 7 --rate-hz 2,5,10,25 --pedestrians 10 --waiting-groups 4 --clock-offset-max 60 --origin utm --noise-sigma 0.05,0.3"
+)
+for args in "${GRID26[@]}"; do
+  d=$OUT/$(echo $args | tr -d ' -' | tr ',' '_'); rm -rf $d
+  $T simulate --seed 1 $args --out $d >/dev/null 2>&1
+  $T pipeline --input $d/points.parquet --out $d/r 2>/dev/null >/dev/null
+  row "simulate --seed 1 $args" $d
 done

@@ -85,7 +85,7 @@ fn paths(con: &Connection) -> Result<(), Box<dyn Error>> {
         let (c, j, mj, ms, mv, om, op): (String, i64, Option<f64>, Option<f64>, Option<f64>, Option<f64>, Option<f64>) =
             (r.get(0)?, r.get(1)?, r.get(2)?, r.get(3)?, r.get(4)?, r.get(5)?, r.get(6)?);
         let pct = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{:+.1}%", v * 100.0));
-        let g = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:.3e}"));
+        let g = |v: Option<f64>| v.map_or("-".to_string(), |v| if v.abs() < 1e-3 { format!("{v:.2e}") } else { format!("{v:.4}") });
         crate::outln!("  {:<14} {j:>9} {:>10} {:>12} {:>14} {:>17} {:>14}", name(&c), f(mj), g(ms), f(mv), pct(om), pct(op));
     }
     Ok(())

@@ -54,9 +54,9 @@ obs AS (
            -- ties in t broken by camera, track and position: the same list in every run and window
            list({'t': p.t, 'x': w.x, 'y': w.y, 'sigma': c.sigma} ORDER BY p.t, p.camera, p.track_id, p.x, p.y) AS obs
     FROM points p
-    JOIN merge_tracks t USING (camera, track_id, class)
+    JOIN merge_tracks t ON t.camera = p.camera AND t.track_id = p.track_id AND t.class IS NOT DISTINCT FROM p.class
     JOIN merge_groups g USING (uid)
-    JOIN cam c USING (camera),
+    JOIN cam c ON c.camera = p.camera,
     LATERAL (SELECT transform_point(c.to_reference, p.x, p.y) AS w)
     WHERE p.estimated = 0
     GROUP BY g.road_user

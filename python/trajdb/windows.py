@@ -26,12 +26,14 @@ from . import _parts, _literal, check_duckdb, set_params, sql_file
 # derived parameters, the cameras' transforms and clock offsets, the view polygons and their
 # overlaps. Measuring any of them on one window instead would change the results.
 SITE_TABLES = (
-    "calib_cameras", "calib_classes", "calib_pairs", "calibration", "quality_views",
+    "calib_cameras", "calib_classes", "calib_pairs", "calibration", "calib_fit_window", "quality_views",
     "align_frames", "calib_match", "calibration_summary",
     "view_polygons", "view_overlaps", "view_merge_order", "view_overlaps_chain",
 )
 # Intermediate tables (and macros) of the site's alignment: made by the site run only, never shipped.
-SITE_WORK_TABLES = ("align_centroids", "align_scan", "align_hypotheses", "align_vote", "align_widen", "align_hyp_wide", "align_best_wide", "align_tracks", "align_hyp", "align_best", "align_support", "align_refit", "align_pairs", "align_edges", "view_points")
+SITE_WORK_TABLES = ("align_centroids", "align_scan", "align_hypotheses", "align_vote", "align_widen", "align_hyp_wide", "align_best_wide", "align_tracks", "align_hyp", "align_best", "align_support", "align_refit", "align_pairs", "align_edges", "view_points",
+                    "align_keys", "align_activity", "align_coarse", "align_clock", "align_wls",
+                    "align_drift_obs", "align_drift_pairs", "align_drift_fit1", "align_drift_kept", "align_drift")
 # The stages a site's calibration runs (and nothing after them); windows skip clustering, which
 # is an analysis of a whole period, not of a window (run traj_cluster on the road users).
 CALIBRATION_STAGES = ("calibrate", "clean", "quality", "align", "overlap")

@@ -54,7 +54,7 @@ fn simulate_args(cmd: Command, out_default: Option<&'static str>) -> Command {
     .arg(num("clock-drift-ppm", d.clock_drift_ppm.to_string(), "camera clocks run fast/slow by a uniform draw in +-X ppm (up to 1e4)"))
     .arg(num("time-jitter-s", d.time_jitter_s.to_string(), "each time stamp off the capture time by N(0, X) s, clipped to 0.45 frame"))
     .arg(num("clock-epoch", d.clock_epoch.to_string(), "seconds added to every camera clock alike (e.g. 1.78e9, Unix time in 2026)"))
-    .arg(num("origin", d.origin.to_string(), "camera frames far from 0: none, utm (each camera x 4.5e5-5e5, y 5.7e6 m) or X,Y added to every local coordinate"))
+    .arg(num("origin", d.origin.to_string(), "camera frames far from 0: none, utm (each camera x 4.5e5-5e5, y 5.7e6 m) or X,Y added to every local coordinate").allow_hyphen_values(true))
     .arg(num("world-rate-hz", d.world_rate_hz.to_string(), "sampling rate of world.csv (Hz); 0 skips it"))
     .arg(num("waiting-groups", d.waiting_groups.to_string(), "groups of 2-8 pedestrians and cyclists waiting 10-60 s at a crossing's kerb, 0.6-2 m apart, per minute (docs/simulate.md)"))
 }

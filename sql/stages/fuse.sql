@@ -14,7 +14,7 @@
 --   (per class).
 -- Makes:
 --   fuse_q(class, accel_p95, q)                    the acceleration noise density per class (m^2/s^3)
---   fuse_paths(road_user, n_cameras, q, traj, sigma, sigma_m)   the fused path, per-point sigma (m)
+--   fuse_paths(road_user, n_cameras, q, traj, sigma)   the fused path and its per-point sigma (m)
 --   merged                                          replaced: traj = the fused path, plus sigma_m
 --                                                   (median per-point sigma) and sigma (per point)
 --   result_road_users()                             redefined: merged.parquet gets sigma_m and sigma
@@ -91,7 +91,8 @@ SELECT n_cameras, count(*) AS road_users, round(median(list_median(sigma)), 4) A
 FROM fuse_paths GROUP BY n_cameras ORDER BY n_cameras;
 
 -- road users (merged.parquet): merge.sql's definition, plus sigma_m (the median of the
--- per-point 1-sigma position error per axis, m) and sigma (one per point of traj, m).
+-- per-point 1-sigma position error per axis, m) and sigma (one per point of traj, m). This
+-- replaces merge.sql's macro: a change there must be made here too.
 CREATE OR REPLACE TEMP MACRO result_road_users() AS TABLE
 SELECT m.road_user, m.class, m.n_tracks,
        (SELECT list({'camera': l.camera, 'track_id': l.track_id} ORDER BY l.camera, q.e.t0, l.track_id)

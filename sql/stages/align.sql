@@ -157,16 +157,81 @@ QUALIFY row_number() OVER (PARTITION BY cam_fixed, cam_moving ORDER BY votes DES
 CREATE OR REPLACE TEMP TABLE align_hyp AS FROM align_hypotheses(1);
 CREATE OR REPLACE TEMP TABLE align_best AS FROM align_vote('align_hyp');
 
--- passes 2 and 3: the pairs at the edge of their range, or without a winner, searched 4 x wider
+-- passes 2 and 3: the pairs at the edge of their range, or without a winner, searched again.
 CREATE OR REPLACE TEMP MACRO align_widen(pass_no) AS TABLE
 SELECT s.cam_fixed, s.cam_moving, s.centre, 4 * s.max_off AS max_off, pass_no AS pass
 FROM align_scan s LEFT JOIN align_best b USING (cam_fixed, cam_moving)
 WHERE s.pass = pass_no - 1
   AND (b.dt IS NULL OR b.votes < getvariable('align_min_support')
        OR (b.votes < 2 * b.runner_up AND b.votes < 4 * getvariable('align_min_support'))
-       OR abs(b.dt_rel) >= s.max_off - 2 * getvariable('align_bin_s'));
+       OR abs(b.dt - s.centre) >= s.max_off - 2 * getvariable('align_bin_s'));
 
-INSERT INTO align_scan FROM align_widen(2);
+CREATE OR REPLACE TEMP TABLE align_retry AS FROM align_widen(2);
+
+--    Pass 2 first asks the road users' SPEED, which does not depend on either frame: the
+--    activity peak can sit 10 s or more from the offset where people wait in groups at a
+--    crossing (13 s on a simulated crowd), and a 16 x wider exact scan of every sampled pair
+--    cost 30 s there. For the pairs to search again only, each sampled track pair (same class,
+--    within the activity peak's half width of its centre) votes the lag that best lines up the
+--    two speed profiles over at least 4 s (speed_lag, src/algo/align/speed_lag.rs; a best lag
+--    on the range's edge is no peak and is dropped), in bins of half the first search range.
+--    The best window of three bins, with at least align_min_support votes and 5 Poisson
+--    standard deviations above the median window (the background: pairs of different road
+--    users, or at a constant speed, scatter over the range), gives the median lag in it as the
+--    centre of pass 2, searched over the first range. Without such a peak pass 2 searches 4 x
+--    the first range about the activity centre, and pass 3 16 x.
+CREATE OR REPLACE TEMP TABLE align_speed_votes AS
+WITH w AS (
+    SELECT c.cam_fixed, c.cam_moving, c.centre, greatest(c.half_width_s, getvariable('align_max_clock_offset_s')) AS hw
+    FROM align_coarse c JOIN align_retry r USING (cam_fixed, cam_moving) WHERE c.centre IS NOT NULL
+),
+moving AS (
+    SELECT w.cam_fixed, w.cam_moving, w.centre, w.hw, b.track_id, b.class, b.t0 - w.centre AS t0, b.t1 - w.centre AS t1
+    FROM align_tracks b JOIN w ON w.cam_moving = b.camera
+),
+pairs AS (
+    SELECT a.camera AS cam_fixed, b.cam_moving, a.track_id AS track_fixed, b.track_id AS track_moving, b.centre, b.hw
+    FROM align_tracks a JOIN moving b
+      ON a.camera = b.cam_fixed AND a.class = b.class
+     AND a.t0 <= b.t1 + b.hw - getvariable('align_min_overlap_s')
+     AND b.t0 <= a.t1 + b.hw - getvariable('align_min_overlap_s')
+    JOIN align_keys ka ON ka.camera = a.camera AND ka.track_id = a.track_id
+    JOIN align_keys kb ON kb.camera = b.cam_moving AND kb.track_id = b.track_id
+    QUALIFY row_number() OVER (PARTITION BY a.camera, b.cam_moving ORDER BY hash(ka.k0, ka.k1, kb.k0, kb.k1), ka.k0, ka.k1, kb.k0, kb.k1, a.track_id, b.track_id)
+            <= getvariable('align_max_hypotheses')
+)
+SELECT p.cam_fixed, p.cam_moving, l.lag, l.corr
+FROM pairs p
+JOIN align_tracks a ON a.camera = p.cam_fixed AND a.track_id = p.track_fixed
+JOIN align_tracks b ON b.camera = p.cam_moving AND b.track_id = p.track_moving,
+LATERAL (SELECT speed_lag(a.traj, b.traj, p.centre, p.hw, getvariable('align_max_clock_offset_s') / 4, 16) AS l)
+WHERE l IS NOT NULL AND abs(l.lag - p.centre) < p.hw - getvariable('align_max_clock_offset_s') / 2;
+
+CREATE OR REPLACE TEMP TABLE align_speed AS
+WITH bins AS (
+    SELECT cam_fixed, cam_moving, round(lag / (getvariable('align_max_clock_offset_s') / 2))::BIGINT AS bin, count(*) AS votes
+    FROM align_speed_votes GROUP BY ALL
+),
+win AS (  -- votes in three adjacent bins (a peak spreads over its neighbours)
+    SELECT b.cam_fixed, b.cam_moving, b.bin, sum(n.votes) AS votes
+    FROM bins b JOIN bins n ON n.cam_fixed = b.cam_fixed AND n.cam_moving = b.cam_moving AND abs(n.bin - b.bin) <= 1
+    GROUP BY ALL
+),
+top AS (
+    SELECT * FROM win QUALIFY row_number() OVER (PARTITION BY cam_fixed, cam_moving ORDER BY votes DESC, abs(bin), bin) = 1
+),
+bg AS (SELECT cam_fixed, cam_moving, median(votes) AS m FROM win GROUP BY ALL)
+SELECT t.cam_fixed, t.cam_moving, t.votes, bg.m AS background,
+       (SELECT median(v.lag) FROM align_speed_votes v
+        WHERE v.cam_fixed = t.cam_fixed AND v.cam_moving = t.cam_moving
+          AND abs(round(v.lag / (getvariable('align_max_clock_offset_s') / 2)) - t.bin) <= 1) AS centre
+FROM top t JOIN bg USING (cam_fixed, cam_moving)
+WHERE t.votes >= getvariable('align_min_support') AND t.votes >= bg.m + 5 * sqrt(bg.m);
+
+INSERT INTO align_scan
+SELECT r.cam_fixed, r.cam_moving, coalesce(s.centre, r.centre),
+       CASE WHEN s.centre IS NULL THEN r.max_off ELSE getvariable('align_max_clock_offset_s') END, 2
+FROM align_retry r LEFT JOIN align_speed s USING (cam_fixed, cam_moving);
 CREATE OR REPLACE TEMP TABLE align_hyp_wide AS FROM align_hypotheses(2);
 CREATE OR REPLACE TEMP TABLE align_best_wide AS FROM align_vote('align_hyp_wide');
 DELETE FROM align_hyp WHERE (cam_fixed, cam_moving) IN (
@@ -174,7 +239,10 @@ DELETE FROM align_hyp WHERE (cam_fixed, cam_moving) IN (
 INSERT INTO align_hyp FROM align_hyp_wide WHERE (cam_fixed, cam_moving) NOT IN (SELECT (cam_fixed, cam_moving) FROM align_hyp);
 CREATE OR REPLACE TEMP TABLE align_best AS FROM align_vote('align_hyp');
 
-INSERT INTO align_scan FROM align_widen(3);
+--    pass 3: what pass 2 did not settle, over 16 x the first range about the activity centre
+INSERT INTO align_scan
+SELECT w.cam_fixed, w.cam_moving, coalesce(c.centre, 0.0), 16 * getvariable('align_max_clock_offset_s'), 3
+FROM align_widen(3) w JOIN align_coarse c USING (cam_fixed, cam_moving);
 CREATE OR REPLACE TEMP TABLE align_hyp_wide AS FROM align_hypotheses(3);
 CREATE OR REPLACE TEMP TABLE align_best_wide AS FROM align_vote('align_hyp_wide');
 DELETE FROM align_hyp WHERE (cam_fixed, cam_moving) IN (

@@ -9,6 +9,7 @@ use crate::algo::align::cpd3;
 use crate::algo::align::rigid::{self, Transform2};
 use crate::algo::align::shift::{self, ShiftGrid};
 use crate::algo::align::shift_under;
+use crate::algo::align::speed_lag;
 use crate::algo::align::xcorr;
 use std::error::Error;
 
@@ -263,6 +264,25 @@ pub static FUNCTIONS: &[Function] = &[
             arities: &[6, 7, 8],
             returns: Ty::Struct(&[("dt", Ty::Double), ("rms", Ty::Double), ("n", Ty::Bigint), ("se", Ty::Double), ("at_edge", Ty::Boolean)]),
             kernel: rigid_shift_under,
+        }],
+        table: None,
+    },
+    Function {
+        name: "speed_lag",
+        description: "The clock offset of one track pair from their speed profiles alone (speed does not depend on either camera's frame): \
+                      for every lag on the grid centre + k step, |k step| <= half_width, the Pearson correlation of a's speed (central \
+                      difference over 1 s, sampled every 0.25 s) with b's speed at t + lag; lag (b's clock minus a's), corr and the samples \
+                      compared (n) at the best lag. A pair whose speed hardly changes has no clear peak. NULL when no lag compares \
+                      min_samples (default 8) speeds with variance on both sides. align.sql votes these lags over many pairs where \
+                      activity_lag's coarse offset was too far off. O(n + m + S n) for S lags.",
+        example: "SELECT speed_lag([{'t':0,'x':0,'y':0},{'t':2,'x':0,'y':0},{'t':4,'x':4,'y':0},{'t':6,'x':12,'y':0}], [{'t':10,'x':0,'y':0},{'t':12,'x':0,'y':0},{'t':14,'x':0,'y':4},{'t':16,'x':0,'y':12}], 10, 1, 0.5, 3).lag; -- 10.0",
+        maths: "src/algo/align/speed_lag.rs",
+        binding: file!(),
+        signatures: &[Signature {
+            params: &[p("a", TRAJ), p("b", TRAJ), p("centre", Ty::Double), p("half_width", Ty::Double), p("step", Ty::Double), p("min_samples", Ty::Bigint)],
+            arities: &[5, 6],
+            returns: Ty::Struct(&[("lag", Ty::Double), ("corr", Ty::Double), ("n", Ty::Bigint)]),
+            kernel: speed_lag_fn,
         }],
         table: None,
     },
@@ -526,6 +546,22 @@ fn rigid_shift_under(a: &Args<'_>, out: &mut Out<'_>) -> R {
         let grid = ShiftGrid::new(c, h, s)?;
         Ok(shift_under::best_shift_under(f, m, &t, &grid, g, mp as usize)?
             .map(|b| vec![Value::F64(b.dt), Value::F64(b.rms), Value::I64(b.n as i64), Value::F64(b.se), Value::Bool(b.at_edge)]))
+    })?;
+    out.structs(&vals);
+    Ok(())
+}
+
+fn speed_lag_fn(a: &Args<'_>, out: &mut Out<'_>) -> R {
+    let (ta, tb, centre, half, step, mins) = (a.traj(0), a.traj(1), a.double(2), a.double(3), a.double(4), a.opt_bigint(5));
+    let vals = a.map(|r| {
+        let (Some(x), Some(y), Some(c), Some(h), Some(s), Some(m)) = (ta.get(r)?, tb.get(r)?, centre.get(r), half.get(r), step.get(r), mins.or(r, 8)) else {
+            return Ok(None);
+        };
+        if m < 3 {
+            return Err(format!("min_samples must be >= 3, got {m}").into());
+        }
+        let grid = ShiftGrid::new(c, h, s)?;
+        Ok(speed_lag::speed_lag(x, y, &grid, m as usize)?.map(|l| vec![Value::F64(l.lag), Value::F64(l.corr), Value::I64(l.n as i64)]))
     })?;
     out.structs(&vals);
     Ok(())

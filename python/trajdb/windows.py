@@ -27,7 +27,7 @@ from . import _parts, _literal, check_duckdb, set_params, sql_file
 # overlaps. Measuring any of them on one window instead would change the results.
 SITE_TABLES = (
     "calib_cameras", "calib_classes", "calib_pairs", "calibration", "calib_fit_window", "quality_views",
-    "align_frames", "calib_match", "calibration_summary",
+    "align_frames", "align_origin", "calib_match", "calibration_summary",
     "view_polygons", "view_overlaps", "view_merge_order", "view_overlaps_chain",
 )
 # Intermediate tables (and macros) of the site's alignment: made by the site run only, never shipped.

@@ -506,6 +506,19 @@ SELECT p.* REPLACE (CASE WHEN coalesce(f.clock_drift, 0.0) = 0 THEN p.t - coales
                          ELSE (p.t - f.clock_offset_s) / (1 + f.clock_drift) END AS t)
 FROM points p LEFT JOIN align_frames f USING (camera);
 
+--    clock_origin: the reference camera's first real time (every camera's when none was placed).
+--    The common clock of merge.sql and fuse.sql is t = clock_origin + k merge_resample_s, not
+--    k merge_resample_s: a grid anchored at 0 would move against the data when the reference
+--    clock is shifted by a fraction of a step, and so would every resampled point.
+--    Half a step after that first time: the grid then falls between the reference camera's own
+--    samples (a camera at 10 Hz on a 0.1 s grid would put every sample on a grid point, and
+--    whether a track's first grid point is inside it would hang on the last bit of t - origin).
+--    (A table, so that python/trajdb/windows.py ships the site's value to every window.)
+CREATE OR REPLACE TEMP TABLE align_origin AS
+SELECT coalesce((SELECT min(t) FROM points WHERE estimated = 0 AND camera = (SELECT any_value(reference) FROM align_frames)),
+                (SELECT min(t) FROM points WHERE estimated = 0), 0.0) + getvariable('merge_resample_s') / 2 AS clock_origin;
+SET VARIABLE clock_origin = (SELECT clock_origin FROM align_origin);
+
 SELECT camera, reference, round(degrees(to_reference.theta), 3) AS theta_deg,
        round(to_reference.tx, 3) AS tx, round(to_reference.ty, 3) AS ty,
        round(clock_offset_s, 3) AS clock_offset_s, round(clock_drift * 1e6, 1) AS clock_drift_ppm, hops,

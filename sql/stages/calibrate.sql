@@ -64,8 +64,11 @@ GROUP BY camera, period_s;
 
 CREATE OR REPLACE TEMP TABLE calib_classes AS
 WITH r AS (
-    SELECT class, traj_resample(list({'t': t, 'x': x, 'y': y} ORDER BY t), 1.0, 1.5) AS tr
-    FROM points WHERE estimated = 0 AND isfinite(t) AND isfinite(x) AND isfinite(y)
+    -- resampled on a grid anchored at the camera's first time, not at t = 0: shifting a clock by
+    -- 0.3 s must not change what is measured (tests/test_invariance_python.py)
+    SELECT class, traj_resample(list({'t': t - t_first, 'x': x, 'y': y} ORDER BY t), 1.0, 1.5) AS tr
+    FROM (SELECT *, min(t) OVER (PARTITION BY camera) AS t_first
+          FROM points WHERE estimated = 0 AND isfinite(t) AND isfinite(x) AND isfinite(y))
     GROUP BY camera, track_id, class
 ),
 a AS (

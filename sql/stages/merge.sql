@@ -37,7 +37,8 @@
 -- the clock's step.
 -- Parameters (merge_*): declared once in src/app/params.rs, defaults in sql/params.sql;
 -- `trajdb params` lists them, `trajdb pipeline --param name=value` or SET VARIABLE sets them.
--- Common clock: every track is resampled to t = k * merge_resample_s (traj_resample; 0 keeps the
+-- Common clock: every track is resampled to t = clock_origin + k * merge_resample_s (traj_resample;
+-- clock_origin is the reference camera's first time, set by align.sql; 0 keeps the
 -- raw samples) without bridging gaps longer than merge_resample_max_gap s. Cameras sample at
 -- their own phases, so raw samples of one car lie up to half a period apart in time: at 12 m/s
 -- and 5 Hz that is 1.2 m, more than eps, and fast cars went unmatched (car recall 0.76 on a
@@ -50,8 +51,9 @@ CREATE OR REPLACE TEMP TABLE merge_tracks AS
 -- uid: one BIGINT per (camera, track_id), dense, so any camera and track id fits
 SELECT p.camera, p.track_id, p.class, dense_rank() OVER (ORDER BY p.camera, p.track_id) AS uid,
        CASE WHEN getvariable('merge_resample_s') > 0
-            THEN traj_resample(transform_apply(list({'t': p.t, 'x': p.x, 'y': p.y} ORDER BY p.t), any_value(f.to_reference)),
-                               getvariable('merge_resample_s'), getvariable('merge_resample_max_gap'))
+            THEN [{'t': q.t + getvariable('clock_origin'), 'x': q.x, 'y': q.y}
+                  FOR q IN traj_resample(transform_apply(list({'t': p.t - getvariable('clock_origin'), 'x': p.x, 'y': p.y} ORDER BY p.t), any_value(f.to_reference)),
+                                         getvariable('merge_resample_s'), getvariable('merge_resample_max_gap'))]
             ELSE transform_apply(list({'t': p.t, 'x': p.x, 'y': p.y} ORDER BY p.t), any_value(f.to_reference)) END AS traj,
        min(p.t) AS t0, max(p.t) AS t1
 FROM points p

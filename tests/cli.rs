@@ -486,10 +486,15 @@ fn pipeline_on_faulty_input_says_what_is_wrong() {
         assert!(v[1] > 0 && v[0] == v[1], "camera {cam}: {text}");
     };
     road_users_with_traj(1);
-    let apart = make("apart.parquet", &format!("SELECT * REPLACE (CASE WHEN camera = 2 THEN t + 100000 ELSE t END AS t) FROM '{p}'"));
+    // a camera whose recording shares no time with the others (its first 20 s, theirs after 40 s)
+    let apart = make("apart.parquet", &format!("SELECT * FROM '{p}' WHERE (camera = 2 AND t < 20) OR (camera <> 2 AND t >= 40)"));
     let (ok, _, err) = run(&apart, o, &[]);
     assert!(ok && err.contains("warning: 2 of 3 cameras in one frame: cameras [2] share no consistent track pairs"), "{err}");
     road_users_with_traj(2);
+    // a camera whose CLOCK is 100,000 s off shares the time: align.sql finds the offset over every lag
+    let off = make("off.parquet", &format!("SELECT * REPLACE (CASE WHEN camera = 2 THEN t + 100000 ELSE t END AS t) FROM '{p}'"));
+    let (ok, _, err) = run(&off, o, &[]);
+    assert!(ok && err.contains("3 of 3 cameras in one frame") && !err.contains("share no consistent"), "{err}");
 
     // the clustered camera is measured (the one with the most tracks) unless given; a given one must exist
     let (ok, _, err) = run(&pts, o, &["--param", "cluster_camera=7"]);

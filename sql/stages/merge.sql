@@ -69,6 +69,10 @@ SELECT a.camera AS cam_a, b.camera AS cam_b,
        CASE WHEN getvariable('merge_resample_s') > 0 THEN getvariable('merge_resample_s') ELSE greatest(coalesce(a.period_s, 0), 1e-3) END AS step_s
 FROM calib_cameras a JOIN calib_cameras b ON a.camera < b.camera;
 
+-- the gate on r = mean squared distance / (2 sigma_d^2) of n_eff independent samples (see above)
+CREATE OR REPLACE TEMP MACRO merge_r_gate(n_eff) AS
+    (1 - 2 / (9 * 2 * n_eff) + 3.09 * sqrt(2 / (9 * 2 * n_eff))) ** 3 + 0.25;
+
 CREATE OR REPLACE TEMP TABLE merge_scores AS
 WITH l AS (
     SELECT a.uid AS uid_a, b.uid AS uid_b, a.camera AS camera_a, b.camera AS camera_b, a.t0 AS t0_a, a.t1 AS t1_a, b.t0 AS t0_b, b.t1 AS t1_b,
@@ -101,10 +105,10 @@ r AS (
 )
 SELECT r.*,
        -- the gate: chi2(2 n_eff) / (2 n_eff) at 0.999 (Wilson-Hilferty), at least merge_gate_floor
-       greatest((1 - 2 / (9 * 2 * n_eff) + 3.09 * sqrt(2 / (9 * 2 * n_eff))) ** 3, 2.0) AS r_gate,
-       n_eff * (greatest((1 - 2 / (9 * 2 * n_eff) + 3.09 * sqrt(2 / (9 * 2 * n_eff))) ** 3, 2.0) - r) AS score,
+       merge_r_gate(n_eff) AS r_gate,
+       n_eff * (merge_r_gate(n_eff) - r) AS score,
        eta >= getvariable('merge_eta') AND n_common > 0
-         AND r <= greatest((1 - 2 / (9 * 2 * n_eff) + 3.09 * sqrt(2 / (9 * 2 * n_eff))) ** 3, 2.0) AS candidate
+         AND r <= merge_r_gate(n_eff) AS candidate
 FROM r;
 
 CREATE OR REPLACE TEMP TABLE merge_links AS
@@ -124,17 +128,46 @@ s AS (
                         AND o.r <= s.r
                         AND CASE WHEN o.uid_a = s.uid_a THEN o.t0_b <= s.t1_b AND s.t0_b <= o.t1_b
                                  ELSE o.t0_a <= s.t1_a AND s.t0_a <= o.t1_a END)
+),
+x AS (
+    SELECT m.a AS uid_a, m.b AS uid_b, s.eta, m.score, 'hungarian' AS kind
+    FROM h JOIN merge_scores s ON s.uid_a = h.m.a AND s.uid_b = h.m.b
+    UNION ALL
+    SELECT uid_a, uid_b, eta, score, 'split' FROM s
+),
+-- within-camera links quality.sql leaves to the other cameras ('reach'), offered last: refused when
+-- a track another camera matched to one piece was seen at the same time as the other piece, but
+-- not where it was (r above the gate over their common time): the link would make one road user
+-- be in two places at once
+reach AS (
+    SELECT ta.uid AS uid_a, tb.uid AS uid_b
+    FROM quality_reach_links r
+    JOIN merge_tracks ta ON ta.camera = r.camera AND ta.track_id = r.from_id
+    JOIN merge_tracks tb ON tb.camera = r.camera AND tb.track_id = r.to_id
+),
+partners AS (SELECT uid_a AS u, uid_b AS v FROM x UNION ALL SELECT uid_b, uid_a FROM x),
+checks AS (
+    -- each piece against the partners of the other piece
+    SELECT r.uid_a, r.uid_b, CASE WHEN k.side = 0 THEN r.uid_a ELSE r.uid_b END AS piece, p.v AS partner
+    FROM reach r CROSS JOIN (VALUES (0), (1)) k(side)
+    JOIN partners p ON p.u = CASE WHEN k.side = 0 THEN r.uid_b ELSE r.uid_a END
+),
+contradicted AS (
+    SELECT DISTINCT c.uid_a, c.uid_b
+    FROM checks c
+    JOIN merge_tracks t ON t.uid = c.piece JOIN merge_tracks o ON o.uid = c.partner
+    JOIN calib_match cm ON cm.cam_a = least(t.camera, o.camera) AND cm.cam_b = greatest(t.camera, o.camera)
+    JOIN merge_periods mp ON mp.cam_a = cm.cam_a AND mp.cam_b = cm.cam_b,
+    LATERAL (SELECT [(q.fx - q.mx) ** 2 + (q.fy - q.my) ** 2
+                     FOR q IN traj_correspond(t.traj, o.traj, greatest(getvariable('merge_resample_max_gap'), 1.5 * mp.period_max))] AS d2) d,
+    LATERAL (SELECT greatest(len(d.d2) * least(mp.step_s / mp.period_max, 1.0), 1.0) AS n_eff) n
+    WHERE t.t0 <= o.t1 AND o.t0 <= t.t1 AND len(d.d2) > 0
+      AND list_avg(d.d2) / greatest(2 * cm.sigma_d_m ** 2, 1e-12) > merge_r_gate(n.n_eff)
 )
-SELECT m.a AS uid_a, m.b AS uid_b, s.eta, m.score, 'hungarian' AS kind
-FROM h JOIN merge_scores s ON s.uid_a = h.m.a AND s.uid_b = h.m.b
+SELECT * FROM x
 UNION ALL
-SELECT uid_a, uid_b, eta, score, 'split' FROM s
-UNION ALL
--- within-camera links the constant-velocity rule missed (quality.sql, pass 2), offered last
-SELECT ta.uid, tb.uid, NULL, NULL, 'reach'
-FROM quality_reach_links r
-JOIN merge_tracks ta ON ta.camera = r.camera AND ta.track_id = r.from_id
-JOIN merge_tracks tb ON tb.camera = r.camera AND tb.track_id = r.to_id;
+SELECT r.uid_a, r.uid_b, NULL, NULL, 'reach'
+FROM reach r WHERE NOT EXISTS (SELECT 1 FROM contradicted c WHERE c.uid_a = r.uid_a AND c.uid_b = r.uid_b);
 
 CREATE OR REPLACE TEMP TABLE merge_groups AS
 SELECT g.id AS uid, g.grp AS road_user

@@ -118,6 +118,15 @@ WITH e AS (
     FROM quality_endpoints q JOIN quality_fit f USING (camera, track_id) JOIN quality_views v USING (camera)
     LEFT JOIN calib_cameras c USING (camera) LEFT JOIN calib_classes k USING (class)
 ),
+-- the density of starts inside the view (per m^2 and s, per camera and class): how likely an
+-- unrelated road user appears where a broken one was expected
+bg AS (
+    SELECT e.camera, e.class,
+           greatest(count(*) FILTER (WHERE e.start_inside), 1)
+             / greatest(any_value(polygon_area(v.interior)), 1.0) / greatest(max(e.t1) - min(e.t0), 1.0) AS starts_per_m2_s
+    FROM e JOIN quality_views v USING (camera)
+    GROUP BY e.camera, e.class
+),
 -- time buckets of quality_max_gap: a start lies in its end's bucket or the next
 pairs AS (
     SELECT a.camera, a.class, a.track_id AS from_id, b.track_id AS to_id, b.t0 - a.t1 AS gap,
@@ -141,10 +150,13 @@ z AS (
     SELECT *, (dx * dx + dy * dy) / var_cv + (dvx * dvx + dvy * dvy) / varv_cv AS z2_cv,
            (dx * dx + dy * dy) / (var_cv + var_acc) + (dvx * dvx + dvy * dvy) / (varv_cv + varv_acc) AS z2,
            -((dx * dx + dy * dy) / (var_cv + var_acc) + (dvx * dvx + dvy * dvy) / (varv_cv + varv_acc)) / 2
-             - ln(var_cv + var_acc) - ln(varv_cv + varv_acc) AS ll
-    FROM pairs
+             - ln(var_cv + var_acc) - ln(varv_cv + varv_acc) AS ll,
+           -- the position's likelihood against an unrelated start anywhere in the gate's time window
+           -(dx * dx + dy * dy) / (var_cv + var_acc) / 2 - ln(2 * pi() * (var_cv + var_acc))
+             - ln(bg.starts_per_m2_s * getvariable('quality_max_gap')) AS ll_bg
+    FROM pairs JOIN bg USING (camera, class)
 )
-SELECT camera, class, from_id, to_id, gap, sqrt(dx * dx + dy * dy) AS distance, z2_cv, z2, ll,
+SELECT camera, class, from_id, to_id, gap, sqrt(dx * dx + dy * dy) AS distance, z2_cv, z2, ll, ll_bg,
        -- the best other candidate of the end, and of the start
        max(ll) OVER (PARTITION BY camera, from_id ORDER BY ll DESC ROWS BETWEEN 1 FOLLOWING AND UNBOUNDED FOLLOWING) AS ll_next_end,
        max(ll) OVER (PARTITION BY camera, to_id ORDER BY ll DESC ROWS BETWEEN 1 FOLLOWING AND UNBOUNDED FOLLOWING) AS ll_next_start,
@@ -153,7 +165,7 @@ SELECT camera, class, from_id, to_id, gap, sqrt(dx * dx + dy * dy) AS distance, 
 FROM z WHERE z2 <= 13.28;
 
 CREATE OR REPLACE TEMP TABLE quality_breaks AS
-SELECT *, CASE WHEN z2_cv <= 13.28 THEN 'broken' ELSE 'reach' END AS kind
+SELECT *, CASE WHEN z2_cv <= 13.28 AND ll_bg >= ln(100) THEN 'broken' ELSE 'reach' END AS kind
 FROM quality_candidates
 WHERE mutual_best AND coalesce(ll - ll_next_end, 1e300) >= ln(100) AND coalesce(ll - ll_next_start, 1e300) >= ln(100);
 

@@ -1,20 +1,32 @@
--- trajdb: put N cameras into one frame from their tracks alone.
+-- trajdb: put N cameras into one frame and one clock from their tracks alone.
 --
--- Input: a table `points(camera, track_id, class, t, x, y, estimated)`, each camera in its own
--- frame and on its own clock. Output: `align_pairs` (one transform and clock offset per camera
--- pair that has support), `align_frames` (camera -> reference frame and clock, composed along a
--- spanning tree), and `points` with t on the reference camera's clock.
+-- Reads: `points(camera, track_id, class, t, x, y, estimated)`, each camera in its own frame
+-- and on its own clock; calib_cameras, calib_pairs (calibrate.sql).
+-- Makes: `align_pairs` (one transform and clock fit per camera pair that has support),
+-- `align_clock` (its offset and drift), `align_frames` (camera -> reference frame and clock
+-- t_camera = (1 + clock_drift) t_reference + clock_offset_s, composed along a spanning tree),
+-- `align_origin` (the common clock's grid origin), `calib_match`, `calibration_summary`, and
+-- `points` with t on the reference camera's clock. Parameters: align_* (below).
 --
 -- Method (why not the thesis's speed pre-match + CPD from R = I, see docs/alignment.md):
+--  0. the coarse clock offset of each camera pair over every lag (activity cross-correlation);
+--     no range is assumed;
 --  1. every time-overlapping pair of tracks of the same class in two cameras is a hypothesis:
 --     if both are the same road user, rigid_fit(traj_correspond(a, b, 0.5, dt)) recovers the
 --     camera transform in closed form, whatever the rotation (no start needed), for the right
---     clock offset dt; each pair is fitted at every dt of a grid (a Hough line);
---  2. hypotheses vote in (theta, tx, ty, dt) bins; true pairs agree, wrong pairs scatter;
+--     clock offset dt; each pair is fitted at every dt of a grid about the coarse offset (a
+--     Hough line); a pair not settled there asks the road users' speed profiles, then searches
+--     wider;
+--  2. hypotheses vote in (theta, qx, qy, dt) bins about the cameras' centroids; true pairs
+--     agree, wrong pairs scatter;
 --  3. the tracks of all hypotheses that agree with the winning bin are refitted together, with
---     a trimmed least-squares fit at every dt of a fine grid around the winner;
+--     a trimmed least-squares fit at every dt of a fine grid around the winner; 3b. clock drift
+--     from per-pair offsets under that transform, over the recording;
 --  4. pairs with too little support are solved through other cameras: the widest path
---     (largest bottleneck support) to the reference camera, composed with transform_compose.
+--     (largest bottleneck support) to the reference camera, composing transforms and clocks.
+-- Every time is relative to its camera's first time and every position vote to its camera's
+-- centroid: moving a frame or shifting a clock changes nothing but that camera's result
+-- (tests/test_invariance_python.py).
 --
 -- Parameters (align_*): declared once in src/app/params.rs, defaults in sql/params.sql. Tracks
 -- need >= align_min_points real points; pairs overlap >= align_min_overlap_s in time, give

@@ -13,6 +13,7 @@
 #      NULL / hostile arguments to every table function in a child process, the sandbox, per-database
 #      work limits (tests/test_sandbox_python.py); the same road users when frames move far from the
 #      origin (UTM), rotate, and clocks shift (tests/test_invariance_python.py, simulated and shared scenes);
+#      match and link precision in simulated waiting crowds, scored with the truth (tests/test_crowd_python.py);
 #      trajdb.score's HOTA and drifting-clock errors on a hand-made case (tests/test_score_python.py);
 #      the Python package (pip install . into a fresh venv) against
 #      the binary
@@ -62,6 +63,7 @@ python3 tests/test_footer.py && python3 tests/test_footer.py trajdb.duckdb_exten
 "$VENV/bin/python" tests/test_safety_python.py trajdb.duckdb_extension
 "$VENV/bin/python" tests/test_sandbox_python.py trajdb.duckdb_extension
 "$VENV/bin/python" tests/test_invariance_python.py trajdb.duckdb_extension
+"$VENV/bin/python" tests/test_crowd_python.py trajdb.duckdb_extension
 "$VENV/bin/python" tests/test_score_python.py trajdb.duckdb_extension
 "$VENV/bin/python" tests/test_readme.py trajdb.duckdb_extension
 tests/test_python_package.sh
@@ -76,6 +78,7 @@ if [ ! -x "$SPATIAL_VENV/bin/python" ]; then python3 -m venv "$SPATIAL_VENV"; fi
 "$SPATIAL_VENV/bin/python" tests/test_robust_python.py trajdb.duckdb_extension
 "$SPATIAL_VENV/bin/python" tests/test_safety_python.py trajdb.duckdb_extension
 "$SPATIAL_VENV/bin/python" tests/test_sandbox_python.py trajdb.duckdb_extension
+"$SPATIAL_VENV/bin/python" tests/test_crowd_python.py trajdb.duckdb_extension
 "$SPATIAL_VENV/bin/python" tests/test_score_python.py trajdb.duckdb_extension
 "$SPATIAL_VENV/bin/python" tests/test_readme.py trajdb.duckdb_extension
 

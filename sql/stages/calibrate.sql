@@ -41,6 +41,13 @@
 --    track would be at constant velocity (accel * gap^2 / 2);
 --  * merge_epsilon is derived after alignment, per camera pair, from the residuals of the
 --    matched tracks themselves (align.sql, calib_match).
+--  * the association gates (docs/association.md) are all derived from these measurements, none
+--    is a fixed distance: cross-camera candidates (merge.sql) are tested with a chi2 bound on the
+--    mean squared distance over their whole common time against the pair's residual sigma
+--    (calib_match.sigma_d_m), counting one independent sample per period_s of the slower camera;
+--    within-camera break links (quality.sql) extrapolate least-squares lines fitted over
+--    calib_fit_window.fit_window_s with the camera's sigma_m, allow the class's accel_p95 during the
+--    gap, and compare a link with an unrelated start by the measured density of starts.
 
 CREATE OR REPLACE TEMP TABLE calib_cameras AS
 WITH d AS (

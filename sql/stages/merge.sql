@@ -4,11 +4,13 @@
 -- sql/align.sql and `view_overlaps` / `view_merge_order` from sql/overlap.sql.
 -- Output (the defaults below were chosen on benches/accuracy_merge.py, see the parameters):
 --   merge_tracks(camera, track_id, class, uid, traj, t0, t1)   tracks in the common frame
---   merge_scores(uid_a, uid_b, camera_a, camera_b, eta)        LCSS similarity inside P^{a∩b} (eq. 2.10)
---   merge_links(uid_a, uid_b, eta, kind)                       'hungarian' (one-to-one per camera pair),
+--   merge_scores(uid_a, uid_b, camera_a, camera_b, eta,      LCSS similarity inside P^{a∩b} (eq. 2.10), and for
+--                n_common, msd, n_eff, r, r_gate, score,       candidates (eta >= merge_eta) the evidence over the
+--                candidate)                                     WHOLE common time (below; docs/association.md)
+--   merge_links(uid_a, uid_b, eta, score, kind)                'hungarian' (one-to-one per camera pair),
 --                                                              'split' (a second piece of a split track) or
---                                                              'reach' (a within-camera break quality.sql's
---                                                              second pass proposes; eta NULL)
+--                                                              'reach' (a within-camera break quality.sql leaves
+--                                                              to the other cameras; eta, score NULL)
 --   merge_groups(uid, road_user)                               consistent groups (merge_groups())
 --   merged(road_user, class, sources, n_tracks, traj)          the merged trajectories; sources lists the
 --                                                              (camera, track_id) pairs it came from
@@ -17,12 +19,24 @@
 --  * every camera pair whose views overlap for the class is scored (the overlap graph prunes the
 --    pairs; no merge-order permutations are tried: groups make the order irrelevant for *which*
 --    tracks belong together, the order only fixes how points are averaged);
---  * Hungarian per camera pair keeps pairs with eta >= eta_bar (hungarian_match, threshold first);
+--  * LCSS (eta >= eta_bar) only proposes candidates. The decision uses each pair's whole common
+--    time, inside the overlap polygon or not: the mean squared distance msd of the two tracks at
+--    every common time step, against the pair's measured residual sigma_d (calib_match, align.sql):
+--    r = msd / (2 sigma_d^2) is chi2(2 n_eff) / (2 n_eff) for one road user, n_eff the independent
+--    samples (one per period of the slower camera). A candidate must pass r <= r_gate =
+--    the chi2 bound at 0.999 (Wilson-Hilferty) + 0.25 (a systematic offset up to sigma_d between two
+--    cameras' views of one road user; measured: <= 0.43 sigma_d on the shared scenes). Two people
+--    standing 1 m apart for 30 s score eta = 1 against each other at sigma_d = 0.35 m (eps = 1.06 m),
+--    but r = 1 + 1 / (2 sigma_d^2) = 5 on 300 samples, far above the gate (1.39);
+--  * Hungarian per camera pair on score = n_eff (r_gate - r) (the evidence, longer common times
+--    weigh more); a 'split' link (a candidate Hungarian did not take) only when it has the lowest
+--    r of every candidate of either track that overlaps it in time;
 --  * links become road users with merge_groups(), which refuses any link that would give a road
 --    user two time-overlapping tracks of one camera (false links across many cameras), and
 --    accepts a second, time-disjoint piece of a track that one camera split (the 'split' links,
---    applied after all Hungarian links), then the 'reach' links of quality.sql's second pass, which
---    other cameras can veto this way;
+--    applied after all Hungarian links), then the 'reach' links of quality.sql, which other cameras
+--    can veto this way, and which are refused outright when a track another camera matched to one
+--    piece was seen at the same time as the other piece, but elsewhere (r above the gate);
 --  * each road user is merged with trajectory_merge() in the merge order (view_merge_order), so
 --    duplicates (phi_ij next to phi_ijk) cannot arise.
 --

@@ -6,29 +6,37 @@
 -- Output:
 --   quality_endpoints(camera, track_id, class, e)     first/last point and final velocity
 --   quality_views(camera, interior)                   the camera's convex view shrunk by the inset
---   quality_events(camera, class, ev)                 traj_events(): kind, from_id, to_id, gap, distance
---   quality_events_cv / quality_reach                 pass 1 events / pass 2 'broken' candidates
---   quality_links(camera, track_id, linked_id)        every track and the id of its linked chain (pass 1)
---   quality_reach_links(camera, from_id, to_id)       pass 2 candidates between chains (merge.sql)
+--   quality_fit(camera, track_id, ...)                least-squares lines over a track's first and last
+--                                                     calib_fit_window seconds (calibrate.sql)
+--   quality_candidates(camera, class, from_id, to_id, every end -> start pair inside the gates, with its
+--                      gap, distance, z2_cv, z2, ll, ...) chi2 statistics and log-likelihoods (below)
+--   quality_breaks(..., kind)                         the links: 'broken' (applied here) or 'reach'
+--   quality_events_cv                                 traj_events(): the paper's broken / split / merge rules
+--   quality_events(camera, class, ev)                 traj_events' splits and merges, the links ('broken',
+--                                                     'reach') and the other candidates ('candidate')
+--   quality_reach                                     the 'reach' links (as events)
+--   quality_links(camera, track_id, linked_id)        every track and the id of its linked chain
+--   quality_reach_links(camera, from_id, to_id)       'reach' links between chains (merge.sql offers them last)
 --   quality_flags(camera, track_id, flag)             'split' / 'merge' participants
 --   quality_labels(camera, track_id, label, coherence) object / fragment / group (traj_labels, motion coherency)
 --   points_linked                                     points with track_id replaced by linked_id (and `points` becomes it)
 --
--- Parameters (defaults and why): a piece may resume up to 2.5 s later, within 2 m of where the track
--- would be at its final velocity (velocity over the last ~0.4 s); endpoints closer than 1 m to
--- the view's edge are entries and exits, not events. Only tracks of the same class are linked.
--- Measured with benches/accuracy_quality.py: (2.5 s, 2 m, 1 m) links 73 % / 92 % of the true
--- breaks at precision 1.00 on the two DUT scenes; a 2 m inset (entries mistaken for nothing)
--- finds 52 % / 80 %, a 3 m radius adds split/merge ambiguity and finds fewer.
--- The breaks this constant-velocity rule misses are road users that braked or pulled away in
--- the gap (missed car breaks resumed 2.8-5.8 m from the prediction after 1.4-2 s). A second
--- pass over the ends and starts pass 1 left alone allows max_dist + accel * gap^2 / 2, accel
--- the class's measured 95th-percentile acceleration (calib_classes, calibrate.sql;
--- quality_max_accel overrides it, 0 turns the pass into the same rule on the leftovers). Its
--- candidates ('reach') are not applied here but offered to merge_groups() after all
--- cross-camera links (merge.sql), so other cameras can refuse them. Measured with
--- benches/identity_grid.sh: break recall 0.46-0.92 -> 0.91-1.00 over the grid, link precision
--- 1.000 in every cell (applied here directly instead, one wrong 2 Hz link cut precision to 0.947).
+-- Links (docs/association.md): from the measured noise, not from fixed distances. Every end and
+-- start of one camera and class within quality_max_gap (2.5 s) and inside the view (more than
+-- quality_inset = 1 m from its edge: entries and exits are not events) is a pair; both ends are
+-- extrapolated to the middle of the gap by least-squares lines, and the pair is a candidate when
+-- the chi2 statistic of position and velocity (4 degrees of freedom) is under 13.28 (0.99) with an
+-- acceleration allowance from the class's measured accel_p95. A link is taken only when it is the
+-- mutual best of its end and start and at least 100 times likelier than every other candidate of
+-- either (the ratio test). It is applied here ('broken') when it also passes without the
+-- acceleration allowance and is 100 times likelier than an unrelated start at that place (the
+-- measured density of starts inside the view); otherwise it is a 'reach' link that merge.sql
+-- offers after every cross-camera link, so other cameras can refuse it. traj_events (the paper's
+-- three rules with quality_max_dist = 2 m) still flags splits and merges, and traj_labels labels
+-- tracks; neither links.
+-- Measured (trajdb pipeline + trajdb score; docs/association.md): dut_intersection_3cam break recall
+-- 0.906 -> 0.973 at link precision 1.000, dut_roundabout_2cam 1.000 / 1.000; waiting crowds at
+-- sigma 0.15-0.3 m: link precision 0.91-0.96 -> 1.000.
 --
 -- It ends by replacing `points` with `points_linked` (the original rows stay in
 -- quality_endpoints / quality_links), so the cross-camera stages run on linked tracks.
@@ -59,8 +67,8 @@ SELECT camera, polygon_buffer(view_polygon(list({'x': x, 'y': y}), 'convex'), -g
 FROM points WHERE estimated = 0
 GROUP BY camera;
 
--- traj_events takes the endpoints without the starting velocity.
--- Pass 1, the constant-velocity rule (accel 0): every end and every start of the class.
+-- traj_events takes the endpoints without the starting velocity: the paper's rules (for the
+-- split / merge flags), every end and every start of the class.
 CREATE OR REPLACE TEMP TABLE quality_events_cv AS
 SELECT q.camera, q.class,
        unnest(traj_events(list({'id': e.id, 't0': e.t0, 'x0': e.x0, 'y0': e.y0, 't1': e.t1, 'x1': e.x1, 'y1': e.y1, 'vx1': e.vx1, 'vy1': e.vy1}),
@@ -68,26 +76,30 @@ SELECT q.camera, q.class,
 FROM quality_endpoints q JOIN quality_views v USING (camera)
 GROUP BY q.camera, q.class;
 
--- Break links, by design from the measured noise (calib_cameras.sigma_m, calib_classes.accel_p95):
--- every end a and every start b of one camera and class, with 0 <= gap = b.t0 - a.t1 <= quality_max_gap
--- and both endpoints inside the view (more than quality_inset from its edge), are compared at the
--- middle of the gap tau: a's last quality_fit_window seconds and b's first, each a least-squares
--- line x(t) = xbar + v (t - tbar), are extrapolated to tau. With the camera's sigma, a line fitted to
--- n points predicts x(tau) with variance sigma^2 (1/n + (tau - tbar)^2 / Sxx) per axis (position and
--- velocity noise in one term: a 10 Hz track's velocity over 0.4 s has sigma 1 m/s at sigma = 0.3 m,
--- and a waiting pedestrian's predicted position wanders by metres). So d = x_a(tau) - x_b(tau) has
---   var_cv = var_a + var_b                                       (constant velocity)
---   var    = var_cv + (sigma_acc gap^2 / 2)^2, sigma_acc = accel_p95 / 2.45 (Rayleigh: p95 = 2.45 sigma)
--- and z^2 = |d|^2 / var is chi2(2) for the true continuation. A pair is a candidate when
--- z^2 <= 9.21 (chi2(2) at 0.99). Its log-likelihood l = -z^2/2 - ln(var) ranks the candidates, and
--- a link is taken only when it is the mutual best of its end and its start and beats every other
--- candidate of either by l_best - l_other >= ln(100): the likelihood ratio test, 1 wrong link in
--- 100 at most when two people could both have made the gap (a crowd waiting 0.6-2 m apart). A
--- winner within the constant-velocity gate (z_cv^2 <= 9.21) is linked here ('broken'); one that
--- needs the acceleration allowance is a 'reach' candidate, offered to merge_groups() after every
--- cross-camera link (merge.sql), so other cameras can refuse it. Ambiguous gaps are not linked:
--- if another camera sees the road user through the gap, its matches join the pieces (merge.sql,
--- 'split' links, exported as links).
+-- Break links, by design from the measured noise (calib_cameras.sigma_m, calib_classes.accel_p95,
+-- calib_fit_window): every end a and every start b of one camera and class, with
+-- 0 <= gap = b.t0 - a.t1 <= quality_max_gap and both endpoints inside the view, are compared at the
+-- middle of the gap tau: a's last fit_window_s seconds and b's first, each a least-squares line
+-- x(t) = xbar + v (t - tbar), are extrapolated to tau. With the camera's sigma, a line fitted to n
+-- points predicts x(tau) with variance sigma^2 (1/n + (tau - tbar)^2 / Sxx) per axis and its
+-- velocity with sigma^2 / Sxx (a 10 Hz track's velocity over 0.4 s has sigma 1 m/s at
+-- sigma = 0.3 m: a waiting pedestrian's predicted position wanders by metres). So the position
+-- difference d and the velocity difference dv have
+--   var_cv  = var_a + var_b,               varv_cv  = sigma_a^2 / Sxx_a + sigma_b^2 / Sxx_b    (constant velocity)
+--   var     = var_cv + (sigma_acc gap^2 / 2)^2,  varv = varv_cv + (sigma_acc gap)^2
+-- with sigma_acc = accel_p95 / 2.45 (Rayleigh: p95 = 2.45 sigma), and z^2 = |d|^2 / var + |dv|^2 / varv
+-- is chi2(4) for the true continuation. A pair is a candidate when z^2 <= 13.28 (chi2(4) at 0.99).
+-- Its log-likelihood l = -z^2/2 - ln(var) - ln(varv) ranks the candidates, and a link is taken only
+-- when it is the mutual best of its end and its start and beats every other candidate of either by
+-- l_best - l_other >= ln(100): the likelihood ratio test, 1 wrong link in 100 at most when two
+-- people could both have made the gap (a crowd waiting 0.6-2 m apart). A winner that also passes
+-- without the acceleration allowance (z_cv^2 <= 13.28) and whose position is 100 times likelier
+-- than an unrelated start there (ll_bg: the Gaussian density of d against the measured density of
+-- starts inside the view, per m^2 and quality_max_gap seconds) is linked here ('broken'); any
+-- other winner is a 'reach' link, offered to merge_groups() after every cross-camera link
+-- (merge.sql), so other cameras can refuse it (a short fragment's prediction is too vague to be
+-- taken on its own). Ambiguous gaps are not linked: if another camera sees the road user through
+-- the gap, its matches join the pieces (merge.sql, 'split' links, exported as links).
 CREATE OR REPLACE TEMP TABLE quality_fit AS
 WITH p AS (
     SELECT p.camera, p.track_id, p.t, p.x, p.y,

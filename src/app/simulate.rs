@@ -1220,7 +1220,7 @@ impl Scenario {
         let mut s = String::new();
         let _ = writeln!(s, "Synthetic intersection scenario made by `{command}` (trajdb {}).", env!("CARGO_PKG_VERSION"));
         let _ = writeln!(s, "Parameters: {p:?}");
-        let _ = writeln!(s, "World: four-arm intersection at the origin (arms E/N/W/S, 70 m), lanes at 1.75 m, bike lanes at 5 m, sidewalks at 8 m, crosswalks 10 m from the centre; see src/simulate.rs.");
+        let _ = writeln!(s, "World: four-arm intersection at the origin (arms E/N/W/S, 70 m), lanes at 1.75 m, bike lanes at 5 m, sidewalks at 8 m, crosswalks 10 m from the centre; see src/app/simulate.rs and docs/simulate.md.");
         let per_class = |c: &str| self.objects.iter().filter(|o| o.class == c).count();
         let _ = writeln!(
             s,
@@ -1231,6 +1231,11 @@ impl Scenario {
             per_class("cyclist"),
             per_class("pedestrian")
         );
+        if p.waiting_groups > 0.0 {
+            let members: Vec<&str> = self.objects.iter().filter_map(|o| o.route.split("waiting group ").nth(1)).collect();
+            let groups: std::collections::HashSet<&str> = members.iter().filter_map(|r| r.split(' ').next()).collect();
+            let _ = writeln!(s, "Waiting groups: {} people in {} groups (objects.csv source 'waiting group N').", members.len(), groups.len());
+        }
         let _ = writeln!(s, "Totals: {} points, {} tracks ({} spurious).", self.points.len(), self.truth.len(), self.truth.iter().filter(|t| t.3).count());
         for c in &self.cameras {
             let n_pts = self.points.iter().filter(|q| q.camera == c.id).count();

@@ -34,7 +34,7 @@ SITE_TABLES = (
 SITE_WORK_TABLES = ("align_centroids", "align_scan", "align_hypotheses", "align_vote", "align_widen", "align_hyp_wide", "align_best_wide", "align_tracks", "align_hyp", "align_best", "align_support", "align_refit", "align_pairs", "align_edges", "view_points",
                     "align_keys", "align_activity", "align_coarse", "align_clock", "align_wls",
                     "align_drift_obs", "align_drift_pairs", "align_drift_fit1", "align_drift_kept", "align_drift",
-                    "align_retry", "align_speed_votes", "align_speed")
+                    "align_retry", "align_speed_votes", "align_speed", "align_sample", "align_scan_pass", "align_speed_scan")
 # The stages a site's calibration runs (and nothing after them); windows skip clustering, which
 # is an analysis of a whole period, not of a window (run traj_cluster on the road users).
 CALIBRATION_STAGES = ("calibrate", "clean", "quality", "align", "overlap")

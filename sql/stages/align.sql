@@ -109,23 +109,27 @@ FROM align_coarse;
 CREATE OR REPLACE TEMP TABLE align_keys AS
 SELECT camera, track_id, round(t0 * 1000)::BIGINT AS k0, round(t1 * 1000)::BIGINT AS k1 FROM align_tracks;
 
-CREATE OR REPLACE TEMP MACRO align_hypotheses(pass_no) AS TABLE
+--    The track pairs a search looks at, for every camera pair of `scan` (a table of cam_fixed,
+--    cam_moving, centre, max_off): same class, overlapping in time by align_min_overlap_s on
+--    the fixed clock as far as `centre` knows it, +-max_off; at most align_max_hypotheses per
+--    camera pair, drawn by a hash of their content.
+CREATE OR REPLACE TEMP MACRO align_sample(scan) AS TABLE
 WITH moving AS (
-    -- the moving camera's tracks on the fixed camera's clock as far as the coarse centre knows it
     SELECT s.cam_fixed, s.cam_moving, s.centre, s.max_off, b.track_id, b.class, b.t0 - s.centre AS t0, b.t1 - s.centre AS t1
-    FROM align_tracks b JOIN align_scan s ON s.cam_moving = b.camera AND s.pass = pass_no
-),
-pairs AS (
-    SELECT a.camera AS cam_fixed, b.cam_moving, a.track_id AS track_fixed, b.track_id AS track_moving, b.centre, b.max_off
-    FROM align_tracks a JOIN moving b
-      ON a.camera = b.cam_fixed AND a.class = b.class
-     AND a.t0 <= b.t1 + b.max_off - getvariable('align_min_overlap_s')
-     AND b.t0 <= a.t1 + b.max_off - getvariable('align_min_overlap_s')
-    JOIN align_keys ka ON ka.camera = a.camera AND ka.track_id = a.track_id
-    JOIN align_keys kb ON kb.camera = b.cam_moving AND kb.track_id = b.track_id
-    QUALIFY row_number() OVER (PARTITION BY a.camera, b.cam_moving ORDER BY hash(ka.k0, ka.k1, kb.k0, kb.k1), ka.k0, ka.k1, kb.k0, kb.k1, a.track_id, b.track_id)
-            <= getvariable('align_max_hypotheses')
-),
+    FROM align_tracks b JOIN query_table(scan) s ON s.cam_moving = b.camera
+)
+SELECT a.camera AS cam_fixed, b.cam_moving, a.track_id AS track_fixed, b.track_id AS track_moving, b.centre, b.max_off
+FROM align_tracks a JOIN moving b
+  ON a.camera = b.cam_fixed AND a.class = b.class
+ AND a.t0 <= b.t1 + b.max_off - getvariable('align_min_overlap_s')
+ AND b.t0 <= a.t1 + b.max_off - getvariable('align_min_overlap_s')
+JOIN align_keys ka ON ka.camera = a.camera AND ka.track_id = a.track_id
+JOIN align_keys kb ON kb.camera = b.cam_moving AND kb.track_id = b.track_id
+QUALIFY row_number() OVER (PARTITION BY a.camera, b.cam_moving ORDER BY hash(ka.k0, ka.k1, kb.k0, kb.k1), ka.k0, ka.k1, kb.k0, kb.k1, a.track_id, b.track_id)
+        <= getvariable('align_max_hypotheses');
+
+CREATE OR REPLACE TEMP MACRO align_hypotheses(scan) AS TABLE
+WITH pairs AS (FROM align_sample(scan)),
 cand AS (
     SELECT p.*, rigid_fit_scan(a.traj, list_transform(b.traj, lambda q: {'t': q.t - p.centre, 'x': q.x, 'y': q.y}),
                                p.max_off, getvariable('align_bin_s')) AS fits
@@ -166,7 +170,8 @@ FROM (SELECT cam_fixed, cam_moving, theta_deg, qx, qy, dt_rel, any_value(centre)
       FROM bins GROUP BY cam_fixed, cam_moving, theta_deg, qx, qy, dt_rel)
 QUALIFY row_number() OVER (PARTITION BY cam_fixed, cam_moving ORDER BY votes DESC, abs(dt_rel), theta_deg, qx, qy) = 1;
 
-CREATE OR REPLACE TEMP TABLE align_hyp AS FROM align_hypotheses(1);
+CREATE OR REPLACE TEMP TABLE align_scan_pass AS FROM align_scan WHERE pass = 1;
+CREATE OR REPLACE TEMP TABLE align_hyp AS FROM align_hypotheses('align_scan_pass');
 CREATE OR REPLACE TEMP TABLE align_best AS FROM align_vote('align_hyp');
 
 -- passes 2 and 3: the pairs at the edge of their range, or without a winner, searched again.
@@ -192,32 +197,17 @@ CREATE OR REPLACE TEMP TABLE align_retry AS FROM align_widen(2);
 --    users, or at a constant speed, scatter over the range), gives the median lag in it as the
 --    centre of pass 2, searched over the first range. Without such a peak pass 2 searches 4 x
 --    the first range about the activity centre, and pass 3 16 x.
+CREATE OR REPLACE TEMP TABLE align_speed_scan AS
+SELECT c.cam_fixed, c.cam_moving, c.centre, greatest(c.half_width_s, getvariable('align_max_clock_offset_s')) AS max_off
+FROM align_coarse c JOIN align_retry r USING (cam_fixed, cam_moving) WHERE c.centre IS NOT NULL;
+
 CREATE OR REPLACE TEMP TABLE align_speed_votes AS
-WITH w AS (
-    SELECT c.cam_fixed, c.cam_moving, c.centre, greatest(c.half_width_s, getvariable('align_max_clock_offset_s')) AS hw
-    FROM align_coarse c JOIN align_retry r USING (cam_fixed, cam_moving) WHERE c.centre IS NOT NULL
-),
-moving AS (
-    SELECT w.cam_fixed, w.cam_moving, w.centre, w.hw, b.track_id, b.class, b.t0 - w.centre AS t0, b.t1 - w.centre AS t1
-    FROM align_tracks b JOIN w ON w.cam_moving = b.camera
-),
-pairs AS (
-    SELECT a.camera AS cam_fixed, b.cam_moving, a.track_id AS track_fixed, b.track_id AS track_moving, b.centre, b.hw
-    FROM align_tracks a JOIN moving b
-      ON a.camera = b.cam_fixed AND a.class = b.class
-     AND a.t0 <= b.t1 + b.hw - getvariable('align_min_overlap_s')
-     AND b.t0 <= a.t1 + b.hw - getvariable('align_min_overlap_s')
-    JOIN align_keys ka ON ka.camera = a.camera AND ka.track_id = a.track_id
-    JOIN align_keys kb ON kb.camera = b.cam_moving AND kb.track_id = b.track_id
-    QUALIFY row_number() OVER (PARTITION BY a.camera, b.cam_moving ORDER BY hash(ka.k0, ka.k1, kb.k0, kb.k1), ka.k0, ka.k1, kb.k0, kb.k1, a.track_id, b.track_id)
-            <= getvariable('align_max_hypotheses')
-)
 SELECT p.cam_fixed, p.cam_moving, l.lag, l.corr
-FROM pairs p
+FROM align_sample('align_speed_scan') p
 JOIN align_tracks a ON a.camera = p.cam_fixed AND a.track_id = p.track_fixed
 JOIN align_tracks b ON b.camera = p.cam_moving AND b.track_id = p.track_moving,
-LATERAL (SELECT speed_lag(a.traj, b.traj, p.centre, p.hw, getvariable('align_max_clock_offset_s') / 4, 16) AS l)
-WHERE l IS NOT NULL AND abs(l.lag - p.centre) < p.hw - getvariable('align_max_clock_offset_s') / 2;
+LATERAL (SELECT speed_lag(a.traj, b.traj, p.centre, p.max_off, getvariable('align_max_clock_offset_s') / 4, 16) AS l)
+WHERE l IS NOT NULL AND abs(l.lag - p.centre) < p.max_off - getvariable('align_max_clock_offset_s') / 2;
 
 CREATE OR REPLACE TEMP TABLE align_speed AS
 WITH bins AS (
@@ -244,7 +234,8 @@ INSERT INTO align_scan
 SELECT r.cam_fixed, r.cam_moving, coalesce(s.centre, r.centre),
        CASE WHEN s.centre IS NULL THEN r.max_off ELSE getvariable('align_max_clock_offset_s') END, 2
 FROM align_retry r LEFT JOIN align_speed s USING (cam_fixed, cam_moving);
-CREATE OR REPLACE TEMP TABLE align_hyp_wide AS FROM align_hypotheses(2);
+CREATE OR REPLACE TEMP TABLE align_scan_pass AS FROM align_scan WHERE pass = 2;
+CREATE OR REPLACE TEMP TABLE align_hyp_wide AS FROM align_hypotheses('align_scan_pass');
 CREATE OR REPLACE TEMP TABLE align_best_wide AS FROM align_vote('align_hyp_wide');
 DELETE FROM align_hyp WHERE (cam_fixed, cam_moving) IN (
     SELECT (w.cam_fixed, w.cam_moving) FROM align_best_wide w LEFT JOIN align_best b USING (cam_fixed, cam_moving) WHERE w.votes > coalesce(b.votes, 0));
@@ -255,7 +246,8 @@ CREATE OR REPLACE TEMP TABLE align_best AS FROM align_vote('align_hyp');
 INSERT INTO align_scan
 SELECT w.cam_fixed, w.cam_moving, coalesce(c.centre, 0.0), 16 * getvariable('align_max_clock_offset_s'), 3
 FROM align_widen(3) w JOIN align_coarse c USING (cam_fixed, cam_moving);
-CREATE OR REPLACE TEMP TABLE align_hyp_wide AS FROM align_hypotheses(3);
+CREATE OR REPLACE TEMP TABLE align_scan_pass AS FROM align_scan WHERE pass = 3;
+CREATE OR REPLACE TEMP TABLE align_hyp_wide AS FROM align_hypotheses('align_scan_pass');
 CREATE OR REPLACE TEMP TABLE align_best_wide AS FROM align_vote('align_hyp_wide');
 DELETE FROM align_hyp WHERE (cam_fixed, cam_moving) IN (
     SELECT (w.cam_fixed, w.cam_moving) FROM align_best_wide w LEFT JOIN align_best b USING (cam_fixed, cam_moving) WHERE w.votes > coalesce(b.votes, 0));

@@ -139,12 +139,13 @@ WITH h AS (
 s AS (
     SELECT s.* FROM merge_scores s
     WHERE s.candidate AND NOT EXISTS (SELECT 1 FROM h WHERE h.m.a = s.uid_a AND h.m.b = s.uid_b)
+      -- (two anti-joins on one key each: an OR of keys would be a nested loop)
       AND NOT EXISTS (SELECT 1 FROM merge_scores o
-                      WHERE o.candidate AND o.camera_a = s.camera_a AND o.camera_b = s.camera_b
-                        AND (o.uid_a = s.uid_a OR o.uid_b = s.uid_b) AND NOT (o.uid_a = s.uid_a AND o.uid_b = s.uid_b)
-                        AND o.r <= s.r
-                        AND CASE WHEN o.uid_a = s.uid_a THEN o.t0_b <= s.t1_b AND s.t0_b <= o.t1_b
-                                 ELSE o.t0_a <= s.t1_a AND s.t0_a <= o.t1_a END)
+                      WHERE o.candidate AND o.uid_a = s.uid_a AND o.uid_b <> s.uid_b AND o.camera_b = s.camera_b
+                        AND o.r <= s.r AND o.t0_b <= s.t1_b AND s.t0_b <= o.t1_b)
+      AND NOT EXISTS (SELECT 1 FROM merge_scores o
+                      WHERE o.candidate AND o.uid_b = s.uid_b AND o.uid_a <> s.uid_a AND o.camera_a = s.camera_a
+                        AND o.r <= s.r AND o.t0_a <= s.t1_a AND s.t0_a <= o.t1_a)
 ),
 -- the ratio test: a match is kept only when it is 10 times likelier than every other candidate
 -- of either track in this camera pair at that time (log-likelihoods n_eff r apart by ln 10, n_eff
@@ -158,10 +159,12 @@ clear AS (
                      UNION ALL
                      SELECT uid_a, uid_b, eta, score, 'split', r, n_eff, t0_a, t1_a, t0_b, t1_b, camera_a, camera_b FROM s) k
     WHERE NOT EXISTS (SELECT 1 FROM merge_scores o
-                      WHERE o.candidate AND o.camera_a = k.camera_a AND o.camera_b = k.camera_b
-                        AND (o.uid_a = k.uid_a OR o.uid_b = k.uid_b) AND NOT (o.uid_a = k.uid_a AND o.uid_b = k.uid_b)
-                        AND CASE WHEN o.uid_a = k.uid_a THEN o.t0_b <= k.t1_b AND k.t0_b <= o.t1_b
-                                 ELSE o.t0_a <= k.t1_a AND k.t0_a <= o.t1_a END
+                      WHERE o.candidate AND o.uid_a = k.uid_a AND o.uid_b <> k.uid_b AND o.camera_b = k.camera_b
+                        AND o.t0_b <= k.t1_b AND k.t0_b <= o.t1_b
+                        AND (o.r - k.r) * least(o.n_eff, k.n_eff) < ln(10))
+      AND NOT EXISTS (SELECT 1 FROM merge_scores o
+                      WHERE o.candidate AND o.uid_b = k.uid_b AND o.uid_a <> k.uid_a AND o.camera_a = k.camera_a
+                        AND o.t0_a <= k.t1_a AND k.t0_a <= o.t1_a
                         AND (o.r - k.r) * least(o.n_eff, k.n_eff) < ln(10))
 ),
 x AS (SELECT uid_a, uid_b, eta, score, kind FROM clear),

@@ -26,7 +26,7 @@ from . import _parts, _literal, check_duckdb, set_params, sql_file
 # derived parameters, the cameras' transforms and clock offsets, the view polygons and their
 # overlaps. Measuring any of them on one window instead would change the results.
 SITE_TABLES = (
-    "calib_cameras", "calib_classes", "calib_pairs", "calibration", "calib_fit_window", "quality_views",
+    "calib_cameras", "calib_classes", "calib_pairs", "calibration", "calib_fit_window", "quality_views", "quality_start_density",
     "align_frames", "align_origin", "calib_match", "calibration_summary",
     "view_polygons", "view_overlaps", "view_merge_order", "view_overlaps_chain",
 )

@@ -6,6 +6,7 @@
 -- Output:
 --   quality_endpoints(camera, track_id, class, e)     first/last point and final velocity
 --   quality_views(camera, interior)                   the camera's convex view shrunk by the inset
+--   quality_start_density(camera, class, starts_per_m2_s)  starts inside the view per m^2 and s (site-wide)
 --   quality_fit(camera, track_id, ...)                least-squares lines over a track's first and last
 --                                                     calib_fit_window seconds (calibrate.sql)
 --   quality_candidates(camera, class, from_id, to_id, every end -> start pair inside the gates, with its
@@ -120,6 +121,16 @@ SELECT camera, track_id,
        coalesce(regr_sxx(x, ts) FILTER (WHERE ts <= win), 0) AS sxx0
 FROM p GROUP BY camera, track_id;
 
+-- the density of starts inside the view (per m^2 and s, per camera and class): how likely an
+-- unrelated road user appears where a broken one was expected. A measurement of the site (like
+-- quality_views): python/trajdb/windows.py ships it to every window.
+CREATE OR REPLACE TEMP TABLE quality_start_density AS
+SELECT q.camera, q.class,
+       greatest(count(*) FILTER (WHERE polygon_contains(v.interior, q.e.x0, q.e.y0)), 1)
+         / greatest(any_value(polygon_area(v.interior)), 1.0) / greatest(max(q.e.t1) - min(q.e.t0), 1.0) AS starts_per_m2_s
+FROM quality_endpoints q JOIN quality_views v USING (camera)
+GROUP BY q.camera, q.class;
+
 CREATE OR REPLACE TEMP TABLE quality_candidates AS
 WITH e AS (
     SELECT q.camera, q.class, q.track_id, q.e.t1 AS t1, q.e.t0 AS t0, f.*  EXCLUDE (camera, track_id),
@@ -130,15 +141,7 @@ WITH e AS (
     FROM quality_endpoints q JOIN quality_fit f USING (camera, track_id) JOIN quality_views v USING (camera)
     LEFT JOIN calib_cameras c USING (camera) LEFT JOIN calib_classes k USING (class)
 ),
--- the density of starts inside the view (per m^2 and s, per camera and class): how likely an
--- unrelated road user appears where a broken one was expected
-bg AS (
-    SELECT e.camera, e.class,
-           greatest(count(*) FILTER (WHERE e.start_inside), 1)
-             / greatest(any_value(polygon_area(v.interior)), 1.0) / greatest(max(e.t1) - min(e.t0), 1.0) AS starts_per_m2_s
-    FROM e JOIN quality_views v USING (camera)
-    GROUP BY e.camera, e.class
-),
+
 -- time buckets of quality_max_gap: a start lies in its end's bucket or the next
 pairs AS (
     SELECT a.camera, a.class, a.track_id AS from_id, b.track_id AS to_id, b.t0 - a.t1 AS gap,
@@ -166,7 +169,7 @@ z AS (
            -- the position's likelihood against an unrelated start anywhere in the gate's time window
            -(dx * dx + dy * dy) / (var_cv + var_acc) / 2 - ln(2 * pi() * (var_cv + var_acc))
              - ln(bg.starts_per_m2_s * getvariable('quality_max_gap')) AS ll_bg
-    FROM pairs JOIN bg USING (camera, class)
+    FROM pairs JOIN quality_start_density bg USING (camera, class)
 )
 SELECT camera, class, from_id, to_id, gap, sqrt(dx * dx + dy * dy) AS distance, z2_cv, z2, ll, ll_bg,
        -- the best other candidate of the end, and of the start

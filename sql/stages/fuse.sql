@@ -52,9 +52,10 @@ WITH cam AS (
 obs AS (
     SELECT g.road_user, any_value(t.class) AS class, count(DISTINCT p.camera) AS n_cameras,
            -- ties in t broken by camera, track and position: the same list in every run and window
-           -- times relative to clock_origin (align.sql): the clock grid t = clock_origin + k step
-           list({'t': p.t - getvariable('clock_origin'), 'x': w.x, 'y': w.y, 'sigma': c.sigma} ORDER BY p.t, p.camera, p.track_id, p.x, p.y) AS obs
+           -- times relative to align_origin.clock_origin (align.sql): the clock grid t = clock_origin + k step
+           list({'t': p.t - o.clock_origin, 'x': w.x, 'y': w.y, 'sigma': c.sigma} ORDER BY p.t, p.camera, p.track_id, p.x, p.y) AS obs
     FROM points p
+    CROSS JOIN align_origin o
     JOIN merge_tracks t ON t.camera = p.camera AND t.track_id = p.track_id AND t.class IS NOT DISTINCT FROM p.class
     JOIN merge_groups g USING (uid)
     JOIN cam c ON c.camera = p.camera,
@@ -76,10 +77,10 @@ f AS (
 )
 -- a path shorter than one clock step has no clock point: one point per observation time instead
 SELECT road_user, n_cameras, q,
-       [{'t': r.t + getvariable('clock_origin'), 'x': r.x, 'y': r.y}
+       [{'t': r.t + o.clock_origin, 'x': r.x, 'y': r.y}
         FOR r IN CASE WHEN len(clock_traj) > 0 THEN clock_traj ELSE traj_fuse(obs, q) END] AS traj,
        [s.v FOR s IN CASE WHEN len(clock_traj) > 0 THEN clock_sigma ELSE traj_fuse_sigma(obs, q) END] AS sigma
-FROM f;
+FROM f CROSS JOIN align_origin o;
 
 -- merged: the fused path replaces the merged one (a road user without a q, when no class could
 -- be measured, keeps it); sigma_m = the median per-point sigma

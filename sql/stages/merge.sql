@@ -27,7 +27,7 @@
 --    the chi2 bound at 0.999 (Wilson-Hilferty) + 0.25 (a systematic offset up to 0.71 sigma_d between
 --    two cameras' views of one road user; measured: <= 0.43 sigma_d on the shared scenes). Two people
 --    standing 1 m apart for 30 s score eta = 1 against each other at sigma_d = 0.35 m (eps = 1.06 m),
---    but r = 1 + 1 / (2 sigma_d^2) = 5 on 300 samples, far above the gate (1.39);
+--    but r = 1 + 1 / (2 sigma_d^2) = 5 on 300 samples, far above the gate (1.44);
 --  * Hungarian per camera pair on score = n_eff (r_gate - r) (the evidence, longer common times
 --    weigh more); a 'split' link (a candidate Hungarian did not take) only when it has the lowest
 --    r of every candidate of either track that overlaps it in time; then the ratio test: a match

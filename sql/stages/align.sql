@@ -112,8 +112,11 @@ SELECT camera, track_id, round(t0 * 1000)::BIGINT AS k0, round(t1 * 1000)::BIGIN
 --    The track pairs a search looks at, for every camera pair of `scan` (a table of cam_fixed,
 --    cam_moving, centre, max_off): same class, overlapping in time by align_min_overlap_s on
 --    the fixed clock as far as `centre` knows it, +-max_off; at most align_max_hypotheses per
---    camera pair, drawn by a hash of their content.
-CREATE OR REPLACE TEMP MACRO align_sample(scan) AS TABLE
+--    camera pair, drawn by a hash of their content. With `scaled`, a search k times wider than
+--    the first (passes 2 and 3 of the exact scan) draws k times fewer pairs, so that every pass
+--    costs about the same: a camera pair that shares no view (no offset to find) ran all three
+--    passes with every pair, 16 x the work of the first, and a 7-camera crowd took 13 minutes.
+CREATE OR REPLACE TEMP MACRO align_sample(scan, scaled) AS TABLE
 WITH moving AS (
     SELECT s.cam_fixed, s.cam_moving, s.centre, s.max_off, b.track_id, b.class, b.t0 - s.centre AS t0, b.t1 - s.centre AS t1
     FROM align_tracks b JOIN query_table(scan) s ON s.cam_moving = b.camera
@@ -126,10 +129,13 @@ FROM align_tracks a JOIN moving b
 JOIN align_keys ka ON ka.camera = a.camera AND ka.track_id = a.track_id
 JOIN align_keys kb ON kb.camera = b.cam_moving AND kb.track_id = b.track_id
 QUALIFY row_number() OVER (PARTITION BY a.camera, b.cam_moving ORDER BY hash(ka.k0, ka.k1, kb.k0, kb.k1), ka.k0, ka.k1, kb.k0, kb.k1, a.track_id, b.track_id)
-        <= getvariable('align_max_hypotheses');
+        <= CASE WHEN scaled THEN coalesce(greatest(1, least(getvariable('align_max_hypotheses'),
+                                    ceil(getvariable('align_max_hypotheses') * getvariable('align_max_clock_offset_s') / nullif(b.max_off, 0)))),
+                                  getvariable('align_max_hypotheses'))
+                ELSE getvariable('align_max_hypotheses') END;
 
 CREATE OR REPLACE TEMP MACRO align_hypotheses(scan) AS TABLE
-WITH pairs AS (FROM align_sample(scan)),
+WITH pairs AS (FROM align_sample(scan, true)),
 cand AS (
     SELECT p.*, rigid_fit_scan(a.traj, list_transform(b.traj, lambda q: {'t': q.t - p.centre, 'x': q.x, 'y': q.y}),
                                p.max_off, getvariable('align_bin_s')) AS fits
@@ -203,7 +209,7 @@ FROM align_coarse c JOIN align_retry r USING (cam_fixed, cam_moving) WHERE c.cen
 
 CREATE OR REPLACE TEMP TABLE align_speed_votes AS
 SELECT p.cam_fixed, p.cam_moving, l.lag, l.corr
-FROM align_sample('align_speed_scan') p
+FROM align_sample('align_speed_scan', false) p
 JOIN align_tracks a ON a.camera = p.cam_fixed AND a.track_id = p.track_fixed
 JOIN align_tracks b ON b.camera = p.cam_moving AND b.track_id = p.track_moving,
 LATERAL (SELECT speed_lag(a.traj, b.traj, p.centre, p.max_off, getvariable('align_max_clock_offset_s') / 4, 16) AS l)

@@ -113,9 +113,10 @@ SELECT camera, track_id, round(t0 * 1000)::BIGINT AS k0, round(t1 * 1000)::BIGIN
 --    cam_moving, centre, max_off): same class, overlapping in time by align_min_overlap_s on
 --    the fixed clock as far as `centre` knows it, +-max_off; at most align_max_hypotheses per
 --    camera pair, drawn by a hash of their content. With `scaled`, a search k times wider than
---    the first (passes 2 and 3 of the exact scan) draws k times fewer pairs, so that every pass
---    costs about the same: a camera pair that shares no view (no offset to find) ran all three
---    passes with every pair, 16 x the work of the first, and a 7-camera crowd took 13 minutes.
+--    the first (passes 2 and 3 of the exact scan) draws sqrt(k) times fewer pairs: a camera
+--    pair that shares no view (no offset to find) ran all three passes with every pair, 16 x the
+--    work of the first, and a 7-camera crowd took 13 minutes in align (now 14 s). k times fewer
+--    (equal cost per pass) was too few: a crowd of pedestrians at 10 Hz then settled 2 s off.
 CREATE OR REPLACE TEMP MACRO align_sample(scan, scaled) AS TABLE
 WITH moving AS (
     SELECT s.cam_fixed, s.cam_moving, s.centre, s.max_off, b.track_id, b.class, b.t0 - s.centre AS t0, b.t1 - s.centre AS t1
@@ -130,7 +131,7 @@ JOIN align_keys ka ON ka.camera = a.camera AND ka.track_id = a.track_id
 JOIN align_keys kb ON kb.camera = b.cam_moving AND kb.track_id = b.track_id
 QUALIFY row_number() OVER (PARTITION BY a.camera, b.cam_moving ORDER BY hash(ka.k0, ka.k1, kb.k0, kb.k1), ka.k0, ka.k1, kb.k0, kb.k1, a.track_id, b.track_id)
         <= CASE WHEN scaled THEN coalesce(greatest(1, least(getvariable('align_max_hypotheses'),
-                                    ceil(getvariable('align_max_hypotheses') * getvariable('align_max_clock_offset_s') / nullif(b.max_off, 0)))),
+                                    ceil(getvariable('align_max_hypotheses') * sqrt(getvariable('align_max_clock_offset_s') / nullif(b.max_off, 0))))),
                                   getvariable('align_max_hypotheses'))
                 ELSE getvariable('align_max_hypotheses') END;
 

@@ -96,8 +96,13 @@ FROM (SELECT DISTINCT a.camera AS cam_fixed, b.camera AS cam_moving
       FROM (SELECT DISTINCT camera, class FROM align_tracks) a JOIN (SELECT DISTINCT camera, class FROM align_tracks) b
         ON a.camera < b.camera AND a.class = b.class) p
 JOIN align_activity ea ON ea.camera = p.cam_fixed JOIN align_activity eb ON eb.camera = p.cam_moving,
+-- bins of half the first search range, but at most 2^22 bins per camera (a recording of more
+-- than 24 days, e.g. a month's archive, gets wider bins instead of a memory error naming a
+-- bin_s the user never set); times are relative to each camera's t_origin
 LATERAL (SELECT CASE WHEN getvariable('align_max_clock_offset_s') > 0
-                     THEN activity_lag(ea.events, eb.events, getvariable('align_max_clock_offset_s') / 2) END AS l);
+                     THEN activity_lag(ea.events, eb.events,
+                                       greatest(getvariable('align_max_clock_offset_s') / 2,
+                                                greatest(ea.events[-1].t, eb.events[-1].t) / 4194304)) END AS l);
 
 CREATE OR REPLACE TEMP TABLE align_scan AS
 SELECT cam_fixed, cam_moving, coalesce(centre, 0.0) AS centre, getvariable('align_max_clock_offset_s') AS max_off, 1 AS pass

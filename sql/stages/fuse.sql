@@ -93,16 +93,8 @@ FROM merged m LEFT JOIN fuse_paths f USING (road_user);
 SELECT n_cameras, count(*) AS road_users, round(median(list_median(sigma)), 4) AS median_sigma_m
 FROM fuse_paths GROUP BY n_cameras ORDER BY n_cameras;
 
--- road users (merged.parquet): merge.sql's definition, plus sigma_m (the median of the
--- per-point 1-sigma position error per axis, m) and sigma (one per point of traj, m). This
--- replaces merge.sql's macro: a change there must be made here too.
+-- road users (merged.parquet): merge.sql's definition (merge_road_users, which reads the fused
+-- traj from merged), plus sigma_m (the median of the per-point 1-sigma position error per
+-- axis, m) and sigma (one per point of traj, m).
 CREATE OR REPLACE TEMP MACRO result_road_users() AS TABLE
-SELECT m.road_user, m.class, m.n_tracks,
-       (SELECT list({'camera': l.camera, 'track_id': l.track_id} ORDER BY l.camera, q.e.t0, l.track_id)
-        FROM unnest(m.sources) u(s)
-        JOIN quality_links l ON l.camera = s.camera AND l.linked_id = s.track_id
-        LEFT JOIN quality_endpoints q ON q.camera = l.camera AND q.track_id = l.track_id) AS sources,
-       traj_time_range(m.traj).t_start AS t_start, traj_time_range(m.traj).t_end AS t_end,
-       traj_duration(m.traj) AS duration_s, traj_length_m(m.traj) AS length_m,
-       traj_to_wkb(m.traj, true) AS geometry, m.traj, m.sigma_m, m.sigma
-FROM merged m;
+SELECT r.*, m.sigma_m, m.sigma FROM merge_road_users() r JOIN merged m USING (road_user);

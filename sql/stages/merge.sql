@@ -262,7 +262,8 @@ WHERE ga.road_user = gb.road_user AND m.kind <> 'reach';  -- within one camera: 
 -- pieces under one id before matching), ordered by camera and start time, so any scorer can
 -- read a road user's tracks from this alone. t_start / t_end (reference clock, s), duration_s
 -- and length_m (metres along the merged path) save the analyst a pass over traj.
-CREATE OR REPLACE TEMP MACRO result_road_users() AS TABLE
+-- (merge_road_users is the definition; fuse.sql adds its columns to it.)
+CREATE OR REPLACE TEMP MACRO merge_road_users() AS TABLE
 SELECT m.road_user, m.class, m.n_tracks,
        (SELECT list({'camera': l.camera, 'track_id': l.track_id} ORDER BY l.camera, q.e.t0, l.track_id)
         FROM unnest(m.sources) u(s)
@@ -272,6 +273,8 @@ SELECT m.road_user, m.class, m.n_tracks,
        traj_duration(m.traj) AS duration_s, traj_length_m(m.traj) AS length_m,
        traj_to_wkb(m.traj, true) AS geometry, m.traj
 FROM merged m;
+
+CREATE OR REPLACE TEMP MACRO result_road_users() AS TABLE FROM merge_road_users();
 
 -- links: tracks linked within a camera (every track and the id of its chain: quality.sql's
 -- links, and the pieces of one camera merge.sql put in one road user; merge_chains)

@@ -92,7 +92,8 @@ pub fn activity_lag(a: Series<'_>, b: Series<'_>, bin_s: f64) -> Result<Option<L
     let n = (na + nb).checked_next_power_of_two().ok_or(XcorrError::TooLong((na + nb) as f64))?;
     // four f64 vectors of n: the two spectra (re, im)
     limits::MEMORY_BYTES.check(n as u128 * 32).map_err(XcorrError::Memory)?;
-    let series = |s: Series<'_>, len: usize| -> Result<Option<Vec<f64>>, XcorrError> {
+    // the mean-removed series padded to n, and its energy (sum of squares)
+    let series = |s: Series<'_>, len: usize| -> Result<Option<(Vec<f64>, f64)>, XcorrError> {
         let mut v = Vec::new();
         v.try_reserve_exact(n).map_err(|_| XcorrError::Alloc(n))?;
         v.resize(len, 0.0);
@@ -111,10 +112,10 @@ pub fn activity_lag(a: Series<'_>, b: Series<'_>, bin_s: f64) -> Result<Option<L
             return Ok(None);
         }
         v.resize(n, 0.0);
-        Ok(Some(v))
+        Ok(Some((v, energy)))
     };
-    let (Some(ar), Some(br)) = (series(a, na)?, series(b, nb)?) else { return Ok(None) };
-    let norm = (ar.iter().map(|x| x * x).sum::<f64>() * br.iter().map(|x| x * x).sum::<f64>()).sqrt();
+    let (Some((ar, ea)), Some((br, eb))) = (series(a, na)?, series(b, nb)?) else { return Ok(None) };
+    let norm = (ea * eb).sqrt();
     let zeros = || -> Result<Vec<f64>, XcorrError> {
         let mut v = Vec::new();
         v.try_reserve_exact(n).map_err(|_| XcorrError::Alloc(n))?;

@@ -1,0 +1,24 @@
+//! Camera alignment: putting two cameras' points into one frame.
+//!
+//! | file | SQL | what |
+//! |---|---|---|
+//! | [`rigid`] | `rigid_fit`, `rigid_rms`, `transform_apply`, `transform_point`, `transform_compose`, `transform_invert` | 2-D similarity transforms; Umeyama/Kabsch fit from known pairs, trimmed (LTS) |
+//! | [`correspond`] | `traj_correspond` | time-interpolated point pairs of two tracks (one transform hypothesis) |
+//! | [`shift`] | `rigid_fit_scan`, `rigid_fit_shifted` | clock offsets: the fit of a track pair at every time shift (a Hough line), and the joint fit of many pairs with the best shift |
+//! | [`xcorr`] | `activity_lag` | the coarse clock offset of two cameras over every lag: cross-correlation of their activity (FFT, [`fft`]) |
+//! | [`shift_under`] | `rigid_shift_under` | the clock offset of one track pair under a known transform (align.sql's drift measurement) |
+//! | [`speed_lag`] | `speed_lag` | the clock offset of one track pair from their speed profiles (frame-free): align.sql's second coarse offset where the activity peak was too far off |
+//! | [`cpd`] | `cpd_align` (2-D) | rigid TimeCPD, thesis eq. 2.7/2.8, Alg. 5–8, sparse time-windowed E-step |
+//! | [`cpd3`] | `cpd_align` (3-D) | the same model in 3-D (rotation by SVD) |
+
+pub mod correspond;
+pub mod cpd;
+pub mod fft;
+pub mod cpd3;
+#[cfg(test)]
+mod cpd_pinned;
+pub mod rigid;
+pub mod shift;
+pub mod shift_under;
+pub mod speed_lag;
+pub mod xcorr;

@@ -1,6 +1,6 @@
-"""`python -m trajdb [OUT]`: the demo in stock DuckDB (simulate, pipeline, score)."""
+"""`python -m trajdb ...`: the `trajdb` command (python/trajdb/cli.py; `python -m trajdb help`)."""
 import sys
 
-from . import demo
+from .cli import main
 
-demo(*sys.argv[1:2])
+sys.exit(main())

@@ -1,0 +1,579 @@
+"""`trajdb`: the command over stock DuckDB and the trajdb extension (`python -m trajdb`, or the
+console script `trajdb` that `pip install .` makes).
+
+    trajdb [--db FILE] [--csv | --json] sql "QUERY"       (or: sql - , SQL on stdin)
+    trajdb pipeline --input FILE --out DIR [--param name=value ...]
+    trajdb simulate --out DIR [--cameras N --minutes M --seed S ...]
+    trajdb score SCENARIO_DIR --results DIR
+    trajdb demo [--out DIR] [simulate options]            (simulate -> pipeline -> score)
+    trajdb functions [--markdown]                         (the SQL function reference)
+    trajdb params [--sql]                                 (the pipeline parameters)
+    trajdb report RESULTS_DIR [--open]                    (where report.html is; --open: in a browser)
+    trajdb help [COMMAND]                                 (or COMMAND --help)
+
+Argument parsing and printing only. The extension does the work: the parameters are checked by
+it (trajdb_params), the pipeline runs in it (trajdb.pipeline), the results folder is claimed and
+replaced by it; SQL text is split into statements by DuckDB's own parser. An error is one
+`Error: ...` message on stderr and exit status 1; a reader that closes the pipe (`| head`) ends
+the command quietly with status 0.
+"""
+import argparse
+import csv
+import json
+import math
+import os
+import sys
+import time
+import warnings
+
+import duckdb
+
+import trajdb
+
+PROG = "trajdb"
+
+
+class UsageError(Exception):
+    """A bad command line: printed as `Error: ...` like every other error."""
+
+
+class Parser(argparse.ArgumentParser):
+    """argparse with one-line errors (no usage dump, exit status 1 through main), and a help
+    epilog that may be computed when the help is shown (`pipeline --help` loads the extension
+    for its parameter list; nothing else does)."""
+
+    def __init__(self, *a, epilog_fn=None, **kw):
+        kw.setdefault("formatter_class", argparse.RawDescriptionHelpFormatter)
+        super().__init__(*a, **kw)
+        self.epilog_fn = epilog_fn
+
+    def error(self, message):
+        raise UsageError(f"{message} (see: {self.prog} --help)")
+
+    def format_help(self):
+        if self.epilog_fn is not None:
+            self.epilog = self.epilog_fn()
+        return super().format_help()
+
+
+# --- output --------------------------------------------------------------------------------------
+
+
+def out(text=""):
+    """Writes to stdout (a closed pipe is handled in main)."""
+    sys.stdout.write(text + "\n")
+
+
+def note(text):
+    """Progress and findings: stderr, as the pipeline's own progress lines."""
+    print(text, file=sys.stderr, flush=True)
+
+
+def _text_rows(rel):
+    """The relation's columns and rows as DuckDB's own VARCHAR casts (lists, structs, dates,
+    doubles as DuckDB prints them); NULL stays None."""
+    cols = rel.columns
+    if not cols:
+        return cols, []
+    return cols, rel.project("COLUMNS(*)::VARCHAR").fetchall()
+
+
+def print_table(rel):
+    cols, rows = _text_rows(rel)
+    cells = [["NULL" if v is None else v for v in r] for r in rows]
+    widths = [max([len(c)] + [len(r[k]) for r in cells]) for k, c in enumerate(cols)]
+    rule = "+" + "+".join("-" * (w + 2) for w in widths) + "+"
+    line = lambda vals: "| " + " | ".join(v.ljust(w) for v, w in zip(vals, widths)) + " |"  # noqa: E731
+    out("\n".join([rule, line(cols), rule] + [line(r) for r in cells] + [rule]))
+
+
+def print_csv(rel):
+    cols, rows = _text_rows(rel)
+    w = csv.writer(sys.stdout, lineterminator="\n")
+    w.writerow(cols)
+    for r in rows:
+        w.writerow(["" if v is None else v for v in r])
+
+
+def _json_value(v):
+    if isinstance(v, float) and not math.isfinite(v):
+        return None if math.isnan(v) else ("inf" if v > 0 else "-inf")
+    if isinstance(v, dict):
+        return {str(k): _json_value(x) for k, x in v.items()}
+    if isinstance(v, (list, tuple)):
+        return [_json_value(x) for x in v]
+    if v is None or isinstance(v, (bool, int, float, str)):
+        return v
+    if isinstance(v, (bytes, bytearray, memoryview)):
+        return bytes(v).hex()
+    return str(v)  # Decimal, dates, times, UUIDs: their text
+
+
+def print_json(rel):
+    cols = rel.columns
+    rows = rel.fetchall() if cols else []
+    out(json.dumps([{c: _json_value(v) for c, v in zip(cols, r)} for r in rows], separators=(",", ":")))
+
+
+PRINTERS = {"table": print_table, "csv": print_csv, "json": print_json}
+# statements whose rows are printed (DuckDB's statement types; DESCRIBE, SHOW, SUMMARIZE, VALUES,
+# FROM and TABLE are SELECTs to DuckDB)
+ROW_TYPES = {"SELECT", "EXPLAIN", "PRAGMA", "CALL"}
+
+
+def run_sql(con, text, fmt):
+    """Runs `text` statement by statement (split by DuckDB's parser), printing the rows of every
+    statement that returns rows."""
+    for stmt in con.extract_statements(text):
+        kind = getattr(stmt.type, "name", str(stmt.type)).split(".")[-1]
+        if kind in ROW_TYPES:
+            rel = con.sql(stmt.query)
+            if rel is not None:
+                PRINTERS[fmt](rel)
+        else:
+            con.execute(stmt.query)
+
+
+# --- simulator options (simulate, demo) ------------------------------------------------------------
+
+# (option, type, trajdb_simulate's named parameter, default as trajdb_simulate has it, help)
+SIM_OPTIONS = [
+    ("--cameras", int, "cameras", "3", "number of cameras"),
+    ("--minutes", float, "minutes", "5", "simulated minutes"),
+    ("--seed", int, "seed", "1", "random seed (the same seed gives the same files)"),
+    ("--rate-hz", str, "rate_hz", "10", "camera sampling rate (Hz): R, or R1,R2,... one per camera (cycled)"),
+    ("--traffic", float, "traffic", "1", "traffic volume multiplier"),
+    ("--pedestrians", float, "pedestrians", "1", "extra pedestrian multiplier (a crowd: 10)"),
+    ("--cyclists", float, "cyclists", "1", "extra cyclist multiplier (bike lanes; 2 a minute at 1)"),
+    ("--noise-sigma", str, None, "0.05,0.15", "camera position noise sigma (m): S, or LO,HI drawn per camera"),
+    ("--noise-tracks-per-min", float, "noise_tracks_per_min", "1", "spurious tracks per camera and minute"),
+    ("--clock-offset-max", float, "clock_offset_max", "0", "camera clocks offset by a uniform draw in +-X s"),
+    ("--clock-drift-ppm", float, "clock_drift_ppm", "0", "camera clocks run fast/slow by a uniform draw in +-X ppm"),
+    ("--time-jitter-s", float, "time_jitter_s", "0", "each time stamp off the capture time by N(0, X) s, clipped to 0.45 frame"),
+    ("--clock-epoch", float, "clock_epoch", "0", "seconds added to every camera clock alike (e.g. 1.78e9, Unix time in 2026)"),
+    ("--origin", str, "origin", "none",
+     "camera frames far from 0: none, utm (each camera x 4.5e5-5e5, y 5.7e6 m) or X,Y added to every local coordinate"),
+    ("--world-rate-hz", float, "world_rate_hz", "10", "sampling rate of world.csv (Hz); 0 skips it"),
+    ("--waiting-groups", float, "waiting_groups", "0",
+     "groups of 2-8 pedestrians and cyclists waiting 10-60 s at a crossing's kerb, 0.6-2 m apart, per minute (docs/simulate.md)"),
+]
+
+
+def _number(option, text):
+    try:
+        return float(text)
+    except ValueError:
+        raise UsageError(f"argument {option}: must be a number, got {text!r}") from None
+
+
+def add_sim_options(p, out_default):
+    if out_default is None:
+        p.add_argument("--out", required=True, metavar="DIR", help="folder for points.parquet / points.csv and the ground truth")
+    else:
+        p.add_argument("--out", default=out_default, metavar="DIR", help=f"folder for the scenario, results in DIR/results [default: {out_default}]")
+    for opt, typ, _, default, hlp in SIM_OPTIONS:
+        # no argparse default: an option not given is not passed, trajdb_simulate's default holds
+        p.add_argument(opt, type=typ, metavar="X", help=f"{hlp} [default: {default}]")
+
+
+def sim_params(a):
+    """The given simulator options as trajdb_simulate's named parameters (values unchecked here:
+    trajdb_simulate checks them and names the parameter in its error)."""
+    params = {}
+    for opt, _, name, _, _ in SIM_OPTIONS:
+        v = getattr(a, opt[2:].replace("-", "_"))
+        if v is None:
+            continue
+        if opt == "--noise-sigma":
+            lo, sep, hi = v.partition(",")
+            params["noise_sigma_min"] = _number(opt, lo)
+            if sep:
+                params["noise_sigma_max"] = _number(opt, hi)
+        else:
+            params[name] = v
+    return params
+
+
+# --- commands --------------------------------------------------------------------------------------
+
+
+def connect(a):
+    return trajdb.connect(a.db) if a.db else trajdb.connect()
+
+
+def cmd_sql(a):
+    text = sys.stdin.read() if a.query == "-" else a.query
+    run_sql(connect(a), text, a.format)
+
+
+def params_table(con):
+    rows = con.execute('SELECT name, type, "default", stage, description FROM trajdb_params()').fetchall()
+    rows = [["" if v is None else str(v) for v in r] for r in rows]
+    head = ["name", "type", "default", "stage", "description"]
+    w = [max([len(head[k])] + [len(r[k]) for r in rows]) for k in range(4)]
+    fmt = lambda r: "  ".join(r[k].ljust(w[k]) for k in range(4)) + "  " + r[4]  # noqa: E731
+    return "\n".join([fmt(head)] + [fmt(r) for r in rows])
+
+
+def pipeline_epilog():
+    try:
+        table = params_table(trajdb.connect())
+    except Exception as e:  # noqa: BLE001 - help still prints; the reason is shown
+        table = f"(the list needs the extension loaded: {e})"
+    return ("Parameters (`auto`: measured by the calibrate stage; --param name=value sets one, "
+            "checked by the extension against its type and range):\n" + table)
+
+
+def cmd_pipeline(a):
+    params = {}
+    for p in a.param or []:
+        name, sep, value = p.partition("=")
+        if not sep:
+            raise UsageError(f"--param needs name=value, got {p!r}")
+        params[name.strip()] = value.strip()
+    con = connect(a)
+    with warnings.catch_warnings(record=True) as found:
+        warnings.simplefilter("always")
+        trajdb.pipeline(con, a.input, out=a.out, **params)
+    summary(con, a.out)
+    for w in found:
+        msg = str(w.message)
+        note(f"[trajdb] warning: {msg.removeprefix('trajdb.pipeline: ')}")
+
+
+def summary(con, out_dir):
+    """What was found, in a few lines (stderr), from the pipeline's tables in `con`."""
+    users, multi, cams, aligned = con.execute(
+        """SELECT (SELECT count(*) FROM merged), (SELECT count(*) FROM merged WHERE n_tracks > 1),
+                  (SELECT count(DISTINCT camera) FROM points), (SELECT count(*) FROM align_frames)"""
+    ).fetchone()
+    per_class = con.execute(
+        "SELECT coalesce(string_agg(class || ' ' || n, ', ' ORDER BY n DESC, class), '') "
+        "FROM (SELECT class, count(*) AS n FROM merged GROUP BY class)"
+    ).fetchone()[0]
+    links, chains = con.execute(
+        """SELECT (SELECT count(*) FROM merge_links m JOIN merge_groups a ON a.uid = m.uid_a JOIN merge_groups b ON b.uid = m.uid_b
+                   WHERE a.road_user = b.road_user AND m.kind <> 'reach'),
+                  (SELECT count(*) FROM merge_chains WHERE track_id <> linked_id)"""
+    ).fetchone()
+    note(f"[trajdb] found    {users} road users ({per_class}); {multi} seen by more than one track")
+    note(f"[trajdb]          {aligned} of {cams} cameras in one frame; {links} cross-camera links; "
+         f"{chains} tracks joined to an earlier piece in their camera")
+    note(f"[trajdb]          results in {out_dir}, open {os.path.join(out_dir, 'report.html')} for the report")
+
+
+def simulate(con, out_dir, params):
+    t = time.perf_counter()
+    row = trajdb.simulate(con, out_dir, **params)
+    note(f"[trajdb] simulate {time.perf_counter() - t:>7.2f} s  {row[1]} objects, {row[2]} cameras, {row[3]} tracks, "
+         f"{row[4]} points -> {out_dir}")
+    return row
+
+
+def cmd_simulate(a):
+    simulate(connect(a), a.out, sim_params(a))
+
+
+def cmd_demo(a):
+    con = connect(a)
+    note(f"[trajdb] demo: simulate intersection traffic -> {a.out}")
+    simulate(con, a.out, sim_params(a))
+    results = os.path.join(a.out, "results")
+    with warnings.catch_warnings(record=True) as found:
+        warnings.simplefilter("always")
+        trajdb.pipeline(con, os.path.join(a.out, "points.parquet"), out=results)
+    for w in found:
+        note(f"[trajdb] warning: {str(w.message).removeprefix('trajdb.pipeline: ')}")
+    out(f"score of {results} against the simulator's ground truth:")
+    rot, trans, f1 = print_score(con, a.out, results)
+    ok = f1 >= 0.95 and rot <= 0.5 and trans <= 0.3
+    out(f"demo {'PASSED' if ok else 'FAILED'}: match F1 {f1:.3f} (target >= 0.95), worst camera pair {rot:.3f} deg / {trans:.3f} m "
+        "(targets 0.5 deg / 0.3 m)")
+    out(f"results: {results}/{{transforms.csv, matches.csv, merged.parquet, clusters.csv, report.html}}")
+    if not ok:
+        raise RuntimeError("demo: the pipeline missed its accuracy targets")
+
+
+def cmd_score(a):
+    print_score(connect(a), a.scenario, a.results)
+
+
+def cmd_functions(a):
+    out(connect(a).execute("SELECT trajdb_reference(?)", ["markdown" if a.markdown else "text"]).fetchone()[0].rstrip("\n"))
+
+
+def cmd_params(a):
+    con = connect(a)
+    out(con.execute("SELECT trajdb_params_script()").fetchone()[0].rstrip("\n") if a.sql else params_table(con))
+
+
+def cmd_report(a):
+    page = os.path.abspath(os.path.join(a.results, "report.html"))
+    if not os.path.isfile(page):
+        raise RuntimeError(f"{page} does not exist: report.html is written by `trajdb pipeline --out {a.results}`")
+    url = "file://" + page
+    out(url)
+    if a.open:
+        import webbrowser
+
+        if not webbrowser.open(url):
+            raise RuntimeError(f"no browser could be started; open {url} yourself")
+
+
+# --- trajdb score: the printout of sql/score.sql's tables (benches/identity_grid.sh reads it by position) ---
+
+
+def _f(v):
+    return math.nan if v is None else float(v)
+
+
+def _r(v, prec, sign=False):
+    """A number as Rust's `{:.prec}` prints it (NaN as NaN, inf as inf)."""
+    if math.isnan(v):
+        return "NaN"
+    return f"{v:{'+' if sign else ''}.{prec}f}"
+
+
+def _e(v):
+    """Rust's `{:.2e}`: 1.50e-4 (no zero padding or plus sign in the exponent)."""
+    if not math.isfinite(v):
+        return _r(v, 2)
+    m, ex = f"{v:.2e}".split("e")
+    return f"{m}e{int(ex)}"
+
+
+def _opt(v, fn):
+    return "-" if v is None else fn(float(v))
+
+
+def _class(c):
+    return "all" if c == "*" else c
+
+
+def _score_paths(con):
+    """The merged paths against world.csv (sql/score_path.sql's tables, when trajdb.score did not
+    make them already)."""
+    if not con.execute("SELECT count(*) FROM duckdb_tables() WHERE table_name = 's_path_summary'").fetchone()[0]:
+        path = os.path.join(os.path.dirname(os.path.abspath(trajdb.__file__)), "sql", "score_path.sql")
+        with open(path) as f:
+            con.execute(f.read())
+    f3 = lambda v: _opt(v, lambda x: _r(x, 3))  # noqa: E731
+    out("merged paths against world.csv (each road user's mapped object, at the same time):")
+    out(f"  {'class':<14} {'points':>9} {'median m':>9} {'p95 m':>9} {'max m':>9} {'road users > 1 m':>18}")
+    for c, n, med, p95, mx, off in con.execute(
+        "SELECT class, points, median_m, p95_m, max_m, off_1m FROM s_path_summary ORDER BY class = '*', class"
+    ).fetchall():
+        out(f"  {_class(c):<14} {n:>9} {f3(med):>9} {f3(p95):>9} {f3(mx):>9} {off:>18}")
+    out("fused vs the best single camera (road users seen by >= 2 cameras; each camera mapped by the pipeline's transforms.csv,")
+    out("the best = lowest median error, over its time span; ratio = fused / best, target <= 0.6):")
+    out(f"  {'class':<14} {'road users':>11} {'fused med m':>12} {'p95 m':>9} {'best med m':>11} {'p95 m':>9} {'ratio median':>13} {'ratio p95':>10}")
+
+    def ratio(a, b):
+        return _r(float(a) / float(b), 2) if a is not None and b is not None and float(b) > 0 else "-"
+
+    for c, n, fm, fp, bm, bp in con.execute(
+        "SELECT class, road_users, fused_median_m, fused_p95_m, best_median_m, best_p95_m FROM s_fuse_vs_best ORDER BY class = '*', class"
+    ).fetchall():
+        out(f"  {_class(c):<14} {n:>11} {f3(fm):>12} {f3(fp):>9} {f3(bm):>11} {f3(bp):>9} {ratio(fm, bm):>13} {ratio(fp, bp):>10}")
+    out("fused path steps (jump: consecutive points whose errors differ by > 1 m; mean speed = length_m / duration_s against the")
+    out("true path's over the same time, road users seen >= 1 s, as over- (+) or understatement):")
+    out(f"  {'class':<14} {'jumps>1m':>9} {'max jump m':>10} {'min step s':>12} {'max speed m/s':>14} {'mean speed median':>17} {'mean speed p95':>14}")
+    pct = lambda v: _opt(v, lambda x: _r(x * 100.0, 1, sign=True) + "%")  # noqa: E731
+    g = lambda v: _opt(v, lambda x: _e(x) if abs(x) < 1e-3 else _r(x, 4))  # noqa: E731
+    for c, j, mj, ms, mv, om, op in con.execute(
+        "SELECT class, jumps_1m, max_jump_m, min_step_s, max_speed, speed_over_median, speed_over_p95 FROM s_path_quality "
+        "ORDER BY class = '*', class"
+    ).fetchall():
+        out(f"  {_class(c):<14} {j:>9} {f3(mj):>10} {g(ms):>12} {f3(mv):>14} {pct(om):>17} {pct(op):>14}")
+
+
+def print_score(con, scenario, results):
+    """`trajdb score`: trajdb.score (sql/score.sql), then its tables, as the trajdb binary printed
+    them (the same text; benches/identity_grid.sh and tests/test_cli_python.py read it by
+    position). Returns (worst rotation deg, worst translation m, overall match F1); the errors
+    are infinite when no camera pair was placed."""
+    trajdb.score(con, scenario, results)
+    rot, trans, clock, drift = con.execute(
+        "SELECT max(rot_deg), max(trans_m), max(clock_err_s), max(drift_err_ppm) FROM s_pair_err WHERE cam_from < cam_to"
+    ).fetchone()
+    if None not in (rot, trans, clock, drift):
+        # the line ends with the clock error in ms: benches/identity_grid.sh reads it there
+        out(f"camera pairs: worst rotation error {_r(_f(rot), 3)} deg, worst translation error {_r(_f(trans), 3)} m, "
+            f"worst clock drift error {_r(_f(drift), 1)} ppm, worst clock offset error {_r(_f(clock) * 1e3, 1)} ms")
+    else:
+        # a run that placed no camera pair (transforms.csv without values): a score, not an error
+        out("camera pairs: none placed (transforms.csv has no transform)")
+    for a, b, rd, tm, ce, de in con.execute(
+        "SELECT cam_from, cam_to, rot_deg, trans_m, clock_err_s, drift_err_ppm FROM s_pair_err WHERE cam_from < cam_to ORDER BY 1, 2"
+    ).fetchall():
+        if None not in (rd, tm, ce, de):
+            out(f"  {a} -> {b}: rotation {_r(_f(rd), 3)} deg, translation {_r(_f(tm), 3)} m, clock offset {_r(_f(ce) * 1e3, 1)} ms "
+                f"(worst over camera {b}'s recording), clock drift {_r(_f(de), 1)} ppm")
+        else:
+            out(f"  {a} -> {b}: not placed")
+    out("road users (from merged.parquet; IDF1 and HOTA over real points, exact = all of an object's real tracks and nothing else in one road user):")
+    out(f"  {'class':<14} {'IDF1':>6} {'exact':>7} {'objects':>8} {'link prec.':>11} {'break recall':>12} {'true breaks':>11} "
+        f"{'links':>8} {'HOTA':>6} {'DetA':>6} {'AssA':>6}")
+    for c, idf1, exact, n, lp, br, nb, nl, hota, deta, assa in con.execute(
+        """SELECT class, idf1, exact_share, objects, links_correct::DOUBLE / greatest(links, 1), breaks_found::DOUBLE / greatest(true_breaks, 1),
+                  true_breaks, links, coalesce(hota, 0), coalesce(deta, 0), coalesce(assa, 0) FROM s_identity ORDER BY class = '*', class"""
+    ).fetchall():
+        r3 = lambda v: _r(_f(v), 3)  # noqa: E731
+        out(f"  {_class(c):<14} {r3(idf1):>6} {_r(0.0 if exact is None else float(exact), 3):>7} {n:>8} {r3(lp):>11} {r3(br):>12} "
+            f"{nb:>11} {nl:>8} {r3(hota):>6} {r3(deta):>6} {r3(assa):>6}")
+    if os.path.exists(os.path.join(scenario, "world.csv")):
+        _score_paths(con)
+    out("matches (a true pair: same object, >= 1 s together, >= 3 points each in the true overlap; a predicted pair of one")
+    out("object that misses that rule is neutral: right, so not against precision, but not a true pair either):")
+    out(f"  {'class':<14} {'precision':>9} {'recall':>7} {'F1':>6} {'true pairs':>10} {'predicted':>10} {'neutral':>8}")
+    all_f1 = 0.0
+    for c, p, rc, nt, npred, nn in con.execute(
+        "SELECT class, precision, recall, true_pairs, predicted, neutral FROM s_class_scores ORDER BY class = '*', class"
+    ).fetchall():
+        p, rc = _f(p), _f(rc)
+        f1 = 2.0 * p * rc / (p + rc) if p + rc > 0.0 else 0.0
+        if c == "*":
+            all_f1 = f1
+        out(f"  {_class(c):<14} {_r(p, 3):>9} {_r(rc, 3):>7} {_r(f1, 3):>6} {nt:>10} {npred:>10} {nn:>8}")
+    inf = math.inf
+    return (inf if rot is None else float(rot), inf if trans is None else float(trans), all_f1)
+
+
+# --- the parser --------------------------------------------------------------------------------------
+
+
+def build_parser():
+    # --db, --csv, --json: before or after the command (a parent parser on both levels; SUPPRESS
+    # keeps a subcommand from resetting what was given before it)
+    def common(top):
+        p = argparse.ArgumentParser(add_help=False)
+        d = {} if top else {"default": argparse.SUPPRESS}
+        p.add_argument("--db", metavar="FILE", help="a DuckDB database file (default: in memory)", **({"default": None} if top else d))
+        g = p.add_mutually_exclusive_group()
+        g.add_argument("--csv", dest="format", action="store_const", const="csv", help="print query results as CSV", **d)
+        g.add_argument("--json", dest="format", action="store_const", const="json", help="print query results as JSON", **d)
+        return p
+
+    top = Parser(
+        prog=PROG,
+        parents=[common(True)],
+        description="Multi-camera traffic-trajectory analysis in stock DuckDB with the trajdb extension: align cameras, "
+        "match and merge tracks, cluster routes.",
+        epilog="`trajdb help COMMAND` or `trajdb COMMAND --help` describes a command and its options with their defaults.",
+    )
+    top.set_defaults(format="table")
+    top.add_argument("--version", action="version", version=f"trajdb {trajdb.__version__} (duckdb {duckdb.__version__})")
+    sub = top.add_subparsers(dest="command", metavar="COMMAND", parser_class=Parser)
+    cmds = {}
+
+    def add(name, fn, hlp, **kw):
+        p = sub.add_parser(name, help=hlp, description=hlp, parents=[common(False)], **kw)
+        p.set_defaults(fn=fn)
+        cmds[name] = p
+        return p
+
+    p = add("sql", cmd_sql, "run SQL (one statement or several, separated by ;) and print the rows of each")
+    p.add_argument("query", metavar="QUERY", help="the SQL text; - reads it from stdin")
+    p = add("pipeline", cmd_pipeline,
+            "the whole pipeline: calibrate, clean, link, align, overlap, match and merge, cluster; writes the results and report.html",
+            epilog_fn=pipeline_epilog)
+    p.add_argument("--input", required=True, metavar="FILE", help="points as Parquet or CSV: camera, track_id, class, t, x, y[, estimated]")
+    p.add_argument("--out", required=True, metavar="DIR", help="results folder (replaced only when the run succeeds)")
+    p.add_argument("--param", action="append", metavar="NAME=VALUE", help="set a parameter (repeatable); the list follows")
+    p = add("score", cmd_score, "score a results folder against a scenario's ground truth (cameras.csv, truth.csv, world.csv)")
+    p.add_argument("scenario", metavar="SCENARIO_DIR")
+    p.add_argument("--results", required=True, metavar="DIR", help="the --out folder of trajdb pipeline")
+    add_sim_options(add("simulate", cmd_simulate, "simulate an intersection seen by N cameras, with ground truth (trajdb_simulate)"), None)
+    add_sim_options(add("demo", cmd_demo, "simulate, run the pipeline and score it (no outside data needed)"), "trajdb-demo")
+    p = add("functions", cmd_functions, "the SQL function reference")
+    p.add_argument("--markdown", action="store_true", help="as docs/functions.md")
+    p = add("params", cmd_params, "the pipeline parameters")
+    p.add_argument("--sql", action="store_true", help="as sql/params.sql")
+    p = add("report", cmd_report, "the report.html of a results folder: its file:// address (--open: in the default browser)")
+    p.add_argument("results", metavar="RESULTS_DIR")
+    p.add_argument("--open", action="store_true", help="open it in the default web browser")
+    p = add("help", None, "this overview, or a command's help")
+    p.add_argument("topic", nargs="?", metavar="COMMAND")
+    return top, cmds
+
+
+def _join_values(argv):
+    """`--origin -100,250` and `--clock-epoch -1e9` as `--origin=-100,250`: argparse would take a
+    value that starts with '-' for an option (clap allowed it)."""
+    takes = {o[0] for o in SIM_OPTIONS} | {"--param", "--out", "--input", "--results", "--db"}
+    argv, k = list(argv), 0
+    while k < len(argv) - 1:
+        if argv[k] in takes and argv[k + 1].startswith("-") and len(argv[k + 1]) > 1:
+            argv[k : k + 2] = [f"{argv[k]}={argv[k + 1]}"]
+        k += 1
+    return argv
+
+
+def real_main(argv):
+    top, cmds = build_parser()
+    argv = _join_values(argv)
+    if not argv:
+        # no command: SQL piped on stdin runs (as before), a terminal gets the overview
+        if not sys.stdin.isatty():
+            text = sys.stdin.read()
+            if text.strip():
+                run_sql(trajdb.connect(), text, "table")
+                return
+        out(top.format_help().rstrip("\n"))
+        return
+    a = top.parse_args(argv)
+    if a.command is None:
+        out(top.format_help().rstrip("\n"))
+        return
+    if a.command == "help":
+        if a.topic is None:
+            out(top.format_help().rstrip("\n"))
+        elif a.topic in cmds:
+            out(cmds[a.topic].format_help().rstrip("\n"))
+        else:
+            raise UsageError(f"no command {a.topic!r}; the commands: {', '.join(cmds)}")
+        return
+    a.fn(a)
+
+
+def main(argv=None):
+    """The `trajdb` command; returns the exit status (0, or 1 after an error)."""
+    argv = sys.argv[1:] if argv is None else list(argv)
+    try:
+        real_main(argv)
+        sys.stdout.flush()
+        return 0
+    except BrokenPipeError:
+        return _closed_pipe()
+    except KeyboardInterrupt:
+        print("Error: interrupted", file=sys.stderr)
+        return 130
+    except SystemExit as e:  # --help / --version from argparse
+        try:
+            sys.stdout.flush()
+        except BrokenPipeError:
+            return _closed_pipe()
+        return e.code if isinstance(e.code, int) else 0
+    except Exception as e:  # noqa: BLE001 - every error is one message, never a traceback
+        try:
+            sys.stdout.flush()
+        except BrokenPipeError:
+            return _closed_pipe()
+        msg = str(e) or type(e).__name__
+        print(f"Error: {msg}", file=sys.stderr)
+        return 1
+
+
+def _closed_pipe():
+    """The reader is gone (`trajdb ... | head`): not an error. stdout goes to /dev/null so that
+    Python's own flush at exit does not complain."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except OSError:
+        pass
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -155,10 +155,10 @@ SELECT h.cam_fixed, h.cam_moving, track_fixed, track_moving, h.centre + f.dt AS 
        cos(f.theta) * m.cx - sin(f.theta) * m.cy + f.tx - fc.cx AS qx,
        sin(f.theta) * m.cx + cos(f.theta) * m.cy + f.ty - fc.cy AS qy
 FROM (SELECT cam_fixed, cam_moving, track_fixed, track_moving, centre, unnest(fits) AS f FROM cand) h
-JOIN calib_pairs c ON c.cam_a = h.cam_fixed AND c.cam_b = h.cam_moving
+JOIN calibrated_values('align_max_rms_m') c ON c.cam_a = h.cam_fixed AND c.cam_b = h.cam_moving
 JOIN align_centroids fc ON fc.camera = h.cam_fixed JOIN align_centroids m ON m.camera = h.cam_moving
 WHERE f.n >= getvariable('align_min_pairs') AND f.span >= getvariable('align_min_span_m')
-  AND f.rms < c.align_max_rms_m;
+  AND f.rms < c.value;
 
 -- 2. vote in (theta, qx, qy, dt) bins: the true bin collects every true track pair (straight
 --    ones vote along a line through it), a wrong one only the pairs that happen to cross it.
@@ -322,7 +322,7 @@ WITH cand AS (
       AND abs(h.qx - b.qx) <= getvariable('align_agree_m') AND abs(h.qy - b.qy) <= getvariable('align_agree_m')
 ),
 coarse AS (
-    SELECT c.*, a.traj AS traj_fixed, m.traj AS traj_moving, (a.t0 + a.t1) / 2 AS x, cp.align_refine_rms_m AS gate,
+    SELECT c.*, a.traj AS traj_fixed, m.traj AS traj_moving, (a.t0 + a.t1) / 2 AS x, cp.value AS gate,
            {'theta': p.fit.theta, 'tx': p.fit.tx, 'ty': p.fit.ty, 'scale': p.fit.scale} AS tf,
            rigid_shift_under(a.traj, m.traj, {'theta': p.fit.theta, 'tx': p.fit.tx, 'ty': p.fit.ty, 'scale': p.fit.scale},
                              p.fit.dt, s.max_off, getvariable('align_bin_s'), 0.5, getvariable('align_min_pairs')) AS r
@@ -330,7 +330,7 @@ coarse AS (
     JOIN (SELECT cam_fixed, cam_moving, max(max_off) AS max_off FROM align_scan GROUP BY ALL) s USING (cam_fixed, cam_moving)
     JOIN align_tracks a ON a.camera = c.cam_fixed AND a.track_id = c.track_fixed
     JOIN align_tracks m ON m.camera = c.cam_moving AND m.track_id = c.track_moving
-    JOIN calib_pairs cp ON cp.cam_a = c.cam_fixed AND cp.cam_b = c.cam_moving
+    JOIN calibrated_values('align_refine_rms_m') cp ON cp.cam_a = c.cam_fixed AND cp.cam_b = c.cam_moving
     WHERE p.fit IS NOT NULL
 )
 SELECT cam_fixed, cam_moving, track_fixed, track_moving, x, traj_fixed, traj_moving,
@@ -428,10 +428,10 @@ CREATE OR REPLACE TEMP TABLE align_pairs AS FROM align_refit();
 CREATE OR REPLACE TEMP TABLE align_support AS
 SELECT s.*
 FROM align_support s JOIN align_pairs a USING (cam_fixed, cam_moving)
-JOIN calib_pairs c ON c.cam_a = s.cam_fixed AND c.cam_b = s.cam_moving
+JOIN calibrated_values('align_refine_rms_m') c ON c.cam_a = s.cam_fixed AND c.cam_b = s.cam_moving
 WHERE a.fit IS NOT NULL
   AND rigid_rms(traj_correspond(s.traj_fixed, s.traj_moving, 0.5, a.fit.dt),
-                {'theta': a.fit.theta, 'tx': a.fit.tx, 'ty': a.fit.ty, 'scale': a.fit.scale}) < c.align_refine_rms_m;
+                {'theta': a.fit.theta, 'tx': a.fit.tx, 'ty': a.fit.ty, 'scale': a.fit.scale}) < c.value;
 
 CREATE OR REPLACE TEMP TABLE align_pairs AS FROM align_refit();
 
@@ -455,11 +455,23 @@ d AS (
     GROUP BY cam_fixed, cam_moving
 )
 SELECT p.cam_a, p.cam_b, coalesce(d.sigma_d, p.sigma_pair_m) AS sigma_d_m, coalesce(d.n_pairs, 0) AS n_pairs,
-       CASE WHEN d.sigma_d IS NULL THEN 'camera noise' ELSE 'matched residuals' END AS source,
-       -- at least 1 mm: noise-free input (a camera exported twice, simulated exact points)
-       -- measures sigma = 0, and LCSS needs epsilon > 0; 1 mm is below any camera's noise
-       coalesce(getvariable('merge_epsilon'), greatest(sqrt(2 * ln(100)) * coalesce(d.sigma_d, p.sigma_pair_m), 1e-3)) AS merge_epsilon
+       CASE WHEN d.sigma_d IS NULL THEN 'camera noise' ELSE 'matched residuals' END AS source
 FROM calib_pairs p LEFT JOIN d ON d.cam_fixed = p.cam_a AND d.cam_moving = p.cam_b;
+
+-- merge_epsilon into calibration (calibrate.sql's one table of resolved `auto` values): per
+-- camera pair, and the 'default' row trajectory_merge uses for a road user of any cameras (the
+-- largest pair's; no camera pair at all: the camera paired with itself, 3.03 sqrt(2) sigma).
+-- At least 1 mm: noise-free input (a camera exported twice, simulated exact points) measures
+-- sigma = 0, and LCSS needs epsilon > 0; 1 mm is below any camera's noise.
+INSERT INTO calibration
+SELECT 'merge_epsilon', 'camera pair', cam_a, cam_b, NULL, measured, getvariable('merge_epsilon'),
+       coalesce(getvariable('merge_epsilon'), measured), '3.03 x residual sigma'
+FROM (SELECT cam_a, cam_b, greatest(sqrt(2 * ln(100)) * sigma_d_m, 1e-3) AS measured FROM calib_match);
+INSERT INTO calibration
+SELECT 'merge_epsilon', 'default', NULL, NULL, NULL, measured, getvariable('merge_epsilon'),
+       coalesce(getvariable('merge_epsilon'), measured), 'the largest camera pair''s (one camera: 3.03 sqrt(2) sigma)'
+FROM (SELECT coalesce((SELECT max(measured) FROM calibration WHERE parameter = 'merge_epsilon' AND scope = 'camera pair'),
+                      greatest(sqrt(2 * ln(100)) * sqrt(2) * (SELECT coalesce(max(sigma_m), 0) FROM calib_cameras), 1e-3)) AS measured);
 
 -- 4. spanning tree: widest path from every camera to the reference camera (the one with the
 --    most support), composing moving -> fixed transforms (inverted when walked backwards).
@@ -528,19 +540,18 @@ FROM calib_cameras c LEFT JOIN align_frames f USING (camera),
                      ('clock drift se', f.clock_drift_se * 1e6, 'ppm', 'standard error of the clock drift (0 when the drift is 0)')) q(quantity, value, unit, how)
 UNION ALL
 SELECT 'cameras ' || m.cam_a || '-' || m.cam_b, q.quantity, q.value, q.unit, q.how
-FROM calib_match m JOIN calib_pairs p USING (cam_a, cam_b),
-     LATERAL (VALUES ('residual sigma', m.sigma_d_m, 'm', 'per axis, from ' || m.source),
-                     ('merge_epsilon', m.merge_epsilon, 'm', CASE WHEN getvariable('merge_epsilon') IS NULL THEN '3.03 x residual sigma' ELSE 'given' END),
-                     ('align_max_rms_m', p.align_max_rms_m, 'm', CASE WHEN getvariable('align_max_rms_m') IS NULL THEN '0.1 + 3 sigma_pair' ELSE 'given' END),
-                     ('align_refine_rms_m', p.align_refine_rms_m, 'm', CASE WHEN getvariable('align_refine_rms_m') IS NULL THEN '0.05 + 2 sigma_pair' ELSE 'given' END)) q(quantity, value, unit, how)
+FROM calib_match m,
+     LATERAL (VALUES ('residual sigma', m.sigma_d_m, 'm', 'per axis, from ' || m.source)) q(quantity, value, unit, how)
 UNION ALL
-SELECT 'class ' || class, 'acceleration p95', accel_p95, 'm/s2',
-       CASE WHEN getvariable('quality_max_accel') IS NULL THEN 'tracks resampled to 1 s, 95th percentile of |second difference|: quality_max_accel'
-            ELSE 'measured; quality_max_accel given' END
-FROM calib_classes
+SELECT 'cameras ' || cam_a || '-' || cam_b, parameter, value, 'm', CASE WHEN given IS NULL THEN rule ELSE 'given' END
+FROM calibration WHERE scope = 'camera pair'
 UNION ALL
-SELECT 'pipeline', parameter, coalesce(given, measured), '', CASE WHEN given IS NULL THEN rule ELSE 'given' END
-FROM calibration
+SELECT 'class ' || class, 'acceleration p95', measured, 'm/s2',
+       CASE WHEN given IS NULL THEN rule || ': quality_max_accel' ELSE 'measured; quality_max_accel given' END
+FROM calibration WHERE parameter = 'quality_max_accel' AND scope = 'class'
+UNION ALL
+SELECT 'pipeline', parameter, value, '', CASE WHEN given IS NULL THEN rule ELSE 'given' END
+FROM calibration WHERE scope = 'pipeline'
 UNION ALL
 SELECT 'pipeline', 'reference camera', any_value(reference), '',
        'merged.parquet and every later stage are in this camera''s frame and on its clock'

@@ -103,25 +103,55 @@ WHERE c.period_s > 0;
 
 CREATE OR REPLACE TEMP TABLE calib_pairs AS
 SELECT a.camera AS cam_a, b.camera AS cam_b,
-       sqrt(coalesce(a.sigma_m, 0) ** 2 + coalesce(b.sigma_m, 0) ** 2) AS sigma_pair_m,
-       coalesce(getvariable('align_max_rms_m'), 0.1 + 3 * sqrt(coalesce(a.sigma_m, 0) ** 2 + coalesce(b.sigma_m, 0) ** 2)) AS align_max_rms_m,
-       coalesce(getvariable('align_refine_rms_m'), 0.05 + 2 * sqrt(coalesce(a.sigma_m, 0) ** 2 + coalesce(b.sigma_m, 0) ** 2)) AS align_refine_rms_m
+       sqrt(coalesce(a.sigma_m, 0) ** 2 + coalesce(b.sigma_m, 0) ** 2) AS sigma_pair_m
 FROM calib_cameras a JOIN calib_cameras b ON a.camera < b.camera;
 
+-- THE value of every `auto` parameter, resolved once: `given` (--param / SET VARIABLE) if set,
+-- else `measured`, one row per parameter and scope:
+--   scope 'pipeline'     one value for the whole run (listed in calibration.csv)
+--   scope 'camera pair'  per camera pair cam_a < cam_b
+--   scope 'class'        per class
+--   scope 'default'      the value where no row of a narrower scope applies
+-- Later stages never re-derive a value: they read calibrated('name') (the 'pipeline' or
+-- 'default' row) or join calibrated_values('name') (the per pair / per class rows), falling back
+-- to calibrated('name') where a class has no row of its own. align.sql adds the rows that can
+-- only be measured after alignment (merge_epsilon, from the matched tracks' residuals).
 CREATE OR REPLACE TEMP TABLE calibration AS
-SELECT * FROM (VALUES
-    ('clean_min_points', 2.0, getvariable('clean_min_points')::DOUBLE, 'a single real point shows no motion'),
-    ('clean_min_duration_s', 1.5 * (SELECT max(period_s) FROM calib_cameras), getvariable('clean_min_duration_s'),
-     '1.5 x the longest sampling period'),
-    ('merge_min_points', greatest(3, ceil((SELECT max(period_s) FROM calib_cameras) / nullif(getvariable('merge_resample_s'), 0)) + 1),
-     getvariable('merge_min_points')::DOUBLE, '2 real samples of the slowest camera on the common clock, at least 3'),
-    ('cluster_camera', (SELECT camera FROM points WHERE estimated = 0 GROUP BY camera ORDER BY count(DISTINCT track_id) DESC, camera LIMIT 1),
-     getvariable('cluster_camera')::DOUBLE, 'the camera with the most real tracks (ties: the lowest id)')
-) t(parameter, measured, given, rule);
+SELECT parameter, scope, cam_a, cam_b, class, measured, given, coalesce(given, measured) AS value, rule
+FROM (
+    SELECT parameter, 'pipeline' AS scope, NULL::INTEGER AS cam_a, NULL::INTEGER AS cam_b, NULL::VARCHAR AS class,
+           measured::DOUBLE AS measured, given::DOUBLE AS given, rule
+    FROM (VALUES
+        ('clean_min_points', 2.0, getvariable('clean_min_points')::DOUBLE, 'a single real point shows no motion'),
+        ('clean_min_duration_s', 1.5 * (SELECT max(period_s) FROM calib_cameras), getvariable('clean_min_duration_s'),
+         '1.5 x the longest sampling period'),
+        ('merge_min_points', greatest(3, ceil((SELECT max(period_s) FROM calib_cameras) / nullif(getvariable('merge_resample_s'), 0)) + 1),
+         getvariable('merge_min_points')::DOUBLE, '2 real samples of the slowest camera on the common clock, at least 3'),
+        ('cluster_camera', (SELECT camera FROM points WHERE estimated = 0 GROUP BY camera ORDER BY count(DISTINCT track_id) DESC, camera LIMIT 1),
+         getvariable('cluster_camera')::DOUBLE, 'the camera with the most real tracks (ties: the lowest id)')
+    ) t(parameter, measured, given, rule)
+    UNION ALL
+    SELECT 'align_max_rms_m', 'camera pair', cam_a, cam_b, NULL, 0.1 + 3 * sigma_pair_m, getvariable('align_max_rms_m'), '0.1 + 3 sigma_pair'
+    FROM calib_pairs
+    UNION ALL
+    SELECT 'align_refine_rms_m', 'camera pair', cam_a, cam_b, NULL, 0.05 + 2 * sigma_pair_m, getvariable('align_refine_rms_m'), '0.05 + 2 sigma_pair'
+    FROM calib_pairs
+    UNION ALL
+    SELECT 'quality_max_accel', 'class', NULL, NULL, class, accel_p95, getvariable('quality_max_accel'),
+           'tracks resampled to 1 s, 95th percentile of |second difference|'
+    FROM calib_classes
+    UNION ALL
+    SELECT 'quality_max_accel', 'default', NULL, NULL, NULL, 0.0, getvariable('quality_max_accel'),
+           'a class without a measurement: no acceleration allowance'
+);
 
--- the value a stage uses: the one set by --param / SET VARIABLE, else the measured one
+-- the value a stage uses, for the whole run: the 'pipeline' (or 'default') row
 CREATE OR REPLACE TEMP MACRO calibrated(name) AS
-    (SELECT coalesce(given, measured) FROM calibration WHERE parameter = name);
+    (SELECT value FROM calibration WHERE parameter = name AND cam_a IS NULL AND class IS NULL);
+
+-- the values per camera pair (cam_a < cam_b) or per class
+CREATE OR REPLACE TEMP MACRO calibrated_values(name) AS TABLE
+    SELECT cam_a, cam_b, class, value FROM calibration WHERE parameter = name AND (cam_a IS NOT NULL OR class IS NOT NULL);
 
 SELECT camera, round(period_s, 4) AS period_s, round(jitter_s, 4) AS jitter_s, round(sigma_m, 3) AS sigma_m, n_intervals
 FROM calib_cameras ORDER BY camera;

@@ -93,7 +93,7 @@ CREATE OR REPLACE TEMP MACRO merge_r_gate(n_eff) AS
 CREATE OR REPLACE TEMP TABLE merge_scores AS
 WITH l AS (
     SELECT a.uid AS uid_a, b.uid AS uid_b, a.camera AS camera_a, b.camera AS camera_b, a.t0 AS t0_a, a.t1 AS t1_a, b.t0 AS t0_b, b.t1 AS t1_b,
-           lcss_similarity(a.traj, b.traj, c.merge_epsilon, getvariable('merge_time_window'),
+           lcss_similarity(a.traj, b.traj, e.value, getvariable('merge_time_window'),
                            calibrated('merge_min_points')::BIGINT, o.polygon) AS eta,
            c.sigma_d_m, a.traj AS traj_a, b.traj AS traj_b
     FROM merge_tracks a
@@ -102,6 +102,7 @@ WITH l AS (
      AND a.t0 <= b.t1 + getvariable('merge_time_window') AND b.t0 <= a.t1 + getvariable('merge_time_window')
     JOIN view_overlaps o ON o.class = a.class AND o.cam_a = a.camera AND o.cam_b = b.camera AND o.area_m2 > 0
     JOIN calib_match c ON c.cam_a = a.camera AND c.cam_b = b.camera
+    JOIN calibrated_values('merge_epsilon') e ON e.cam_a = a.camera AND e.cam_b = b.camera
 ),
 -- the whole common time of the candidates (LCSS eta >= merge_eta): squared distances at every
 -- common time step, wherever the two tracks are, inside the overlap polygon or not
@@ -216,11 +217,9 @@ SELECT g.road_user, any_value(t.class) AS class,
        list({'camera': t.camera, 'track_id': t.track_id} ORDER BY o.position, t.t0) AS sources,
        count(*) AS n_tracks,
        trajectory_merge(list(t.traj ORDER BY o.position, t.t0),
-                        -- no camera pair at all (one camera, or none placed): the camera paired
-                        -- with itself, 3.03 sqrt(2) sigma as calib_match does for a pair without a
-                        -- fit, at least 1 mm (noise-free input measures sigma = 0)
-                        coalesce(getvariable('merge_epsilon'), (SELECT max(merge_epsilon) FROM calib_match),
-                                 greatest(sqrt(2 * ln(100)) * sqrt(2) * (SELECT coalesce(max(sigma_m), 0) FROM calib_cameras), 1e-3)),
+                        -- merge_epsilon for a road user of any cameras (align.sql: the
+                        -- largest camera pair's, or the camera paired with itself)
+                        calibrated('merge_epsilon'),
                         getvariable('merge_time_window')) AS traj
 FROM merge_tracks t
 JOIN merge_groups g USING (uid)

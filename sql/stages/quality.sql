@@ -135,11 +135,13 @@ CREATE OR REPLACE TEMP TABLE quality_candidates AS
 WITH e AS (
     SELECT q.camera, q.class, q.track_id, q.e.t1 AS t1, q.e.t0 AS t0, f.*  EXCLUDE (camera, track_id),
            greatest(coalesce(c.sigma_m, 0), 1e-3) ** 2 AS s2,
-           (coalesce(getvariable('quality_max_accel'), k.accel_p95, 0.0) / 2.45) ** 2 AS sa2,
+           -- the class's quality_max_accel (calibrate.sql: given, else its measured accel_p95),
+           -- else the default row (given, else no allowance)
+           (coalesce(k.value, calibrated('quality_max_accel')) / 2.45) ** 2 AS sa2,
            polygon_contains(v.interior, q.e.x1, q.e.y1) AS end_inside,
            polygon_contains(v.interior, q.e.x0, q.e.y0) AS start_inside
     FROM quality_endpoints q JOIN quality_fit f USING (camera, track_id) JOIN quality_views v USING (camera)
-    LEFT JOIN calib_cameras c USING (camera) LEFT JOIN calib_classes k USING (class)
+    LEFT JOIN calib_cameras c USING (camera) LEFT JOIN calibrated_values('quality_max_accel') k ON k.class = q.class
 ),
 
 -- time buckets of quality_max_gap: a start lies in its end's bucket or the next

@@ -1,12 +1,29 @@
+-- stage: align
+-- reads: points, calib_cameras, calib_pairs, calibration, calibrated_values()
+-- makes: align_frames, align_origin, align_pairs, align_clock, calib_match, calibration_summary,
+--        result_transforms(), result_calibration()
+-- work: align_centroids, align_tracks, align_activity, align_coarse, align_scan, align_keys, align_sample(),
+--       align_hypotheses(), align_vote(), align_scan_pass, align_hyp, align_best, align_widen(), align_retry,
+--       align_speed_scan, align_speed_votes, align_speed, align_hyp_wide, align_best_wide, align_support,
+--       align_refit(), align_drift_pairs, align_wls(), align_drift_obs, align_drift_fit1, align_drift_kept,
+--       align_drift, align_edges
+-- changes: points, calibration
+-- parameters: align_agree_deg, align_agree_m, align_bin_deg, align_bin_m, align_bin_s, align_clock_step_s,
+--             align_max_clock_offset_s, align_max_hypotheses, align_min_overlap_s, align_min_pairs,
+--             align_min_points, align_min_span_m, align_min_support, align_trim, merge_epsilon,
+--             merge_resample_s
+--
 -- trajdb: put N cameras into one frame and one clock from their tracks alone.
 --
 -- Reads: `points(camera, track_id, class, t, x, y, estimated)`, each camera in its own frame
--- and on its own clock; calib_cameras, calib_pairs (calibrate.sql).
+-- and on its own clock; calib_cameras, calib_pairs and the resolved align_max_rms_m /
+-- align_refine_rms_m per camera pair (calibration, calibrate.sql).
 -- Makes: `align_pairs` (one transform and clock fit per camera pair that has support),
 -- `align_clock` (its offset and drift), `align_frames` (camera -> reference frame and clock
 -- t_camera = (1 + clock_drift) t_reference + clock_offset_s, composed along a spanning tree),
--- `align_origin` (the common clock's grid origin), `calib_match`, `calibration_summary`, and
--- `points` with t on the reference camera's clock. Parameters: align_* (below).
+-- `align_origin` (the common clock's grid origin), `calib_match` (the matched tracks'
+-- residual sigma per camera pair), merge_epsilon's rows of `calibration`, `calibration_summary`,
+-- and `points` with t on the reference camera's clock. Parameters: align_* (below).
 --
 -- Method (why not the thesis's speed pre-match + CPD from R = I, see docs/alignment.md):
 --  0. the coarse clock offset of each camera pair over every lag (activity cross-correlation);

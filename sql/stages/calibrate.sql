@@ -1,20 +1,35 @@
+-- stage: calibrate
+-- reads: points
+-- makes: calib_cameras, calib_classes, calib_fit_window, calib_pairs, calibration, calibrated(),
+--        calibrated_values()
+-- work: -
+-- changes: -
+-- parameters: align_max_rms_m, align_refine_rms_m, clean_min_duration_s, clean_min_points, cluster_camera,
+--             merge_min_points, merge_resample_s, quality_max_accel
+--
 -- trajdb pipeline, stage 1: measure the recording, then set the parameters that depend on it.
 --
 -- The thesis chose eps and T "by intuition rather than some metric" (section 5.2), and a
 -- default tuned to one site's frame rate and noise fails on another's. Every parameter whose
 -- default is `auto` (see `trajdb params`) is derived here from what the tracks themselves show;
--- a value set with --param or SET VARIABLE wins over the measurement.
+-- a value set with --param or SET VARIABLE wins over the measurement. This file is the one place
+-- where an `auto` parameter gets its value (align.sql adds merge_epsilon, which can only be
+-- measured after alignment, to the same table); later stages read it, never re-derive it.
 --
 -- Input: `points(camera, track_id, class, t, x, y, estimated)`, each camera in its own frame
 -- and clock. Output:
 --   calib_cameras(camera, period_s, jitter_s, sigma_m, n_intervals, n_triples)   per camera
 --   calib_classes(class, accel_p95, n)                                          per class
 --   calib_fit_window(camera, class, fit_window_s)                              per camera and class
---   calib_pairs(cam_a, cam_b, sigma_pair_m, align_max_rms_m, align_refine_rms_m)  per camera pair (a < b)
---   calibration(parameter, measured, given, rule)                               derived pipeline-wide values
---   the macro calibrated('name'): the --param / SET VARIABLE value if given, else the derived one.
+--   calib_pairs(cam_a, cam_b, sigma_pair_m)                                    per camera pair (a < b)
+--   calibration(parameter, scope, cam_a, cam_b, class, measured, given, value, rule)
+--       every `auto` parameter's value: given if set, else measured; scope 'pipeline', 'camera
+--       pair' (cam_a < cam_b), 'class', or 'default' (where no narrower row applies)
+--   the macros calibrated('name') (the run-wide value) and calibrated_values('name') (per camera
+--   pair or class: cam_a, cam_b, class, value).
 -- sql/stages/align.sql adds the clock offsets and the cross-camera residuals (align_frames,
--- calib_match); `calibration.csv` (sql/export.sql) and the report show all of it.
+-- calib_match) and merge_epsilon's rows; `calibration.csv` (sql/export.sql) and the report show
+-- all of it.
 --
 -- What is measured, and how:
 --  * sampling period: the median interval between consecutive real points of a track (robust

@@ -1,3 +1,10 @@
+-- stage: clean
+-- reads: points, calibrated()
+-- makes: clean_dropped
+-- work: -
+-- changes: points
+-- parameters: clean_drop_estimated_tails, clean_max_speed, clean_xi
+--
 -- trajdb pipeline, stage 2: clean the loaded `points` table in place.
 --  * optionally (clean_drop_estimated_tails = true) drop a track whose last xi points are all
 --    estimated (the thesis, section 4). Off by default, measured: the tracks it drops are real

@@ -1,3 +1,11 @@
+-- stage: cluster
+-- reads: points, calibrated()
+-- makes: cluster_tracks, cluster_assign, cluster_summary, result_clusters()
+-- work: -
+-- changes: -
+-- parameters: cluster_classes, cluster_delta, cluster_epsilon, cluster_rho, cluster_threshold,
+--             cluster_translation_invariant
+--
 -- trajdb: route patterns by agglomerative clustering of trajectories (Buzan et al. 4.3-4.5, 5.2).
 --
 -- Input: `points(camera, track_id, class, t, x, y, estimated)`. One camera's tracks are

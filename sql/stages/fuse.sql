@@ -1,3 +1,11 @@
+-- stage: fuse
+-- reads: points, calib_cameras, calib_classes, align_frames, align_origin, merge_tracks, merge_groups,
+--        merged, merge_road_users()
+-- makes: fuse_q, fuse_paths
+-- work: -
+-- changes: merged, result_road_users()
+-- parameters: merge_resample_max_gap, merge_resample_s
+--
 -- trajdb pipeline: fused paths (issue 26, part 4; docs/fusion.md). Runs after merge.sql.
 --
 -- merge.sql's paths (trajectory_merge, thesis eq. 2.11) put the midpoint of LCSS pairs beside

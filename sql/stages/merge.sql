@@ -1,3 +1,12 @@
+-- stage: merge
+-- reads: points, calib_cameras, calibrated(), calibrated_values(), quality_endpoints, quality_links,
+--        quality_reach_links, align_frames, align_origin, calib_match, view_overlaps, view_merge_order
+-- makes: merge_tracks, merge_scores, merge_links, merge_groups, merged, merge_chains, merge_road_users(),
+--        result_matches(), result_road_users(), result_links()
+-- work: merge_periods, merge_r_gate()
+-- changes: -
+-- parameters: merge_eta, merge_resample_max_gap, merge_resample_s, merge_time_window
+--
 -- trajdb: one row per road user across N cameras (thesis Alg. 2-4 and eq. 2.11).
 --
 -- Input: `points(camera, track_id, class, t, x, y, estimated)`, plus `align_frames` from
@@ -47,7 +56,8 @@
 -- width of a lane: at eps = 1 m pedestrians walking side by side score eta = 1 against each
 -- other and Hungarian swaps them (pair precision 0.82 on dut_intersection_3cam). So eps is
 -- measured (merge_epsilon = auto): per camera pair, 3.03 x the residual sigma of its matched
--- tracks (calib_match, sql/stages/align.sql). xi (merge_min_points = auto) is 2 real samples of
+-- tracks (sql/stages/align.sql; read from calibration like every `auto` value, through
+-- calibrated_values / calibrated). xi (merge_min_points = auto) is 2 real samples of
 -- the slowest camera on the common clock (sql/stages/calibrate.sql). T = 0.25 s is 2.5 steps
 -- of the common clock: after the clock offsets are removed (align.sql) it only has to cover
 -- the clock's step.

@@ -1,3 +1,11 @@
+-- stage: overlap
+-- reads: points, calib_cameras, align_frames
+-- makes: view_polygons, view_overlaps, view_merge_order, view_overlaps_chain
+-- work: view_points
+-- changes: -
+-- parameters: overlap_concavity, overlap_method, overlap_min_neighbours, overlap_radius_m,
+--             overlap_shrink_sigmas
+--
 -- trajdb: camera view polygons and their overlaps, per class, in the common frame
 -- (thesis 2.3: P^k, P^{k∩l}, and (P^{k1} ∪ … ∪ P^{k(i-1)}) ∩ P^{ki} for a merge order).
 --

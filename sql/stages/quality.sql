@@ -1,3 +1,11 @@
+-- stage: quality
+-- reads: points, calib_cameras, calib_fit_window, calibrated(), calibrated_values()
+-- makes: quality_endpoints, quality_views, quality_start_density, quality_candidates, quality_breaks,
+--        quality_events, quality_labels, quality_links, quality_reach_links, quality_flags
+-- work: quality_fit, quality_events_cv, quality_reach, points_linked
+-- changes: points
+-- parameters: quality_inset, quality_max_dist, quality_max_gap
+--
 -- trajdb: track quality within one camera (Zhao et al. III): broken, split and merged tracks,
 -- found from track endpoints; broken pieces are linked into one track before cross-camera
 -- matching.

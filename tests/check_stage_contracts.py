@@ -1,0 +1,238 @@
+#!/usr/bin/env python3
+"""Checks the contract header of every pipeline stage (sql/stages/*.sql) against its SQL.
+
+Each stage file starts with this header, the fields in this order, each on one line (a long list
+continues on the next lines, `--` and spaces, no `name:`), `-` for an empty list, then `--`
+alone and the stage's rationale:
+
+    -- stage: align
+    -- reads: points, calib_cameras, calibration, calibrated_values()
+    -- makes: align_frames, align_origin, calib_match, calibration_summary, result_transforms()
+    -- work: align_centroids, align_tracks, align_sample(), ...
+    -- changes: points, calibration
+    -- parameters: align_min_points, align_bin_s, ...
+    --
+
+  reads       every table or macro of the load (sql/pipeline.sql: points, load_*) or of an
+              EARLIER stage (in sql/stages.sql order) that the stage's SQL names;
+  makes       what the stage creates for later stages and the results (CREATE ... TABLE / VIEW /
+              MACRO); work: what it creates only for itself (makes + work = every name it
+              creates that no earlier stage made);
+  changes     tables and macros of the load or an earlier stage that it replaces (CREATE OR
+              REPLACE) or changes (INSERT INTO, UPDATE, DELETE FROM);
+  parameters  every getvariable('name') of its SQL.
+Macros are written with `()`. The check is exact (sets are compared both ways), and every
+arrow points down: no stage names a table or macro made by a later stage, and no stage reads
+one made by nobody before it.
+
+usage: python3 tests/check_stage_contracts.py [--print]   (run from anywhere; exit 1 on a mismatch)
+  --print  prints the contract each file's SQL implies (to write or update a header)
+"""
+import os
+import re
+import sys
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+FIELDS = ("stage", "reads", "makes", "work", "changes", "parameters")
+
+CREATE = re.compile(r"\bCREATE\s+(?:OR\s+REPLACE\s+)?(?:TEMP\s+|TEMPORARY\s+)?(TABLE|VIEW|MACRO)\s+(?:IF\s+NOT\s+EXISTS\s+)?(\w+)", re.I)
+CHANGE = re.compile(r"\b(?:INSERT\s+INTO|UPDATE|DELETE\s+FROM)\s+(\w+)", re.I)
+GETVAR = re.compile(r"getvariable\(\s*'([^']*)'\s*\)", re.I)
+
+
+def strip_comments(sql):
+    """SQL without -- comments (string literals kept: getvariable('x') names live in them)."""
+    out, i, n = [], 0, len(sql)
+    while i < n:
+        c = sql[i]
+        if c == "'":
+            j = i + 1
+            while j < n:
+                if sql[j] == "'" and j + 1 < n and sql[j + 1] == "'":
+                    j += 2
+                elif sql[j] == "'":
+                    break
+                else:
+                    j += 1
+            out.append(sql[i:j + 1])
+            i = j + 1
+        elif sql.startswith("--", i):
+            j = sql.find("\n", i)
+            i = n if j < 0 else j
+        else:
+            out.append(c)
+            i += 1
+    return "".join(out)
+
+
+def strip_strings(code):
+    """Code (comments already stripped) with every string literal emptied."""
+    return re.sub(r"'(?:[^']|'')*'", "''", code)
+
+
+def creates(code):
+    """{name: is_macro} of CREATE statements, and the list of (name, is_macro) in order."""
+    return [(m.group(2).lower(), m.group(1).upper() == "MACRO") for m in CREATE.finditer(code)]
+
+
+def load_objects():
+    """What the load step of sql/pipeline.sql creates (before `.read sql/stages.sql`)."""
+    text = open(os.path.join(ROOT, "sql/pipeline.sql"), encoding="utf-8").read()
+    text = text.split(".read sql/stages.sql")[0]
+    return dict(creates(strip_strings(strip_comments(text))))
+
+
+def stage_files():
+    text = open(os.path.join(ROOT, "sql/stages.sql"), encoding="utf-8").read()
+    return re.findall(r"^\.read\s+(sql/stages/\w+\.sql)\s*$", text, re.M)
+
+
+def parse_header(path, text):
+    """The header's fields {field: [names]} (names as written, macros with `()`), or errors."""
+    lines = text.split("\n")
+    fields, errors, cur = {}, [], None
+    for no, line in enumerate(lines, 1):
+        if not line.startswith("--") or line.strip() == "--":
+            break
+        body = line[2:].strip()
+        m = re.match(r"^(\w+):\s*(.*)$", body)
+        if m and m.group(1) in FIELDS:
+            cur = m.group(1)
+            if cur in fields:
+                errors.append(f"{path}:{no}: field {cur} given twice")
+            fields[cur] = [m.group(2)]
+        elif cur is not None and line.startswith("--  "):
+            fields[cur].append(body)
+        else:
+            break
+    order = [f for f in FIELDS if f in fields]
+    if list(fields) != list(FIELDS):
+        errors.append(f"{path}: the header must give {', '.join(FIELDS)} in this order (found: {', '.join(fields) or 'none'})")
+    out = {}
+    for k, parts in fields.items():
+        joined = " ".join(parts).strip()
+        if k == "stage":
+            out[k] = joined
+            continue
+        names = [] if joined == "-" else [x.strip() for x in joined.split(",") if x.strip()]
+        out[k] = names
+    del order
+    return out, errors
+
+
+def references(code, name, is_macro):
+    """Does `code` (comments and strings stripped) name the table or macro `name`? A column alias
+    (AS name), a qualified column (x.name) and, for a table, a function call name( do not count."""
+    for m in re.finditer(r"\b" + re.escape(name) + r"\b", code, re.I):
+        before = code[:m.start()].rstrip()
+        after = code[m.end():].lstrip()
+        if before.endswith(".") or re.search(r"\bAS$", before, re.I):
+            continue
+        called = after.startswith("(")
+        if called != is_macro:
+            continue
+        return True
+    return False
+
+
+def fmt(names, macros):
+    return ", ".join(n + ("()" if macros.get(n) else "") for n in names) or "-"
+
+
+def main():
+    show = "--print" in sys.argv[1:]
+    errors = []
+    made = dict(load_objects())           # name -> is_macro, made so far (load + earlier stages)
+    maker = {n: "load" for n in made}
+    files = stage_files()
+    # every name each stage creates, to find arrows pointing up
+    later = {}
+    infos = []
+    for rel in files:
+        path = os.path.join(ROOT, rel)
+        text = open(path, encoding="utf-8").read()
+        code = strip_comments(text)
+        bare = strip_strings(code)
+        infos.append((rel, text, code, bare, creates(bare)))
+    for rel, _, _, _, cr in infos:
+        for n, mac in cr:
+            later.setdefault(n, (rel, mac))
+    for idx, (rel, text, code, bare, cr) in enumerate(infos):
+        stem = os.path.splitext(os.path.basename(rel))[0]
+        kinds = {}
+        for n, mac in cr:
+            kinds[n] = mac
+        created = list(dict.fromkeys(n for n, _ in cr))
+        new = [n for n in created if n not in made]
+        changed = [n for n in created if n in made]
+        for m in CHANGE.finditer(bare):
+            n = m.group(1).lower()
+            if n in made and n not in created and n not in changed:
+                changed.append(n)
+            elif n not in made and n not in created:
+                errors.append(f"{rel}: changes {n}, which no earlier stage (nor the load) made and this stage does not create")
+        # reads: earlier names named anywhere except as a statement's target
+        targets = re.compile(r"\bCREATE\s+(?:OR\s+REPLACE\s+)?(?:TEMP\s+|TEMPORARY\s+)?(?:TABLE|VIEW|MACRO)\s+\w+|"
+                             r"\b(?:INSERT\s+INTO|UPDATE|DELETE\s+FROM)\s+\w+", re.I)
+        body = targets.sub(" ", bare)
+        reads = [n for n in made if references(body, n, made[n])]
+        # arrows up: a name made only by a LATER stage
+        for n, (who, mac) in later.items():
+            if n in made or n in created:
+                continue
+            if references(body, n, mac):
+                errors.append(f"{rel}: names {n}{'()' if mac else ''}, made by the later stage {who}: every arrow must point down")
+        params = sorted(set(GETVAR.findall(code)))
+        kinds_all = dict(made)
+        kinds_all.update(kinds)
+        if show:
+            print(f"== {rel}")
+            print(f"-- stage: {stem}")
+            print(f"-- reads: {fmt(sorted(reads), kinds_all)}")
+            print(f"-- makes/work: {fmt(new, kinds_all)}")
+            print(f"-- changes: {fmt(sorted(changed), kinds_all)}")
+            print(f"-- parameters: {', '.join(params) or '-'}")
+        header, herr = parse_header(rel, text)
+        errors += herr
+        if not herr:
+            if header["stage"] != stem:
+                errors.append(f"{rel}: stage: {header['stage']!r}, but the file is {stem}")
+
+            def check(field, declared, actual):
+                # macros must be written with (), tables without
+                for d in declared:
+                    base = d[:-2] if d.endswith("()") else d
+                    if base.lower() in kinds_all and kinds_all[base.lower()] != d.endswith("()"):
+                        errors.append(f"{rel}: {field}: {d} should be written {fmt([base.lower()], kinds_all)}")
+                dset = {(d[:-2] if d.endswith("()") else d).lower() for d in declared}
+                aset = set(actual)
+                for x in sorted(aset - dset):
+                    errors.append(f"{rel}: {field}: missing {fmt([x], kinds_all)}")
+                for x in sorted(dset - aset):
+                    errors.append(f"{rel}: {field}: lists {x}, which the SQL does not {'name' if field == 'reads' else 'have'}")
+                if len(dset) != len(declared):
+                    errors.append(f"{rel}: {field}: a name is listed twice")
+
+            for d in header["reads"]:
+                base = (d[:-2] if d.endswith("()") else d).lower()
+                if base not in made:
+                    who = later.get(base, ("nobody", False))[0]
+                    errors.append(f"{rel}: reads {d}, made by {who if base not in kinds else 'this stage'}, not by the load or an earlier stage")
+            check("reads", header["reads"], reads)
+            both = header["makes"] + header["work"]
+            check("makes + work", both, new)
+            check("changes", header["changes"], changed)
+            check("parameters", header["parameters"], params)
+        for n in new:
+            made[n] = kinds[n]
+            maker[n] = rel
+    if errors:
+        print("\n".join(errors))
+        print(f"check_stage_contracts: {len(errors)} mismatch(es)")
+        return 1
+    print(f"check_stage_contracts: {len(infos)} stage headers match their SQL; every arrow points down")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

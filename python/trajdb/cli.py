@@ -19,6 +19,7 @@ the command quietly with status 0.
 """
 import argparse
 import csv
+import decimal
 import json
 import math
 import os
@@ -106,6 +107,8 @@ def _json_value(v):
         return v
     if isinstance(v, (bytes, bytearray, memoryview)):
         return bytes(v).hex()
+    if isinstance(v, decimal.Decimal):
+        return _json_value(float(v))
     return str(v)  # Decimal, dates, times, UUIDs: their text
 
 
@@ -121,9 +124,14 @@ PRINTERS = {"table": print_table, "csv": print_csv, "json": print_json}
 ROW_TYPES = {"SELECT", "EXPLAIN", "PRAGMA", "CALL"}
 
 
+_USER_SQL = False  # an error's "LINE n:" context points into the user's own SQL: kept
+
+
 def run_sql(con, text, fmt):
     """Runs `text` statement by statement (split by DuckDB's parser), printing the rows of every
     statement that returns rows."""
+    global _USER_SQL
+    _USER_SQL = True
     for stmt in con.extract_statements(text):
         kind = getattr(stmt.type, "name", str(stmt.type)).split(".")[-1]
         if kind in ROW_TYPES:
@@ -511,19 +519,15 @@ def _join_values(argv):
 
 def real_main(argv):
     top, cmds = build_parser()
-    argv = _join_values(argv)
-    if not argv:
-        # no command: SQL piped on stdin runs (as before), a terminal gets the overview
-        if not sys.stdin.isatty():
-            text = sys.stdin.read()
-            if text.strip():
-                run_sql(trajdb.connect(), text, "table")
-                return
-        out(top.format_help().rstrip("\n"))
-        return
-    a = top.parse_args(argv)
+    a = top.parse_args(_join_values(argv))
     if a.command is None:
-        out(top.format_help().rstrip("\n"))
+        # no command: SQL piped on stdin runs (`trajdb --db x.duckdb < script.sql`, as before); a
+        # terminal or an empty stdin gets the overview
+        text = "" if sys.stdin is None or sys.stdin.isatty() else sys.stdin.read()
+        if text.strip():
+            run_sql(connect(a), text, a.format)
+        else:
+            out(top.format_help().rstrip("\n"))
         return
     if a.command == "help":
         if a.topic is None:
@@ -559,7 +563,10 @@ def main(argv=None):
             sys.stdout.flush()
         except BrokenPipeError:
             return _closed_pipe()
-        msg = str(e) or type(e).__name__
+        msg = str(e).strip() or type(e).__name__
+        if isinstance(e, duckdb.Error) and not _USER_SQL:
+            # DuckDB's "LINE 1: ..." context shows the command's own internal query, not the user's
+            msg = msg.split("\n\nLINE ")[0].rstrip()
         print(f"Error: {msg}", file=sys.stderr)
         return 1
 

@@ -481,14 +481,15 @@ FROM calib_pairs p LEFT JOIN d ON d.cam_fixed = p.cam_a AND d.cam_moving = p.cam
 -- At least 1 mm: noise-free input (a camera exported twice, simulated exact points) measures
 -- sigma = 0, and LCSS needs epsilon > 0; 1 mm is below any camera's noise.
 INSERT INTO calibration
-SELECT 'merge_epsilon', 'camera pair', cam_a, cam_b, NULL, measured, getvariable('merge_epsilon'),
-       coalesce(getvariable('merge_epsilon'), measured), '3.03 x residual sigma'
-FROM (SELECT cam_a, cam_b, greatest(sqrt(2 * ln(100)) * sigma_d_m, 1e-3) AS measured FROM calib_match);
-INSERT INTO calibration
-SELECT 'merge_epsilon', 'default', NULL, NULL, NULL, measured, getvariable('merge_epsilon'),
-       coalesce(getvariable('merge_epsilon'), measured), 'the largest camera pair''s (one camera: 3.03 sqrt(2) sigma)'
-FROM (SELECT coalesce((SELECT max(measured) FROM calibration WHERE parameter = 'merge_epsilon' AND scope = 'camera pair'),
-                      greatest(sqrt(2 * ln(100)) * sqrt(2) * (SELECT coalesce(max(sigma_m), 0) FROM calib_cameras), 1e-3)) AS measured);
+SELECT 'merge_epsilon', e.scope, e.cam_a, e.cam_b, NULL, e.measured, g.given, coalesce(g.given, e.measured), e.rule
+FROM (SELECT 'camera pair' AS scope, cam_a, cam_b, greatest(sqrt(2 * ln(100)) * sigma_d_m, 1e-3) AS measured, '3.03 x residual sigma' AS rule
+      FROM calib_match
+      UNION ALL
+      SELECT 'default', NULL, NULL,
+             coalesce((SELECT max(greatest(sqrt(2 * ln(100)) * sigma_d_m, 1e-3)) FROM calib_match),
+                      greatest(sqrt(2 * ln(100)) * sqrt(2) * (SELECT coalesce(max(sigma_m), 0) FROM calib_cameras), 1e-3)),
+             'the largest camera pair''s (one camera: 3.03 sqrt(2) sigma)') e,
+     (SELECT getvariable('merge_epsilon') AS given) g;
 
 -- 4. spanning tree: widest path from every camera to the reference camera (the one with the
 --    most support), composing moving -> fixed transforms (inverted when walked backwards).

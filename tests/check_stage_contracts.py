@@ -71,7 +71,7 @@ def strip_strings(code):
 
 
 def creates(code):
-    """{name: is_macro} of CREATE statements, and the list of (name, is_macro) in order."""
+    """(name, is_macro) of every CREATE statement, in order."""
     return [(m.group(2).lower(), m.group(1).upper() == "MACRO") for m in CREATE.finditer(code)]
 
 
@@ -105,7 +105,6 @@ def parse_header(path, text):
             fields[cur].append(body)
         else:
             break
-    order = [f for f in FIELDS if f in fields]
     if list(fields) != list(FIELDS):
         errors.append(f"{path}: the header must give {', '.join(FIELDS)} in this order (found: {', '.join(fields) or 'none'})")
     out = {}
@@ -116,7 +115,6 @@ def parse_header(path, text):
             continue
         names = [] if joined == "-" else [x.strip() for x in joined.split(",") if x.strip()]
         out[k] = names
-    del order
     return out, errors
 
 
@@ -143,7 +141,6 @@ def main():
     show = "--print" in sys.argv[1:]
     errors = []
     made = dict(load_objects())           # name -> is_macro, made so far (load + earlier stages)
-    maker = {n: "load" for n in made}
     files = stage_files()
     # every name each stage creates, to find arrows pointing up
     later = {}
@@ -225,7 +222,6 @@ def main():
             check("parameters", header["parameters"], params)
         for n in new:
             made[n] = kinds[n]
-            maker[n] = rel
     if errors:
         print("\n".join(errors))
         print(f"check_stage_contracts: {len(errors)} mismatch(es)")

@@ -1,21 +1,21 @@
-//! trajdb: multi-camera traffic-trajectory analysis as DuckDB SQL functions.
+//! trajdb: multi-camera traffic-trajectory analysis as DuckDB SQL functions. This crate is the
+//! loadable extension (`trajdb.duckdb_extension`), the top of the workspace:
 //!
-//! - [`algo`]: the maths, pure Rust, no DuckDB (builds with `--no-default-features`).
-//! - `bindings`: the DuckDB functions (descriptors, kernels, the vector module), compiled with
-//!   either the `bundled` or the `extension` feature.
-//! - [`app`]: the application behind the `trajdb` command (pipeline, score, report, simulate).
-//! - The loadable-extension entry point (`trajdb_init_c_api`) with feature `extension`.
+//! - [`algo`] (crates/algo): the maths, pure Rust, no DuckDB;
+//! - [`app`] (crates/app): the pipeline manifest, parameters, results folder, simulator and
+//!   report renderer, no DuckDB;
+//! - [`runner`]: executes the manifest on the database's runner connection (`trajdb_pipeline`);
+//! - [`bindings`]: the DuckDB functions (descriptors, kernels, the vector module);
+//! - the entry point (`trajdb_init_c_api`).
+//!
+//! Every arrow points down: bindings → runner → app → algo. No crate compiles DuckDB: DuckDB's
+//! C API is reached through the function pointers DuckDB fills in at LOAD.
 
-pub mod algo;
+pub use trajdb_algo as algo;
+pub use trajdb_app as app;
 
-#[cfg(any(feature = "bundled", feature = "extension"))]
 pub mod bindings;
-
-/// The application behind the `trajdb` command: pipeline, parameters, score, report, simulator.
-pub mod app;
-
-#[cfg(all(feature = "bundled", feature = "extension"))]
-compile_error!("features `bundled` and `extension` must not be enabled together: build the extension with --no-default-features --features extension");
+pub mod runner;
 
 /// Entry point of `trajdb.duckdb_extension` (C API v1.2.0, ABI C_STRUCT). `unsafe` because the
 /// entry-point macro requires it; the registration itself is safe code.
@@ -24,15 +24,4 @@ compile_error!("features `bundled` and `extension` must not be enabled together:
 pub unsafe fn extension_entrypoint(con: duckdb::Connection) -> Result<(), Box<dyn std::error::Error>> {
     bindings::register_all(&con)?;
     Ok(())
-}
-
-/// Opens a connection (in memory, or on `path`) with every trajdb function registered.
-#[cfg(feature = "bundled")]
-pub fn open(path: Option<&str>) -> duckdb::Result<duckdb::Connection> {
-    let con = match path {
-        Some(p) => duckdb::Connection::open(p)?,
-        None => duckdb::Connection::open_in_memory()?,
-    };
-    bindings::register_all(&con)?;
-    Ok(con)
 }

@@ -1,4 +1,4 @@
-//! SQL: camera alignment. Maths: `src/algo/align/` (cpd.rs and cpd3.rs for `cpd_align`, rigid.rs
+//! SQL: camera alignment. Maths: `crates/algo/src/align/` (cpd.rs and cpd3.rs for `cpd_align`, rigid.rs
 //! for the fit and the transforms, correspond.rs for `traj_correspond`).
 
 use super::registry::{p, Function, Param, Signature, Ty, SERIES, TRAJ, TRANSFORM};
@@ -14,7 +14,7 @@ use crate::algo::align::xcorr;
 use std::error::Error;
 
 type R = Result<(), Box<dyn Error>>;
-const RIGID: &str = "src/algo/align/rigid.rs";
+const RIGID: &str = "crates/algo/src/align/rigid.rs";
 
 const TRAJ3: Ty = Ty::List(&Ty::Struct(&[("t", Ty::Double), ("x", Ty::Double), ("y", Ty::Double), ("z", Ty::Double)]));
 const PAIRS4: Ty = Ty::List(&Ty::Struct(&[("fx", Ty::Double), ("fy", Ty::Double), ("mx", Ty::Double), ("my", Ty::Double)]));
@@ -94,7 +94,7 @@ pub static FUNCTIONS: &[Function] = &[
                       Errors: no pair of points within 7.43*tau in time (the sets do not overlap), every point an outlier. \
                       With STRUCT(t, x, y, z)[] inputs it runs in 3-D (rotation from the SVD of the 3x3 cross-covariance; starts rotate about z).",
         example: "SELECT round(degrees(cpd_align(a, b, 0.0, 1.0).theta)) FROM (SELECT [{'t':0,'x':0,'y':0},{'t':1,'x':4,'y':0},{'t':2,'x':4,'y':3}] AS a, [{'t':0,'x':0,'y':0},{'t':1,'x':0,'y':-4},{'t':2,'x':3,'y':-4}] AS b); -- 90.0",
-        maths: "src/algo/align/cpd.rs, src/algo/align/cpd3.rs",
+        maths: "crates/algo/src/align/cpd.rs, crates/algo/src/align/cpd3.rs",
         binding: file!(),
         signatures: &[
             Signature { params: CPD_PARAMS, arities: CPD_ARITIES, returns: CPD_RESULT, kernel: cpd_align },
@@ -143,7 +143,7 @@ pub static FUNCTIONS: &[Function] = &[
                       than max_gap seconds, default 0.5). rigid_fit(traj_correspond(a, b)) is one transform hypothesis, found in closed form, with no \
                       initial rotation needed. With shift (s, the moving clock minus the fixed clock; default 0) the moving times are read as t - shift. O(n + m).",
         example: "SELECT traj_correspond([{'t':1,'x':0,'y':0}], [{'t':0,'x':0,'y':0},{'t':2,'x':4,'y':2}], 3.0); -- [{'fx': 0.0, 'fy': 0.0, 'mx': 2.0, 'my': 1.0}]",
-        maths: "src/algo/align/correspond.rs",
+        maths: "crates/algo/src/align/correspond.rs",
         binding: file!(),
         signatures: &[Signature {
             params: &[p("fixed", TRAJ), p("moving", TRAJ), p("max_gap", Ty::Double), p("shift", Ty::Double)],
@@ -161,7 +161,7 @@ pub static FUNCTIONS: &[Function] = &[
                       offset and the transform together. Shifts with fewer than 2 pairs are left out; span is the larger side of the bounding box of \
                       the moving points paired. O(S (n + m)) for S shifts (at most 100001).",
         example: "SELECT len(rigid_fit_scan([{'t':0,'x':0,'y':0},{'t':1,'x':1,'y':0},{'t':2,'x':2,'y':1}], [{'t':0,'x':0,'y':0},{'t':1,'x':1,'y':0},{'t':2,'x':2,'y':1}], 1.0, 0.5)); -- 3",
-        maths: "src/algo/align/shift.rs",
+        maths: "crates/algo/src/align/shift.rs",
         binding: file!(),
         signatures: &[Signature {
             params: &[p("fixed", TRAJ), p("moving", TRAJ), p("max_shift", Ty::Double), p("step", Ty::Double), p("max_gap", Ty::Double)],
@@ -189,7 +189,7 @@ pub static FUNCTIONS: &[Function] = &[
                       exact ones (otherwise the phase half-way between samples looks best). NULL when no shift gives 2 pairs. \
                       Aggregate with list(): rigid_fit_shifted(list(a.traj), list(b.traj), 0.3, 0.05, 0.005).",
         example: "SELECT rigid_fit_shifted([[{'t':0,'x':0,'y':0},{'t':1,'x':1,'y':0},{'t':2,'x':1,'y':1}]], [[{'t':0.5,'x':0,'y':0},{'t':1.5,'x':1,'y':0},{'t':2.5,'x':1,'y':1}]], 0.5, 0.1, 0.1, 1.0, 0.0).dt; -- 0.5",
-        maths: "src/algo/align/shift.rs",
+        maths: "crates/algo/src/align/shift.rs",
         binding: file!(),
         signatures: &[Signature {
             params: &[
@@ -228,7 +228,7 @@ pub static FUNCTIONS: &[Function] = &[
                       mostly one way between the views): rigid_fit_scan searches around it. NULL when either series is empty or constant. \
                       Events must be sorted by t. O(n log n) for n bins; the memory_bytes limit applies.",
         example: "SELECT round(activity_lag([{'t':0,'v':1},{'t':5,'v':-1},{'t':9,'v':1},{'t':12,'v':-1}], [{'t':100,'v':1},{'t':105,'v':-1},{'t':109,'v':1},{'t':112,'v':-1}], 0.5).dt, 3); -- 100.0",
-        maths: "src/algo/align/xcorr.rs",
+        maths: "crates/algo/src/align/xcorr.rs",
         binding: file!(),
         signatures: &[Signature {
             params: &[p("a", SERIES), p("b", SERIES), p("bin_s", Ty::Double)],
@@ -248,7 +248,7 @@ pub static FUNCTIONS: &[Function] = &[
                       grid's edge. Shifts pairing fewer than min_pairs (default 10) points are not compared. NULL when none pairs enough. \
                       align.sql measures clock drift from these offsets over the recording. O(S (n + m)) for S shifts.",
         example: "SELECT round(rigid_shift_under([{'t':0,'x':0,'y':0},{'t':1,'x':1,'y':0},{'t':2,'x':2,'y':0},{'t':3,'x':3,'y':0}], [{'t':0.5,'x':0,'y':0},{'t':1.5,'x':1,'y':0},{'t':2.5,'x':2,'y':0},{'t':3.5,'x':3,'y':0}], {'theta':0,'tx':0,'ty':0,'scale':1}, 0.5, 0.2, 0.1, 2.0, 2).dt, 3); -- 0.5",
-        maths: "src/algo/align/shift_under.rs",
+        maths: "crates/algo/src/align/shift_under.rs",
         binding: file!(),
         signatures: &[Signature {
             params: &[
@@ -276,7 +276,7 @@ pub static FUNCTIONS: &[Function] = &[
                       min_samples (default 8) speeds with variance on both sides. align.sql votes these lags over many pairs where \
                       activity_lag's coarse offset was too far off. O(n + m + S n) for S lags.",
         example: "SELECT speed_lag([{'t':0,'x':0,'y':0},{'t':2,'x':0,'y':0},{'t':4,'x':4,'y':0},{'t':6,'x':12,'y':0}], [{'t':10,'x':0,'y':0},{'t':12,'x':0,'y':0},{'t':14,'x':0,'y':4},{'t':16,'x':0,'y':12}], 10, 1, 0.5, 3).lag; -- 10.0",
-        maths: "src/algo/align/speed_lag.rs",
+        maths: "crates/algo/src/align/speed_lag.rs",
         binding: file!(),
         signatures: &[Signature {
             params: &[p("a", TRAJ), p("b", TRAJ), p("centre", Ty::Double), p("half_width", Ty::Double), p("step", Ty::Double), p("min_samples", Ty::Bigint)],

@@ -1,4 +1,4 @@
-//! SQL: agglomerative clustering. Maths: `src/algo/cluster/` (linkage.rs for the pairwise
+//! SQL: agglomerative clustering. Maths: `crates/algo/src/cluster/` (linkage.rs for the pairwise
 //! forms, traj_cluster.rs for trajectories in one call), Buzan et al. sections 4.3–4.5.
 
 use super::registry::{p, Function, Param, Signature, Ty, TRAJ};
@@ -9,7 +9,7 @@ use crate::algo::lcss::index::IndexParams;
 use std::error::Error;
 
 type R = Result<(), Box<dyn Error>>;
-const LINKAGE: &str = "src/algo/cluster/linkage.rs";
+const LINKAGE: &str = "crates/algo/src/cluster/linkage.rs";
 
 const PAIRS: Ty = Ty::List(&Ty::Struct(&[("a", Ty::Bigint), ("b", Ty::Bigint), ("distance", Ty::Double)]));
 const ASSIGNMENT: Ty = Ty::List(&Ty::Struct(&[("id", Ty::Bigint), ("cluster", Ty::Integer)]));
@@ -77,7 +77,7 @@ pub static FUNCTIONS: &[Function] = &[
                       agglomerative_cluster. Errors: lists of different lengths, duplicate ids, NULL elements, the parameter rules of lcss_s1 and \
                       agglomerative_cluster; more than 80,000 trajectories.",
         example: "SELECT traj_cluster([1, 2, 3], [[{'t':0,'x':0,'y':0},{'t':1,'x':1,'y':0}], [{'t':0,'x':0,'y':0.1},{'t':1,'x':1,'y':0.1}], [{'t':0,'x':50,'y':50},{'t':1,'x':51,'y':50}]], 'average', 0.5, 1, 1.0); -- [{'id': 1, 'cluster': 1}, {'id': 2, 'cluster': 1}, {'id': 3, 'cluster': 0}]",
-        maths: "src/algo/cluster/traj_cluster.rs",
+        maths: "crates/algo/src/cluster/traj_cluster.rs",
         binding: file!(),
         signatures: &[Signature {
             params: &[

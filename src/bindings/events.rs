@@ -1,5 +1,5 @@
 //! SQL: events between the tracks of one camera (Zhao et al. III.A) and object / fragment /
-//! group labels (section IV). Maths: `src/algo/events.rs`.
+//! group labels (section IV). Maths: `crates/algo/src/events.rs`.
 
 use super::registry::{p, Function, Param, Signature, Ty, GEOMETRY};
 use super::vector::{Args, Column, Out, Rows};
@@ -9,7 +9,7 @@ use std::error::Error;
 use std::rc::Rc;
 
 type R = Result<(), Box<dyn Error>>;
-const MATHS: &str = "src/algo/events.rs";
+const MATHS: &str = "crates/algo/src/events.rs";
 
 /// The endpoint fields both functions read first.
 macro_rules! endpoint_fields {

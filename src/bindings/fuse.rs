@@ -1,5 +1,5 @@
 //! SQL: fused paths (one road user's observations from every camera, smoothed into one path).
-//! Maths: `src/algo/fuse/` (constant-velocity Kalman filter + RTS smoother, seed 003 §3.8).
+//! Maths: `crates/algo/src/fuse/` (constant-velocity Kalman filter + RTS smoother, seed 003 §3.8).
 
 use super::registry::{p, Function, Param, Signature, Ty, SERIES, TRAJ};
 use super::vector::{Args, Column, Out};
@@ -8,7 +8,7 @@ use crate::algo::traj::OwnedTraj;
 use std::error::Error;
 
 type R = Result<(), Box<dyn Error>>;
-const MATHS: &str = "src/algo/fuse/smooth.rs, src/algo/fuse/sample.rs";
+const MATHS: &str = "crates/algo/src/fuse/smooth.rs, crates/algo/src/fuse/sample.rs";
 
 /// `STRUCT(t DOUBLE, x DOUBLE, y DOUBLE, sigma DOUBLE)[]`: observations with their noise.
 const OBS: Ty = Ty::List(&Ty::Struct(&[("t", Ty::Double), ("x", Ty::Double), ("y", Ty::Double), ("sigma", Ty::Double)]));

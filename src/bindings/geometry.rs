@@ -1,4 +1,4 @@
-//! SQL: view polygons and overlaps. Maths: `src/algo/geometry/` (hull.rs for `view_polygon`,
+//! SQL: view polygons and overlaps. Maths: `crates/algo/src/geometry/` (hull.rs for `view_polygon`,
 //! polygon.rs for the boolean operations and output, region.rs for parsing, point-in-polygon
 //! and clipping).
 //!
@@ -6,8 +6,8 @@
 //! little-endian WKB `BLOB`s that DuckDB spatial's `ST_GeomFromWKB` reads. A polygon repeated
 //! over rows is parsed, validated and indexed once per chunk (see the vector module's `RegionCol`).
 //!
-//! Every polygon argument becomes a `Region` (src/algo/geometry/region.rs), whose constructor is
-//! the one gate of src/algo/geometry/valid.rs: rings are rewound (shells counter-clockwise,
+//! Every polygon argument becomes a `Region` (crates/algo/src/geometry/region.rs), whose constructor is
+//! the one gate of crates/algo/src/geometry/valid.rs: rings are rewound (shells counter-clockwise,
 //! holes clockwise) and invalid polygons are refused, with the same error in every function
 //! below; valid.rs says why they are refused rather than repaired. WKT nested deeper than 128
 //! parentheses is refused before it is parsed. Each description ends with [`polygon_rules!`].
@@ -29,8 +29,8 @@ macro_rules! polygon_rules {
          parentheses deep is refused."
     };
 }
-const POLYGON: &str = "src/algo/geometry/polygon.rs";
-const REGION: &str = "src/algo/geometry/region.rs";
+const POLYGON: &str = "crates/algo/src/geometry/polygon.rs";
+const REGION: &str = "crates/algo/src/geometry/region.rs";
 const XY: Ty = Ty::List(&Ty::Struct(&[("x", Ty::Double), ("y", Ty::Double)]));
 
 /// `(points, method [, param [, radius, min_neighbours]])` with `T` the point type.
@@ -60,7 +60,7 @@ pub static FUNCTIONS: &[Function] = &[
                       filter estimated points with WHERE. Fewer than 3 distinct points, or collinear points, give POLYGON EMPTY (documented rule, never an error). \
                       NaN or infinite coordinates are an error. The result is a valid polygon with its shell counter-clockwise.",
         example: "SELECT polygon_to_wkt(view_polygon([{'x': 0, 'y': 0}, {'x': 4, 'y': 0}, {'x': 1, 'y': 1}, {'x': 0, 'y': 4}], 'convex')); -- POLYGON ((4 0, 0 4, 0 0, 4 0))",
-        maths: "src/algo/geometry/hull.rs",
+        maths: "crates/algo/src/geometry/hull.rs",
         binding: file!(),
         signatures: &[hull_signature!(XY), hull_signature!(TRAJ)],
         table: None,

@@ -1,4 +1,4 @@
-//! SQL: the LCSS family. Maths: `src/algo/lcss/` (time_window.rs for the thesis's eq. 2.9/2.10
+//! SQL: the LCSS family. Maths: `crates/algo/src/lcss/` (time_window.rs for the thesis's eq. 2.9/2.10
 //! and the 1-D series form, index.rs for Buzan's S1, translate.rs for S2).
 
 use super::registry::{p, Function, Param, Signature, Ty, GEOMETRY, SERIES, TRAJ};
@@ -9,8 +9,8 @@ use crate::algo::lcss::translate;
 use std::error::Error;
 
 type R = Result<(), Box<dyn Error>>;
-const TW_MATHS: &str = "src/algo/lcss/time_window.rs";
-const INDEX_MATHS: &str = "src/algo/lcss/index.rs";
+const TW_MATHS: &str = "crates/algo/src/lcss/time_window.rs";
+const INDEX_MATHS: &str = "crates/algo/src/lcss/index.rs";
 
 /// `(a, b, epsilon, time_window [, min_points [, region]])` of the time-window forms.
 const TW_PARAMS: &[Param] =
@@ -125,7 +125,7 @@ pub static FUNCTIONS: &[Function] = &[
                       O(delta*(n+m)) candidate translations of lemma 4.2 with branch-and-bound pruning; (cx, cy) is a translation that \
                       achieves it (add it to b).",
         example: "SELECT lcss_s2([{'t':0,'x':0,'y':0},{'t':1,'x':1,'y':1}], [{'t':0,'x':10,'y':20},{'t':1,'x':11,'y':21}], 1, 0.5); -- sx = sy = 1, cx ~ -10, cy ~ -20",
-        maths: "src/algo/lcss/translate.rs",
+        maths: "crates/algo/src/lcss/translate.rs",
         binding: file!(),
         signatures: &[Signature {
             params: INDEX_PARAMS,

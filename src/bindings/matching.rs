@@ -1,5 +1,5 @@
 //! SQL: one-to-one selection of candidate pairs (the Hungarian step of thesis Alg. 2–4).
-//! Maths: `src/algo/matching/` (hungarian.rs, assign.rs).
+//! Maths: `crates/algo/src/matching/` (hungarian.rs, assign.rs).
 
 use super::registry::{p, Function, Signature, Ty};
 use super::vector::{Args, Column, Out, Rows};
@@ -22,7 +22,7 @@ pub static FUNCTIONS: &[Function] = &[
                       Connected components of the candidate graph are solved separately (in parallel), dense ones with lsap (scipy's LSAP), sparse ones with a sparse \
                       shortest-augmenting-path solver. NULL or NaN scores are errors; an empty list gives an empty list.",
         example: "SELECT hungarian_match([{'a': 1, 'b': 10, 'score': 0.9}, {'a': 1, 'b': 20, 'score': 0.8}, {'a': 2, 'b': 10, 'score': 0.8}], true, 0.5); -- [{'a': 1, 'b': 20, 'score': 0.8}, {'a': 2, 'b': 10, 'score': 0.8}]",
-        maths: "src/algo/matching/hungarian.rs",
+        maths: "crates/algo/src/matching/hungarian.rs",
         binding: file!(),
         signatures: &[Signature {
             params: &[p("pairs", PAIRS), p("maximize", Ty::Boolean), p("min_score", Ty::Double)],
@@ -38,7 +38,7 @@ pub static FUNCTIONS: &[Function] = &[
                       similarity: list the candidates with list({'a': ..., 'b': ..., 'w': ...}) and unnest the result. The graph is split into \
                       connected components and each is solved exactly (scipy's LSAP algorithm via the lsap crate). Pairs of weight 0 are never chosen.",
         example: "SELECT assign_pairs([{'a': 1, 'b': 10, 'w': 0.9}, {'a': 1, 'b': 20, 'w': 0.8}, {'a': 2, 'b': 10, 'w': 0.8}, {'a': 2, 'b': 20, 'w': 0.1}]); -- [{'a': 1, 'b': 20, 'w': 0.8}, {'a': 2, 'b': 10, 'w': 0.8}]",
-        maths: "src/algo/matching/assign.rs",
+        maths: "crates/algo/src/matching/assign.rs",
         binding: file!(),
         signatures: &[Signature { params: &[p("edges", EDGES)], arities: &[], returns: EDGES, kernel: assign_pairs }],
         table: None,

@@ -1,5 +1,5 @@
 //! SQL: merging matched trajectories and grouping matched tracks into road users.
-//! Maths: `src/algo/merge.rs` (eq. 2.11, the φ_i = Θ(φ_{i−1}, A^{k_i}) recursion, consistent
+//! Maths: `crates/algo/src/merge.rs` (eq. 2.11, the φ_i = Θ(φ_{i−1}, A^{k_i}) recursion, consistent
 //! groups).
 
 use super::registry::{p, Function, Param, Signature, Ty, GEOMETRY, GEOMETRY_LIST, TRAJ};
@@ -10,7 +10,7 @@ use crate::algo::merge;
 use std::error::Error;
 
 type R = Result<(), Box<dyn Error>>;
-const MATHS: &str = "src/algo/merge.rs";
+const MATHS: &str = "crates/algo/src/merge.rs";
 
 const AB: [Param; 4] = [p("a", TRAJ), p("b", TRAJ), p("epsilon", Ty::Double), p("time_window", Ty::Double)];
 

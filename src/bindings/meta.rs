@@ -21,7 +21,7 @@ pub static FUNCTIONS: &[Function] = &[TRAJDB_FUNCTIONS, TRAJDB_LIMIT];
 
 const TRAJDB_LIMIT: Function = Function {
     name: "trajdb_limit",
-    description: "Reads or sets a work limit, the most work one call may do (src/algo/limits.rs): 'lcss_cells' (cells of one LCSS table; traj_cluster with S2 sums them over pairs and translations, \
+    description: "Reads or sets a work limit, the most work one call may do (crates/algo/src/limits.rs): 'lcss_cells' (cells of one LCSS table; traj_cluster with S2 sums them over pairs and translations, \
                   default 1e10), 'cpd_pair_visits' (pairs in cpd_align's time band x max_iter, default 2e10), 'output_points' (points one \
                   call returns, default 5e7), 'memory_bytes' (working memory of one call beyond its input and output, default 4e9), \
                   'shift_pair_fits' (point pairs one rigid_fit_shifted fits, default 2e8), 'label_pairs' (child pairs traj_labels compares, \
@@ -29,7 +29,7 @@ const TRAJDB_LIMIT: Function = Function {
                   for this database (every connection to it; other databases in the process keep their own) and returns the previous one. \
                   DuckDB's C API lets no extension see Ctrl-C inside a call: the limits keep every call short instead.",
     example: "SELECT trajdb_limit('lcss_cells'); -- 10000000000",
-    maths: "src/algo/limits.rs",
+    maths: "crates/algo/src/limits.rs",
     binding: file!(),
     signatures: &[Signature { params: &[p("name", Ty::Varchar), p("value", Ty::Bigint)], arities: &[1, 2], returns: Ty::Bigint, kernel: limit }],
     table: None,

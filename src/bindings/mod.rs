@@ -18,7 +18,9 @@ pub mod params;
 pub mod registry;
 pub mod report;
 pub mod simulate;
+pub mod pipeline;
 pub mod traj;
+pub mod types;
 pub mod vector;
 
 use duckdb::Connection;
@@ -26,7 +28,7 @@ use registry::{Doc, Function};
 
 /// Every function, in reference order.
 pub fn functions() -> Vec<&'static Function> {
-    [traj::FUNCTIONS, lcss::FUNCTIONS, align::FUNCTIONS, geometry::FUNCTIONS, matching::FUNCTIONS, merge::FUNCTIONS, fuse::FUNCTIONS, cluster::FUNCTIONS, events::FUNCTIONS, meta::FUNCTIONS, params::FUNCTIONS, simulate::FUNCTIONS, report::FUNCTIONS]
+    [traj::FUNCTIONS, lcss::FUNCTIONS, align::FUNCTIONS, geometry::FUNCTIONS, matching::FUNCTIONS, merge::FUNCTIONS, fuse::FUNCTIONS, cluster::FUNCTIONS, events::FUNCTIONS, meta::FUNCTIONS, params::FUNCTIONS, pipeline::FUNCTIONS, simulate::FUNCTIONS, report::FUNCTIONS]
         .into_iter()
         .flatten()
         .collect()

@@ -1,9 +1,9 @@
 //! SQL: the pipeline's declared parameters and its results folder, for every runner (Python,
 //! Spark tasks, any host) so that none of them re-implements the checks:
 //! - `trajdb_params_sql(json)`: the `SET VARIABLE` script for every declared parameter (its
-//!   default, or the value given), each name and value checked (src/app/params.rs);
+//!   default, or the value given), each name and value checked (crates/app/src/params.rs);
 //! - `trajdb_results_begin(out, input)` / `trajdb_results_end(out, commit)`: claim the results
-//!   folder and replace the earlier results (src/app/outdir.rs: the only code that may delete).
+//!   folder and replace the earlier results (crates/app/src/outdir.rs: the only code that may delete).
 //!   Table functions, not scalars: they run exactly once per statement (a scalar with side
 //!   effects may be evaluated again by the optimizer), and their bind sees the connection's
 //!   file-access settings (enable_external_access, allowed_directories), which they obey as
@@ -25,7 +25,7 @@ const PARAMS_SQL: Function = Function {
                   back to its default, so that nothing leaks from an earlier run. An unknown name, a value of the wrong type or outside the \
                   parameter's range is an error that names it. Runners execute the returned script before sql/pipeline.sql.",
     example: "SELECT trajdb_params_sql('{\"merge_eta\": 0.6}') LIKE '%SET VARIABLE merge_eta = 0.6::DOUBLE;%'; -- true",
-    maths: "src/app/params.rs",
+    maths: "crates/app/src/params.rs",
     binding: file!(),
     signatures: &[Signature { params: &[p("values", Ty::Varchar)], arities: &[], returns: Ty::Varchar, kernel: params_sql }],
     table: None,
@@ -68,7 +68,7 @@ const RESULTS_BEGIN: Function = Function {
                   writing into, and any folder where COPY ... TO may not write (enable_external_access, allowed_directories). A new \
                   folder is created with normal permissions. End the run with trajdb_results_end.",
     example: "SELECT count(*) FROM trajdb_results_begin('/tmp/trajdb-example-results', 'points.parquet'); -- 1",
-    maths: "src/app/outdir.rs",
+    maths: "crates/app/src/outdir.rs",
     binding: file!(),
     signatures: &[],
     table: Some(BEGIN_TABLE),
@@ -135,7 +135,7 @@ const RESULTS_END: Function = Function {
                   per file is returned; with false the staging folder is removed, the earlier results stay as they were, and no row is \
                   returned (also when no run was open). Obeys enable_external_access and allowed_directories as COPY ... TO does.",
     example: "SELECT count(*) FROM trajdb_results_end('/tmp/trajdb-example-results', false); -- 0",
-    maths: "src/app/outdir.rs",
+    maths: "crates/app/src/outdir.rs",
     binding: file!(),
     signatures: &[],
     table: Some(END_TABLE),

@@ -19,110 +19,14 @@
 use super::vector::{Args, Out};
 use crate::algo::limits::{self, Limits};
 use std::sync::Arc;
-use duckdb::core::{LogicalTypeHandle, LogicalTypeId};
+use crate::runner::Runner;
 use duckdb::vscalar::{ScalarFunctionSignature, VScalar};
 use duckdb::Connection;
 use std::cell::Cell;
 use std::error::Error;
 use std::fmt::Write as _;
 
-/// An SQL type, constant so that descriptors can be `static`.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Ty {
-    Double,
-    Bigint,
-    Integer,
-    Boolean,
-    Varchar,
-    Blob,
-    /// DuckDB's core GEOMETRY (1.5+): WKB in a BLOB-like vector, read as WKB.
-    Geometry,
-    List(&'static Ty),
-    Struct(&'static [(&'static str, Ty)]),
-    /// Any one of these (an overload each), e.g. a polygon as WKT VARCHAR or WKB BLOB.
-    OneOf(&'static [Ty]),
-}
-
-/// `STRUCT(t DOUBLE, x DOUBLE, y DOUBLE)[]`, a trajectory (written `TRAJ` in the reference).
-pub const TRAJ: Ty = Ty::List(&Ty::Struct(&[("t", Ty::Double), ("x", Ty::Double), ("y", Ty::Double)]));
-/// `STRUCT(theta DOUBLE, tx DOUBLE, ty DOUBLE, scale DOUBLE)`, a 2-D similarity transform.
-pub const TRANSFORM: Ty = Ty::Struct(&[("theta", Ty::Double), ("tx", Ty::Double), ("ty", Ty::Double), ("scale", Ty::Double)]);
-/// A polygon: WKT text, WKB bytes, or a GEOMETRY value (DuckDB 1.5+; e.g. merged.parquet's geometry).
-pub const GEOMETRY: Ty = Ty::OneOf(&[Ty::Varchar, Ty::Blob, Ty::Geometry]);
-/// A list of polygons: WKT, WKB or GEOMETRY elements.
-pub const GEOMETRY_LIST: Ty = Ty::OneOf(&[Ty::List(&Ty::Varchar), Ty::List(&Ty::Blob), Ty::List(&Ty::Geometry)]);
-/// `STRUCT(t DOUBLE, v DOUBLE)[]`, a 1-D series such as speeds.
-pub const SERIES: Ty = Ty::List(&Ty::Struct(&[("t", Ty::Double), ("v", Ty::Double)]));
-
-impl Ty {
-    /// The DuckDB logical type (not defined for [`Ty::OneOf`]: expand it first).
-    pub fn logical(&self) -> LogicalTypeHandle {
-        match self {
-            Ty::Double => LogicalTypeId::Double.into(),
-            Ty::Bigint => LogicalTypeId::Bigint.into(),
-            Ty::Integer => LogicalTypeId::Integer.into(),
-            Ty::Boolean => LogicalTypeId::Boolean.into(),
-            Ty::Varchar => LogicalTypeId::Varchar.into(),
-            Ty::Blob => LogicalTypeId::Blob.into(),
-            Ty::Geometry => LogicalTypeId::Geometry.into(),
-            Ty::List(t) => LogicalTypeHandle::list(&t.logical()),
-            Ty::Struct(fields) => {
-                let f: Vec<(&str, LogicalTypeHandle)> = fields.iter().map(|(n, t)| (*n, t.logical())).collect();
-                LogicalTypeHandle::struct_type(&f)
-            }
-            Ty::OneOf(_) => panic!("Ty::OneOf has no single logical type"),
-        }
-    }
-    /// Every concrete type this one stands for.
-    fn alternatives(&self) -> Vec<Ty> {
-        match self {
-            Ty::OneOf(ts) => ts.to_vec(),
-            t => vec![*t],
-        }
-    }
-    /// The SQL spelling used in the reference.
-    pub fn sql(&self) -> String {
-        if *self == TRAJ {
-            return "TRAJ".into();
-        }
-        match self {
-            Ty::Double => "DOUBLE".into(),
-            Ty::Bigint => "BIGINT".into(),
-            Ty::Integer => "INTEGER".into(),
-            Ty::Boolean => "BOOLEAN".into(),
-            Ty::Varchar => "VARCHAR".into(),
-            Ty::Blob => "BLOB".into(),
-            Ty::Geometry => "GEOMETRY".into(),
-            Ty::List(t) => format!("{}[]", t.sql()),
-            Ty::Struct(fields) => {
-                let f: Vec<String> = fields.iter().map(|(n, t)| format!("{} {}", quote(n), t.sql())).collect();
-                format!("STRUCT({})", f.join(", "))
-            }
-            Ty::OneOf(ts) => ts.iter().map(Ty::sql).collect::<Vec<_>>().join("|"),
-        }
-    }
-}
-
-/// Field names that are SQL keywords are quoted, as DuckDB prints them.
-fn quote(name: &str) -> String {
-    if matches!(name, "left" | "right") {
-        format!("\"{name}\"")
-    } else {
-        name.to_string()
-    }
-}
-
-/// A named, typed parameter.
-#[derive(Clone, Copy, Debug)]
-pub struct Param {
-    pub name: &'static str,
-    pub ty: Ty,
-}
-
-/// Shorthand for descriptors: `p("epsilon", Ty::Double)`.
-pub const fn p(name: &'static str, ty: Ty) -> Param {
-    Param { name, ty }
-}
+pub use super::types::{p, Database, Param, Table, Ty, GEOMETRY, GEOMETRY_LIST, SERIES, TRAJ, TRANSFORM};
 
 /// What a kernel does with one chunk: read `args`, call algo, write `out`. Errors are
 /// prefixed with the function name by the dispatcher.
@@ -139,17 +43,6 @@ pub struct Signature {
     pub kernel: Kernel,
 }
 
-/// A table function's documented shape: positional and named parameters, result columns; it
-/// registers itself (`vector::table::register::<T>`) under the function's name with the
-/// database's limits.
-#[derive(Clone, Copy)]
-pub struct Table {
-    pub params: &'static [Param],
-    pub named: &'static [Param],
-    pub columns: &'static [(&'static str, Ty)],
-    pub register: fn(&Connection, &'static str, &Arc<Limits>) -> duckdb::Result<()>,
-}
-
 /// The one description of an SQL function.
 #[derive(Clone, Copy)]
 pub struct Function {
@@ -158,7 +51,7 @@ pub struct Function {
     /// Runs as written; after `-- ` the expected result (checked by tests/cli.rs unless it
     /// contains `~`).
     pub example: &'static str,
-    /// The file(s) that hold the maths, e.g. `src/algo/lcss/time_window.rs`.
+    /// The file(s) that hold the maths, e.g. `crates/algo/src/lcss/time_window.rs`.
     pub maths: &'static str,
     /// The binding file (`file!()`).
     pub binding: &'static str,
@@ -309,12 +202,13 @@ impl VScalar for Dispatch {
 }
 
 /// Registers `functions` on `con`: every overload of every scalar signature, and the table
-/// functions, all sharing one new set of [`Limits`] (call once per database).
+/// functions, all sharing one new [`Database`] (call once per database, at LOAD).
 pub fn register(con: &Connection, functions: &[&'static Function]) -> duckdb::Result<()> {
     let limits = Arc::new(Limits::default());
+    let db = Database { limits: Arc::clone(&limits), runner: Arc::new(Runner::open(con)) };
     for f in functions {
         if let Some(t) = &f.table {
-            (t.register)(con, f.name, &limits)?;
+            (t.register)(con, f.name, &db)?;
             continue;
         }
         for sig in f.signatures {

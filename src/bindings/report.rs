@@ -13,7 +13,7 @@ pub static FUNCTIONS: &[Function] = &[Function {
                   sql/report.sql gathers from the pipeline's tables (sections and cells separated by chr(30) / chr(31)). \
                   Run it through sql/report.sql (SET VARIABLE out_dir = 'results'; .read sql/report.sql, after sql/pipeline.sql), which also writes the file; malformed data is an error naming the section, row and cell.",
     example: "SELECT left(trajdb_report_html(array_to_string(['meta' || chr(31) || 'xi' || chr(31) || '5', 'meta' || chr(31) || 'eta' || chr(31) || '0.6', 'meta' || chr(31) || 'cluster_camera' || chr(31) || '1', 'meta' || chr(31) || 'step' || chr(31) || '1'], chr(30))), 15); -- <!DOCTYPE html>",
-    maths: "src/app/report/mod.rs",
+    maths: "crates/app/src/report/mod.rs",
     binding: file!(),
     signatures: &[Signature { params: &[p("data", Ty::Varchar)], arities: &[], returns: Ty::Varchar, kernel: report_html }],
     table: None,

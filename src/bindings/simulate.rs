@@ -1,5 +1,5 @@
 //! SQL: `trajdb_simulate(dir, ...)`, the simulator as a table function, so that stock DuckDB
-//! makes the same scenarios as `trajdb simulate`. The simulator: `src/app/simulate.rs`.
+//! makes the same scenarios as `trajdb simulate`. The simulator: `crates/app/src/simulate.rs`.
 
 use super::registry::{p, Function, Param, Table, Ty};
 use super::vector::table::{self, BindArgs, Rows, TableFn};
@@ -50,7 +50,7 @@ pub static FUNCTIONS: &[Function] = &[Function {
                   coordinate; cameras.csv tx, ty follow); \
                   docs/simulate.md.",
     example: "SELECT objects > 0 FROM trajdb_simulate('/tmp/trajdb-sim-example', cameras := 2, minutes := 1, seed := 3); -- true",
-    maths: "src/app/simulate.rs",
+    maths: "crates/app/src/simulate.rs",
     binding: file!(),
     signatures: &[],
     table: Some(TABLE),

@@ -1,4 +1,4 @@
-//! SQL: trajectory helpers. Maths: `src/algo/traj.rs`.
+//! SQL: trajectory helpers. Maths: `crates/algo/src/traj.rs`.
 
 use super::registry::{p, Function, Signature, Ty, SERIES, TRAJ};
 use super::vector::{Args, Column, Out, Value};
@@ -6,7 +6,7 @@ use crate::algo::traj;
 use std::error::Error;
 
 type R = Result<(), Box<dyn Error>>;
-const MATHS: &str = "src/algo/traj.rs";
+const MATHS: &str = "crates/algo/src/traj.rs";
 
 pub static FUNCTIONS: &[Function] = &[
     Function {

@@ -21,9 +21,9 @@ pub mod table;
 mod write;
 
 pub use read::{I64ListCol, OptCol, OptRegionCol, PrimCol, RegionCol, RegionListCol, Rows, SeriesCol, StructCol, StructListCol, TextCol, Traj3Col, TrajCol, TrajListCol};
-pub use write::{chunk_set_i64, Column, Out, Value};
+pub use write::{chunk_set_bool, chunk_set_f64, chunk_set_i64, chunk_set_null, Column, Out, Value};
 
-use super::registry::{Param, Ty};
+use super::types::{Param, Ty};
 use duckdb::core::DataChunkHandle;
 use std::error::Error;
 

@@ -22,7 +22,8 @@
 //! the reference shows their declared types.
 
 use crate::algo::limits::{self, Limits};
-use crate::bindings::registry::{Param, Table};
+use crate::bindings::types::{Database, Param, Table};
+use crate::runner::Runner;
 use duckdb::core::{DataChunkHandle, Inserter, LogicalTypeHandle, LogicalTypeId};
 use duckdb::vtab::{BindInfo, InitInfo, TableFunctionInfo, VTab, Value};
 use duckdb::Connection;
@@ -52,6 +53,7 @@ pub trait TableFn: Sized + Send + Sync + 'static {
 struct TabInfo {
     name: &'static str,
     limits: Arc<Limits>,
+    runner: Arc<Runner>,
 }
 
 /// The bind data of [`Tab`]: the registration, and the function's own.
@@ -78,7 +80,7 @@ impl<T: TableFn> VTab for Tab<T> {
         for (name, ty) in T::TABLE.columns {
             bind.add_result_column(name, ty.logical());
         }
-        let args = BindArgs { info: bind, table: T::TABLE };
+        let args = BindArgs { info: bind, table: T::TABLE, runner: &info.runner };
         // errors are formatted inside the scope too: a message may read the limit it names
         let data = limits::with_scope(&info.limits, || T::bind(&args).map_err(|e| prefixed(info.name, e)))?;
         Ok(Bound { info, data })
@@ -109,14 +111,15 @@ impl<T: TableFn> VTab for Tab<T> {
 }
 
 /// Registers table function `T` as `name` on `con`, bound to the database's `limits`.
-pub fn register<T: TableFn>(con: &Connection, name: &'static str, limits: &Arc<Limits>) -> duckdb::Result<()> {
-    con.register_table_function_with_extra_info::<Tab<T>, TabInfo>(name, &TabInfo { name, limits: Arc::clone(limits) })
+pub fn register<T: TableFn>(con: &Connection, name: &'static str, db: &Database) -> duckdb::Result<()> {
+    con.register_table_function_with_extra_info::<Tab<T>, TabInfo>(name, &TabInfo { name, limits: Arc::clone(&db.limits), runner: Arc::clone(&db.runner) })
 }
 
 /// The arguments of one table-function call, read safely (module doc).
 pub struct BindArgs<'a> {
     info: &'a BindInfo,
     table: &'static Table,
+    runner: &'a Arc<Runner>,
 }
 
 /// An SQL type name for messages.
@@ -135,6 +138,24 @@ impl BindArgs<'_> {
 
     fn named_param(&self, name: &str) -> Res<&'static Param> {
         self.table.named.iter().find(|p| p.name == name).ok_or_else(|| format!("named parameter {name} is not declared").into())
+    }
+
+    /// The database's pipeline runner (src/runner.rs).
+    pub fn runner(&self) -> &Arc<Runner> {
+        self.runner
+    }
+
+    /// Every named argument given (not NULL), as text: numbers as DuckDB prints them, booleans
+    /// as true / false. For functions whose named parameters are checked by their own table
+    /// (the pipeline parameters).
+    pub fn named_as_text(&self) -> Res<Vec<(String, String)>> {
+        let mut out = Vec::new();
+        for p in self.table.named {
+            if let Some((_, v)) = self.named(p.name)? {
+                out.push((p.name.to_string(), v.to_string()));
+            }
+        }
+        Ok(out)
     }
 
     /// Positional argument `k`, present and not NULL (`None` when NULL), with its declaration.
@@ -329,6 +350,24 @@ impl Rows<'_> {
     /// Writes `v` into column `col` (a BIGINT column) at `row`.
     pub fn bigint(&mut self, col: usize, row: usize, v: i64) {
         super::chunk_set_i64(self.chunk, col, row, v);
+    }
+
+    /// Writes `v` into column `col` (a DOUBLE column) at `row`.
+    pub fn double(&mut self, col: usize, row: usize, v: f64) {
+        super::chunk_set_f64(self.chunk, col, row, v);
+    }
+
+    /// Writes `v` into column `col` (a BOOLEAN column) at `row`.
+    pub fn boolean(&mut self, col: usize, row: usize, v: bool) {
+        super::chunk_set_bool(self.chunk, col, row, v);
+    }
+
+    /// Writes text, or NULL for `None`, into column `col` (a VARCHAR column) at `row`.
+    pub fn opt_text(&mut self, col: usize, row: usize, v: Option<&str>) {
+        match v {
+            Some(v) => self.text(col, row, v),
+            None => super::chunk_set_null(self.chunk, col, row),
+        }
     }
 }
 

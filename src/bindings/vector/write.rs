@@ -192,6 +192,31 @@ fn set_nulls(out: &mut FlatVector<'_>, nulls: impl Iterator<Item = bool>) {
     }
 }
 
+/// Writes one DOUBLE into column `col`, row `row`, of a table function's output chunk
+/// (`row` < 2048, the chunk's capacity).
+pub fn chunk_set_f64(chunk: &mut duckdb::core::DataChunkHandle, col: usize, row: usize, v: f64) {
+    assert!(row < 2048, "a data chunk holds 2048 rows");
+    let mut c = chunk.flat_vector(col);
+    // SAFETY: a table function's output vectors hold the standard vector size (2048) of the
+    // column's type, DOUBLE here (the caller's bind declared it).
+    unsafe { c.as_mut_slice_with_len::<f64>(2048)[row] = v };
+}
+
+/// Writes one BOOLEAN into column `col`, row `row`, of a table function's output chunk.
+pub fn chunk_set_bool(chunk: &mut duckdb::core::DataChunkHandle, col: usize, row: usize, v: bool) {
+    assert!(row < 2048, "a data chunk holds 2048 rows");
+    let mut c = chunk.flat_vector(col);
+    // SAFETY: a table function's output vectors hold the standard vector size (2048) of the
+    // column's type, BOOLEAN (one byte per value) here (the caller's bind declared it).
+    unsafe { c.as_mut_slice_with_len::<bool>(2048)[row] = v };
+}
+
+/// Writes NULL into column `col`, row `row`, of a table function's output chunk.
+pub fn chunk_set_null(chunk: &mut duckdb::core::DataChunkHandle, col: usize, row: usize) {
+    assert!(row < 2048, "a data chunk holds 2048 rows");
+    chunk.flat_vector(col).set_null(row);
+}
+
 /// Writes one BIGINT into column `col`, row `row`, of a table function's output chunk
 /// (`row` < 2048, the chunk's capacity).
 pub fn chunk_set_i64(chunk: &mut duckdb::core::DataChunkHandle, col: usize, row: usize, v: i64) {

@@ -1,0 +1,323 @@
+//! The pipeline manifest: every statement of one run, in order, each with its stage, the file
+//! it comes from, the table (or macro) it makes, and the statement that undoes it if a later
+//! one fails. This is THE runner's logic (parameters resolved and checked, `.read` expanded,
+//! statements split, the results folder claimed and committed); a host only executes the rows:
+//!
+//! - `CALL trajdb_pipeline(...)` (the extension, any host) executes them on its own connection;
+//! - `trajdb.pipeline` (Python) and `trajdb.windows` execute the rows of `trajdb_stages(...)` on
+//!   the caller's connection (so that registered DataFrames and the result tables are the
+//!   caller's), with no SQL parsing of their own;
+//! - the DuckDB CLI `.read sql/pipeline.sql` runs the same files.
+//!
+//! A host's whole loop: execute each row's `sql`; after a row succeeds, remember its `undo`
+//! (when not empty); when a row fails, execute the remembered undos last-first and report the
+//! failure with the row's stage and file.
+//!
+//! Parts: [`Part::All`] is a whole run; [`Part::Site`] and [`Part::Window`] split one run of a
+//! large archive into a site's calibration (once) and windows that reuse it (python/trajdb/
+//! windows.py ships the [`SITE_TABLES`] between them; sql/window.sql explains why a window then
+//! equals the whole run).
+
+use super::{params, sql};
+use std::error::Error;
+
+/// Made once per site (calibrate.sql, align.sql, overlap.sql, and the camera views of
+/// quality.sql) and shipped to every window of the site: the sampling periods and noise, the
+/// derived parameters, the cameras' transforms and clock offsets, the view polygons and their
+/// overlaps. Measuring any of them on one window instead would change the results.
+pub const SITE_TABLES: &[&str] = &[
+    "calib_cameras", "calib_classes", "calib_pairs", "calibration", "calib_fit_window", "quality_views", "quality_start_density",
+    "align_frames", "align_origin", "calib_match", "calibration_summary",
+    "view_polygons", "view_overlaps", "view_merge_order", "view_overlaps_chain",
+];
+
+/// Intermediate tables (and macros) of the site's alignment: made by the site run only, never
+/// shipped, skipped by a window.
+pub const SITE_WORK_TABLES: &[&str] = &[
+    "align_centroids", "align_scan", "align_hypotheses", "align_vote", "align_widen", "align_hyp_wide", "align_best_wide", "align_tracks",
+    "align_hyp", "align_best", "align_support", "align_refit", "align_pairs", "align_edges", "view_points", "align_keys", "align_activity",
+    "align_coarse", "align_clock", "align_wls", "align_drift_obs", "align_drift_pairs", "align_drift_fit1", "align_drift_kept", "align_drift",
+    "align_retry", "align_speed_votes", "align_speed", "align_sample", "align_scan_pass", "align_speed_scan",
+];
+
+/// The stages a site's calibration runs (and nothing after them).
+pub const CALIBRATION_STAGES: &[&str] = &["calibrate", "clean", "quality", "align", "overlap"];
+
+/// The stages a window skips: clustering is an analysis of a whole period, not of a window
+/// (run traj_cluster on the road users).
+pub const WINDOW_SKIPS_STAGES: &[&str] = &["cluster"];
+
+/// Which statements of a run.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Part {
+    /// The whole pipeline; with a results folder also the result files and report.html.
+    All,
+    /// A site's calibration: the load and [`CALIBRATION_STAGES`].
+    Site,
+    /// One window: the load, every stage statement that makes no site table, then sql/window.sql
+    /// (the host creates the [`SITE_TABLES`] first and sets window_start, window_end,
+    /// loaded_from and loaded_to).
+    Window,
+}
+
+impl Part {
+    pub fn parse(s: &str) -> Result<Part, String> {
+        match s.trim().to_ascii_lowercase().as_str() {
+            "all" | "" => Ok(Part::All),
+            "site" => Ok(Part::Site),
+            "window" => Ok(Part::Window),
+            other => Err(format!("part must be 'all', 'site' or 'window', got {other:?}")),
+        }
+    }
+}
+
+/// One statement of a run.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Step {
+    /// `params`, `load`, a stage name of sql/stages.sql, `warnings`, `write`, `report` or `window`.
+    pub stage: String,
+    /// The SQL file it comes from (`sql/stages/align.sql`; generated statements name the
+    /// function that generates them).
+    pub file: String,
+    /// One SQL statement (no trailing `;`).
+    pub sql: String,
+    /// The table, view or macro it creates or changes ([`statement_target`]).
+    pub makes: Option<String>,
+    /// Executed (last-first) when a later statement fails, if this one succeeded.
+    pub undo: Option<String>,
+}
+
+/// What one run is: the input (a file, glob or table name, never SQL), the results folder,
+/// the part and the parameter values given (`name`, `value` as text; checked here).
+#[derive(Clone, Debug)]
+pub struct Request {
+    pub input: String,
+    pub out: Option<String>,
+    pub part: Part,
+    pub params: Vec<(String, String)>,
+}
+
+/// The table a statement creates or changes: `CREATE [OR REPLACE] [TEMP|TEMPORARY]
+/// TABLE|VIEW|MACRO [IF NOT EXISTS] name`, `INSERT INTO name`, `DELETE FROM name`, `UPDATE name`
+/// (lower case); `None` for anything else. Comment lines before it are skipped.
+pub fn statement_target(stmt: &str) -> Option<String> {
+    let code: String = stmt.lines().filter(|l| !l.trim_start().starts_with("--")).collect::<Vec<_>>().join("\n");
+    let words: Vec<String> = code.split_whitespace().take(9).map(|w| w.to_ascii_lowercase()).collect();
+    let w: Vec<&str> = words.iter().map(String::as_str).collect();
+    let name_at = |k: usize| -> Option<String> {
+        let raw = w.get(k)?;
+        let name: String = raw.chars().take_while(|c| c.is_alphanumeric() || *c == '_').collect();
+        (!name.is_empty()).then_some(name)
+    };
+    match w.as_slice() {
+        ["create", rest @ ..] => {
+            let mut k = 1;
+            if rest.first() == Some(&"or") && rest.get(1) == Some(&"replace") {
+                k += 2;
+            }
+            if matches!(w.get(k), Some(&"temp") | Some(&"temporary")) {
+                k += 1;
+            }
+            if !matches!(w.get(k), Some(&"table") | Some(&"view") | Some(&"macro")) {
+                return None;
+            }
+            k += 1;
+            if w.get(k) == Some(&"if") && w.get(k + 1) == Some(&"not") && w.get(k + 2) == Some(&"exists") {
+                k += 3;
+            }
+            name_at(k)
+        }
+        ["insert", "into", ..] | ["delete", "from", ..] => name_at(2),
+        ["update", ..] => name_at(1),
+        _ => None,
+    }
+}
+
+fn push_script(out: &mut Vec<Step>, stage: &str, file: &str, text: &str) {
+    for s in sql::split_statements(text) {
+        let stmt = s.trim().to_string();
+        out.push(Step { stage: stage.to_string(), file: file.to_string(), makes: statement_target(&stmt), sql: stmt, undo: None });
+    }
+}
+
+fn embedded(path: &str) -> Result<String, Box<dyn Error>> {
+    sql::expand_embedded(path)
+}
+
+/// Every statement of `req`, in order. Parameter names and values are checked here (an
+/// unknown name or a bad value is an error naming it), before anything runs.
+pub fn plan(req: &Request) -> Result<Vec<Step>, Box<dyn Error>> {
+    let values = params::resolve(&req.params)?;
+    if req.input.trim().is_empty() {
+        return Err("input is empty; give a file, a glob or a table name, e.g. 'points.parquet'".into());
+    }
+    if req.out.is_some() && req.part != Part::All {
+        return Err("out is only for part 'all' (a site or a window returns tables, not files)".into());
+    }
+    let mut steps = Vec::new();
+    // 1. every parameter: the given values, every other one back to its default
+    push_script(&mut steps, "params", "trajdb_params_sql", &params::set_sql(&values));
+    steps.push(Step {
+        stage: "params".into(),
+        file: "trajdb_stages".into(),
+        sql: format!("SET VARIABLE pipeline_input = {}", sql::sql_string(&req.input)),
+        makes: None,
+        undo: None,
+    });
+    // 2. the results folder is claimed before any work: refused here when it holds the user's
+    //    own files, is the input's folder, '' or '/' (crates/app/src/outdir.rs); undone (the
+    //    staging folder removed, the earlier results left as they were) when a later step fails
+    if let Some(out) = &req.out {
+        let o = sql::sql_string(out);
+        steps.push(Step {
+            stage: "params".into(),
+            file: "trajdb_results_begin".into(),
+            sql: format!("SET VARIABLE out_dir = (SELECT staging FROM trajdb_results_begin({o}, {}))", sql::sql_string(&req.input)),
+            makes: None,
+            undo: Some(format!("FROM trajdb_results_end({o}, false)")),
+        });
+        steps.push(clock_step("start", "params"));
+    }
+    // 3. the load and the stages (sql/pipeline.sql: params.sql keeps the values set above)
+    let skip: Vec<&str> = SITE_TABLES.iter().chain(SITE_WORK_TABLES).copied().collect();
+    for (name, text) in sql::parts("sql/pipeline.sql")? {
+        let stage = if name == "setup" { "load".to_string() } else { name };
+        let file = if stage == "load" { "sql/pipeline.sql".to_string() } else { format!("sql/stages/{stage}.sql") };
+        match req.part {
+            Part::Site if stage != "load" && !CALIBRATION_STAGES.contains(&stage.as_str()) => continue,
+            Part::Window if WINDOW_SKIPS_STAGES.contains(&stage.as_str()) => continue,
+            _ => {}
+        }
+        if req.out.is_some() && stage != "load" {
+            steps.push(clock_step(&stage, &file));
+        }
+        let mut part = Vec::new();
+        push_script(&mut part, &stage, &file, &text);
+        if req.part == Part::Window && stage != "load" {
+            part.retain(|s| !s.makes.as_deref().is_some_and(|m| skip.contains(&m)));
+        }
+        steps.extend(part);
+    }
+    match req.part {
+        Part::All => push_script(&mut steps, "warnings", "sql/warnings.sql", &embedded("sql/warnings.sql")?),
+        Part::Window => push_script(&mut steps, "window", "sql/window.sql", &embedded("sql/window.sql")?),
+        Part::Site => {}
+    }
+    // 4. the result files into the staging folder, report.html, then the commit: the files
+    //    replace the earlier results only when all are written
+    if let Some(out) = &req.out {
+        steps.push(clock_step("write", "sql/export.sql"));
+        push_script(&mut steps, "write", "sql/export.sql", &embedded("sql/export.sql")?);
+        steps.push(clock_step("report", "sql/report.sql"));
+        steps.push(Step {
+            stage: "report".into(),
+            file: "sql/report.sql".into(),
+            // the stage times of this run, from the clock rows above: report.html's stage table
+            sql: "CREATE OR REPLACE TEMP TABLE pipeline_timings AS \
+                  SELECT stage, epoch(lead(began) OVER (ORDER BY k) - began) AS seconds FROM pipeline_clock QUALIFY seconds IS NOT NULL ORDER BY k"
+                .into(),
+            makes: Some("pipeline_timings".into()),
+            undo: None,
+        });
+        push_script(&mut steps, "report", "sql/report.sql", &embedded("sql/report.sql")?);
+        steps.push(Step {
+            stage: "commit".into(),
+            file: "trajdb_results_end".into(),
+            sql: format!("FROM trajdb_results_end({}, true)", sql::sql_string(out)),
+            makes: None,
+            undo: None,
+        });
+    }
+    Ok(steps)
+}
+
+/// A row of the run's clock (`pipeline_clock`: when each stage began), from which the report's
+/// stage times are computed in SQL, so that every host gets them without timing anything.
+/// `now()` is the start of the statement's transaction: each statement of a run is its own.
+fn clock_step(stage: &str, file: &str) -> Step {
+    let sql = if stage == "start" {
+        "CREATE OR REPLACE TEMP TABLE pipeline_clock AS SELECT 0 AS k, 'load' AS stage, now() AS began".to_string()
+    } else {
+        format!("INSERT INTO pipeline_clock SELECT max(k) + 1, {}, now() FROM pipeline_clock", sql::sql_string(stage))
+    };
+    let stage = if stage == "start" { "params" } else { stage };
+    Step { stage: stage.to_string(), file: file.to_string(), makes: statement_target(&sql), sql, undo: None }
+}
+
+/// The statements of one embedded SQL file (`sql/score.sql`, `sql/report.sql`, ...), its
+/// `.read` lines expanded: what `.read FILE` runs in the DuckDB CLI.
+pub fn script(path: &str) -> Result<Vec<Step>, Box<dyn Error>> {
+    let text = embedded(path)?;
+    let mut steps = Vec::new();
+    push_script(&mut steps, "script", path, &text);
+    Ok(steps)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn req(part: Part, out: Option<&str>) -> Request {
+        Request { input: "points.parquet".into(), out: out.map(str::to_string), part, params: vec![] }
+    }
+
+    #[test]
+    fn targets_of_statements() {
+        assert_eq!(statement_target("-- c\nCREATE OR REPLACE TEMP TABLE align_scan AS SELECT 1").as_deref(), Some("align_scan"));
+        assert_eq!(statement_target("CREATE OR REPLACE TEMP MACRO align_sample(a, b) AS a").as_deref(), Some("align_sample"));
+        assert_eq!(statement_target("CREATE TEMP TABLE IF NOT EXISTS pipeline_timings (a INT)").as_deref(), Some("pipeline_timings"));
+        assert_eq!(statement_target("insert into Points SELECT 1").as_deref(), Some("points"));
+        assert_eq!(statement_target("DELETE FROM calib_pairs WHERE x").as_deref(), Some("calib_pairs"));
+        assert_eq!(statement_target("UPDATE align_frames SET a = 1").as_deref(), Some("align_frames"));
+        assert_eq!(statement_target("SELECT 1"), None);
+        assert_eq!(statement_target("SET VARIABLE x = 1"), None);
+    }
+
+    #[test]
+    fn a_whole_run_claims_first_and_commits_last() {
+        let steps = plan(&req(Part::All, Some("results"))).unwrap();
+        let begin = steps.iter().position(|s| s.file == "trajdb_results_begin").unwrap();
+        let first_load = steps.iter().position(|s| s.stage == "load").unwrap();
+        assert!(begin < first_load, "the folder is claimed before any work");
+        assert!(steps[begin].undo.as_deref().unwrap().contains("trajdb_results_end('results', false)"));
+        assert_eq!(steps.last().unwrap().sql, "FROM trajdb_results_end('results', true)");
+        let stages: Vec<&str> = steps.iter().map(|s| s.stage.as_str()).collect();
+        for s in sql::stages() {
+            assert!(stages.contains(&s.as_str()), "{s} missing");
+        }
+        assert!(steps.iter().all(|s| !s.sql.trim().is_empty() && !s.sql.trim_end().ends_with(';')));
+    }
+
+    #[test]
+    fn input_and_folder_are_quoted_never_spliced() {
+        let mut r = req(Part::All, Some("a'); DROP TABLE x; --"));
+        r.input = "p'); COPY x TO '/etc/passwd".into();
+        let steps = plan(&r).unwrap();
+        let set = steps.iter().find(|s| s.sql.starts_with("SET VARIABLE pipeline_input")).unwrap();
+        assert_eq!(set.sql, "SET VARIABLE pipeline_input = 'p''); COPY x TO ''/etc/passwd'");
+        assert!(steps.iter().any(|s| s.sql.contains("trajdb_results_begin('a''); DROP TABLE x; --', ")));
+    }
+
+    #[test]
+    fn parameters_are_checked_before_anything_runs() {
+        let mut r = req(Part::All, None);
+        r.params = vec![("merge_etaa".into(), "0.6".into())];
+        assert!(plan(&r).unwrap_err().to_string().contains("merge_etaa"));
+        r.params = vec![("merge_eta".into(), "lots".into())];
+        assert!(plan(&r).is_err());
+        r.params = vec![("merge_eta".into(), "0.6".into())];
+        assert!(plan(&r).unwrap().iter().any(|s| s.sql.contains("merge_eta = 0.6")));
+    }
+
+    #[test]
+    fn a_window_skips_site_tables_and_clustering() {
+        let site = plan(&req(Part::Site, None)).unwrap();
+        let window = plan(&req(Part::Window, None)).unwrap();
+        assert!(site.iter().any(|s| s.makes.as_deref() == Some("align_frames")));
+        assert!(!site.iter().any(|s| s.stage == "merge" || s.stage == "cluster"));
+        assert!(!window.iter().any(|s| s.makes.as_deref().is_some_and(|m| SITE_TABLES.contains(&m) || SITE_WORK_TABLES.contains(&m))));
+        assert!(!window.iter().any(|s| s.stage == "cluster"));
+        assert!(window.iter().any(|s| s.stage == "merge") && window.iter().any(|s| s.stage == "window"));
+        assert!(plan(&Request { out: Some("r".into()), ..req(Part::Site, None) }).is_err());
+    }
+}

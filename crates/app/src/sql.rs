@@ -1,0 +1,194 @@
+//! The SQL files of the pipeline (embedded at build time, see build.rs), the DuckDB CLI's
+//! `.read` include, statement splitting (the only splitter: every host gets statements from
+//! [`crate::plan`]), and the stage list.
+
+use std::error::Error;
+
+include!(concat!(env!("OUT_DIR"), "/sql_files.rs"));
+
+/// The embedded contents of `path` (e.g. `sql/stages/align.sql`).
+pub fn file(path: &str) -> Option<&'static str> {
+    SQL_FILES.iter().find(|(p, _)| *p == path).map(|(_, t)| *t)
+}
+
+/// The file named by a `.read FILE` line (the DuckDB CLI's include).
+pub fn read_target(line: &str) -> Option<&str> {
+    line.trim().strip_prefix(".read ").map(|f| f.trim().trim_matches(|c| c == '\'' || c == '"'))
+}
+
+/// A `.read` file: from disk (path relative to the working directory, as in the DuckDB CLI),
+/// or the embedded copy of a `sql/...` file when it is not on disk.
+fn load(path: &str) -> Result<String, Box<dyn Error>> {
+    match std::fs::read_to_string(path) {
+        Ok(t) => Ok(t),
+        Err(e) => file(path).map(str::to_string).ok_or_else(|| format!(".read {path}: {e}").into()),
+    }
+}
+
+/// Replaces every `.read FILE` line by the file's contents (recursively), reading FILE from
+/// disk (relative to the working directory, as the DuckDB CLI does) or else the embedded copy.
+pub fn expand_reads(sql: &str) -> Result<String, Box<dyn Error>> {
+    expand(sql, 0, &load)
+}
+
+/// The embedded file `path` with its `.read` lines replaced by the embedded files they name:
+/// exactly the SQL this build was made with (the runner never reads SQL from the disk).
+pub fn expand_embedded(path: &str) -> Result<String, Box<dyn Error>> {
+    let text = file(path).ok_or_else(|| format!("{path} is not an embedded SQL file"))?;
+    expand(text, 0, &|f: &str| file(f).map(str::to_string).ok_or_else(|| format!(".read {f}: not an embedded SQL file").into()))
+}
+
+type Loader<'a> = &'a dyn Fn(&str) -> Result<String, Box<dyn Error>>;
+
+fn expand(sql: &str, depth: usize, load: Loader<'_>) -> Result<String, Box<dyn Error>> {
+    if depth > 16 {
+        return Err(".read nested more than 16 levels".into());
+    }
+    let mut out = String::with_capacity(sql.len());
+    for line in sql.lines() {
+        match read_target(line) {
+            Some(f) => {
+                out.push_str(&expand(&load(f)?, depth + 1, load)?);
+                out.push_str("\n;\n");
+            }
+            None => {
+                out.push_str(line);
+                out.push('\n');
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// `embedded` SQL cut into timed parts: each `.read sql/stages/NAME.sql` is the part `NAME`;
+/// every other statement (parameters, loading) goes into a part named `setup`. Files are the
+/// embedded copies, so the binary runs exactly the SQL it was built with.
+pub fn parts(path: &str) -> Result<Vec<(String, String)>, Box<dyn Error>> {
+    let mut out: Vec<(String, String)> = Vec::new();
+    collect(path, &mut out, 0)?;
+    Ok(out)
+}
+
+fn collect(path: &str, out: &mut Vec<(String, String)>, depth: usize) -> Result<(), Box<dyn Error>> {
+    if depth > 16 {
+        return Err(".read nested more than 16 levels".into());
+    }
+    let text = file(path).ok_or_else(|| format!("{path} is not an embedded SQL file"))?;
+    for line in text.lines() {
+        match read_target(line) {
+            Some(f) if f.starts_with("sql/stages/") => {
+                let name = f.trim_start_matches("sql/stages/").trim_end_matches(".sql").to_string();
+                let sql = file(f).ok_or_else(|| format!("{path}: {f} is not an embedded SQL file"))?;
+                out.push((name, sql.to_string()));
+            }
+            Some(f) => collect(f, out, depth + 1)?,
+            None => {
+                if out.last().is_none_or(|(n, _)| n != "setup") {
+                    out.push(("setup".to_string(), String::new()));
+                }
+                let last = out.last_mut().expect("pushed");
+                last.1.push_str(line);
+                last.1.push('\n');
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The stage names of `sql/stages.sql`, in order.
+pub fn stages() -> Vec<String> {
+    parts("sql/stages.sql").expect("sql/stages.sql").into_iter().map(|(n, _)| n).filter(|n| n != "setup").collect()
+}
+
+/// A SQL string literal (single quotes doubled).
+pub fn sql_string(s: &str) -> String {
+    format!("'{}'", s.replace('\'', "''"))
+}
+
+/// Splits a script into statements at `;`, ignoring semicolons inside quotes and comments.
+pub fn split_statements(sql: &str) -> Vec<String> {
+    let mut out = Vec::new();
+    let mut cur = String::new();
+    let mut chars = sql.chars().peekable();
+    let mut has_code = false;
+    while let Some(c) = chars.next() {
+        match c {
+            '\'' | '"' => {
+                cur.push(c);
+                has_code = true;
+                while let Some(d) = chars.next() {
+                    cur.push(d);
+                    if d == c {
+                        if chars.peek() == Some(&c) {
+                            cur.push(chars.next().unwrap());
+                        } else {
+                            break;
+                        }
+                    }
+                }
+            }
+            '-' if chars.peek() == Some(&'-') => {
+                for d in chars.by_ref() {
+                    if d == '\n' {
+                        cur.push('\n');
+                        break;
+                    }
+                }
+            }
+            '/' if chars.peek() == Some(&'*') => {
+                chars.next();
+                let mut prev = ' ';
+                for d in chars.by_ref() {
+                    if prev == '*' && d == '/' {
+                        break;
+                    }
+                    prev = d;
+                }
+                cur.push(' ');
+            }
+            ';' => {
+                if has_code {
+                    out.push(std::mem::take(&mut cur));
+                }
+                cur.clear();
+                has_code = false;
+            }
+            _ => {
+                if !c.is_whitespace() {
+                    has_code = true;
+                }
+                cur.push(c);
+            }
+        }
+    }
+    if has_code {
+        out.push(cur);
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn splits_outside_quotes_and_comments() {
+        let s = split_statements("SELECT 'a;b'; -- c;d\nSELECT \"x;\" /* ; */ ;  ;");
+        assert_eq!(s.len(), 2);
+        assert!(s[0].contains("'a;b'"));
+        assert!(s[1].contains("\"x;\""));
+    }
+
+    #[test]
+    fn one_stage_list_for_every_runner() {
+        assert_eq!(stages(), ["calibrate", "clean", "quality", "align", "overlap", "merge", "fuse", "cluster"]);
+        let p = parts("sql/pipeline.sql").unwrap();
+        let names: Vec<&str> = p.iter().map(|x| x.0.as_str()).collect();
+        assert_eq!(names, ["setup", "calibrate", "clean", "quality", "align", "overlap", "merge", "fuse", "cluster"]);
+        assert!(p[0].1.contains("coalesce(getvariable('merge_eta')") && p[0].1.contains("pipeline_input"));
+        for s in stages() {
+            let text = file(&format!("sql/stages/{s}.sql")).unwrap();
+            assert!(!text.lines().any(|l| l.trim_start().to_ascii_uppercase().starts_with("SET VARIABLE")), "{s}: parameters belong to sql/params.sql");
+        }
+    }
+}

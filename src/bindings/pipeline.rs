@@ -1,0 +1,343 @@
+//! SQL: the pipeline's one runner, for every host.
+//! - `trajdb_pipeline(input, out := ..., <parameter> := value, ...)`: the whole run in one
+//!   statement (src/runner.rs executes the manifest on the database's runner connection);
+//! - `trajdb_stages(input, out, part, params)`: the manifest itself, one row per statement, for
+//!   hosts that run the statements on their own connection (Python's `trajdb.pipeline`,
+//!   `trajdb.windows`, Spark tasks): crates/app/src/plan.rs;
+//! - `trajdb_script(path)`: the statements of one embedded SQL file (`.read` expanded);
+//! - `trajdb_params()` and `trajdb_params_script()`: the declared parameter table and the text
+//!   of sql/params.sql generated from it; `trajdb_reference(format)`: the function reference.
+//!
+//! Every parameter name and value is checked by crates/app/src/params.rs, once, whichever
+//! host asks; no host splits SQL or resolves a parameter.
+
+use super::registry::{p, Function, Signature, Table, Ty};
+use super::types::Param;
+use super::vector::table::{self, BindArgs, Rows, TableFn};
+use super::vector::{Args, Out};
+use crate::app::params::{self, Kind, PARAMS};
+use crate::app::plan::{self, Part, Request, Step};
+use crate::runner::Log;
+use std::error::Error;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::Mutex;
+
+pub static FUNCTIONS: &[Function] = &[PIPELINE, STAGES, SCRIPT, PARAMS_TABLE, PARAMS_SCRIPT, REFERENCE];
+
+const fn ty_of(k: Kind) -> Ty {
+    match k {
+        Kind::Double => Ty::Double,
+        Kind::Integer => Ty::Bigint,
+        Kind::Boolean => Ty::Boolean,
+        Kind::Text => Ty::Varchar,
+    }
+}
+
+const N_PARAMS: usize = PARAMS.len();
+
+/// `out` and every declared pipeline parameter, as named parameters of trajdb_pipeline.
+static PIPELINE_NAMED: [Param; N_PARAMS + 1] = {
+    let mut a = [p("out", Ty::Varchar); N_PARAMS + 1];
+    let mut k = 0;
+    while k < N_PARAMS {
+        a[k + 1] = p(PARAMS[k].name, ty_of(PARAMS[k].kind));
+        k += 1;
+    }
+    a
+};
+
+const PIPELINE_TABLE: Table = Table {
+    params: &[p("input", Ty::Varchar)],
+    named: &PIPELINE_NAMED,
+    columns: &[("stage", Ty::Varchar), ("seconds", Ty::Double), ("statements", Ty::Bigint), ("note", Ty::Varchar)],
+    register: table::register::<PipelineFn>,
+};
+
+const PIPELINE: Function = Function {
+    name: "trajdb_pipeline",
+    description: "The whole pipeline in one statement: `CALL trajdb_pipeline('points.parquet', out := 'results', merge_eta := 0.6)`. \
+                  `input` is a file, a glob or a table or view of this database (never SQL); `out` the results folder (transforms.csv, \
+                  calibration.csv, matches.csv, merged.parquet, clusters.csv, links.csv, report.html), claimed before any work and \
+                  replaced only when every file is written; every other named parameter is a pipeline parameter (`FROM trajdb_params()`; \
+                  'auto' where measured), checked by name, type and range. Returns one row per stage (seconds, statements, its file), one \
+                  per warning and a total. It runs on the database's own runner connection, opened at LOAD: it sees this database's \
+                  tables and files but not a connection's TEMP tables or registered DataFrames (Python's trajdb.pipeline runs the same \
+                  statements on your connection instead), and its work tables are dropped afterwards: read the results from `out`.",
+    example: "SELECT count(*) > 0 FROM trajdb_params(); -- true",
+    maths: "crates/app/src/plan.rs, src/runner.rs",
+    binding: file!(),
+    signatures: &[],
+    table: Some(PIPELINE_TABLE),
+};
+
+struct PipelineFn;
+
+/// A side effect done once per statement, on the first scan call, and its rows.
+pub struct Once<T>(Mutex<Option<Vec<T>>>);
+
+impl TableFn for PipelineFn {
+    const TABLE: &'static Table = &PIPELINE_TABLE;
+    type Bind = (Vec<Step>, std::sync::Arc<crate::runner::Runner>);
+    type Scan = Once<Log>;
+
+    fn bind(args: &BindArgs<'_>) -> Result<Self::Bind, Box<dyn Error>> {
+        let input = args.text(0)?.ok_or("input is NULL; give a file, a glob or a table name, e.g. 'points.parquet'")?;
+        let out = args.named_text("out")?.ok_or(
+            "out is missing: name the results folder, e.g. out := 'results' (the work tables of this call are dropped afterwards; \
+             to keep them in your session run `.read sql/pipeline.sql`, or trajdb.pipeline in Python)",
+        )?;
+        if out.trim().is_empty() {
+            return Err("out is '' (empty); name a results folder, e.g. out := 'results'".into());
+        }
+        args.file_access().may_write_into(&out)?;
+        let params: Vec<(String, String)> = args.named_as_text()?.into_iter().filter(|(k, _)| k != "out").collect();
+        let steps = plan::plan(&Request { input, out: Some(out), part: Part::All, params })?;
+        Ok((steps, std::sync::Arc::clone(args.runner())))
+    }
+    fn init(_: &Self::Bind) -> Result<Self::Scan, Box<dyn Error>> {
+        Ok(Once(Mutex::new(None)))
+    }
+    fn func(bind: &Self::Bind, scan: &Self::Scan, out: &mut Rows<'_>) -> Result<usize, Box<dyn Error>> {
+        let mut state = scan.0.lock().unwrap_or_else(|e| e.into_inner());
+        let rows = match state.as_mut() {
+            Some(rows) => rows,
+            None => state.insert(bind.1.run(&bind.0)?),
+        };
+        let n = rows.len().min(Rows::CAPACITY);
+        for (r, l) in rows.drain(..n).enumerate() {
+            out.text(0, r, &l.stage);
+            out.double(1, r, l.seconds);
+            out.bigint(2, r, l.statements);
+            out.text(3, r, &l.note);
+        }
+        Ok(n)
+    }
+}
+
+const STAGES_TABLE: Table = Table {
+    params: &[p("input", Ty::Varchar)],
+    named: &[p("out", Ty::Varchar), p("part", Ty::Varchar), p("params", Ty::Varchar)],
+    columns: &[
+        ("k", Ty::Bigint),
+        ("stage", Ty::Varchar),
+        ("file", Ty::Varchar),
+        ("sql", Ty::Varchar),
+        ("makes", Ty::Varchar),
+        ("undo", Ty::Varchar),
+        ("shared", Ty::Boolean),
+    ],
+    register: table::register::<StagesFn>,
+};
+
+const STAGES: Function = Function {
+    name: "trajdb_stages",
+    description: "The pipeline's manifest: one row per statement of a run, in order (k), with its stage, its file, the statement, the table \
+                  or macro it makes, the statement that undoes it when a later one fails (`undo`), and whether `makes` is a site table \
+                  shared by the windows of a site (`shared`). A host runs the rows in order on its own connection; after a row succeeds \
+                  it remembers its undo; when a row fails it runs the remembered undos last-first. `out` (optional) adds the result \
+                  files and report.html, the results folder claimed first and committed last; `part` is 'all' (default), 'site' (the \
+                  load and the calibration stages of a site) or 'window' (one window that reuses a site's tables: sql/window.sql); \
+                  `params` a JSON object of pipeline parameters ('{\"merge_eta\": 0.6}'), checked by name, type and range.",
+    example: "SELECT count(DISTINCT stage) >= 9 FROM trajdb_stages('points.parquet'); -- true",
+    maths: "crates/app/src/plan.rs",
+    binding: file!(),
+    signatures: &[],
+    table: Some(STAGES_TABLE),
+};
+
+/// The pipeline parameters of a JSON object: numbers, booleans and text as the parameter
+/// table reads them.
+fn json_params(text: &str) -> Result<Vec<(String, String)>, Box<dyn Error>> {
+    let obj: serde_json::Map<String, serde_json::Value> = serde_json::from_str(if text.trim().is_empty() { "{}" } else { text })
+        .map_err(|e| format!("params must be a JSON object of parameter names and values, e.g. '{{\"merge_eta\": 0.6}}' ({e})"))?;
+    let mut out = Vec::with_capacity(obj.len());
+    for (k, v) in obj {
+        let text = match v {
+            serde_json::Value::String(s) => s,
+            serde_json::Value::Number(n) => n.to_string(),
+            serde_json::Value::Bool(b) => b.to_string(),
+            other => return Err(format!("parameter {k} must be a number, a boolean or text, got {other}").into()),
+        };
+        out.push((k, text));
+    }
+    Ok(out)
+}
+
+/// Rows of statements, emitted a chunk at a time.
+pub struct Cursor(AtomicUsize);
+
+fn emit_steps(steps: &[Step], cursor: &Cursor, out: &mut Rows<'_>) -> usize {
+    let start = cursor.0.fetch_add(Rows::CAPACITY, Ordering::SeqCst).min(steps.len());
+    let rows = &steps[start..(start + Rows::CAPACITY).min(steps.len())];
+    for (r, s) in rows.iter().enumerate() {
+        out.bigint(0, r, (start + r + 1) as i64);
+        out.text(1, r, &s.stage);
+        out.text(2, r, &s.file);
+        out.text(3, r, &s.sql);
+        out.opt_text(4, r, s.makes.as_deref());
+        out.opt_text(5, r, s.undo.as_deref());
+        out.boolean(6, r, s.makes.as_deref().is_some_and(|m| plan::SITE_TABLES.contains(&m)));
+    }
+    rows.len()
+}
+
+struct StagesFn;
+
+impl TableFn for StagesFn {
+    const TABLE: &'static Table = &STAGES_TABLE;
+    type Bind = Vec<Step>;
+    type Scan = Cursor;
+
+    fn bind(args: &BindArgs<'_>) -> Result<Self::Bind, Box<dyn Error>> {
+        let input = args.text(0)?.ok_or("input is NULL; give a file, a glob or a table name, e.g. 'points.parquet'")?;
+        let out = args.named_text("out")?;
+        if let Some(o) = &out {
+            if o.trim().is_empty() {
+                return Err("out is '' (empty); name a results folder, e.g. out := 'results', or leave it out".into());
+            }
+        }
+        let part = Part::parse(&args.named_text("part")?.unwrap_or_default())?;
+        let params = json_params(&args.named_text("params")?.unwrap_or_default())?;
+        plan::plan(&Request { input, out, part, params })
+    }
+    fn init(_: &Self::Bind) -> Result<Self::Scan, Box<dyn Error>> {
+        Ok(Cursor(AtomicUsize::new(0)))
+    }
+    fn func(steps: &Self::Bind, cursor: &Self::Scan, out: &mut Rows<'_>) -> Result<usize, Box<dyn Error>> {
+        Ok(emit_steps(steps, cursor, out))
+    }
+}
+
+const SCRIPT_TABLE: Table = Table {
+    params: &[p("path", Ty::Varchar)],
+    named: &[],
+    columns: STAGES_TABLE.columns,
+    register: table::register::<ScriptFn>,
+};
+
+const SCRIPT: Function = Function {
+    name: "trajdb_script",
+    description: "The statements of one of trajdb's SQL files as this extension embeds them (`sql/score.sql`, `sql/export.sql`, \
+                  `sql/report.sql`, `sql/warnings.sql`, `sql/demo.sql`, ...), its `.read` lines expanded, one row each in the columns of \
+                  trajdb_stages: what `.read FILE` runs in the DuckDB CLI, for hosts without `.read`. An unknown path is an error listing \
+                  the files.",
+    example: "SELECT count(*) > 3 FROM trajdb_script('sql/export.sql'); -- true",
+    maths: "crates/app/src/plan.rs",
+    binding: file!(),
+    signatures: &[],
+    table: Some(SCRIPT_TABLE),
+};
+
+struct ScriptFn;
+
+impl TableFn for ScriptFn {
+    const TABLE: &'static Table = &SCRIPT_TABLE;
+    type Bind = Vec<Step>;
+    type Scan = Cursor;
+
+    fn bind(args: &BindArgs<'_>) -> Result<Self::Bind, Box<dyn Error>> {
+        let path = args.text(0)?.ok_or("path is NULL; e.g. 'sql/score.sql'")?;
+        if crate::app::sql::file(&path).is_none() {
+            let files: Vec<&str> = crate::app::sql::SQL_FILES.iter().map(|(p, _)| *p).collect();
+            return Err(format!("path {path:?} is not one of trajdb's SQL files ({})", files.join(", ")).into());
+        }
+        plan::script(&path)
+    }
+    fn init(_: &Self::Bind) -> Result<Self::Scan, Box<dyn Error>> {
+        Ok(Cursor(AtomicUsize::new(0)))
+    }
+    fn func(steps: &Self::Bind, cursor: &Self::Scan, out: &mut Rows<'_>) -> Result<usize, Box<dyn Error>> {
+        Ok(emit_steps(steps, cursor, out))
+    }
+}
+
+const PARAMS_COLUMNS: &[(&str, Ty)] =
+    &[("name", Ty::Varchar), ("type", Ty::Varchar), ("default", Ty::Varchar), ("stage", Ty::Varchar), ("description", Ty::Varchar), ("lo", Ty::Double), ("hi", Ty::Double)];
+
+const PARAMS_TABLE_T: Table = Table { params: &[], named: &[], columns: PARAMS_COLUMNS, register: table::register::<ParamsFn> };
+
+const PARAMS_TABLE: Function = Function {
+    name: "trajdb_params",
+    description: "The pipeline's parameters, declared once (crates/app/src/params.rs): name, SQL type, default ('auto': measured from the \
+                  recording by the calibrate stage), the stage that reads it, what it does, and the closed range a number must lie in. \
+                  trajdb_pipeline and trajdb_stages check every value against this table; sql/params.sql is generated from it.",
+    example: "SELECT \"default\" FROM trajdb_params() WHERE name = 'merge_eta'; -- 0.5",
+    maths: "crates/app/src/params.rs",
+    binding: file!(),
+    signatures: &[],
+    table: Some(PARAMS_TABLE_T),
+};
+
+struct ParamsFn;
+
+impl TableFn for ParamsFn {
+    const TABLE: &'static Table = &PARAMS_TABLE_T;
+    type Bind = ();
+    type Scan = AtomicUsize;
+
+    fn bind(_: &BindArgs<'_>) -> Result<(), Box<dyn Error>> {
+        Ok(())
+    }
+    fn init(_: &()) -> Result<AtomicUsize, Box<dyn Error>> {
+        Ok(AtomicUsize::new(0))
+    }
+    fn func(_: &(), next: &AtomicUsize, out: &mut Rows<'_>) -> Result<usize, Box<dyn Error>> {
+        if next.fetch_add(1, Ordering::SeqCst) > 0 {
+            return Ok(0);
+        }
+        for (r, q) in PARAMS.iter().enumerate() {
+            out.text(0, r, q.name);
+            out.text(1, r, params::kind_sql(q.kind));
+            out.text(2, r, q.default.trim_matches('\''));
+            out.text(3, r, q.stage);
+            out.text(4, r, q.description);
+            out.double(5, r, q.lo);
+            out.double(6, r, q.hi);
+        }
+        Ok(PARAMS.len())
+    }
+}
+
+const PARAMS_SCRIPT: Function = Function {
+    name: "trajdb_params_script",
+    description: "The text of sql/params.sql, generated from the declared parameter table (`trajdb params --sql`): a default for every \
+                  parameter that is not set yet.",
+    example: "SELECT trajdb_params_script() LIKE '%merge_eta%'; -- true",
+    maths: "crates/app/src/params.rs",
+    binding: file!(),
+    signatures: &[Signature { params: &[], arities: &[], returns: Ty::Varchar, kernel: params_script }],
+    table: None,
+};
+
+fn params_script(a: &Args<'_>, out: &mut Out<'_>) -> Result<(), Box<dyn Error>> {
+    let text = params::params_sql();
+    let vals = a.map(|_| Ok(Some(text.clone())))?;
+    out.text(&vals);
+    Ok(())
+}
+
+const REFERENCE: Function = Function {
+    name: "trajdb_reference",
+    description: "The function reference generated from the registered descriptions: format 'markdown' (docs/functions.md) or 'text' \
+                  (each function's overloads and description).",
+    example: "SELECT trajdb_reference('markdown') LIKE '# trajdb functions%'; -- true",
+    maths: "src/bindings/registry.rs",
+    binding: file!(),
+    signatures: &[Signature { params: &[p("format", Ty::Varchar)], arities: &[], returns: Ty::Varchar, kernel: reference }],
+    table: None,
+};
+
+fn reference(a: &Args<'_>, out: &mut Out<'_>) -> Result<(), Box<dyn Error>> {
+    let format = a.text(0);
+    let vals = a.map(|r| {
+        let Some(f) = format.get(r) else { return Ok(None) };
+        let docs = super::docs();
+        Ok(Some(match f.trim().to_ascii_lowercase().as_str() {
+            "markdown" => super::registry::markdown(&docs),
+            "text" => docs.iter().map(|d| format!("{}\n    {}\n\n", d.signatures, d.description)).collect(),
+            other => return Err(format!("format must be 'markdown' or 'text', got {other:?}").into()),
+        }))
+    })?;
+    out.text(&vals);
+    Ok(())
+}

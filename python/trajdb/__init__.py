@@ -88,78 +88,81 @@ def connect(database=":memory:", **config):
     return load(duckdb.connect(database, config=config))
 
 
-def sql_file(path):
-    """The text of one of trajdb's SQL files (`sql/...`), its `.read` lines expanded."""
-    out = []
-    with open(os.path.join(_HERE, path)) as f:
-        for line in f:
-            out.append(sql_file(line.split(maxsplit=1)[1].strip()) if line.startswith(".read ") else line)
-    return "".join(out)
-
-
-def read(con, path):
-    """Runs one of trajdb's SQL files, like the DuckDB CLI's `.read sql/...`."""
-    _run(con, sql_file(path))
-
-
-def _run(con, text):
-    for stmt in con.extract_statements(text):
-        con.execute(stmt.query).fetchall()
-
-
-def _parts(path, out):
-    """(name, text) per stage, as the binary's stage runner splits a file (src/app/sql.rs):
-    a `.read sql/stages/X.sql` is stage X, everything else is 'load'."""
-    with open(os.path.join(_HERE, path)) as f:
-        for line in f:
-            target = line.split(maxsplit=1)[1].strip() if line.startswith(".read ") else None
-            if target and target.startswith("sql/stages/"):
-                out.append((os.path.basename(target)[: -len(".sql")], sql_file(target)))
-            elif target:
-                _parts(target, out)
-            else:
-                if not out or out[-1][0] != "load":
-                    out.append(("load", ""))
-                out[-1] = ("load", out[-1][1] + line)
-    return out
-
-
-def _run_timed(con, path):
-    """Runs a SQL file stage by stage; returns [(stage, seconds)] (the report's stage table)."""
-    timings = []
-    for name, text in _parts(path, []):
-        t = time.perf_counter()
-        _run(con, text)
-        timings.append((name, time.perf_counter() - t))
-    return timings
-
-
 def _literal(v):
-    if isinstance(v, bool):
-        return "true" if v else "false"
-    if isinstance(v, (int, float)):
-        return repr(v)
+    """An SQL string literal (single quotes doubled)."""
     return "'" + str(v).replace("'", "''") + "'"
 
 
-def set_params(con, params, who):
-    """Sets every pipeline parameter for one run: the given ones (checked by the extension against
-    the declared table of `trajdb params`: name, type and range), every other one back to its
-    default, so that nothing leaks from an earlier run on the same connection."""
+def _steps(con, query, args):
+    """The rows (stage, file, sql, undo) of a trajdb_stages / trajdb_script query, in order."""
+    return con.execute(f"SELECT stage, file, sql, undo FROM {query} ORDER BY k", args).fetchall()
+
+
+def execute_steps(con, steps, progress=False):
+    """Runs the statements of trajdb_stages() / trajdb_script() on `con`: each row in order;
+    after a row succeeds its `undo` is remembered; when one fails, the remembered undos run
+    last-first and the error is raised with the stage and file it came from. This loop is the
+    whole runner on the Python side: the statements, the parameters and the results folder's
+    rules come from the extension (crates/app/src/plan.rs). With `progress`, each stage's time
+    goes to stderr as a plain line. Returns [(stage, seconds)]."""
+    import sys
+
+    undo, timings = [], []
+    for stage, file, sql, undo_sql in steps:
+        t = time.perf_counter()
+        try:
+            con.execute(sql).fetchall()
+        except BaseException as e:
+            for u in reversed(undo):
+                try:
+                    con.execute(u).fetchall()
+                except duckdb.Error:
+                    pass
+            if hasattr(e, "add_note"):
+                e.add_note(f"trajdb: in stage '{stage}' ({file})")
+            raise
+        if undo_sql:
+            undo.append(undo_sql)
+        dt = time.perf_counter() - t
+        if timings and timings[-1][0] == stage:
+            timings[-1] = (stage, timings[-1][1] + dt)
+        else:
+            if progress and timings:
+                print(f"[trajdb] {timings[-1][0]:<9} {timings[-1][1]:7.2f} s", file=sys.stderr, flush=True)
+            timings.append((stage, dt))
+    if progress and timings:
+        print(f"[trajdb] {timings[-1][0]:<9} {timings[-1][1]:7.2f} s", file=sys.stderr, flush=True)
+    return timings
+
+
+def read(con, path):
+    """Runs one of trajdb's SQL files as the extension embeds it (`sql/score.sql`, ...), like
+    the DuckDB CLI's `.read sql/...` (the statements come from trajdb_script)."""
+    execute_steps(con, _steps(con, "trajdb_script(?)", [path]))
+
+
+def _params_json(params, who):
+    """The parameters as the JSON object trajdb_stages checks (names, types and ranges are the
+    extension's: `trajdb params`)."""
     values = {}
     for k, v in (params or {}).items():
-        if isinstance(v, bool):
-            v = "true" if v else "false"
-        elif isinstance(v, (int, float)):
-            v = repr(v)
-        elif not isinstance(v, str):
+        if hasattr(v, "item") and not isinstance(v, (str, bytes)):
+            v = v.item()  # a numpy scalar
+        if not isinstance(v, (bool, int, float, str)):
             raise TypeError(f"{who}: parameter {k} must be a number, a boolean or text, got {type(v).__name__}")
         values[str(k)] = v
+    return json.dumps(values)
+
+
+def stages(con, input, out=None, part="all", **params):
+    """The statements of one run (rows stage, file, sql, undo of trajdb_stages): the same
+    manifest `CALL trajdb_pipeline` runs; `execute_steps` runs them."""
+    named = ", out := ?" if out is not None else ""
+    args = [input] + ([os.fspath(out)] if out is not None else []) + [part, _params_json(params, "trajdb.stages")]
     try:
-        script = con.execute("SELECT trajdb_params_sql(?)", [json.dumps(values)]).fetchone()[0]
+        return _steps(con, f"trajdb_stages(?{named}, part := ?, params := ?)", args)
     except duckdb.Error as e:
-        raise ValueError(f"{who}: {e}") from None
-    _run(con, script)
+        raise ValueError(f"trajdb: {e}") from None
 
 
 def _input_name(con, input):
@@ -174,47 +177,24 @@ def _input_name(con, input):
     return name, name
 
 
-def pipeline(con, input, out=None, **params):
+def pipeline(con, input, out=None, progress=False, **params):
     """The whole pipeline on `input` (a Parquet / CSV / JSON file or glob, a table or view name, or
-    a pandas / Arrow / Polars object), as `trajdb pipeline`: parameters by keyword (`merge_eta=0.6`;
-    `trajdb params` lists them; an unknown name or a bad value is an error), then the stages; with
-    `out`, the result files and report.html are written there. The tables (merged, matches, ...)
-    stay in `con`.
+    a pandas / Arrow / Polars object), as `CALL trajdb_pipeline`: parameters by keyword
+    (`merge_eta=0.6`; `trajdb params` lists them; an unknown name or a bad value is an error),
+    then the stages; with `out`, the result files and report.html are written there. The tables
+    (merged, matches, ...) stay in `con`. The statements come from the extension
+    (trajdb_stages) and run on `con`, so a registered DataFrame or a TEMP table is an input too.
 
     `out` is a new folder, an empty one, or one holding an earlier trajdb result set; anything
     else (a folder with your files in it, the input's folder, '') is refused before any work. A
     failed run leaves the earlier results as they were; trajdb deletes only files it wrote itself
     (README: "Never failing badly")."""
-    set_params(con, params, "trajdb.pipeline")
     name, registered = _input_name(con, input)
-    staging = None
     try:
-        if out is not None:
-            # the results folder is checked and claimed before any work (src/app/outdir.rs)
-            out = os.fspath(out)
-            staging = con.execute("FROM trajdb_results_begin(?, ?)", [out, name]).fetchone()[0]
-        con.execute("SET VARIABLE pipeline_input = ?", [name])
-        timings = _run_timed(con, "sql/pipeline.sql")
-        read(con, "sql/warnings.sql")
+        steps = stages(con, name, out=out, **params)
+        execute_steps(con, steps, progress=progress)
         for w in warnings_of(con):
             warnings.warn(f"trajdb.pipeline: {w}", stacklevel=2)
-        if staging is not None:
-            con.execute("SET VARIABLE out_dir = ?", [staging])
-            t = time.perf_counter()
-            read(con, "sql/export.sql")
-            timings.append(("write", time.perf_counter() - t))
-            con.execute("CREATE OR REPLACE TEMP TABLE pipeline_timings (stage VARCHAR, seconds DOUBLE)")
-            con.executemany("INSERT INTO pipeline_timings VALUES (?, ?)", timings)
-            read(con, "sql/report.sql")
-            staging = None
-            con.execute("FROM trajdb_results_end(?, true)", [out]).fetchall()
-    except BaseException:
-        if staging is not None:  # the earlier results stay; this run's staging folder goes
-            try:
-                con.execute("FROM trajdb_results_end(?, false)", [out]).fetchall()
-            except duckdb.Error:
-                pass
-        raise
     finally:
         if registered:
             con.unregister(registered)

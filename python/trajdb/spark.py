@@ -81,10 +81,15 @@ def _spark_schema(schema):
     return from_arrow_schema(schema)
 
 
-def _geo_metadata():
-    """GeoParquet metadata of merged.parquet, read from sql/export.sql (one definition)."""
-    with open(os.path.join(_HERE, "sql", "export.sql")) as f:
-        m = re.search(r"KV_METADATA \{geo: '([^']*)'\}", f.read())
+def _geo_metadata(extension=None):
+    """GeoParquet metadata of merged.parquet, read from sql/export.sql as the extension embeds
+    it (one definition)."""
+    con = W.connect(extension or W._default_extension())
+    try:
+        text = "\n".join(r[2] for r in con.execute("SELECT * FROM trajdb_script('sql/export.sql') ORDER BY k").fetchall())
+    finally:
+        con.close()
+    m = re.search(r"KV_METADATA \{geo: '([^']*)'\}", text)
     return m.group(1)
 
 
@@ -157,8 +162,8 @@ def _defaults(params, extension=None):
     """The parameter values a run uses (sql/params.sql's defaults under `params`, checked by the
     extension's declared parameter table)."""
     con = W.connect(extension or W._default_extension())
-    W._set_params(con, params)
-    W._run(con, W.sql_file("sql/params.sql"))
+    W.execute_steps(con, [s for s in W.stages(con, "x", **params) if s[0] == "params"])
+    W.read(con, "sql/params.sql")
     return {k: con.execute(f"SELECT getvariable('{k}')").fetchone()[0] for k in ("merge_time_window", "quality_max_gap")}
 
 
@@ -187,7 +192,7 @@ def pipeline(points, window_s=3600.0, halo_s=None, calibrate_s=86400.0, calibrat
     sc.addFile(ext)
     sc.addPyFile(_package_zip())
     ext_name = os.path.basename(ext)
-    sql = W.sql_texts()
+    sql = None  # the statements come from the extension inside each task (trajdb_stages)
     pts = _typed(points)
     n_rows, n_null_site = pts.agg(F.count(F.lit(1)), F.count(F.when(F.col("site").isNull(), 1))).first()
     if n_rows == 0:
@@ -271,7 +276,7 @@ def pipeline(points, window_s=3600.0, halo_s=None, calibrate_s=86400.0, calibrat
             if pts_w.num_rows == 0:
                 return _arrow_schema.empty_table()
             try:
-                out = W.run_window(pts_w, {n: W.from_ipc(b) for n, b in site_tables[site].items() if n in W.SITE_TABLES},
+                out = W.run_window(pts_w, {n: W.from_ipc(b) for n, b in site_tables[site].items()},
                                    ws, we, ws - hb, we + ha, params, SparkFiles.get(ext_name), threads_per_task, sql)
             except Exception as e:
                 raise RuntimeError(f"trajdb.spark: site {site}, window [{ws}, {we}): {e}") from e

@@ -1,23 +1,20 @@
-//! The standing fuzz harness (issue 17): every scalar SQL function, every overload, driven with
-//! generated arguments (proptest strategies, a fixed seed): NULLs, NaN and ±inf, extreme
-//! magnitudes, unsorted and duplicate times, empty, single-point and long lists, invalid WKT
-//! and WKB, bad parameters. Each call must give a value, NULL, or an error that names the
-//! function; never a panic, an INTERNAL error, a call that does not come back, or a connection
-//! that stops working.
+//! The standing fuzz harness (issue 17), generation half: every scalar SQL function, every
+//! overload, driven with generated arguments (proptest strategies, a fixed seed): NULLs, NaN and
+//! ±inf, extreme magnitudes, unsorted and duplicate times, empty, single-point and long lists,
+//! invalid WKT and WKB, bad parameters. This test only WRITES the calls (no DuckDB is opened:
+//! the crate is the loadable extension); tests/run_fuzz_python.py runs them through the
+//! extension in PyPI DuckDB 2.0 and 1.5, where each call must give a value, NULL, or an error
+//! that names the function; never a panic, an INTERNAL error, a call that does not come back
+//! within 30 s, or a connection that stops working.
 //!
-//! Quick mode (`cargo test --release --test fuzz`, in scripts/test.sh): TRAJDB_FUZZ_CASES
-//! cases per overload (default 24). Long mode: `TRAJDB_FUZZ_CASES=2000 cargo test --release
-//! --test fuzz`. With TRAJDB_FUZZ_OUT=FILE the cases are also written there, one SQL statement
-//! per line, for tests/run_fuzz_python.py (the loadable extension in PyPI DuckDB 2.0 and 1.5).
+//! Quick mode (scripts/test.sh): `TRAJDB_FUZZ_OUT=cases.sql cargo test --release --test fuzz`,
+//! TRAJDB_FUZZ_CASES cases per overload (default 24). Long mode: TRAJDB_FUZZ_CASES=2000. The
+//! file holds one SQL statement per line: `SELECT (function(args))::VARCHAR;`.
 
 use proptest::prelude::*;
 use proptest::strategy::ValueTree;
 use proptest::test_runner::{Config, RngAlgorithm, TestRng, TestRunner};
-use std::time::{Duration, Instant};
 use trajdb::bindings::registry::Ty;
-
-/// A call slower than this counts as a hang (documented work limits keep every call far below).
-const HANG: Duration = Duration::from_secs(30);
 
 fn sql_type(t: &Ty) -> String {
     match t {
@@ -172,26 +169,11 @@ fn value(t: &Ty) -> BoxedStrategy<String> {
     raw.prop_map(move |v| format!("CAST({v} AS {ty})")).boxed()
 }
 
-/// What a call's error may be: anything but a panic or an INTERNAL error; trajdb's own errors
-/// (Invalid Input) name the function.
-fn bad_error(name: &str, msg: &str) -> Option<String> {
-    let lower = msg.to_lowercase();
-    if lower.contains("panic") || msg.contains("INTERNAL") {
-        return Some(format!("panic / internal error: {msg}"));
-    }
-    if msg.contains("Invalid Input Error") && !msg.contains(&format!("{name}:")) && !msg.contains("Conversion") {
-        return Some(format!("an error that does not name {name}: {msg}"));
-    }
-    None
-}
-
 #[test]
-fn every_function_survives_generated_arguments() {
+fn every_function_gets_generated_arguments() {
     let cases: u32 = std::env::var("TRAJDB_FUZZ_CASES").ok().and_then(|v| v.parse().ok()).unwrap_or(24);
-    let con = trajdb::open(None).expect("open");
     let mut written = Vec::new();
-    let mut failures = Vec::new();
-    let (mut n_cases, mut n_err, mut n_null, mut slowest) = (0usize, 0usize, 0usize, (Duration::ZERO, String::new()));
+    let mut names = Vec::new();
     for f in trajdb::bindings::functions() {
         for sig in f.signatures {
             for ov in sig.overloads() {
@@ -199,68 +181,23 @@ fn every_function_survives_generated_arguments() {
                 let mut runner = TestRunner::new_with_rng(Config { cases, ..Config::default() }, TestRng::deterministic_rng(RngAlgorithm::ChaCha));
                 for _ in 0..cases {
                     let args = strategy.new_tree(&mut runner).expect("tree").current();
-                    let call = format!("{}({})", f.name, args.join(", "));
-                    let sql = format!("SELECT ({call})::VARCHAR");
-                    // a watchdog interrupts a call that does not come back
-                    let handle = con.interrupt_handle();
-                    let (done, wait) = std::sync::mpsc::channel::<()>();
-                    let watched: String = call.chars().take(400).collect();
-                    let dog = std::thread::spawn(move || {
-                        if wait.recv_timeout(HANG).is_err() {
-                            eprintln!("HANG (> {HANG:?}, interrupting): {watched}");
-                            handle.interrupt();
-                            return true;
-                        }
-                        false
-                    });
-                    let t = Instant::now();
-                    let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| con.query_row(&sql, [], |r| r.get::<_, Option<String>>(0))));
-                    let took = t.elapsed();
-                    let _ = done.send(());
-                    let hung = dog.join().unwrap_or(false);
-                    n_cases += 1;
-                    if took > Duration::from_secs(2) {
-                        eprintln!("slow case ({:.1} s): {}", took.as_secs_f64(), call.chars().take(300).collect::<String>());
-                    }
-                    if n_cases % 5000 == 0 {
-                        eprintln!("fuzz: {n_cases} cases so far, {} failures", failures.len());
-                    }
-                    if took > slowest.0 {
-                        slowest = (took, call.chars().take(160).collect());
-                    }
-                    match r {
-                        Err(_) => failures.push(format!("{call}: the call panicked through the boundary")),
-                        Ok(Ok(None)) => n_null += 1,
-                        Ok(Ok(Some(_))) => {}
-                        Ok(Err(e)) => {
-                            n_err += 1;
-                            if let Some(why) = bad_error(f.name, &e.to_string()) {
-                                failures.push(format!("{call}: {why}"));
-                            }
-                        }
-                    }
-                    if hung {
-                        failures.push(format!("{call}: did not come back within {HANG:?}"));
-                    }
-                    if con.query_row("SELECT 42", [], |r| r.get::<_, i64>(0)).ok() != Some(42) {
-                        failures.push(format!("{call}: the connection stopped working"));
-                    }
+                    let sql = format!("SELECT ({}({}))::VARCHAR", f.name, args.join(", "));
+                    // one statement per line: tests/run_fuzz_python.py reads them so
+                    assert!(!sql.contains('\n') && !sql.contains(';'), "{sql}");
                     written.push(sql);
                 }
             }
         }
+        if !f.signatures.is_empty() {
+            names.push(f.name);
+        }
     }
-    if let Ok(path) = std::env::var("TRAJDB_FUZZ_OUT") {
-        std::fs::write(&path, written.join(";\n") + ";\n").expect("write cases");
+    assert!(names.len() > 40 && written.len() >= names.len() * cases as usize, "{} functions, {} cases", names.len(), written.len());
+    match std::env::var("TRAJDB_FUZZ_OUT") {
+        Ok(path) => {
+            std::fs::write(&path, written.join(";\n") + ";\n").expect("write cases");
+            eprintln!("fuzz: {} cases ({cases} per overload) of {} functions -> {path}; run them: tests/run_fuzz_python.py EXT {path}", written.len(), names.len());
+        }
+        Err(_) => eprintln!("fuzz: {} cases generated; set TRAJDB_FUZZ_OUT=FILE to write them for tests/run_fuzz_python.py", written.len()),
     }
-    eprintln!(
-        "fuzz: {n_cases} cases ({cases} per overload), {n_err} errors, {n_null} NULLs, {} failures; slowest {:.2} s: {}",
-        failures.len(),
-        slowest.0.as_secs_f64(),
-        slowest.1
-    );
-    for f in failures.iter().take(40) {
-        eprintln!("FAIL {f}");
-    }
-    assert!(failures.is_empty(), "{} of {n_cases} fuzz cases failed (first: {})", failures.len(), failures[0]);
 }

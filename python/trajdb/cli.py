@@ -65,6 +65,11 @@ def out(text=""):
     sys.stdout.write(text + "\n")
 
 
+def verbatim(text):
+    """A text as the extension gives it (docs/functions.md, sql/params.sql: byte for byte)."""
+    sys.stdout.write(text if text.endswith("\n") else text + "\n")
+
+
 def note(text):
     """Progress and findings: stderr, as the pipeline's own progress lines."""
     print(text, file=sys.stderr, flush=True)
@@ -214,12 +219,27 @@ def cmd_sql(a):
     run_sql(connect(a), text, a.format)
 
 
+def _bound(v):
+    """A range bound as the old table printed it (Rust's f64 Display: 0, 0.5, 1000000, inf)."""
+    if v is None:
+        return ""
+    if math.isinf(v):
+        return "inf" if v > 0 else "-inf"
+    return str(int(v)) if float(v).is_integer() else repr(float(v))
+
+
 def params_table(con):
-    rows = con.execute('SELECT name, type, "default", stage, description FROM trajdb_params()').fetchall()
-    rows = [["" if v is None else str(v) for v in r] for r in rows]
-    head = ["name", "type", "default", "stage", "description"]
-    w = [max([len(head[k])] + [len(r[k]) for r in rows]) for k in range(4)]
-    fmt = lambda r: "  ".join(r[k].ljust(w[k]) for k in range(4)) + "  " + r[4]  # noqa: E731
+    """`FROM trajdb_params()` as an aligned table (range: [lo, hi] of a number)."""
+    rows = []
+    for name, typ, default, stage, desc, lo, hi in con.execute(
+        'SELECT name, type, "default", stage, description, lo, hi FROM trajdb_params()'
+    ).fetchall():
+        numeric = typ in ("DOUBLE", "BIGINT", "INTEGER")
+        rng = f"[{_bound(lo)}, {_bound(hi)}]" if numeric and lo is not None and hi is not None else ""
+        rows.append([name, typ, "" if default is None else str(default), rng, stage or "", desc or ""])
+    head = ["name", "type", "default", "range", "stage", "description"]
+    w = [max([len(head[k])] + [len(r[k]) for r in rows]) for k in range(5)]
+    fmt = lambda r: "  ".join(r[k].ljust(w[k]) for k in range(5)) + "  " + r[5]  # noqa: E731
     return "\n".join([fmt(head)] + [fmt(r) for r in rows])
 
 
@@ -239,14 +259,19 @@ def cmd_pipeline(a):
         if not sep:
             raise UsageError(f"--param needs name=value, got {p!r}")
         params[name.strip()] = value.strip()
-    con = connect(a)
+    run_pipeline(connect(a), a.input, a.out, params)
+
+
+def run_pipeline(con, input, out_dir, params):
+    """trajdb.pipeline with its stage times on stderr, then what was found and its warnings."""
+    t = time.perf_counter()
     with warnings.catch_warnings(record=True) as found:
         warnings.simplefilter("always")
-        trajdb.pipeline(con, a.input, out=a.out, **params)
-    summary(con, a.out)
+        trajdb.pipeline(con, input, out=out_dir, progress=True, **params)
+    note(f"[trajdb] total     {time.perf_counter() - t:7.2f} s")
+    summary(con, out_dir)
     for w in found:
-        msg = str(w.message)
-        note(f"[trajdb] warning: {msg.removeprefix('trajdb.pipeline: ')}")
+        note(f"[trajdb] warning: {str(w.message).removeprefix('trajdb.pipeline: ')}")
 
 
 def summary(con, out_dir):
@@ -287,11 +312,7 @@ def cmd_demo(a):
     note(f"[trajdb] demo: simulate intersection traffic -> {a.out}")
     simulate(con, a.out, sim_params(a))
     results = os.path.join(a.out, "results")
-    with warnings.catch_warnings(record=True) as found:
-        warnings.simplefilter("always")
-        trajdb.pipeline(con, os.path.join(a.out, "points.parquet"), out=results)
-    for w in found:
-        note(f"[trajdb] warning: {str(w.message).removeprefix('trajdb.pipeline: ')}")
+    run_pipeline(con, os.path.join(a.out, "points.parquet"), results, {})
     out(f"score of {results} against the simulator's ground truth:")
     rot, trans, f1 = print_score(con, a.out, results)
     ok = f1 >= 0.95 and rot <= 0.5 and trans <= 0.3
@@ -307,12 +328,15 @@ def cmd_score(a):
 
 
 def cmd_functions(a):
-    out(connect(a).execute("SELECT trajdb_reference(?)", ["markdown" if a.markdown else "text"]).fetchone()[0].rstrip("\n"))
+    verbatim(connect(a).execute("SELECT trajdb_reference(?)", ["markdown" if a.markdown else "text"]).fetchone()[0])
 
 
 def cmd_params(a):
     con = connect(a)
-    out(con.execute("SELECT trajdb_params_script()").fetchone()[0].rstrip("\n") if a.sql else params_table(con))
+    if a.sql:
+        verbatim(con.execute("SELECT trajdb_params_script()").fetchone()[0])
+    else:
+        out(params_table(con))
 
 
 def cmd_report(a):
@@ -359,12 +383,10 @@ def _class(c):
 
 
 def _score_paths(con):
-    """The merged paths against world.csv (sql/score_path.sql's tables, when trajdb.score did not
-    make them already)."""
+    """The merged paths against world.csv (sql/score_path.sql, embedded in the extension; unless
+    trajdb.score made its tables already)."""
     if not con.execute("SELECT count(*) FROM duckdb_tables() WHERE table_name = 's_path_summary'").fetchone()[0]:
-        path = os.path.join(os.path.dirname(os.path.abspath(trajdb.__file__)), "sql", "score_path.sql")
-        with open(path) as f:
-            con.execute(f.read())
+        trajdb.read(con, "sql/score_path.sql")
     f3 = lambda v: _opt(v, lambda x: _r(x, 3))  # noqa: E731
     out("merged paths against world.csv (each road user's mapped object, at the same time):")
     out(f"  {'class':<14} {'points':>9} {'median m':>9} {'p95 m':>9} {'max m':>9} {'road users > 1 m':>18}")
@@ -567,6 +589,8 @@ def main(argv=None):
         if isinstance(e, duckdb.Error) and not _USER_SQL:
             # DuckDB's "LINE 1: ..." context shows the command's own internal query, not the user's
             msg = msg.split("\n\nLINE ")[0].rstrip()
+        # where it happened (trajdb.execute_steps adds the stage and its file as a note)
+        msg = "\n".join([msg] + [f"  {n}" for n in getattr(e, "__notes__", [])])
         print(f"Error: {msg}", file=sys.stderr)
         return 1
 

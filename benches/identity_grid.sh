@@ -6,8 +6,11 @@
 # One line per scenario: worst camera pair (rotation, translation, clock offset error), IDF1,
 # objects exactly reconstructed, within-camera link precision and break recall, cross-camera
 # match F1. With PER_CLASS=1 the per-class identity rows follow each line.
-# usage: benches/identity_grid.sh [OUT_DIR]   (after cargo build --release)
-T="${CARGO_TARGET_DIR:-$HOME/.cache/trajdb-target}/release/trajdb"
+# usage: benches/identity_grid.sh [OUT_DIR]   (the `trajdb` command over stock DuckDB: PY, default
+#        python3 with duckdb; TRAJDB_EXTENSION, default ./trajdb.duckdb_extension from scripts/build_extension.sh)
+ROOT="$(cd "$(dirname "$0")/.." && pwd)"
+export TRAJDB_EXTENSION="${TRAJDB_EXTENSION:-$ROOT/trajdb.duckdb_extension}" PYTHONPATH="$ROOT/python${PYTHONPATH:+:$PYTHONPATH}"
+T="${PY:-python3} -m trajdb"
 OUT="${1:-/tmp/trajdb-grid}"
 DATA="$(cd "$(dirname "$0")/../.." && pwd)/shared/data"
 row() { # name dir

@@ -1,9 +1,9 @@
 """trajdb.spark benchmark: N simulated sites x 1 day, in Spark local mode with 1 and 2 executor
-cores, against N sequential `trajdb pipeline` runs (the binary, all cores), in one run.
+cores, against N sequential `trajdb pipeline` runs (the command, python -m trajdb over stock
+DuckDB and the same extension, all cores), in one run.
 
     PY=$(scripts/install_spark.sh)
-    $PY benches/spark_bench.py --binary $CARGO_TARGET_DIR/release/trajdb \
-        --extension trajdb.duckdb_extension [--sites 8 --minutes 1440 --window-s 3600 --out /tmp/trajdb-spark-bench]
+    $PY benches/spark_bench.py --extension trajdb.duckdb_extension [--sites 8 --minutes 1440 --window-s 3600 --out /tmp/trajdb-spark-bench]
 
 Prints, per run: wall time, points per second, speed-up over the sequential runs, and peak
 memory: of the Python workers that run the tasks (getrusage's ru_maxrss at the end of each
@@ -36,6 +36,12 @@ def run_child(args, **kw):
     return time.perf_counter() - t, ru.ru_maxrss / 1024.0
 
 
+def trajdb_cmd(a, *args):
+    """`python -m trajdb ARGS` with this repository's package and a.extension: (argv, env)."""
+    env = dict(os.environ, TRAJDB_EXTENSION=a.extension, PYTHONPATH=os.path.join(ROOT, "python"))
+    return [sys.executable, "-m", "trajdb", *args], env
+
+
 def make_archive(a):
     import duckdb
 
@@ -48,8 +54,9 @@ def make_archive(a):
             d = os.path.join(a.out, "sim", s)
             if not os.path.exists(os.path.join(d, "points.parquet")):
                 # Skövde-sized traffic (the simulator's default volume), 3 cameras with clock offsets
-                run_child([a.binary, "simulate", "--out", d, "--cameras", "3", "--minutes", str(a.minutes), "--seed", str(i + 1),
-                           "--clock-offset-max", "0.5", "--world-rate-hz", "0"], stdout=subprocess.DEVNULL)
+                cmd, env = trajdb_cmd(a, "simulate", "--out", d, "--cameras", "3", "--minutes", str(a.minutes), "--seed", str(i + 1),
+                                      "--clock-offset-max", "0.5", "--world-rate-hz", "0")
+                run_child(cmd, env=env, stdout=subprocess.DEVNULL)
             parts.append(f"SELECT '{s}' AS site, camera, track_id, class, t + {DAY0} AS t, x, y, estimated FROM '{d}/points.parquet'")
         con = duckdb.connect()
         con.execute(f"COPY ({' UNION ALL '.join(parts)}) TO '{archive}' (FORMAT parquet, ROW_GROUP_SIZE 1000000)")
@@ -64,8 +71,8 @@ def make_archive(a):
 def sequential(a, sites):
     out, total, peak = {}, 0.0, 0.0
     for s in sites:
-        sec, rss = run_child([a.binary, "pipeline", "--input", f"{a.out}/{s}.parquet", "--out", f"{a.out}/seq/{s}"],
-                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        cmd, env = trajdb_cmd(a, "pipeline", "--input", f"{a.out}/{s}.parquet", "--out", f"{a.out}/seq/{s}")
+        sec, rss = run_child(cmd, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         import duckdb
 
         out[s] = duckdb.sql(f"SELECT count(*) FROM '{a.out}/seq/{s}/merged.parquet'").fetchall()[0][0]
@@ -120,7 +127,6 @@ def spark_run(a, cores):
 
 def main():
     p = argparse.ArgumentParser()
-    p.add_argument("--binary", required=True)
     p.add_argument("--extension", required=True)
     p.add_argument("--sites", type=int, default=8)
     p.add_argument("--minutes", type=int, default=1440)
@@ -130,7 +136,7 @@ def main():
     p.add_argument("--out", default="/tmp/trajdb-spark-bench")
     p.add_argument("--spark-child", type=int, default=0)
     a = p.parse_args()
-    a.binary, a.extension, a.out = os.path.abspath(a.binary), os.path.abspath(a.extension), os.path.abspath(a.out)
+    a.extension, a.out = os.path.abspath(a.extension), os.path.abspath(a.out)
     if a.spark_child:
         return spark_run(a, a.spark_child)
     t = time.perf_counter()

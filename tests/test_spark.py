@@ -1,10 +1,10 @@
 """trajdb.spark in Spark local mode against `trajdb pipeline` on each whole site.
 
-    python tests/test_spark.py TRAJDB_BINARY trajdb.duckdb_extension
+    python tests/test_spark.py trajdb.duckdb_extension
 
 A simulated archive of three sites (3 cameras with clock offsets; 1 camera; 2 cameras at 5 Hz
 with a 6-minute hole in the recording) is shuffled and split into 60-second windows. The
-Spark results must equal the binary's on each whole site: the same road users (by their
+Spark results must equal trajdb.pipeline's on each whole site: the same road users (by their
 source tracks), the same matches, transforms and merged trajectories within 1e-9. Covered:
 road users that cross a window seam, windows without road users, a one-camera site, unsorted
 input, every window and write task failing once and retried by Spark (TRAJDB_SPARK_FAIL_ONCE),
@@ -18,6 +18,7 @@ import re
 import subprocess
 import sys
 import tempfile
+import warnings
 
 import duckdb
 import pyarrow as pa
@@ -25,30 +26,28 @@ import pyarrow.dataset as ds
 import pyarrow.parquet as pq
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "python"))
+EXT = os.path.abspath(sys.argv[1])
+os.environ["TRAJDB_EXTENSION"] = EXT  # trajdb.connect() in this process: the reference runs
+import trajdb  # noqa: E402
 from trajdb import spark as tspark  # noqa: E402
 from trajdb import windows as W  # noqa: E402
 
-BIN, EXT = os.path.abspath(sys.argv[1]), os.path.abspath(sys.argv[2])
 ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
 TOL = 1e-9
 
 
-def sh(*args):
-    subprocess.run(args, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-
-
 def simulate(tmp):
     """The archive: one Parquet file with a site column, rows shuffled."""
-    runs = {"a": [("--cameras", "3", "--minutes", "6", "--clock-offset-max", "0.5", "--seed", "11")],
-            "b": [("--cameras", "1", "--minutes", "3", "--seed", "12")],
-            "c": [("--cameras", "2", "--minutes", "3", "--rate-hz", "5", "--seed", "13"),
-                  ("--cameras", "2", "--minutes", "2", "--rate-hz", "5", "--seed", "14")]}
+    runs = {"a": [dict(cameras=3, minutes=6, clock_offset_max=0.5, seed=11)],
+            "b": [dict(cameras=1, minutes=3, seed=12)],
+            "c": [dict(cameras=2, minutes=3, rate_hz=5.0, seed=13),
+                  dict(cameras=2, minutes=2, rate_hz=5.0, seed=14)]}
     con = duckdb.connect()
     parts = []
     for site, sims in runs.items():
         for i, args in enumerate(sims):
             d = os.path.join(tmp, f"sim-{site}-{i}")
-            sh(BIN, "simulate", "--out", d, "--world-rate-hz", "0", *args)
+            trajdb.simulate(trajdb.connect(), d, world_rate_hz=0, **args)
             # the second recording of site c: 9 minutes later, other track ids (a hole of 6 min)
             parts.append(f"SELECT '{site}' AS site, camera, track_id + {i * 1000000} AS track_id, class, t + {i * 540.0} AS t, x, y, estimated "
                          f"FROM '{d}/points.parquet'")
@@ -61,7 +60,9 @@ def simulate(tmp):
 
 def reference(tmp, site):
     out = os.path.join(tmp, f"ref-{site}")
-    sh(BIN, "pipeline", "--input", f"{tmp}/site-{site}.parquet", "--out", out)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # site b has one camera: a warning, and results
+        trajdb.pipeline(trajdb.connect(), f"{tmp}/site-{site}.parquet", out=out)
     con = duckdb.connect()
     ru = {frozenset((s["camera"], s["track_id"]) for s in r[0]): r[1:] for r in
           con.sql(f"SELECT sources, class, t_start, t_end, length_m, traj FROM '{out}/merged.parquet'").fetchall()}
@@ -89,7 +90,7 @@ def compare(res, refs, label):
         got = {frozenset((s["camera"], s["track_id"]) for s in r["sources"]): r for r in ru_rows if r["site"] == site}
         assert len(got) == sum(1 for r in ru_rows if r["site"] == site), f"{label}: site {site}: two road users share a track"
         assert got.keys() == ru.keys(), (
-            f"{label}: site {site}: road users differ: {len(got.keys() - ru.keys())} only in Spark, {len(ru.keys() - got.keys())} only in the binary"
+            f"{label}: site {site}: road users differ: {len(got.keys() - ru.keys())} only in Spark, {len(ru.keys() - got.keys())} only in trajdb.pipeline"
         )
         for k, (cls, t0, t1, length, traj) in ru.items():
             r = got[k]
@@ -120,7 +121,7 @@ def main():
     tmp = tempfile.mkdtemp(prefix="trajdb-spark-test-")
     archive, sites = simulate(tmp)
     refs = {s: reference(tmp, s) for s in sites}
-    assert len(refs["b"][0]) > 0, "the one-camera site has road users in the binary"
+    assert len(refs["b"][0]) > 0, "the one-camera site has road users in trajdb.pipeline"
     os.environ.setdefault("PYSPARK_PYTHON", sys.executable)
     from pyspark.sql import SparkSession
 

@@ -157,7 +157,7 @@ def _params_json(params, who):
 def stages(con, input, out=None, part="all", **params):
     """The statements of one run (rows stage, file, sql, undo of trajdb_stages): the same
     manifest `CALL trajdb_pipeline` runs; `execute_steps` runs them."""
-    named = ", out := ?" if out is not None else ""
+    named = ", out_dir := ?" if out is not None else ""
     args = [input] + ([os.fspath(out)] if out is not None else []) + [part, _params_json(params, "trajdb.stages")]
     try:
         return _steps(con, f"trajdb_stages(?{named}, part := ?, params := ?)", args)

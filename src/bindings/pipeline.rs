@@ -1,5 +1,5 @@
 //! SQL: the pipeline's one runner, for every host.
-//! - `trajdb_pipeline(input, out := ..., <parameter> := value, ...)`: the whole run in one
+//! - `trajdb_pipeline(input, out_dir := ..., <parameter> := value, ...)`: the whole run in one
 //!   statement (src/runner.rs executes the manifest on the database's runner connection);
 //! - `trajdb_stages(input, out, part, params)`: the manifest itself, one row per statement, for
 //!   hosts that run the statements on their own connection (Python's `trajdb.pipeline`,
@@ -35,9 +35,9 @@ const fn ty_of(k: Kind) -> Ty {
 
 const N_PARAMS: usize = PARAMS.len();
 
-/// `out` and every declared pipeline parameter, as named parameters of trajdb_pipeline.
+/// `out_dir` and every declared pipeline parameter, as named parameters of trajdb_pipeline.
 static PIPELINE_NAMED: [Param; N_PARAMS + 1] = {
-    let mut a = [p("out", Ty::Varchar); N_PARAMS + 1];
+    let mut a = [p("out_dir", Ty::Varchar); N_PARAMS + 1];
     let mut k = 0;
     while k < N_PARAMS {
         a[k + 1] = p(PARAMS[k].name, ty_of(PARAMS[k].kind));
@@ -55,14 +55,14 @@ const PIPELINE_TABLE: Table = Table {
 
 const PIPELINE: Function = Function {
     name: "trajdb_pipeline",
-    description: "The whole pipeline in one statement: `CALL trajdb_pipeline('points.parquet', out := 'results', merge_eta := 0.6)`. \
-                  `input` is a file, a glob or a table or view of this database (never SQL); `out` the results folder (transforms.csv, \
+    description: "The whole pipeline in one statement: `CALL trajdb_pipeline('points.parquet', out_dir := 'results', merge_eta := 0.6)`. \
+                  `input` is a file, a glob or a table or view of this database (never SQL); `out_dir` the results folder (transforms.csv, \
                   calibration.csv, matches.csv, merged.parquet, clusters.csv, links.csv, report.html), claimed before any work and \
                   replaced only when every file is written; every other named parameter is a pipeline parameter (`FROM trajdb_params()`; \
                   'auto' where measured), checked by name, type and range. Returns one row per stage (seconds, statements, its file), one \
                   per warning and a total. It runs on the database's own runner connection, opened at LOAD: it sees this database's \
                   tables and files but not a connection's TEMP tables or registered DataFrames (Python's trajdb.pipeline runs the same \
-                  statements on your connection instead), and its work tables are dropped afterwards: read the results from `out`.",
+                  statements on your connection instead), and its work tables are dropped afterwards: read the results from `out_dir`.",
     example: "SELECT count(*) > 0 FROM trajdb_params(); -- true",
     maths: "crates/app/src/plan.rs, src/runner.rs",
     binding: file!(),
@@ -82,15 +82,15 @@ impl TableFn for PipelineFn {
 
     fn bind(args: &BindArgs<'_>) -> Result<Self::Bind, Box<dyn Error>> {
         let input = args.text(0)?.ok_or("input is NULL; give a file, a glob or a table name, e.g. 'points.parquet'")?;
-        let out = args.named_text("out")?.ok_or(
-            "out is missing: name the results folder, e.g. out := 'results' (the work tables of this call are dropped afterwards; \
+        let out = args.named_text("out_dir")?.ok_or(
+            "out_dir is missing: name the results folder, e.g. out_dir := 'results' (the work tables of this call are dropped afterwards; \
              to keep them in your session run `.read sql/pipeline.sql`, or trajdb.pipeline in Python)",
         )?;
         if out.trim().is_empty() {
-            return Err("out is '' (empty); name a results folder, e.g. out := 'results'".into());
+            return Err("out_dir is '' (empty); name a results folder, e.g. out_dir := 'results'".into());
         }
         args.file_access().may_write_into(&out)?;
-        let params: Vec<(String, String)> = args.named_as_text()?.into_iter().filter(|(k, _)| k != "out").collect();
+        let params: Vec<(String, String)> = args.named_as_text()?.into_iter().filter(|(k, _)| k != "out_dir").collect();
         let steps = plan::plan(&Request { input, out: Some(out), part: Part::All, params })?;
         Ok((steps, std::sync::Arc::clone(args.runner())))
     }
@@ -116,7 +116,7 @@ impl TableFn for PipelineFn {
 
 const STAGES_TABLE: Table = Table {
     params: &[p("input", Ty::Varchar)],
-    named: &[p("out", Ty::Varchar), p("part", Ty::Varchar), p("params", Ty::Varchar)],
+    named: &[p("out_dir", Ty::Varchar), p("part", Ty::Varchar), p("params", Ty::Varchar)],
     columns: &[
         ("k", Ty::Bigint),
         ("stage", Ty::Varchar),
@@ -134,7 +134,7 @@ const STAGES: Function = Function {
     description: "The pipeline's manifest: one row per statement of a run, in order (k), with its stage, its file, the statement, the table \
                   or macro it makes, the statement that undoes it when a later one fails (`undo`), and whether `makes` is a site table \
                   shared by the windows of a site (`shared`). A host runs the rows in order on its own connection; after a row succeeds \
-                  it remembers its undo; when a row fails it runs the remembered undos last-first. `out` (optional) adds the result \
+                  it remembers its undo; when a row fails it runs the remembered undos last-first. `out_dir` (optional) adds the result \
                   files and report.html, the results folder claimed first and committed last; `part` is 'all' (default), 'site' (the \
                   load and the calibration stages of a site) or 'window' (one window that reuses a site's tables: sql/window.sql); \
                   `params` a JSON object of pipeline parameters ('{\"merge_eta\": 0.6}'), checked by name, type and range.",
@@ -190,10 +190,10 @@ impl TableFn for StagesFn {
 
     fn bind(args: &BindArgs<'_>) -> Result<Self::Bind, Box<dyn Error>> {
         let input = args.text(0)?.ok_or("input is NULL; give a file, a glob or a table name, e.g. 'points.parquet'")?;
-        let out = args.named_text("out")?;
+        let out = args.named_text("out_dir")?;
         if let Some(o) = &out {
             if o.trim().is_empty() {
-                return Err("out is '' (empty); name a results folder, e.g. out := 'results', or leave it out".into());
+                return Err("out_dir is '' (empty); name a results folder, e.g. out_dir := 'results', or leave it out".into());
             }
         }
         let part = Part::parse(&args.named_text("part")?.unwrap_or_default())?;
@@ -320,7 +320,7 @@ const REFERENCE: Function = Function {
     name: "trajdb_reference",
     description: "The function reference generated from the registered descriptions: format 'markdown' (docs/functions.md) or 'text' \
                   (each function's overloads and description).",
-    example: "SELECT trajdb_reference('markdown') LIKE '# trajdb functions%'; -- true",
+    example: "SELECT trajdb_reference('markdown') LIKE '# trajdb function reference%'; -- true",
     maths: "src/bindings/registry.rs",
     binding: file!(),
     signatures: &[Signature { params: &[p("format", Ty::Varchar)], arities: &[], returns: Ty::Varchar, kernel: reference }],

@@ -149,7 +149,7 @@ fn embedded(path: &str) -> Result<String, Box<dyn Error>> {
 pub fn plan(req: &Request) -> Result<Vec<Step>, Box<dyn Error>> {
     let values = params::resolve(&req.params)?;
     if req.out.is_some() && req.part != Part::All {
-        return Err("out is only for part 'all' (a site or a window returns tables, not files)".into());
+        return Err("out_dir is only for part 'all' (a site or a window returns tables, not files)".into());
     }
     let mut steps = Vec::new();
     // 1. every parameter: the given values, every other one back to its default

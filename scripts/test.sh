@@ -1,92 +1,94 @@
 #!/usr/bin/env bash
-# Every test of trajdb, from a clean clone: `scripts/test.sh`
-#   1. algo unit + property tests without DuckDB (--no-default-features)
-#   2. embedded build: unit tests, CLI tests, tests/sql/*.slt through the sqllogictest crate, the
-#      fuzz harness (tests/fuzz.rs, quick mode: TRAJDB_FUZZ_CASES per overload, default 24);
-#      2b. report.html rendered in headless Chromium (tests/test_report.sh; apt-get installs it);
-#      2c. byte-identical results across thread counts and input row orders (tests/test_determinism.sh)
-#   3. the function reference docs/functions.md is up to date
-#   4. loadable extension: build, footer, the same .slt files, the fuzz cases and the README's
-#      examples in stock DuckDB (PyPI duckdb); concurrency, interrupt and work limits
-#      (tests/test_robust_python.py); the runner as a careless or hostile user meets it: results
-#      folder, injection, sandbox, parameters, metamorphic pipeline runs (tests/test_safety_python.py);
-#      NULL / hostile arguments to every table function in a child process, the sandbox, per-database
-#      work limits (tests/test_sandbox_python.py); the same road users when frames move far from the
-#      origin (UTM), rotate, and clocks shift (tests/test_invariance_python.py, simulated and shared scenes);
-#      match and link precision in simulated waiting crowds, scored with the truth (tests/test_crowd_python.py);
-#      trajdb.score's HOTA and drifting-clock errors on a hand-made case (tests/test_score_python.py);
-#      the Python package (pip install . into a fresh venv) against
-#      the binary
-#   5. round trip with DuckDB spatial (PyPI duckdb 1.5.5 + duckdb-extension-spatial, own venv), and
-#      the .slt suite, fuzz cases, robustness tests and README examples again in that DuckDB 1.5.5
-#   6. trajdb.spark in Spark local mode against `trajdb pipeline` on each whole site
-#      (tests/test_spark.py; scripts/install_spark.sh installs pyspark and, from apt, Java 17)
-# Needs: cargo, python3 (with venv/pip, PyPI reachable). The first run compiles DuckDB (~50 CPU-min).
+# Every test of trajdb, from a clean clone: `scripts/test.sh`. One build (the loadable
+# extension: Rust only, no C++ compiler anywhere); every SQL test runs through it in stock PyPI
+# DuckDB 2.0 and again in DuckDB 1.5.
+#   1. Rust: the workspace's unit and property tests (crates/algo: the maths; crates/app: the
+#      manifest, parameters, results folder, simulator, report; the extension's own), and the
+#      fuzz cases generated for step 4 (tests/fuzz.rs writes them; no DuckDB in any test binary)
+#   2. the loadable extension: build, footer; docs/functions.md is what trajdb_reference() says
+#   3. in DuckDB 2.0 (PyPI): tests/sql/*.slt, the fuzz cases, robustness (concurrency, interrupt,
+#      work limits), safety (results folder, injection, sandbox, parameters), table functions in
+#      a child process, invariance (frames, clocks, ids, row order), crowds, the scorer, the
+#      README's examples, each stage alone (tests/test_stages_python.py) and its contract
+#      header (tests/check_stage_contracts.py), the `trajdb` command (tests/test_cli_python.py),
+#      byte-identical results across thread counts and row orders, report.html in headless
+#      Chromium (apt-get installs it), and the Python package installed by pip into a fresh venv
+#   4. in DuckDB 1.5.5 with DuckDB spatial: the WKB / GeoParquet round trip, and the .slt suite,
+#      fuzz cases, robustness, safety, sandbox, crowd, scorer and README tests again
+#   5. trajdb.spark in Spark local mode against trajdb.pipeline on each whole site
+#      (scripts/install_spark.sh installs pyspark and, from apt, Java 17)
+# Needs: cargo (Rust 1.89+), python3 with venv/pip and PyPI reachable.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 export CARGO_TARGET_DIR="${CARGO_TARGET_DIR:-$HOME/.cache/trajdb-target}"
 VENV="${TRAJDB_VENV:-$HOME/.cache/trajdb-venv}"
 SPATIAL_VENV="${TRAJDB_SPATIAL_VENV:-$HOME/.cache/trajdb-spatial-venv}"
+EXT=trajdb.duckdb_extension
 
-echo "== 1/6 algo tests (no DuckDB)"
-cargo test --release --no-default-features --lib
-
-echo "== 2/6 embedded build: unit, CLI, sqllogictest and fuzz tests"
+echo "== 1/5 Rust: workspace unit and property tests (no DuckDB), fuzz cases generated"
 FUZZ_CASES="$CARGO_TARGET_DIR/fuzz-cases.sql"
-TRAJDB_FUZZ_OUT="$FUZZ_CASES" cargo test --release
+mkdir -p "$CARGO_TARGET_DIR"
+TRAJDB_FUZZ_OUT="$FUZZ_CASES" cargo test --release --workspace
 
-echo "== 2b/6 the report in headless Chromium (installed from Debian when missing)"
+echo "== 2/5 the loadable extension, its footer, the function reference"
+scripts/build_extension.sh
+if [ ! -x "$VENV/bin/python" ]; then python3 -m venv "$VENV"; fi
+"$VENV/bin/pip" install -q --disable-pip-version-check -r requirements-test.txt
+python3 tests/test_footer.py && python3 tests/test_footer.py "$EXT"
+"$VENV/bin/python" - "$EXT" <<'PY'
+import sys, duckdb
+con = duckdb.connect(config={"allow_unsigned_extensions": "true"})
+con.execute(f"LOAD '{sys.argv[1]}'")
+now = con.execute("SELECT trajdb_reference('markdown')").fetchall()[0][0]
+if open("docs/functions.md").read() != now:
+    open(sys.argv[1] + ".functions.md", "w").write(now)
+    sys.exit(f"docs/functions.md is stale: the extension's reference is in {sys.argv[1]}.functions.md; "
+             "run  python -m trajdb functions --markdown > docs/functions.md")
+print("ok   docs/functions.md is the extension's trajdb_reference('markdown')")
+PY
+
+echo "== 3/5 DuckDB 2.0 (PyPI): SQL, fuzz, robustness, safety, invariance, stages, command, package"
+PY="$VENV/bin/python"
+"$PY" tests/run_slt_python.py "$EXT"
+"$PY" tests/run_fuzz_python.py "$EXT" "$FUZZ_CASES"
+"$PY" tests/test_robust_python.py "$EXT"
+"$PY" tests/test_safety_python.py "$EXT"
+"$PY" tests/test_sandbox_python.py "$EXT"
+"$PY" tests/test_invariance_python.py "$EXT"
+"$PY" tests/test_crowd_python.py "$EXT"
+"$PY" tests/test_score_python.py "$EXT"
+"$PY" tests/test_readme.py "$EXT"
+"$PY" tests/check_stage_contracts.py
+"$PY" tests/test_stages_python.py "$EXT"
+"$PY" tests/test_cli_python.py "$EXT"
+"$PY" tests/test_determinism_python.py "$EXT"
 if ! command -v chromium > /dev/null && ! command -v chromium-browser > /dev/null; then
   SUDO=""; [ "$(id -u)" -ne 0 ] && SUDO="sudo"
   $SUDO apt-get update -qq && DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq chromium > /dev/null
 fi
-tests/test_report.sh
+tests/test_report.sh "$EXT" "$PY"
+tests/test_python_package.sh "$EXT"
 
-echo "== 2c/6 determinism across thread counts and input row orders"
-tests/test_determinism.sh
-
-echo "== 3/6 function reference is generated from the registered descriptions"
-"$CARGO_TARGET_DIR/release/trajdb" functions --markdown > "$CARGO_TARGET_DIR/functions.md"
-if ! diff -u docs/functions.md "$CARGO_TARGET_DIR/functions.md"; then
-  echo "docs/functions.md is stale: run  $CARGO_TARGET_DIR/release/trajdb functions --markdown > docs/functions.md" >&2
-  exit 1
-fi
-
-echo "== 4/6 loadable extension in stock DuckDB"
-scripts/build_extension.sh
-if [ ! -x "$VENV/bin/python" ]; then python3 -m venv "$VENV"; fi
-"$VENV/bin/pip" install -q -r requirements-test.txt
-python3 tests/test_footer.py && python3 tests/test_footer.py trajdb.duckdb_extension
-"$VENV/bin/python" tests/run_slt_python.py trajdb.duckdb_extension
-"$VENV/bin/python" tests/run_fuzz_python.py trajdb.duckdb_extension "$FUZZ_CASES"
-"$VENV/bin/python" tests/test_robust_python.py trajdb.duckdb_extension
-"$VENV/bin/python" tests/test_safety_python.py trajdb.duckdb_extension
-"$VENV/bin/python" tests/test_sandbox_python.py trajdb.duckdb_extension
-"$VENV/bin/python" tests/test_invariance_python.py trajdb.duckdb_extension
-"$VENV/bin/python" tests/test_crowd_python.py trajdb.duckdb_extension
-"$VENV/bin/python" tests/test_score_python.py trajdb.duckdb_extension
-"$VENV/bin/python" tests/test_readme.py trajdb.duckdb_extension
-tests/test_python_package.sh
-
-echo "== 5/6 WKB round trip with DuckDB spatial"
+echo "== 4/5 DuckDB 1.5.5 with DuckDB spatial: WKB round trip, and the SQL tests again"
 if [ ! -x "$SPATIAL_VENV/bin/python" ]; then python3 -m venv "$SPATIAL_VENV"; fi
-"$SPATIAL_VENV/bin/pip" install -q -r requirements-spatial.txt
-"$SPATIAL_VENV/bin/python" tests/test_spatial_roundtrip.py trajdb.duckdb_extension
-# the same extension file, .slt suite and README examples in DuckDB 1.5 (this venv's duckdb 1.5.5)
-"$SPATIAL_VENV/bin/python" tests/run_slt_python.py trajdb.duckdb_extension
-"$SPATIAL_VENV/bin/python" tests/run_fuzz_python.py trajdb.duckdb_extension "$FUZZ_CASES"
-"$SPATIAL_VENV/bin/python" tests/test_robust_python.py trajdb.duckdb_extension
-"$SPATIAL_VENV/bin/python" tests/test_safety_python.py trajdb.duckdb_extension
-"$SPATIAL_VENV/bin/python" tests/test_sandbox_python.py trajdb.duckdb_extension
-"$SPATIAL_VENV/bin/python" tests/test_crowd_python.py trajdb.duckdb_extension
-"$SPATIAL_VENV/bin/python" tests/test_score_python.py trajdb.duckdb_extension
-"$SPATIAL_VENV/bin/python" tests/test_readme.py trajdb.duckdb_extension
+"$SPATIAL_VENV/bin/pip" install -q --disable-pip-version-check -r requirements-spatial.txt
+PY15="$SPATIAL_VENV/bin/python"
+"$PY15" tests/test_spatial_roundtrip.py "$EXT"
+"$PY15" tests/run_slt_python.py "$EXT"
+"$PY15" tests/run_fuzz_python.py "$EXT" "$FUZZ_CASES"
+"$PY15" tests/test_robust_python.py "$EXT"
+"$PY15" tests/test_safety_python.py "$EXT"
+"$PY15" tests/test_sandbox_python.py "$EXT"
+"$PY15" tests/test_crowd_python.py "$EXT"
+"$PY15" tests/test_score_python.py "$EXT"
+"$PY15" tests/test_readme.py "$EXT"
+"$PY15" tests/test_stages_python.py "$EXT"
 
-echo "== 6/6 trajdb.spark in Spark local mode against trajdb pipeline per site"
+echo "== 5/5 trajdb.spark in Spark local mode against trajdb.pipeline per site"
 SPARK_PY="$(scripts/install_spark.sh)"
 SPARK_LOG="$CARGO_TARGET_DIR/test_spark.log"
 # Spark logs the injected task failures at length: the log is kept, and shown when the test fails
-if ! "$SPARK_PY" tests/test_spark.py "$CARGO_TARGET_DIR/release/trajdb" trajdb.duckdb_extension > "$SPARK_LOG" 2>&1; then
+if ! "$SPARK_PY" tests/test_spark.py "$EXT" > "$SPARK_LOG" 2>&1; then
   grep -v "^\s*at \|WARN" "$SPARK_LOG" | tail -60 >&2
   echo "tests/test_spark.py failed (whole log: $SPARK_LOG)" >&2
   exit 1

@@ -72,10 +72,9 @@ def case_merge(ext, n):
     return [(f"merge_groups chain of {n:,} links", s, e or f"{r[0][0]:,} tracks")]
 
 
-def quality_statements():
-    text = open(os.path.join(ROOT, "sql", "stages", "quality.sql"), encoding="utf-8").read()
-    lines = [l for l in text.splitlines() if not l.lstrip().startswith("--")]
-    return [s.strip() for s in "\n".join(lines).split(";") if s.strip()]
+def quality_statements(con):
+    """The quality stage's statements as the extension embeds them (trajdb_script)."""
+    return [r[0] for r in con.execute("SELECT sql FROM trajdb_script('sql/stages/quality.sql') ORDER BY k").fetchall()]
 
 
 def case_quality(ext, n):
@@ -93,7 +92,7 @@ def case_quality(ext, n):
                0 AS estimated
         FROM range({n}) r(i)""")
     out = []
-    for stmt in quality_statements():
+    for stmt in quality_statements(con):
         head = " ".join(stmt.split()[:6])
         name = head.split(" TABLE ")[1].split()[0] if " TABLE " in head else head[:40]
         s, r, e = timed(con, stmt)

@@ -7,8 +7,9 @@
 # versions that work.
 # usage: tests/test_python_package.sh path/to/trajdb.duckdb_extension
 set -euo pipefail
-cd "$(dirname "$0")/.."
+[ -f "${1:-}" ] || { echo "usage: $0 path/to/trajdb.duckdb_extension" >&2; exit 2; }
 EXT="$(cd "$(dirname "$1")" && pwd)/$(basename "$1")"
+cd "$(dirname "$0")/.."
 export CARGO_TARGET_DIR="${CARGO_TARGET_DIR:-$HOME/.cache/trajdb-target}"
 REPO="$PWD"
 W="$(mktemp -d)"

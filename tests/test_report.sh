@@ -8,8 +8,9 @@
 # usage: tests/test_report.sh path/to/trajdb.duckdb_extension [PYTHON]   (needs chromium; PYTHON
 #        with duckdb installed, default python3)
 set -euo pipefail
-cd "$(dirname "$0")/.."
+[ -f "${1:-}" ] || { echo "usage: $0 path/to/trajdb.duckdb_extension" >&2; exit 2; }
 EXT="$(cd "$(dirname "$1")" && pwd)/$(basename "$1")"
+cd "$(dirname "$0")/.."
 PY="${2:-python3}"
 export TRAJDB_EXTENSION="$EXT" PYTHONPATH="$PWD/python${PYTHONPATH:+:$PYTHONPATH}"
 SHOT_DIR="${CARGO_TARGET_DIR:-$HOME/.cache/trajdb-target}"

@@ -4,11 +4,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 export CARGO_TARGET_DIR="${CARGO_TARGET_DIR:-$HOME/.cache/trajdb-target}"
-# arrow (pulled in by duckdb-rs, never run by the extension) unoptimised: a third of the build time
-FAST=()
-for c in arrow arrow-arith arrow-array arrow-buffer arrow-cast arrow-cmp arrow-data arrow-ord arrow-row arrow-schema arrow-select arrow-string regex regex-automata regex-syntax; do
-  FAST+=(--config "profile.release.package.$c.opt-level=0")
-done
-cargo build --release --no-default-features --features extension --lib "${FAST[@]}"
+# arrow (pulled in by duckdb-rs, never run by the extension) builds unoptimised: .cargo/config.toml
+cargo build --release --no-default-features --features extension --lib
 python3 scripts/append_footer.py "$CARGO_TARGET_DIR/release/libtrajdb.so" trajdb.duckdb_extension \
   --version "v$(sed -n 's/^version = "\(.*\)"/\1/p' Cargo.toml | head -1)"

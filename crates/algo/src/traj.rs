@@ -10,6 +10,8 @@
 //! - `t` must be non-decreasing ([`TrajError::Unsorted`]); duplicate timestamps are allowed;
 //! - an empty trajectory is valid.
 
+pub mod band;
+
 use super::{positive, positive_or_inf, ParamError};
 use std::fmt;
 

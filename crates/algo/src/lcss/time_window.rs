@@ -24,6 +24,7 @@ use super::band::{lcss_len, table_bytes, BandTable};
 use super::LcssError;
 use crate::limits;
 use crate::geometry::region::{clip, Region};
+use crate::traj::band::{Bound, TimeBand};
 use crate::traj::{Series, Traj};
 
 
@@ -64,23 +65,12 @@ impl TimeWindowParams {
     }
 }
 
-/// The time band: for `a_t[i]`, the half-open range of `b_t` indices with `|a − b| < T`.
-/// Two pointers, amortised O(1) per row. Both inputs must be sorted.
-pub(crate) fn time_band<'a>(a_t: &'a [f64], b_t: &'a [f64], tw: f64) -> impl FnMut(usize) -> (usize, usize) + 'a {
-    let (mut lo, mut hi) = (0usize, 0usize);
-    move |i| {
-        let t = a_t[i];
-        while lo < b_t.len() && !(b_t[lo] > t - tw) {
-            lo += 1;
-        }
-        if hi < lo {
-            hi = lo;
-        }
-        while hi < b_t.len() && b_t[hi] < t + tw {
-            hi += 1;
-        }
-        (lo, hi)
-    }
+/// The time band of eq. 2.9 (`|t_a − t_b| < T`, [`Bound::Open`]) as the engine's row function:
+/// row `i` gets the window of B's times within T of `a_t[i]`. Both inputs must be sorted.
+fn time_band<'a>(a_t: &'a [f64], b_t: &'a [f64], tw: f64) -> impl FnMut(usize) -> (usize, usize) + 'a {
+    let mut band = TimeBand::new(a_t, b_t, tw, Bound::Open);
+    // the engine asks for every row once, in order: the iterator's next window is row i's
+    move |_| band.next().unwrap_or_default()
 }
 
 /// Half-open index range of the sorted times `t` that lie in `(lo, hi)`.
@@ -129,8 +119,7 @@ const BLOCK: usize = 8;
 /// the bands stay monotone (an emptied row becomes `(lo, lo)`). O(n + m).
 fn pruned_bands(a: Traj<'_>, b: Traj<'_>, eps: f64, tw: f64) -> Vec<(usize, usize)> {
     let (n, m) = (a.len(), b.len());
-    let mut band = time_band(a.t, b.t, tw);
-    let mut bands: Vec<(usize, usize)> = (0..n).map(&mut band).collect();
+    let mut bands: Vec<(usize, usize)> = TimeBand::new(a.t, b.t, tw, Bound::Open).collect();
     let bboxes: Vec<(f64, f64, f64, f64)> =
         (0..m.div_ceil(BLOCK)).map(|k| bbox(b, (k * BLOCK, ((k + 1) * BLOCK).min(m)))).collect();
     for r0 in (0..n).step_by(BLOCK) {
@@ -161,8 +150,7 @@ pub fn check_work(a_t: &[f64], b_t: &[f64], tw: f64) -> Result<(), LcssError> {
 
 /// The cells of the LCSS table inside the time band (before pruning). O(n + m); sorted times.
 pub fn band_cells(a_t: &[f64], b_t: &[f64], tw: f64) -> u128 {
-    let mut band = time_band(a_t, b_t, tw);
-    (0..a_t.len()).map(|i| band(i)).map(|(lo, hi)| hi.saturating_sub(lo) as u128).sum()
+    TimeBand::new(a_t, b_t, tw, Bound::Open).cells()
 }
 
 /// `L_{ε,T,ξ}(A, B)` of eq. 2.9. Inputs must satisfy [`Traj::validate`].
@@ -280,8 +268,7 @@ pub fn series_matches(a: Series<'_>, b: Series<'_>, p: &TimeWindowParams) -> Res
     let eps = p.epsilon;
     let is_match = |i: usize, j: usize| (a.v[i] - b.v[j]).abs() < eps;
     check_work(a.t, b.t, p.time_window)?;
-    let mut band = time_band(a.t, b.t, p.time_window);
-    check_table((0..a.len()).map(&mut band), a.len())?;
+    check_table(TimeBand::new(a.t, b.t, p.time_window, Bound::Open), a.len())?;
     traceback(a.len(), b.len(), time_band(a.t, b.t, p.time_window), is_match)
 }
 

@@ -227,13 +227,64 @@ def test_cluster(ext):
     assert {r[0] for r in rows(con, "SELECT track_id // 100 FROM cluster_assign")} == {2}
 
 
+def bare(ext, points_sql, upto, **params):
+    """A connection with `points` made by `points_sql`, the parameters set, and the stages up to
+    `upto` run (the ports of the old in-process pipeline unit tests)."""
+    con = duckdb.connect(":memory:", config={"allow_unsigned_extensions": "true"})
+    con.execute(f"LOAD '{ext}'")
+    for k, v in params.items():
+        con.execute(f"SET VARIABLE {k} = {v}")
+    run_file(con, "sql/params.sql")
+    con.execute(points_sql)
+    names = stages(con)
+    for s in names[: names.index(upto) + 1]:
+        run_file(con, f"sql/stages/{s}.sql")
+    return con
+
+
+def test_clean_short_tracks(ext):
+    """The clean stage with its auto thresholds measured by calibrate (period 0.1 s): keeps a 2 Hz
+    track of 3 points (1 s of a real road user) and a 10 Hz track of 4 points (0.3 s), drops a
+    single point and an estimated-only track; given values win over the measured ones."""
+    pts = """CREATE TEMP TABLE points AS
+             SELECT 1 AS camera, track_id, 'pedestrian' AS class, k * dt AS t, k::DOUBLE AS x, 0.0 AS y, est AS estimated
+             FROM (VALUES (1, 0.5, 3, 0), (2, 0.1, 4, 0), (3, 0.1, 1, 0), (4, 0.1, 8, 1), (5, 0.1, 5, 0)) v(track_id, dt, n, est),
+                  range(10) r(k) WHERE k < n"""
+    con = bare(ext, pts, "clean")
+    assert [r[0] for r in rows(con, "SELECT DISTINCT track_id FROM points ORDER BY 1")] == [1, 2, 5]
+    assert [r[0] for r in rows(con, "SELECT reason FROM clean_dropped ORDER BY track_id")] == ["too short", "estimated only"]
+    con = bare(ext, pts, "clean", clean_min_points="5", clean_min_duration_s="0.35")
+    assert [r[0] for r in rows(con, "SELECT DISTINCT track_id FROM points ORDER BY 1")] == [1, 5]
+
+
+def test_quality_braking(ext):
+    """The quality stage's second pass: a car braking at 3 m/s^2 through a 1.5 s gap resumes 3.4 m
+    short of its constant-velocity prediction, out of pass 1's 2 m but inside 2 + 3 * 1.5^2 / 2 m;
+    a pair pass 1 linked stays linked and is not offered again. With quality_max_accel = 0 the
+    second pass adds nothing."""
+    pts = """CREATE OR REPLACE TEMP TABLE points AS
+             SELECT 1 AS camera, track_id, 'car' AS class, t, x, y, 0 AS estimated FROM (
+               SELECT 9 AS track_id, k * 0.1 AS t,
+                      CASE WHEN k < 200 THEN -50 + k ELSE 150 END AS x,
+                      CASE WHEN k < 200 THEN -50 ELSE -50 + (k - 200) END AS y FROM range(300) r(k)
+               UNION ALL SELECT 1, k * 0.1, 10 * k * 0.1, 0 FROM range(51) r(k)
+               UNION ALL SELECT 2, 6.5 + k * 0.1, 61.625 + 5.5 * k * 0.1, 0 FROM range(31) r(k)
+               UNION ALL SELECT 3, k * 0.1, 10 * k * 0.1, 20 FROM range(51) r(k)
+               UNION ALL SELECT 4, 6.0 + k * 0.1, 60 + 10 * k * 0.1, 20 FROM range(31) r(k))"""
+    for accel, reach in (("3.0", [(1, 2)]), ("0.0", [])):
+        con = bare(ext, pts, "quality", quality_max_accel=accel)
+        assert rows(con, "SELECT track_id, linked_id FROM quality_links WHERE track_id <> linked_id ORDER BY 1") == [(4, 3)], accel
+        assert rows(con, "SELECT from_id, to_id FROM quality_reach_links ORDER BY 1") == reach, accel
+
+
 def test_contracts(_ext):
     r = subprocess.run([sys.executable, os.path.join(ROOT, "tests/check_stage_contracts.py")], capture_output=True, text=True)
     assert r.returncode == 0, r.stdout + r.stderr
 
 
 TESTS = {"contracts": test_contracts, "calibrate": test_calibrate, "clean": test_clean, "quality": test_quality, "align": test_align,
-         "overlap": test_overlap, "merge": test_merge, "fuse": test_fuse, "cluster": test_cluster}
+         "overlap": test_overlap, "merge": test_merge, "fuse": test_fuse, "cluster": test_cluster,
+         "clean_short_tracks": test_clean_short_tracks, "quality_braking": test_quality_braking}
 
 
 def main():

@@ -35,18 +35,8 @@ fn params_sql(a: &Args<'_>, out: &mut Out<'_>) -> Result<(), Box<dyn Error>> {
     let json = a.text(0);
     let vals = a.map(|r| {
         let Some(text) = json.get(r) else { return Ok(None) };
-        let obj: serde_json::Map<String, serde_json::Value> = serde_json::from_str(if text.trim().is_empty() { "{}" } else { &text })
-            .map_err(|e| format!("values must be a JSON object of parameter names and values, e.g. '{{\"merge_eta\": 0.6}}' ({e})"))?;
-        let mut overrides = Vec::with_capacity(obj.len());
-        for (k, v) in obj {
-            let text = match v {
-                serde_json::Value::String(s) => s,
-                serde_json::Value::Number(n) => n.to_string(),
-                serde_json::Value::Bool(b) => b.to_string(),
-                other => return Err(format!("parameter {k} must be a number, a boolean or text, got {other}").into()),
-            };
-            overrides.push((k, text));
-        }
+        // the same reading as trajdb_stages' params (crates/app/src/params.rs)
+        let overrides = params::from_json(&text).map_err(|e| e.to_string().replacen("params must be", "values must be", 1))?;
         Ok(Some(params::set_sql(&params::resolve(&overrides)?)))
     })?;
     out.text(&vals);

@@ -145,24 +145,6 @@ const STAGES: Function = Function {
     table: Some(STAGES_TABLE),
 };
 
-/// The pipeline parameters of a JSON object: numbers, booleans and text as the parameter
-/// table reads them.
-fn json_params(text: &str) -> Result<Vec<(String, String)>, Box<dyn Error>> {
-    let obj: serde_json::Map<String, serde_json::Value> = serde_json::from_str(if text.trim().is_empty() { "{}" } else { text })
-        .map_err(|e| format!("params must be a JSON object of parameter names and values, e.g. '{{\"merge_eta\": 0.6}}' ({e})"))?;
-    let mut out = Vec::with_capacity(obj.len());
-    for (k, v) in obj {
-        let text = match v {
-            serde_json::Value::String(s) => s,
-            serde_json::Value::Number(n) => n.to_string(),
-            serde_json::Value::Bool(b) => b.to_string(),
-            other => return Err(format!("parameter {k} must be a number, a boolean or text, got {other}").into()),
-        };
-        out.push((k, text));
-    }
-    Ok(out)
-}
-
 /// Rows of statements, emitted a chunk at a time.
 pub struct Cursor(AtomicUsize);
 
@@ -197,7 +179,7 @@ impl TableFn for StagesFn {
             }
         }
         let part = Part::parse(&args.named_text("part")?.unwrap_or_default())?;
-        let params = json_params(&args.named_text("params")?.unwrap_or_default())?;
+        let params = params::from_json(&args.named_text("params")?.unwrap_or_default())?;
         plan::plan(&Request { input, out, part, params })
     }
     fn init(_: &Self::Bind) -> Result<Self::Scan, Box<dyn Error>> {

@@ -98,6 +98,24 @@ pub const PARAMS: &[Param] = &[
     b("cluster_translation_invariant", "false", "cluster", "use S2 (shapes anywhere) instead of S1 (routes)"),
 ];
 
+/// The parameters of a JSON object (`{"merge_eta": 0.6, "cluster_classes": "car"}`): numbers,
+/// booleans and text as text, for [`resolve`] to check. Anything else is an error naming it.
+pub fn from_json(text: &str) -> Result<Vec<(String, String)>, Box<dyn Error>> {
+    let obj: serde_json::Map<String, serde_json::Value> = serde_json::from_str(if text.trim().is_empty() { "{}" } else { text })
+        .map_err(|e| format!("params must be a JSON object of parameter names and values, e.g. '{{\"merge_eta\": 0.6}}' ({e})"))?;
+    let mut out = Vec::with_capacity(obj.len());
+    for (k, v) in obj {
+        let text = match v {
+            serde_json::Value::String(s) => s,
+            serde_json::Value::Number(n) => n.to_string(),
+            serde_json::Value::Bool(b) => b.to_string(),
+            other => return Err(format!("parameter {k} must be a number, a boolean or text, got {other}").into()),
+        };
+        out.push((k, text));
+    }
+    Ok(out)
+}
+
 /// The SQL type name of a parameter kind.
 pub fn kind_sql(k: Kind) -> &'static str {
     match k {

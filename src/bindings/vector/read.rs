@@ -175,14 +175,14 @@ impl<'a> Rows<'a> {
     pub fn f64(&self, k: usize) -> &'a [f64] {
         match self.data[k] {
             FieldData::F64(s) => s,
-            FieldData::I64(_) => panic!("field {k} is BIGINT, not DOUBLE (registry type)"),
+            FieldData::I64(_) => panic!("field {k} is BIGINT, not DOUBLE (declared type)"),
         }
     }
     /// Field `k`, declared BIGINT.
     pub fn i64(&self, k: usize) -> &'a [i64] {
         match self.data[k] {
             FieldData::I64(s) => s,
-            FieldData::F64(_) => panic!("field {k} is DOUBLE, not BIGINT (registry type)"),
+            FieldData::F64(_) => panic!("field {k} is DOUBLE, not BIGINT (declared type)"),
         }
     }
 }
@@ -227,7 +227,7 @@ impl<'a> StructListCol<'a> {
     fn f64_at(&self, k: usize, r: Range<usize>) -> &'a [f64] {
         match self.fields.data[k].0 {
             FieldData::F64(s) => &s[r],
-            FieldData::I64(_) => panic!("field {k} is BIGINT, not DOUBLE (registry type)"),
+            FieldData::I64(_) => panic!("field {k} is BIGINT, not DOUBLE (declared type)"),
         }
     }
     pub fn get(&self, row: usize) -> Res<Option<Rows<'a>>> {

@@ -76,7 +76,10 @@ SELECT CASE WHEN len(eff) <> len(list_distinct(eff))
                        || array_to_string([r || '=' || coalesce(getvariable('input_map')[r], r) for r in ['camera', 'track_id', 'class', 't', 'x', 'y', 'estimated']], ', ') || ')') END
 FROM (SELECT [coalesce(getvariable('input_map')[r], r) for r in ['camera', 'track_id', 'class', 't', 'x', 'y', 'estimated']] AS eff);
 SELECT CASE WHEN len(missing) > 0 THEN error('load: the input ' || getvariable('pipeline_input') || ' has no column '
-                                               || array_to_string(missing, ', ') || ' (its columns: ' || array_to_string(cols, ', ') || ')') END
+                                               || array_to_string(missing, ', ') || ' (its columns: ' || array_to_string(cols, ', ') || '). '
+                                               || 'Fix: map your own names with input_columns, e.g. input_columns = ''camera=cam_id, t=time'' '
+                                               || '(trajdb pipeline --param "input_columns=camera=cam_id, t=time"; in SQL: SET VARIABLE input_columns = ''camera=cam_id, t=time'' '
+                                               || 'or trajdb_pipeline(..., input_columns := ''camera=cam_id, t=time''))') END
 FROM (SELECT cols, [coalesce(getvariable('input_map')[n], n) for n in ['camera', 'track_id', 'class', 't', 'x', 'y']
                     if NOT list_contains([lower(c) for c in cols], coalesce(getvariable('input_map')[n], n))] AS missing
       FROM (SELECT list(column_name) AS cols FROM load_columns));

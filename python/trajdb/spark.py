@@ -86,7 +86,7 @@ def _geo_metadata(extension=None):
     it (one definition)."""
     con = W.connect(extension or W._default_extension())
     try:
-        text = "\n".join(r[2] for r in con.execute("SELECT * FROM trajdb_script('sql/export.sql') ORDER BY k").fetchall())
+        text = "\n".join(r[0] for r in con.execute("SELECT sql FROM trajdb_script('sql/export.sql') ORDER BY k").fetchall())
     finally:
         con.close()
     m = re.search(r"KV_METADATA \{geo: '([^']*)'\}", text)

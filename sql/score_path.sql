@@ -32,7 +32,9 @@ JOIN s_true t USING (camera) JOIN s_cam_clock c USING (camera);
 -- the pipeline's camera -> reference transforms and clocks: t_cam = (1 + d) t_ref + off
 CREATE OR REPLACE TEMP TABLE s_to_ref AS
 SELECT cam_from AS camera, {'theta': theta_rad, 'tx': tx, 'ty': ty, 'scale': 1.0} AS tf,
-       coalesce(clock_offset_s, 0.0) AS off, coalesce(clock_drift_ppm, 0.0) * 1e-6 AS drift
+       coalesce(clock_offset_s, 0.0) AS off,
+       -- an empty transforms.csv (no camera pair placed) sniffs the column as VARCHAR
+       coalesce(TRY_CAST(clock_drift_ppm AS DOUBLE), 0.0) * 1e-6 AS drift
 FROM (SELECT * FROM read_csv(getvariable('score_results') || '/transforms.csv', header = true,
                              types = {'cam_from': 'INTEGER', 'cam_to': 'INTEGER', 'theta_rad': 'DOUBLE', 'tx': 'DOUBLE', 'ty': 'DOUBLE', 'clock_offset_s': 'DOUBLE'})
       UNION ALL BY NAME SELECT NULL::DOUBLE AS clock_drift_ppm WHERE false)

@@ -70,7 +70,8 @@ mod tests {
         for (dir, banned) in rules {
             let files = if dir.ends_with(".rs") {
                 let p = Path::new(env!("CARGO_MANIFEST_DIR")).join(dir);
-                vec![(p.clone(), std::fs::read_to_string(&p).unwrap())]
+                let text = std::fs::read_to_string(&p).unwrap();
+                vec![(p.clone(), text.lines().filter(|l| !l.trim_start().starts_with("//")).map(|l| format!("{l}\n")).collect())]
             } else {
                 code(dir)
             };

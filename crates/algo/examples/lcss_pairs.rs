@@ -48,11 +48,11 @@ fn main() {
     let f: Score = match args[3].as_str() {
         "index" => {
             let ip = IndexParams::new(args[4].parse().unwrap(), args[5].parse().unwrap(), None).unwrap();
-            Box::new(move |a, b| lcss_index::joint_similarity(a.view(), b.view(), &ip))
+            Box::new(move |a, b| lcss_index::joint_similarity(a.view(), b.view(), &ip).expect("within lcss_cells"))
         }
         "time" => {
             let tp = TimeWindowParams::new(args[4].parse().unwrap(), args[5].parse().unwrap(), 0).unwrap();
-            Box::new(move |a, b| lcss::length(a.view(), b.view(), &tp) as f64)
+            Box::new(move |a, b| lcss::length(a.view(), b.view(), &tp).expect("within lcss_cells") as f64)
         }
         "prefilter" => {
             let (e, t): (f64, f64) = (args[4].parse().unwrap(), args[5].parse().unwrap());

@@ -346,6 +346,22 @@ mod tests {
         assert!(e.to_string().contains("memory_bytes"), "{e}");
     }
 
+    /// Issue 27: trajectory_merge of two tracks over lcss_cells is refused before the LCSS
+    /// runs, with the error that names the limit and how to raise it.
+    #[test]
+    fn merging_two_tracks_over_the_cell_limit_is_an_error() {
+        use crate::limits::{with_scope, Limits};
+        let p = TimeWindowParams::new(1.0, f64::INFINITY, 1).unwrap();
+        let a = line(0.0, 40, 0.0);
+        let l = std::sync::Arc::new(Limits::default());
+        l.set("lcss_cells", 1599).unwrap();
+        let e = with_scope(&l, || merge_two(a.view(), a.view(), &p, None)).unwrap_err();
+        assert!(matches!(&e, MergeError::Lcss(LcssError::Work(x)) if x.needed == 1600 && x.limit == 1599), "{e}");
+        assert!(e.to_string().contains("lcss_cells") && e.to_string().contains("trajdb_limit('lcss_cells', 1600)"), "{e}");
+        l.set("lcss_cells", 1600).unwrap();
+        assert_eq!(with_scope(&l, || merge_two(a.view(), a.view(), &p, None)).unwrap(), a);
+    }
+
     #[test]
     fn no_matches_keeps_everything_sorted() {
         let p = TimeWindowParams::new(0.01, 0.01, 1).unwrap();

@@ -39,8 +39,8 @@
 //! the exact rigid update (pycpd's formula is only right when s is optimal).
 //!
 //! # One EM for 2-D and 3-D
-//! The EM above is written once, over points `[f64; D]` ([`align_in`]); a dimension supplies
-//! only its transform and the rotation of the M-step through the trait [`Space`]: [`Plane`]
+//! The EM above is written once, over points `[f64; D]` (`align_in`); a dimension supplies
+//! only its transform and the rotation of the M-step through the trait `Space`: `Plane`
 //! here (closed form `θ = atan2(A₁₀ − A₀₁, A₀₀ + A₁₁)`), and `Space3` in
 //! [`crate::align::cpd3`] (SVD of the 3×3 `A`, thesis lemma 1). Both probe their starts on
 //! at most [`PROBE_POINTS`] points per set.

@@ -24,6 +24,7 @@
 
 use super::linkage::{self as cluster, ClusterError, Cut, Linkage};
 use crate::lcss::index::{self as lcss_index, IndexParams};
+use crate::lcss::LcssError;
 use crate::lcss::translate as lcss_translate;
 use crate::traj::Traj;
 use rayon::prelude::*;
@@ -105,33 +106,47 @@ pub fn distances(trajs: &[Traj<'_>], p: &IndexParams, sim: Similarity) -> Result
         rows.push(row);
         rest = tail;
     }
-    rows.into_par_iter().enumerate().for_each(|(i, row)| {
-        let (a, ba) = (trajs[i], bbox[i]);
-        for (k, cell) in row.iter_mut().enumerate() {
-            let j = i + 1 + k;
-            let b = trajs[j];
-            if p.rejects(a.len(), b.len()) {
-                continue;
-            }
-            let s = match sim {
-                Similarity::S1 => {
-                    let bb = bbox[j];
-                    if ba[0] - bb[1] >= eps || bb[0] - ba[1] >= eps || ba[2] - bb[3] >= eps || bb[2] - ba[3] >= eps {
-                        continue;
-                    }
-                    let r = lcss_index::s1(a, b, p);
-                    r.sx.min(r.sy)
-                }
-                Similarity::S2 => {
-                    let r = lcss_translate::s2(a, b, p);
-                    r.sx.min(r.sy)
-                }
-            };
-            if s > 0.0 {
-                *cell = 1.0 - s;
-            }
+    // the workers check the LCSS work limit of the caller's scope
+    let scope = crate::limits::current();
+    let lcss_err = |e: LcssError| match e {
+        LcssError::Work(x) => TrajClusterError::Work(x),
+        e => TrajClusterError::TooLarge(e.to_string()),
+    };
+    // the similarity of a and b (0: no match), given their bounding boxes
+    let similarity = |a: Traj<'_>, b: Traj<'_>, ba: &[f64; 4], bb: &[f64; 4]| -> Result<f64, TrajClusterError> {
+        if p.rejects(a.len(), b.len()) {
+            return Ok(0.0);
         }
-    });
+        Ok(match sim {
+            Similarity::S1 => {
+                if ba[0] - bb[1] >= eps || bb[0] - ba[1] >= eps || ba[2] - bb[3] >= eps || bb[2] - ba[3] >= eps {
+                    return Ok(0.0);
+                }
+                let r = lcss_index::s1(a, b, p).map_err(lcss_err)?;
+                r.sx.min(r.sy)
+            }
+            Similarity::S2 => {
+                let r = lcss_translate::s2(a, b, p).map_err(lcss_err)?;
+                r.sx.min(r.sy)
+            }
+        })
+    };
+    rows.into_par_iter().enumerate().try_for_each(|(i, row)| {
+        let mut fill = || -> Result<(), TrajClusterError> {
+            for (k, cell) in row.iter_mut().enumerate() {
+                let j = i + 1 + k;
+                let s = similarity(trajs[i], trajs[j], &bbox[i], &bbox[j])?;
+                if s > 0.0 {
+                    *cell = 1.0 - s;
+                }
+            }
+            Ok(())
+        };
+        match &scope {
+            Some(l) => crate::limits::with_scope(l, fill),
+            None => fill(),
+        }
+    })?;
     Ok(m)
 }
 
@@ -236,6 +251,22 @@ mod tests {
         ((0..n).map(|k| k as f64).collect(), (0..n).map(|k| k as f64 * dx).collect(), vec![y; n])
     }
 
+    /// Issue 27: the LCSS engine checks lcss_cells on the rayon workers too, against the
+    /// limit of the caller's scope (not the default).
+    #[test]
+    fn the_workers_obey_the_callers_cell_limit() {
+        use crate::limits::{with_scope, Limits};
+        let data: Vec<_> = (0..6).map(|k| line(k as f64 * 0.1, 20, 1.0)).collect();
+        let trajs: Vec<Traj<'_>> = data.iter().map(|(t, x, y)| Traj::new(t, x, y)).collect();
+        let p = IndexParams::new(100, 1.0, None).unwrap(); // 20 x 20 = 400 cells an axis
+        let l = std::sync::Arc::new(Limits::default());
+        l.set("lcss_cells", 399).unwrap();
+        let e = with_scope(&l, || distances(&trajs, &p, Similarity::S1)).unwrap_err();
+        assert!(matches!(&e, TrajClusterError::Work(x) if x.needed == 400 && x.limit == 399), "{e}");
+        l.set("lcss_cells", 400).unwrap();
+        assert_eq!(with_scope(&l, || distances(&trajs, &p, Similarity::S1)).unwrap(), distances(&trajs, &p, Similarity::S1).unwrap());
+    }
+
     /// The matrix equals the pairwise lcss_s1 distances a SQL self-join would give.
     #[test]
     fn matrix_equals_pairwise_s1_and_s2() {
@@ -256,11 +287,11 @@ mod tests {
                 for j in i + 1..trajs.len() {
                     let s = match sim {
                         Similarity::S1 => {
-                            let r = lcss_index::s1(trajs[i], trajs[j], &p);
+                            let r = lcss_index::s1(trajs[i], trajs[j], &p).unwrap();
                             r.sx.min(r.sy)
                         }
                         Similarity::S2 => {
-                            let r = lcss_translate::s2(trajs[i], trajs[j], &p);
+                            let r = lcss_translate::s2(trajs[i], trajs[j], &p).unwrap();
                             r.sx.min(r.sy)
                         }
                     };
@@ -290,7 +321,7 @@ mod tests {
         let mut pairs = Vec::new();
         for i in 0..30 {
             for j in i + 1..30 {
-                let r = lcss_index::s1(trajs[i], trajs[j], &p);
+                let r = lcss_index::s1(trajs[i], trajs[j], &p).unwrap();
                 if r.sx.min(r.sy) > 0.0 {
                     pairs.push((ids[i], ids[j], 1.0 - r.sx.min(r.sy)));
                 }

@@ -27,6 +27,16 @@
 //! [`BandTable`] (for backtracking): same time, O(n + Σ w_i) memory (4 bytes a cell of the rows
 //! that hold a match, allocated fallibly; [`table_bytes`] bounds it before the work), and
 //! O((n + m) log n) for the backtrack itself.
+//!
+//! # The work limit
+//! Both entry points count the band's cells `Σ_i w_i` first (one pass over the band, O(n)
+//! and no match test) and refuse a table over the limit `lcss_cells` with
+//! [`LcssError::Work`], before any work: every LCSS in trajdb (the SQL functions, the
+//! merge of [`crate::merge`], the clustering) obeys the limit because the engine checks it.
+//! The check reads the limit of the calling thread's scope ([`crate::limits::with_scope`]);
+//! a caller that runs LCSS on rayon workers enters its scope there.
+
+use super::LcssError;
 
 /// Checks, in debug builds, the band contract: ranges inside `0..=m` and monotone.
 #[inline]
@@ -36,6 +46,12 @@ fn debug_check(prev: &mut (usize, usize), lo: usize, hi: usize, m: usize) {
     *prev = (lo, hi);
 }
 
+/// The band's cells against the work limit `lcss_cells`, before the work.
+fn check_cells<B: Iterator<Item = (usize, usize)> + Clone>(band: &B) -> Result<(), LcssError> {
+    let cells: u128 = band.clone().map(|(lo, hi)| hi.saturating_sub(lo) as u128).sum();
+    crate::limits::LCSS_CELLS.check(cells).map_err(LcssError::Work)
+}
+
 /// Runs the banded recurrence row by row. For every row `i`, `visit(i, lo, hi, cells)` gets the
 /// row's effective band and, when it is non-empty, the new values of columns `lo+1..=hi`
 /// (1-based). Rows whose band holds no match are reported with `hi = lo`: they leave the
@@ -43,7 +59,7 @@ fn debug_check(prev: &mut (usize, usize), lo: usize, hi: usize, m: usize) {
 /// or `None` as soon as `visit` returns false.
 fn run_rows<B, M, V>(n: usize, m: usize, mut band: B, mut is_match: M, mut visit: V) -> Option<usize>
 where
-    B: FnMut(usize) -> (usize, usize),
+    B: Iterator<Item = (usize, usize)>,
     M: FnMut(usize, usize) -> bool,
     V: FnMut(usize, usize, usize, &[u32]) -> bool,
 {
@@ -53,7 +69,10 @@ where
     let mut filled = 0usize;
     let mut prev = (0, 0);
     for i in 0..n {
-        let (lo, hi) = if m == 0 { (0, 0) } else { band(i) };
+        let (lo, hi) = match band.next() {
+            Some(b) if m > 0 => b,
+            _ => (0, 0),
+        };
         debug_check(&mut prev, lo, hi, m);
         // Match tests first, branch-free (vectorisable); on real data most rows of most pairs
         // have none and are skipped here.
@@ -93,17 +112,21 @@ where
 
 /// Length of the banded LCSS of `n` rows against `m` columns.
 ///
-/// `band(i)` gives the half-open, 0-based column range of row `i`; it is called once per row
-/// in increasing order and must be monotone. `is_match(i, j)` is only called inside the band.
-pub fn lcss_len<B, M>(n: usize, m: usize, band: B, is_match: M) -> usize
+/// `band` yields the half-open, 0-based column range of every row in order (`n` items) and
+/// must be monotone. `is_match(i, j)` is only called inside the band. `Err` when the band has
+/// more cells than the limit `lcss_cells` (checked before the work).
+pub fn lcss_len<B, M>(n: usize, m: usize, band: B, is_match: M) -> Result<usize, LcssError>
 where
-    B: FnMut(usize) -> (usize, usize),
+    B: IntoIterator<Item = (usize, usize)>,
+    B::IntoIter: Clone,
     M: FnMut(usize, usize) -> bool,
 {
     if n == 0 || m == 0 {
-        return 0;
+        return Ok(0);
     }
-    run_rows(n, m, band, is_match, |_, _, _, _| true).unwrap_or(0)
+    let band = band.into_iter();
+    check_cells(&band)?;
+    Ok(run_rows(n, m, band, is_match, |_, _, _, _| true).unwrap_or(0))
 }
 
 /// The most bytes a [`BandTable`] of `n` rows and `cells` band cells can take: 4 bytes a cell
@@ -124,21 +147,25 @@ pub struct BandTable {
 }
 
 impl BandTable {
-    /// Fills the band cells; same contract as [`lcss_len`]. Rows without a match are stored
-    /// as empty bands, which is exact (see [`run_rows`]). Every allocation is fallible: when
-    /// one fails, the work stops and `Err` gives the bytes the table had reached.
-    pub fn build<B, M>(n: usize, m: usize, band: B, is_match: M) -> Result<Self, u128>
+    /// Fills the band cells; same contract (and work limit) as [`lcss_len`]. Rows without a
+    /// match are stored as empty bands, which is exact (see [`run_rows`]). Every allocation is
+    /// fallible: when one fails, the work stops with [`LcssError::Alloc`] and the bytes the
+    /// table had reached.
+    pub fn build<B, M>(n: usize, m: usize, band: B, is_match: M) -> Result<Self, LcssError>
     where
-        B: FnMut(usize) -> (usize, usize),
+        B: IntoIterator<Item = (usize, usize)>,
+        B::IntoIter: Clone,
         M: FnMut(usize, usize) -> bool,
     {
+        let band = band.into_iter();
+        check_cells(&band)?;
         let mut t = BandTable { lo: Vec::new(), hi: Vec::new(), off: Vec::new(), vals: Vec::new(), ne: Vec::new() };
         let rows_ok = t.lo.try_reserve_exact(n).is_ok()
             && t.hi.try_reserve_exact(n).is_ok()
             && t.off.try_reserve_exact(n).is_ok()
             && t.ne.try_reserve_exact(n + 1).is_ok();
         if !rows_ok {
-            return Err(table_bytes(n, 0));
+            return Err(LcssError::Alloc { bytes: table_bytes(n, 0) });
         }
         t.ne.resize(n + 1, 0);
         let done = run_rows(n, m, band, is_match, |i, lo, hi, cells| {
@@ -154,7 +181,7 @@ impl BandTable {
         });
         match done {
             Some(_) => Ok(t),
-            None => Err(table_bytes(n, t.vals.len() as u128 * 2)),
+            None => Err(LcssError::Alloc { bytes: table_bytes(n, t.vals.len() as u128 * 2) }),
         }
     }
 
@@ -244,8 +271,8 @@ mod tests {
     use super::*;
     use proptest::prelude::*;
 
-    fn index_band(m: usize, d: usize) -> impl FnMut(usize) -> (usize, usize) {
-        move |i| (i.saturating_sub(d).min(m), (i + d + 1).min(m))
+    fn index_band(n: usize, m: usize, d: usize) -> impl Iterator<Item = (usize, usize)> + Clone {
+        (0..n).map(move |i| (i.saturating_sub(d).min(m), (i + d + 1).min(m)))
     }
 
     proptest! {
@@ -256,12 +283,12 @@ mod tests {
             let allowed = |i: usize, j: usize| i.abs_diff(j) <= d && a[i] == b[j];
             let full = naive::table(a.len(), b.len(), allowed);
             let want = full[a.len()][b.len()];
-            let got = lcss_len(a.len(), b.len(), index_band(b.len(), d), allowed);
+            let got = lcss_len(a.len(), b.len(), index_band(a.len(), b.len(), d), allowed).unwrap();
             prop_assert_eq!(got as u32, want);
             if a.len() <= 7 && b.len() <= 7 {
                 prop_assert_eq!(naive::recursive(a.len(), b.len(), allowed), want);
             }
-            let t = BandTable::build(a.len(), b.len(), index_band(b.len(), d), allowed).unwrap();
+            let t = BandTable::build(a.len(), b.len(), index_band(a.len(), b.len(), d), allowed).unwrap();
             for i in 0..=a.len() { for j in 0..=b.len() {
                 prop_assert_eq!(t.get(i, j), full[i][j], "cell {} {}", i, j);
             }}
@@ -274,9 +301,26 @@ mod tests {
 
     #[test]
     fn empty_inputs() {
-        assert_eq!(lcss_len(0, 5, |_| (0, 5), |_, _| true), 0);
-        assert_eq!(lcss_len(5, 0, |_| (0, 0), |_, _| true), 0);
-        let t = BandTable::build(3, 0, |_| (0, 0), |_, _| true).unwrap();
+        assert_eq!(lcss_len(0, 5, [], |_, _| true), Ok(0));
+        assert_eq!(lcss_len(5, 0, [(0, 0); 5], |_, _| true), Ok(0));
+        let t = BandTable::build(3, 0, [(0, 0); 3], |_, _| true).unwrap();
         assert!(t.backtrack(0, |_, _| true).is_empty());
+    }
+
+    /// The engine refuses a band over `lcss_cells` before the work (no match test runs).
+    #[test]
+    fn the_work_limit_is_checked_before_the_work() {
+        use crate::limits::{with_scope, Limits};
+        let l = std::sync::Arc::new(Limits::default());
+        l.set("lcss_cells", 99).unwrap();
+        let band = index_band(10, 10, 10); // 100 cells
+        let mut tests = 0;
+        let e = with_scope(&l, || lcss_len(10, 10, band.clone(), |_, _| { tests += 1; true })).unwrap_err();
+        assert!(matches!(&e, LcssError::Work(x) if x.needed == 100 && x.limit == 99), "{e}");
+        assert!(e.to_string().contains("trajdb_limit('lcss_cells', 100)"), "{e}");
+        assert_eq!(tests, 0, "no work before the check");
+        assert!(matches!(with_scope(&l, || BandTable::build(10, 10, band.clone(), |_, _| true)), Err(LcssError::Work(_))));
+        l.set("lcss_cells", 100).unwrap();
+        assert_eq!(with_scope(&l, || lcss_len(10, 10, band, |i, j| i == j)), Ok(10));
     }
 }

@@ -60,13 +60,15 @@ impl IndexParams {
     }
 }
 
-pub(crate) fn index_band(m: usize, delta: usize) -> impl FnMut(usize) -> (usize, usize) {
-    move |i| (i.saturating_sub(delta).min(m), i.saturating_add(delta).saturating_add(1).min(m))
+/// The index band `|i − j| ≤ δ` of `n` rows against `m` columns.
+pub(crate) fn index_band(n: usize, m: usize, delta: usize) -> impl Iterator<Item = (usize, usize)> + Clone {
+    (0..n).map(move |i| (i.saturating_sub(delta).min(m), i.saturating_add(delta).saturating_add(1).min(m)))
 }
 
-/// One axis: `LCSS_{δ,ε}(a, b)` of eq. 4.2, with `b` shifted by `shift` (0 for S1).
-pub fn axis_length(a: &[f64], b: &[f64], delta: usize, epsilon: f64, shift: f64) -> usize {
-    lcss_len(a.len(), b.len(), index_band(b.len(), delta), |i, j| (a[i] - (b[j] + shift)).abs() < epsilon)
+/// One axis: `LCSS_{δ,ε}(a, b)` of eq. 4.2, with `b` shifted by `shift` (0 for S1); `Err`
+/// over the limit `lcss_cells` (checked by the engine before the work).
+pub fn axis_length(a: &[f64], b: &[f64], delta: usize, epsilon: f64, shift: f64) -> Result<usize, LcssError> {
+    lcss_len(a.len(), b.len(), index_band(a.len(), b.len(), delta), |i, j| (a[i] - (b[j] + shift)).abs() < epsilon)
 }
 
 /// Per-axis result of definition 4.1/4.2.
@@ -89,23 +91,23 @@ pub fn check_work(n: usize, m: usize, p: &IndexParams) -> Result<(), LcssError> 
 }
 
 /// `LCSS_2D` and `S1_2D` (eq. 4.1, 4.3). Only x and y are used; t plays no part here.
-pub fn s1(a: Traj<'_>, b: Traj<'_>, p: &IndexParams) -> S1 {
+pub fn s1(a: Traj<'_>, b: Traj<'_>, p: &IndexParams) -> Result<S1, LcssError> {
     if p.rejects(a.len(), b.len()) {
-        return S1 { lx: 0, ly: 0, sx: 0.0, sy: 0.0 };
+        return Ok(S1 { lx: 0, ly: 0, sx: 0.0, sy: 0.0 });
     }
-    let lx = axis_length(a.x, b.x, p.delta, p.epsilon, 0.0);
-    let ly = axis_length(a.y, b.y, p.delta, p.epsilon, 0.0);
+    let lx = axis_length(a.x, b.x, p.delta, p.epsilon, 0.0)?;
+    let ly = axis_length(a.y, b.y, p.delta, p.epsilon, 0.0)?;
     let k = a.len().min(b.len()) as f64;
-    S1 { lx, ly, sx: lx as f64 / k, sy: ly as f64 / k }
+    Ok(S1 { lx, ly, sx: lx as f64 / k, sy: ly as f64 / k })
 }
 
 /// Banded LCSS with a joint Euclidean match `‖a_i − b_j‖ < ε` and `|i − j| ≤ δ`.
-pub fn joint_length(a: Traj<'_>, b: Traj<'_>, p: &IndexParams) -> usize {
+pub fn joint_length(a: Traj<'_>, b: Traj<'_>, p: &IndexParams) -> Result<usize, LcssError> {
     if p.rejects(a.len(), b.len()) || !boxes_within(a, b, p.epsilon) {
-        return 0;
+        return Ok(0);
     }
     let e2 = p.epsilon * p.epsilon;
-    lcss_len(a.len(), b.len(), index_band(b.len(), p.delta), |i, j| {
+    lcss_len(a.len(), b.len(), index_band(a.len(), b.len(), p.delta), |i, j| {
         let (dx, dy) = (a.x[i] - b.x[j], a.y[i] - b.y[j]);
         dx * dx + dy * dy < e2
     })
@@ -123,8 +125,8 @@ fn boxes_within(a: Traj<'_>, b: Traj<'_>, eps: f64) -> bool {
 }
 
 /// `joint_length / min(n, m)`.
-pub fn joint_similarity(a: Traj<'_>, b: Traj<'_>, p: &IndexParams) -> f64 {
-    super::time_window::ratio(joint_length(a, b, p), a.len(), b.len())
+pub fn joint_similarity(a: Traj<'_>, b: Traj<'_>, p: &IndexParams) -> Result<f64, LcssError> {
+    Ok(super::time_window::ratio(joint_length(a, b, p)?, a.len(), b.len()))
 }
 
 #[cfg(test)]
@@ -154,12 +156,12 @@ mod tests {
             let ny = naive::table(n, m, |i, j| i.abs_diff(j) <= du && (ay[i] - by[j]).abs() < eps)[n][m] as usize;
             let nj = naive::table(n, m, |i, j| i.abs_diff(j) <= du && (ax[i] - bx[j]).hypot(ay[i] - by[j]) < eps)[n][m] as usize;
             let rejected = n == 0 || m == 0 || (n.min(m) as f64) < rho.unwrap_or(0.0) * n.max(m) as f64;
-            let r = s1(Traj::new(&at, &ax, &ay), Traj::new(&bt, &bx, &by), &p);
+            let r = s1(Traj::new(&at, &ax, &ay), Traj::new(&bt, &bx, &by), &p).unwrap();
             if rejected {
                 prop_assert_eq!((r.lx, r.ly), (0, 0));
             } else {
                 prop_assert_eq!((r.lx, r.ly), (nx, ny));
-                prop_assert_eq!(joint_length(Traj::new(&at, &ax, &ay), Traj::new(&bt, &bx, &by), &p), nj);
+                prop_assert_eq!(joint_length(Traj::new(&at, &ax, &ay), Traj::new(&bt, &bx, &by), &p), Ok(nj));
             }
         }
     }
@@ -180,14 +182,14 @@ mod tests {
         // a one-cell band a non-match resets the count. The true banded LCSS counts the 3
         // diagonal matches: 3/12 (checked against the full table in the property test above).
         let p0 = IndexParams::new(0, 0.5, None).unwrap();
-        assert_eq!(joint_similarity(a, b, &p0), 0.25);
+        assert_eq!(joint_similarity(a, b, &p0), Ok(0.25));
         for (d, e, want) in [
             (1, 0.5, 0.3333333333333333),
             (2, 1.0, 0.9166666666666666),
             (3, 0.25, 0.08333333333333333),
         ] {
             let p = IndexParams::new(d, e, None).unwrap();
-            assert_eq!(joint_similarity(a, b, &p), want, "delta {d} eps {e}");
+            assert_eq!(joint_similarity(a, b, &p), Ok(want), "delta {d} eps {e}");
         }
     }
 

@@ -9,6 +9,11 @@
 //!
 //! Every parameter is checked once, in [`time_window::TimeWindowParams`] or
 //! [`index::IndexParams`]; a violation is an [`LcssError`].
+//!
+//! The work limit `lcss_cells` is checked by the engine ([`band::lcss_len`],
+//! [`band::BandTable::build`]) from the band's cells before the work, so every form and every
+//! caller (SQL functions, merge, clustering) obeys it: the forms return
+//! `Result<_, LcssError>` and a table over the limit is [`LcssError::Work`].
 
 use std::fmt;
 

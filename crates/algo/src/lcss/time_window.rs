@@ -65,12 +65,10 @@ impl TimeWindowParams {
     }
 }
 
-/// The time band of eq. 2.9 (`|t_a − t_b| < T`, [`Bound::Open`]) as the engine's row function:
-/// row `i` gets the window of B's times within T of `a_t[i]`. Both inputs must be sorted.
-fn time_band<'a>(a_t: &'a [f64], b_t: &'a [f64], tw: f64) -> impl FnMut(usize) -> (usize, usize) + 'a {
-    let mut band = TimeBand::new(a_t, b_t, tw, Bound::Open);
-    // the engine asks for every row once, in order: the iterator's next window is row i's
-    move |_| band.next().unwrap_or_default()
+/// The time band of eq. 2.9: for every point of A, B's points with `|t_a − t_b| < T`
+/// ([`Bound::Open`]). Both inputs must be sorted.
+fn time_band<'a>(a_t: &'a [f64], b_t: &'a [f64], tw: f64) -> TimeBand<'a> {
+    TimeBand::new(a_t, b_t, tw, Bound::Open)
 }
 
 /// Half-open index range of the sorted times `t` that lie in `(lo, hi)`.
@@ -119,7 +117,7 @@ const BLOCK: usize = 8;
 /// the bands stay monotone (an emptied row becomes `(lo, lo)`). O(n + m).
 fn pruned_bands(a: Traj<'_>, b: Traj<'_>, eps: f64, tw: f64) -> Vec<(usize, usize)> {
     let (n, m) = (a.len(), b.len());
-    let mut bands: Vec<(usize, usize)> = TimeBand::new(a.t, b.t, tw, Bound::Open).collect();
+    let mut bands: Vec<(usize, usize)> = time_band(a.t, b.t, tw).collect();
     let bboxes: Vec<(f64, f64, f64, f64)> =
         (0..m.div_ceil(BLOCK)).map(|k| bbox(b, (k * BLOCK, ((k + 1) * BLOCK).min(m)))).collect();
     for r0 in (0..n).step_by(BLOCK) {
@@ -150,17 +148,20 @@ pub fn check_work(a_t: &[f64], b_t: &[f64], tw: f64) -> Result<(), LcssError> {
 
 /// The cells of the LCSS table inside the time band (before pruning). O(n + m); sorted times.
 pub fn band_cells(a_t: &[f64], b_t: &[f64], tw: f64) -> u128 {
-    TimeBand::new(a_t, b_t, tw, Bound::Open).cells()
+    time_band(a_t, b_t, tw).cells()
 }
 
-/// `L_{ε,T,ξ}(A, B)` of eq. 2.9. Inputs must satisfy [`Traj::validate`].
-pub fn length(a: Traj<'_>, b: Traj<'_>, p: &TimeWindowParams) -> usize {
+/// `L_{ε,T,ξ}(A, B)` of eq. 2.9. Inputs must satisfy [`Traj::validate`]. The band's cells
+/// are checked against `lcss_cells` before the work ([`check_work`], then the engine on the
+/// pruned band).
+pub fn length(a: Traj<'_>, b: Traj<'_>, p: &TimeWindowParams) -> Result<usize, LcssError> {
     if p.too_short(a.len(), b.len()) || !may_match(a, b, p.epsilon, p.time_window) {
-        return 0;
+        return Ok(0);
     }
+    check_work(a.t, b.t, p.time_window)?;
     let e2 = p.epsilon * p.epsilon;
     let bands = pruned_bands(a, b, p.epsilon, p.time_window);
-    lcss_len(a.len(), b.len(), |i| bands[i], |i, j| {
+    lcss_len(a.len(), b.len(), bands.iter().copied(), |i, j| {
         let (dx, dy) = (a.x[i] - b.x[j], a.y[i] - b.y[j]);
         dx * dx + dy * dy < e2
     })
@@ -176,8 +177,8 @@ pub fn ratio(l: usize, n: usize, m: usize) -> f64 {
 }
 
 /// η of eq. 2.10: `L / min(|A|, |B|)`, 0 for an empty side or one shorter than ξ.
-pub fn similarity(a: Traj<'_>, b: Traj<'_>, p: &TimeWindowParams) -> f64 {
-    ratio(length(a, b, p), a.len(), b.len())
+pub fn similarity(a: Traj<'_>, b: Traj<'_>, p: &TimeWindowParams) -> Result<f64, LcssError> {
+    Ok(ratio(length(a, b, p)?, a.len(), b.len()))
 }
 
 /// The check before a traceback table is built from `bands`: the bytes it may take
@@ -187,9 +188,13 @@ fn check_table(bands: impl Iterator<Item = (usize, usize)>, n: usize) -> Result<
     limits::MEMORY_BYTES.check(table_bytes(n, cells)).map_err(LcssError::Memory)
 }
 
-/// Builds the traceback table and backtracks it, turning a failed allocation into an error.
-fn traceback(n: usize, m: usize, band: impl FnMut(usize) -> (usize, usize), is_match: impl Fn(usize, usize) -> bool + Copy) -> Result<Vec<(usize, usize)>, LcssError> {
-    let table = BandTable::build(n, m, band, is_match).map_err(|bytes| LcssError::Alloc { bytes })?;
+/// Builds the traceback table and backtracks it (a failed allocation is [`LcssError::Alloc`]).
+fn traceback<B>(n: usize, m: usize, band: B, is_match: impl Fn(usize, usize) -> bool + Copy) -> Result<Vec<(usize, usize)>, LcssError>
+where
+    B: IntoIterator<Item = (usize, usize)>,
+    B::IntoIter: Clone,
+{
+    let table = BandTable::build(n, m, band, is_match)?;
     Ok(table.backtrack(m, is_match))
 }
 
@@ -209,7 +214,7 @@ pub fn matches(a: Traj<'_>, b: Traj<'_>, p: &TimeWindowParams) -> Result<Vec<(us
     check_work(a.t, b.t, p.time_window)?;
     let bands = pruned_bands(a, b, p.epsilon, p.time_window);
     check_table(bands.iter().copied(), a.len())?;
-    traceback(a.len(), b.len(), |i| bands[i], is_match)
+    traceback(a.len(), b.len(), bands.iter().copied(), is_match)
 }
 
 /// The positions in `a` and in `b` of the points a region kept.
@@ -229,12 +234,12 @@ fn restricted<R>(a: Traj<'_>, b: Traj<'_>, region: Option<&Region>, f: impl FnOn
 }
 
 /// [`length`] counted inside `region` (eq. 2.10's `L` on `P^{k∩l}`).
-pub fn length_in(a: Traj<'_>, b: Traj<'_>, p: &TimeWindowParams, region: Option<&Region>) -> usize {
+pub fn length_in(a: Traj<'_>, b: Traj<'_>, p: &TimeWindowParams, region: Option<&Region>) -> Result<usize, LcssError> {
     restricted(a, b, region, |a, b| length(a, b, p)).0
 }
 
 /// [`similarity`] inside `region`: η of eq. 2.10 with both lengths counted inside it.
-pub fn similarity_in(a: Traj<'_>, b: Traj<'_>, p: &TimeWindowParams, region: Option<&Region>) -> f64 {
+pub fn similarity_in(a: Traj<'_>, b: Traj<'_>, p: &TimeWindowParams, region: Option<&Region>) -> Result<f64, LcssError> {
     restricted(a, b, region, |a, b| similarity(a, b, p)).0
 }
 
@@ -246,18 +251,19 @@ pub fn matches_in(a: Traj<'_>, b: Traj<'_>, p: &TimeWindowParams, region: Option
     }
 }
 
-/// 1-D LCSS length on series: match when `|v_a − v_b| < ε` and `|t_a − t_b| < T`.
-pub fn series_length(a: Series<'_>, b: Series<'_>, p: &TimeWindowParams) -> usize {
+/// 1-D LCSS length on series: match when `|v_a − v_b| < ε` and `|t_a − t_b| < T` (checked
+/// against `lcss_cells` by the engine).
+pub fn series_length(a: Series<'_>, b: Series<'_>, p: &TimeWindowParams) -> Result<usize, LcssError> {
     if p.too_short(a.len(), b.len()) {
-        return 0;
+        return Ok(0);
     }
     let eps = p.epsilon;
     lcss_len(a.len(), b.len(), time_band(a.t, b.t, p.time_window), |i, j| (a.v[i] - b.v[j]).abs() < eps)
 }
 
 /// 1-D η: `series_length / min(|A|, |B|)`.
-pub fn series_similarity(a: Series<'_>, b: Series<'_>, p: &TimeWindowParams) -> f64 {
-    ratio(series_length(a, b, p), a.len(), b.len())
+pub fn series_similarity(a: Series<'_>, b: Series<'_>, p: &TimeWindowParams) -> Result<f64, LcssError> {
+    Ok(ratio(series_length(a, b, p)?, a.len(), b.len()))
 }
 
 /// Matched pairs of the 1-D form (checked and allocated as [`matches`]).
@@ -268,7 +274,7 @@ pub fn series_matches(a: Series<'_>, b: Series<'_>, p: &TimeWindowParams) -> Res
     let eps = p.epsilon;
     let is_match = |i: usize, j: usize| (a.v[i] - b.v[j]).abs() < eps;
     check_work(a.t, b.t, p.time_window)?;
-    check_table(TimeBand::new(a.t, b.t, p.time_window, Bound::Open), a.len())?;
+    check_table(time_band(a.t, b.t, p.time_window), a.len())?;
     traceback(a.len(), b.len(), time_band(a.t, b.t, p.time_window), is_match)
 }
 
@@ -313,19 +319,19 @@ mod tests {
             if !short && at.len() <= 7 && bt.len() <= 7 {
                 prop_assert_eq!(naive::recursive(at.len(), bt.len(), ok), want);
             }
-            prop_assert_eq!(length(a, b, &p) as u32, want);
-            prop_assert_eq!(length(b, a, &p) as u32, want, "symmetry");
+            prop_assert_eq!(length(a, b, &p).unwrap() as u32, want);
+            prop_assert_eq!(length(b, a, &p).unwrap() as u32, want, "symmetry");
             let m = matches(a, b, &p).unwrap();
             prop_assert_eq!(m.len() as u32, want);
             for &(i, j) in &m { prop_assert!(ok(i, j)); }
             for w in m.windows(2) { prop_assert!(w[0].0 < w[1].0 && w[0].1 < w[1].1); }
-            let s = similarity(a, b, &p);
+            let s = similarity(a, b, &p).unwrap();
             prop_assert!((0.0..=1.0).contains(&s));
             // 1-D form on x only equals the 2-D form with y = 0.
             let zeros_a = vec![0.0; at.len()];
             let zeros_b = vec![0.0; bt.len()];
-            let l1 = series_length(Series::new(&at, &ax), Series::new(&bt, &bx), &p);
-            let l2 = length(Traj::new(&at, &ax, &zeros_a), Traj::new(&bt, &bx, &zeros_b), &p);
+            let l1 = series_length(Series::new(&at, &ax), Series::new(&bt, &bx), &p).unwrap();
+            let l2 = length(Traj::new(&at, &ax, &zeros_a), Traj::new(&bt, &bx, &zeros_b), &p).unwrap();
             prop_assert_eq!(l1, l2);
             prop_assert_eq!(series_matches(Series::new(&at, &ax), Series::new(&bt, &bx), &p).unwrap().len(), l1);
         }
@@ -359,7 +365,7 @@ mod tests {
             };
             let want = naive::table(at.len(), bt.len(), ok)[at.len()][bt.len()];
             let (a, b) = (Traj::new(&at, &ax, &ay), Traj::new(&bt, &bx, &by));
-            prop_assert_eq!(length(a, b, &p) as u32, want);
+            prop_assert_eq!(length(a, b, &p).unwrap() as u32, want);
             let m = matches(a, b, &p).unwrap();
             prop_assert_eq!(m.len() as u32, want);
             for &(i, j) in &m { prop_assert!(ok(i, j)); }
@@ -397,6 +403,28 @@ mod tests {
         );
     }
 
+    /// Issue 27: every time-window form obeys lcss_cells (the engine checks the band before
+    /// the work), not only the ones whose SQL binding checked it first.
+    #[test]
+    fn every_form_obeys_the_cell_limit() {
+        use crate::limits::{with_scope, Limits};
+        let t: Vec<f64> = (0..30).map(|k| k as f64).collect();
+        let z = vec![0.0; 30];
+        let (a, s) = (Traj::new(&t, &t, &z), Series::new(&t, &t));
+        let p = TimeWindowParams::new(1.0, f64::INFINITY, 0).unwrap();
+        let l = std::sync::Arc::new(Limits::default());
+        l.set("lcss_cells", 899).unwrap();
+        let work = |e: LcssError| matches!(e, LcssError::Work(x) if x.needed == 900);
+        assert!(work(with_scope(&l, || length(a, a, &p)).unwrap_err()));
+        assert!(work(with_scope(&l, || similarity_in(a, a, &p, None)).unwrap_err()));
+        assert!(work(with_scope(&l, || matches(a, a, &p)).unwrap_err()));
+        assert!(work(with_scope(&l, || series_length(s, s, &p)).unwrap_err()));
+        assert!(work(with_scope(&l, || series_matches(s, s, &p)).unwrap_err()));
+        l.set("lcss_cells", 900).unwrap();
+        assert_eq!(with_scope(&l, || length(a, a, &p)), Ok(30));
+        assert_eq!(with_scope(&l, || series_length(s, s, &p)), Ok(30));
+    }
+
     #[test]
     fn params_are_checked() {
         assert_eq!(TimeWindowParams::new(-1.0, 1.0, 0).unwrap_err().to_string(), "epsilon must be > 0, got -1");
@@ -416,11 +444,11 @@ mod tests {
         let y = vec![0.0; 10];
         let p = TimeWindowParams::new(0.5, 1.0, 3).unwrap();
         let (a, b) = (Traj::new(&at, &ax, &y), Traj::new(&bt, &bx, &y));
-        assert_eq!(length(a, b, &p), 10);
-        assert_eq!(similarity(a, b, &p), 1.0);
+        assert_eq!(length(a, b, &p), Ok(10));
+        assert_eq!(similarity(a, b, &p), Ok(1.0));
         assert_eq!(matches(a, b, &p).unwrap(), (0..10).map(|k| (k, k)).collect::<Vec<_>>());
         // ξ larger than either side gives 0.
         let p = TimeWindowParams::new(0.5, 1.0, 11).unwrap();
-        assert_eq!(similarity(a, b, &p), 0.0);
+        assert_eq!(similarity(a, b, &p), Ok(0.0));
     }
 }

@@ -93,12 +93,12 @@ pub(crate) fn candidate_cells(a: &[f64], b: &[f64], delta: usize, epsilon: f64) 
 
 /// Best translation on one axis: `(length, c)`. With ε = ∞ every translation is optimal and
 /// `c = 0` is returned.
-pub fn best_axis_translation(a: &[f64], b: &[f64], delta: usize, epsilon: f64) -> (usize, f64) {
+pub fn best_axis_translation(a: &[f64], b: &[f64], delta: usize, epsilon: f64) -> Result<(usize, f64), LcssError> {
     if a.is_empty() || b.is_empty() {
-        return (0, 0.0);
+        return Ok((0, 0.0));
     }
     if !epsilon.is_finite() {
-        return (axis_length(a, b, delta, epsilon, 0.0), 0.0);
+        return Ok((axis_length(a, b, delta, epsilon, 0.0)?, 0.0));
     }
     let mut cells = candidate_cells(a, b, delta, epsilon);
     cells.sort_by(|p, q| q.0.cmp(&p.0).then(p.1.total_cmp(&q.1)));
@@ -113,9 +113,15 @@ pub fn best_axis_translation(a: &[f64], b: &[f64], delta: usize, epsilon: f64) -
         let todo: Vec<(u32, f64)> = cells[k..end].iter().copied().filter(|c| c.0 as usize > best).collect();
         let lens: Vec<usize> = if batch > 1 {
             use rayon::prelude::*;
-            todo.par_iter().map(|&(_, c)| axis_length(a, b, delta, epsilon, c)).collect()
+            // the workers check the work limit of the caller's scope
+            let scope = crate::limits::current();
+            let len = |c: f64| match &scope {
+                Some(l) => crate::limits::with_scope(l, || axis_length(a, b, delta, epsilon, c)),
+                None => axis_length(a, b, delta, epsilon, c),
+            };
+            todo.par_iter().map(|&(_, c)| len(c)).collect::<Result<_, _>>()?
         } else {
-            todo.iter().map(|&(_, c)| axis_length(a, b, delta, epsilon, c)).collect()
+            todo.iter().map(|&(_, c)| axis_length(a, b, delta, epsilon, c)).collect::<Result<_, _>>()?
         };
         for (&(_, c), l) in todo.iter().zip(lens) {
             if l > best {
@@ -125,7 +131,7 @@ pub fn best_axis_translation(a: &[f64], b: &[f64], delta: usize, epsilon: f64) -
         }
         k = end;
     }
-    (best, best_c)
+    Ok((best, best_c))
 }
 
 /// Inputs with at least this many points (n + m) search translations on all cores.
@@ -150,18 +156,18 @@ pub fn check_size(n: usize, m: usize, p: &IndexParams) -> Result<(), LcssError> 
 /// [`s2`] after [`check_size`]: the form for untrusted input sizes.
 pub fn s2_checked(a: Traj<'_>, b: Traj<'_>, p: &IndexParams) -> Result<S2, LcssError> {
     check_size(a.len(), b.len(), p)?;
-    Ok(s2(a, b, p))
+    s2(a, b, p)
 }
 
 /// `S2_2D(δ, ε, A, B)` with the ρ test of definition 4.1.
-pub fn s2(a: Traj<'_>, b: Traj<'_>, p: &IndexParams) -> S2 {
+pub fn s2(a: Traj<'_>, b: Traj<'_>, p: &IndexParams) -> Result<S2, LcssError> {
     if p.rejects(a.len(), b.len()) {
-        return S2 { lx: 0, ly: 0, sx: 0.0, sy: 0.0, cx: 0.0, cy: 0.0 };
+        return Ok(S2 { lx: 0, ly: 0, sx: 0.0, sy: 0.0, cx: 0.0, cy: 0.0 });
     }
-    let (lx, cx) = best_axis_translation(a.x, b.x, p.delta(), p.epsilon());
-    let (ly, cy) = best_axis_translation(a.y, b.y, p.delta(), p.epsilon());
+    let (lx, cx) = best_axis_translation(a.x, b.x, p.delta(), p.epsilon())?;
+    let (ly, cy) = best_axis_translation(a.y, b.y, p.delta(), p.epsilon())?;
     let k = a.len().min(b.len()) as f64;
-    S2 { lx, ly, sx: lx as f64 / k, sy: ly as f64 / k, cx, cy }
+    Ok(S2 { lx, ly, sx: lx as f64 / k, sy: ly as f64 / k, cx, cy })
 }
 
 #[cfg(test)]
@@ -178,16 +184,17 @@ mod tests {
         fn pruned_search_equals_exhaustive(a in vals(9), b in vals(9), d in 0usize..4,
                                            eps in prop::sample::select(vec![0.25, 0.5, 1.0]),
                                            shifts in prop::collection::vec(-5.0f64..5.0, 8)) {
-            let (got, c) = best_axis_translation(&a, &b, d, eps);
+            let (got, c) = best_axis_translation(&a, &b, d, eps).unwrap();
+            let len = |c: f64| axis_length(&a, &b, d, eps, c).unwrap();
             // Exhaustive: every cell representative, no pruning.
             let exhaustive = candidate_cells(&a, &b, d, eps).iter()
-                .map(|&(_, c)| axis_length(&a, &b, d, eps, c)).max().unwrap_or(0);
+                .map(|&(_, c)| len(c)).max().unwrap_or(0);
             prop_assert_eq!(got, exhaustive);
             // The returned translation achieves it.
-            prop_assert_eq!(axis_length(&a, &b, d, eps, c), got);
+            prop_assert_eq!(len(c), got);
             // No random translation beats it.
-            for s in shifts { prop_assert!(axis_length(&a, &b, d, eps, s) <= got); }
-            prop_assert!(axis_length(&a, &b, d, eps, 0.0) <= got);
+            for s in shifts { prop_assert!(len(s) <= got); }
+            prop_assert!(len(0.0) <= got);
         }
     }
 
@@ -196,14 +203,14 @@ mod tests {
         let n = PARALLEL_MIN_POINTS;
         let a: Vec<f64> = (0..n).map(|k| ((k * 7919) % 101) as f64 * 0.1).collect();
         let b: Vec<f64> = (0..n).map(|k| ((k * 104729) % 97) as f64 * 0.1 + 3.0).collect();
-        let (l, c) = best_axis_translation(&a, &b, 1, 0.05);
+        let (l, c) = best_axis_translation(&a, &b, 1, 0.05).unwrap();
         // Sequential evaluation of the same ordered cells gives the same answer.
         let mut cells = candidate_cells(&a, &b, 1, 0.05);
         cells.sort_by(|p, q| q.0.cmp(&p.0).then(p.1.total_cmp(&q.1)));
         let mut best = (0, 0.0);
         for (bound, cc) in cells {
             if bound as usize <= best.0 { break; }
-            let v = axis_length(&a, &b, 1, 0.05, cc);
+            let v = axis_length(&a, &b, 1, 0.05, cc).unwrap();
             if v > best.0 { best = (v, cc); }
         }
         assert_eq!((l, c), best);
@@ -220,7 +227,7 @@ mod tests {
         let by: Vec<f64> = ay.iter().map(|v| v + 7.5).collect();
         let t = vec![0.0; 20];
         let p = IndexParams::new(2, 0.1, None).unwrap();
-        let r = s2(Traj::new(&t, &ax, &ay), Traj::new(&t, &bx, &by), &p);
+        let r = s2(Traj::new(&t, &ax, &ay), Traj::new(&t, &bx, &by), &p).unwrap();
         assert_eq!((r.lx, r.ly), (20, 20));
         assert!((r.cx - 100.0).abs() < 0.1 && (r.cy + 7.5).abs() < 0.1, "{r:?}");
         assert_eq!(r.sx, 1.0);

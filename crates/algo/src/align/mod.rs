@@ -15,6 +15,8 @@ pub mod correspond;
 pub mod cpd;
 pub mod fft;
 pub mod cpd3;
+#[cfg(test)]
+mod cpd_pinned;
 pub mod rigid;
 pub mod shift;
 pub mod shift_under;

@@ -36,9 +36,9 @@ if [ ! -x "$VENV/bin/python" ]; then python3 -m venv "$VENV"; fi
 "$VENV/bin/pip" install -q --disable-pip-version-check -r requirements-test.txt
 python3 tests/test_footer.py && python3 tests/test_footer.py "$EXT"
 "$VENV/bin/python" - "$EXT" <<'PY'
-import sys, duckdb
+import os, sys, duckdb
 con = duckdb.connect(config={"allow_unsigned_extensions": "true"})
-con.execute(f"LOAD '{sys.argv[1]}'")
+con.execute(f"LOAD '{os.path.abspath(sys.argv[1])}'")  # a bare file name goes to the system loader
 now = con.execute("SELECT trajdb_reference('markdown')").fetchall()[0][0]
 if open("docs/functions.md").read() != now:
     open(sys.argv[1] + ".functions.md", "w").write(now)

@@ -160,21 +160,18 @@ fn time_window_rows<T, E: Error + 'static>(
     })
 }
 
-/// For the infallible forms.
-type Never = std::convert::Infallible;
-
 fn length(a: &Args<'_>, out: &mut Out<'_>) -> R {
-    out.flat(&time_window_rows(a, |x, y, p, reg| Ok::<_, Never>(tw::length_in(x, y, p, reg) as i64))?);
+    out.flat(&time_window_rows(a, |x, y, p, reg| tw::length_in(x, y, p, reg).map(|l| l as i64))?);
     Ok(())
 }
 
 fn similarity(a: &Args<'_>, out: &mut Out<'_>) -> R {
-    out.flat(&time_window_rows(a, |x, y, p, reg| Ok::<_, Never>(tw::similarity_in(x, y, p, reg)))?);
+    out.flat(&time_window_rows(a, tw::similarity_in)?);
     Ok(())
 }
 
 fn distance(a: &Args<'_>, out: &mut Out<'_>) -> R {
-    out.flat(&time_window_rows(a, |x, y, p, reg| Ok::<_, Never>(1.0 - tw::similarity_in(x, y, p, reg)))?);
+    out.flat(&time_window_rows(a, |x, y, p, reg| tw::similarity_in(x, y, p, reg).map(|s| 1.0 - s))?);
     Ok(())
 }
 
@@ -205,12 +202,12 @@ fn series_rows<T, E: Error + 'static>(
 }
 
 fn series_length(a: &Args<'_>, out: &mut Out<'_>) -> R {
-    out.flat(&series_rows(a, |x, y, p| Ok::<_, Never>(tw::series_length(x, y, p) as i64))?);
+    out.flat(&series_rows(a, |x, y, p| tw::series_length(x, y, p).map(|l| l as i64))?);
     Ok(())
 }
 
 fn series_similarity(a: &Args<'_>, out: &mut Out<'_>) -> R {
-    out.flat(&series_rows(a, |x, y, p| Ok::<_, Never>(tw::series_similarity(x, y, p)))?);
+    out.flat(&series_rows(a, tw::series_similarity)?);
     Ok(())
 }
 
@@ -236,13 +233,13 @@ fn index_rows<T>(
 }
 
 fn index_similarity(a: &Args<'_>, out: &mut Out<'_>) -> R {
-    out.flat(&index_rows(a, |x, y, p| Ok(index::joint_similarity(x, y, p)))?);
+    out.flat(&index_rows(a, |x, y, p| Ok(index::joint_similarity(x, y, p)?))?);
     Ok(())
 }
 
 fn s1(a: &Args<'_>, out: &mut Out<'_>) -> R {
     let vals = index_rows(a, |x, y, p| {
-        let s = index::s1(x, y, p);
+        let s = index::s1(x, y, p)?;
         Ok(vec![Value::F64(s.sx), Value::F64(s.sy)])
     })?;
     out.structs(&vals);

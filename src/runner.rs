@@ -1,44 +1,49 @@
 //! The pipeline runner of `CALL trajdb_pipeline(...)`: executes the statements of
-//! [`trajdb_app::plan`] on a connection of the caller's database.
+//! [`trajdb_app::plan`] in a private in-memory database opened for the call.
 //!
-//! # Why a second connection, and why it is safe
+//! # Why a private database, and why it is safe
 //! DuckDB's C API (v1, the one this extension targets) gives a function no way to run SQL on
-//! the connection that called it (a C++ extension would use its `ClientContext`). What it does
-//! give, once, is the database at LOAD: [`Runner::open`] opens one connection on it then (the
-//! database handle of the load is not valid afterwards), kept for the database's lifetime.
-//! - **Catalog.** The runner's connection sees the caller's persistent tables and views and
-//!   the files the caller may read; not the caller's TEMP objects or Python-registered
-//!   DataFrames (per connection in DuckDB). `trajdb.pipeline` (Python) therefore runs the same
-//!   statements on the caller's own connection (`trajdb_stages`), and `trajdb_pipeline` refuses
-//!   nothing more than DuckDB would: an input it cannot see is "neither a table nor a file".
-//! - **Settings.** `enable_external_access`, `allowed_directories`, threads and memory limits
-//!   are database-wide: the runner obeys the caller's. Variables are per connection: the
-//!   caller's `SET VARIABLE`s do not leak in (parameters come as named arguments, checked).
-//! - **Transactions.** Every statement of a run commits on its own (autocommit), as in the
-//!   DuckDB CLI; the work tables are TEMP on the runner's connection, so a caller's open
-//!   transaction never sees half a run, and nothing of the run is left in the caller's
-//!   database: after each run every TEMP object and variable of the runner's connection is
-//!   dropped (its memory freed).
-//! - **Concurrent calls** on one database take turns (a mutex): two runs never share the
-//!   runner's TEMP tables. Calls in different databases have different runners.
-//! - **Lifetime.** The kept connection holds the database open until the process ends (DuckDB
-//!   has no weak handle): a file database stays locked against OTHER processes until then.
+//! the connection that called it (a C++ extension would use its `ClientContext`), and the
+//! database handle an extension receives at LOAD is valid only during the load. A connection
+//! opened then and kept would hold the caller's database open until the process ends: a
+//! database FILE would stay locked against every other process after the user closed it
+//! (tests/test_sandbox_python.py checks that it does not). So each call opens its own
+//! in-memory DuckDB in this process, registers trajdb's functions there, runs the manifest,
+//! writes the result files and closes it:
+//! - **Sandbox.** Before any statement the private database gets the caller's file-access
+//!   settings (`enable_external_access`, `allowed_directories`, `disabled_filesystems`) as read
+//!   through the bind's client context, and its `threads` and `memory_limit`: it may read and
+//!   write exactly what the caller's SQL may. A setting that cannot be read closes access.
+//!   Work limits (`trajdb_limit`) are the caller's database's.
+//! - **Catalog.** The private database reads files (Parquet, CSV, JSON, globs), not the
+//!   caller's tables: a table or DataFrame input goes through `trajdb_stages` on the caller's
+//!   own connection (Python's `trajdb.pipeline` does that), or is written to Parquet first.
+//! - **Transactions and state.** Nothing of the run touches the caller's database: a caller's
+//!   open transaction, its TEMP tables and variables are unaffected; the private database and
+//!   all its memory are gone when the call returns.
+//! - **Concurrent calls** each have their own private database.
 //! - **Interrupts.** DuckDB's C API tells no extension about Ctrl-C; every function the
-//!   pipeline calls is bounded by the work limits (trajdb_limit), and the Python runner
-//!   (statement by statement on the caller's connection) stops at the next statement.
+//!   pipeline calls is bounded by the work limits, and the Python runner (statement by
+//!   statement on the caller's connection) stops at the next statement.
 
 use duckdb::Connection;
 use std::error::Error;
-use std::sync::Mutex;
 use std::time::Instant;
 use trajdb_app::plan::Step;
 
-/// One database's runner (see the module doc).
-pub struct Runner {
-    con: Mutex<Option<Connection>>,
+/// The caller's settings the private database takes over (see the module doc).
+#[derive(Clone, Debug, Default)]
+pub struct Settings {
+    /// `enable_external_access`; `None` (unreadable) closes access.
+    pub external: Option<bool>,
+    pub allowed_directories: Vec<String>,
+    /// `disabled_filesystems` names `LocalFileSystem`.
+    pub local_disabled: bool,
+    pub threads: Option<String>,
+    pub memory_limit: Option<String>,
 }
 
-/// What a run did, one row per stage (in order), then one per warning, then the files written.
+/// What a run did, one row per stage (in order), then one per warning, then the total.
 #[derive(Clone, Debug)]
 pub struct Log {
     pub stage: String,
@@ -47,30 +52,35 @@ pub struct Log {
     pub note: String,
 }
 
-impl Runner {
-    /// Opens the runner's connection on `con`'s database: call at LOAD, while the database
-    /// handle the entry point received is valid.
-    pub fn open(con: &Connection) -> Runner {
-        Runner { con: Mutex::new(con.try_clone().ok()) }
-    }
+fn quote(s: &str) -> String {
+    format!("'{}'", s.replace('\'', "''"))
+}
 
-    /// A runner with no connection (unit tests of the registry).
-    pub fn none() -> Runner {
-        Runner { con: Mutex::new(None) }
+/// Runs `steps` in a private in-memory database with `settings`; `register` registers trajdb's
+/// functions there (the bindings, which sit above this module). When a step fails, the undos
+/// of the steps that succeeded run last-first and the error names the stage, its file and the
+/// statement.
+pub fn run(settings: &Settings, steps: &[Step], register: impl FnOnce(&Connection) -> duckdb::Result<()>) -> Result<Vec<Log>, Box<dyn Error>> {
+    let con = Connection::open_in_memory()?;
+    // the sandbox first, in the order DuckDB allows (directories before access is closed)
+    if let Some(t) = settings.threads.as_deref().and_then(|t| t.trim().parse::<i64>().ok()).filter(|t| *t > 0) {
+        con.execute_batch(&format!("SET threads = {t}"))?;
     }
-
-    /// Executes `steps` in order; when one fails, the undos of the steps that succeeded run
-    /// last-first and the error names the stage, its file and the statement. The runner's TEMP
-    /// objects and variables are dropped afterwards either way.
-    pub fn run(&self, steps: &[Step]) -> Result<Vec<Log>, Box<dyn Error>> {
-        let mut guard = self.con.lock().unwrap_or_else(|e| e.into_inner());
-        let con = guard.as_mut().ok_or("this database has no runner connection (the extension could not open one at LOAD)")?;
-        let result = execute(con, steps);
-        let cleaned = clean(con);
-        let log = result?;
-        cleaned?;
-        Ok(log)
+    if let Some(m) = settings.memory_limit.as_deref().filter(|m| !m.trim().is_empty()) {
+        con.execute_batch(&format!("SET memory_limit = {}", quote(m)))?;
     }
+    if !settings.allowed_directories.is_empty() {
+        let list: Vec<String> = settings.allowed_directories.iter().map(|d| quote(d)).collect();
+        con.execute_batch(&format!("SET allowed_directories = [{}]", list.join(", ")))?;
+    }
+    if settings.local_disabled {
+        con.execute_batch("SET disabled_filesystems = 'LocalFileSystem'")?;
+    }
+    if settings.external != Some(true) {
+        con.execute_batch("SET enable_external_access = false")?;
+    }
+    register(&con)?;
+    execute(&con, steps)
 }
 
 fn execute(con: &Connection, steps: &[Step]) -> Result<Vec<Log>, Box<dyn Error>> {
@@ -111,24 +121,4 @@ fn execute(con: &Connection, steps: &[Step]) -> Result<Vec<Log>, Box<dyn Error>>
     }
     log.push(Log { stage: "total".into(), seconds: total.elapsed().as_secs_f64(), statements: steps.len() as i64, note: String::new() });
     Ok(log)
-}
-
-/// Drops every TEMP table, view and macro of the runner's connection and resets its variables:
-/// the next run starts clean and the memory of this one is freed.
-fn clean(con: &Connection) -> Result<(), Box<dyn Error>> {
-    let drops: Vec<String> = con
-        .prepare(
-            "SELECT 'DROP ' || kind || ' IF EXISTS temp.main.\"' || replace(name, '\"', '\"\"') || '\"' FROM (
-                 SELECT 'VIEW' AS kind, view_name AS name FROM duckdb_views() WHERE temporary AND NOT internal
-                 UNION ALL SELECT 'TABLE', table_name FROM duckdb_tables() WHERE temporary
-                 UNION ALL SELECT DISTINCT CASE function_type WHEN 'table_macro' THEN 'MACRO TABLE' ELSE 'MACRO' END, function_name
-                 FROM duckdb_functions() WHERE database_name = 'temp' AND function_type IN ('macro', 'table_macro'))
-             UNION ALL SELECT 'RESET VARIABLE \"' || replace(name, '\"', '\"\"') || '\"' FROM duckdb_variables()",
-        )?
-        .query_map([], |r| r.get(0))?
-        .collect::<Result<_, _>>()?;
-    for d in drops {
-        con.execute_batch(&d)?;
-    }
-    Ok(())
 }

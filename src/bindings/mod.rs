@@ -44,6 +44,12 @@ pub fn register_all(con: &Connection) -> duckdb::Result<()> {
     registry::register(con, &functions())
 }
 
+/// Registers every trajdb function on `con` with the given work limits (a private database of
+/// `trajdb_pipeline` shares its caller's).
+pub fn register_all_with(con: &Connection, limits: std::sync::Arc<crate::algo::limits::Limits>) -> duckdb::Result<()> {
+    registry::register_with(con, &functions(), limits)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

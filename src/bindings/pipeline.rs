@@ -1,6 +1,6 @@
 //! SQL: the pipeline's one runner, for every host.
 //! - `trajdb_pipeline(input, out_dir := ..., <parameter> := value, ...)`: the whole run in one
-//!   statement (src/runner.rs executes the manifest on the database's runner connection);
+//!   statement (src/runner.rs executes the manifest in a private in-memory database with the caller's settings);
 //! - `trajdb_stages(input, out, part, params)`: the manifest itself, one row per statement, for
 //!   hosts that run the statements on their own connection (Python's `trajdb.pipeline`,
 //!   `trajdb.windows`, Spark tasks): crates/app/src/plan.rs;
@@ -17,7 +17,7 @@ use super::vector::table::{self, BindArgs, Rows, TableFn};
 use super::vector::{Args, Out};
 use crate::app::params::{self, Kind, PARAMS};
 use crate::app::plan::{self, Part, Request, Step};
-use crate::runner::Log;
+use crate::runner::{self, Settings};
 use std::error::Error;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;
@@ -60,9 +60,10 @@ const PIPELINE: Function = Function {
                   calibration.csv, matches.csv, merged.parquet, clusters.csv, links.csv, report.html), claimed before any work and \
                   replaced only when every file is written; every other named parameter is a pipeline parameter (`FROM trajdb_params()`; \
                   'auto' where measured), checked by name, type and range. Returns one row per stage (seconds, statements, its file), one \
-                  per warning and a total. It runs on the database's own runner connection, opened at LOAD: it sees this database's \
-                  tables and files but not a connection's TEMP tables or registered DataFrames (Python's trajdb.pipeline runs the same \
-                  statements on your connection instead), and its work tables are dropped afterwards: read the results from `out_dir`.",
+                  per warning and a total. It runs in a private in-memory database with this connection's file-access settings, threads, \
+                  memory and work limits (src/runner.rs): it reads files, not this database's tables (for a table or a DataFrame run \
+                  trajdb_stages on your connection, as Python's trajdb.pipeline does), and leaves nothing in this database: read the \
+                  results from `out_dir`.",
     example: "SELECT count(*) > 0 FROM trajdb_params(); -- true",
     maths: "crates/app/src/plan.rs, src/runner.rs",
     binding: file!(),
@@ -75,9 +76,11 @@ struct PipelineFn;
 /// A side effect done once per statement, on the first scan call, and its rows.
 pub struct Once<T>(Mutex<Option<Vec<T>>>);
 
+type Log = runner::Log;
+
 impl TableFn for PipelineFn {
     const TABLE: &'static Table = &PIPELINE_TABLE;
-    type Bind = (Vec<Step>, std::sync::Arc<crate::runner::Runner>);
+    type Bind = (Vec<Step>, Settings, std::sync::Arc<crate::algo::limits::Limits>);
     type Scan = Once<Log>;
 
     fn bind(args: &BindArgs<'_>) -> Result<Self::Bind, Box<dyn Error>> {
@@ -89,10 +92,18 @@ impl TableFn for PipelineFn {
         if out.trim().is_empty() {
             return Err("out_dir is '' (empty); name a results folder, e.g. out_dir := 'results'".into());
         }
-        args.file_access().may_write_into(&out)?;
+        let access = args.file_access();
+        access.may_write_into(&out)?;
         let params: Vec<(String, String)> = args.named_as_text()?.into_iter().filter(|(k, _)| k != "out_dir").collect();
         let steps = plan::plan(&Request { input, out: Some(out), part: Part::All, params })?;
-        Ok((steps, std::sync::Arc::clone(args.runner())))
+        let settings = Settings {
+            external: access.external,
+            allowed_directories: access.allowed_directories,
+            local_disabled: access.local_disabled,
+            threads: args.setting("threads"),
+            memory_limit: args.setting("memory_limit"),
+        };
+        Ok((steps, settings, std::sync::Arc::clone(args.limits())))
     }
     fn init(_: &Self::Bind) -> Result<Self::Scan, Box<dyn Error>> {
         Ok(Once(Mutex::new(None)))
@@ -101,7 +112,7 @@ impl TableFn for PipelineFn {
         let mut state = scan.0.lock().unwrap_or_else(|e| e.into_inner());
         let rows = match state.as_mut() {
             Some(rows) => rows,
-            None => state.insert(bind.1.run(&bind.0)?),
+            None => state.insert(runner::run(&bind.1, &bind.0, |con| super::register_all_with(con, std::sync::Arc::clone(&bind.2)))?),
         };
         let n = rows.len().min(Rows::CAPACITY);
         for (r, l) in rows.drain(..n).enumerate() {

@@ -19,7 +19,6 @@
 use super::vector::{Args, Out};
 use crate::algo::limits::{self, Limits};
 use std::sync::Arc;
-use crate::runner::Runner;
 use duckdb::vscalar::{ScalarFunctionSignature, VScalar};
 use duckdb::Connection;
 use std::cell::Cell;
@@ -204,8 +203,13 @@ impl VScalar for Dispatch {
 /// Registers `functions` on `con`: every overload of every scalar signature, and the table
 /// functions, all sharing one new [`Database`] (call once per database, at LOAD).
 pub fn register(con: &Connection, functions: &[&'static Function]) -> duckdb::Result<()> {
-    let limits = Arc::new(Limits::default());
-    let db = Database { limits: Arc::clone(&limits), runner: Arc::new(Runner::open(con)) };
+    register_with(con, functions, Arc::new(Limits::default()))
+}
+
+/// [`register`] with given work limits: the private database of a `trajdb_pipeline` call gets
+/// its caller's (src/runner.rs).
+pub fn register_with(con: &Connection, functions: &[&'static Function], limits: Arc<Limits>) -> duckdb::Result<()> {
+    let db = Database { limits: Arc::clone(&limits) };
     for f in functions {
         if let Some(t) = &f.table {
             (t.register)(con, f.name, &db)?;

@@ -3,7 +3,6 @@
 //! vector module, which read arguments by these declarations.
 
 use crate::algo::limits::Limits;
-use crate::runner::Runner;
 use duckdb::core::{LogicalTypeHandle, LogicalTypeId};
 use duckdb::Connection;
 use std::sync::Arc;
@@ -118,11 +117,9 @@ pub struct Table {
     pub register: fn(&Connection, &'static str, &Database) -> duckdb::Result<()>,
 }
 
-/// What every registration of one database shares: its work limits, and the pipeline runner's
-/// connection (src/runner.rs).
+/// What every registration of one database shares: its work limits.
 #[derive(Clone)]
 pub struct Database {
     pub limits: Arc<Limits>,
-    pub runner: Arc<Runner>,
 }
 

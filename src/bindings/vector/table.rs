@@ -23,7 +23,6 @@
 
 use crate::algo::limits::{self, Limits};
 use crate::bindings::types::{Database, Param, Table};
-use crate::runner::Runner;
 use duckdb::core::{DataChunkHandle, Inserter, LogicalTypeHandle, LogicalTypeId};
 use duckdb::vtab::{BindInfo, InitInfo, TableFunctionInfo, VTab, Value};
 use duckdb::Connection;
@@ -53,7 +52,6 @@ pub trait TableFn: Sized + Send + Sync + 'static {
 struct TabInfo {
     name: &'static str,
     limits: Arc<Limits>,
-    runner: Arc<Runner>,
 }
 
 /// The bind data of [`Tab`]: the registration, and the function's own.
@@ -80,7 +78,7 @@ impl<T: TableFn> VTab for Tab<T> {
         for (name, ty) in T::TABLE.columns {
             bind.add_result_column(name, ty.logical());
         }
-        let args = BindArgs { info: bind, table: T::TABLE, runner: &info.runner };
+        let args = BindArgs { info: bind, table: T::TABLE, limits: &info.limits };
         // errors are formatted inside the scope too: a message may read the limit it names
         let data = limits::with_scope(&info.limits, || T::bind(&args).map_err(|e| prefixed(info.name, e)))?;
         Ok(Bound { info, data })
@@ -112,14 +110,14 @@ impl<T: TableFn> VTab for Tab<T> {
 
 /// Registers table function `T` as `name` on `con`, bound to the database's `limits`.
 pub fn register<T: TableFn>(con: &Connection, name: &'static str, db: &Database) -> duckdb::Result<()> {
-    con.register_table_function_with_extra_info::<Tab<T>, TabInfo>(name, &TabInfo { name, limits: Arc::clone(&db.limits), runner: Arc::clone(&db.runner) })
+    con.register_table_function_with_extra_info::<Tab<T>, TabInfo>(name, &TabInfo { name, limits: Arc::clone(&db.limits) })
 }
 
 /// The arguments of one table-function call, read safely (module doc).
 pub struct BindArgs<'a> {
     info: &'a BindInfo,
     table: &'static Table,
-    runner: &'a Arc<Runner>,
+    limits: &'a Arc<Limits>,
 }
 
 /// An SQL type name for messages.
@@ -140,9 +138,17 @@ impl BindArgs<'_> {
         self.table.named.iter().find(|p| p.name == name).ok_or_else(|| format!("named parameter {name} is not declared").into())
     }
 
-    /// The database's pipeline runner (src/runner.rs).
-    pub fn runner(&self) -> &Arc<Runner> {
-        self.runner
+    /// The calling database's work limits (trajdb_limit).
+    pub fn limits(&self) -> &Arc<Limits> {
+        self.limits
+    }
+
+    /// A setting as the calling connection sees it, as text (`threads`, `memory_limit`); `None`
+    /// when it cannot be read. Only settings every supported DuckDB has: a debug DuckDB build
+    /// aborts on an unknown name.
+    pub fn setting(&self, name: &str) -> Option<String> {
+        let v = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| self.info.get_config_option(name))).ok().flatten()?;
+        (!v.is_null()).then(|| v.to_string())
     }
 
     /// Every named argument given (not NULL), as text: numbers as DuckDB prints them, booleans

@@ -97,23 +97,29 @@ mod tests {
         let r = Matrix3::new(0.0, -1.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0)
             * Matrix3::new(1.0, 0.0, 0.0, 0.0, 0.1f64.cos(), -0.1f64.sin(), 0.0, 0.1f64.sin(), 0.1f64.cos());
         let tv = Vector3::new(5.0, -3.0, 1.0);
+        let p = CpdParams::new(0.0, Some(0.5), 200, 1e-10, false, 8).unwrap();
+        recovers(&x, &y, &z, &t, r, tv, &p);
+        let one = [1.0, 2.0];
+        assert!(matches!(align3((&one, &one, &one, &one), (&one, &one, &one, &one), &p), Err(CpdError::TooFew { .. })));
+    }
+
+    /// Moves the fixed cloud by R⁻¹(p − t), aligns it back, and checks R and t; returns the fit.
+    fn recovers(x: &[f64], y: &[f64], z: &[f64], t: &[f64], r: Matrix3<f64>, tv: Vector3<f64>, p: &CpdParams) -> Cpd3Result {
         let (mut mx, mut my, mut mz) = (vec![], vec![], vec![]);
-        for k in 0..n {
+        for k in 0..x.len() {
             let v = r.transpose() * (Vector3::new(x[k], y[k], z[k]) - tv);
             mx.push(v.x);
             my.push(v.y);
             mz.push(v.z);
         }
-        let p = CpdParams::new(0.0, Some(0.5), 200, 1e-10, false, 8).unwrap();
-        let out = align3((&x, &y, &z, &t), (&mx, &my, &mz, &t), &p).unwrap();
+        let out = align3((x, y, z, t), (&mx, &my, &mz, t), p).unwrap();
         for i in 0..3 {
             for j in 0..3 {
                 assert!((out.transform.r[i][j] - r[(i, j)]).abs() < 1e-6, "{out:?}");
             }
             assert!((out.transform.t[i] - tv[i]).abs() < 1e-5, "{out:?}");
         }
-        let one = [1.0, 2.0];
-        assert!(matches!(align3((&one, &one, &one, &one), (&one, &one, &one, &one), &p), Err(CpdError::TooFew { .. })));
+        out
     }
 
     /// More than PROBE_POINTS points: the starts are probed on a strided subsample (the rule
@@ -136,21 +142,8 @@ mod tests {
         let r = Matrix3::new(c, -sn, 0.0, sn, c, 0.0, 0.0, 0.0, 1.0)
             * Matrix3::new(1.0, 0.0, 0.0, 0.0, 0.05f64.cos(), -0.05f64.sin(), 0.0, 0.05f64.sin(), 0.05f64.cos());
         let tv = Vector3::new(-7.0, 4.0, 2.0);
-        let (mut mx, mut my, mut mz) = (vec![], vec![], vec![]);
-        for k in 0..n {
-            let v = r.transpose() * (Vector3::new(x[k], y[k], z[k]) - tv);
-            mx.push(v.x);
-            my.push(v.y);
-            mz.push(v.z);
-        }
         let p = CpdParams::new(0.0, Some(0.3), 200, 1e-10, false, 8).unwrap();
-        let out = align3((&x, &y, &z, &t), (&mx, &my, &mz, &t), &p).unwrap();
-        for i in 0..3 {
-            for j in 0..3 {
-                assert!((out.transform.r[i][j] - r[(i, j)]).abs() < 1e-6, "{out:?}");
-            }
-            assert!((out.transform.t[i] - tv[i]).abs() < 1e-5, "{out:?}");
-        }
+        let out = recovers(&x, &y, &z, &t, r, tv, &p);
         assert!((out.start_theta - 2.0 * std::f64::consts::PI * 3.0 / 8.0).abs() < 1e-12, "the start nearest 2.5 rad wins: {out:?}");
     }
 }

@@ -38,11 +38,12 @@ CREATE OR REPLACE MACRO analysis_movement(turn, through_deg := 45.0, uturn_deg :
          WHEN turn > 0 THEN 'left' ELSE 'right' END;
 
 -- A gate from WKT: 'LINESTRING (x1 y1, x2 y2)' -> {x1, y1, x2, y2}; an error for anything else.
-CREATE OR REPLACE MACRO gate_from_wkt(wkt) AS (
-    SELECT CASE WHEN len(v) = 4 AND regexp_matches(wkt, '^\s*LINESTRING\s*\(', 'i')
-                THEN {'x1': v[1], 'y1': v[2], 'x2': v[3], 'y2': v[4]}
-                ELSE error('gate_from_wkt: a gate is LINESTRING (x1 y1, x2 y2) with two points, got ' || coalesce(wkt, 'NULL')) END
-    FROM (SELECT list_transform(regexp_extract_all(wkt, '[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?'), lambda s: s::DOUBLE) AS v));
+CREATE OR REPLACE MACRO analysis_wkt_numbers(wkt) AS
+    list_transform(regexp_extract_all(wkt, '[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?'), lambda s: s::DOUBLE);
+CREATE OR REPLACE MACRO gate_from_wkt(wkt) AS
+    CASE WHEN len(analysis_wkt_numbers(wkt)) = 4 AND regexp_matches(wkt, '^\s*LINESTRING\s*\(', 'i')
+         THEN {'x1': analysis_wkt_numbers(wkt)[1], 'y1': analysis_wkt_numbers(wkt)[2], 'x2': analysis_wkt_numbers(wkt)[3], 'y2': analysis_wkt_numbers(wkt)[4]}
+         ELSE error('gate_from_wkt: a gate is LINESTRING (x1 y1, x2 y2) with two points, got ' || coalesce(wkt, 'NULL')) END;
 
 -- Where segment p -> q (points of a TRAJ) crosses the gate (x1, y1)-(x2, y2): its time, or NULL.
 CREATE OR REPLACE MACRO analysis_gate_time(p, q, x1, y1, x2, y2) AS (
@@ -249,7 +250,8 @@ GROUP BY ALL ORDER BY ALL;
 
 -- ---------------------------------------------------------------- conflicts
 -- Every pair of road users whose times overlap within max_pet seconds and whose bounding boxes
--- (widened by radius) overlap: a range join, not all pairs. Per pair: traj_pet (the crossing with
+-- overlap, each widened by its reach (radius / 2 + its top speed x max_ttc: where a constant-velocity
+-- prediction can take it within max_ttc): a range join, not all pairs. Per pair: traj_pet (the crossing with
 -- the smallest PET, at most max_pet) and traj_ttc (the minimum TTC at constant velocity, radius =
 -- the sum of the two road users' radii). Kept: pairs with a PET, or a TTC of at most max_ttc.
 -- kind: SSAM's rule on the crossing angle: rear-end (< 30 deg), lane-change (30-85), crossing (> 85).
@@ -258,7 +260,9 @@ CREATE OR REPLACE MACRO conflicts(tbl := 'merged', max_pet := 5.0, radius := 2.0
 WITH r AS (
     SELECT road_user, class, traj, traj[1].t AS t0, traj[-1].t AS t1,
            list_min([p.x FOR p IN traj]) AS xmin, list_max([p.x FOR p IN traj]) AS xmax,
-           list_min([p.y FOR p IN traj]) AS ymin, list_max([p.y FOR p IN traj]) AS ymax
+           list_min([p.y FOR p IN traj]) AS ymin, list_max([p.y FOR p IN traj]) AS ymax,
+           -- how far a prediction can reach within max_ttc: half the radius plus the top speed times max_ttc
+           radius::DOUBLE / 2 + coalesce(list_max([s.v FOR s IN traj_speeds(traj)]), 0) * max_ttc::DOUBLE AS reach
     FROM query_table(tbl) WHERE len(traj) >= 2
 ),
 pairs AS (
@@ -267,8 +271,8 @@ pairs AS (
     FROM r a JOIN r b
       ON a.road_user < b.road_user
      AND a.t0 <= b.t1 + max_pet AND b.t0 <= a.t1 + max_pet
-     AND a.xmin <= b.xmax + radius AND b.xmin <= a.xmax + radius
-     AND a.ymin <= b.ymax + radius AND b.ymin <= a.ymax + radius
+     AND a.xmin - a.reach <= b.xmax + b.reach AND b.xmin - b.reach <= a.xmax + a.reach
+     AND a.ymin - a.reach <= b.ymax + b.reach AND b.ymin - b.reach <= a.ymax + a.reach
 )
 SELECT road_user_a, class_a, road_user_b, class_b,
        p.pet, p.x AS pet_x, p.y AS pet_y, p.t_first, p.t_second, p.angle AS angle_deg,
@@ -285,7 +289,7 @@ ORDER BY coalesce(p.pet, 1e300), road_user_a, road_user_b;
 -- and delta samples of warping, cut at threshold): lanes and paths within one movement. One row per
 -- pattern: its road users, their classes, and the member of median length as its example.
 -- Road users with an unknown movement are not clustered.
-CREATE OR REPLACE MACRO routes(tbl := 'merged', epsilon := 2.5, delta := 30, threshold := 0.5, gates := NULL, left_handed := false,
+CREATE OR REPLACE MACRO routes(tbl := 'merged', epsilon := 1.5, delta := 30, threshold := 0.5, gates := NULL, left_handed := false,
                                head_m := 5.0, through_deg := 45.0, uturn_deg := 135.0, centre_x := NULL, centre_y := NULL,
                                min_radius_m := 8.0, gap_deg := 25.0, min_users := 3) AS TABLE
 WITH m AS (FROM road_user_movements(tbl := tbl, gates := gates, left_handed := left_handed, head_m := head_m, through_deg := through_deg,
@@ -293,17 +297,22 @@ WITH m AS (FROM road_user_movements(tbl := tbl, gates := gates, left_handed := l
                                     gap_deg := gap_deg, min_users := min_users)
            WHERE movement IS NOT NULL),
 p AS (SELECT m.*, traj_resample(t.traj, 1.0) AS traj FROM m JOIN query_table(tbl) t USING (road_user)),
-c AS (
+cl AS (
     SELECT approach_in, approach_out, movement,
-           unnest(traj_cluster(list(road_user ORDER BY road_user), list(traj ORDER BY road_user), 'average',
-                               threshold::DOUBLE, delta::BIGINT, epsilon::DOUBLE)) AS k
-    FROM p WHERE len(traj) >= 2 GROUP BY ALL
+           traj_cluster(list(road_user ORDER BY road_user), list(traj ORDER BY road_user), 'average',
+                        threshold::DOUBLE, delta::BIGINT, epsilon::DOUBLE) AS ks
+    FROM p WHERE len(traj) >= 2 GROUP BY approach_in, approach_out, movement
 ),
+c AS (SELECT approach_in, approach_out, movement, unnest(ks) AS k FROM cl),
 j AS (SELECT c.approach_in, c.approach_out, c.movement, k.cluster AS pattern, p.road_user, p.class, traj_length_m(p.traj) AS len
-      FROM c JOIN p ON p.road_user = k.id)
+      FROM c JOIN p ON p.road_user = k.id),
+cc AS (
+    SELECT approach_in, approach_out, movement, pattern, string_agg(class || ' ' || n, ', ' ORDER BY class) AS classes
+    FROM (SELECT approach_in, approach_out, movement, pattern, class, count(*) AS n FROM j GROUP BY ALL)
+    GROUP BY ALL
+)
 SELECT approach_in, approach_out, movement, pattern, count(*) AS road_users, list(road_user ORDER BY road_user) AS road_user_ids,
-       (SELECT string_agg(cl || ' ' || n, ', ' ORDER BY cl) FROM (SELECT unnest(map_keys(hist)) AS cl, unnest(map_values(hist)) AS n)) AS classes,
-       list(road_user ORDER BY len)[(count(*) + 1) // 2] AS example_road_user
-FROM (SELECT *, histogram(class) OVER (PARTITION BY approach_in, approach_out, movement, pattern) AS hist FROM j)
+       any_value(cc.classes) AS classes, list(road_user ORDER BY len, road_user)[(count(*) + 1) // 2] AS example_road_user
+FROM j JOIN cc USING (approach_in, approach_out, movement, pattern)
 GROUP BY approach_in, approach_out, movement, pattern
 ORDER BY road_users DESC, approach_in, approach_out, pattern;

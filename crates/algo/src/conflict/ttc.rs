@@ -149,7 +149,7 @@ mod tests {
         let b = tr(&[(0.0, 30.0, 0.0), (1.0, 40.0, 0.0)]);
         let c = ttc(a.view(), b.view(), 5.0).unwrap().unwrap();
         // at t = 1 the gap is 25 m closing at 5 m/s: (25 - 5) / 5 = 4 s
-        assert!((c.ttc - 4.0).abs() < 1e-12 && c.t == 1.0, "{c:?}");
+        assert!((c.ttc - 4.0).abs() < 1e-12 && c.t == 1.0 && (c.x - 77.5).abs() < 1e-12, "{c:?}"); // contact at t = 5: a at 75, b at 80
     }
 
     #[test]

@@ -47,7 +47,7 @@ pub static FUNCTIONS: &[Function] = &[
                       samples: ttc (s; 0 = in contact), t (when), x, y (the predicted collision point: midpoint of both centres then). \
                       NULL when they are never on a collision course, share less than an interval of time, or either has fewer than 2 \
                       points. O(n + m). Errors: radius < 0 or not finite, NaN / infinite values, unsorted t.",
-        example: "SELECT traj_ttc([{'t': 0, 'x': -50, 'y': 0}, {'t': 1, 'x': -40, 'y': 0}], [{'t': 0, 'x': 50, 'y': 0}, {'t': 1, 'x': 40, 'y': 0}], 2.0); -- {'ttc': 3.9, 't': 1.0, 'x': 0.0, 'y': 0.0}",
+        example: "SELECT traj_ttc([{'t': 0, 'x': -50, 'y': 0}, {'t': 1, 'x': -40, 'y': 0}], [{'t': 0, 'x': 50, 'y': 0}, {'t': 1, 'x': 40, 'y': 0}], 2.0); -- {'ttc': 3.9000000000000004, 't': 1.0, 'x': 0.0, 'y': 0.0}",
         maths: "crates/algo/src/conflict/ttc.rs",
         binding: file!(),
         signatures: &[Signature { params: &[p("a", TRAJ), p("b", TRAJ), p("radius", Ty::Double)], arities: &[], returns: TTC, kernel: ttc }],

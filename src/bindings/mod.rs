@@ -7,6 +7,7 @@
 
 pub mod align;
 pub mod cluster;
+pub mod conflict;
 pub mod events;
 pub mod fuse;
 pub mod geometry;
@@ -28,7 +29,7 @@ use registry::{Doc, Function};
 
 /// Every function, in reference order.
 pub fn functions() -> Vec<&'static Function> {
-    [traj::FUNCTIONS, lcss::FUNCTIONS, align::FUNCTIONS, geometry::FUNCTIONS, matching::FUNCTIONS, merge::FUNCTIONS, fuse::FUNCTIONS, cluster::FUNCTIONS, events::FUNCTIONS, meta::FUNCTIONS, params::FUNCTIONS, pipeline::FUNCTIONS, simulate::FUNCTIONS, report::FUNCTIONS]
+    [traj::FUNCTIONS, lcss::FUNCTIONS, align::FUNCTIONS, geometry::FUNCTIONS, matching::FUNCTIONS, merge::FUNCTIONS, fuse::FUNCTIONS, cluster::FUNCTIONS, conflict::FUNCTIONS, events::FUNCTIONS, meta::FUNCTIONS, params::FUNCTIONS, pipeline::FUNCTIONS, simulate::FUNCTIONS, report::FUNCTIONS]
         .into_iter()
         .flatten()
         .collect()

@@ -27,6 +27,7 @@ use std::fmt;
 
 pub mod align;
 pub mod cluster;
+pub mod conflict;
 pub mod events;
 pub mod fuse;
 pub mod geometry;

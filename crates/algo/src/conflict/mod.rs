@@ -1,0 +1,60 @@
+//! Surrogate safety measures between two road users' paths (the conflict indicators of
+//! traffic-conflict studies): post-encroachment time ([`pet`]) and time-to-collision at
+//! constant velocity ([`ttc`]).
+//!
+//! Both are the measures SSAM (Gettman, Pu, Sayed, Shelby: *Surrogate Safety Assessment Model
+//! and Validation*, FHWA-HRT-08-051, 2008) and TrafficIntelligence (Saunier & Sayed 2008,
+//! "Probabilistic framework for automated analysis of exposure to road collisions", TRB;
+//! `trafficintelligence/moving.py`, `prediction.py`) compute from trajectories. Road users are
+//! points on their paths (PET) or discs whose centres must come within `radius` (TTC); each is
+//! piecewise linear between its samples, as `traj_resample` and `traj_fuse` give them.
+//!
+//! One operation per file: [`pet`] (path crossings by segment intersection, with a sweep over
+//! one axis as the spatial prefilter and a time window as the temporal one), [`ttc`] (one pass
+//! over the merged sample times of the common period). Candidate pairs come from SQL (a
+//! time-overlap range join, sql/analysis.sql `conflicts`), never all N² pairs here.
+
+pub mod pet;
+pub mod ttc;
+
+pub use pet::{pet, Pet};
+pub use ttc::{ttc, Ttc};
+
+use crate::traj::{Traj, TrajError};
+use crate::ParamError;
+
+/// Why a conflict measure was refused: a bad trajectory (`a` or `b`) or parameter.
+#[derive(Clone, Debug, PartialEq)]
+pub enum ConflictError {
+    Traj(&'static str, TrajError),
+    Param(ParamError),
+}
+
+impl From<ParamError> for ConflictError {
+    fn from(e: ParamError) -> Self {
+        ConflictError::Param(e)
+    }
+}
+
+impl ConflictError {
+    /// The message for SQL (trajectory arguments named `a` / `b`, 1-based indices).
+    pub fn describe(&self) -> String {
+        match self {
+            ConflictError::Traj(name, e) => e.describe(name),
+            ConflictError::Param(e) => e.to_string(),
+        }
+    }
+}
+
+impl std::fmt::Display for ConflictError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.describe())
+    }
+}
+impl std::error::Error for ConflictError {}
+
+/// Both trajectories checked against the input policy of [`crate::traj`].
+fn validate(a: Traj<'_>, b: Traj<'_>) -> Result<(), ConflictError> {
+    a.validate().map_err(|e| ConflictError::Traj("a", e))?;
+    b.validate().map_err(|e| ConflictError::Traj("b", e))
+}

@@ -1,0 +1,183 @@
+//! Time-to-collision (TTC) at constant velocity (Hayward 1972, "Near-miss determination through
+//! use of a scale of danger", HRR 384; SSAM's TTC, FHWA-HRT-08-051 §2; TrafficIntelligence's
+//! `computeTTC` with constant-velocity motion prediction): at time s, extrapolate both road
+//! users along their current velocities; TTC(s) is the first τ >= 0 at which their centres are
+//! `radius` metres apart (radius = the sum of the two road users' radii):
+//!
+//! ```text
+//! |Δp(s) + Δv(s) τ| = radius,  Δp = p_b - p_a,  Δv = v_b - v_a   (smallest root τ >= 0)
+//! ```
+//!
+//! 0 while they are within `radius` of each other; undefined (no collision course) when the
+//! relative motion never brings them that close. Returned: the minimum of TTC(s) over their
+//! common period, the time s where it occurs, and the predicted collision point (the midpoint
+//! of the two extrapolated centres at s + TTC).
+//!
+//! Both paths are piecewise linear, so on each interval between consecutive sample times of
+//! either road user Δv is constant and TTC(s) = σ - (s - u) falls at slope -1 (σ: the root at
+//! the interval's start u): the minimum over the interval is at its end (a left limit, exact,
+//! not sampled), or 0 where the interval itself reaches the collision distance. O(n + m).
+
+use super::{validate, ConflictError};
+use crate::non_negative;
+use crate::traj::Traj;
+
+/// The smallest TTC over the common period: `ttc` (s) at time `t`, collision point `x`, `y`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Ttc {
+    pub ttc: f64,
+    pub t: f64,
+    pub x: f64,
+    pub y: f64,
+}
+
+/// Position and velocity of `tr` on the interval (u, v): of the segment holding its midpoint.
+/// `k` walks forward (both callers advance in time).
+fn state(tr: Traj<'_>, k: &mut usize, u: f64, v: f64) -> ([f64; 2], [f64; 2]) {
+    let m = 0.5 * (u + v);
+    while *k + 2 < tr.len() && tr.t[*k + 1] <= m {
+        *k += 1;
+    }
+    let j = *k;
+    let dt = tr.t[j + 1] - tr.t[j];
+    let vel = [(tr.x[j + 1] - tr.x[j]) / dt, (tr.y[j + 1] - tr.y[j]) / dt];
+    ([tr.x[j] + vel[0] * (u - tr.t[j]), tr.y[j] + vel[1] * (u - tr.t[j])], vel)
+}
+
+/// The minimum TTC of `a` and `b` over their common period, or `None` when they share less
+/// than an interval of time or are never on a collision course. Errors: a trajectory outside
+/// the input policy, `radius` < 0 or not finite.
+pub fn ttc(a: Traj<'_>, b: Traj<'_>, radius: f64) -> Result<Option<Ttc>, ConflictError> {
+    validate(a, b)?;
+    let r = non_negative("radius", radius)?;
+    if a.len() < 2 || b.len() < 2 {
+        return Ok(None);
+    }
+    let (lo, hi) = (a.t[0].max(b.t[0]), a.t[a.len() - 1].min(b.t[b.len() - 1]));
+    if !(hi > lo) {
+        return Ok(None);
+    }
+    // every sample time of either inside the common period, in order, once
+    let mut times: Vec<f64> = a.t.iter().chain(b.t.iter()).copied().filter(|&t| t > lo && t < hi).collect();
+    times.push(lo);
+    times.push(hi);
+    times.sort_by(f64::total_cmp);
+    times.dedup();
+    let (mut ka, mut kb) = (0usize, 0usize);
+    let mut best: Option<Ttc> = None;
+    for w in times.windows(2) {
+        let (u, v) = (w[0], w[1]);
+        let (pa, va) = state(a, &mut ka, u, v);
+        let (pb, vb) = state(b, &mut kb, u, v);
+        let (dx, dy, wx, wy) = (pb[0] - pa[0], pb[1] - pa[1], vb[0] - va[0], vb[1] - va[1]);
+        let c = dx * dx + dy * dy - r * r;
+        let at = |sigma: f64| ((pa[0] + va[0] * sigma + pb[0] + vb[0] * sigma) / 2.0, (pa[1] + va[1] * sigma + pb[1] + vb[1] * sigma) / 2.0);
+        if c <= 0.0 {
+            let (x, y) = at(0.0);
+            return Ok(Some(Ttc { ttc: 0.0, t: u, x, y })); // in contact: TTC 0, the earliest time
+        }
+        let (qa, qb) = (wx * wx + wy * wy, 2.0 * (dx * wx + dy * wy));
+        let disc = qb * qb - 4.0 * qa * c;
+        if qb >= 0.0 || disc < 0.0 || qa == 0.0 {
+            continue; // moving apart, or passing wide
+        }
+        // the smaller root, stable form: c / q with q = (-qb + sqrt(disc)) / 2
+        let sigma = c / ((-qb + disc.sqrt()) / 2.0);
+        let (x, y) = at(sigma);
+        if sigma <= v - u {
+            return Ok(Some(Ttc { ttc: 0.0, t: u + sigma, x, y })); // they reach the collision distance here
+        }
+        let cand = Ttc { ttc: sigma - (v - u), t: v, x, y };
+        if best.is_none_or(|b| cand.ttc < b.ttc) {
+            best = Some(cand);
+        }
+    }
+    Ok(best)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::traj::OwnedTraj;
+    use proptest::prelude::*;
+
+    fn tr(pts: &[(f64, f64, f64)]) -> OwnedTraj {
+        let mut o = OwnedTraj::default();
+        for &(t, x, y) in pts {
+            o.push(t, x, y);
+        }
+        o
+    }
+
+    #[test]
+    fn head_on_at_constant_speed_collides_at_the_kinematic_time() {
+        // 100 m apart closing at 20 m/s, radius 2: contact at t = 4.9 at the origin
+        let a = tr(&[(0.0, -50.0, 0.0), (10.0, 50.0, 0.0)]);
+        let b = tr(&[(0.0, 50.0, 0.0), (10.0, -50.0, 0.0)]);
+        let c = ttc(a.view(), b.view(), 2.0).unwrap().unwrap();
+        assert!(c.ttc == 0.0 && (c.t - 4.9).abs() < 1e-12 && c.x.abs() < 1e-12, "{c:?}");
+    }
+
+    #[test]
+    fn both_stopping_gives_the_ttc_at_the_stop() {
+        // as above, but both stop at t = 2 (30 m apart each side): TTC(s) = 4.9 - s, min 2.9 at t = 2
+        let a = tr(&[(0.0, -50.0, 0.0), (1.0, -40.0, 0.0), (2.0, -30.0, 0.0), (5.0, -30.0, 0.0)]);
+        let b = tr(&[(0.0, 50.0, 0.0), (0.5, 45.0, 0.0), (2.0, 30.0, 0.0), (5.0, 30.0, 0.0)]);
+        let c = ttc(a.view(), b.view(), 2.0).unwrap().unwrap();
+        assert!((c.ttc - 2.9).abs() < 1e-12 && (c.t - 2.0).abs() < 1e-12 && c.x.abs() < 1e-12, "{c:?}");
+    }
+
+    #[test]
+    fn passing_wide_diverging_and_disjoint_give_none() {
+        let a = tr(&[(0.0, -50.0, 0.0), (10.0, 50.0, 0.0)]);
+        let wide = tr(&[(0.0, 50.0, 3.0), (10.0, -50.0, 3.0)]);
+        assert_eq!(ttc(a.view(), wide.view(), 2.0).unwrap(), None);
+        let away = tr(&[(0.0, 60.0, 0.0), (10.0, 160.0, 0.0)]);
+        assert_eq!(ttc(a.view(), away.view(), 2.0).unwrap(), None);
+        let later = tr(&[(11.0, 0.0, 0.0), (12.0, 1.0, 0.0)]);
+        assert_eq!(ttc(a.view(), later.view(), 2.0).unwrap(), None);
+        assert_eq!(ttc(a.view(), OwnedTraj::default().view(), 2.0).unwrap(), None);
+        // a radius above the 3 m offset makes the wide pass a contact
+        let c = ttc(a.view(), wide.view(), 3.5).unwrap().unwrap();
+        assert_eq!(c.ttc, 0.0);
+    }
+
+    #[test]
+    fn a_rear_end_approach_has_gap_over_speed_difference() {
+        // a follows b: a at 15 m/s, b at 10 m/s, 30 m ahead; radius 5 (two car lengths' halves)
+        let a = tr(&[(0.0, 0.0, 0.0), (1.0, 15.0, 0.0)]);
+        let b = tr(&[(0.0, 30.0, 0.0), (1.0, 40.0, 0.0)]);
+        let c = ttc(a.view(), b.view(), 5.0).unwrap().unwrap();
+        // at t = 1 the gap is 25 m closing at 5 m/s: (25 - 5) / 5 = 4 s
+        assert!((c.ttc - 4.0).abs() < 1e-12 && c.t == 1.0 && (c.x - 77.5).abs() < 1e-12, "{c:?}"); // contact at t = 5: a at 75, b at 80
+    }
+
+    #[test]
+    fn bad_radius_and_trajectories_are_errors() {
+        let a = tr(&[(0.0, 0.0, 0.0), (1.0, 1.0, 0.0)]);
+        assert_eq!(ttc(a.view(), a.view(), -1.0).unwrap_err().describe(), "radius must be >= 0, got -1");
+        let bad = tr(&[(0.0, f64::NAN, 0.0)]);
+        assert!(ttc(bad.view(), a.view(), 1.0).unwrap_err().describe().starts_with("a[1].x must be finite"));
+    }
+
+    proptest! {
+        /// Constant-velocity pairs on a collision course: the sampled TTC at the first common time
+        /// matches the closed form, and the minimum is 0 exactly when they reach `radius` in time.
+        #[test]
+        fn constant_velocity_matches_the_closed_form(gap in 10.0f64..80.0, closing in 1.0f64..30.0, r in 0.5f64..4.0, dt in 0.05f64..1.0) {
+            let n = 40usize;
+            let a: Vec<_> = (0..n).map(|k| (k as f64 * dt, closing * k as f64 * dt, 0.0)).collect();
+            let b: Vec<_> = (0..n).map(|k| (k as f64 * dt, gap, 0.0)).collect();
+            let (a, b) = (tr(&a), tr(&b));
+            let end = (n - 1) as f64 * dt;
+            let c = ttc(a.view(), b.view(), r).unwrap().unwrap();
+            let contact = (gap - r) / closing;
+            if contact <= end {
+                prop_assert!(c.ttc == 0.0 && (c.t - contact).abs() < 1e-9, "{:?}", c);
+            } else {
+                prop_assert!((c.ttc - (contact - end)).abs() < 1e-9 && (c.t - end).abs() < 1e-12, "{:?}", c);
+            }
+            prop_assert!((c.x - (gap - r + gap) / 2.0).abs() < 1e-6);
+        }
+    }
+}

@@ -1,0 +1,318 @@
+-- trajdb: the analyst's questions as SQL macros (issue 29 §4; docs/analysis.md).
+--
+-- Load it after the pipeline (.read sql/pipeline.sql leaves `merged`), or on merged.parquet:
+--   CREATE VIEW merged AS FROM read_parquet('results/merged.parquet');  .read sql/analysis.sql
+-- Every table macro reads a table or view NAMED by tbl (default 'merged'; query_table, so a name,
+-- never SQL) with at least road_user, class, traj (TRAJ = STRUCT(t, x, y)[] ordered by t, one
+-- frame, one clock: the pipeline's fused paths on a regular step). Times are the traj's seconds.
+--
+--   road_user_ends(tbl, head_m)      each road user's entry / exit point, time and heading
+--   approaches(tbl, ...)             the approaches (arms) found in the data: where road users enter and leave
+--   road_user_movements(tbl, ...)    each road user's entry approach, exit approach, turn angle and movement
+--   movements(tbl, bin_s, ...)       turning movement counts per bin, approach pair, movement and class
+--   road_user_speeds(tbl, ...)       each road user's speeds and travel time
+--   speeds(tbl, ...)                 speed and travel-time percentiles per movement and class
+--   conflicts(tbl, max_pet, radius)  PET and TTC of every pair of road users near each other in time and space
+--   routes(tbl, ...)                 route patterns within each movement (traj_cluster), labelled
+--
+-- Movement options shared by road_user_movements, movements, speeds and routes:
+--   gates := 'table'   user-drawn gates instead of approaches from the data: a table or view with
+--                      approach VARCHAR, x1, y1, x2, y2 DOUBLE (one segment per approach; from WKT:
+--                      SELECT 'N' AS approach, g.* FROM (SELECT unnest(gate_from_wkt('LINESTRING (-6 20, 6 20)'))) g)
+--   left_handed := true   the frame is mirrored (y down, as image pixels, or an alignment with a
+--                      reflection): left and right swap. A rigid frame from align.sql keeps the
+--                      world's handedness, so the default (false: x right, y up, counter-clockwise
+--                      positive) is right for the pipeline's output.
+--   head_m (5 m), through_deg (45), uturn_deg (135), min_radius_m (8 m), gap_deg (25), min_users (3),
+--   centre_x / centre_y (default: measured): see approaches() and docs/analysis.md.
+
+-- ---------------------------------------------------------------- scalar helpers
+-- An angle in degrees wrapped into (-180, 180].
+CREATE OR REPLACE MACRO analysis_wrap_deg(a) AS a - 360.0 * ceil((a - 180.0) / 360.0);
+
+-- The movement of a turn of `turn` degrees (counter-clockwise positive in a right-handed frame).
+CREATE OR REPLACE MACRO analysis_movement(turn, through_deg := 45.0, uturn_deg := 135.0) AS
+    CASE WHEN turn IS NULL THEN NULL
+         WHEN abs(turn) < through_deg THEN 'through'
+         WHEN abs(turn) >= uturn_deg THEN 'u-turn'
+         WHEN turn > 0 THEN 'left' ELSE 'right' END;
+
+-- A gate from WKT: 'LINESTRING (x1 y1, x2 y2)' -> {x1, y1, x2, y2}; an error for anything else.
+CREATE OR REPLACE MACRO analysis_wkt_numbers(wkt) AS
+    list_transform(regexp_extract_all(wkt, '[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?'), lambda s: s::DOUBLE);
+CREATE OR REPLACE MACRO gate_from_wkt(wkt) AS
+    CASE WHEN len(analysis_wkt_numbers(wkt)) = 4 AND regexp_matches(wkt, '^\s*LINESTRING\s*\(', 'i')
+         THEN {'x1': analysis_wkt_numbers(wkt)[1], 'y1': analysis_wkt_numbers(wkt)[2], 'x2': analysis_wkt_numbers(wkt)[3], 'y2': analysis_wkt_numbers(wkt)[4]}
+         ELSE error('gate_from_wkt: a gate is LINESTRING (x1 y1, x2 y2) with two points, got ' || coalesce(wkt, 'NULL')) END;
+
+-- Where segment p -> q (points of a TRAJ) crosses the gate (x1, y1)-(x2, y2): its time, or NULL.
+CREATE OR REPLACE MACRO analysis_gate_time(p, q, x1, y1, x2, y2) AS (
+    CASE WHEN ((q.x - p.x) * (y2 - y1) - (q.y - p.y) * (x2 - x1)) <> 0 THEN
+        CASE WHEN ((x1 - p.x) * (y2 - y1) - (y1 - p.y) * (x2 - x1)) / ((q.x - p.x) * (y2 - y1) - (q.y - p.y) * (x2 - x1)) BETWEEN 0 AND 1
+              AND ((x1 - p.x) * (q.y - p.y) - (y1 - p.y) * (q.x - p.x)) / ((q.x - p.x) * (y2 - y1) - (q.y - p.y) * (x2 - x1)) BETWEEN 0 AND 1
+             THEN p.t + (q.t - p.t) * ((x1 - p.x) * (y2 - y1) - (y1 - p.y) * (x2 - x1)) / ((q.x - p.x) * (y2 - y1) - (q.y - p.y) * (x2 - x1))
+        END
+    END);
+
+-- ---------------------------------------------------------------- entries and exits
+-- Per road user: entry (first point) and exit (last point), their times, and the heading of travel
+-- there (degrees, atan2 in the frame): from the first point to the first point at least head_m
+-- metres from it, and from the last point at least head_m metres before the end to the end.
+CREATE OR REPLACE MACRO road_user_ends(tbl := 'merged', head_m := 5.0) AS TABLE
+WITH r AS (
+    SELECT road_user, class, traj,
+           coalesce(list_position(list_transform(traj, lambda p: (p.x - traj[1].x) ** 2 + (p.y - traj[1].y) ** 2 >= head_m::DOUBLE ** 2), true), len(traj)) AS k_in,
+           len(traj) + 1 - coalesce(list_position(list_transform(list_reverse(traj), lambda p: (p.x - traj[-1].x) ** 2 + (p.y - traj[-1].y) ** 2 >= head_m::DOUBLE ** 2), true), len(traj)) AS k_out
+    FROM query_table(tbl)
+    WHERE len(traj) >= 2
+)
+SELECT road_user, class, traj,
+       traj[1].t AS t_in, traj[1].x AS x_in, traj[1].y AS y_in,
+       CASE WHEN k_in > 1 THEN degrees(atan2(traj[k_in].y - traj[1].y, traj[k_in].x - traj[1].x)) END AS h_in,
+       traj[-1].t AS t_out, traj[-1].x AS x_out, traj[-1].y AS y_out,
+       CASE WHEN k_out < len(traj) THEN degrees(atan2(traj[-1].y - traj[k_out].y, traj[-1].x - traj[k_out].x)) END AS h_out
+FROM r;
+
+-- ---------------------------------------------------------------- approaches from the data
+-- 1. the site's centre: the least-squares meeting point of every entry and exit heading line
+--    (argmin_p sum |(I - d d^T)(p - a)|^2: arms point at the junction), unless centre_x / centre_y;
+-- 2. every entry moving towards the centre and every exit moving away from it (heading within 45
+--    degrees of radial), at least min_radius_m from the centre, gives a bearing from the centre;
+-- 3. the bearings are cut into approaches at every empty sector wider than gap_deg degrees (the
+--    circle is opened at its widest gap); approaches with fewer than min_users ends are dropped.
+-- Named by the compass point of their mean bearing in the frame (E = +x, N = +y: the frame's
+-- axes, not geography), with a number when two share one; lo_deg..hi_deg is the sector.
+CREATE OR REPLACE MACRO approaches(tbl := 'merged', centre_x := NULL, centre_y := NULL, min_radius_m := 8.0, gap_deg := 25.0,
+                                   min_users := 3, head_m := 5.0) AS TABLE
+WITH e AS (FROM road_user_ends(tbl := tbl, head_m := head_m)),
+lines AS (
+    SELECT x_in AS ax, y_in AS ay, radians(h_in) AS h FROM e WHERE h_in IS NOT NULL
+    UNION ALL SELECT x_out, y_out, radians(h_out) FROM e WHERE h_out IS NOT NULL
+),
+m AS (  -- sum of (I - d d^T) and of (I - d d^T) a over every line
+    SELECT sum(1 - cos(h) ** 2) AS m11, sum(-cos(h) * sin(h)) AS m12, sum(1 - sin(h) ** 2) AS m22,
+           sum((1 - cos(h) ** 2) * ax - cos(h) * sin(h) * ay) AS b1, sum(-cos(h) * sin(h) * ax + (1 - sin(h) ** 2) * ay) AS b2
+    FROM lines
+),
+c AS (
+    SELECT coalesce(centre_x::DOUBLE, (b1 * m22 - b2 * m12) / nullif(m11 * m22 - m12 * m12, 0)) AS cx,
+           coalesce(centre_y::DOUBLE, (m11 * b2 - m12 * b1) / nullif(m11 * m22 - m12 * m12, 0)) AS cy
+    FROM m
+),
+ends AS (
+    SELECT 'in' AS side, degrees(atan2(y_in - cy, x_in - cx)) AS bearing FROM e, c
+    WHERE sqrt((x_in - cx) ** 2 + (y_in - cy) ** 2) >= min_radius_m AND abs(analysis_wrap_deg(h_in - degrees(atan2(y_in - cy, x_in - cx)) - 180)) < 45
+    UNION ALL
+    SELECT 'out', degrees(atan2(y_out - cy, x_out - cx)) FROM e, c
+    WHERE sqrt((x_out - cx) ** 2 + (y_out - cy) ** 2) >= min_radius_m AND abs(analysis_wrap_deg(h_out - degrees(atan2(y_out - cy, x_out - cx)))) < 45
+),
+s AS (SELECT side, (bearing + 360) % 360 AS b FROM ends),
+g AS (SELECT side, b, b - lag(b) OVER (ORDER BY b) AS gap FROM s),
+cut AS (  -- open the circle after its widest gap (the wrap-around gap counts too)
+    SELECT CASE WHEN (SELECT min(b) + 360 - max(b) FROM s) >= coalesce((SELECT max(gap) FROM g), 0) THEN (SELECT min(b) FROM s)
+                ELSE (SELECT arg_max(b, gap) FROM g) END AS start
+),
+r AS (SELECT side, (b - start + 360) % 360 AS br FROM s, cut),
+rg AS (SELECT side, br, br - lag(br) OVER (ORDER BY br) AS gap FROM r),
+k AS (SELECT side, br, sum(CASE WHEN gap > gap_deg THEN 1 ELSE 0 END) OVER (ORDER BY br ROWS UNBOUNDED PRECEDING) AS cluster FROM rg),
+a AS (
+    SELECT cluster, min(br) AS lo, max(br) AS hi, count(*) FILTER (WHERE side = 'in') AS n_in, count(*) FILTER (WHERE side = 'out') AS n_out,
+           (degrees(atan2(avg(sin(radians(br))), avg(cos(radians(br))))) + (SELECT start FROM cut) + 720) % 360 AS bearing
+    FROM k GROUP BY cluster HAVING count(*) >= min_users
+),
+named AS (
+    SELECT *, ['E', 'NE', 'N', 'NW', 'W', 'SW', 'S', 'SE'][(round(bearing / 45)::INTEGER % 8) + 1] AS compass FROM a
+)
+SELECT compass || CASE WHEN count(*) OVER (PARTITION BY compass) > 1 THEN row_number() OVER (PARTITION BY compass ORDER BY bearing)::VARCHAR ELSE '' END AS approach,
+       bearing AS bearing_deg, (lo + (SELECT start FROM cut)) % 360 AS lo_deg, (hi + (SELECT start FROM cut)) % 360 AS hi_deg,
+       n_in, n_out, (SELECT cx FROM c) AS centre_x, (SELECT cy FROM c) AS centre_y
+FROM named ORDER BY bearing;
+
+-- ---------------------------------------------------------------- movements per road user
+-- Entry and exit approach, turn angle and movement of every road user.
+-- Approaches from the data (gates NULL): an end belongs to the approach whose sector (widened by
+-- gap_deg / 2 each side) holds its bearing, if it is at least min_radius_m from the centre and moving
+-- radially (within 45 degrees: in towards the centre, out away from it); otherwise NULL (a road user
+-- already inside the site when the recording started, or lost in the middle).
+-- Gates: the entry approach is the gate crossed first, the exit the gate crossed last (NULL unless
+-- at least two crossings). turn_deg = exit heading - entry heading (road_user_ends), wrapped into
+-- (-180, 180], negated when left_handed; movement = through (|turn| < through_deg), u-turn
+-- (|turn| >= uturn_deg), left (turn > 0) or right; NULL when either approach is unknown.
+CREATE OR REPLACE MACRO road_user_movements(tbl := 'merged', gates := NULL, left_handed := false, head_m := 5.0, through_deg := 45.0,
+                                            uturn_deg := 135.0, centre_x := NULL, centre_y := NULL, min_radius_m := 8.0,
+                                            gap_deg := 25.0, min_users := 3) AS TABLE
+WITH e AS (FROM road_user_ends(tbl := tbl, head_m := head_m)),
+ap AS (
+    FROM approaches(tbl := tbl, centre_x := centre_x, centre_y := centre_y, min_radius_m := min_radius_m, gap_deg := gap_deg,
+                    min_users := min_users, head_m := head_m)
+    WHERE gates IS NULL
+),
+c AS (SELECT any_value(ap.centre_x) AS cx, any_value(ap.centre_y) AS cy FROM ap),  -- qualified: centre_x alone is the parameter
+data_in AS (
+    SELECT e.road_user, ap.approach FROM e, c, ap
+    WHERE sqrt((x_in - cx) ** 2 + (y_in - cy) ** 2) >= min_radius_m
+      AND abs(analysis_wrap_deg(h_in - degrees(atan2(y_in - cy, x_in - cx)) - 180)) < 45
+      AND abs(analysis_wrap_deg(degrees(atan2(y_in - cy, x_in - cx)) - (ap.lo_deg + ap.hi_deg) / 2
+                                - CASE WHEN ap.hi_deg < ap.lo_deg THEN 180 ELSE 0 END))
+          <= ((ap.hi_deg - ap.lo_deg + 360) % 360) / 2 + gap_deg / 2
+),
+data_out AS (
+    SELECT e.road_user, ap.approach FROM e, c, ap
+    WHERE sqrt((x_out - cx) ** 2 + (y_out - cy) ** 2) >= min_radius_m
+      AND abs(analysis_wrap_deg(h_out - degrees(atan2(y_out - cy, x_out - cx)))) < 45
+      AND abs(analysis_wrap_deg(degrees(atan2(y_out - cy, x_out - cx)) - (ap.lo_deg + ap.hi_deg) / 2
+                                - CASE WHEN ap.hi_deg < ap.lo_deg THEN 180 ELSE 0 END))
+          <= ((ap.hi_deg - ap.lo_deg + 360) % 360) / 2 + gap_deg / 2
+),
+gate_cross AS (
+    SELECT e.road_user, g.approach, unnest(list_filter(
+               list_transform(range(1, len(e.traj)), lambda i: analysis_gate_time(e.traj[i], e.traj[i + 1], g.x1, g.y1, g.x2, g.y2)),
+               lambda t: t IS NOT NULL)) AS t
+    FROM e, query_table(coalesce(gates, 'analysis_no_gates')) g
+    WHERE gates IS NOT NULL
+),
+gate_ends AS (
+    SELECT road_user, arg_min(approach, t) AS approach_in, arg_max(approach, t) AS approach_out
+    FROM gate_cross GROUP BY road_user HAVING count(*) >= 2
+),
+j AS (
+    SELECT e.*,
+           CASE WHEN gates IS NULL THEN (SELECT any_value(approach) FROM data_in d WHERE d.road_user = e.road_user)
+                ELSE (SELECT any_value(approach_in) FROM gate_ends d WHERE d.road_user = e.road_user) END AS approach_in,
+           CASE WHEN gates IS NULL THEN (SELECT any_value(approach) FROM data_out d WHERE d.road_user = e.road_user)
+                ELSE (SELECT any_value(approach_out) FROM gate_ends d WHERE d.road_user = e.road_user) END AS approach_out,
+           CASE WHEN left_handed THEN -1 ELSE 1 END * analysis_wrap_deg(h_out - h_in) AS turn_deg
+    FROM e
+)
+SELECT road_user, class, t_in, t_out, approach_in, approach_out, turn_deg,
+       CASE WHEN approach_in IS NOT NULL AND approach_out IS NOT NULL
+            THEN analysis_movement(turn_deg, through_deg := through_deg, uturn_deg := uturn_deg) END AS movement
+FROM j ORDER BY road_user;
+
+-- An empty gates table for query_table when no gates are given (query_table needs an existing name).
+CREATE OR REPLACE VIEW analysis_no_gates AS
+SELECT NULL::VARCHAR AS approach, NULL::DOUBLE AS x1, NULL::DOUBLE AS y1, NULL::DOUBLE AS x2, NULL::DOUBLE AS y2 WHERE false;
+
+-- ---------------------------------------------------------------- turning movement counts
+-- Road users per bin of bin_s seconds (by entry time; default 900 = 15 minutes, bins at multiples
+-- of bin_s on the traj clock), entry approach, exit approach, movement and class. Only road users
+-- with both approaches known (see road_user_movements for the others).
+CREATE OR REPLACE MACRO movements(tbl := 'merged', bin_s := 900, gates := NULL, left_handed := false, head_m := 5.0,
+                                  through_deg := 45.0, uturn_deg := 135.0, centre_x := NULL, centre_y := NULL,
+                                  min_radius_m := 8.0, gap_deg := 25.0, min_users := 3) AS TABLE
+SELECT floor(t_in / bin_s::DOUBLE) * bin_s::DOUBLE AS bin_start, approach_in, approach_out, movement, class, count(*) AS road_users
+FROM road_user_movements(tbl := tbl, gates := gates, left_handed := left_handed, head_m := head_m, through_deg := through_deg,
+                         uturn_deg := uturn_deg, centre_x := centre_x, centre_y := centre_y, min_radius_m := min_radius_m,
+                         gap_deg := gap_deg, min_users := min_users)
+WHERE movement IS NOT NULL
+GROUP BY ALL ORDER BY ALL;
+
+-- ---------------------------------------------------------------- speeds and travel times
+-- Per road user: the speed samples of its path (traj_speeds: finite differences, on the pipeline's
+-- regular step each sample weighs the same time), their median, 85th percentile and maximum, the
+-- mean speed (path length / duration) and the travel time through the site (t_out - t_in).
+CREATE OR REPLACE MACRO road_user_speeds(tbl := 'merged') AS TABLE
+SELECT road_user, class, traj_length_m(traj) / nullif(traj_duration(traj), 0) AS mean_speed,
+       list_median([s.v FOR s IN traj_speeds(traj)]) AS median_speed,
+       list_aggregate([s.v FOR s IN traj_speeds(traj)], 'quantile_cont', 0.85) AS p85_speed,
+       list_max([s.v FOR s IN traj_speeds(traj)]) AS max_speed, traj_duration(traj) AS travel_time_s, traj_length_m(traj) AS length_m
+FROM query_table(tbl)
+WHERE len(traj) >= 2;
+
+-- Per movement (entry approach, exit approach, movement) and class: road users, and the 15th, 50th,
+-- 85th and 95th percentiles (and the mean) of their mean speeds (m/s) and travel times (s), and of
+-- every speed sample pooled (the spot-speed distribution). Road users with an unknown movement
+-- form the rows with NULL approaches.
+CREATE OR REPLACE MACRO speeds(tbl := 'merged', gates := NULL, left_handed := false, head_m := 5.0, through_deg := 45.0,
+                               uturn_deg := 135.0, centre_x := NULL, centre_y := NULL, min_radius_m := 8.0, gap_deg := 25.0,
+                               min_users := 3) AS TABLE
+WITH m AS (FROM road_user_movements(tbl := tbl, gates := gates, left_handed := left_handed, head_m := head_m, through_deg := through_deg,
+                                    uturn_deg := uturn_deg, centre_x := centre_x, centre_y := centre_y, min_radius_m := min_radius_m,
+                                    gap_deg := gap_deg, min_users := min_users)),
+s AS (FROM road_user_speeds(tbl := tbl)),
+spot AS (SELECT road_user, unnest(traj_speeds(traj)).v AS v FROM query_table(tbl)),
+spot_q AS (
+    SELECT m.approach_in, m.approach_out, m.movement, m.class,
+           quantile_cont(v, [0.15, 0.5, 0.85, 0.95]) AS q
+    FROM spot JOIN m USING (road_user) GROUP BY ALL
+)
+SELECT m.approach_in, m.approach_out, m.movement, m.class, count(*) AS road_users,
+       avg(s.mean_speed) AS speed_mean, quantile_cont(s.mean_speed, 0.15) AS speed_p15, quantile_cont(s.mean_speed, 0.5) AS speed_p50,
+       quantile_cont(s.mean_speed, 0.85) AS speed_p85, quantile_cont(s.mean_speed, 0.95) AS speed_p95,
+       any_value(q.q[1]) AS spot_p15, any_value(q.q[2]) AS spot_p50, any_value(q.q[3]) AS spot_p85, any_value(q.q[4]) AS spot_p95,
+       avg(s.travel_time_s) AS travel_time_mean, quantile_cont(s.travel_time_s, 0.15) AS travel_time_p15,
+       quantile_cont(s.travel_time_s, 0.5) AS travel_time_p50, quantile_cont(s.travel_time_s, 0.85) AS travel_time_p85,
+       quantile_cont(s.travel_time_s, 0.95) AS travel_time_p95
+FROM m JOIN s USING (road_user)
+LEFT JOIN spot_q q ON q.approach_in IS NOT DISTINCT FROM m.approach_in AND q.approach_out IS NOT DISTINCT FROM m.approach_out
+                  AND q.movement IS NOT DISTINCT FROM m.movement AND q.class IS NOT DISTINCT FROM m.class
+GROUP BY ALL ORDER BY ALL;
+
+-- ---------------------------------------------------------------- conflicts
+-- Every pair of road users whose times overlap within max_pet seconds and whose bounding boxes
+-- overlap, each widened by its reach (radius / 2 + its top speed x max_ttc: where a constant-velocity
+-- prediction can take it within max_ttc): a range join, not all pairs. Per pair: traj_pet (the crossing with
+-- the smallest PET, at most max_pet) and traj_ttc (the minimum TTC at constant velocity, radius =
+-- the sum of the two road users' radii). Kept: pairs with a PET, or a TTC of at most max_ttc.
+-- kind: SSAM's rule on the crossing angle: rear-end (< 30 deg), lane-change (30-85), crossing (> 85).
+-- road_user_first: who passed the conflict point first.
+CREATE OR REPLACE MACRO conflicts(tbl := 'merged', max_pet := 5.0, radius := 2.0, max_ttc := 3.0) AS TABLE
+WITH r AS (
+    SELECT road_user, class, traj, traj[1].t AS t0, traj[-1].t AS t1,
+           list_min([p.x FOR p IN traj]) AS xmin, list_max([p.x FOR p IN traj]) AS xmax,
+           list_min([p.y FOR p IN traj]) AS ymin, list_max([p.y FOR p IN traj]) AS ymax,
+           -- how far a prediction can reach within max_ttc: half the radius plus the top speed times max_ttc
+           radius::DOUBLE / 2 + coalesce(list_max([s.v FOR s IN traj_speeds(traj)]), 0) * max_ttc::DOUBLE AS reach
+    FROM query_table(tbl) WHERE len(traj) >= 2
+),
+pairs AS (
+    SELECT a.road_user AS road_user_a, a.class AS class_a, b.road_user AS road_user_b, b.class AS class_b,
+           traj_pet(a.traj, b.traj, max_pet::DOUBLE) AS p, traj_ttc(a.traj, b.traj, radius::DOUBLE) AS c
+    FROM r a JOIN r b
+      ON a.road_user < b.road_user
+     AND a.t0 <= b.t1 + max_pet AND b.t0 <= a.t1 + max_pet
+     AND a.xmin - a.reach <= b.xmax + b.reach AND b.xmin - b.reach <= a.xmax + a.reach
+     AND a.ymin - a.reach <= b.ymax + b.reach AND b.ymin - b.reach <= a.ymax + a.reach
+)
+SELECT road_user_a, class_a, road_user_b, class_b,
+       p.pet, p.x AS pet_x, p.y AS pet_y, p.t_first, p.t_second, p.angle AS angle_deg,
+       CASE WHEN p.angle < 30 THEN 'rear-end' WHEN p.angle <= 85 THEN 'lane-change' WHEN p.angle IS NOT NULL THEN 'crossing' END AS kind,
+       CASE WHEN p.a_first THEN road_user_a WHEN NOT p.a_first THEN road_user_b END AS road_user_first,
+       c.ttc, c.t AS ttc_t, c.x AS ttc_x, c.y AS ttc_y
+FROM pairs
+WHERE p IS NOT NULL OR c.ttc <= max_ttc
+ORDER BY coalesce(p.pet, 1e300), road_user_a, road_user_b;
+
+-- ---------------------------------------------------------------- route patterns
+-- Route patterns of the merged road users: per movement (entry approach, exit approach), the paths
+-- resampled to 1 s and clustered with traj_cluster (average linkage, Buzan's S1 with epsilon metres
+-- and delta samples of warping, cut at threshold): lanes and paths within one movement. One row per
+-- pattern: its road users, their classes, and the member of median length as its example.
+-- Road users with an unknown movement are not clustered.
+CREATE OR REPLACE MACRO routes(tbl := 'merged', epsilon := 1.5, delta := 30, threshold := 0.5, gates := NULL, left_handed := false,
+                               head_m := 5.0, through_deg := 45.0, uturn_deg := 135.0, centre_x := NULL, centre_y := NULL,
+                               min_radius_m := 8.0, gap_deg := 25.0, min_users := 3) AS TABLE
+WITH m AS (FROM road_user_movements(tbl := tbl, gates := gates, left_handed := left_handed, head_m := head_m, through_deg := through_deg,
+                                    uturn_deg := uturn_deg, centre_x := centre_x, centre_y := centre_y, min_radius_m := min_radius_m,
+                                    gap_deg := gap_deg, min_users := min_users)
+           WHERE movement IS NOT NULL),
+p AS (SELECT m.*, traj_resample(t.traj, 1.0) AS traj FROM m JOIN query_table(tbl) t USING (road_user)),
+cl AS (
+    SELECT approach_in, approach_out, movement,
+           traj_cluster(list(road_user ORDER BY road_user), list(traj ORDER BY road_user), 'average',
+                        threshold::DOUBLE, delta::BIGINT, epsilon::DOUBLE) AS ks
+    FROM p WHERE len(traj) >= 2 GROUP BY approach_in, approach_out, movement
+),
+c AS (SELECT approach_in, approach_out, movement, unnest(ks) AS k FROM cl),
+j AS (SELECT c.approach_in, c.approach_out, c.movement, k.cluster AS pattern, p.road_user, p.class, traj_length_m(p.traj) AS len
+      FROM c JOIN p ON p.road_user = k.id),
+cc AS (
+    SELECT approach_in, approach_out, movement, pattern, string_agg(class || ' ' || n, ', ' ORDER BY class) AS classes
+    FROM (SELECT approach_in, approach_out, movement, pattern, class, count(*) AS n FROM j GROUP BY ALL)
+    GROUP BY ALL
+)
+SELECT approach_in, approach_out, movement, pattern, count(*) AS road_users, list(road_user ORDER BY road_user) AS road_user_ids,
+       any_value(cc.classes) AS classes, list(road_user ORDER BY len, road_user)[(count(*) + 1) // 2] AS example_road_user
+FROM j JOIN cc USING (approach_in, approach_out, movement, pattern)
+GROUP BY approach_in, approach_out, movement, pattern
+ORDER BY road_users DESC, approach_in, approach_out, pattern;

@@ -6,27 +6,38 @@
     trajdb.pipeline(con, "points.parquet", out="results", merge_eta=0.6)
     con.sql("SELECT class, count(*) FROM merged GROUP BY class").show()
 
-The extension is built from this repository by `pip install .` (setuptools-rust; no C++ is
-compiled). `pipeline` runs the same SQL files as `trajdb pipeline` and writes the same result
-files (transforms.csv, calibration.csv, matches.csv, merged.parquet, clusters.csv, links.csv,
-report.html).
+Where the extension comes from (docs/install.md): the wheel that scripts/build_wheel.sh makes
+ships the ready `trajdb.duckdb_extension` under site-packages/.duckdb_extensions/ (the layout of
+DuckDB's own extension wheels); `pip install .` builds it from this repository (setuptools-rust;
+no C++ is compiled). `extension_path()` is the file, `extension_dir()` a directory for DuckDB's
+`extension_directories` setting in which `LOAD trajdb` finds it by name; `trajdb install-cli`
+puts it where the DuckDB command line finds it. `pipeline` runs the same SQL files as
+`trajdb pipeline` and writes the same result files (transforms.csv, calibration.csv,
+matches.csv, merged.parquet, clusters.csv, links.csv, report.html).
 """
+import functools
 import glob
 import hashlib
 import json
 import os
+import shutil
+import sys
 import tempfile
 import time
 import warnings
 
 import duckdb
 
-from .footer import footer
+from .footer import default_platform, footer
 
 __version__ = "0.1.0"
 _HERE = os.path.dirname(os.path.abspath(__file__))
 # C API v1.2.0 / C_STRUCT: DuckDB 1.5 and 2.0 load it (tested: 1.5.x and 2.0.x in CI)
 MIN_DUCKDB = (1, 5)
+EXTENSION_FILE = "trajdb.duckdb_extension"
+# DuckDB's own default extension directory (kept first in extension_directories, so that
+# INSTALL httpfs etc. still go there)
+DEFAULT_EXTENSION_DIR = "~/.duckdb/extensions"
 
 
 def _duckdb_version():
@@ -42,21 +53,43 @@ def check_duckdb():
         )
 
 
+def _cache_dir():
+    return os.path.join(os.environ.get("XDG_CACHE_HOME") or os.path.expanduser("~/.cache"), "trajdb")
+
+
+def _wheel_extension():
+    """The extension file a wheel built by scripts/build_wheel.sh installed (its place is written
+    into trajdb/_wheel.py, relative to site-packages), or None."""
+    try:
+        from . import _wheel
+    except ImportError:
+        return None
+    path = os.path.join(os.path.dirname(_HERE), *_wheel.EXTENSION.split("/"))
+    return path if os.path.isfile(path) else None
+
+
 def extension_path():
-    """The loadable extension file: the built library plus DuckDB's footer, cached per build;
-    or the file that the environment variable TRAJDB_EXTENSION names (e.g. one built by
-    scripts/build_extension.sh)."""
+    """The loadable extension file (`LOAD '<path>'`): the file that the environment variable
+    TRAJDB_EXTENSION names (e.g. one built by scripts/build_extension.sh); else the one the wheel
+    installed (site-packages/.duckdb_extensions/v<DuckDB version>/<platform>/trajdb.duckdb_extension);
+    else, after `pip install .`, the built library plus DuckDB's footer, cached per build."""
     if os.environ.get("TRAJDB_EXTENSION"):
         return os.path.abspath(os.environ["TRAJDB_EXTENSION"])
+    shipped = _wheel_extension()
+    if shipped:
+        return shipped
     libs = [p for p in glob.glob(os.path.join(_HERE, "_trajdb*")) if not p.endswith(".py")]
     if not libs:
-        raise RuntimeError(f"trajdb's extension library is missing from {_HERE}: reinstall with `pip install .`")
+        raise RuntimeError(
+            f"trajdb's extension is missing from {_HERE}: reinstall the wheel (pip install trajdb-*.whl), or "
+            "`pip install .` from the repository, or set TRAJDB_EXTENSION to a trajdb.duckdb_extension file"
+        )
     lib = libs[0]
     with open(lib, "rb") as f:
         data = f.read()
     digest = hashlib.sha256(data).hexdigest()[:16]
-    cache = os.path.join(os.environ.get("XDG_CACHE_HOME", os.path.expanduser("~/.cache")), "trajdb", digest)
-    path = os.path.join(cache, "trajdb.duckdb_extension")
+    cache = os.path.join(_cache_dir(), digest)
+    path = os.path.join(cache, EXTENSION_FILE)
     if not os.path.exists(path):
         os.makedirs(cache, exist_ok=True)
         fd, tmp = tempfile.mkstemp(dir=cache)
@@ -64,6 +97,61 @@ def extension_path():
             f.write(data + footer("v" + __version__))
         os.replace(tmp, path)  # atomic: a concurrent load never sees half a file
     return path
+
+
+@functools.lru_cache(maxsize=None)
+def _engine():
+    """(version folder, platform) of this Python's DuckDB, as it names them in its extension
+    directories: v2.0.0/linux_amd64 (a development build: its source id)."""
+    con = duckdb.connect()
+    try:
+        version, source_id = con.execute("SELECT library_version, source_id FROM pragma_version()").fetchone()
+        platform = con.execute("PRAGMA platform").fetchone()[0]
+    finally:
+        con.close()
+    return (source_id if "-dev" in version else version), platform
+
+
+def _link(src, dst):
+    """dst becomes a symbolic link to src (a copy where links are not allowed); atomically."""
+    os.makedirs(os.path.dirname(dst), exist_ok=True)
+    if os.path.islink(dst) and os.readlink(dst) == src:
+        return
+    tmp = f"{dst}.{os.getpid()}.tmp"
+    try:
+        os.symlink(src, tmp)
+    except OSError:
+        shutil.copyfile(src, tmp)
+    os.replace(tmp, dst)
+
+
+def extension_dir():
+    """A directory for DuckDB's `extension_directories` setting in which `LOAD trajdb` finds
+    extension_path() by name, for the DuckDB of this Python: DIR/<version>/<platform>/
+    trajdb.duckdb_extension. That is site-packages/.duckdb_extensions when the wheel installed
+    the file there for this DuckDB version; otherwise a folder in ~/.cache/trajdb holding a link
+    to the file (trajdb writes only there)."""
+    version, platform = _engine()
+    src = extension_path()
+    shipped = _wheel_extension()
+    if shipped and src == shipped:
+        root = os.path.dirname(os.path.dirname(os.path.dirname(shipped)))
+        if os.path.isfile(os.path.join(root, version, platform, EXTENSION_FILE)) and os.path.samefile(
+            os.path.join(root, version, platform, EXTENSION_FILE), src
+        ):
+            return root
+    root = os.path.join(_cache_dir(), "extensions", hashlib.sha256(src.encode()).hexdigest()[:16])
+    _link(src, os.path.join(root, version, platform, EXTENSION_FILE))
+    return root
+
+
+def progress_bar_wanted():
+    """DuckDB's progress bar draws on stdout: only when stdout and stderr are both a terminal
+    (never into a log, a pipe or a redirected result)."""
+    try:
+        return sys.stdout.isatty() and sys.stderr.isatty()
+    except (AttributeError, ValueError):
+        return False
 
 
 def load(con):
@@ -82,10 +170,78 @@ def load(con):
 
 
 def connect(database=":memory:", **config):
-    """duckdb.connect with unsigned extensions allowed and trajdb loaded."""
+    """duckdb.connect with unsigned extensions allowed and trajdb loaded. The connection also
+    finds trajdb by name (`LOAD trajdb`: extension_dir() is added to `extension_directories`,
+    after DuckDB's default ~/.duckdb/extensions), and DuckDB's progress bar is off unless stdout
+    and stderr are a terminal (`enable_progress_bar=True` keeps it; a setting of this connection,
+    not of its cursors). The rest of `config` is kept as given."""
     check_duckdb()
     config.setdefault("allow_unsigned_extensions", "true")
-    return load(duckdb.connect(database, config=config))
+    bar = config.pop("enable_progress_bar", None)  # a session setting: DuckDB refuses it in config
+    bar = progress_bar_wanted() if bar is None else str(bar).lower() in ("true", "1")
+    try:
+        by_name = extension_dir()
+    except OSError:
+        by_name = None  # no writable cache for the link: LOAD by name is a convenience, load() needs none
+    if by_name is not None and "extension_directories" in config:
+        config["extension_directories"] = list(config["extension_directories"]) + [by_name]
+    elif by_name is not None and "extension_directory" not in config:
+        config["extension_directories"] = [DEFAULT_EXTENSION_DIR, by_name]
+    con = duckdb.connect(database, config=config)
+    con.execute(f"SET enable_progress_bar = {'true' if bar else 'false'}")
+    return load(con)
+
+
+def install_extension(directory=DEFAULT_EXTENSION_DIR, version=None, platform=None):
+    """Copies extension_path() to DIRECTORY/<version>/<platform>/trajdb.duckdb_extension, where a
+    DuckDB of that version (`v1.5.6`) finds it by name: ~/.duckdb/extensions is the default of the
+    DuckDB command line (and of the duckdb-cli package). A file already there is replaced only when
+    trajdb wrote it (a note beside it, trajdb.duckdb_extension.trajdb, records the hashes) and nobody
+    changed it since; anything else is an error naming the file. Returns (path, what happened)."""
+    if version is None or platform is None:
+        v, p = _engine()
+        version, platform = version or v, platform or p
+    if not version.startswith("v") and "." in version:
+        version = "v" + version
+    src = extension_path()
+    dst = os.path.join(os.path.expanduser(directory), version, platform, EXTENSION_FILE)
+    note = dst + ".trajdb"
+
+    def sha(path):
+        h = hashlib.sha256()
+        with open(path, "rb") as f:
+            for block in iter(lambda: f.read(1 << 20), b""):
+                h.update(block)
+        return h.hexdigest()
+
+    new = sha(src)
+    try:
+        with open(note) as f:
+            written = list(json.load(f).get("sha256", []))
+    except (OSError, ValueError, AttributeError, TypeError):
+        written = []
+    if os.path.lexists(dst):
+        old = sha(dst) if os.path.isfile(dst) else None
+        if old == new:
+            return dst, "already installed"
+        if old is None or old not in written:
+            raise RuntimeError(
+                f"{dst} exists and trajdb did not write it (or it changed since): trajdb does not replace it. "
+                "Remove it yourself to install this one, or give another folder (--dir)"
+            )
+        what = "updated"
+    else:
+        what = "installed"
+    os.makedirs(os.path.dirname(dst), exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=os.path.dirname(dst), prefix=".trajdb-")
+    with os.fdopen(fd, "wb") as out, open(src, "rb") as f:
+        shutil.copyfileobj(f, out)
+    os.chmod(tmp, 0o644)
+    with open(note + ".tmp", "w") as f:
+        json.dump({"sha256": (written + [new])[-8:], "source": src, "trajdb": __version__}, f)
+    os.replace(note + ".tmp", note)  # the note first: a file trajdb wrote is never left unrecorded
+    os.replace(tmp, dst)
+    return dst, what
 
 
 def _literal(v):

@@ -9,6 +9,7 @@ console script `trajdb` that `pip install .` makes).
     trajdb functions [--markdown]                         (the SQL function reference)
     trajdb params [--sql]                                 (the pipeline parameters)
     trajdb report RESULTS_DIR [--open]                    (where report.html is; --open: in a browser)
+    trajdb install-cli [--duckdb BIN | --duckdb-version V] [--dir DIR]   (LOAD trajdb by name in the DuckDB CLI)
     trajdb help [COMMAND]                                 (or COMMAND --help)
 
 Argument parsing and printing only. The extension does the work: the parameters are checked by
@@ -352,6 +353,33 @@ def cmd_report(a):
             raise RuntimeError(f"no browser could be started; open {url} yourself")
 
 
+def _cli_version(binary):
+    """The version folder of a DuckDB command line (`duckdb --version`: v1.5.6 (Variegata) 069cc9f9b5;
+    a development build: its source id)."""
+    import shutil
+    import subprocess
+
+    exe = shutil.which(binary)
+    if exe is None:
+        raise RuntimeError(f"no DuckDB command line {binary!r} found: give its path with --duckdb, "
+                           "or the version it reports (duckdb --version) with --duckdb-version v1.5.6")
+    try:
+        words = subprocess.run([exe, "--version"], capture_output=True, text=True, timeout=60, check=True).stdout.split()
+    except (OSError, subprocess.SubprocessError) as e:
+        raise RuntimeError(f"`{exe} --version` failed ({e}): give the version with --duckdb-version v1.5.6") from None
+    if not words or not words[0].startswith("v"):
+        raise RuntimeError(f"`{exe} --version` printed {' '.join(words)!r}, not a DuckDB version: give it with --duckdb-version")
+    return words[-1] if "-dev" in words[0] and len(words) > 1 else words[0]
+
+
+def cmd_install_cli(a):
+    version = a.duckdb_version or _cli_version(a.duckdb)
+    path, what = trajdb.install_extension(a.dir, version, a.platform)
+    out(f"{what}: {path}")
+    out("the DuckDB command line loads it by name (it is not signed by DuckDB, hence -unsigned):")
+    out("  duckdb -unsigned -c \"LOAD trajdb; SELECT trajdb_reference('text')\"")
+
+
 # --- trajdb score: the printout of sql/score.sql's tables (benches/identity_grid.sh reads it by position) ---
 
 
@@ -522,6 +550,14 @@ def build_parser():
     p = add("report", cmd_report, "the report.html of a results folder: its file:// address (--open: in the default browser)")
     p.add_argument("results", metavar="RESULTS_DIR")
     p.add_argument("--open", action="store_true", help="open it in the default web browser")
+    p = add("install-cli", cmd_install_cli,
+            "copy the extension where the DuckDB command line finds it by name (LOAD trajdb): "
+            "DIR/<its version>/<platform>/trajdb.duckdb_extension; a file there that trajdb did not write is never replaced")
+    p.add_argument("--duckdb", default="duckdb", metavar="BIN", help="the DuckDB command line whose version decides the folder [default: duckdb on PATH]")
+    p.add_argument("--duckdb-version", metavar="V", help="its version (v1.5.6) instead of running it")
+    p.add_argument("--dir", default=trajdb.DEFAULT_EXTENSION_DIR, metavar="DIR",
+                   help=f"the extension directory [default: {trajdb.DEFAULT_EXTENSION_DIR}, the CLI's own]")
+    p.add_argument("--platform", metavar="P", help="DuckDB platform name [default: this Python's DuckDB's, e.g. linux_amd64]")
     p = add("help", None, "this overview, or a command's help")
     p.add_argument("topic", nargs="?", metavar="COMMAND")
     return top, cmds

@@ -100,7 +100,7 @@ fn summary(d: &Data, c: &Ctx, h: &mut String) -> R<()> {
     h.push_str("<h2>Summary</h2>");
     let _ = write!(
         h,
-        "<p><b>{total} road users</b>{}{} ({multi} seen by more than one camera or track), from {} camera{}.</p>",
+        "<p><b>{total} road users</b>{}{} ({multi} seen by more than one camera), from {} camera{}.</p>",
         if per_class.is_empty() {
             String::new()
         } else {
@@ -158,7 +158,7 @@ fn summary(d: &Data, c: &Ctx, h: &mut String) -> R<()> {
             tf.len(),
             c.cameras.len(),
             reference.as_ref().map_or(String::new(), |r| format!(
-                ", camera {r}'s (its frame and clock are the reference of every output)"
+                ": camera {r}'s frame and clock are the reference of every output"
             ))
         ));
         for (cam, reference, theta, tx, ty, off_ms) in tf.iter().filter(|t| t.0 != t.1) {

@@ -24,6 +24,19 @@ WITH m AS (SELECT road_user, class, len(list_distinct([s.camera FOR s IN sources
 SELECT road_user, class, row_number() OVER (ORDER BY rr, class) AS k
 FROM (SELECT road_user, class, row_number() OVER (PARTITION BY class ORDER BY n_cams DESC) AS rr FROM best)
 WHERE rr <= 2 ORDER BY k LIMIT 6;
+CREATE TEMP TABLE IF NOT EXISTS pipeline_warnings (k INTEGER, message VARCHAR);
+-- the headline's time bins: the recording's real span on the reference clock, in the smallest
+-- of 1, 5, 15, 60 minutes, 6 hours or a day that gives at most 24 bins
+CREATE OR REPLACE TEMP TABLE report_span AS
+SELECT min(t) AS t0, max(t) AS t1,
+       coalesce(list_filter([60, 300, 900, 3600, 21600, 86400], lambda b: (max(t) - min(t)) / b < 24)[1], 86400) AS bin_s
+FROM points WHERE estimated = 0;
+-- per road user: its cameras, first time and mean speed (length_m / duration_s, seen >= 1 s)
+CREATE OR REPLACE TEMP TABLE report_users AS
+SELECT road_user, class, len(list_distinct([s.camera FOR s IN sources])) AS n_cams, traj_time_range(traj).t_start AS t_start,
+       traj_duration(traj) AS duration_s,
+       CASE WHEN traj_duration(traj) >= 1 THEN traj_length_m(traj) / traj_duration(traj) END AS mean_speed
+FROM merged;
 CREATE OR REPLACE TEMP TABLE report_rows AS
 SELECT 'meta' AS s, 1 AS k, ['input', getvariable('pipeline_input')] AS c
 UNION ALL SELECT 'meta', 2, ['xi', calibrated('merge_min_points')::BIGINT::VARCHAR]
@@ -89,6 +102,49 @@ UNION ALL SELECT 'route', row_number() OVER (ORDER BY class, rank = 0 DESC, rank
           SELECT t.class, CASE WHEN s.rank <= 8 THEN s.rank ELSE 0 END AS rank, t.traj, hash(t.track_id) AS h
           FROM cluster_tracks t JOIN cluster_assign a USING (class, track_id) LEFT JOIN sizes s USING (class, cluster)
           QUALIFY row_number() OVER (PARTITION BY t.class ORDER BY hash(t.track_id), t.track_id) <= 600)
+-- the headline (issue 29 §5): road users per class and time bin, warnings, speeds, per-camera quality
+UNION ALL SELECT 'meta', 6, ['span_s', (t1 - t0)::VARCHAR] FROM report_span
+UNION ALL SELECT 'meta', 7, ['bin_s', bin_s::VARCHAR] FROM report_span
+UNION ALL SELECT 'users', row_number() OVER (ORDER BY class), [class, count(*)::VARCHAR, count(*) FILTER (WHERE n_cams > 1)::VARCHAR,
+                                                     median(duration_s)::VARCHAR]
+    FROM report_users GROUP BY class
+UNION ALL SELECT 'users_bin', row_number() OVER (ORDER BY b, class), [b::VARCHAR, class, n::VARCHAR]
+    FROM (SELECT floor((u.t_start - s.t0) / s.bin_s)::BIGINT AS b, u.class, count(*) AS n FROM report_users u, report_span s GROUP BY ALL)
+UNION ALL SELECT 'warning', row_number() OVER (ORDER BY k), [message] FROM pipeline_warnings
+UNION ALL SELECT 'pair', row_number() OVER (ORDER BY cam_a, cam_b), [cam_a::VARCHAR, cam_b::VARCHAR, sigma_d_m::VARCHAR, n_pairs::VARCHAR, source]
+    FROM calib_match
+-- speeds per class: the road users' mean speeds (length_m / duration_s) and the spot speeds of
+-- every point of the fused paths (traj_speeds), in m/s
+UNION ALL SELECT 'speed', row_number() OVER (ORDER BY class), [class, n::VARCHAR, m15::VARCHAR, m50::VARCHAR, m85::VARCHAR,
+                                                     s50::VARCHAR, s85::VARCHAR, s95::VARCHAR, smax::VARCHAR]
+    FROM (SELECT u.class, count(u.mean_speed) AS n, quantile_cont(u.mean_speed, 0.15) AS m15, quantile_cont(u.mean_speed, 0.5) AS m50,
+                 quantile_cont(u.mean_speed, 0.85) AS m85, any_value(p.s50) AS s50, any_value(p.s85) AS s85, any_value(p.s95) AS s95,
+                 any_value(p.smax) AS smax
+          FROM report_users u
+          LEFT JOIN (SELECT class, quantile_cont(v, 0.5) AS s50, quantile_cont(v, 0.85) AS s85, quantile_cont(v, 0.95) AS s95, max(v) AS smax
+                     FROM (SELECT class, unnest([s.v FOR s IN traj_speeds(traj)]) AS v FROM merged) GROUP BY class) p USING (class)
+          GROUP BY u.class)
+-- per camera: its tracks (links.csv: the original ids, before linking) and real points, its measured period and noise, breaks linked within it
+-- (links.csv rows with linked_id <> track_id), its tracks matched to another camera
+-- (matches.csv), the road users it saw, and its alignment (reference NULL: not aligned)
+UNION ALL SELECT 'camq', row_number() OVER (ORDER BY c.camera),
+    [c.camera::VARCHAR, coalesce(l.tracks, 0)::VARCHAR, c.points::VARCHAR, k.period_s::VARCHAR, k.sigma_m::VARCHAR,
+     coalesce(l.linked, 0)::VARCHAR, coalesce(m.matched, 0)::VARCHAR, coalesce(u.users, 0)::VARCHAR, f.reference::VARCHAR,
+     (f.clock_offset_s * 1000)::VARCHAR, (f.clock_drift * 1e6)::VARCHAR]
+    FROM (SELECT camera, count(*) AS points FROM points WHERE estimated = 0 GROUP BY camera) c
+    LEFT JOIN calib_cameras k USING (camera)
+    LEFT JOIN (SELECT camera, count(*) AS tracks, count(*) FILTER (WHERE track_id <> linked_id) AS linked FROM result_links() GROUP BY camera) l USING (camera)
+    -- (both ends of a match from one scan: a UNION ALL of two result_matches() calls lost its
+    -- second branch in DuckDB 2.0.0)
+    LEFT JOIN (SELECT e.camera, count(DISTINCT e.track_id) AS matched
+               FROM (SELECT unnest([{'camera': camera_a, 'track_id': track_a}, {'camera': camera_b, 'track_id': track_b}]) AS e FROM result_matches())
+               GROUP BY e.camera) m ON m.camera = c.camera
+    LEFT JOIN (SELECT s.camera, count(DISTINCT road_user) AS users FROM (SELECT road_user, unnest(sources) AS s FROM merged) GROUP BY s.camera) u
+           ON u.camera = c.camera
+    LEFT JOIN align_frames f ON f.camera = c.camera
+-- HOOK (issue 29 §4, sql/analysis.sql, another part of the issue): the movement table and
+-- diagram and the conflict list go here as rows 'movement' and 'conflict'; mod.rs (fn analysis)
+-- draws a section for each only when it has rows, so the report is unchanged until they exist.
 UNION ALL SELECT 'param', row_number() OVER (ORDER BY stage, name), [name, value, stage, description] FROM pipeline_params;
 COPY (SELECT trajdb_report_html(string_agg(s || chr(31) || array_to_string([report_cell(v) FOR v IN c], chr(31)), chr(30) ORDER BY s, k))
       FROM report_rows)

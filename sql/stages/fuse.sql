@@ -39,15 +39,24 @@
 --    that second difference is Gaussian per axis with variance q * 2 tau^3 / 3 (tau = 1 s: the
 --    triangle kernel's integral), so its 2-D length is Rayleigh with scale sqrt(2 q / 3), whose
 --    95th percentile is sqrt(2 ln 20) times the scale: q = 1.5 * (accel_p95 / sqrt(2 ln 20))^2
---    = 0.2504 accel_p95^2. The measurement includes position noise (it overstates q): that
---    errs on the side of following manoeuvres (less smoothing), never of cutting corners. A
---    class calibrate.sql could not measure takes the largest q of the others.
+--    = 0.2504 accel_p95^2. The measurement includes position noise: a second difference of
+--    noisy positions adds 6 sigma^2 per axis to its variance, so the noise's share is taken
+--    out: q = 1.5 * ((accel_p95 / sqrt(2 ln 20))^2 - 6 s2), s2 = the mean sigma_m^2 over the
+--    cameras (calib_cameras; the same in every window), and q is at least 0.1 of the uncorrected
+--    value (where noise is nearly all of the measurement the difference is uncertain; docs/fusion.md
+--    measured q x 0.1 to cost < 5% of accuracy). Without the correction, at sigma 0.2-0.4 m q
+--    was 4-15x too high for pedestrians and cyclists, the smoother followed the noise and
+--    length_m overstated the true length by 1.6% (median) and 9% (p95), up to 20%
+--    (tests/test_paths_python.py, issue 29); at the default sigma 0.05-0.15 m q changes by ~1%.
+--    A class calibrate.sql could not measure takes the largest q of the others.
 --  * Which road users: every one (one camera too): a single camera's path is smoothed the same
 --    way (its error against world.csv falls by about half, and its length stops counting the
 --    noise); see docs/fusion.md for the measurement.
 
 CREATE OR REPLACE TEMP TABLE fuse_q AS
-SELECT class, accel_p95, 1.5 * (accel_p95 / sqrt(2 * ln(20))) ** 2 AS q
+SELECT class, accel_p95,
+       1.5 * greatest((accel_p95 / sqrt(2 * ln(20))) ** 2 - 6 * coalesce((SELECT avg(sigma_m ** 2) FROM calib_cameras WHERE isfinite(sigma_m)), 0),
+                      0.1 * (accel_p95 / sqrt(2 * ln(20))) ** 2) AS q
 FROM calib_classes WHERE isfinite(accel_p95);
 
 CREATE OR REPLACE TEMP TABLE fuse_paths AS

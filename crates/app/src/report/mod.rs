@@ -1,4 +1,6 @@
-//! The QA report of the pipeline (`report.html`, one self-contained file with inline SVG):
+//! The QA report of the pipeline (`report.html`, one self-contained file with inline SVG). It
+//! opens with the headline (road users per class over time, the cameras' alignment in plain
+//! words, warnings and what needs a look), speeds per class and per-camera quality; then
 //! each camera's points before alignment (its own frame) and after (the common frame), the view
 //! polygons and overlaps per class, sample merges, count tables in the style of the thesis's
 //! tables 4.1–4.6, and the parameters used.
@@ -23,7 +25,11 @@ pub fn render(text: &str) -> Result<String, DataError> {
     let d = Data::parse(text);
     let c = Ctx::load(&d)?;
     let mut h = html::page_start(d.meta("input").unwrap_or("?"));
-    stage_times(&d, &mut h)?;
+    // the headline first (issue 29 §5): what was found and how far to trust it
+    summary(&d, &c, &mut h)?;
+    analysis(&d, &mut h)?;
+    speeds(&d, &mut h)?;
+    camera_quality(&d, &mut h)?;
     transforms(&d, &c, &mut h)?;
     calibration(&d, &c, &mut h)?;
     points(&d, &c, &mut h)?;
@@ -32,6 +38,7 @@ pub fn render(text: &str) -> Result<String, DataError> {
     matches(&d, &c, &mut h)?;
     sample_merges(&d, &c, &mut h)?;
     clusters(&d, &c, &mut h)?;
+    stage_times(&d, &mut h)?;
     parameters(&d, &c, &mut h)?;
     h.push_str(html::GLOSSARY);
     h.push_str(html::page_end());
@@ -65,6 +72,241 @@ impl Ctx {
             views: d.rows("view").iter().map(|r| Ok((r.i(0)?, r.s(1)?, r.s(2)?))).collect::<R<_>>()?,
         })
     }
+}
+
+/// A number of seconds as minutes:seconds from the start of the recording (`+m:ss`), or hours.
+fn clock(s: f64) -> String {
+    let s = s.max(0.0).round() as i64;
+    if s >= 3600 {
+        format!("+{}:{:02}:{:02}", s / 3600, s / 60 % 60, s % 60)
+    } else {
+        format!("+{}:{:02}", s / 60, s % 60)
+    }
+}
+
+/// The headline: road users per class and over time, the alignment in plain words, warnings and
+/// what needs a look.
+fn summary(d: &Data, c: &Ctx, h: &mut String) -> R<()> {
+    // (class, road users, seen by more than one camera, median duration s)
+    let users = d
+        .rows("users")
+        .iter()
+        .map(|r| Ok((r.s(0)?, r.i(1)?, r.i(2)?, r.opt_f(3)?)))
+        .collect::<R<Vec<_>>>()?;
+    let total: i64 = users.iter().map(|u| u.1).sum();
+    let multi: i64 = users.iter().map(|u| u.2).sum();
+    let span = d.meta("span_s").and_then(|v| v.parse::<f64>().ok());
+    let per_class: Vec<String> = users.iter().map(|u| format!("{} {}", u.1, u.0)).collect();
+    h.push_str("<h2>Summary</h2>");
+    let _ = write!(
+        h,
+        "<p><b>{total} road users</b>{}{} ({multi} seen by more than one camera), from {} camera{}.</p>",
+        if per_class.is_empty() {
+            String::new()
+        } else {
+            format!(": {}", per_class.join(", "))
+        },
+        span.map_or(String::new(), |s| format!(" in {:.1} minutes of recording", s / 60.0)),
+        c.cameras.len(),
+        if c.cameras.len() == 1 { "" } else { "s" }
+    );
+    // road users per class and time bin (by the time each was first seen)
+    let bins = d
+        .rows("users_bin")
+        .iter()
+        .map(|r| Ok((r.i(0)?, r.s(1)?, r.i(2)?)))
+        .collect::<R<Vec<(i64, String, i64)>>>()?;
+    if let (Some(bin_s), false) = (d.meta("bin_s").and_then(|v| v.parse::<f64>().ok()), bins.is_empty()) {
+        let classes: Vec<&String> = users.iter().map(|u| &u.0).collect();
+        let last = bins.iter().map(|b| b.0).max().unwrap_or(0);
+        let mut rows = Vec::new();
+        for b in 0..=last {
+            let mut row = vec![format!("{} – {}", clock(b as f64 * bin_s), clock((b + 1) as f64 * bin_s))];
+            let mut tot = 0;
+            for class in &classes {
+                let v = bins.iter().find(|x| x.0 == b && &&x.1 == class).map_or(0, |x| x.2);
+                tot += v;
+                row.push(v.to_string());
+            }
+            row.push(tot.to_string());
+            rows.push(row);
+        }
+        let mut head = vec!["first seen (from the start)".to_string()];
+        head.extend(classes.iter().map(|c| c.to_string()));
+        head.push("all".into());
+        let _ = write!(
+            h,
+            "<p>Road users per class by the time they were first seen ({:.0}-minute bins, the reference camera's clock):</p>{}",
+            bin_s / 60.0,
+            table(&head, &rows)
+        );
+    }
+
+    // the alignment in plain words
+    let tf = d
+        .rows("transform")
+        .iter()
+        .map(|r| Ok((r.s(0)?, r.s(1)?, r.f(2)?, r.f(3)?, r.f(4)?, r.f(7)?)))
+        .collect::<R<Vec<_>>>()?;
+    let pairs = d.rows("pair").iter().map(|r| Ok((r.s(0)?, r.s(1)?, r.f(2)?, r.s(4)?))).collect::<R<Vec<_>>>()?;
+    let unaligned = d.rows("unaligned").iter().map(|r| r.s(0)).collect::<R<Vec<String>>>()?;
+    let mut items = Vec::new();
+    if c.cameras.len() > 1 {
+        let reference = tf.iter().find(|t| t.0 == t.1).map(|t| t.0.clone());
+        items.push(format!(
+            "<b>{} of {} cameras in one frame</b>{}.",
+            tf.len(),
+            c.cameras.len(),
+            reference.as_ref().map_or(String::new(), |r| format!(
+                ": camera {r}'s frame and clock are the reference of every output"
+            ))
+        ));
+        for (cam, reference, theta, tx, ty, off_ms) in tf.iter().filter(|t| t.0 != t.1) {
+            let resid = pairs.iter().find(|p| (&p.0 == cam && &p.1 == reference) || (&p.1 == cam && &p.0 == reference));
+            items.push(format!(
+                "Camera {cam}: turned {theta:.1}° and shifted {:.1} m onto camera {reference}; its clock runs {} camera {reference}'s{}.",
+                tx.hypot(*ty),
+                if off_ms.abs() < 0.05 {
+                    "with".to_string()
+                } else {
+                    format!("{:.1} ms {}", off_ms.abs(), if *off_ms > 0.0 { "ahead of" } else { "behind" })
+                },
+                resid.map_or(String::new(), |p| format!(
+                    "; the same road user seen by both lies {:.2} m apart (1 σ per axis, both cameras' noise included; from {})",
+                    p.2, p.3
+                ))
+            ));
+        }
+    }
+    let warnings = d.rows("warning").iter().map(|r| r.s(0)).collect::<R<Vec<String>>>()?;
+    // what needs a look: unaligned cameras, a camera pair whose matched road users lie more
+    // than half a metre apart, a camera none of whose tracks was matched while others were
+    let mut look: Vec<String> = Vec::new();
+    if !unaligned.is_empty() {
+        look.push(format!(
+            "cameras {} are not aligned with the others: their road users are their own",
+            unaligned.join(", ")
+        ));
+    }
+    for p in pairs.iter().filter(|p| p.2 > 0.5) {
+        look.push(format!(
+            "cameras {} and {}: the same road user lies {:.2} m apart (1 σ per axis); check the alignment below",
+            p.0, p.1, p.2
+        ));
+    }
+    let camq = d.rows("camq").iter().map(|r| Ok((r.s(0)?, r.i(1)?, r.i(6)?))).collect::<R<Vec<_>>>()?;
+    if camq.iter().any(|q| q.2 > 0) {
+        for q in camq.iter().filter(|q| q.2 == 0 && q.1 > 0) {
+            look.push(format!("camera {}: none of its {} tracks was matched to another camera", q.0, q.1));
+        }
+    }
+    if !items.is_empty() {
+        h.push_str("<p>Cameras:</p><ul>");
+        for i in &items {
+            let _ = write!(h, "<li>{i}</li>");
+        }
+        h.push_str("</ul>");
+    }
+    let _ = write!(h, "<p>Warnings: {}</p>", if warnings.is_empty() { "none.".to_string() } else { String::new() });
+    if !warnings.is_empty() {
+        h.push_str("<ul>");
+        for w in &warnings {
+            let _ = write!(h, "<li>{}</li>", html::esc(w));
+        }
+        h.push_str("</ul>");
+    }
+    let _ = write!(
+        h,
+        "<p>Needs a look: {}</p>",
+        if look.is_empty() { "nothing found.".to_string() } else { String::new() }
+    );
+    if !look.is_empty() {
+        h.push_str("<ul>");
+        for w in &look {
+            let _ = write!(h, "<li>{}</li>", html::esc(w));
+        }
+        h.push_str("</ul>");
+    }
+    Ok(())
+}
+
+/// HOOK (issue 29 §4): the movement table and diagram and the conflict list, from
+/// sql/analysis.sql (rows 'movement' and 'conflict' of sql/report.sql). Nothing is drawn until
+/// those rows exist; the engineer who adds them renders them here.
+fn analysis(d: &Data, h: &mut String) -> R<()> {
+    if !d.rows("movement").is_empty() || !d.rows("conflict").is_empty() {
+        h.push_str("<h2>Movements and conflicts</h2><p>(sql/analysis.sql: not drawn yet.)</p>");
+    }
+    Ok(())
+}
+
+/// Speeds per class: the road users' mean speeds and the spot speeds of the fused paths.
+fn speeds(d: &Data, h: &mut String) -> R<()> {
+    let kmh = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{:.1}", v * 3.6));
+    let rows = d
+        .rows("speed")
+        .iter()
+        .map(|r| {
+            Ok(vec![
+                r.s(0)?,
+                r.i(1)?.to_string(),
+                kmh(r.opt_f(2)?),
+                kmh(r.opt_f(3)?),
+                kmh(r.opt_f(4)?),
+                kmh(r.opt_f(5)?),
+                kmh(r.opt_f(6)?),
+                kmh(r.opt_f(7)?),
+                kmh(r.opt_f(8)?),
+            ])
+        })
+        .collect::<R<Vec<_>>>()?;
+    let _ = write!(
+        h,
+        "<h2>Speeds per class</h2><p>In km/h. Mean speed: each road user's length_m / duration_s (those seen for at least 1 s), its 15th, 50th and 85th percentiles over the road users. \
+         Spot speed: every point of the fused paths (traj_speeds, one per 0.1 s step), its percentiles and maximum.</p>{}",
+        table(&["class", "road users", "mean p15", "mean p50", "mean p85", "spot p50", "spot p85", "spot p95", "spot max"].map(String::from), &rows)
+    );
+    Ok(())
+}
+
+/// Per-camera quality: tracks, breaks linked, matches, noise, alignment.
+fn camera_quality(d: &Data, h: &mut String) -> R<()> {
+    let rows = d
+        .rows("camq")
+        .iter()
+        .map(|r| {
+            Ok(vec![
+                r.s(0)?,
+                r.i(1)?.to_string(),
+                r.i(2)?.to_string(),
+                r.opt_f(3)?.map_or("-".into(), |v| format!("{v:.3}")),
+                r.opt_f(4)?.map_or("-".into(), |v| format!("{v:.3}")),
+                r.i(5)?.to_string(),
+                r.i(6)?.to_string(),
+                r.i(7)?.to_string(),
+                r.opt_s(8)?.unwrap_or_else(|| "not aligned".into()),
+                r.opt_f(9)?.map_or("-".into(), |v| format!("{v:+.1}")),
+                r.opt_f(10)?.map_or("-".into(), |v| format!("{v:+.1}")),
+            ])
+        })
+        .collect::<R<Vec<_>>>()?;
+    let pairs = d
+        .rows("pair")
+        .iter()
+        .map(|r| Ok(vec![format!("{}–{}", r.s(0)?, r.s(1)?), format!("{:.3}", r.f(2)?), r.s(3)?, r.s(4)?]))
+        .collect::<R<Vec<_>>>()?;
+    let _ = write!(
+        h,
+        "<h2>Per-camera quality</h2><p>Tracks: the camera's original track ids (links.csv); breaks linked: tracks joined to an earlier piece of the same road user within the camera; \
+         matched: tracks linked to another camera's (matches.csv); period and noise σ (per axis) as calibration measured them; clock offset and drift against the reference camera.</p>{}\
+         <p>Residuals per camera pair: how far apart the matched tracks of the two cameras lie under the final alignment (1 σ per axis, both cameras' noise included), over how many point pairs.</p>{}",
+        table(
+            &["camera", "tracks", "real points", "period s", "noise σ m", "breaks linked", "matched", "road users", "reference", "clock offset ms", "drift ppm"].map(String::from),
+            &rows
+        ),
+        table(&["cameras", "residual σ m", "point pairs", "from"].map(String::from), &pairs)
+    );
+    Ok(())
 }
 
 /// Stage times.

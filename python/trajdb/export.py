@@ -1,0 +1,269 @@
+"""Road users for GIS tools, with their time, and optionally on a map (issue 29, part 3).
+
+`merged.parquet` holds each road user's path as WKB LINESTRING M in the EWKB flavour (type
+0x40000002), which geopandas' default engine refuses (`GeometryError ... WKB type 1073741826`).
+`export` writes the same road users as
+
+  * ``geojson``: one Feature per road user, a LineString (Point for one point) and every column
+    of merged.parquet but the geometry as properties; ``times``: the time of every vertex (s,
+    reference clock), so nothing of the path's timing is lost;
+  * ``gpkg``: a GeoPackage (SQLite, written with the standard library), layer ``road_users``,
+    geometry LINESTRING M (ISO WKB; M = t), the columns as attributes; QGIS and GDAL open it;
+  * ``parquet``: GeoParquet 1.1 with ISO WKB (LINESTRING M, type 2002), which geopandas reads,
+    and the CRS in the metadata when the output is on a map.
+
+Times: ``t_start``, ``t_end`` and ``times`` are seconds on the reference camera's clock, as the
+input gave them; when they look like Unix time (after 1990) the files also carry ``t_start_utc``
+and ``t_end_utc`` (ISO 8601, UTC), which QGIS's temporal controller takes.
+
+On a map (docs/maps.md): ``control_points=[(x, y, X, Y), ...]`` (at least two; x, y in the
+reference camera's frame, X, Y in ``crs``) fit a similarity transform (rotation, uniform scale,
+translation; least squares, Umeyama 1991 in complex form) that maps every path into ``crs``:
+``"EPSG:4326"`` (X = longitude, Y = latitude, degrees; fitted in a local east/north tangent
+plane) or a projected CRS (``"EPSG:25832"``, metres). ``fit_map`` returns the fit and its residuals.
+
+usage: trajdb.export("results/", "road_users.geojson")
+       trajdb.export(con, "road_users.gpkg", control_points=[...], crs="EPSG:4326")
+"""
+import datetime
+import json
+import math
+import os
+import sqlite3
+import struct
+
+FORMATS = {".geojson": "geojson", ".json": "geojson", ".gpkg": "gpkg", ".parquet": "parquet"}
+EARTH_R = 6378137.0  # WGS 84 semi-major axis (m): the local tangent plane of a lon/lat fit
+EPOCH_1990 = 631152000.0
+
+# OGC:CRS84 (lon/lat, WGS 84) as PROJJSON: GeoParquet's default CRS, written out explicitly.
+CRS84_PROJJSON = {
+    "$schema": "https://proj.org/schemas/v0.7/projjson.schema.json", "type": "GeographicCRS",
+    "name": "WGS 84 (CRS84)",
+    "datum_ensemble": {"name": "World Geodetic System 1984 ensemble",
+                       "members": [{"name": "World Geodetic System 1984 (Transit)"}, {"name": "World Geodetic System 1984 (G730)"},
+                                   {"name": "World Geodetic System 1984 (G873)"}, {"name": "World Geodetic System 1984 (G1150)"},
+                                   {"name": "World Geodetic System 1984 (G1674)"}, {"name": "World Geodetic System 1984 (G1762)"},
+                                   {"name": "World Geodetic System 1984 (G2139)"}],
+                       "ellipsoid": {"name": "WGS 84", "semi_major_axis": 6378137, "inverse_flattening": 298.257223563},
+                       "accuracy": "2.0", "id": {"authority": "EPSG", "code": 6326}},
+    "coordinate_system": {"subtype": "ellipsoidal", "axis": [
+        {"name": "Geodetic longitude", "abbreviation": "Lon", "direction": "east", "unit": "degree"},
+        {"name": "Geodetic latitude", "abbreviation": "Lat", "direction": "north", "unit": "degree"}]},
+    "id": {"authority": "OGC", "code": "CRS84"}}
+
+
+def _epsg(crs):
+    if crs is None:
+        return None
+    s = str(crs).strip().upper()
+    if s.startswith("EPSG:"):
+        s = s[5:]
+    if not s.isdigit():
+        raise ValueError(f"trajdb.export: crs={crs!r} is not an EPSG code; give e.g. 'EPSG:4326' (lon/lat) or 'EPSG:25832'")
+    return int(s)
+
+
+class MapFit:
+    """A similarity transform local (x, y) -> map (X, Y): X + iY = a (x + iy) + b, a = s e^{i theta}."""
+
+    def __init__(self, a, b, epsg, origin, residuals):
+        self.a, self.b, self.epsg, self.origin, self.residuals = a, b, epsg, origin, residuals
+        self.scale, self.theta_rad = abs(a), math.atan2(a.imag, a.real)
+        self.rms_m = math.sqrt(sum(r * r for r in residuals) / len(residuals))
+
+    def __call__(self, x, y):
+        w = self.a * complex(x, y) + self.b
+        if self.epsg == 4326:  # tangent plane (east, north m) -> lon, lat
+            lon0, lat0 = self.origin
+            return (lon0 + math.degrees(w.real / (EARTH_R * math.cos(math.radians(lat0)))), lat0 + math.degrees(w.imag / EARTH_R))
+        return (w.real, w.imag)
+
+    def __repr__(self):
+        return (f"MapFit(EPSG:{self.epsg}, scale {self.scale:.6f}, rotation {math.degrees(self.theta_rad):.3f} deg, "
+                f"rms residual {self.rms_m:.3f} m over {len(self.residuals)} control points)")
+
+
+def fit_map(control_points, crs):
+    """Least-squares similarity from >= 2 control points (x, y, X, Y); Umeyama (1991) with the plane
+    as complex numbers: a = sum (w - w_) conj(z - z_) / sum |z - z_|^2, b = w_ - a z_. O(n).
+    For EPSG:4326 (X = lon, Y = lat) the fit is in metres east/north of the points' mean."""
+    epsg = _epsg(crs)
+    if epsg is None:
+        raise ValueError("trajdb.export: control_points need a crs, e.g. crs='EPSG:4326'")
+    pts = [tuple(float(v) for v in p) for p in control_points]
+    if len(pts) < 2 or any(len(p) != 4 or not all(math.isfinite(v) for v in p) for p in pts):
+        raise ValueError("trajdb.export: control_points must be at least two finite (x, y, X, Y) tuples")
+    origin = None
+    if epsg == 4326:
+        if any(not (-180 <= p[2] <= 180 and -90 <= p[3] <= 90) for p in pts):
+            raise ValueError("trajdb.export: EPSG:4326 control points are (x, y, longitude, latitude) in degrees")
+        origin = (sum(p[2] for p in pts) / len(pts), sum(p[3] for p in pts) / len(pts))
+        k = EARTH_R * math.cos(math.radians(origin[1]))
+        w = [complex(math.radians(p[2] - origin[0]) * k, math.radians(p[3] - origin[1]) * EARTH_R) for p in pts]
+    else:
+        w = [complex(p[2], p[3]) for p in pts]
+    z = [complex(p[0], p[1]) for p in pts]
+    zm, wm = sum(z) / len(z), sum(w) / len(w)
+    den = sum(abs(v - zm) ** 2 for v in z)
+    if den <= 1e-12:
+        raise ValueError("trajdb.export: the control points coincide in the local frame; give two or more distinct points")
+    a = sum((wi - wm) * (zi - zm).conjugate() for zi, wi in zip(z, w)) / den
+    b = wm - a * zm
+    residuals = [abs(a * zi + b - wi) for zi, wi in zip(z, w)]
+    return MapFit(a, b, epsg, origin, residuals)
+
+
+def _road_users(source):
+    """Rows of merged.parquet as dicts, from a results folder, a merged.parquet path or a
+    DuckDB connection after the pipeline (its `merged` road users via result_road_users())."""
+    import duckdb
+    if isinstance(source, (str, os.PathLike)):
+        path = os.fspath(source)
+        if os.path.isdir(path):
+            path = os.path.join(path, "merged.parquet")
+        if not os.path.isfile(path):
+            raise FileNotFoundError(f"trajdb.export: {path} not found: give a results folder, its merged.parquet or a connection")
+        con, q, args = duckdb.connect(), "SELECT * EXCLUDE (geometry) FROM read_parquet(?) ORDER BY road_user", [path]
+    else:
+        con, q, args = source, "SELECT * EXCLUDE (geometry) FROM result_road_users() ORDER BY road_user", []
+    cur = con.execute(q, args)
+    names = [d[0] for d in cur.description]
+    return [dict(zip(names, r)) for r in cur.fetchall()]
+
+
+def _utc(t):
+    if t is None or not (EPOCH_1990 <= t <= 4.1e9):
+        return None
+    return datetime.datetime.fromtimestamp(t, datetime.timezone.utc).isoformat().replace("+00:00", "Z")
+
+
+def _properties(r):
+    p = {k: v for k, v in r.items() if k not in ("traj", "sigma", "sources")}
+    p["sources"] = ",".join(f"{s['camera']}:{s['track_id']}" for s in r["sources"] or [])
+    p["times"] = [q["t"] for q in r["traj"]]
+    p["sigma"] = list(r["sigma"]) if r.get("sigma") is not None else None
+    if _utc(r["t_start"]):
+        p["t_start_utc"], p["t_end_utc"] = _utc(r["t_start"]), _utc(r["t_end"])
+    return p
+
+
+def _wkb_m(xym):
+    """ISO WKB (little endian): LINESTRING M (2002), or POINT M (2001) for one point."""
+    if len(xym) == 1:
+        return struct.pack("<BI3d", 1, 2001, *xym[0])
+    return struct.pack("<BII", 1, 2002, len(xym)) + b"".join(struct.pack("<3d", *p) for p in xym)
+
+
+def export(source, path, format=None, control_points=None, crs=None, overwrite=False):
+    """Write the road users of `source` (a results folder, its merged.parquet, or a DuckDB
+    connection after trajdb.pipeline) to `path` as GeoJSON, GeoPackage or GeoParquet (format
+    from the extension unless given), keeping every vertex's time. With control_points and crs,
+    the paths are put on the map first (fit_map). Returns the number of road users written.
+    An existing file is an error unless overwrite=True."""
+    path = os.fspath(path)
+    fmt = format or FORMATS.get(os.path.splitext(path)[1].lower())
+    if fmt not in ("geojson", "gpkg", "parquet"):
+        raise ValueError(f"trajdb.export: format {format or os.path.splitext(path)[1]!r} unknown; give 'geojson', 'gpkg' or 'parquet' "
+                         "(or a path ending .geojson, .gpkg, .parquet)")
+    if os.path.exists(path) and not overwrite:
+        raise FileExistsError(f"trajdb.export: {path} exists; give another path or overwrite=True")
+    fit = fit_map(control_points, crs) if control_points is not None else None
+    if fit is None and crs is not None:
+        raise ValueError("trajdb.export: crs needs control_points (the local frame has no CRS of its own)")
+    epsg = fit.epsg if fit else None
+    rows = _road_users(source)
+    feats = []
+    for r in rows:
+        xym = [(*(fit(q["x"], q["y"]) if fit else (q["x"], q["y"])), q["t"]) for q in r["traj"]]
+        feats.append((r, xym))
+    tmp = path + ".partial"
+    if os.path.exists(tmp):
+        os.remove(tmp)
+    if fmt == "geojson":
+        _geojson(tmp, feats, epsg)
+    elif fmt == "gpkg":
+        _gpkg(tmp, feats, epsg)
+    else:
+        _geoparquet(tmp, feats, epsg)
+    os.replace(tmp, path)
+    return len(feats)
+
+
+def _geojson(path, feats, epsg):
+    out = {"type": "FeatureCollection", "name": "road_users", "features": []}
+    if epsg not in (None, 4326):  # RFC 7946 is lon/lat; GDAL and QGIS read this member
+        out["crs"] = {"type": "name", "properties": {"name": f"urn:ogc:def:crs:EPSG::{epsg}"}}
+    for r, xym in feats:
+        coords = [[p[0], p[1]] for p in xym]
+        geom = {"type": "Point", "coordinates": coords[0]} if len(coords) == 1 else {"type": "LineString", "coordinates": coords}
+        out["features"].append({"type": "Feature", "id": r["road_user"], "geometry": geom, "properties": _properties(r)})
+    with open(path, "w", encoding="utf-8") as f:
+        json.dump(out, f, allow_nan=False)
+
+
+def _gpkg(path, feats, epsg):
+    srs_id = -1 if epsg is None else epsg
+    con = sqlite3.connect(path)
+    c = con.cursor()
+    c.execute("PRAGMA application_id = 1196444487")  # 'GPKG'
+    c.execute("PRAGMA user_version = 10300")
+    c.execute("""CREATE TABLE gpkg_spatial_ref_sys (srs_name TEXT NOT NULL, srs_id INTEGER PRIMARY KEY, organization TEXT NOT NULL,
+                 organization_coordsys_id INTEGER NOT NULL, definition TEXT NOT NULL, description TEXT)""")
+    srs = [("Undefined Cartesian SRS", -1, "NONE", -1, "undefined", "the reference camera's local metric frame"),
+           ("Undefined geographic SRS", 0, "NONE", 0, "undefined", None),
+           ("WGS 84 geodetic", 4326, "EPSG", 4326, 'GEOGCS["WGS 84",DATUM["WGS_1984",SPHEROID["WGS 84",6378137,298.257223563]],'
+            'PRIMEM["Greenwich",0],UNIT["degree",0.0174532925199433],AUTHORITY["EPSG","4326"]]', None)]
+    if epsg not in (None, 4326):
+        srs.append((f"EPSG:{epsg}", epsg, "EPSG", epsg, "undefined", None))
+    c.executemany("INSERT INTO gpkg_spatial_ref_sys VALUES (?, ?, ?, ?, ?, ?)", srs)
+    c.execute("""CREATE TABLE gpkg_contents (table_name TEXT NOT NULL PRIMARY KEY, data_type TEXT NOT NULL, identifier TEXT UNIQUE,
+                 description TEXT DEFAULT '', last_change DATETIME NOT NULL DEFAULT (strftime('%Y-%m-%dT%H:%M:%fZ','now')),
+                 min_x DOUBLE, min_y DOUBLE, max_x DOUBLE, max_y DOUBLE, srs_id INTEGER)""")
+    c.execute("""CREATE TABLE gpkg_geometry_columns (table_name TEXT NOT NULL, column_name TEXT NOT NULL, geometry_type_name TEXT NOT NULL,
+                 srs_id INTEGER NOT NULL, z TINYINT NOT NULL, m TINYINT NOT NULL, PRIMARY KEY (table_name, column_name))""")
+    c.execute("""CREATE TABLE road_users (fid INTEGER PRIMARY KEY AUTOINCREMENT, geom BLOB, road_user INTEGER, class TEXT, n_tracks INTEGER,
+                 sources TEXT, t_start REAL, t_end REAL, t_start_utc DATETIME, t_end_utc DATETIME, duration_s REAL, length_m REAL,
+                 sigma_m REAL, times TEXT)""")
+    xs, ys = [], []
+    for r, xym in feats:
+        bx, by = [p[0] for p in xym], [p[1] for p in xym]
+        xs += [min(bx), max(bx)]
+        ys += [min(by), max(by)]
+        head = b"GP" + struct.pack("<BBi4d", 0, 0x03, srs_id, min(bx), max(bx), min(by), max(by))  # little endian, xy envelope
+        p = _properties(r)
+        c.execute("INSERT INTO road_users (geom, road_user, class, n_tracks, sources, t_start, t_end, t_start_utc, t_end_utc, duration_s, "
+                  "length_m, sigma_m, times) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+                  (head + _wkb_m(xym), r["road_user"], r["class"], r["n_tracks"], p["sources"], r["t_start"], r["t_end"],
+                   p.get("t_start_utc"), p.get("t_end_utc"), r["duration_s"], r["length_m"], r.get("sigma_m"), json.dumps(p["times"])))
+    c.execute("INSERT INTO gpkg_contents (table_name, data_type, identifier, description, min_x, min_y, max_x, max_y, srs_id) "
+              "VALUES ('road_users', 'features', 'road_users', 'trajdb road users (M = t, s)', ?, ?, ?, ?, ?)",
+              (min(xs, default=None), min(ys, default=None), max(xs, default=None), max(ys, default=None), srs_id))
+    c.execute("INSERT INTO gpkg_geometry_columns VALUES ('road_users', 'geom', 'LINESTRING', ?, 0, 1)", (srs_id,))
+    con.commit()
+    con.close()
+
+
+def _geoparquet(path, feats, epsg):
+    import duckdb
+    con = duckdb.connect()
+    con.execute("CREATE TABLE ru (road_user BIGINT, class VARCHAR, n_tracks BIGINT, sources VARCHAR, t_start DOUBLE, t_end DOUBLE, "
+                "duration_s DOUBLE, length_m DOUBLE, sigma_m DOUBLE, times DOUBLE[], geometry BLOB)")
+    con.executemany("INSERT INTO ru VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+                    [(r["road_user"], r["class"], r["n_tracks"], _properties(r)["sources"], r["t_start"], r["t_end"], r["duration_s"],
+                      r["length_m"], r.get("sigma_m"), [p[2] for p in xym], _wkb_m(xym)) for r, xym in feats])
+    if epsg is None:
+        crs = None
+    elif epsg == 4326:
+        crs = CRS84_PROJJSON
+    else:  # a PROJJSON naming the code; GDAL and pyproj resolve it by its id
+        crs = {"$schema": "https://proj.org/schemas/v0.7/projjson.schema.json", "type": "ProjectedCRS", "name": f"EPSG:{epsg}",
+               "id": {"authority": "EPSG", "code": epsg}}
+    geo = {"version": "1.1.0", "primary_column": "geometry",
+           "columns": {"geometry": {"encoding": "WKB", "geometry_types": ["LineString M", "Point M"], "crs": crs, "edges": "planar"}}}
+    con.execute("SET VARIABLE trajdb_export_geo = ?", [json.dumps(geo)])
+    con.execute("SET VARIABLE trajdb_export_path = ?", [path])
+    # the path and the metadata go in as variables, never spliced into the SQL
+    con.execute("COPY (FROM ru ORDER BY road_user) TO (getvariable('trajdb_export_path')) "
+                "(FORMAT parquet, KV_METADATA {geo: getvariable('trajdb_export_geo')})")
+    con.close()

@@ -22,9 +22,13 @@
 //!   open transaction, its TEMP tables and variables are unaffected; the private database and
 //!   all its memory are gone when the call returns.
 //! - **Concurrent calls** each have their own private database.
-//! - **Interrupts.** DuckDB's C API tells no extension about Ctrl-C; every function the
-//!   pipeline calls is bounded by the work limits, and the Python runner (statement by
-//!   statement on the caller's connection) stops at the next statement.
+//! - **Interrupts.** DuckDB's C API tells no extension about Ctrl-C, but it stops asking a
+//!   table function for rows: the run goes one stage per call ([`Run::next_stage`]), so an
+//!   interrupt stops it after the current stage and the unfinished run is undone (its staging
+//!   folder removed, the earlier results kept). Within a stage every function is bounded by the
+//!   work limits. The Python runner (statement by statement) stops at the next statement.
+//! - **Extensions.** The private database installs or autoloads extensions only where the
+//!   caller's settings allow it.
 
 use duckdb::Connection;
 use std::error::Error;
@@ -41,6 +45,9 @@ pub struct Settings {
     pub local_disabled: bool,
     pub threads: Option<String>,
     pub memory_limit: Option<String>,
+    /// `autoinstall_known_extensions` / `autoload_known_extensions`; `None` (unreadable): off.
+    pub autoinstall: Option<bool>,
+    pub autoload: Option<bool>,
 }
 
 /// What a run did, one row per stage (in order), then one per warning, then the total.
@@ -56,13 +63,27 @@ fn quote(s: &str) -> String {
     format!("'{}'", s.replace('\'', "''"))
 }
 
-/// Runs `steps` in a private in-memory database with `settings`; `register` registers trajdb's
-/// functions there (the bindings, which sit above this module). When a step fails, the undos
-/// of the steps that succeeded run last-first and the error names the stage, its file and the
-/// statement.
-pub fn run(settings: &Settings, steps: &[Step], register: impl FnOnce(&Connection) -> duckdb::Result<()>) -> Result<Vec<Log>, Box<dyn Error>> {
+/// One run in its private database: the next stage at a time ([`Run::next_stage`]), so that a
+/// caller's interrupt (DuckDB stops asking for rows) stops it between stages; dropping an
+/// unfinished run undoes what it did (the staging folder goes, earlier results stay).
+pub struct Run {
+    con: Connection,
+    steps: Vec<Step>,
+    next: usize,
+    undo: Vec<String>,
+    started: Instant,
+    finished: bool,
+}
+
+/// Opens a run of `steps` in a private in-memory database with `settings`; `register`
+/// registers trajdb's functions there (the bindings, which sit above this module).
+pub fn open(settings: &Settings, steps: Vec<Step>, register: impl FnOnce(&Connection) -> duckdb::Result<()>) -> Result<Run, Box<dyn Error>> {
     let con = Connection::open_in_memory()?;
-    // the sandbox first, in the order DuckDB allows (directories before access is closed)
+    // the sandbox first, in the order DuckDB allows (directories before access is closed);
+    // extensions are never installed or loaded behind the caller's back
+    for (name, on) in [("autoinstall_known_extensions", settings.autoinstall), ("autoload_known_extensions", settings.autoload)] {
+        con.execute_batch(&format!("SET {name} = {}", on == Some(true)))?;
+    }
     if let Some(t) = settings.threads.as_deref().and_then(|t| t.trim().parse::<i64>().ok()).filter(|t| *t > 0) {
         con.execute_batch(&format!("SET threads = {t}"))?;
     }
@@ -80,45 +101,77 @@ pub fn run(settings: &Settings, steps: &[Step], register: impl FnOnce(&Connectio
         con.execute_batch("SET enable_external_access = false")?;
     }
     register(&con)?;
-    execute(&con, steps)
+    Ok(Run { con, steps, next: 0, undo: Vec::new(), started: Instant::now(), finished: false })
 }
 
-fn execute(con: &Connection, steps: &[Step]) -> Result<Vec<Log>, Box<dyn Error>> {
-    let mut log: Vec<Log> = Vec::new();
-    let mut undo: Vec<&str> = Vec::new();
-    let total = Instant::now();
-    for (k, step) in steps.iter().enumerate() {
-        let t = Instant::now();
-        if let Err(e) = con.execute_batch(&step.sql) {
-            for u in undo.iter().rev() {
-                let _ = con.execute_batch(u);
-            }
-            let of_stage: Vec<&Step> = steps.iter().filter(|s| s.stage == step.stage).collect();
-            let nth = steps[..=k].iter().filter(|s| s.stage == step.stage).count();
-            let head: String = step.sql.split_whitespace().collect::<Vec<_>>().join(" ").chars().take(90).collect();
-            return Err(format!("stage '{}' ({}) failed: {e}\n  in statement {nth} of {}: {head} ...", step.stage, step.file, of_stage.len()).into());
-        }
-        if let Some(u) = &step.undo {
-            undo.push(u);
-        }
-        let s = t.elapsed().as_secs_f64();
-        match log.last_mut() {
-            Some(l) if l.stage == step.stage => {
-                l.seconds += s;
-                l.statements += 1;
-            }
-            _ => log.push(Log { stage: step.stage.clone(), seconds: s, statements: 1, note: step.file.clone() }),
+impl Run {
+    fn abort(&mut self) {
+        self.finished = true;
+        for u in self.undo.drain(..).rev() {
+            let _ = self.con.execute_batch(&u);
         }
     }
-    // what the run should tell its user (sql/warnings.sql, when the plan made them)
-    let has_warnings = steps.iter().any(|s| s.makes.as_deref() == Some("pipeline_warnings"));
-    if has_warnings {
-        let mut st = con.prepare("SELECT message FROM pipeline_warnings ORDER BY k")?;
-        let rows = st.query_map([], |r| r.get::<_, String>(0))?;
-        for m in rows {
-            log.push(Log { stage: "warning".into(), seconds: 0.0, statements: 0, note: m? });
+
+    /// Runs the statements of the next stage and returns its row; after the last stage, the
+    /// warnings and the total; `None` when the run is over. A failure undoes the run and names
+    /// the stage, its file and the statement.
+    pub fn next_stage(&mut self) -> Result<Option<Vec<Log>>, Box<dyn Error>> {
+        if self.finished {
+            return Ok(None);
+        }
+        if self.next >= self.steps.len() {
+            self.finished = true;
+            return Ok(Some(self.closing()?));
+        }
+        let stage = self.steps[self.next].stage.clone();
+        let (file, t) = (self.steps[self.next].file.clone(), Instant::now());
+        let first = self.next;
+        let mut n = 0;
+        while self.next < self.steps.len() && self.steps[self.next].stage == stage {
+            let k = self.next;
+            if let Err(e) = self.con.execute_batch(&self.steps[k].sql) {
+                self.abort();
+                let of_stage = self.steps.iter().filter(|s| s.stage == stage).count();
+                let nth = k - first + 1;
+                let head: String = self.steps[k].sql.split_whitespace().collect::<Vec<_>>().join(" ").chars().take(90).collect();
+                let mut msg = format!("stage '{stage}' ({}) failed: {e}\n  in statement {nth} of {of_stage}: {head} ...", self.steps[k].file);
+                if stage == "load" && msg.contains("neither a table or view") {
+                    msg.push_str("\n  (trajdb_pipeline runs in a private database and reads files; for a table or a DataFrame run the rows of trajdb_stages on your connection, as Python's trajdb.pipeline does, or COPY the table to Parquet first)");
+                }
+                return Err(msg.into());
+            }
+            if let Some(u) = &self.steps[k].undo {
+                self.undo.push(u.clone());
+            }
+            self.next += 1;
+            n += 1;
+        }
+        if self.next >= self.steps.len() {
+            self.undo.clear(); // committed: nothing left to undo
+        }
+        Ok(Some(vec![Log { stage, seconds: t.elapsed().as_secs_f64(), statements: n, note: file }]))
+    }
+
+    /// The warnings (sql/warnings.sql, when the plan made them) and the total.
+    fn closing(&self) -> Result<Vec<Log>, Box<dyn Error>> {
+        let mut log = Vec::new();
+        if self.steps.iter().any(|s| s.makes.as_deref() == Some("pipeline_warnings")) {
+            let mut st = self.con.prepare("SELECT message FROM pipeline_warnings ORDER BY k")?;
+            let rows = st.query_map([], |r| r.get::<_, String>(0))?;
+            for m in rows {
+                log.push(Log { stage: "warning".into(), seconds: 0.0, statements: 0, note: m? });
+            }
+        }
+        log.push(Log { stage: "total".into(), seconds: self.started.elapsed().as_secs_f64(), statements: self.steps.len() as i64, note: String::new() });
+        Ok(log)
+    }
+}
+
+impl Drop for Run {
+    /// An unfinished run (the caller interrupted it, or stopped reading its rows) is undone.
+    fn drop(&mut self) {
+        if !self.finished {
+            self.abort();
         }
     }
-    log.push(Log { stage: "total".into(), seconds: total.elapsed().as_secs_f64(), statements: steps.len() as i64, note: String::new() });
-    Ok(log)
 }

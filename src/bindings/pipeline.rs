@@ -56,11 +56,11 @@ const PIPELINE_TABLE: Table = Table {
 const PIPELINE: Function = Function {
     name: "trajdb_pipeline",
     description: "The whole pipeline in one statement: `CALL trajdb_pipeline('points.parquet', out_dir := 'results', merge_eta := 0.6)`. \
-                  `input` is a file, a glob or a table or view of this database (never SQL); `out_dir` the results folder (transforms.csv, \
+                  `input` is a file or a glob (never SQL); `out_dir` the results folder (transforms.csv, \
                   calibration.csv, matches.csv, merged.parquet, clusters.csv, links.csv, report.html), claimed before any work and \
                   replaced only when every file is written; every other named parameter is a pipeline parameter (`FROM trajdb_params()`; \
-                  'auto' where measured), checked by name, type and range. Returns one row per stage (seconds, statements, its file), one \
-                  per warning and a total. It runs in a private in-memory database with this connection's file-access settings, threads, \
+                  'auto' where measured), checked by name, type and range. Returns one row per stage as it finishes (seconds, statements, its file), one \
+                  per warning and a total; an interrupt stops it after the current stage and undoes it (earlier results stay). It runs in a private in-memory database with this connection's file-access settings, threads, \
                   memory and work limits (src/runner.rs): it reads files, not this database's tables (for a table or a DataFrame run \
                   trajdb_stages on your connection, as Python's trajdb.pipeline does), and leaves nothing in this database: read the \
                   results from `out_dir`.",
@@ -73,21 +73,22 @@ const PIPELINE: Function = Function {
 
 struct PipelineFn;
 
-/// A side effect done once per statement, on the first scan call, and its rows.
-pub struct Once<T>(Mutex<Option<Vec<T>>>);
+/// The run of one statement: opened on the first call, one stage per call after it; rows
+/// waiting to be written; done.
+pub struct PipelineScan(Mutex<(Option<runner::Run>, Vec<Log>, bool)>);
 
 type Log = runner::Log;
 
 impl TableFn for PipelineFn {
     const TABLE: &'static Table = &PIPELINE_TABLE;
     type Bind = (Vec<Step>, Settings, std::sync::Arc<crate::algo::limits::Limits>);
-    type Scan = Once<Log>;
+    type Scan = PipelineScan;
 
     fn bind(args: &BindArgs<'_>) -> Result<Self::Bind, Box<dyn Error>> {
-        let input = args.text(0)?.ok_or("input is NULL; give a file, a glob or a table name, e.g. 'points.parquet'")?;
+        let input = args.text(0)?.ok_or("input is NULL; give a file or a glob, e.g. 'points.parquet'")?;
         let out = args.named_text("out_dir")?.ok_or(
-            "out_dir is missing: name the results folder, e.g. out_dir := 'results' (the work tables of this call are dropped afterwards; \
-             to keep them in your session run `.read sql/pipeline.sql`, or trajdb.pipeline in Python)",
+            "out_dir is missing: name the results folder, e.g. out_dir := 'results' (the run is private: to keep its tables in your \
+             session run `.read sql/pipeline.sql`, or trajdb.pipeline in Python)",
         )?;
         if out.trim().is_empty() {
             return Err("out_dir is '' (empty); name a results folder, e.g. out_dir := 'results'".into());
@@ -96,30 +97,47 @@ impl TableFn for PipelineFn {
         access.may_write_into(&out)?;
         let params: Vec<(String, String)> = args.named_as_text()?.into_iter().filter(|(k, _)| k != "out_dir").collect();
         let steps = plan::plan(&Request { input, out: Some(out), part: Part::All, params })?;
+        let flag = |name: &str| args.setting(name).map(|v| v.eq_ignore_ascii_case("true"));
         let settings = Settings {
             external: access.external,
             allowed_directories: access.allowed_directories,
             local_disabled: access.local_disabled,
             threads: args.setting("threads"),
             memory_limit: args.setting("memory_limit"),
+            autoinstall: flag("autoinstall_known_extensions"),
+            autoload: flag("autoload_known_extensions"),
         };
         Ok((steps, settings, std::sync::Arc::clone(args.limits())))
     }
     fn init(_: &Self::Bind) -> Result<Self::Scan, Box<dyn Error>> {
-        Ok(Once(Mutex::new(None)))
+        Ok(PipelineScan(Mutex::new((None, Vec::new(), false))))
     }
     fn func(bind: &Self::Bind, scan: &Self::Scan, out: &mut Rows<'_>) -> Result<usize, Box<dyn Error>> {
-        let mut state = scan.0.lock().unwrap_or_else(|e| e.into_inner());
-        let rows = match state.as_mut() {
-            Some(rows) => rows,
-            None => state.insert(runner::run(&bind.1, &bind.0, |con| super::register_all_with(con, std::sync::Arc::clone(&bind.2)))?),
-        };
-        let n = rows.len().min(Rows::CAPACITY);
-        for (r, l) in rows.drain(..n).enumerate() {
+        let mut guard = scan.0.lock().unwrap_or_else(|e| e.into_inner());
+        let (run, pending, done) = &mut *guard;
+        if pending.is_empty() && !*done {
+            if run.is_none() {
+                *run = Some(runner::open(&bind.1, bind.0.clone(), |con| super::register_all_with(con, std::sync::Arc::clone(&bind.2)))?);
+            }
+            match run.as_mut().expect("opened").next_stage() {
+                Ok(Some(rows)) => pending.extend(rows),
+                Ok(None) => *done = true,
+                Err(e) => {
+                    *done = true;
+                    *run = None;
+                    return Err(e);
+                }
+            }
+        }
+        let n = pending.len().min(Rows::CAPACITY);
+        for (r, l) in pending.drain(..n).enumerate() {
             out.text(0, r, &l.stage);
             out.double(1, r, l.seconds);
             out.bigint(2, r, l.statements);
             out.text(3, r, &l.note);
+        }
+        if n == 0 {
+            *run = None; // finished: the private database closes now
         }
         Ok(n)
     }
@@ -230,7 +248,7 @@ impl TableFn for ScriptFn {
 
     fn bind(args: &BindArgs<'_>) -> Result<Self::Bind, Box<dyn Error>> {
         let path = args.text(0)?.ok_or("path is NULL; e.g. 'sql/score.sql'")?;
-        if crate::app::sql::file(&path).is_none() {
+        if path.contains('\0') || crate::app::sql::file(&path).is_none() {
             let files: Vec<&str> = crate::app::sql::SQL_FILES.iter().map(|(p, _)| *p).collect();
             return Err(format!("path {path:?} is not one of trajdb's SQL files ({})", files.join(", ")).into());
         }

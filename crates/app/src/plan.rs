@@ -147,6 +147,13 @@ fn embedded(path: &str) -> Result<String, Box<dyn Error>> {
 /// Every statement of `req`, in order. Parameter names and values are checked here (an
 /// unknown name or a bad value is an error naming it), before anything runs.
 pub fn plan(req: &Request) -> Result<Vec<Step>, Box<dyn Error>> {
+    // a NUL byte would cut a path short in the C calls below SQL: never a silent truncation
+    let texts = [("input", Some(&req.input)), ("out_dir", req.out.as_ref())];
+    for (what, v) in texts.into_iter().filter_map(|(w, v)| v.map(|v| (w.to_string(), v.clone()))).chain(req.params.iter().map(|(k, v)| (k.clone(), v.clone()))) {
+        if v.contains('\0') {
+            return Err(format!("{what} contains a NUL byte ({v:?}); remove it").into());
+        }
+    }
     let values = params::resolve(&req.params)?;
     if req.out.is_some() && req.part != Part::All {
         return Err("out_dir is only for part 'all' (a site or a window returns tables, not files)".into());
@@ -293,6 +300,15 @@ mod tests {
         let set = steps.iter().find(|s| s.sql.starts_with("SET VARIABLE pipeline_input")).unwrap();
         assert_eq!(set.sql, "SET VARIABLE pipeline_input = 'p''); COPY x TO ''/etc/passwd'");
         assert!(steps.iter().any(|s| s.sql.contains("trajdb_results_begin('a''); DROP TABLE x; --', ")));
+    }
+
+    #[test]
+    fn nul_bytes_are_refused() {
+        let mut r = req(Part::All, Some("res\0x"));
+        assert!(plan(&r).unwrap_err().to_string().contains("out_dir contains a NUL byte"));
+        r.out = None;
+        r.input = "p\0.parquet".into();
+        assert!(plan(&r).unwrap_err().to_string().contains("input contains a NUL byte"));
     }
 
     #[test]

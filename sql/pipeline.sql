@@ -125,19 +125,46 @@ SET VARIABLE input_query = (
     FROM (SELECT *, '"' || replace(column_name, '"', '""') || '"' AS q FROM load_columns) d, (VALUES ('camera'), ('track_id'), ('t')) v(w)
     WHERE lower(d.column_name) = coalesce(getvariable('input_map')[w], w)
       AND (w <> 't' OR getvariable('input_t_type') = 'TIMESTAMP WITH TIME ZONE'));
+-- the input's columns by role (a table macro: the text-id numbering below reads the ids first)
+CREATE OR REPLACE TEMP MACRO load_input() AS TABLE
+SELECT COLUMNS(lambda c: lower(c) = coalesce(getvariable('input_map')['camera'], 'camera')) AS camera,
+       COLUMNS(lambda c: lower(c) = coalesce(getvariable('input_map')['track_id'], 'track_id')) AS track_id,
+       COLUMNS(lambda c: lower(c) = coalesce(getvariable('input_map')['class'], 'class')) AS class,
+       COLUMNS(lambda c: lower(c) = coalesce(getvariable('input_map')['t'], 't')) AS t,
+       COLUMNS(lambda c: lower(c) = coalesce(getvariable('input_map')['x'], 'x')) AS x,
+       COLUMNS(lambda c: lower(c) = coalesce(getvariable('input_map')['y'], 'y')) AS y,
+       COLUMNS(lambda c: lower(c) = coalesce(getvariable('input_map')['estimated'], 'estimated')) AS estimated
+FROM (SELECT * FROM query(getvariable('input_query'))
+      UNION ALL BY NAME SELECT NULL AS estimated, NULL AS class WHERE false);
+-- ids: the stages work on integer ids. load_ids maps every track's ids as they came (camera_in,
+-- track_in: INTEGER / BIGINT, or VARCHAR when the input's were text) to the ids of the stages
+-- (camera INTEGER, track_id BIGINT), and the results map them back (the result_*() macros of the
+-- stages), so 'north' / 'trk-1738' come back unchanged in every result file. Integer ids are
+-- kept as they are; text ids are numbered 1, 2, ... in the order of the text (dense_rank), so
+-- the numbering, and with it every result, does not depend on the order of the input's rows, and
+-- ordering by the number is ordering by the text. Text ids: their distinct values are read
+-- first (a second pass over the input's two id columns); integer ids: nothing is read here
+-- (the filter is constant), and load_ids is filled from points below.
+CREATE OR REPLACE TEMP TABLE load_ids AS
+SELECT camera AS camera_in,
+       CASE WHEN getvariable('load_id_types')['camera'] IN ('TINYINT', 'SMALLINT', 'INTEGER', 'BIGINT', 'HUGEINT', 'UTINYINT', 'USMALLINT', 'UINTEGER', 'UBIGINT', 'UHUGEINT')
+            THEN try_cast(camera AS INTEGER) ELSE dense_rank() OVER (ORDER BY camera)::INTEGER END AS camera,
+       track_id AS track_in,
+       CASE WHEN getvariable('load_id_types')['track_id'] IN ('TINYINT', 'SMALLINT', 'INTEGER', 'BIGINT', 'HUGEINT', 'UTINYINT', 'USMALLINT', 'UINTEGER', 'UBIGINT', 'UHUGEINT')
+            THEN try_cast(track_id AS BIGINT) ELSE dense_rank() OVER (ORDER BY track_id) END AS track_id
+FROM (SELECT DISTINCT camera, track_id FROM load_input()
+      WHERE getvariable('load_text_ids') AND camera IS NOT NULL AND track_id IS NOT NULL);
+-- the points; a text id is replaced by its number (a NULL id stays NULL: refused below)
 CREATE OR REPLACE TEMP TABLE points AS
 SELECT camera, track_id, CASE WHEN getvariable('load_no_class') THEN 'unknown' ELSE class::VARCHAR END AS class,
        coalesce(try_cast(t AS DOUBLE), epoch(try_cast(t AS TIMESTAMP))) AS t,
        x::DOUBLE AS x, y::DOUBLE AS y, coalesce(estimated::INTEGER, 0) AS estimated
-FROM (SELECT COLUMNS(lambda c: lower(c) = coalesce(getvariable('input_map')['camera'], 'camera')) AS camera,
-             COLUMNS(lambda c: lower(c) = coalesce(getvariable('input_map')['track_id'], 'track_id')) AS track_id,
-             COLUMNS(lambda c: lower(c) = coalesce(getvariable('input_map')['class'], 'class')) AS class,
-             COLUMNS(lambda c: lower(c) = coalesce(getvariable('input_map')['t'], 't')) AS t,
-             COLUMNS(lambda c: lower(c) = coalesce(getvariable('input_map')['x'], 'x')) AS x,
-             COLUMNS(lambda c: lower(c) = coalesce(getvariable('input_map')['y'], 'y')) AS y,
-             COLUMNS(lambda c: lower(c) = coalesce(getvariable('input_map')['estimated'], 'estimated')) AS estimated
-      FROM (SELECT * FROM query(getvariable('input_query'))
-            UNION ALL BY NAME SELECT NULL AS estimated, NULL AS class WHERE false));
+FROM (SELECT try_cast(camera AS INTEGER) AS camera, try_cast(track_id AS BIGINT) AS track_id, class, t, x, y, estimated
+      FROM load_input() WHERE NOT getvariable('load_text_ids')
+      UNION ALL
+      SELECT i.camera, i.track_id, p.class, p.t, p.x, p.y, p.estimated
+      FROM load_input() p LEFT JOIN load_ids i ON i.camera_in = p.camera AND i.track_in = p.track_id
+      WHERE getvariable('load_text_ids'));
 -- no rows, or rows the stages cannot use: a clear error, not an empty result
 SET VARIABLE load_check = (SELECT CASE WHEN n = 0 THEN error('load: the input ' || getvariable('pipeline_input') || ' has no rows')
             WHEN bad > 0 THEN error('load: ' || bad || ' of ' || n || ' rows have a NULL, NaN or infinite camera, track_id, class, t, x or y, '
@@ -207,27 +234,6 @@ FROM (SELECT camera, track_id, class, count(*) AS n FROM points GROUP BY ALL)
 GROUP BY ALL HAVING count(*) > 1;
 UPDATE points SET class = f.class FROM load_class_flicker f
 WHERE points.camera = f.camera AND points.track_id = f.track_id AND points.class <> f.class;
--- ids: the stages work on integer ids. load_ids maps every track's ids as they came (camera_in,
--- track_in: INTEGER / BIGINT, or VARCHAR when the input's were text) to the ids of the stages
--- (camera INTEGER, track_id BIGINT), and the results map them back (the result_*() macros of the
--- stages), so 'north' / 'trk-1738' come back unchanged in every result file. Integer ids are
--- kept as they are; text ids are numbered 1, 2, ... in the order of the text (dense_rank), so
--- the numbering, and with it every result, does not depend on the order of the input's rows, and
--- ordering by the number is ordering by the text.
-CREATE OR REPLACE TEMP TABLE load_ids AS
-SELECT camera AS camera_in,
-       CASE WHEN getvariable('load_id_types')['camera'] IN ('TINYINT', 'SMALLINT', 'INTEGER', 'BIGINT', 'HUGEINT', 'UTINYINT', 'USMALLINT', 'UINTEGER', 'UBIGINT', 'UHUGEINT')
-            THEN try_cast(camera AS INTEGER) ELSE dense_rank() OVER (ORDER BY camera)::INTEGER END AS camera,
-       track_id AS track_in,
-       CASE WHEN getvariable('load_id_types')['track_id'] IN ('TINYINT', 'SMALLINT', 'INTEGER', 'BIGINT', 'HUGEINT', 'UTINYINT', 'USMALLINT', 'UINTEGER', 'UBIGINT', 'UHUGEINT')
-            THEN try_cast(track_id AS BIGINT) ELSE dense_rank() OVER (ORDER BY track_id) END AS track_id
-FROM (SELECT DISTINCT camera, track_id FROM points);
--- text ids: points gets the numbers (integer ids: points is left as it is)
-CREATE OR REPLACE TEMP TABLE points AS
-SELECT try_cast(camera AS INTEGER) AS camera, try_cast(track_id AS BIGINT) AS track_id, class, t, x, y, estimated
-FROM points WHERE NOT getvariable('load_text_ids')
-UNION ALL
-SELECT i.camera, i.track_id, p.class, p.t, p.x, p.y, p.estimated
-FROM points p JOIN load_ids i ON i.camera_in = p.camera AND i.track_in = p.track_id
-WHERE getvariable('load_text_ids');
+-- integer ids: load_ids maps each track's ids to themselves
+INSERT INTO load_ids SELECT DISTINCT camera, camera, track_id, track_id FROM points WHERE NOT getvariable('load_text_ids');
 .read sql/stages.sql

@@ -82,7 +82,7 @@ def main():
     con = trajdb.connect()
     trajdb.simulate(con, os.path.join(tmp, "scene"), cameras=3, minutes=1, seed=3)
     path = os.path.join(tmp, "scene", "points.parquet")
-    print(f"duckdb {duckdb.__version__}; scene: {con.execute('SELECT count(*) FROM read_parquet(?)', [path]).fetchone()[0]} points")
+    print(f"duckdb {duckdb.__version__}; scene: {con.execute('SELECT count(*) FROM read_parquet(?)', [path]).fetchall()[0][0]} points")
 
     base, _ = run(con, path)
     check("the Parquet file gives road users", len(base["road_users"]) > 10 and len(base["matches"]) > 5, str(len(base["road_users"])))
@@ -109,7 +109,7 @@ def main():
         except Exception as e:  # noqa: BLE001
             check(f"input {name}", False, f"{type(e).__name__}: {e}")
     check("a registered input is gone after the run",
-          con.execute("SELECT count(*) FROM duckdb_views() WHERE view_name LIKE 'trajdb_input_%'").fetchone()[0] == 0)
+          con.execute("SELECT count(*) FROM duckdb_views() WHERE view_name LIKE 'trajdb_input_%'").fetchall()[0][0] == 0)
 
     # a str is never SQL
     con.execute("CREATE TABLE y AS SELECT 1 AS a")
@@ -117,7 +117,7 @@ def main():
                  "my_points' OR '1'='1", "read_parquet('" + path + "')"]:
         expect_refused(con, text)
     check("strings that look like SQL are refused as missing files; nothing of them ran",
-          con.execute("SELECT count(*) FROM y").fetchone()[0] == 1)
+          con.execute("SELECT count(*) FROM y").fetchall()[0][0] == 1)
     for bad in [42, [1, 2], b"points.parquet"]:
         try:
             trajdb.pipeline(con, bad)
@@ -171,7 +171,7 @@ def main():
     trajdb.pipeline(con, con.sql("SELECT * REPLACE (camera::SMALLINT AS camera) FROM my_points"))
     types = dict(con.execute("SELECT column_name, column_type FROM (DESCRIBE FROM result_matches())").fetchall())
     check("integer ids stay integers (INTEGER camera, BIGINT track)", (types["camera_a"], types["track_a"]) == ("INTEGER", "BIGINT"), str(types))
-    check("integer ids: no load_ids renumbering", con.execute("SELECT count(*) FROM load_ids WHERE camera <> camera_in OR track_id <> track_in").fetchone()[0] == 0)
+    check("integer ids: no load_ids renumbering", con.execute("SELECT count(*) FROM load_ids WHERE camera <> camera_in OR track_id <> track_in").fetchall()[0][0] == 0)
 
     # NULL text ids are refused, not dropped
     try:
@@ -200,9 +200,9 @@ def main():
         n, worst = con.execute(
             """SELECT count(*), max(abs(epoch(r.t_start) - (b.t_start + ?)) + abs(epoch(r.t_end) - (b.t_end + ?)))
                FROM result_road_users() r JOIN (SELECT unnest(?::STRUCT(u BIGINT, t_start DOUBLE, t_end DOUBLE)[]) AS b) ON r.road_user = b.u""",
-            [epoch, epoch, [{"u": r[0], "t_start": float(r[4]), "t_end": float(r[5])} for r in base["road_users"]]]).fetchone()
+            [epoch, epoch, [{"u": r[0], "t_start": float(r[4]), "t_end": float(r[5])} for r in base["road_users"]]]).fetchall()[0]
         check(f"t as {kind}: the same instants as with epoch seconds (within 1 ms)", n == len(base["road_users"]) and worst < 1e-3, f"{n} road users, worst {worst}")
-        pt = con.execute("SELECT typeof(to_timestamp(traj[1].t)), epoch(to_timestamp(traj[1].t)) - epoch(t_start) FROM result_road_users() LIMIT 1").fetchone()
+        pt = con.execute("SELECT typeof(to_timestamp(traj[1].t)), epoch(to_timestamp(traj[1].t)) - epoch(t_start) FROM result_road_users() LIMIT 1").fetchall()[0]
         check(f"t as {kind}: to_timestamp(traj[i].t) is a point's time", pt[0] == "TIMESTAMP WITH TIME ZONE" and abs(pt[1]) < 1e-3, str(pt))
     trajdb.pipeline(con, path)
     types = dict(con.execute("SELECT column_name, column_type FROM (DESCRIBE FROM result_road_users())").fetchall())

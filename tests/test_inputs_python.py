@@ -22,6 +22,7 @@ usage: python3 tests/test_inputs_python.py path/to/trajdb.duckdb_extension
 """
 import os
 import pathlib
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -224,6 +225,27 @@ def main():
     finally:
         os.chdir(cwd)
     check("the single file, run from another folder, gives the same results", results(cli) == base)
+
+    # the DuckDB CLI itself (PyPI duckdb-cli, when installed): the single file from another folder,
+    # and no result box headed with the word "error" (the load's checks print nothing)
+    binary = shutil.which("duckdb")
+    try:
+        import duckdb_cli  # noqa: F401  (pip install duckdb-cli: the CLI binary in the package)
+
+        found = os.path.join(os.path.dirname(duckdb_cli.__file__), "duckdb")
+        binary = found if os.path.exists(found) else binary
+    except ImportError:
+        pass
+    if binary is None:
+        print("skip the DuckDB CLI (pip install duckdb-cli)")
+    else:
+        script = (f"LOAD '{EXT}';\nSET VARIABLE pipeline_input = '{path}';\n.read {single}\n"
+                  "SELECT 'road users: ' || count(*) AS n FROM merged;\n")
+        r = subprocess.run([binary, "-unsigned"], input=script, capture_output=True, text=True, cwd=tmp, timeout=600)
+        n = len(base["road_users"])
+        check(f"the DuckDB CLI ({binary}) runs the single file from another folder", r.returncode == 0 and f"road users: {n}" in r.stdout,
+              (r.stdout[-500:] + r.stderr[-500:]))
+        check("the DuckDB CLI prints no box headed 'error'", "error" not in (r.stdout + r.stderr).lower(), (r.stdout + r.stderr)[:500])
 
     if failures:
         print(f"test_inputs_python: {len(failures)} FAILED: {', '.join(failures)}")

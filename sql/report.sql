@@ -53,7 +53,7 @@ UNION ALL SELECT 'transform', row_number() OVER (ORDER BY camera),
 UNION ALL SELECT 'unaligned', row_number() OVER (ORDER BY camera), [camera::VARCHAR]
     FROM (SELECT DISTINCT camera FROM points ANTI JOIN align_frames USING (camera))
 UNION ALL SELECT 'calibration', row_number() OVER (ORDER BY scope, quantity), [scope, quantity, value::VARCHAR, unit, how]
-    FROM calibration_summary
+    FROM result_calibration()  -- the input's camera ids (text stays text)
 UNION ALL SELECT 'point', k, [camera::VARCHAR, x::VARCHAR, y::VARCHAR, a.x::VARCHAR, a.y::VARCHAR] FROM report_points
 UNION ALL SELECT 'view', row_number() OVER (ORDER BY camera, class), [camera::VARCHAR, class, polygon_to_wkt(polygon)]
     FROM view_polygons

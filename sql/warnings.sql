@@ -1,7 +1,8 @@
 -- trajdb: what a finished pipeline run should tell its user, one row each, in table
 -- pipeline_warnings (k, message). Every runner (trajdb pipeline, trajdb.pipeline in Python, the
 -- DuckDB CLI after `.read sql/pipeline.sql`) reads this one table.
--- reads: points, align_frames, load_class_flicker, load_duplicates; parameters: cluster_classes   makes: pipeline_warnings
+-- reads: points, align_frames, load_class_flicker, load_duplicates, load_ids; parameters: cluster_classes,
+-- load_no_class (set by the load)   makes: pipeline_warnings
 CREATE OR REPLACE TEMP TABLE pipeline_warnings AS
 WITH c AS (SELECT (SELECT count(DISTINCT camera) FROM points) AS cams, (SELECT count(*) FROM align_frames) AS aligned,
                   (SELECT count(*) FROM load_class_flicker) AS flicker,
@@ -12,7 +13,8 @@ FROM c WHERE cams = 1
 UNION ALL
 SELECT 2, format('{} of {} cameras in one frame: cameras {} share no consistent track pairs with the others (no common time, or no common view); '
                  || 'their tracks are road users of their own', aligned, cams,
-                 (SELECT list(DISTINCT camera ORDER BY camera) FROM points ANTI JOIN align_frames USING (camera))::VARCHAR)
+                 (SELECT list(DISTINCT i.camera_in ORDER BY i.camera_in) FROM load_ids i
+                  WHERE i.camera IN (SELECT camera FROM points ANTI JOIN align_frames USING (camera)))::VARCHAR)
 FROM c WHERE cams > 1 AND aligned < cams
 UNION ALL
 SELECT 3, format('{} tracks change class partway; each keeps its majority class (table load_class_flicker)', flicker)
@@ -26,4 +28,8 @@ SELECT 5, format('cluster_classes names {} that the input does not have (its cla
                  list_filter(wanted, lambda w: NOT list_contains(have, w))::VARCHAR, have::VARCHAR)
 FROM (SELECT [lower(trim(x)) FOR x IN string_split(coalesce(getvariable('cluster_classes'), ''), ',') IF trim(x) <> ''] AS wanted,
              (SELECT list(DISTINCT lower(class) ORDER BY lower(class)) FROM points) AS have)
-WHERE len(list_filter(wanted, lambda w: NOT list_contains(have, w))) > 0;
+WHERE len(list_filter(wanted, lambda w: NOT list_contains(have, w))) > 0
+UNION ALL
+SELECT 6, 'the input has no class column: every track is of one class, ''unknown'' (give a class column, or map one with '
+          || 'input_columns = ''class=your_column'', to match and cluster each class on its own)'
+WHERE getvariable('load_no_class');

@@ -322,20 +322,40 @@ def stages(con, input, out=None, part="all", **params):
 
 
 def _input_name(con, input):
-    """The input as the pipeline's load reads it (sql/pipeline.sql resolves and quotes it): a path,
-    glob or table name as given; a DataFrame or Arrow object is registered under a name of its own."""
+    """The input as the pipeline's load reads it, and the name registered for it (or None).
+
+    A str or os.PathLike is a path, a glob or a table / view name, as given: sql/pipeline.sql
+    resolves it as a table or view of `con`, or else as a file, and quotes it; it is never run as
+    SQL ("(SELECT 1)" is a file that does not exist). A pandas or polars DataFrame, a pyarrow
+    Table (or anything else DuckDB scans from Python) and a DuckDB relation (`con.sql("SELECT
+    ...")`: how a query is passed) are registered on `con` under a name of their own, for the run
+    only. A relation of another connection is read into an Arrow table first (its database is
+    not `con`'s)."""
     if isinstance(input, str):
         return input, None
     if isinstance(input, os.PathLike):
         return os.fspath(input), None
+    if isinstance(input, (bytes, bytearray)):
+        raise TypeError("trajdb.pipeline: the input is bytes; give a path as str (or os.PathLike), a table name, a DataFrame, an Arrow table or a DuckDB relation")
     name = "trajdb_input_" + hashlib.sha256(os.urandom(16)).hexdigest()[:12]
-    con.register(name, input)
+    try:
+        con.register(name, input)
+    except duckdb.Error as e:
+        if isinstance(input, duckdb.DuckDBPyRelation):
+            # a relation made by another connection (or on another database)
+            con.register(name, input.to_arrow_table())
+        else:
+            raise TypeError(
+                f"trajdb.pipeline: cannot read an input of type {type(input).__name__}; give a path, glob or table name (str), "
+                f"a pandas or polars DataFrame, a pyarrow Table or a DuckDB relation (con.sql('SELECT ...')) ({e})"
+            ) from None
     return name, name
 
 
 def pipeline(con, input, out=None, progress=False, **params):
-    """The whole pipeline on `input` (a Parquet / CSV / JSON file or glob, a table or view name, or
-    a pandas / Arrow / Polars object), as `CALL trajdb_pipeline`: parameters by keyword
+    """The whole pipeline on `input` (a Parquet / CSV / JSON file or glob, a table or view name, a
+    pandas or polars DataFrame, a pyarrow Table, or a DuckDB relation such as `con.sql("SELECT
+    ...")`; a str is never run as SQL: docs/inputs.md), as `CALL trajdb_pipeline`: parameters by keyword
     (`merge_eta=0.6`; `trajdb params` lists them; an unknown name or a bad value is an error),
     then the stages; with `out`, the result files and report.html are written there. The tables
     (merged, matches, ...) stay in `con`. The statements come from the extension

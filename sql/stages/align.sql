@@ -1,5 +1,5 @@
 -- stage: align
--- reads: points, calib_cameras, calib_pairs, calibration, calibrated_values()
+-- reads: points, load_ids, calib_cameras, calib_pairs, calibration, calibrated_values()
 -- makes: align_frames, align_origin, align_pairs, align_clock, calib_match, calibration_summary,
 --        result_transforms(), result_calibration()
 -- work: align_centroids, align_tracks, align_activity, align_coarse, align_scan, align_keys, align_sample(),
@@ -600,22 +600,36 @@ SELECT camera, reference, round(degrees(to_reference.theta), 3) AS theta_deg,
 FROM align_frames ORDER BY camera;
 
 -- The stage's results (sql/export.sql writes them; python/trajdb/windows.py reads them per window).
--- Table macros: they read the tables when called. Unordered: the caller orders.
+-- Table macros: they read the tables when called. Unordered: the caller orders. Camera and
+-- track ids are the input's own (load_ids maps the stages' numbers back: text stays text).
 
 -- transforms: cam_from-local into cam_to-local, every ordered pair of aligned cameras, and the
 -- clocks: t_from = (1 + clock_drift_ppm 1e-6) t_to + clock_offset_s (a road user seen by cam_to
 -- at t is seen by cam_from at that time on its clock; without drift, t + clock_offset_s)
 CREATE OR REPLACE TEMP MACRO result_transforms() AS TABLE
-SELECT a.camera AS cam_from, b.camera AS cam_to, tf.theta AS theta_rad, tf.tx, tf.ty,
+SELECT ia.camera_in AS cam_from, ib.camera_in AS cam_to, tf.theta AS theta_rad, tf.tx, tf.ty,
        CASE WHEN a.clock_drift = 0 AND b.clock_drift = 0 THEN a.clock_offset_s - b.clock_offset_s
             ELSE a.clock_offset_s - (1 + a.clock_drift) / (1 + b.clock_drift) * b.clock_offset_s END AS clock_offset_s,
        CASE WHEN a.clock_drift = 0 AND b.clock_drift = 0 THEN 0.0
             ELSE ((1 + a.clock_drift) / (1 + b.clock_drift) - 1) * 1e6 END AS clock_drift_ppm
 FROM align_frames a, align_frames b,
-     LATERAL (SELECT transform_compose(transform_invert(b.to_reference), a.to_reference) AS tf)
-WHERE a.camera <> b.camera;
+     LATERAL (SELECT transform_compose(transform_invert(b.to_reference), a.to_reference) AS tf),
+     (SELECT DISTINCT camera, camera_in FROM load_ids) ia, (SELECT DISTINCT camera, camera_in FROM load_ids) ib
+WHERE a.camera <> b.camera AND ia.camera = a.camera AND ib.camera = b.camera;
 
 -- calibration: what sql/stages/calibrate.sql and align.sql measured, and the parameters
--- derived from it (scope: a camera, a camera pair, or the pipeline)
+-- derived from it (scope: a camera, a camera pair, or the pipeline). Scopes name the input's
+-- cameras ('camera north', 'cameras north-south'); the values 'reference camera' and
+-- 'cluster_camera' are the stages' camera numbers, and when the input's camera is text, `how`
+-- ends with its name: (camera 'north').
 CREATE OR REPLACE TEMP MACRO result_calibration() AS TABLE
-SELECT * FROM calibration_summary;
+WITH cams AS (SELECT DISTINCT camera, camera_in FROM load_ids)
+SELECT CASE WHEN regexp_full_match(s.scope, 'camera -?[0-9]+') THEN 'camera ' || c1.camera_in
+            WHEN regexp_full_match(s.scope, 'cameras -?[0-9]+--?[0-9]+') THEN 'cameras ' || c1.camera_in || '-' || c2.camera_in
+            ELSE s.scope END AS scope,
+       s.quantity, s.value, s.unit,
+       CASE WHEN cv.camera_in::VARCHAR <> cv.camera::VARCHAR THEN s.how || ' (camera ''' || cv.camera_in || ''')' ELSE s.how END AS how
+FROM calibration_summary s
+LEFT JOIN cams c1 ON c1.camera = try_cast(regexp_extract(s.scope, '^cameras? (-?[0-9]+)', 1) AS INTEGER)
+LEFT JOIN cams c2 ON c2.camera = try_cast(regexp_extract(s.scope, '^cameras -?[0-9]+-(-?[0-9]+)$', 1) AS INTEGER)
+LEFT JOIN cams cv ON s.scope = 'pipeline' AND s.quantity IN ('reference camera', 'cluster_camera') AND cv.camera = s.value;

@@ -1,5 +1,5 @@
 -- stage: cluster
--- reads: points, calibrated()
+-- reads: points, load_ids, calibrated()
 -- makes: cluster_tracks, cluster_assign, cluster_summary, result_clusters()
 -- work: -
 -- changes: -
@@ -29,9 +29,10 @@
 
 -- The clustered camera: cluster_camera, or (auto) the camera with the most real tracks, ties to
 -- the lowest id (calibrate.sql: the data decides, not a camera number); a given camera must exist.
-SELECT CASE WHEN NOT EXISTS (SELECT 1 FROM points WHERE camera = calibrated('cluster_camera'))
+-- (a statement that prints nothing: the DuckDB CLI shows no result box for a check that passed)
+SET VARIABLE cluster_check = (SELECT CASE WHEN NOT EXISTS (SELECT 1 FROM points WHERE camera = calibrated('cluster_camera'))
             THEN error('cluster: cluster_camera ' || calibrated('cluster_camera')::BIGINT || ' is not a camera of the input (cameras: '
-                       || (SELECT string_agg(DISTINCT camera::VARCHAR, ', ' ORDER BY camera::VARCHAR) FROM points) || ')') END;
+                       || (SELECT string_agg(DISTINCT camera::VARCHAR, ', ' ORDER BY camera::VARCHAR) FROM points) || ')') END);
 CREATE OR REPLACE TEMP TABLE cluster_tracks AS
 SELECT * FROM (
     SELECT track_id, class, traj_resample(list({'t': t, 'x': x, 'y': y} ORDER BY t), 0.5, 1.0) AS traj
@@ -73,8 +74,10 @@ SELECT class, count(*) FILTER (WHERE cluster > 0) AS route_patterns,
 FROM cluster_summary GROUP BY class ORDER BY class;
 
 -- The stage's results (sql/export.sql writes them; python/trajdb/windows.py reads them per window).
--- Table macros: they read the tables when called. Unordered: the caller orders.
+-- Table macros: they read the tables when called. Unordered: the caller orders. Camera and
+-- track ids are the input's own (load_ids maps the stages' numbers back: text stays text).
 
 -- clusters: route patterns of one camera
 CREATE OR REPLACE TEMP MACRO result_clusters() AS TABLE
-SELECT calibrated('cluster_camera')::BIGINT AS camera, class, track_id, cluster FROM cluster_assign;
+SELECT i.camera_in AS camera, a.class, i.track_in AS track_id, a.cluster
+FROM cluster_assign a JOIN load_ids i ON i.camera = calibrated('cluster_camera') AND i.track_id = a.track_id;

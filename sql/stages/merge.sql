@@ -1,11 +1,11 @@
 -- stage: merge
--- reads: points, calib_cameras, calibrated(), calibrated_values(), quality_endpoints, quality_links,
+-- reads: points, load_ids, calib_cameras, calibrated(), calibrated_values(), quality_endpoints, quality_links,
 --        quality_reach_links, align_frames, align_origin, calib_match, view_overlaps, view_merge_order
 -- makes: merge_tracks, merge_scores, merge_links, merge_groups, merged, merge_chains, merge_road_users(),
 --        result_matches(), result_road_users(), result_links()
 -- work: merge_periods, merge_r_gate()
 -- changes: -
--- parameters: merge_eta, merge_resample_max_gap, merge_resample_s, merge_time_window
+-- parameters: input_t_type, merge_eta, merge_resample_max_gap, merge_resample_s, merge_time_window
 --
 -- trajdb: one row per road user across N cameras (thesis Alg. 2-4 and eq. 2.11).
 --
@@ -250,42 +250,58 @@ LEFT JOIN merge_groups g ON g.uid = t.uid;
 SELECT n_tracks, count(*) AS road_users FROM merged GROUP BY n_tracks ORDER BY n_tracks;
 
 -- The stage's results (sql/export.sql writes them; python/trajdb/windows.py reads them per window).
--- Table macros: they read the tables when called. Unordered: the caller orders.
+-- Table macros: they read the tables when called. Unordered: the caller orders. Camera and
+-- track ids are the input's own (load_ids maps the stages' numbers back: text stays text).
 
 -- matches: the cross-camera links merge_groups() kept (a refused link contradicts its road
 -- user), one row per pair of ORIGINAL tracks (a track quality.sql linked from pieces gives a row
 -- per piece), with the road user both belong to and its class
 CREATE OR REPLACE TEMP MACRO result_matches() AS TABLE
-SELECT la.camera AS camera_a, la.track_id AS track_a, lb.camera AS camera_b, lb.track_id AS track_b,
+SELECT ia.camera_in AS camera_a, ia.track_in AS track_a, ib.camera_in AS camera_b, ib.track_in AS track_b,
        m.eta AS score, m.kind, ga.road_user, ta.class
 FROM merge_links m
 JOIN merge_tracks ta ON ta.uid = m.uid_a JOIN merge_tracks tb ON tb.uid = m.uid_b
 JOIN merge_groups ga ON ga.uid = m.uid_a JOIN merge_groups gb ON gb.uid = m.uid_b
 JOIN quality_links la ON la.camera = ta.camera AND la.linked_id = ta.track_id
 JOIN quality_links lb ON lb.camera = tb.camera AND lb.linked_id = tb.track_id
+JOIN load_ids ia ON ia.camera = la.camera AND ia.track_id = la.track_id
+JOIN load_ids ib ON ib.camera = lb.camera AND ib.track_id = lb.track_id
 WHERE ga.road_user = gb.road_user AND m.kind <> 'reach';  -- within one camera: links
 
 -- road users (merged.parquet): one row per road user; `geometry` is WKB (LINESTRING M, or
 -- POINT M for a one-point road user; M is t) in the reference camera's local metric frame.
 -- `sources` names the ORIGINAL (camera, track_id) of every piece (quality.sql linked broken
 -- pieces under one id before matching), ordered by camera and start time, so any scorer can
--- read a road user's tracks from this alone. t_start / t_end (reference clock, s), duration_s
--- and length_m (metres along the merged path) save the analyst a pass over traj.
+-- read a road user's tracks from this alone (the input's own ids: load_ids). t_start / t_end
+-- (reference clock: epoch seconds, or TIMESTAMPTZ when the input's t was a TIMESTAMP /
+-- TIMESTAMPTZ), duration_s and length_m (metres along the merged path) save the analyst a pass
+-- over traj. traj's t (and the geometry's M) stays epoch seconds on the reference clock:
+-- to_timestamp(p.t) is a point's time.
 -- (merge_road_users is the definition; fuse.sql adds its columns to it.)
 CREATE OR REPLACE TEMP MACRO merge_road_users() AS TABLE
-SELECT m.road_user, m.class, m.n_tracks,
-       (SELECT list({'camera': l.camera, 'track_id': l.track_id} ORDER BY l.camera, q.e.t0, l.track_id)
-        FROM unnest(m.sources) u(s)
-        JOIN quality_links l ON l.camera = s.camera AND l.linked_id = s.track_id
-        LEFT JOIN quality_endpoints q ON q.camera = l.camera AND q.track_id = l.track_id) AS sources,
-       traj_time_range(m.traj).t_start AS t_start, traj_time_range(m.traj).t_end AS t_end,
-       traj_duration(m.traj) AS duration_s, traj_length_m(m.traj) AS length_m,
-       traj_to_wkb(m.traj, true) AS geometry, m.traj
-FROM merged m;
+SELECT road_user, class, n_tracks, sources,
+       COLUMNS(lambda c: c = CASE WHEN getvariable('input_t_type') LIKE 'TIMESTAMP%' THEN 't_start_tz' ELSE 't_start_s' END) AS t_start,
+       COLUMNS(lambda c: c = CASE WHEN getvariable('input_t_type') LIKE 'TIMESTAMP%' THEN 't_end_tz' ELSE 't_end_s' END) AS t_end,
+       duration_s, length_m, geometry, traj
+FROM (SELECT m.road_user, m.class, m.n_tracks,
+             (SELECT list({'camera': i.camera_in, 'track_id': i.track_in} ORDER BY l.camera, q.e.t0, l.track_id)
+              FROM unnest(m.sources) u(s)
+              JOIN quality_links l ON l.camera = s.camera AND l.linked_id = s.track_id
+              JOIN load_ids i ON i.camera = l.camera AND i.track_id = l.track_id
+              LEFT JOIN quality_endpoints q ON q.camera = l.camera AND q.track_id = l.track_id) AS sources,
+             traj_time_range(m.traj).t_start AS t_start_s, traj_time_range(m.traj).t_end AS t_end_s,
+             CASE WHEN getvariable('input_t_type') LIKE 'TIMESTAMP%' THEN to_timestamp(t_start_s) END AS t_start_tz,
+             CASE WHEN getvariable('input_t_type') LIKE 'TIMESTAMP%' THEN to_timestamp(t_end_s) END AS t_end_tz,
+             traj_duration(m.traj) AS duration_s, traj_length_m(m.traj) AS length_m,
+             traj_to_wkb(m.traj, true) AS geometry, m.traj
+      FROM merged m);
 
 CREATE OR REPLACE TEMP MACRO result_road_users() AS TABLE FROM merge_road_users();
 
 -- links: tracks linked within a camera (every track and the id of its chain: quality.sql's
 -- links, and the pieces of one camera merge.sql put in one road user; merge_chains)
 CREATE OR REPLACE TEMP MACRO result_links() AS TABLE
-SELECT camera, track_id, linked_id FROM merge_chains;
+SELECT i.camera_in AS camera, i.track_in AS track_id, j.track_in AS linked_id
+FROM merge_chains c
+JOIN load_ids i ON i.camera = c.camera AND i.track_id = c.track_id
+JOIN load_ids j ON j.camera = c.camera AND j.track_id = c.linked_id;

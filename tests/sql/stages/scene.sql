@@ -54,3 +54,6 @@ FROM (
     UNION ALL SELECT 0, 901, 'car', 30.0, 1.0, 1.0
     UNION ALL SELECT 0, 902, 'car', 40.0 + 0.1 * i, (i % 2) * 100.0, 0.0 FROM range(20) r(i)
 );
+-- the load's id map (sql/pipeline.sql, load_ids): the scene's ids are integers, kept as they are
+CREATE OR REPLACE TEMP TABLE load_ids AS
+SELECT DISTINCT camera AS camera_in, camera, track_id AS track_in, track_id FROM points;

@@ -11,8 +11,12 @@
 #      a child process, invariance (frames, clocks, ids, row order), crowds, the scorer, the
 #      README's examples, each stage alone (tests/test_stages_python.py) and its contract
 #      header (tests/check_stage_contracts.py), the `trajdb` command (tests/test_cli_python.py),
-#      byte-identical results across thread counts and row orders, report.html in headless
-#      Chromium (apt-get installs it), and the Python package installed by pip into a fresh venv
+#      byte-identical results across thread counts and row orders, every input kind (DataFrames,
+#      Arrow, relations, tables, files, text ids, TIMESTAMP t), the analyst's questions against the
+#      simulator's truth (movements, speeds, PET/TTC), fused paths against the true lengths, the
+#      data dictionary against the files, the GIS export, report.html in headless Chromium
+#      (apt-get installs it), the Python package installed by pip into a fresh venv, and the
+#      prebuilt wheel installed without Rust or a compiler (LOAD trajdb by name)
 #   4. in DuckDB 1.5.5 with DuckDB spatial: the WKB / GeoParquet round trip, and the .slt suite,
 #      fuzz cases, robustness, safety, sandbox, crowd, scorer and README tests again
 #   5. trajdb.spark in Spark local mode against trajdb.pipeline on each whole site
@@ -41,8 +45,9 @@ con = duckdb.connect(config={"allow_unsigned_extensions": "true"})
 con.execute(f"LOAD '{os.path.abspath(sys.argv[1])}'")  # a bare file name goes to the system loader
 now = con.execute("SELECT trajdb_reference('markdown')").fetchall()[0][0]
 if open("docs/functions.md").read() != now:
-    open(sys.argv[1] + ".functions.md", "w").write(now)
-    sys.exit(f"docs/functions.md is stale: the extension's reference is in {sys.argv[1]}.functions.md; "
+    got = os.path.join(os.environ["CARGO_TARGET_DIR"], "functions.md")
+    open(got, "w").write(now)
+    sys.exit(f"docs/functions.md is stale: the extension's reference is in {got}; "
              "run  python -m trajdb functions --markdown > docs/functions.md")
 print("ok   docs/functions.md is the extension's trajdb_reference('markdown')")
 PY
@@ -62,12 +67,19 @@ PY="$VENV/bin/python"
 "$PY" tests/test_stages_python.py "$EXT"
 "$PY" tests/test_cli_python.py "$EXT"
 "$PY" tests/test_determinism_python.py "$EXT"
+"$PY" tests/test_inputs_python.py "$EXT"
+"$PY" tests/test_analysis_python.py "$EXT"
+"$PY" tests/test_paths_python.py "$EXT"
+"$PY" tests/test_outputs_doc_python.py "$EXT"
+"$PY" tests/test_export_python.py "$EXT"
+python3 scripts/sql_single_file.py --check
 if ! command -v chromium > /dev/null && ! command -v chromium-browser > /dev/null; then
   SUDO=""; [ "$(id -u)" -ne 0 ] && SUDO="sudo"
   $SUDO apt-get update -qq && DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq chromium > /dev/null
 fi
 tests/test_report.sh "$EXT" "$PY"
 tests/test_python_package.sh "$EXT"
+tests/test_wheel.sh "$EXT"
 
 echo "== 4/5 DuckDB 1.5.5 with DuckDB spatial: WKB round trip, and the SQL tests again"
 if [ ! -x "$SPATIAL_VENV/bin/python" ]; then python3 -m venv "$SPATIAL_VENV"; fi
@@ -83,6 +95,10 @@ PY15="$SPATIAL_VENV/bin/python"
 "$PY15" tests/test_score_python.py "$EXT"
 "$PY15" tests/test_readme.py "$EXT"
 "$PY15" tests/test_stages_python.py "$EXT"
+"$PY15" tests/test_inputs_python.py "$EXT"
+"$PY15" tests/test_analysis_python.py "$EXT"
+"$PY15" tests/test_outputs_doc_python.py "$EXT"
+"$PY15" tests/test_export_python.py "$EXT"
 
 echo "== 5/5 trajdb.spark in Spark local mode against trajdb.pipeline per site"
 SPARK_PY="$(scripts/install_spark.sh)"

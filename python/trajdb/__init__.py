@@ -269,9 +269,15 @@ def execute_steps(con, steps, progress=False):
         try:
             con.execute(sql).fetchall()
         except BaseException as e:
+            # the undos run on a cursor of their own: inside a failed explicit transaction `con`
+            # refuses every statement, and the results folder's claim is process-wide
+            try:
+                undo_con = con.cursor() if undo else None
+            except duckdb.Error:
+                undo_con = con
             for u in reversed(undo):
                 try:
-                    con.execute(u).fetchall()
+                    undo_con.execute(u).fetchall()
                 except duckdb.Error:
                     pass
             if hasattr(e, "add_note"):
@@ -307,7 +313,10 @@ def _params_json(params, who):
         if not isinstance(v, (bool, int, float, str)):
             raise TypeError(f"{who}: parameter {k} must be a number, a boolean or text, got {type(v).__name__}")
         values[str(k)] = v
-    return json.dumps(values)
+    for k, v in values.items():
+        if isinstance(v, float) and (v != v or v in (float("inf"), float("-inf"))):
+            raise ValueError(f"{who}: parameter {k} must be a finite number, got {v!r}")
+    return json.dumps(values, allow_nan=False)
 
 
 def stages(con, input, out=None, part="all", **params):
@@ -460,3 +469,5 @@ def demo(out="trajdb-demo", **params):
         raise RuntimeError("demo: the pipeline missed its accuracy targets")
     return s
 
+
+from .export import export, fit_map  # noqa: E402  (trajdb.export: GeoJSON / GeoPackage / GeoParquet, results on a map)

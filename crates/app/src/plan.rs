@@ -203,7 +203,12 @@ pub fn plan(req: &Request) -> Result<Vec<Step>, Box<dyn Error>> {
         steps.extend(part);
     }
     match req.part {
-        Part::All => push_script(&mut steps, "warnings", "sql/warnings.sql", &embedded("sql/warnings.sql")?),
+        Part::All => {
+            push_script(&mut steps, "warnings", "sql/warnings.sql", &embedded("sql/warnings.sql")?);
+            // the analyst's questions as macros over `merged` (movements, speeds, conflicts,
+            // routes: docs/analysis.md), defined in the session that ran the pipeline
+            push_script(&mut steps, "analysis", "sql/analysis.sql", &embedded("sql/analysis.sql")?);
+        }
         Part::Window => push_script(&mut steps, "window", "sql/window.sql", &embedded("sql/window.sql")?),
         Part::Site => {}
     }

@@ -65,7 +65,9 @@ def main():
     print(f"ok   README DuckDB CLI block: {n_select} queries, each with rows")
 
     py = block(readme, "### Python", "python")
-    r = subprocess.run([sys.executable, "-c", py], cwd=ROOT, capture_output=True, text=True)
+    # the block uses the trajdb package (python/) over this extension file
+    env = dict(os.environ, PYTHONPATH=os.path.join(ROOT, "python"), TRAJDB_EXTENSION=ext)
+    r = subprocess.run([sys.executable, "-c", py], cwd=ROOT, capture_output=True, text=True, env=env)
     assert r.returncode == 0, r.stderr
     print("ok   README Python block")
 

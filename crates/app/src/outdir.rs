@@ -137,6 +137,16 @@ fn read_manifest(dir: &Path) -> Result<Option<Vec<String>>, OutError> {
         }
         Ok(_) => {}
     }
+    // a manifest of another user's is never trusted: in a folder others may write into (a
+    // shared /tmp), anyone could plant one naming your files
+    if let (Some(owner), Some(me)) = (owner_of(&path), process_uid()) {
+        if owner != me {
+            return err(format!(
+                "results folder {}: its {MANIFEST} belongs to another user (uid {owner}); trajdb will not delete by it (pick another out)",
+                dir.display()
+            ));
+        }
+    }
     let text = fs::read_to_string(&path).map_err(|e| io("read", &path, e))?;
     if !text.starts_with(MANIFEST_HEAD.trim_end()) {
         return err(format!(
@@ -146,15 +156,73 @@ fn read_manifest(dir: &Path) -> Result<Option<Vec<String>>, OutError> {
     }
     let mut names = Vec::new();
     for line in text.lines().map(str::trim).filter(|l| !l.is_empty() && !l.starts_with('#')) {
+        // `name<TAB>identity` (size, modification time and inode when trajdb wrote it), or
+        // `name` alone (a manifest of an earlier trajdb, or a file not yet moved in)
+        let (line, ident) = match line.split_once('\t') {
+            Some((n, i)) => (n.trim(), Some(i.trim())),
+            None => (line, None),
+        };
+        if let (Some(want), Ok(m)) = (ident, fs::symlink_metadata(dir.join(line))) {
+            if m.is_file() && identity(&m).as_deref() != Some(want) {
+                return err(format!(
+                    "results folder {}: {line} changed since trajdb wrote it (or is another file under its name); trajdb will not \
+                     replace or delete it: move it away, or pick another out",
+                    dir.display()
+                ));
+            }
+        }
         if !plain_name(line) {
             return err(format!(
                 "results folder {}: its {MANIFEST} lists {line:?}, which is not a plain file name; trajdb will not delete by it (remove the folder yourself, or pick another out)",
                 dir.display()
             ));
         }
+        // a name-only line is trusted only for a name trajdb writes: a hand-made manifest
+        // naming other files never makes trajdb delete them
+        if ident.is_none() && !WRITTEN_NAMES.contains(&line) {
+            return err(format!(
+                "results folder {}: its {MANIFEST} lists {line:?}, a file trajdb never writes; trajdb will not delete by it (remove the folder yourself, or pick another out)",
+                dir.display()
+            ));
+        }
         names.push(line.to_string());
     }
     Ok(Some(names))
+}
+
+/// Every file name trajdb writes into a results folder (sql/export.sql, sql/report.sql, the
+/// simulator and trajdb.simulate's points.parquet).
+pub const WRITTEN_NAMES: &[&str] = &[
+    "transforms.csv", "calibration.csv", "matches.csv", "merged.parquet", "clusters.csv", "links.csv", "report.html",
+    "points.csv", "points.parquet", "cameras.csv", "truth.csv", "objects.csv", "world.csv", "README.txt",
+];
+
+/// What identifies a file trajdb wrote: size, modification time (ns) and inode.
+fn identity(m: &fs::Metadata) -> Option<String> {
+    let t = m.modified().ok()?.duration_since(std::time::UNIX_EPOCH).ok()?.as_nanos();
+    #[cfg(unix)]
+    let ino = std::os::unix::fs::MetadataExt::ino(m);
+    #[cfg(not(unix))]
+    let ino = 0u64;
+    Some(format!("{}:{t}:{ino}", m.len()))
+}
+
+/// The owner (uid) of a path; `None` where unknown (not unix).
+fn owner_of(p: &Path) -> Option<u32> {
+    #[cfg(unix)]
+    {
+        fs::symlink_metadata(p).ok().map(|m| std::os::unix::fs::MetadataExt::uid(&m))
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = p;
+        None
+    }
+}
+
+/// This process's user: the owner of `/proc/self` (Linux); `None` where unknown.
+fn process_uid() -> Option<u32> {
+    owner_of(Path::new("/proc/self"))
 }
 
 /// A file name with no separator, not `.`/`..`, not one of trajdb's own control names.
@@ -351,6 +419,12 @@ fn write_manifest(dir: &Path, names: &[String]) -> Result<(), OutError> {
     let mut text = String::from(MANIFEST_HEAD);
     for n in names {
         text.push_str(n);
+        // the file as it is now, so that a later change (a user's own file saved under the
+        // name) is never taken for trajdb's
+        if let Some(i) = fs::symlink_metadata(dir.join(n)).ok().filter(|m| m.is_file()).and_then(|m| identity(&m)) {
+            text.push('\t');
+            text.push_str(&i);
+        }
         text.push('\n');
     }
     let _ = fs::remove_file(&tmp); // a leftover of a killed run of this pid (a plain name of ours)
@@ -499,6 +573,39 @@ pub mod open {
             c.abort();
             Ok(Vec::new())
         }
+    }
+}
+
+#[cfg(test)]
+mod identity_tests {
+    use super::*;
+
+    /// A result file replaced by the user after the run (same name) is never deleted or
+    /// overwritten by the next run; a manifest naming a file trajdb did not write is refused.
+    #[test]
+    fn a_changed_or_planted_file_is_refused() {
+        let base = std::env::temp_dir().join(format!("trajdb-ident-{}", std::process::id()));
+        let _ = fs::remove_dir_all(&base);
+        let out = base.join("r");
+        let c = claim(out.to_str().unwrap(), &[]).unwrap();
+        fs::write(c.partial.join("report.html"), "trajdb's").unwrap();
+        c.commit().unwrap();
+        assert!(fs::read_to_string(out.join(MANIFEST)).unwrap().contains("report.html\t"));
+        // the user saves their own report.html over it: the next claim refuses, the file stays
+        std::thread::sleep(std::time::Duration::from_millis(20));
+        fs::write(out.join("report.html"), "the user's own, longer text").unwrap();
+        let e = claim(out.to_str().unwrap(), &[]).unwrap_err().to_string();
+        assert!(e.contains("report.html changed since trajdb wrote it"), "{e}");
+        assert_eq!(fs::read_to_string(out.join("report.html")).unwrap(), "the user's own, longer text");
+        // a manifest naming a file trajdb never writes (planted by hand) is refused
+        let planted = base.join("p");
+        fs::create_dir_all(&planted).unwrap();
+        fs::write(planted.join("thesis.docx"), "mine").unwrap();
+        fs::write(planted.join(MANIFEST), format!("{MANIFEST_HEAD}thesis.docx\n")).unwrap();
+        let e = claim(planted.to_str().unwrap(), &[]).unwrap_err().to_string();
+        assert!(e.contains("a file trajdb never writes"), "{e}");
+        assert!(planted.join("thesis.docx").exists());
+        let _ = fs::remove_dir_all(&base);
     }
 }
 

@@ -45,12 +45,22 @@ def _arrow(rel):
     return rel.to_arrow_table()  # DuckDB 1.5 and 2.0
 
 
+def _integer_ids(points, who):
+    """Windows number ids per run: text ids would be numbered apart in the site and in each
+    window, so cameras could silently mismatch. Refused until the site's id table travels along."""
+    for col in ("camera", "track_id"):
+        if col in points.column_names and not pa.types.is_integer(points.schema.field(col).type):
+            raise ValueError(f"{who}: {col} must be an integer column for site/window runs (got {points.schema.field(col).type}); "
+                             "number your ids first (trajdb.pipeline on a whole site accepts text ids)")
+
+
 def calibrate_site(points, params=None, extension=None, threads=1, sql=None):
     """Runs the load and the calibration stages on a site's sample (a pyarrow.Table of camera,
     track_id, class, t, x, y[, estimated]); returns {name: pyarrow.Table} for every site table
     (site_table_names), plus "result_transforms" (transforms.csv) and "result_calibration"
     (calibration.csv). `sql` is accepted for compatibility and ignored: the statements come from
     the extension."""
+    _integer_ids(points, "trajdb.windows.calibrate_site")
     con = connect(extension or _default_extension(), threads)
     try:
         con.register("trajdb_window_input", points)
@@ -69,6 +79,7 @@ def run_window(points, site, window_start, window_end, loaded_from, loaded_to, p
     Returns {'road_users', 'matches', 'status'} (pyarrow.Tables): the road users whose first
     real observation lies in [window_start, window_end), their matches, and window_status
     (sql/window.sql: whether the halo held every kept road user's component)."""
+    _integer_ids(points, "trajdb.windows.run_window")
     con = connect(extension or _default_extension(), threads)
     try:
         con.register("trajdb_window_input", points)

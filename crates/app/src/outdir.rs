@@ -177,9 +177,9 @@ fn read_manifest(dir: &Path) -> Result<Option<Vec<String>>, OutError> {
                 dir.display()
             ));
         }
-        // a name-only line is trusted only for a name trajdb writes: a hand-made manifest
-        // naming other files never makes trajdb delete them
-        if ident.is_none() && !WRITTEN_NAMES.contains(&line) {
+        // a name-only line is trusted only for a name trajdb writes (or a file that is gone): a
+        // hand-made manifest naming other files never makes trajdb delete them
+        if ident.is_none() && !WRITTEN_NAMES.contains(&line) && fs::symlink_metadata(dir.join(line)).is_ok() {
             return err(format!(
                 "results folder {}: its {MANIFEST} lists {line:?}, a file trajdb never writes; trajdb will not delete by it (remove the folder yourself, or pick another out)",
                 dir.display()

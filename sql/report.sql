@@ -37,6 +37,13 @@ SELECT road_user, class, len(list_distinct([s.camera FOR s IN sources])) AS n_ca
        traj_duration(traj) AS duration_s,
        CASE WHEN traj_duration(traj) >= 1 THEN traj_length_m(traj) / traj_duration(traj) END AS mean_speed
 FROM merged;
+-- the analyst's questions (issue 29 §4): movements and near misses come from sql/analysis.sql's
+-- macros, defined again here so that the report stands alone after .read sql/pipeline.sql
+.read sql/analysis.sql
+CREATE OR REPLACE TEMP TABLE report_movements AS
+SELECT approach_in, approach_out, movement, class, sum(road_users) AS n FROM movements() GROUP BY ALL;
+CREATE OR REPLACE TEMP TABLE report_conflicts AS
+FROM conflicts() WHERE pet < 3 ORDER BY pet, road_user_a, road_user_b LIMIT 15;
 CREATE OR REPLACE TEMP TABLE report_rows AS
 SELECT 'meta' AS s, 1 AS k, ['input', getvariable('pipeline_input')] AS c
 UNION ALL SELECT 'meta', 2, ['xi', calibrated('merge_min_points')::BIGINT::VARCHAR]
@@ -142,9 +149,12 @@ UNION ALL SELECT 'camq', row_number() OVER (ORDER BY c.camera),
     LEFT JOIN (SELECT s.camera, count(DISTINCT road_user) AS users FROM (SELECT road_user, unnest(sources) AS s FROM merged) GROUP BY s.camera) u
            ON u.camera = c.camera
     LEFT JOIN align_frames f ON f.camera = c.camera
--- HOOK (issue 29 §4, sql/analysis.sql, another part of the issue): the movement table and
--- diagram and the conflict list go here as rows 'movement' and 'conflict'; mod.rs (fn analysis)
--- draws a section for each only when it has rows, so the report is unchanged until they exist.
+-- the movement table (approaches found in the data) and the worst post-encroachment times
+UNION ALL SELECT 'movement', row_number() OVER (ORDER BY n DESC, approach_in, approach_out, movement, class),
+       [approach_in, approach_out, movement, class, n::VARCHAR] FROM report_movements
+UNION ALL SELECT 'conflict', row_number() OVER (ORDER BY pet, road_user_a, road_user_b),
+       [road_user_a::VARCHAR, class_a, road_user_b::VARCHAR, class_b, round(pet, 2)::VARCHAR, kind, round(pet_x, 1)::VARCHAR,
+        round(pet_y, 1)::VARCHAR, coalesce(round(ttc, 2)::VARCHAR, '')] FROM report_conflicts
 UNION ALL SELECT 'param', row_number() OVER (ORDER BY stage, name), [name, value, stage, description] FROM pipeline_params;
 COPY (SELECT trajdb_report_html(string_agg(s || chr(31) || array_to_string([report_cell(v) FOR v IN c], chr(31)), chr(30) ORDER BY s, k))
       FROM report_rows)

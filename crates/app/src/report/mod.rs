@@ -234,8 +234,23 @@ fn summary(d: &Data, c: &Ctx, h: &mut String) -> R<()> {
 /// sql/analysis.sql (rows 'movement' and 'conflict' of sql/report.sql). Nothing is drawn until
 /// those rows exist; the engineer who adds them renders them here.
 fn analysis(d: &Data, h: &mut String) -> R<()> {
-    if !d.rows("movement").is_empty() || !d.rows("conflict").is_empty() {
-        h.push_str("<h2>Movements and conflicts</h2><p>(sql/analysis.sql: not drawn yet.)</p>");
+    let cells = |section: &str, n: usize| -> R<Vec<Vec<String>>> { d.rows(section).iter().map(|r| (0..n).map(|k| r.s(k)).collect::<R<Vec<_>>>()).collect() };
+    let movements = cells("movement", 5)?;
+    let conflicts = cells("conflict", 9)?;
+    h.push_str("<h2>Movements and near misses</h2><p>Turning movements over the whole recording (entry approach → exit approach, found in the \
+                data: sql/analysis.sql's movements(); per 15 minutes and with your own gates in SQL, docs/analysis.md).</p>");
+    if movements.is_empty() {
+        h.push_str("<p>No road user crosses the site from one approach to another.</p>");
+    } else {
+        h.push_str(&table(&["from", "to", "movement", "class", "road users"].map(String::from), &movements));
+    }
+    h.push_str("<p>The closest encounters: post-encroachment time (PET, s: how long after the first road user left the point where \
+                the paths cross the second arrived) under 3 s, and the time to collision at constant velocity (TTC, s) where they \
+                converged (conflicts()).</p>");
+    if conflicts.is_empty() {
+        h.push_str("<p>No pair of road users crossed within 3 s.</p>");
+    } else {
+        h.push_str(&table(&["road user", "class", "road user", "class", "PET", "kind", "x", "y", "TTC"].map(String::from), &conflicts));
     }
     Ok(())
 }

@@ -4,7 +4,7 @@
 //! - [`algo`] (crates/algo): the maths, pure Rust, no DuckDB;
 //! - [`app`] (crates/app): the pipeline manifest, parameters, results folder, simulator and
 //!   report renderer, no DuckDB;
-//! - [`runner`]: executes the manifest on the database's runner connection (`trajdb_pipeline`);
+//! - [`runner`]: executes the manifest in a private in-memory database per call (`trajdb_pipeline`);
 //! - [`bindings`]: the DuckDB functions (descriptors, kernels, the vector module);
 //! - the entry point (`trajdb_init_c_api`).
 //!

@@ -16,20 +16,6 @@ use proptest::strategy::ValueTree;
 use proptest::test_runner::{Config, RngAlgorithm, TestRng, TestRunner};
 use trajdb::bindings::registry::Ty;
 
-fn sql_type(t: &Ty) -> String {
-    match t {
-        Ty::Double => "DOUBLE".into(),
-        Ty::Bigint => "BIGINT".into(),
-        Ty::Integer => "INTEGER".into(),
-        Ty::Boolean => "BOOLEAN".into(),
-        Ty::Varchar => "VARCHAR".into(),
-        Ty::Blob => "BLOB".into(),
-        Ty::Geometry => "GEOMETRY".into(),
-        Ty::List(i) => format!("{}[]", sql_type(i)),
-        Ty::Struct(f) => format!("STRUCT({})", f.iter().map(|(n, t)| format!("\"{n}\" {}", sql_type(t))).collect::<Vec<_>>().join(", ")),
-        Ty::OneOf(_) => unreachable!("expanded first"),
-    }
-}
 
 fn pick(v: &[&'static str]) -> BoxedStrategy<String> {
     proptest::sample::select(v.to_vec()).prop_map(String::from).boxed()
@@ -165,7 +151,7 @@ fn value(t: &Ty) -> BoxedStrategy<String> {
         }
         Ty::OneOf(_) => unreachable!("expanded first"),
     };
-    let ty = sql_type(t);
+    let ty = t.concrete();
     raw.prop_map(move |v| format!("CAST({v} AS {ty})")).boxed()
 }
 

@@ -61,6 +61,19 @@ impl Ty {
             t => vec![*t],
         }
     }
+    /// The type as SQL spells it (a cast target: no TRAJ alias, every field name quoted);
+    /// not defined for [`Ty::OneOf`] (expand it first). The fuzz cases cast to it.
+    pub fn concrete(&self) -> String {
+        match self {
+            Ty::List(t) => format!("{}[]", t.concrete()),
+            Ty::Struct(fields) => {
+                let f: Vec<String> = fields.iter().map(|(n, t)| format!("\"{n}\" {}", t.concrete())).collect();
+                format!("STRUCT({})", f.join(", "))
+            }
+            Ty::OneOf(_) => panic!("Ty::OneOf has no single SQL type"),
+            t => t.sql(),
+        }
+    }
     /// The SQL spelling used in the reference.
     pub fn sql(&self) -> String {
         if *self == TRAJ {

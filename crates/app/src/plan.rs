@@ -140,10 +140,6 @@ fn push_script(out: &mut Vec<Step>, stage: &str, file: &str, text: &str) {
     }
 }
 
-fn embedded(path: &str) -> Result<String, Box<dyn Error>> {
-    sql::expand_embedded(path)
-}
-
 /// Every statement of `req`, in order. Parameter names and values are checked here (an
 /// unknown name or a bad value is an error naming it), before anything runs.
 pub fn plan(req: &Request) -> Result<Vec<Step>, Box<dyn Error>> {
@@ -204,19 +200,19 @@ pub fn plan(req: &Request) -> Result<Vec<Step>, Box<dyn Error>> {
     }
     match req.part {
         Part::All => {
-            push_script(&mut steps, "warnings", "sql/warnings.sql", &embedded("sql/warnings.sql")?);
+            push_script(&mut steps, "warnings", "sql/warnings.sql", &sql::expand_embedded("sql/warnings.sql")?);
             // the analyst's questions as macros over `merged` (movements, speeds, conflicts,
             // routes: docs/analysis.md), defined in the session that ran the pipeline
-            push_script(&mut steps, "analysis", "sql/analysis.sql", &embedded("sql/analysis.sql")?);
+            push_script(&mut steps, "analysis", "sql/analysis.sql", &sql::expand_embedded("sql/analysis.sql")?);
         }
-        Part::Window => push_script(&mut steps, "window", "sql/window.sql", &embedded("sql/window.sql")?),
+        Part::Window => push_script(&mut steps, "window", "sql/window.sql", &sql::expand_embedded("sql/window.sql")?),
         Part::Site => {}
     }
     // 4. the result files into the staging folder, report.html, then the commit: the files
     //    replace the earlier results only when all are written
     if let Some(out) = &req.out {
         steps.push(clock_step("write", "sql/export.sql"));
-        push_script(&mut steps, "write", "sql/export.sql", &embedded("sql/export.sql")?);
+        push_script(&mut steps, "write", "sql/export.sql", &sql::expand_embedded("sql/export.sql")?);
         steps.push(clock_step("report", "sql/report.sql"));
         steps.push(Step {
             stage: "report".into(),
@@ -228,7 +224,7 @@ pub fn plan(req: &Request) -> Result<Vec<Step>, Box<dyn Error>> {
             makes: Some("pipeline_timings".into()),
             undo: None,
         });
-        push_script(&mut steps, "report", "sql/report.sql", &embedded("sql/report.sql")?);
+        push_script(&mut steps, "report", "sql/report.sql", &sql::expand_embedded("sql/report.sql")?);
         steps.push(Step {
             stage: "commit".into(),
             file: "trajdb_results_end".into(),
@@ -256,7 +252,7 @@ fn clock_step(stage: &str, file: &str) -> Step {
 /// The statements of one embedded SQL file (`sql/score.sql`, `sql/report.sql`, ...), its
 /// `.read` lines expanded: what `.read FILE` runs in the DuckDB CLI.
 pub fn script(path: &str) -> Result<Vec<Step>, Box<dyn Error>> {
-    let text = embedded(path)?;
+    let text = sql::expand_embedded(path)?;
     let mut steps = Vec::new();
     push_script(&mut steps, "script", path, &text);
     Ok(steps)

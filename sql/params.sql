@@ -57,6 +57,8 @@ SET VARIABLE cluster_delta = coalesce(getvariable('cluster_delta'), 5::BIGINT); 
 SET VARIABLE cluster_epsilon = coalesce(getvariable('cluster_epsilon'), 2.0::DOUBLE); -- Buzan's epsilon (m)
 SET VARIABLE cluster_rho = coalesce(getvariable('cluster_rho'), 0.5::DOUBLE); -- Buzan's rho: length ratio below which tracks are not compared
 SET VARIABLE cluster_threshold = coalesce(getvariable('cluster_threshold'), 0.5::DOUBLE); -- average-linkage cut height
+SET VARIABLE cluster_method = coalesce(getvariable('cluster_method'), 'auto'); -- 'exact' (every pair of tracks, traj_cluster), 'prototypes' (traj_cluster_prototypes: linear in the tracks) or 'auto' (exact up to cluster_exact_max tracks of a class, prototypes above)
+SET VARIABLE cluster_exact_max = coalesce(getvariable('cluster_exact_max'), 3000::BIGINT); -- with cluster_method auto, the most tracks of one class clustered exactly (3,000: 4.5 M pairs, a few seconds)
 SET VARIABLE cluster_translation_invariant = coalesce(getvariable('cluster_translation_invariant'), false); -- use S2 (shapes anywhere) instead of S1 (routes)
 
 -- the values in use, one row per parameter (report.html shows them)
@@ -104,5 +106,7 @@ CREATE OR REPLACE TEMP TABLE pipeline_params AS SELECT * FROM (VALUES
     ('cluster_epsilon', coalesce(getvariable('cluster_epsilon')::VARCHAR, 'auto'), 'cluster', 'Buzan''s epsilon (m)'),
     ('cluster_rho', coalesce(getvariable('cluster_rho')::VARCHAR, 'auto'), 'cluster', 'Buzan''s rho: length ratio below which tracks are not compared'),
     ('cluster_threshold', coalesce(getvariable('cluster_threshold')::VARCHAR, 'auto'), 'cluster', 'average-linkage cut height'),
+    ('cluster_method', coalesce(getvariable('cluster_method')::VARCHAR, 'auto'), 'cluster', '''exact'' (every pair of tracks, traj_cluster), ''prototypes'' (traj_cluster_prototypes: linear in the tracks) or ''auto'' (exact up to cluster_exact_max tracks of a class, prototypes above)'),
+    ('cluster_exact_max', coalesce(getvariable('cluster_exact_max')::VARCHAR, 'auto'), 'cluster', 'with cluster_method auto, the most tracks of one class clustered exactly (3,000: 4.5 M pairs, a few seconds)'),
     ('cluster_translation_invariant', coalesce(getvariable('cluster_translation_invariant')::VARCHAR, 'auto'), 'cluster', 'use S2 (shapes anywhere) instead of S1 (routes)')
 ) t(name, value, stage, description);

@@ -3,8 +3,8 @@
 -- makes: cluster_tracks, cluster_assign, cluster_summary, result_clusters()
 -- work: -
 -- changes: -
--- parameters: cluster_classes, cluster_delta, cluster_epsilon, cluster_rho, cluster_threshold,
---             cluster_translation_invariant
+-- parameters: cluster_classes, cluster_delta, cluster_epsilon, cluster_exact_max, cluster_method,
+--             cluster_rho, cluster_threshold, cluster_translation_invariant
 --
 -- trajdb: route patterns by agglomerative clustering of trajectories (Buzan et al. 4.3-4.5, 5.2).
 --
@@ -44,20 +44,40 @@ SELECT * FROM (
 )
 WHERE len(traj) >= 6;
 
--- All pairs in one call per class: traj_cluster computes every S1 (or S2) distance in parallel
--- straight into the distance matrix, with the exact bounding-box pre-filter (S1_x > 0 needs the
--- x ranges within epsilon, likewise y), then average linkage cut at the threshold. Pairs with no
--- common subsequence are cannot-links; a track with no similar track at all gets cluster 0.
--- (The same by hand, for other distances: lcss_s1 over a self-join of cluster_tracks, then
--- agglomerative_cluster(list({'a', 'b', 'distance'}), 'average', threshold): 86 s instead of
+-- Exact: all pairs in one call per class: traj_cluster computes every S1 (or S2) distance in
+-- parallel straight into the distance matrix, with the exact bounding-box pre-filter (S1_x > 0
+-- needs the x ranges within epsilon, likewise y), then average linkage cut at the threshold.
+-- Pairs with no common subsequence are cannot-links; a track with no similar track at all gets
+-- cluster 0. (The same by hand, for other distances: lcss_s1 over a self-join of cluster_tracks,
+-- then agglomerative_cluster(list({'a', 'b', 'distance'}), 'average', threshold): 86 s instead of
 -- a few on a Mellingen-sized day, because the join materialises two trajectories per pair.)
+-- Prototypes (issue 28): all pairs of a day's 9,500 cars of one camera are 45 M LCSS (17 s on 2
+-- cores), growing with the square of the day. traj_cluster_prototypes visits the tracks longest
+-- first and lets each join the nearest prototype within half the cut height (or become one),
+-- then clusters the prototypes exactly: 0.15 s for the same cars. Its partition is not the exact
+-- one (docs/clustering.md: adjusted Rand index against the exact clustering and against the
+-- simulator's true routes); cluster_method = 'exact' keeps the exact one for any size, 'auto'
+-- uses it up to cluster_exact_max tracks of a class.
+SET VARIABLE cluster_method_check = (SELECT CASE WHEN lower(trim(getvariable('cluster_method'))) NOT IN ('auto', 'exact', 'prototypes')
+            THEN error('cluster: cluster_method must be ''auto'', ''exact'' or ''prototypes'', got ''' || getvariable('cluster_method') || '''') END);
 CREATE OR REPLACE TEMP TABLE cluster_assign AS
-WITH c AS (
-    SELECT class, unnest(traj_cluster(list(track_id ORDER BY track_id), list(traj ORDER BY track_id), 'average',
-                                      getvariable('cluster_threshold'), getvariable('cluster_delta'),
+WITH g AS (
+    SELECT class, list(track_id ORDER BY track_id) AS ids, list(traj ORDER BY track_id) AS trajs,
+           CASE lower(trim(getvariable('cluster_method')))
+               WHEN 'exact' THEN false WHEN 'prototypes' THEN true
+               ELSE count(*) > getvariable('cluster_exact_max') END AS by_prototypes
+    FROM cluster_tracks GROUP BY class
+), c AS (
+    SELECT class, unnest(traj_cluster(ids, trajs, 'average', getvariable('cluster_threshold'), getvariable('cluster_delta'),
                                       getvariable('cluster_epsilon'), getvariable('cluster_rho'),
                                       getvariable('cluster_translation_invariant'))) AS m
-    FROM cluster_tracks GROUP BY class
+    FROM g WHERE NOT by_prototypes
+    UNION ALL
+    SELECT class, unnest(traj_cluster_prototypes(ids, trajs, 'average', getvariable('cluster_threshold'),
+                                                 getvariable('cluster_threshold') / 2, getvariable('cluster_delta'),
+                                                 getvariable('cluster_epsilon'), getvariable('cluster_rho'),
+                                                 getvariable('cluster_translation_invariant'))) AS m
+    FROM g WHERE by_prototypes
 )
 SELECT class, m.id AS track_id, m.cluster FROM c;
 

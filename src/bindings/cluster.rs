@@ -4,6 +4,7 @@
 use super::registry::{p, Function, Param, Signature, Ty, TRAJ};
 use super::vector::{Args, Column, Out, StructListCol, TextCol};
 use crate::algo::cluster::linkage::{self, Cut, Dendrogram, Linkage};
+use crate::algo::cluster::prototype;
 use crate::algo::cluster::traj_cluster::{self, Similarity};
 use crate::algo::lcss::index::IndexParams;
 use std::error::Error;
@@ -13,6 +14,7 @@ const LINKAGE: &str = "crates/algo/src/cluster/linkage.rs";
 
 const PAIRS: Ty = Ty::List(&Ty::Struct(&[("a", Ty::Bigint), ("b", Ty::Bigint), ("distance", Ty::Double)]));
 const ASSIGNMENT: Ty = Ty::List(&Ty::Struct(&[("id", Ty::Bigint), ("cluster", Ty::Integer)]));
+const PROTOTYPE_ASSIGNMENT: Ty = Ty::List(&Ty::Struct(&[("id", Ty::Bigint), ("cluster", Ty::Integer), ("prototype", Ty::Bigint)]));
 const PAIRS_METHOD: [Param; 2] = [p("pairs", PAIRS), p("method", Ty::Varchar)];
 
 pub static FUNCTIONS: &[Function] = &[
@@ -96,6 +98,36 @@ pub static FUNCTIONS: &[Function] = &[
         }],
         table: None,
     },
+    Function {
+        name: "traj_cluster_prototypes",
+        description: "Clusters trajectories through prototypes, in time linear in the trajectories for a fixed number of route patterns (traj_cluster \
+                      compares every pair): visited longest first, each trajectory joins the nearest prototype within radius (a distance \
+                      1 - min(S_x, S_y), e.g. half the threshold) or becomes a new prototype (TrafficIntelligence's prototype clustering with \
+                      LCSS); then the prototypes are clustered exactly as traj_cluster does (method, cut at threshold) and every member takes its \
+                      prototype's cluster. Returns id, cluster (0: isolated, 1.. by smallest id) and the id of its prototype. Members of one \
+                      prototype share a cluster even when their own distance is larger (docs/clustering.md measures the agreement with \
+                      traj_cluster). Same parameters and rules as traj_cluster; radius must be in [0, 1].",
+        example: "SELECT traj_cluster_prototypes([1, 2, 3], [[{'t':0,'x':0,'y':0},{'t':1,'x':1,'y':0}], [{'t':0,'x':0,'y':0.1},{'t':1,'x':1,'y':0.1}], [{'t':0,'x':50,'y':50},{'t':1,'x':51,'y':50}]], 'average', 0.5, 0.25, 1, 1.0); -- [{'id': 1, 'cluster': 1, 'prototype': 1}, {'id': 2, 'cluster': 1, 'prototype': 1}, {'id': 3, 'cluster': 0, 'prototype': 3}]",
+        maths: "crates/algo/src/cluster/prototype.rs",
+        binding: file!(),
+        signatures: &[Signature {
+            params: &[
+                p("ids", Ty::List(&Ty::Bigint)),
+                p("trajs", Ty::List(&TRAJ)),
+                p("method", Ty::Varchar),
+                p("threshold", Ty::Double),
+                p("radius", Ty::Double),
+                p("delta", Ty::Bigint),
+                p("epsilon", Ty::Double),
+                p("rho", Ty::Double),
+                p("translation_invariant", Ty::Boolean),
+            ],
+            arities: &[7, 8, 9],
+            returns: PROTOTYPE_ASSIGNMENT,
+            kernel: traj_cluster_prototypes,
+        }],
+        table: None,
+    },
 ];
 
 /// The dendrogram of one row's pairs and method.
@@ -170,5 +202,26 @@ fn traj_cluster(a: &Args<'_>, out: &mut Out<'_>) -> R {
         Ok(Some(traj_cluster::cluster_trajectories(id, &tr, &p, sim, method, cut)?))
     })?;
     write_assignments(out, &vals);
+    Ok(())
+}
+
+fn traj_cluster_prototypes(a: &Args<'_>, out: &mut Out<'_>) -> R {
+    let (ids, trajs, methods, thr, radius) = (a.i64_list(0), a.traj_list(1), a.text(2), a.double(3), a.double(4));
+    let (delta, eps, rho, ti) = (a.bigint(5), a.double(6), a.opt_double(7), a.opt_boolean(8));
+    let vals = a.map(|r| {
+        let (Some(id), Some(tr), Some(method), Some(t), Some(rad), Some(d), Some(e)) =
+            (ids.get(r)?, trajs.get(r)?, methods.get(r), thr.get(r), radius.get(r), delta.get(r), eps.get(r))
+        else {
+            return Ok(None);
+        };
+        let (Some(rho), Some(translation_invariant)) = (rho.opt(r), ti.or(r, false)) else { return Ok(None) };
+        let sim = if translation_invariant { Similarity::S2 } else { Similarity::S1 };
+        let method = Linkage::parse(&method)?;
+        let p = IndexParams::new(d, e, rho)?;
+        let c = prototype::cluster_prototypes(id, &tr, &p, sim, method, t, rad)?;
+        Ok(Some((c.ids, c.cluster.iter().map(|&x| x as i32).collect::<Vec<i32>>(), c.prototype)))
+    })?;
+    let cols: Vec<_> = vals.iter().map(|v| v.as_ref().map(|(i, c, p)| vec![Column::I64(i), Column::I32(c), Column::I64(p)])).collect();
+    out.struct_lists(&cols);
     Ok(())
 }

@@ -95,6 +95,8 @@ pub const PARAMS: &[Param] = &[
     d("cluster_epsilon", "2.0", "cluster", "Buzan's epsilon (m)").within(1e-09, 1e6),
     d("cluster_rho", "0.5", "cluster", "Buzan's rho: length ratio below which tracks are not compared").within(0.0, 1.0),
     d("cluster_threshold", "0.5", "cluster", "average-linkage cut height"),
+    s("cluster_method", "'auto'", "cluster", "'exact' (every pair of tracks, traj_cluster), 'prototypes' (traj_cluster_prototypes: linear in the tracks) or 'auto' (exact up to cluster_exact_max tracks of a class, prototypes above)"),
+    i("cluster_exact_max", "3000", "cluster", "with cluster_method auto, the most tracks of one class clustered exactly (3,000: 4.5 M pairs, a few seconds)").within(0.0, 80000.0),
     b("cluster_translation_invariant", "false", "cluster", "use S2 (shapes anywhere) instead of S1 (routes)"),
 ];
 

@@ -55,6 +55,8 @@ pub enum TrajClusterError {
     Memory { items: usize, bytes: usize },
     /// The condensed distance matrix would take more bytes than the limit `memory_bytes`.
     MemoryLimit(crate::limits::Exceeded),
+    /// A prototype radius outside [0, 1] or NaN ([`super::prototype`]).
+    Radius(f64),
 }
 
 impl fmt::Display for TrajClusterError {
@@ -70,6 +72,7 @@ impl fmt::Display for TrajClusterError {
                 "{items} trajectories need a {:.1} GiB distance matrix, which could not be allocated; cluster fewer at once (e.g. per class or hour)",
                 *bytes as f64 / (1u64 << 30) as f64
             ),
+            TrajClusterError::Radius(r) => write!(f, "radius must be a distance in [0, 1] (1 - similarity), got {r}; e.g. half the threshold"),
             TrajClusterError::MemoryLimit(e) => {
                 write!(f, "{e}, or cluster fewer trajectories at once (e.g. per class or hour): n need n(n-1)/2 x 8 bytes")
             }
@@ -78,6 +81,40 @@ impl fmt::Display for TrajClusterError {
 }
 impl std::error::Error for TrajClusterError {}
 
+/// The bounding box `[x0, x1, y0, y1]` of a trajectory (the S1 pre-filter's key).
+pub(crate) fn bbox(t: &Traj<'_>) -> [f64; 4] {
+    let f = |v: &[f64]| v.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &q| (lo.min(q), hi.max(q)));
+    let ((x0, x1), (y0, y1)) = (f(t.x), f(t.y));
+    [x0, x1, y0, y1]
+}
+
+/// The Buzan similarity min(S_x, S_y) of `a` and `b` (0: no common subsequence, or rejected
+/// by ρ), given their bounding boxes: the one pair rule of [`distances`] and
+/// [`super::prototype`]. S1 returns 0 without an LCSS when the boxes are more than ε apart.
+pub(crate) fn similarity(a: Traj<'_>, b: Traj<'_>, ba: &[f64; 4], bb: &[f64; 4], p: &IndexParams, sim: Similarity) -> Result<f64, TrajClusterError> {
+    let lcss_err = |e: LcssError| match e {
+        LcssError::Work(x) => TrajClusterError::Work(x),
+        e => TrajClusterError::TooLarge(e.to_string()),
+    };
+    if p.rejects(a.len(), b.len()) {
+        return Ok(0.0);
+    }
+    Ok(match sim {
+        Similarity::S1 => {
+            let eps = p.epsilon();
+            if ba[0] - bb[1] >= eps || bb[0] - ba[1] >= eps || ba[2] - bb[3] >= eps || bb[2] - ba[3] >= eps {
+                return Ok(0.0);
+            }
+            let r = lcss_index::s1(a, b, p).map_err(lcss_err)?;
+            r.sx.min(r.sy)
+        }
+        Similarity::S2 => {
+            let r = lcss_translate::s2(a, b, p).map_err(lcss_err)?;
+            r.sx.min(r.sy)
+        }
+    })
+}
+
 /// The condensed distance matrix (row-major upper triangle) of `trajs`, in parallel. Its
 /// allocation is fallible: too little memory is an error, never an abort of the host process.
 pub fn distances(trajs: &[Traj<'_>], p: &IndexParams, sim: Similarity) -> Result<Vec<f64>, TrajClusterError> {
@@ -85,15 +122,7 @@ pub fn distances(trajs: &[Traj<'_>], p: &IndexParams, sim: Similarity) -> Result
     if n < 2 {
         return Ok(Vec::new());
     }
-    let bbox: Vec<[f64; 4]> = trajs
-        .iter()
-        .map(|t| {
-            let f = |v: &[f64]| v.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &q| (lo.min(q), hi.max(q)));
-            let ((x0, x1), (y0, y1)) = (f(t.x), f(t.y));
-            [x0, x1, y0, y1]
-        })
-        .collect();
-    let eps = p.epsilon();
+    let bbox: Vec<[f64; 4]> = trajs.iter().map(bbox).collect();
     let len = n * (n - 1) / 2;
     crate::limits::MEMORY_BYTES.check(len as u128 * 8).map_err(TrajClusterError::MemoryLimit)?;
     let mut m: Vec<f64> = Vec::new();
@@ -108,34 +137,11 @@ pub fn distances(trajs: &[Traj<'_>], p: &IndexParams, sim: Similarity) -> Result
     }
     // the workers check the LCSS work limit of the caller's scope
     let scope = crate::limits::current();
-    let lcss_err = |e: LcssError| match e {
-        LcssError::Work(x) => TrajClusterError::Work(x),
-        e => TrajClusterError::TooLarge(e.to_string()),
-    };
-    // the similarity of a and b (0: no match), given their bounding boxes
-    let similarity = |a: Traj<'_>, b: Traj<'_>, ba: &[f64; 4], bb: &[f64; 4]| -> Result<f64, TrajClusterError> {
-        if p.rejects(a.len(), b.len()) {
-            return Ok(0.0);
-        }
-        Ok(match sim {
-            Similarity::S1 => {
-                if ba[0] - bb[1] >= eps || bb[0] - ba[1] >= eps || ba[2] - bb[3] >= eps || bb[2] - ba[3] >= eps {
-                    return Ok(0.0);
-                }
-                let r = lcss_index::s1(a, b, p).map_err(lcss_err)?;
-                r.sx.min(r.sy)
-            }
-            Similarity::S2 => {
-                let r = lcss_translate::s2(a, b, p).map_err(lcss_err)?;
-                r.sx.min(r.sy)
-            }
-        })
-    };
     rows.into_par_iter().enumerate().try_for_each(|(i, row)| {
         let mut fill = || -> Result<(), TrajClusterError> {
             for (k, cell) in row.iter_mut().enumerate() {
                 let j = i + 1 + k;
-                let s = similarity(trajs[i], trajs[j], &bbox[i], &bbox[j])?;
+                let s = similarity(trajs[i], trajs[j], &bbox[i], &bbox[j], p, sim)?;
                 if s > 0.0 {
                     *cell = 1.0 - s;
                 }
@@ -150,6 +156,46 @@ pub fn distances(trajs: &[Traj<'_>], p: &IndexParams, sim: Similarity) -> Result
     Ok(m)
 }
 
+/// The items in increasing id order; lengths must agree and ids be distinct.
+pub(crate) fn id_order(ids: &[i64], n_trajs: usize) -> Result<Vec<usize>, TrajClusterError> {
+    if ids.len() != n_trajs {
+        return Err(TrajClusterError::Lengths { ids: ids.len(), trajs: n_trajs });
+    }
+    if ids.len() > cluster::MAX_ITEMS {
+        return Err(TrajClusterError::Cluster(ClusterError::TooMany(ids.len())));
+    }
+    let mut order: Vec<usize> = (0..ids.len()).collect();
+    order.sort_by_key(|&k| ids[k]);
+    if let Some(w) = order.windows(2).find(|w| ids[w[0]] == ids[w[1]]) {
+        return Err(TrajClusterError::DuplicateId(ids[w[0]]));
+    }
+    Ok(order)
+}
+
+/// S2 tries every candidate translation of every pair: LCSS cells x candidates per pair,
+/// summed over the pairs that may be compared (by distinct lengths, O(L²)), against the work
+/// limit `lcss_cells`; `pairs(ca, cb)` counts the pairs of two length groups of sizes ca, cb
+/// (`None` for pairs within one group).
+pub(crate) fn check_s2(trajs: &[Traj<'_>], p: &IndexParams, pairs: impl Fn(u128, Option<u128>) -> u128) -> Result<(), TrajClusterError> {
+    let longest = trajs.iter().map(|t| t.len()).max().unwrap_or(0);
+    lcss_translate::check_size(longest, longest, p).map_err(|e| TrajClusterError::TooLarge(e.to_string()))?;
+    let mut by_len: std::collections::BTreeMap<usize, u128> = std::collections::BTreeMap::new();
+    for t in trajs {
+        *by_len.entry(t.len()).or_default() += 1;
+    }
+    let band = 2 * p.delta() as u128 + 1;
+    let pair = |a: u128, b: u128| a * b.min(band) * 2 * a * b.min(band);
+    let lens: Vec<(u128, u128)> = by_len.into_iter().map(|(l, c)| (l as u128, c)).collect();
+    let mut work: u128 = 0;
+    for (i, &(la, ca)) in lens.iter().enumerate() {
+        work = work.saturating_add(pairs(ca, None).saturating_mul(pair(la, la)));
+        for &(lb, cb) in &lens[i + 1..] {
+            work = work.saturating_add(pairs(ca, Some(cb)).saturating_mul(pair(la, lb)));
+        }
+    }
+    crate::limits::LCSS_CELLS.check(work).map_err(TrajClusterError::Work)
+}
+
 /// Clusters the trajectories `trajs` (one per id in `ids`, any order) with `method` and `cut`.
 /// Returns `(ids in increasing order, cluster per id)`, cluster 0 for isolated items.
 pub fn cluster_trajectories(
@@ -160,64 +206,47 @@ pub fn cluster_trajectories(
     method: Linkage,
     cut: Cut,
 ) -> Result<(Vec<i64>, Vec<u32>), TrajClusterError> {
-    if ids.len() != trajs.len() {
-        return Err(TrajClusterError::Lengths { ids: ids.len(), trajs: trajs.len() });
-    }
+    let order = id_order(ids, trajs.len())?;
     let n = ids.len();
-    if n > cluster::MAX_ITEMS {
-        return Err(TrajClusterError::Cluster(ClusterError::TooMany(n)));
-    }
-    let mut order: Vec<usize> = (0..n).collect();
-    order.sort_by_key(|&k| ids[k]);
-    if let Some(w) = order.windows(2).find(|w| ids[w[0]] == ids[w[1]]) {
-        return Err(TrajClusterError::DuplicateId(ids[w[0]]));
-    }
     if sim == Similarity::S2 {
-        let longest = trajs.iter().map(|t| t.len()).max().unwrap_or(0);
-        lcss_translate::check_size(longest, longest, p).map_err(|e| TrajClusterError::TooLarge(e.to_string()))?;
-        // S2 tries every candidate translation of every pair: LCSS cells x candidates per pair,
-        // summed over the pairs (by distinct lengths, O(L²)), against the work limit
-        let mut by_len: std::collections::BTreeMap<usize, u128> = std::collections::BTreeMap::new();
-        for t in trajs {
-            *by_len.entry(t.len()).or_default() += 1;
-        }
-        let band = 2 * p.delta() as u128 + 1;
-        let pair = |a: u128, b: u128| a * b.min(band) * 2 * a * b.min(band);
-        let lens: Vec<(u128, u128)> = by_len.into_iter().map(|(l, c)| (l as u128, c)).collect();
-        let mut work: u128 = 0;
-        for (i, &(la, ca)) in lens.iter().enumerate() {
-            work = work.saturating_add(ca * ca.saturating_sub(1) / 2 * pair(la, la));
-            for &(lb, cb) in &lens[i + 1..] {
-                work = work.saturating_add(ca * cb * pair(la, lb));
-            }
-        }
-        crate::limits::LCSS_CELLS.check(work).map_err(TrajClusterError::Work)?;
+        check_s2(trajs, p, |ca, cb| match cb {
+            None => ca * ca.saturating_sub(1) / 2,
+            Some(cb) => ca * cb,
+        })?;
     }
     let sorted_ids: Vec<i64> = order.iter().map(|&k| ids[k]).collect();
     let sorted: Vec<Traj<'_>> = order.iter().map(|&k| trajs[k]).collect();
     let m = distances(&sorted, p, sim)?;
-    // isolated: +inf to every other item
-    let mut linked = vec![false; n];
-    {
-        let mut off = 0;
-        for i in 0..n.saturating_sub(1) {
-            for (k, d) in m[off..off + n - 1 - i].iter().enumerate() {
-                if d.is_finite() {
-                    linked[i] = true;
-                    linked[i + 1 + k] = true;
-                }
-            }
-            off += n - 1 - i;
-        }
-    }
+    let linked = linked_items(&m, n);
     let d = cluster::linkage_condensed(sorted_ids, m, method).map_err(TrajClusterError::Cluster)?;
     let flat = cluster::flat(&d, cut);
-    // renumber: isolated -> 0, the rest 1.. by smallest id
+    let labels = renumber(flat.iter().zip(&linked).map(|(&c, &l)| (c, l)));
+    Ok((d.ids, labels))
+}
+
+/// Which of the `n` items of the condensed matrix `m` have a finite distance to some other
+/// item (the others are isolated: cluster 0).
+pub(crate) fn linked_items(m: &[f64], n: usize) -> Vec<bool> {
+    let mut linked = vec![false; n];
+    let mut off = 0;
+    for i in 0..n.saturating_sub(1) {
+        for (k, d) in m[off..off + n - 1 - i].iter().enumerate() {
+            if d.is_finite() {
+                linked[i] = true;
+                linked[i + 1 + k] = true;
+            }
+        }
+        off += n - 1 - i;
+    }
+    linked
+}
+
+/// Cluster numbers from `(flat label, linked)` per item in increasing id order: isolated items
+/// 0, the rest 1, 2, … in the order of their smallest id.
+pub(crate) fn renumber(items: impl Iterator<Item = (u32, bool)>) -> Vec<u32> {
     let mut map = std::collections::HashMap::new();
-    let labels = flat
-        .iter()
-        .zip(&linked)
-        .map(|(&c, &l)| {
+    items
+        .map(|(c, l)| {
             if !l {
                 0
             } else {
@@ -225,8 +254,7 @@ pub fn cluster_trajectories(
                 *map.entry(c).or_insert(next)
             }
         })
-        .collect();
-    Ok((d.ids, labels))
+        .collect()
 }
 
 #[cfg(test)]

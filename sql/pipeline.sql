@@ -166,16 +166,20 @@ FROM (SELECT try_cast(camera AS INTEGER) AS camera, try_cast(track_id AS BIGINT)
       FROM load_input() p LEFT JOIN load_ids i ON i.camera_in = p.camera AND i.track_in = p.track_id
       WHERE getvariable('load_text_ids'));
 -- no rows, or rows the stages cannot use: a clear error, not an empty result
+-- (the first bad row is looked up only when there is one: a format() per row costs a second a day)
 SET VARIABLE load_check = (SELECT CASE WHEN n = 0 THEN error('load: the input ' || getvariable('pipeline_input') || ' has no rows')
             WHEN bad > 0 THEN error('load: ' || bad || ' of ' || n || ' rows have a NULL, NaN or infinite camera, track_id, class, t, x or y, '
                                     || 'or a camera id beyond a 32-bit INTEGER or a track_id beyond BIGINT (shown as NULL; the first: '
-                                    || coalesce(first_bad, '?') || '); drop or fill them before the pipeline, and renumber ids that do not fit '
+                                    || coalesce((SELECT format('camera {}, track_id {}, class {}, t {}, x {}, y {}', coalesce(camera::VARCHAR, 'NULL'),
+                                                               coalesce(track_id::VARCHAR, 'NULL'), coalesce(class, 'NULL'), coalesce(t::VARCHAR, 'NULL'),
+                                                               coalesce(x::VARCHAR, 'NULL'), coalesce(y::VARCHAR, 'NULL'))
+                                                 FROM points
+                                                 WHERE NOT coalesce(camera IS NOT NULL AND track_id IS NOT NULL AND class IS NOT NULL AND isfinite(t) AND isfinite(x) AND isfinite(y), false)
+                                                 ORDER BY camera, track_id, t LIMIT 1), '?')
+                                    || '); drop or fill them before the pipeline, and renumber ids that do not fit '
                                     || 'with dense_rank() OVER (ORDER BY id)') END
 FROM (SELECT count(*) AS n,
-             count(*) FILTER (WHERE NOT coalesce(camera IS NOT NULL AND track_id IS NOT NULL AND class IS NOT NULL AND isfinite(t) AND isfinite(x) AND isfinite(y), false)) AS bad,
-             first(format('camera {}, track_id {}, class {}, t {}, x {}, y {}', coalesce(camera::VARCHAR, 'NULL'), coalesce(track_id::VARCHAR, 'NULL'),
-                        coalesce(class, 'NULL'), coalesce(t::VARCHAR, 'NULL'), coalesce(x::VARCHAR, 'NULL'), coalesce(y::VARCHAR, 'NULL')) ORDER BY camera, track_id, t)
-                 FILTER (WHERE NOT coalesce(camera IS NOT NULL AND track_id IS NOT NULL AND class IS NOT NULL AND isfinite(t) AND isfinite(x) AND isfinite(y), false)) AS first_bad
+             count(*) FILTER (WHERE NOT coalesce(camera IS NOT NULL AND track_id IS NOT NULL AND class IS NOT NULL AND isfinite(t) AND isfinite(x) AND isfinite(y), false)) AS bad
       FROM points));
 -- only estimated points: nothing was observed (estimated <> 0 on every row)
 SET VARIABLE load_check = (SELECT CASE WHEN count(*) FILTER (WHERE estimated = 0) = 0
@@ -187,7 +191,8 @@ FROM points);
 -- counted in load_duplicates (the run's warnings say how many). Without this, a repeated
 -- camera aligned nothing and a repeated input failed deep inside a stage.
 CREATE OR REPLACE TEMP TABLE load_duplicates AS
-SELECT camera, track_id, t, count(*) - 1 AS repeats, count(DISTINCT (x, y)) > 1 AS conflicting
+-- (more than one distinct (x, y) is: x or y differ; min/max is a fraction of a DISTINCT aggregate's cost)
+SELECT camera, track_id, t, count(*) - 1 AS repeats, min(x) <> max(x) OR min(y) <> max(y) AS conflicting
 FROM points GROUP BY camera, track_id, t HAVING count(*) > 1;
 DELETE FROM points WHERE rowid IN (
     SELECT rowid FROM points SEMI JOIN load_duplicates USING (camera, track_id, t)

@@ -286,16 +286,20 @@ FROM (SELECT try_cast(camera AS INTEGER) AS camera, try_cast(track_id AS BIGINT)
       FROM load_input() p LEFT JOIN load_ids i ON i.camera_in = p.camera AND i.track_in = p.track_id
       WHERE getvariable('load_text_ids'));
 -- no rows, or rows the stages cannot use: a clear error, not an empty result
+-- (the first bad row is looked up only when there is one: a format() per row costs a second a day)
 SET VARIABLE load_check = (SELECT CASE WHEN n = 0 THEN error('load: the input ' || getvariable('pipeline_input') || ' has no rows')
             WHEN bad > 0 THEN error('load: ' || bad || ' of ' || n || ' rows have a NULL, NaN or infinite camera, track_id, class, t, x or y, '
                                     || 'or a camera id beyond a 32-bit INTEGER or a track_id beyond BIGINT (shown as NULL; the first: '
-                                    || coalesce(first_bad, '?') || '); drop or fill them before the pipeline, and renumber ids that do not fit '
+                                    || coalesce((SELECT format('camera {}, track_id {}, class {}, t {}, x {}, y {}', coalesce(camera::VARCHAR, 'NULL'),
+                                                               coalesce(track_id::VARCHAR, 'NULL'), coalesce(class, 'NULL'), coalesce(t::VARCHAR, 'NULL'),
+                                                               coalesce(x::VARCHAR, 'NULL'), coalesce(y::VARCHAR, 'NULL'))
+                                                 FROM points
+                                                 WHERE NOT coalesce(camera IS NOT NULL AND track_id IS NOT NULL AND class IS NOT NULL AND isfinite(t) AND isfinite(x) AND isfinite(y), false)
+                                                 ORDER BY camera, track_id, t LIMIT 1), '?')
+                                    || '); drop or fill them before the pipeline, and renumber ids that do not fit '
                                     || 'with dense_rank() OVER (ORDER BY id)') END
 FROM (SELECT count(*) AS n,
-             count(*) FILTER (WHERE NOT coalesce(camera IS NOT NULL AND track_id IS NOT NULL AND class IS NOT NULL AND isfinite(t) AND isfinite(x) AND isfinite(y), false)) AS bad,
-             first(format('camera {}, track_id {}, class {}, t {}, x {}, y {}', coalesce(camera::VARCHAR, 'NULL'), coalesce(track_id::VARCHAR, 'NULL'),
-                        coalesce(class, 'NULL'), coalesce(t::VARCHAR, 'NULL'), coalesce(x::VARCHAR, 'NULL'), coalesce(y::VARCHAR, 'NULL')) ORDER BY camera, track_id, t)
-                 FILTER (WHERE NOT coalesce(camera IS NOT NULL AND track_id IS NOT NULL AND class IS NOT NULL AND isfinite(t) AND isfinite(x) AND isfinite(y), false)) AS first_bad
+             count(*) FILTER (WHERE NOT coalesce(camera IS NOT NULL AND track_id IS NOT NULL AND class IS NOT NULL AND isfinite(t) AND isfinite(x) AND isfinite(y), false)) AS bad
       FROM points));
 -- only estimated points: nothing was observed (estimated <> 0 on every row)
 SET VARIABLE load_check = (SELECT CASE WHEN count(*) FILTER (WHERE estimated = 0) = 0
@@ -307,7 +311,8 @@ FROM points);
 -- counted in load_duplicates (the run's warnings say how many). Without this, a repeated
 -- camera aligned nothing and a repeated input failed deep inside a stage.
 CREATE OR REPLACE TEMP TABLE load_duplicates AS
-SELECT camera, track_id, t, count(*) - 1 AS repeats, count(DISTINCT (x, y)) > 1 AS conflicting
+-- (more than one distinct (x, y) is: x or y differ; min/max is a fraction of a DISTINCT aggregate's cost)
+SELECT camera, track_id, t, count(*) - 1 AS repeats, min(x) <> max(x) OR min(y) <> max(y) AS conflicting
 FROM points GROUP BY camera, track_id, t HAVING count(*) > 1;
 DELETE FROM points WHERE rowid IN (
     SELECT rowid FROM points SEMI JOIN load_duplicates USING (camera, track_id, t)
@@ -983,14 +988,33 @@ SELECT camera, track_id, round(t0 * 1000)::BIGINT AS k0, round(t1 * 1000)::BIGIN
 --    pair that shares no view (no offset to find) ran all three passes with every pair, 16 x the
 --    work of the first, and a 7-camera crowd took 13 minutes in align (now 14 s). k times fewer
 --    (equal cost per pass) was too few: a crowd of pedestrians at 10 Hz then settled 2 s off.
+--    The pairs come from a join on (camera, class, time bucket), each pair kept in the first
+--    bucket both tracks cover (as merge_scores in merge.sql): an interval join on (camera, class)
+--    alone compares every pair of a day, n^2. Bucket width: the median duration of the moving
+--    tracks plus the widest reach (max_off - align_min_overlap_s), so a track covers about two.
 CREATE OR REPLACE TEMP MACRO align_sample(scan, scaled) AS TABLE
 WITH moving AS (
-    SELECT s.cam_fixed, s.cam_moving, s.centre, s.max_off, b.track_id, b.class, b.t0 - s.centre AS t0, b.t1 - s.centre AS t1
+    SELECT s.cam_fixed, s.cam_moving, s.centre, s.max_off, b.track_id, b.class, b.t0 - s.centre AS t0, b.t1 - s.centre AS t1,
+           s.max_off - getvariable('align_min_overlap_s') AS reach
     FROM align_tracks b JOIN query_table(scan) s ON s.cam_moving = b.camera
+),
+bw AS (SELECT greatest(coalesce(median(t1 - t0), 1.0), 1.0) + greatest(coalesce(max(reach), 0.0), 0.0) AS w FROM moving),
+fa AS (
+    SELECT a.camera, a.track_id, a.class, a.t0, a.t1, floor(a.t0 / w)::BIGINT AS k0,
+           unnest(range(floor(a.t0 / w)::BIGINT, floor(a.t1 / w)::BIGINT + 1)) AS k
+    FROM align_tracks a, bw
+),
+mb AS (
+    -- [t0 - reach, t1 + reach], or when a negative reach inverts it, the span a fixed track must
+    -- cover to qualify: either way a qualifying pair shares bucket greatest(a.k0, b.k0)
+    SELECT b.*, floor(least(b.t0 - b.reach, b.t1 + b.reach) / w)::BIGINT AS k0,
+           unnest(range(floor(least(b.t0 - b.reach, b.t1 + b.reach) / w)::BIGINT,
+                        floor(greatest(b.t0 - b.reach, b.t1 + b.reach) / w)::BIGINT + 1)) AS k
+    FROM moving b, bw
 )
 SELECT a.camera AS cam_fixed, b.cam_moving, a.track_id AS track_fixed, b.track_id AS track_moving, b.centre, b.max_off
-FROM align_tracks a JOIN moving b
-  ON a.camera = b.cam_fixed AND a.class = b.class
+FROM fa a JOIN mb b
+  ON a.camera = b.cam_fixed AND a.class = b.class AND a.k = b.k AND a.k = greatest(a.k0, b.k0)
  AND a.t0 <= b.t1 + b.max_off - getvariable('align_min_overlap_s')
  AND b.t0 <= a.t1 + b.max_off - getvariable('align_min_overlap_s')
 JOIN align_keys ka ON ka.camera = a.camera AND ka.track_id = a.track_id
@@ -1661,28 +1685,54 @@ CREATE OR REPLACE TEMP MACRO merge_r_gate(n_eff) AS
     (1 - 2 / (9 * 2 * n_eff) + 3.09 * sqrt(2 / (9 * 2 * n_eff))) ** 3 + 0.25;
 
 CREATE OR REPLACE TEMP TABLE merge_scores AS
-WITH l AS (
+-- The pairs of tracks of one class in two cameras whose times come within merge_time_window.
+-- An interval join on class alone compares every pair of a class (n^2 over a day); instead each
+-- track lists the time buckets it covers (a's widened by the window), the join is on (class,
+-- bucket), and a pair is kept in the first bucket both cover, so once: linear in the tracks for
+-- a given traffic (on a Mellingen-sized day as fast as the interval join, 3-4 s; 16 days would
+-- be 256 times the interval join's comparisons). The bucket width is the median track duration
+-- (measured, at least 1 s), so a track covers about two buckets whatever the site's speeds and
+-- rates. One join carries the trajectories: a join of id pairs first and two joins to fetch
+-- the trajectories after it gathered every list twice from hash tables (17 s instead of 3).
+WITH cfg AS (
+    -- what a camera pair's class needs (a few rows), joined to one side before the pair join:
+    -- joined after it, every small join moved both trajectory lists of 230,000 pairs again (5 s)
+    SELECT o.class, o.cam_a, o.cam_b, o.polygon, e.value AS epsilon, c.sigma_d_m, m.period_max, m.step_s
+    FROM view_overlaps o
+    JOIN calib_match c ON c.cam_a = o.cam_a AND c.cam_b = o.cam_b
+    JOIN calibrated_values('merge_epsilon') e ON e.cam_a = o.cam_a AND e.cam_b = o.cam_b
+    JOIN merge_periods m ON m.cam_a = o.cam_a AND m.cam_b = o.cam_b
+    WHERE o.area_m2 > 0
+),
+bw AS (SELECT greatest(coalesce(median(t1 - t0), 1.0), 1.0) AS b FROM merge_tracks),
+pa AS MATERIALIZED (
+    SELECT m.*, f.* EXCLUDE (class), floor((t0 - getvariable('merge_time_window')) / b)::BIGINT AS k0,
+           unnest(range(floor((t0 - getvariable('merge_time_window')) / b)::BIGINT, floor((t1 + getvariable('merge_time_window')) / b)::BIGINT + 1)) AS k
+    FROM merge_tracks m JOIN cfg f ON f.class = m.class AND f.cam_a = m.camera, bw
+),
+pb AS MATERIALIZED (
+    SELECT m.*, floor(t0 / b)::BIGINT AS k0, unnest(range(floor(t0 / b)::BIGINT, floor(t1 / b)::BIGINT + 1)) AS k
+    FROM merge_tracks m, bw
+),
+l AS (
     SELECT a.uid AS uid_a, b.uid AS uid_b, a.camera AS camera_a, b.camera AS camera_b, a.t0 AS t0_a, a.t1 AS t1_a, b.t0 AS t0_b, b.t1 AS t1_b,
-           lcss_similarity(a.traj, b.traj, e.value, getvariable('merge_time_window'),
-                           calibrated('merge_min_points')::BIGINT, o.polygon) AS eta,
-           c.sigma_d_m, a.traj AS traj_a, b.traj AS traj_b
-    FROM merge_tracks a
-    JOIN merge_tracks b
-      ON a.camera < b.camera AND a.class = b.class
+           lcss_similarity(a.traj, b.traj, a.epsilon, getvariable('merge_time_window'),
+                           calibrated('merge_min_points')::BIGINT, a.polygon) AS eta,
+           a.sigma_d_m, a.period_max, a.step_s, a.traj AS traj_a, b.traj AS traj_b
+    FROM pa a
+    JOIN pb b
+      ON a.class = b.class AND a.cam_b = b.camera AND a.k = b.k AND a.k = greatest(a.k0, b.k0)
      AND a.t0 <= b.t1 + getvariable('merge_time_window') AND b.t0 <= a.t1 + getvariable('merge_time_window')
-    JOIN view_overlaps o ON o.class = a.class AND o.cam_a = a.camera AND o.cam_b = b.camera AND o.area_m2 > 0
-    JOIN calib_match c ON c.cam_a = a.camera AND c.cam_b = b.camera
-    JOIN calibrated_values('merge_epsilon') e ON e.cam_a = a.camera AND e.cam_b = b.camera
 ),
 -- the whole common time of the candidates (LCSS eta >= merge_eta): squared distances at every
 -- common time step, wherever the two tracks are, inside the overlap polygon or not
 d AS (
-    SELECT l.* EXCLUDE (traj_a, traj_b),
+    SELECT l.* EXCLUDE (traj_a, traj_b, period_max, step_s),
            CASE WHEN l.eta >= getvariable('merge_eta')
                 THEN [(c.fx - c.mx) ** 2 + (c.fy - c.my) ** 2
-                      FOR c IN traj_correspond(l.traj_a, l.traj_b, greatest(getvariable('merge_resample_max_gap'), 1.5 * m.period_max))] END AS d2,
-           m.period_max, m.step_s
-    FROM l JOIN merge_periods m ON m.cam_a = l.camera_a AND m.cam_b = l.camera_b
+                      FOR c IN traj_correspond(l.traj_a, l.traj_b, greatest(getvariable('merge_resample_max_gap'), 1.5 * l.period_max))] END AS d2,
+           l.period_max, l.step_s
+    FROM l
 ),
 r AS (
     SELECT d.* EXCLUDE (d2), len(d2) AS n_common, list_avg(d2) AS msd,

@@ -139,14 +139,33 @@ SELECT camera, track_id, round(t0 * 1000)::BIGINT AS k0, round(t1 * 1000)::BIGIN
 --    pair that shares no view (no offset to find) ran all three passes with every pair, 16 x the
 --    work of the first, and a 7-camera crowd took 13 minutes in align (now 14 s). k times fewer
 --    (equal cost per pass) was too few: a crowd of pedestrians at 10 Hz then settled 2 s off.
+--    The pairs come from a join on (camera, class, time bucket), each pair kept in the first
+--    bucket both tracks cover (as merge_scores in merge.sql): an interval join on (camera, class)
+--    alone compares every pair of a day, n^2. Bucket width: the median duration of the moving
+--    tracks plus the widest reach (max_off - align_min_overlap_s), so a track covers about two.
 CREATE OR REPLACE TEMP MACRO align_sample(scan, scaled) AS TABLE
 WITH moving AS (
-    SELECT s.cam_fixed, s.cam_moving, s.centre, s.max_off, b.track_id, b.class, b.t0 - s.centre AS t0, b.t1 - s.centre AS t1
+    SELECT s.cam_fixed, s.cam_moving, s.centre, s.max_off, b.track_id, b.class, b.t0 - s.centre AS t0, b.t1 - s.centre AS t1,
+           s.max_off - getvariable('align_min_overlap_s') AS reach
     FROM align_tracks b JOIN query_table(scan) s ON s.cam_moving = b.camera
+),
+bw AS (SELECT greatest(coalesce(median(t1 - t0), 1.0), 1.0) + greatest(coalesce(max(reach), 0.0), 0.0) AS w FROM moving),
+fa AS (
+    SELECT a.camera, a.track_id, a.class, a.t0, a.t1, floor(a.t0 / w)::BIGINT AS k0,
+           unnest(range(floor(a.t0 / w)::BIGINT, floor(a.t1 / w)::BIGINT + 1)) AS k
+    FROM align_tracks a, bw
+),
+mb AS (
+    -- [t0 - reach, t1 + reach], or when a negative reach inverts it, the span a fixed track must
+    -- cover to qualify: either way a qualifying pair shares bucket greatest(a.k0, b.k0)
+    SELECT b.*, floor(least(b.t0 - b.reach, b.t1 + b.reach) / w)::BIGINT AS k0,
+           unnest(range(floor(least(b.t0 - b.reach, b.t1 + b.reach) / w)::BIGINT,
+                        floor(greatest(b.t0 - b.reach, b.t1 + b.reach) / w)::BIGINT + 1)) AS k
+    FROM moving b, bw
 )
 SELECT a.camera AS cam_fixed, b.cam_moving, a.track_id AS track_fixed, b.track_id AS track_moving, b.centre, b.max_off
-FROM align_tracks a JOIN moving b
-  ON a.camera = b.cam_fixed AND a.class = b.class
+FROM fa a JOIN mb b
+  ON a.camera = b.cam_fixed AND a.class = b.class AND a.k = b.k AND a.k = greatest(a.k0, b.k0)
  AND a.t0 <= b.t1 + b.max_off - getvariable('align_min_overlap_s')
  AND b.t0 <= a.t1 + b.max_off - getvariable('align_min_overlap_s')
 JOIN align_keys ka ON ka.camera = a.camera AND ka.track_id = a.track_id

@@ -67,12 +67,17 @@ def child(points, out):
     print(json.dumps({"points": n, "road_users": users, "stages": res}))
 
 
-def simulate(py, out, minutes, traffic, seed):
+def simulate(out, minutes, traffic, seed):
+    """A scenario of `trajdb simulate` (3 cameras, 5 Hz), with the simulator's memory limit raised
+    for the large ones (its default, 4 GB, refuses 16x the traffic of a day)."""
     if os.path.exists(os.path.join(out, "points.parquet")):
         return
-    subprocess.run([py, "-m", "trajdb", "simulate", "--cameras", "3", "--minutes", str(minutes), "--traffic", str(traffic),
-                    "--rate-hz", "5", "--seed", str(seed), "--world-rate-hz", "0", "--out", out], check=True,
-                   stdout=subprocess.DEVNULL, env=os.environ)
+    import trajdb
+
+    con = trajdb.connect()
+    con.execute("SELECT trajdb_limit('memory_bytes', 20000000000)").fetchall()
+    trajdb.simulate(con, out, cameras=3, minutes=float(minutes), traffic=float(traffic), rate_hz=5.0, seed=seed, world_rate_hz=0.0)
+    con.close()
 
 
 def main():
@@ -98,13 +103,13 @@ def main():
         for f in factors:
             minutes, traffic = (a.base_minutes * f, a.traffic) if way == "hours" else (a.base_minutes, a.traffic * f)
             d = os.path.join(a.work, f"{way}-{f}")
-            simulate(py, d, minutes, traffic, 42)
+            simulate(d, minutes, traffic, 42)
             out = os.path.join(a.work, f"{way}-{f}.results")
             shutil.rmtree(out, ignore_errors=True)
             r = subprocess.run([py, os.path.abspath(__file__), "--child", os.path.join(d, "points.parquet"), out],
                                capture_output=True, text=True, env=os.environ)
             if r.returncode != 0:
-                print(f"{way} x{f}: failed: {r.stderr.strip()[-500:]}")
+                print(f"{way} x{f}: failed: {r.stderr.strip()[-500:]}", flush=True)
                 continue
             runs[f] = json.loads(r.stdout.strip().splitlines()[-1])
             tot = sum(s["s"] for s in runs[f]["stages"])

@@ -164,9 +164,11 @@ pairs AS (
            b.vx0 - a.vx1 AS dvx, b.vy0 - a.vy1 AS dvy,
            a.s2 / a.sxx1 + b.s2 / b.sxx0 AS varv_cv,
            a.sa2 * (b.t0 - a.t1) ** 2 AS varv_acc
-    FROM e a
+    -- (the bucket as a hash key: each end is listed in its bucket and the next, so the join is an
+    -- equality; a difference of the two buckets IN (0, 1) was a condition on every pair of a class)
+    FROM (SELECT *, unnest([floor(t1 / getvariable('quality_max_gap')), floor(t1 / getvariable('quality_max_gap')) + 1]) AS k FROM e) a
     JOIN e b ON a.camera = b.camera AND a.class = b.class
-            AND floor(b.t0 / getvariable('quality_max_gap')) - floor(a.t1 / getvariable('quality_max_gap')) IN (0, 1)
+            AND floor(b.t0 / getvariable('quality_max_gap')) = a.k
     WHERE a.end_inside AND b.start_inside AND a.track_id <> b.track_id
       AND b.t0 >= a.t1 AND b.t0 - a.t1 <= getvariable('quality_max_gap')
       AND a.sxx1 > 0 AND b.sxx0 > 0

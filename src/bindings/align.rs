@@ -424,7 +424,7 @@ fn rigid_rms(a: &Args<'_>, out: &mut Out<'_>) -> R {
 
 fn traj_correspond(a: &Args<'_>, out: &mut Out<'_>) -> R {
     let (fixed, moving, gap, dt) = (a.traj(0), a.traj(1), a.opt_double(2), a.opt_double(3));
-    let vals: Vec<Option<Pairs>> = a.map(|r| {
+    let vals: Vec<Option<Pairs>> = a.par_map(|r| {
         let (Some(f), Some(m), Some(g), Some(dt)) = (fixed.get(r)?, moving.get(r)?, gap.or(r, 0.5), dt.or(r, 0.0)) else { return Ok(None) };
         Ok(Some(shift::correspond_at(f, m, dt, g)?))
     })?;
@@ -477,7 +477,7 @@ fn transform_invert(a: &Args<'_>, out: &mut Out<'_>) -> R {
 
 fn rigid_fit_scan(a: &Args<'_>, out: &mut Out<'_>) -> R {
     let (fixed, moving, max, step, gap) = (a.traj(0), a.traj(1), a.double(2), a.double(3), a.opt_double(4));
-    let vals = a.map(|r| {
+    let vals = a.par_map(|r| {
         let (Some(f), Some(m), Some(max), Some(step), Some(g)) = (fixed.get(r)?, moving.get(r)?, max.get(r), step.get(r), gap.or(r, 0.5)) else {
             return Ok(None);
         };
@@ -505,7 +505,7 @@ fn rigid_fit_scan(a: &Args<'_>, out: &mut Out<'_>) -> R {
 fn rigid_fit_shifted(a: &Args<'_>, out: &mut Out<'_>) -> R {
     let (fixed, moving, centre, half, step) = (a.traj_list(0), a.traj_list(1), a.double(2), a.double(3), a.double(4));
     let (gap, trim, sf, sm) = (a.opt_double(5), a.opt_double(6), a.opt_double(7), a.opt_double(8));
-    let vals = a.map(|r| {
+    let vals = a.par_map(|r| {
         let (Some(f), Some(m), Some(c), Some(h), Some(s)) = (fixed.get(r)?, moving.get(r)?, centre.get(r), half.get(r), step.get(r)) else {
             return Ok(None);
         };
@@ -524,7 +524,7 @@ fn rigid_fit_shifted(a: &Args<'_>, out: &mut Out<'_>) -> R {
 
 fn activity_lag(a: &Args<'_>, out: &mut Out<'_>) -> R {
     let (sa, sb, bin) = (a.series(0), a.series(1), a.double(2));
-    let vals = a.map(|r| {
+    let vals = a.par_map(|r| {
         let (Some(x), Some(y), Some(bin)) = (sa.get(r)?, sb.get(r)?, bin.get(r)) else { return Ok(None) };
         Ok(xcorr::activity_lag(x, y, bin)?.map(|l| [l.dt, l.score, l.runner_up, l.half_width_s].map(Value::F64).to_vec()))
     })?;

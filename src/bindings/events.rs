@@ -6,7 +6,6 @@ use super::vector::{Args, Column, Out, Rows};
 use crate::algo::events::{self, Endpoints, EventParams, LabelParams};
 use crate::algo::geometry::region::Region;
 use std::error::Error;
-use std::rc::Rc;
 
 type R = Result<(), Box<dyn Error>>;
 const MATHS: &str = "crates/algo/src/events.rs";
@@ -101,7 +100,7 @@ fn endpoints(f: &Rows<'_>) -> Vec<Endpoints> {
 }
 
 /// The checked thresholds and the optional interior polygon of one row.
-type EventArgs = (EventParams, Option<Rc<Region>>);
+type EventArgs = (EventParams, Option<std::sync::Arc<Region>>);
 
 /// `max_gap`, `max_dist` (checked by [`EventParams::new`]) and the optional interior of `row`;
 /// `None` when one is NULL.

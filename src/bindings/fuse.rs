@@ -51,7 +51,7 @@ fn fused(a: &Args<'_>) -> Result<Vec<Option<FusedPath>>, Box<dyn Error>> {
     let period = a.given(2).then(|| a.double(2));
     let gap = a.opt_double(3);
     let name = a.name(0);
-    a.map(|r| {
+    a.par_map(|r| {
         let (Some(o), Some(q)) = (obs.get(r)?, q.get(r)) else { return Ok(None) };
         let clock = match &period {
             None => None,

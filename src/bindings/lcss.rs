@@ -147,14 +147,16 @@ fn tw_params<'a>(a: &Args<'a>) -> impl Fn(usize) -> Result<Option<TimeWindowPara
 }
 
 /// Runs `f(a, b, params, region)` for every row of a time-window call; the first error stops it.
-fn time_window_rows<T, E: Error + 'static>(
+fn time_window_rows<T: Send, E: Error + 'static>(
     a: &Args<'_>,
-    f: impl Fn(crate::algo::traj::Traj<'_>, crate::algo::traj::Traj<'_>, &TimeWindowParams, Option<&crate::algo::geometry::region::Region>) -> Result<T, E>,
+    f: impl Fn(crate::algo::traj::Traj<'_>, crate::algo::traj::Traj<'_>, &TimeWindowParams, Option<&crate::algo::geometry::region::Region>) -> Result<T, E> + Sync,
 ) -> Result<Vec<Option<T>>, Box<dyn Error>> {
     let (ta, tb, params, region) = (a.traj(0), a.traj(1), tw_params(a), a.opt_region(5));
-    a.map(|r| {
+    // the polygons first, in row order (parsed once per distinct polygon), then the rows on all cores
+    let regions = a.map(|r| Ok(Some(region.get(r)?)))?;
+    a.par_map(|r| {
         let (Some(x), Some(y), Some(p)) = (ta.get(r)?, tb.get(r)?, params(r)?) else { return Ok(None) };
-        let Some(reg) = region.get(r)? else { return Ok(None) };
+        let Some(Some(reg)) = &regions[r] else { return Ok(None) };
         tw::check_work(x.t, y.t, p.time_window())?;
         Ok(Some(f(x, y, &p, reg.as_deref())?))
     })
@@ -189,12 +191,12 @@ fn matches(a: &Args<'_>, out: &mut Out<'_>) -> R {
 }
 
 /// Runs `f(a, b, params)` for every row of a series call; the first error stops it.
-fn series_rows<T, E: Error + 'static>(
+fn series_rows<T: Send, E: Error + 'static>(
     a: &Args<'_>,
-    f: impl Fn(crate::algo::traj::Series<'_>, crate::algo::traj::Series<'_>, &TimeWindowParams) -> Result<T, E>,
+    f: impl Fn(crate::algo::traj::Series<'_>, crate::algo::traj::Series<'_>, &TimeWindowParams) -> Result<T, E> + Sync,
 ) -> Result<Vec<Option<T>>, Box<dyn Error>> {
     let (sa, sb, params) = (a.series(0), a.series(1), tw_params(a));
-    a.map(|r| {
+    a.par_map(|r| {
         let (Some(x), Some(y), Some(p)) = (sa.get(r)?, sb.get(r)?, params(r)?) else { return Ok(None) };
         tw::check_work(x.t, y.t, p.time_window())?;
         Ok(Some(f(x, y, &p)?))
@@ -217,12 +219,12 @@ fn series_matches(a: &Args<'_>, out: &mut Out<'_>) -> R {
 }
 
 /// Runs `f(a, b, params)` for every row of an index-window call.
-fn index_rows<T>(
+fn index_rows<T: Send>(
     a: &Args<'_>,
-    f: impl Fn(crate::algo::traj::Traj<'_>, crate::algo::traj::Traj<'_>, &IndexParams) -> Result<T, Box<dyn Error>>,
+    f: impl Fn(crate::algo::traj::Traj<'_>, crate::algo::traj::Traj<'_>, &IndexParams) -> Result<T, Box<dyn Error>> + Sync,
 ) -> Result<Vec<Option<T>>, Box<dyn Error>> {
     let (ta, tb, delta, eps, rho) = (a.traj(0), a.traj(1), a.bigint(2), a.double(3), a.opt_double(4));
-    a.map(|r| {
+    a.par_map(|r| {
         let (Some(x), Some(y), Some(d), Some(e), Some(rho)) = (ta.get(r)?, tb.get(r)?, delta.get(r), eps.get(r), rho.opt(r)) else {
             return Ok(None);
         };

@@ -199,7 +199,7 @@ fn to_wkb(a: &Args<'_>, out: &mut Out<'_>) -> R {
 
 fn resample(a: &Args<'_>, out: &mut Out<'_>) -> R {
     let (tr, period, gap) = (a.traj(0), a.double(1), a.opt_double(2));
-    let vals = a.map(|r| {
+    let vals = a.par_map(|r| {
         let (Some(t), Some(p), Some(g)) = (tr.get(r)?, period.get(r), gap.or(r, f64::INFINITY)) else { return Ok(None) };
         Ok(Some(traj::resample(t, p, g)?))
     })?;

@@ -79,6 +79,28 @@ impl<'a> Args<'a> {
     pub fn map<T>(&self, f: impl FnMut(usize) -> Res<Option<T>>) -> Res<Vec<Option<T>>> {
         (0..self.rows()).map(f).collect()
     }
+    /// As [`Args::map`], the rows on all cores (rayon), for kernels whose rows are expensive.
+    /// DuckDB parallelises across morsels of ~122,880 rows, so a chunk of a small table (12,000
+    /// track pairs to fit, 16,000 road users to fuse) runs on one thread however many cores
+    /// there are; here its rows spread over all of them. The column readers are read-only views
+    /// of the chunk's vectors, shared by the workers for the duration of the call (their `Sync`
+    /// below); the work limits of the caller's scope hold on the workers; the error reported is
+    /// the first row's in row order (every row runs), with its message.
+    pub fn par_map<T: Send>(&self, f: impl Fn(usize) -> Res<Option<T>> + Sync) -> Res<Vec<Option<T>>> {
+        use rayon::prelude::*;
+        let scope = crate::algo::limits::current();
+        let rows: Vec<Result<Option<T>, String>> = (0..self.rows())
+            .into_par_iter()
+            .map(|r| {
+                let run = || f(r).map_err(|e| e.to_string());
+                match &scope {
+                    Some(l) => crate::algo::limits::with_scope(l, run),
+                    None => run(),
+                }
+            })
+            .collect();
+        rows.into_iter().map(|v| v.map_err(|e| e.into())).collect()
+    }
 
     pub fn traj(&self, col: usize) -> TrajCol<'a> {
         TrajCol::new(self.chunk, col, self.name(col))

@@ -14,7 +14,7 @@ use duckdb::types::DuckString;
 use std::cell::RefCell;
 use std::error::Error;
 use std::ops::Range;
-use std::rc::Rc;
+use std::sync::Arc;
 
 type Res<T> = Result<T, Box<dyn Error>>;
 
@@ -486,7 +486,7 @@ pub struct RegionCol<'a> {
     n: usize,
     is_text: bool,
     param: &'static str,
-    cache: RefCell<Vec<(Vec<u8>, Rc<Region>)>>,
+    cache: RefCell<Vec<(Vec<u8>, Arc<Region>)>>,
 }
 
 /// How many distinct polygons [`RegionCol`] keeps prepared per chunk.
@@ -498,7 +498,7 @@ impl<'a> RegionCol<'a> {
         let is_text = matches!(v.logical_type().id(), LogicalTypeId::Varchar);
         RegionCol { v, n: chunk.len(), is_text, param, cache: RefCell::new(Vec::new()) }
     }
-    pub fn get(&self, row: usize) -> Res<Option<Rc<Region>>> {
+    pub fn get(&self, row: usize) -> Res<Option<Arc<Region>>> {
         if self.v.row_is_null(row as u64) {
             return Ok(None);
         }
@@ -508,7 +508,7 @@ impl<'a> RegionCol<'a> {
         if let Some((_, r)) = self.cache.borrow().iter().find(|(k, _)| k.as_slice() == bytes) {
             return Ok(Some(r.clone()));
         }
-        let region = Rc::new(parse_region(bytes, self.is_text, self.param)?);
+        let region = Arc::new(parse_region(bytes, self.is_text, self.param)?);
         let mut cache = self.cache.borrow_mut();
         if cache.len() == REGION_CACHE {
             cache.remove(0);
@@ -523,7 +523,7 @@ impl<'a> RegionCol<'a> {
 pub struct OptRegionCol<'a>(pub(super) Option<RegionCol<'a>>);
 
 impl OptRegionCol<'_> {
-    pub fn get(&self, row: usize) -> Res<Option<Option<Rc<Region>>>> {
+    pub fn get(&self, row: usize) -> Res<Option<Option<Arc<Region>>>> {
         match &self.0 {
             None => Ok(Some(None)),
             Some(c) => Ok(c.get(row)?.map(Some)),
@@ -565,3 +565,20 @@ impl<'a> RegionListCol<'a> {
         Ok(Some(out))
     }
 }
+
+// The readers [`Args::par_map`] shares between its workers. Each is a read-only view of the
+// chunk's vectors (data pointers, validity masks, lengths): nothing in them is written after
+// `new`, and DuckDB neither moves nor frees the chunk while the scalar function runs, so shared
+// references from several threads read the same immutable memory. RegionCol (a RefCell cache)
+// is not among them: the compiler keeps it out of par_map.
+// SAFETY: as above.
+unsafe impl Sync for StructListCol<'_> {}
+unsafe impl Sync for TrajCol<'_> {}
+unsafe impl Sync for Traj3Col<'_> {}
+unsafe impl Sync for SeriesCol<'_> {}
+unsafe impl Sync for TrajListCol<'_> {}
+unsafe impl Sync for I64ListCol<'_> {}
+unsafe impl Sync for StructCol<'_> {}
+unsafe impl<T: Prim> Sync for PrimCol<'_, T> {}
+unsafe impl<T: Prim> Sync for OptCol<'_, T> {}
+unsafe impl Sync for TextCol<'_> {}

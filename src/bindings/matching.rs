@@ -75,7 +75,7 @@ fn hungarian_match(a: &Args<'_>, out: &mut Out<'_>) -> R {
     let vals = a.map(|r| {
         let (Some(rows), Some(mx), Some(t)) = (pairs.get(r)?, maximize.or(r, true), min_score.opt(r)) else { return Ok(None) };
         let params = hungarian::MatchParams::new(mx, t)?;
-        Ok(Some(hungarian::hungarian_match(&triples(&rows), &params)?))
+        Ok(Some(hungarian::hungarian_match_columns(rows.i64(0), rows.i64(1), rows.f64(2), &params)?))
     })?;
     write_triples(out, &vals);
     Ok(())

@@ -59,6 +59,8 @@ pub enum MatchError {
     Threshold(f64),
     /// lsap reported a failure (cannot happen with finite costs).
     Solver,
+    /// A working array of this many elements could not be allocated.
+    Alloc(usize),
 }
 
 impl fmt::Display for MatchError {
@@ -67,6 +69,7 @@ impl fmt::Display for MatchError {
             MatchError::Score { index, value } => write!(f, "pairs[{}].score must be finite and within ±1e150, got {value:?}", index + 1),
             MatchError::Threshold(v) => write!(f, "min_score must not be NaN, got {v}"),
             MatchError::Solver => write!(f, "the assignment solver failed"),
+            MatchError::Alloc(n) => write!(f, "a working array of {n} elements could not be allocated; pass fewer candidate pairs (a stricter min_score)"),
         }
     }
 }
@@ -506,45 +509,105 @@ fn solve_dense(nr: usize, nc: usize, start: &[usize], adj: &[(u32, f64)]) -> Res
     Ok(col4row)
 }
 
-/// Components of the canonical (sorted, deduplicated) pairs ([`graph::bipartite_components`]);
-/// a complete bipartite candidate list is one component without the union–find.
-fn components(canon: &[(i64, i64, f64)]) -> Components {
-    let m = canon.len();
-    // canonical order: a ids are the runs of equal a
-    let mut a_of = Vec::with_capacity(m);
-    let mut na = 0u32;
-    for (k, p) in canon.iter().enumerate() {
-        if k > 0 && canon[k - 1].0 != p.0 {
-            na += 1;
-        }
-        a_of.push(na);
-    }
-    let na = na as usize + 1;
-    let b: Vec<i64> = canon.iter().map(|p| p.1).collect();
-    let (nb, b_of) = graph::dense_ids(&b);
-    if na * nb == m {
-        // Complete bipartite (deduplicated, so every pair is present once): one component, and
-        // the global ids are already local (a_of counts runs, b_of is rank order).
-        return Components {
-            start: vec![0, m],
-            edges: (0..m as u32).collect(),
-            loc_a: a_of,
-            loc_b: b_of,
-            n_a: vec![na as u32],
-            n_b: vec![nb as u32],
-        };
-    }
-    graph::bipartite_components(&a_of, na, &b_of, nb)
+/// Dense ids `0..n` for the distinct values of one id column, in increasing order of value:
+/// a lookup table when the values span a small range (row numbers), otherwise the sorted
+/// distinct values and a binary search.
+struct IdMap {
+    /// The distinct values, increasing: id `k` is `values[k]`.
+    values: Vec<i64>,
+    /// `Some((lo, table))`: the id of `v` is `table[v - lo]`.
+    table: Option<(i64, Vec<u32>)>,
 }
 
-/// Solves component `c`; returns canonical indices of the chosen edges.
-fn solve_component(canon: &[(i64, i64, f64)], g: &Components, c: usize, maximize: bool) -> Result<Vec<usize>, MatchError> {
+impl IdMap {
+    fn new(x: &[i64]) -> Result<IdMap, MatchError> {
+        let m = x.len();
+        let (lo, hi) = x.iter().fold((i64::MAX, i64::MIN), |(lo, hi), &v| (lo.min(v), hi.max(v)));
+        let span = (hi as i128 - lo as i128) as u128;
+        if span < 4 * m as u128 + 1024 {
+            let mut table = try_vec(NONE, span as usize + 1)?;
+            for &v in x {
+                table[(v - lo) as usize] = 0;
+            }
+            let mut values = Vec::new();
+            for (k, t) in table.iter_mut().enumerate() {
+                if *t == 0 {
+                    *t = values.len() as u32;
+                    values.push(lo + k as i64);
+                }
+            }
+            Ok(IdMap { values, table: Some((lo, table)) })
+        } else {
+            let mut values = Vec::new();
+            values.try_reserve_exact(m).map_err(|_| MatchError::Alloc(m))?;
+            values.extend_from_slice(x);
+            if m >= PAR_SORT {
+                values.par_sort_unstable();
+            } else {
+                values.sort_unstable();
+            }
+            values.dedup();
+            Ok(IdMap { values, table: None })
+        }
+    }
+    fn len(&self) -> usize {
+        self.values.len()
+    }
+    #[inline]
+    fn id(&self, v: i64) -> u32 {
+        match &self.table {
+            Some((lo, t)) => t[(v - lo) as usize],
+            None => self.values.binary_search(&v).expect("id present") as u32,
+        }
+    }
+    /// The ids of every element (in parallel for long columns).
+    fn ids(&self, x: &[i64]) -> Result<Vec<u32>, MatchError> {
+        let mut out = Vec::new();
+        out.try_reserve_exact(x.len()).map_err(|_| MatchError::Alloc(x.len()))?;
+        if x.len() >= PAR_SORT {
+            x.par_iter().map(|&v| self.id(v)).collect_into_vec(&mut out);
+        } else {
+            out.extend(x.iter().map(|&v| self.id(v)));
+        }
+        Ok(out)
+    }
+}
+
+/// Lists of at least this many pairs are mapped and sorted in parallel.
+const PAR_SORT: usize = 100_000;
+/// Complete candidate lists up to this many cells (max(rows, columns)²) go to the flat LAPJV.
+const DENSE_CELLS: usize = 16_000_000;
+
+/// `vec![x; n]`, allocated fallibly.
+fn try_vec<T: Clone>(x: T, n: usize) -> Result<Vec<T>, MatchError> {
+    let mut v = Vec::new();
+    v.try_reserve_exact(n).map_err(|_| MatchError::Alloc(n))?;
+    v.resize(n, x);
+    Ok(v)
+}
+
+/// Components of the canonical pairs (ids `ca`, `cb`, sorted by `(a, b)`, no duplicates)
+/// ([`graph::bipartite_components`]); a complete bipartite candidate list is one component
+/// without the union–find.
+fn components(ca: &[u32], na: usize, cb: &[u32], nb: usize) -> Components {
+    let m = ca.len();
+    if na * nb == m {
+        // Complete bipartite (deduplicated, so every pair is present once): one component, and
+        // the global ids are already local.
+        return Components { start: vec![0, m], edges: (0..m as u32).collect(), loc_a: ca.to_vec(), loc_b: cb.to_vec(), n_a: vec![na as u32], n_b: vec![nb as u32] };
+    }
+    graph::bipartite_components(ca, na, cb, nb)
+}
+
+/// Solves component `c` of the canonical pairs (scores `cs`); returns canonical indices of the
+/// chosen edges.
+fn solve_component(cs: &[f64], g: &Components, c: usize, maximize: bool) -> Result<Vec<usize>, MatchError> {
     let edges = g.edges_of(c);
     // Rows are the smaller side.
     let transpose = g.n_b[c] < g.n_a[c];
     let (nr, nc) = if transpose { (g.n_b[c] as usize, g.n_a[c] as usize) } else { (g.n_a[c] as usize, g.n_b[c] as usize) };
     let rc = |k: usize| if transpose { (g.loc_b[k], g.loc_a[k]) } else { (g.loc_a[k], g.loc_b[k]) };
-    let mut start = vec![0usize; nr + 1];
+    let mut start = try_vec(0usize, nr + 1)?;
     for &k in edges {
         start[rc(k as usize).0 as usize + 1] += 1;
     }
@@ -552,11 +615,11 @@ fn solve_component(canon: &[(i64, i64, f64)], g: &Components, c: usize, maximize
         start[i + 1] += start[i];
     }
     let mut fill = start.clone();
-    let mut adj = vec![(0u32, 0.0f64); edges.len()];
-    let mut edge_of = vec![0u32; edges.len()];
+    let mut adj = try_vec((0u32, 0.0f64), edges.len())?;
+    let mut edge_of = try_vec(0u32, edges.len())?;
     for &k in edges {
         let (r, col) = rc(k as usize);
-        let s = canon[k as usize].2;
+        let s = cs[k as usize];
         let slot = fill[r as usize];
         adj[slot] = (col, if maximize { -s } else { s });
         edge_of[slot] = k;
@@ -564,8 +627,8 @@ fn solve_component(canon: &[(i64, i64, f64)], g: &Components, c: usize, maximize
     }
     // Complete components: dense LAPJV on a flat matrix; other dense ones: JV with array
     // scans; sparse ones: JV with a heap (see examples/hungarian_sparse.rs for the timings).
-    let col4row = if edges.len() == nr * nc && nc * nc <= 16_000_000 {
-        let mut m = vec![0.0f64; nr * nc];
+    let col4row = if edges.len() == nr * nc && nc * nc <= DENSE_CELLS {
+        let mut m = try_vec(0.0f64, nr * nc)?;
         for i in 0..nr {
             for &(j, c) in &adj[start[i]..start[i + 1]] {
                 m[i * nc + j as usize] = c;
@@ -588,53 +651,176 @@ fn solve_component(canon: &[(i64, i64, f64)], g: &Components, c: usize, maximize
 
 /// The optimal assignment (see module docs); returns the chosen pairs sorted by `(a, b)`.
 pub fn hungarian_match(pairs: &[(i64, i64, f64)], params: &MatchParams) -> Result<Vec<(i64, i64, f64)>, MatchError> {
-    for (k, p) in pairs.iter().enumerate() {
-        // finite and within ±1e150: the solver adds and subtracts scores (potentials), and
-        // -1.7e308 next to 9.2e18 overflowed into an index out of bounds (found by the fuzz run)
-        if !(p.2.is_finite() && p.2.abs() <= 1e150) {
-            return Err(MatchError::Score { index: k, value: p.2 });
-        }
-    }
+    let a: Vec<i64> = pairs.iter().map(|p| p.0).collect();
+    let b: Vec<i64> = pairs.iter().map(|p| p.1).collect();
+    let s: Vec<f64> = pairs.iter().map(|p| p.2).collect();
+    hungarian_match_columns(&a, &b, &s, params)
+}
+
+/// [`hungarian_match`] on the pairs given as three columns of equal length (the SQL list's
+/// struct fields, read in place: no copy of the pairs is made unless `min_score` drops some).
+///
+/// Work before the solver, for `m` pairs with `na` distinct `a` and `nb` distinct `b`: the ids
+/// are numbered by a lookup table (O(m), ids spanning a small range) or a sort (O(m log m));
+/// a complete list (`m >= na·nb` and every cell present) is scattered straight into the flat
+/// matrix of [`solve_complete`]; any other list is put in canonical `(a, b)` order by two
+/// counting sorts on the ids (O(m + na + nb), skipped when already in order) and split into
+/// components.
+pub fn hungarian_match_columns(a: &[i64], b: &[i64], s: &[f64], params: &MatchParams) -> Result<Vec<(i64, i64, f64)>, MatchError> {
+    assert!(a.len() == b.len() && b.len() == s.len(), "columns of equal length");
     let keep = |s: f64| match params.min_score {
         None => true,
         Some(t) if params.maximize => s >= t,
         Some(t) => s <= t,
     };
-    // Canonical order (skipped when the list is already sorted); duplicates keep the best.
-    let mut canon: Vec<(i64, i64, f64)> = pairs.iter().copied().filter(|p| keep(p.2)).collect();
-    let key = |p: &(i64, i64, f64)| (p.0, p.1);
-    if !canon.is_sorted_by_key(key) {
-        if canon.len() >= 100_000 {
-            canon.par_sort_unstable_by_key(key);
-        } else {
-            canon.sort_unstable_by_key(key);
+    let mut kept = 0usize;
+    for (k, &x) in s.iter().enumerate() {
+        // finite and within ±1e150: the solver adds and subtracts scores (potentials), and
+        // -1.7e308 next to 9.2e18 overflowed into an index out of bounds (found by the fuzz run)
+        if !(x.is_finite() && x.abs() <= 1e150) {
+            return Err(MatchError::Score { index: k, value: x });
         }
+        kept += keep(x) as usize;
     }
-    let maximize = params.maximize;
-    canon.dedup_by(|q, p| {
-        if p.0 == q.0 && p.1 == q.1 {
-            if (maximize && q.2 > p.2) || (!maximize && q.2 < p.2) {
-                p.2 = q.2;
+    if kept < s.len() {
+        // min_score drops candidates before anything else
+        let mut cols = (Vec::new(), Vec::new(), Vec::new());
+        cols.0.try_reserve_exact(kept).map_err(|_| MatchError::Alloc(kept))?;
+        cols.1.try_reserve_exact(kept).map_err(|_| MatchError::Alloc(kept))?;
+        cols.2.try_reserve_exact(kept).map_err(|_| MatchError::Alloc(kept))?;
+        for k in 0..s.len() {
+            if keep(s[k]) {
+                cols.0.push(a[k]);
+                cols.1.push(b[k]);
+                cols.2.push(s[k]);
             }
-            true
-        } else {
-            false
         }
-    });
-    if canon.is_empty() {
+        return solve_pairs(&cols.0, &cols.1, &cols.2, params.maximize);
+    }
+    solve_pairs(a, b, s, params.maximize)
+}
+
+/// The candidates after the threshold: ids, then the complete fast path or the general one.
+fn solve_pairs(a: &[i64], b: &[i64], s: &[f64], maximize: bool) -> Result<Vec<(i64, i64, f64)>, MatchError> {
+    let m = s.len();
+    if m == 0 {
         return Ok(vec![]);
     }
-    let g = components(&canon);
+    let (ia, ib) = if m >= PAR_SORT { rayon::join(|| IdMap::new(a), || IdMap::new(b)) } else { (IdMap::new(a), IdMap::new(b)) };
+    let (ia, ib) = (ia?, ib?);
+    let (na, nb) = (ia.len(), ib.len());
+    let big = na.max(nb);
+    if (na as u128) * (nb as u128) <= m as u128 && big * big <= DENSE_CELLS {
+        if let Some(out) = solve_full(a, b, s, &ia, &ib, maximize)? {
+            return Ok(out);
+        }
+    }
+    let (a_of, b_of) = if m >= PAR_SORT { rayon::join(|| ia.ids(a), || ib.ids(b)) } else { (ia.ids(a), ib.ids(b)) };
+    let (a_of, b_of) = (a_of?, b_of?);
+    // Canonical order (a, b) of the ids, which is the order of the values; duplicates keep the
+    // best score.
+    let sorted = (1..m).all(|k| (a_of[k - 1], b_of[k - 1]) < (a_of[k], b_of[k]));
+    let (ca, cb, cs) = if sorted {
+        (a_of, b_of, s.to_vec())
+    } else {
+        let order = canonical_order(&a_of, na, &b_of, nb)?;
+        let (mut ca, mut cb, mut cs) = (Vec::new(), Vec::new(), Vec::new());
+        ca.try_reserve_exact(m).map_err(|_| MatchError::Alloc(m))?;
+        cb.try_reserve_exact(m).map_err(|_| MatchError::Alloc(m))?;
+        cs.try_reserve_exact(m).map_err(|_| MatchError::Alloc(m))?;
+        for &k in &order {
+            let (x, y, z) = (a_of[k as usize], b_of[k as usize], s[k as usize]);
+            if let (Some(&px), Some(&py)) = (ca.last(), cb.last()) {
+                if px == x && py == y {
+                    let last: &mut f64 = cs.last_mut().expect("same length");
+                    if (maximize && z > *last) || (!maximize && z < *last) {
+                        *last = z;
+                    }
+                    continue;
+                }
+            }
+            ca.push(x);
+            cb.push(y);
+            cs.push(z);
+        }
+        (ca, cb, cs)
+    };
+    let g = components(&ca, na, &cb, nb);
     let ncomp = g.len();
-    let solve = |c: usize| solve_component(&canon, &g, c, maximize);
-    let chosen: Vec<Vec<usize>> = if canon.len() >= 20_000 && ncomp > 1 {
+    let solve = |c: usize| solve_component(&cs, &g, c, maximize);
+    let chosen: Vec<Vec<usize>> = if cs.len() >= 20_000 && ncomp > 1 {
         (0..ncomp).into_par_iter().map(solve).collect::<Result<_, _>>()?
     } else {
         (0..ncomp).map(solve).collect::<Result<_, _>>()?
     };
     let mut idx: Vec<usize> = chosen.into_iter().flatten().collect();
     idx.sort_unstable();
-    Ok(idx.into_iter().map(|k| canon[k]).collect())
+    Ok(idx.into_iter().map(|k| (ia.values[ca[k] as usize], ib.values[cb[k] as usize], cs[k])).collect())
+}
+
+/// The permutation that sorts the pairs by `(a_of, b_of)` (stable): a counting sort by `b`,
+/// then a stable counting sort by `a`. O(m + na + nb).
+fn canonical_order(a_of: &[u32], na: usize, b_of: &[u32], nb: usize) -> Result<Vec<u32>, MatchError> {
+    let m = a_of.len();
+    let counting = |key: &[u32], n: usize, input: &mut dyn Iterator<Item = u32>| -> Result<Vec<u32>, MatchError> {
+        let mut pos = try_vec(0usize, n + 1)?;
+        for &x in key {
+            pos[x as usize + 1] += 1;
+        }
+        for i in 0..n {
+            pos[i + 1] += pos[i];
+        }
+        let mut out = try_vec(0u32, m)?;
+        for k in input {
+            let p = &mut pos[key[k as usize] as usize];
+            out[*p] = k;
+            *p += 1;
+        }
+        Ok(out)
+    };
+    let by_b = counting(b_of, nb, &mut (0..m as u32))?;
+    counting(a_of, na, &mut by_b.into_iter())
+}
+
+/// The complete case: every `(a, b)` cell present (duplicates keep the best), scattered straight
+/// into the flat cost matrix of [`solve_complete`] with the smaller side as rows. `None` when a
+/// cell is missing (the general path takes over).
+fn solve_full(a: &[i64], b: &[i64], s: &[f64], ia: &IdMap, ib: &IdMap, maximize: bool) -> Result<Option<Vec<(i64, i64, f64)>>, MatchError> {
+    let (na, nb) = (ia.len(), ib.len());
+    let transpose = nb < na;
+    let (nr, nc) = if transpose { (nb, na) } else { (na, nb) };
+    let mut cost = try_vec(f64::NAN, nr * nc)?;
+    let mut filled = 0usize;
+    for k in 0..s.len() {
+        let (x, y) = (ia.id(a[k]) as usize, ib.id(b[k]) as usize);
+        let cell = if transpose { y * nc + x } else { x * nc + y };
+        let c = if maximize { -s[k] } else { s[k] };
+        let w = &mut cost[cell];
+        if w.is_nan() {
+            *w = c;
+            filled += 1;
+        } else if c < *w {
+            *w = c;
+        }
+    }
+    if filled < nr * nc {
+        return Ok(None);
+    }
+    let col4row = solve_complete(nr, nc, &cost);
+    let mut out: Vec<(i64, i64, f64)> = col4row
+        .iter()
+        .enumerate()
+        .map(|(i, &j)| {
+            let c = cost[i * nc + j as usize];
+            let score = if maximize { -c } else { c };
+            let (x, y) = if transpose { (j as usize, i) } else { (i, j as usize) };
+            (ia.values[x], ib.values[y], score)
+        })
+        .collect();
+    if transpose {
+        out.sort_unstable_by_key(|p| (p.0, p.1));
+    }
+    Ok(Some(out))
 }
 
 #[cfg(test)]

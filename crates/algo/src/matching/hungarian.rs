@@ -47,8 +47,6 @@
 
 use crate::graph::{self, Components};
 use rayon::prelude::*;
-use std::cmp::{Ordering, Reverse};
-use std::collections::BinaryHeap;
 use std::fmt;
 
 #[derive(Clone, Debug, PartialEq)]
@@ -94,33 +92,114 @@ impl MatchParams {
     }
 }
 
-/// Total order on f64 for the heap (costs are finite).
-#[derive(Clone, Copy, PartialEq)]
-struct Key(f64, u32);
-impl Eq for Key {}
-impl PartialOrd for Key {
-    fn partial_cmp(&self, o: &Self) -> Option<Ordering> {
-        Some(self.cmp(o))
-    }
-}
-impl Ord for Key {
-    fn cmp(&self, o: &Self) -> Ordering {
-        self.0.total_cmp(&o.0).then(self.1.cmp(&o.1))
-    }
+const NONE: u32 = u32::MAX;
+/// Passes of augmenting row reduction (JV use 2; after the column reduction, 4 leave 403 of
+/// 50,000 rows for the Dijkstra phase on the 50k × 50k bench, 712 without it).
+const ARR_PASSES: usize = 4;
+
+/// The state of one column, packed so that relaxing an edge touches one cache line (the
+/// columns of a large sparse component are visited in random order).
+#[derive(Clone, Copy)]
+struct Col {
+    /// Dual (price).
+    v: f64,
+    /// Tentative distance of the current search (∞ when unlabelled).
+    dist: f64,
+    /// The row assigned to the column (`NONE` = free).
+    row: u32,
+    /// The row the current search reached it from.
+    pred: u32,
+    /// Settled by the current search.
+    done: bool,
 }
 
-const NONE: u32 = u32::MAX;
-/// Passes of augmenting row reduction (JV use 2; 4 left 712 instead of 1156 of 50,000 rows for
-/// the Dijkstra phase on the 50k × 50k bench; 8 measured no better).
-const ARR_PASSES: usize = 4;
+/// A min-heap of `(dist, column)` labels with lazy deletion (a column may be in it several
+/// times; stale labels are skipped when popped). Keys are inline, so sifting touches only the
+/// heap. Ties go to the lower column index.
+#[derive(Default)]
+struct Heap(Vec<(f64, u32)>);
+
+impl Heap {
+    #[inline]
+    fn less(a: (f64, u32), b: (f64, u32)) -> bool {
+        a.0 < b.0 || (a.0 == b.0 && a.1 < b.1)
+    }
+    fn push(&mut self, x: (f64, u32)) {
+        let h = &mut self.0;
+        let mut k = h.len();
+        h.push(x);
+        while k > 0 {
+            let p = (k - 1) / 4;
+            if !Self::less(x, h[p]) {
+                break;
+            }
+            h[k] = h[p];
+            k = p;
+        }
+        h[k] = x;
+    }
+    fn peek(&self) -> Option<(f64, u32)> {
+        self.0.first().copied()
+    }
+    fn pop(&mut self) -> Option<(f64, u32)> {
+        let h = &mut self.0;
+        let top = *h.first()?;
+        let last = h.pop().expect("non-empty");
+        let n = h.len();
+        if n > 0 {
+            let mut k = 0;
+            loop {
+                let c0 = 4 * k + 1;
+                if c0 >= n {
+                    break;
+                }
+                let mut m = c0;
+                for c in c0 + 1..(c0 + 4).min(n) {
+                    if Self::less(h[c], h[m]) {
+                        m = c;
+                    }
+                }
+                if !Self::less(h[m], last) {
+                    break;
+                }
+                h[k] = h[m];
+                k = m;
+            }
+            h[k] = last;
+        }
+        Some(top)
+    }
+    fn clear(&mut self) {
+        self.0.clear();
+    }
+}
 
 /// Min-cost maximum-cardinality assignment of a component with `nr <= nc`, edges in CSR
 /// (`start[i]..start[i+1]` into `adj`, columns increasing). Returns `col4row` (`NONE` =
 /// unmatched).
 ///
-/// `scan` picks the next column by a linear scan of the labelled columns instead of a heap
-/// (JV's dense variant): cheaper when rows are long (dense components).
+/// A square component is first solved as LAPJVsp does (scipy's
+/// `min_weight_full_bipartite_matching`): without private columns, starting from the column
+/// reduction and reduction transfer ([`column_reduction`]); that is exact when every row can be
+/// matched (a perfect matching has maximum cardinality). When a row finds no augmenting path
+/// there is no perfect matching, and the component is solved again with the private columns.
+/// Those make the problem rectangular, where the column reduction is not valid (a column left
+/// free must keep the largest price), so that solve starts from zero prices.
 pub(crate) fn solve_sparse(nr: usize, nc: usize, start: &[usize], adj: &[(u32, f64)], scan: bool) -> Vec<u32> {
+    if nr == nc {
+        if let Some(x) = solve_jv(nr, nc, start, adj, scan, false) {
+            return x;
+        }
+    }
+    solve_jv(nr, nc, start, adj, scan, true).expect("a private column is always free")
+}
+
+/// Jonker & Volgenant (1987), sparse form: [`column_reduction`] (without private columns) or
+/// zero prices, augmenting row reduction, then one Dijkstra per row still free. With
+/// `private`, every row `i` has an extra column `nc + i` of cost `big`; without, `None` when
+/// some row cannot be matched. `scan` picks the next column by a linear scan of the labelled
+/// columns instead of a heap (JV's dense variant): cheaper when rows are long.
+fn solve_jv(nr: usize, nc: usize, start: &[usize], adj: &[(u32, f64)], scan: bool, private: bool) -> Option<Vec<u32>> {
     let (mut cmin, mut cmax) = (f64::INFINITY, f64::NEG_INFINITY);
     for &(_, c) in adj {
         cmin = cmin.min(c);
@@ -128,17 +207,18 @@ pub(crate) fn solve_sparse(nr: usize, nc: usize, start: &[usize], adj: &[(u32, f
     }
     let big = (cmax - cmin) * (nr as f64 + 1.0) + 1.0;
     let cost = |c: f64| c - cmin;
-    let ncol = nc + nr; // real columns, then one private column per row
+    // real columns, then one private column per row
+    let ncol = nc + if private { nr } else { 0 };
+    let own = |i: usize| std::iter::once(((nc + i) as u32, big)).take(private as usize);
     let mut u = vec![0.0f64; nr];
-    let mut v = vec![0.0f64; ncol];
+    let mut cols = vec![Col { v: 0.0, dist: f64::INFINITY, row: NONE, pred: NONE, done: false }; ncol];
     let mut col4row = vec![NONE; nr];
-    let mut row4col = vec![NONE; ncol];
-    // Jonker–Volgenant augmenting row reduction (two passes, the paper's choice): each free row
-    // takes the column of its smallest reduced cost h = c - v and lowers that column's v by the
-    // gap to its second smallest, displacing the previous owner (re-processed at once when the
-    // gap was positive). v only ever decreases, so every assigned row keeps a minimal-h column:
-    // with u = min_j h the duals are feasible and the matched edges tight, as Dijkstra needs.
-    let mut free: Vec<u32> = (0..nr as u32).collect();
+    let mut free = if private { (0..nr as u32).collect() } else { column_reduction(nr, nc, start, adj, cmin, &mut cols, &mut col4row) };
+    // Jonker–Volgenant augmenting row reduction: each free row takes the column of its smallest
+    // reduced cost h = c - v and lowers that column's v by the gap to its second smallest,
+    // displacing the previous owner (re-processed at once when the gap was positive). v only
+    // ever decreases, so every assigned row keeps a minimal-h column: with u = min_j h the
+    // duals are feasible and the matched edges tight, as Dijkstra needs.
     for pass in 0..ARR_PASSES {
         if pass >= 2 && free.len() * 64 < nr {
             break;
@@ -149,9 +229,8 @@ pub(crate) fn solve_sparse(nr: usize, nc: usize, start: &[usize], adj: &[(u32, f
         while let Some(i) = stack.pop() {
             let iu = i as usize;
             let (mut h1, mut j1, mut h2, mut j2) = (f64::INFINITY, NONE, f64::INFINITY, NONE);
-            let private = std::iter::once(((nc + iu) as u32, big));
-            for (j, c) in adj[start[iu]..start[iu + 1]].iter().map(|&(j, c)| (j, cost(c))).chain(private) {
-                let h = c - v[j as usize];
+            for (j, c) in adj[start[iu]..start[iu + 1]].iter().map(|&(j, c)| (j, cost(c))).chain(own(iu)) {
+                let h = c - cols[j as usize].v;
                 if h < h2 {
                     if h < h1 {
                         (h2, j2) = (h1, j1);
@@ -161,18 +240,19 @@ pub(crate) fn solve_sparse(nr: usize, nc: usize, start: &[usize], adj: &[(u32, f
                     }
                 }
             }
-            let mut i0 = row4col[j1 as usize];
-            let strict = h1 < h2;
+            let mut i0 = cols[j1 as usize].row;
+            // (a row with one edge and no private column has no second column: no price change)
+            let strict = h1 < h2 && h2 < f64::INFINITY;
             if strict {
-                v[j1 as usize] -= h2 - h1;
+                cols[j1 as usize].v -= h2 - h1;
             } else if i0 != NONE && j2 != NONE {
                 j1 = j2;
-                i0 = row4col[j2 as usize];
+                i0 = cols[j2 as usize].row;
             }
             if i0 != NONE {
                 col4row[i0 as usize] = NONE;
             }
-            row4col[j1 as usize] = i;
+            cols[j1 as usize].row = i;
             col4row[iu] = j1;
             if i0 != NONE {
                 steps += 1;
@@ -187,107 +267,160 @@ pub(crate) fn solve_sparse(nr: usize, nc: usize, start: &[usize], adj: &[(u32, f
         }
     }
     for i in 0..nr {
-        let private = std::iter::once(((nc + i) as u32, big));
-        u[i] = adj[start[i]..start[i + 1]].iter().map(|&(j, c)| (j, cost(c))).chain(private).map(|(j, c)| c - v[j as usize]).fold(f64::INFINITY, f64::min);
+        u[i] = adj[start[i]..start[i + 1]].iter().map(|&(j, c)| (j, cost(c))).chain(own(i)).map(|(j, c)| c - cols[j as usize].v).fold(f64::INFINITY, f64::min);
     }
-    let mut dist = vec![f64::INFINITY; ncol];
-    let mut pred = vec![NONE; ncol];
-    let mut done = vec![false; ncol];
     let mut touched: Vec<u32> = Vec::new();
     let mut finished: Vec<u32> = Vec::new();
-    let mut heap: BinaryHeap<Reverse<Key>> = BinaryHeap::new();
-    for s in 0..nr {
-        if col4row[s] != NONE {
-            continue;
-        }
+    let mut heap = Heap::default();
+    // Rows still free, in increasing order (the displaced rows of the ARR come last there).
+    free.sort_unstable();
+    for &s in &free {
+        let s = s as usize;
         // Dijkstra from row s over reduced costs. `bound` is the best tentative distance of a
-        // free column seen so far: the search ends there, so no label at or above it is pushed.
+        // free column seen so far: the search ends there, so no label at or above it is kept.
         let mut bound = (f64::INFINITY, NONE);
-        let relax = |i: usize, base: f64, heap: &mut BinaryHeap<Reverse<Key>>, bound: &mut (f64, u32), dist: &mut [f64], pred: &mut [u32], touched: &mut Vec<u32>| {
-            let private = std::iter::once(((nc + i) as u32, big));
-            for (j, c) in adj[start[i]..start[i + 1]].iter().map(|&(j, c)| (j, cost(c))).chain(private) {
-                let ju = j as usize;
-                let nd = base + (c - u[i] - v[ju]).max(0.0);
-                if nd < dist[ju] && nd < bound.0 {
-                    if dist[ju] == f64::INFINITY {
+        let relax = |i: usize, base: f64, cols: &mut [Col], heap: &mut Heap, bound: &mut (f64, u32), touched: &mut Vec<u32>| {
+            let ui = u[i];
+            for (j, c) in adj[start[i]..start[i + 1]].iter().map(|&(j, c)| (j, cost(c))).chain(own(i)) {
+                let col = &mut cols[j as usize];
+                let nd = base + (c - ui - col.v).max(0.0);
+                if nd < col.dist && nd < bound.0 {
+                    if col.dist == f64::INFINITY {
                         touched.push(j);
                     }
-                    dist[ju] = nd;
-                    pred[ju] = i as u32;
-                    if row4col[ju] == NONE {
+                    col.dist = nd;
+                    col.pred = i as u32;
+                    if col.row == NONE {
                         *bound = (nd, j);
                     } else if !scan {
-                        heap.push(Reverse(Key(nd, j)));
+                        heap.push((nd, j));
                     }
                 }
             }
         };
-        relax(s, 0.0, &mut heap, &mut bound, &mut dist, &mut pred, &mut touched);
+        relax(s, 0.0, &mut cols, &mut heap, &mut bound, &mut touched);
         let (sink, delta) = loop {
-            let top = if scan {
+            let next = if scan {
                 // The closest labelled, unfinished, matched column (ties: lowest index).
                 let mut best = (f64::INFINITY, NONE);
                 for &j in &touched {
-                    let ju = j as usize;
-                    if !done[ju] && row4col[ju] != NONE && (dist[ju] < best.0 || (dist[ju] == best.0 && j < best.1)) {
-                        best = (dist[ju], j);
+                    let c = &cols[j as usize];
+                    if !c.done && c.row != NONE && (c.dist < best.0 || (c.dist == best.0 && j < best.1)) {
+                        best = (c.dist, j);
                     }
                 }
-                if best.1 != NONE {
-                    heap.push(Reverse(Key(best.0, best.1)));
-                }
-                (best.1 != NONE).then_some(best.0)
+                (best.1 != NONE).then_some(best)
             } else {
-                heap.peek().map(|Reverse(Key(d, _))| *d)
+                heap.peek()
             };
-            if top.is_none_or(|d| d >= bound.0) {
+            let Some((d, j)) = next.filter(|&(d, _)| d < bound.0) else {
                 // The best free column is the closest remaining node: the path ends there.
                 let j = bound.1;
-                done[j as usize] = true;
+                if j == NONE {
+                    return None; // no augmenting path from s: no perfect matching
+                }
+                cols[j as usize].done = true;
                 finished.push(j);
                 break (j as usize, bound.0);
+            };
+            if !scan {
+                heap.pop();
             }
-            let Reverse(Key(d, j)) = heap.pop().expect("peeked");
-            let ju = j as usize;
-            if done[ju] || d > dist[ju] {
-                continue;
+            let c = &mut cols[j as usize];
+            if c.done || d > c.dist {
+                continue; // a stale label
             }
-            done[ju] = true;
+            c.done = true;
             finished.push(j);
-            let i2 = row4col[ju] as usize;
-            relax(i2, d, &mut heap, &mut bound, &mut dist, &mut pred, &mut touched);
+            let i2 = c.row as usize;
+            relax(i2, d, &mut cols, &mut heap, &mut bound, &mut touched);
         };
         // Dual update: rows u += delta - d(row), columns v -= delta - d(col) over the finished set.
         u[s] += delta;
         for &j in &finished {
             let ju = j as usize;
-            let slack = delta - dist[ju];
-            v[ju] -= slack;
+            let c = &mut cols[ju];
+            let slack = delta - c.dist;
+            c.v -= slack;
             if ju != sink {
-                u[row4col[ju] as usize] += slack;
+                u[c.row as usize] += slack;
             }
         }
         // Augment along the predecessor chain.
         let mut j = sink;
         loop {
-            let i = pred[j] as usize;
+            let i = cols[j].pred as usize;
             let next = col4row[i];
             col4row[i] = j as u32;
-            row4col[j] = i as u32;
+            cols[j].row = i as u32;
             if i == s {
                 break;
             }
             j = next as usize;
         }
         for &j in &touched {
-            dist[j as usize] = f64::INFINITY;
-            done[j as usize] = false;
+            let c = &mut cols[j as usize];
+            c.dist = f64::INFINITY;
+            c.done = false;
         }
         touched.clear();
         finished.clear();
         heap.clear();
     }
-    col4row.into_iter().map(|j| if j != NONE && (j as usize) < nc { j } else { NONE }).collect()
+    Some(col4row.into_iter().map(|j| if j != NONE && (j as usize) < nc { j } else { NONE }).collect())
+}
+
+/// Column reduction and reduction transfer of JV's LAPJVsp (square, no private columns):
+/// every column's v is its smallest cost, and the row of that cost claims it (last column
+/// first; a row keeps its first claim); a row claimed once then lowers its column's v by the
+/// gap to its second-best reduced cost (reduction transfer). Returns the rows left free,
+/// increasing. Afterwards every assigned row holds a column of minimal h = c - v, as the
+/// augmenting row reduction requires.
+fn column_reduction(nr: usize, nc: usize, start: &[usize], adj: &[(u32, f64)], cmin: f64, cols: &mut [Col], col4row: &mut [u32]) -> Vec<u32> {
+    for c in cols[..nc].iter_mut() {
+        c.v = f64::INFINITY;
+    }
+    for i in 0..nr {
+        for &(j, c) in &adj[start[i]..start[i + 1]] {
+            let (c, col) = (c - cmin, &mut cols[j as usize]);
+            if c < col.v {
+                col.v = c;
+                col.row = i as u32;
+            }
+        }
+    }
+    let mut unique = vec![true; nr];
+    for j in (0..nc).rev() {
+        let i = cols[j].row;
+        if i == NONE {
+            cols[j].v = 0.0; // no edge (cannot happen inside a component)
+        } else if col4row[i as usize] == NONE {
+            col4row[i as usize] = j as u32;
+        } else {
+            cols[j].row = NONE;
+            unique[i as usize] = false;
+        }
+    }
+    let mut free = Vec::new();
+    for i in 0..nr {
+        let j1 = col4row[i];
+        if j1 == NONE {
+            free.push(i as u32);
+        } else if unique[i] {
+            let (mut second, mut c1) = (f64::INFINITY, 0.0);
+            for &(j, c) in &adj[start[i]..start[i + 1]] {
+                if j == j1 {
+                    c1 = c - cmin;
+                } else {
+                    second = second.min(c - cmin - cols[j as usize].v);
+                }
+            }
+            if second < f64::INFINITY {
+                cols[j1 as usize].v = c1 - second;
+            }
+        }
+    }
+    free
 }
 
 /// Complete bipartite component (every row–column pair is a candidate) as a flat `nr × nc`
@@ -300,7 +433,9 @@ pub(crate) fn solve_sparse(nr: usize, nc: usize, start: &[usize], adj: &[(u32, f
 #[allow(clippy::needless_range_loop, clippy::mut_range_bound)]
 pub(crate) fn solve_complete(nr: usize, nc: usize, cost: &[f64]) -> Vec<u32> {
     let n = nc;
-    let c = |i: usize, j: usize| if i < nr { cost[i * nc + j] } else { 0.0 };
+    // Row i of the matrix (rows nr.. are the virtual zero rows), taken once per row scan.
+    let zeros = vec![0.0f64; if nr < n { n } else { 0 }];
+    let row = |i: usize| if i < nr { &cost[i * nc..(i + 1) * nc] } else { &zeros[..] };
     let mut v = vec![0.0f64; n];
     let mut rowsol = vec![NONE; n];
     let mut colsol = vec![NONE; n];
@@ -310,8 +445,7 @@ pub(crate) fn solve_complete(nr: usize, nc: usize, cost: &[f64]) -> Vec<u32> {
     let mut colmin = vec![f64::INFINITY; n];
     let mut argmin = vec![0usize; n];
     for i in 0..n {
-        for j in 0..n {
-            let h = c(i, j);
+        for (j, &h) in row(i).iter().enumerate() {
             if h < colmin[j] {
                 colmin[j] = h;
                 argmin[j] = i;
@@ -342,9 +476,9 @@ pub(crate) fn solve_complete(nr: usize, nc: usize, cost: &[f64]) -> Vec<u32> {
         } else if matches[i] == 1 {
             let j1 = rowsol[i] as usize;
             let mut min = f64::INFINITY;
-            for j in 0..n {
+            for (j, (&h, &vj)) in row(i).iter().zip(&v).enumerate() {
                 if j != j1 {
-                    min = min.min(c(i, j) - v[j]);
+                    min = min.min(h - vj);
                 }
             }
             if min.is_finite() {
@@ -361,10 +495,11 @@ pub(crate) fn solve_complete(nr: usize, nc: usize, cost: &[f64]) -> Vec<u32> {
         while k < list.len() {
             let i = list[k];
             k += 1;
-            let (mut u1, mut j1) = (c(i, 0) - v[0], 0usize);
+            let r = row(i);
+            let (mut u1, mut j1) = (r[0] - v[0], 0usize);
             let (mut u2, mut j2) = (f64::INFINITY, NONE as usize);
             for j in 1..n {
-                let h = c(i, j) - v[j];
+                let h = r[j] - v[j];
                 if h < u2 {
                     if h >= u1 {
                         u2 = h;
@@ -406,8 +541,9 @@ pub(crate) fn solve_complete(nr: usize, nc: usize, cost: &[f64]) -> Vec<u32> {
     let mut pred = vec![0usize; n];
     let mut collist: Vec<usize> = (0..n).collect();
     for &freerow in &free {
+        let r = row(freerow);
         for j in 0..n {
-            d[j] = c(freerow, j) - v[j];
+            d[j] = r[j] - v[j];
             pred[j] = freerow;
             collist[j] = j;
         }
@@ -441,11 +577,12 @@ pub(crate) fn solve_complete(nr: usize, nc: usize, cost: &[f64]) -> Vec<u32> {
             let j1 = collist[low];
             low += 1;
             let i = colsol[j1] as usize;
-            let h = c(i, j1) - v[j1] - min;
+            let r = row(i);
+            let h = r[j1] - v[j1] - min;
             let mut k = up;
             while k < n {
                 let j = collist[k];
-                let v2 = c(i, j) - v[j] - h;
+                let v2 = r[j] - v[j] - h;
                 if v2 < d[j] {
                     pred[j] = i;
                     if v2 == min {

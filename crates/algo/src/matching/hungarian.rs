@@ -19,31 +19,44 @@
 //! # Rules
 //! * a NaN or infinite score is an error; a duplicated `(a, b)` keeps its best score (the max
 //!   when maximising, the min for costs);
-//! * ties are broken deterministically: the input is canonicalised (sorted by `(a, b)`), so the
-//!   same set of pairs gives the same answer in any list order.
+//! * ties are broken deterministically: the solvers see the pairs in canonical `(a, b)` order
+//!   (ids numbered in increasing order of value), so the same set of pairs gives the same
+//!   answer in any list order.
 //!
 //! # Algorithm and complexity
-//! The bipartite candidate graph is split into connected components (union–find,
-//! O(E α(V))); components are solved independently (in parallel for large inputs):
-//! * each component is solved with Jonker–Volgenant (1987) in Hungarian form: augmenting row
-//!   reduction (4 passes) places most rows cheaply, then every row still free gets a Dijkstra
-//!   over reduced costs `c - u - v >= 0`, stopping at the first free column (labels at or above
-//!   the best free column are never queued), followed by the dual update and augmentation;
-//! * sparse components run Dijkstra on a binary heap, dense ones (≥ 25 % of cells) with
-//!   JV's linear scans. O(R · E log V) worst case for R rows left after the reduction;
-//! * complete components (every pair a candidate) run the classic dense LAPJV on a flat
-//!   matrix ([`solve_complete`]): column reduction, reduction transfer, row reduction and the
-//!   column-list augmentation of the paper, O(n³) worst case;
+//! For `m` pairs with `na` distinct `a` and `nb` distinct `b` ([`hungarian_match_columns`]
+//! reads the three columns in place):
+//! * ids are numbered by a lookup table when they span a small range (row numbers; O(m)),
+//!   otherwise by a sort of the distinct values (O(m log m));
+//! * a complete list (every `(a, b)` present, duplicates allowed) is scattered straight into a
+//!   flat `rows × columns` matrix, rows the smaller side, and solved by the classic dense LAPJV
+//!   ([`solve_complete`]: column reduction, reduction transfer, two passes of augmenting row
+//!   reduction, shortest augmenting paths with the column-list scan; O(n³) worst case);
+//! * any other list is put in canonical order by two counting sorts on the ids (O(m + na + nb),
+//!   skipped when already in order), deduplicated, and split into connected components
+//!   (union–find, O(m α)); components are solved independently (in parallel for large inputs),
+//!   complete ones by the dense LAPJV, the others by Jonker–Volgenant in sparse form
+//!   ([`solve_sparse`]): a square component first as LAPJVsp (scipy's
+//!   `min_weight_full_bipartite_matching`) does, from the column reduction and reduction
+//!   transfer; then augmenting row reduction (4 passes) places most rows cheaply, and every row
+//!   still free gets a Dijkstra over reduced costs `c - u - v >= 0`, stopping at the first free
+//!   column (labels at or above the best free column are never queued), followed by the dual
+//!   update and augmentation. Sparse components run Dijkstra on a 4-ary heap, dense ones
+//!   (≥ 25 % of cells) with JV's linear scans. O(R · E log V) worst case for R rows left
+//!   after the reductions;
 //! * `lsap` (scipy's LSAP port) is the reference in the property tests. The hand-written
 //!   solvers are used because a dense solver cannot hold a 50,000 × 50,000 sparse problem, and
-//!   on the dense 2,000 × 2,000 bench the flat LAPJV solves in ~0.2 s where `lsap` needs ~0.5 s
-//!   (`cargo run --release --no-default-features --example hungarian_sparse`).
+//!   LAPJV's reductions leave few rows for the augmenting phase (`benches/peers_hungarian.py`
+//!   times both shapes against scipy and lap; `cargo run --release -p trajdb-algo --example
+//!   hungarian_sparse` without DuckDB).
 //!
 //! Maximum cardinality is obtained by giving every row a private "unmatched" column of cost
 //! `M = range · (rows + 1) + 1` (`range` = spread of the costs): any matching with one more real
 //! pair is cheaper than any with one fewer, so the result is the best among the largest
 //! matchings; the private columns are dropped from the output. (For lsap the absent cells
-//! carry the same `M`.)
+//! carry the same `M`.) A square component whose rows can all be matched needs no private
+//! columns: it is solved without them first, and again with them only when some row finds no
+//! augmenting path.
 
 use crate::graph::{self, Components};
 use rayon::prelude::*;
@@ -1039,6 +1052,119 @@ mod tests {
             let d = cost(&solve_dense(nr, nc, &start, &adj).unwrap());
             prop_assert_eq!(s.0, d.0);
             prop_assert!((s.1 - d.1).abs() < 1e-9, "sparse {} dense {}", s.1, d.1);
+        }
+
+        /// Square components take the LAPJVsp start without private columns; without a
+        /// perfect matching they fall back to the private columns. Both equal lsap.
+        #[test]
+        fn square_equals_lsap(n in 1usize..9, raw in prop::collection::vec((0usize..64, 0i32..1000), 0..40), perfect in any::<bool>(), seed in 0usize..1000) {
+            let mut e: Vec<(u32, u32, f64)> = raw.iter().map(|&(k, c)| ((k / 8 % n) as u32, (k % 8 % n) as u32, c as f64 / 7.0)).collect();
+            if perfect {
+                // a hidden permutation: a perfect matching exists
+                e.extend((0..n).map(|i| (i as u32, ((i * 5 + seed) % n) as u32, ((i * 31 + seed) % 97) as f64)));
+            }
+            e.sort_by(|p, q| p.0.cmp(&q.0).then(p.1.cmp(&q.1)));
+            e.dedup_by(|q, p| p.0 == q.0 && p.1 == q.1);
+            // rows without edges are not part of a component: give each row one edge at least
+            for i in 0..n as u32 {
+                if !e.iter().any(|x| x.0 == i) { e.push((i, 0, 50.0)); }
+            }
+            e.sort_by(|p, q| p.0.cmp(&q.0).then(p.1.cmp(&q.1)));
+            let mut start = vec![0usize; n + 1];
+            for x in &e { start[x.0 as usize + 1] += 1; }
+            for i in 0..n { start[i + 1] += start[i]; }
+            let adj: Vec<(u32, f64)> = e.iter().map(|x| (x.1, x.2)).collect();
+            let cost = |c4r: &[u32]| -> (usize, f64) {
+                let mut k = 0; let mut t = 0.0;
+                for (i, &j) in c4r.iter().enumerate() {
+                    if j != NONE { k += 1; t += adj[start[i]..start[i + 1]].iter().find(|x| x.0 == j).unwrap().1; }
+                }
+                (k, t)
+            };
+            let d = cost(&solve_dense(n, n, &start, &adj).unwrap());
+            for scan in [false, true] {
+                let got = solve_sparse(n, n, &start, &adj, scan);
+                let mut used: Vec<u32> = got.iter().copied().filter(|&j| j != NONE).collect();
+                used.sort_unstable();
+                let k = used.len();
+                used.dedup();
+                prop_assert_eq!(used.len(), k, "one to one");
+                let s = cost(&got);
+                prop_assert_eq!(s.0, d.0);
+                prop_assert!((s.1 - d.1).abs() < 1e-9, "scan {} sparse {} lsap {}", scan, s.1, d.1);
+            }
+        }
+
+        /// Through the public entry: complete lists (the flat LAPJV path) and partial ones (the
+        /// canonical order and components), with duplicates, any order and wide ids, against
+        /// lsap on the deduplicated matrix; and the same answer for a shuffled copy.
+        #[test]
+        fn lists_equal_lsap(na in 1usize..7, nb in 1usize..7, cells in prop::collection::vec((any::<bool>(), 0i32..50, 0u8..3), 36), maximize in any::<bool>(), wide in any::<bool>(), complete in any::<bool>(), seed in any::<u64>()) {
+            let ida = |i: usize| if wide { i as i64 * 1_000_000_007 - 3_000_000_000 } else { i as i64 + 10 };
+            let idb = |j: usize| if wide { i64::MAX - j as i64 * 999_999_937 } else { 100 - j as i64 };
+            let mut pairs = Vec::new();
+            for i in 0..na {
+                for j in 0..nb {
+                    let (present, score, dups) = cells[i * 6 + j];
+                    if complete || present {
+                        for k in 0..=dups as i32 {
+                            pairs.push((ida(i), idb(j), (score - 7 * k) as f64 / 4.0));
+                        }
+                    }
+                }
+            }
+            let mut st = seed | 1;
+            for k in (1..pairs.len()).rev() {
+                st ^= st << 13; st ^= st >> 7; st ^= st << 17;
+                pairs.swap(k, (st % (k as u64 + 1)) as usize);
+            }
+            let p = MatchParams::new(maximize, None).unwrap();
+            let got = hungarian_match(&pairs, &p).unwrap();
+            // reference: best score per cell, lsap with absent cells forbidden
+            let mut canon = pairs.clone();
+            canon.sort_by(|x, y| x.0.cmp(&y.0).then(x.1.cmp(&y.1)).then(if maximize { y.2.total_cmp(&x.2) } else { x.2.total_cmp(&y.2) }));
+            canon.dedup_by(|q, p| p.0 == q.0 && p.1 == q.1);
+            if canon.is_empty() {
+                prop_assert!(got.is_empty());
+                return Ok(());
+            }
+            let a: Vec<i64> = canon.iter().map(|x| x.0).collect();
+            let b: Vec<i64> = canon.iter().map(|x| x.1).collect();
+            let (ma, a_of) = graph::dense_ids(&a);
+            let (mb, b_of) = graph::dense_ids(&b);
+            let mut start = vec![0usize; ma + 1];
+            for &x in &a_of { start[x as usize + 1] += 1; }
+            for i in 0..ma { start[i + 1] += start[i]; }
+            let adj: Vec<(u32, f64)> = (0..canon.len()).map(|k| (b_of[k], if maximize { -canon[k].2 } else { canon[k].2 })).collect();
+            let (rows, cols, adj2, start2) = if ma <= mb {
+                (ma, mb, adj, start)
+            } else {
+                // lsap wants rows <= columns: transpose
+                let mut t: Vec<(u32, u32, f64)> = (0..canon.len()).map(|k| (b_of[k], a_of[k], adj[k].1)).collect();
+                t.sort_by(|x, y| x.0.cmp(&y.0).then(x.1.cmp(&y.1)));
+                let mut st2 = vec![0usize; mb + 1];
+                for x in &t { st2[x.0 as usize + 1] += 1; }
+                for i in 0..mb { st2[i + 1] += st2[i]; }
+                (mb, ma, t.iter().map(|x| (x.1, x.2)).collect(), st2)
+            };
+            let want = solve_dense(rows, cols, &start2, &adj2).unwrap();
+            let mut n_want = 0; let mut t_want = 0.0;
+            for (i, &j) in want.iter().enumerate() {
+                if j != NONE { n_want += 1; t_want += adj2[start2[i]..start2[i + 1]].iter().find(|x| x.0 == j).unwrap().1; }
+            }
+            if maximize { t_want = -t_want; }
+            prop_assert_eq!(got.len(), n_want);
+            prop_assert!((total(&got) - t_want).abs() < 1e-9, "got {} want {}", total(&got), t_want);
+            // the chosen pairs are candidates with their best score, sorted by (a, b), one to one
+            for m in &got { prop_assert!(canon.contains(m), "{:?} not a best candidate", m); }
+            prop_assert!(got.windows(2).all(|w| (w[0].0, w[0].1) < (w[1].0, w[1].1)));
+            let mut bs: Vec<i64> = got.iter().map(|m| m.1).collect();
+            bs.sort_unstable(); bs.dedup();
+            prop_assert_eq!(bs.len(), got.len());
+            // any order, the same answer
+            let mut rev = pairs.clone();
+            rev.reverse();
+            prop_assert_eq!(hungarian_match(&rev, &p).unwrap(), got);
         }
 
         /// The answer does not depend on the list order.

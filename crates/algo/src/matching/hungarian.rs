@@ -723,6 +723,9 @@ impl IdMap {
     }
 }
 
+/// Chosen pairs `(a, b, score)`.
+type Pairs = Vec<(i64, i64, f64)>;
+
 /// Lists of at least this many pairs are mapped and sorted in parallel.
 const PAR_SORT: usize = 100_000;
 /// Complete candidate lists up to this many cells (max(rows, columns)²) go to the flat LAPJV.
@@ -935,7 +938,7 @@ fn canonical_order(a_of: &[u32], na: usize, b_of: &[u32], nb: usize) -> Result<V
 /// The complete case: every `(a, b)` cell present (duplicates keep the best), scattered straight
 /// into the flat cost matrix of [`solve_complete`] with the smaller side as rows. `None` when a
 /// cell is missing (the general path takes over).
-fn solve_full(a: &[i64], b: &[i64], s: &[f64], ia: &IdMap, ib: &IdMap, maximize: bool) -> Result<Option<Vec<(i64, i64, f64)>>, MatchError> {
+fn solve_full(a: &[i64], b: &[i64], s: &[f64], ia: &IdMap, ib: &IdMap, maximize: bool) -> Result<Option<Pairs>, MatchError> {
     let (na, nb) = (ia.len(), ib.len());
     let transpose = nb < na;
     let (nr, nc) = if transpose { (nb, na) } else { (na, nb) };

@@ -106,8 +106,10 @@ impl MatchParams {
 }
 
 const NONE: u32 = u32::MAX;
-/// Passes of augmenting row reduction (JV use 2; after the column reduction, 4 leave 403 of
-/// 50,000 rows for the Dijkstra phase on the 50k × 50k bench, 712 without it).
+/// Passes of augmenting row reduction (JV use 2; passes after the second run only while more
+/// than 1/64 of the rows are free). On the 50k × 50k bench the square start (column reduction)
+/// leaves 405 of 50,000 rows for the Dijkstra phase after 2 passes; from zero prices (the
+/// private-column solve) 4 passes leave 712 (8 measured no better).
 const ARR_PASSES: usize = 4;
 
 /// The state of one column, packed so that relaxing an edge touches one cache line (the

@@ -1,22 +1,32 @@
 #!/usr/bin/env python3
-"""hungarian_match against scipy, in one process on the same data, and the pinned references.
+"""hungarian_match against scipy and lap, in one process on the same data, and the pinned references.
 
-  --pin    writes src/algo/matching/testdata/hungarian_scipy.json: random sparse rectangular instances
-           (absent pairs forbidden) with scipy.optimize.linear_sum_assignment's count and total.
-  default  times, on the same instances:
-           * dense 2,000 x 2,000 (every pair a candidate): trajdb SQL hungarian_match vs
-             scipy.optimize.linear_sum_assignment;
-           * sparse 50,000 x 50,000 with 500,000 candidate pairs: trajdb vs
+  --pin    writes crates/algo/src/matching/testdata/hungarian_scipy.json: random sparse rectangular
+           instances (absent pairs forbidden) with scipy.optimize.linear_sum_assignment's count and total.
+  default  times, on the same instances, best of --reps runs each:
+           * dense 1,000 x 1,000 and 2,000 x 2,000 (every pair a candidate, uniform scores, maximise):
+             trajdb SQL hungarian_match over the pair list vs scipy.optimize.linear_sum_assignment and
+             lap.lapjv (both handed the ready numpy matrix: their best case; lap minimises, so it gets
+             the negated matrix, made outside the timing);
+           * sparse 50,000 x 50,000 with 500,000 candidate pairs (minimise): trajdb vs
              scipy.sparse.csgraph.min_weight_full_bipartite_matching (LAPJVsp; it needs a full
-             matching, so the instance contains a hidden perfect matching) - the dense scipy
-             solver cannot hold a 50,000 x 50,000 matrix;
-           and checks that the totals agree.
+             matching, so the instance contains a hidden perfect matching; the CSR matrix is built
+             outside the timing) - the dense solvers cannot hold a 50,000 x 50,000 matrix;
+           checks that the totals agree, and prints peer s / trajdb s (above 1: trajdb is faster).
+  --before EXT  also times an older build (e.g. main's) on the same instances, in a child process
+           (one process cannot load two builds of one extension), for the before/after columns.
 
-usage: python benches/peers_hungarian.py --ext trajdb.duckdb_extension [--pin]
+trajdb's time is the whole SQL statement: DuckDB handing over the 4M-element list, the call, and
+summing the result (`SELECT list_sum([m.score FOR m IN hungarian_match(p, true)]) FROM dense`).
+
+usage: /work/venv-bench/bin/python benches/peers_hungarian.py --ext trajdb.duckdb_extension [--before OLD.duckdb_extension] [--pin]
 """
 import argparse
 import json
 import os
+import platform
+import subprocess
+import sys
 import time
 
 import duckdb
@@ -50,14 +60,14 @@ def pin():
         pairs = [[int(ids_a[i]), int(ids_b[j]), float(score[i, j])] for i in range(nr) for j in range(nc) if mask[i, j]]
         rng.shuffle(pairs)
         cases.append({"maximize": maximize, "pairs": pairs, "count": int(len(r)), "total": float(score[r, c].sum())})
-    out = os.path.join(HERE, "..", "src", "algo", "matching", "testdata", "hungarian_scipy.json")
+    out = os.path.join(HERE, "..", "crates", "algo", "src", "matching", "testdata", "hungarian_scipy.json")
     os.makedirs(os.path.dirname(out), exist_ok=True)
     with open(out, "w") as f:
         json.dump({"scipy": scipy.__version__, "numpy": np.__version__, "seed": 20261121, "cases": cases}, f)
     print(f"wrote {len(cases)} cases to {out} (scipy {scipy.__version__})")
 
 
-def best_of(f, reps=3):
+def best_of(f, reps):
     best, out = float("inf"), None
     for _ in range(reps):
         t0 = time.perf_counter()
@@ -66,74 +76,108 @@ def best_of(f, reps=3):
     return best, out
 
 
-def bench(ext):
-    con = duckdb.connect(config={"allow_unsigned_extensions": "true"})
-    con.execute(f"LOAD '{os.path.abspath(ext)}'")
-    threads = con.execute("SELECT current_setting('threads')").fetchall()[0][0]
-    print(f"duckdb {duckdb.__version__} ({threads} threads), scipy {scipy.__version__}, numpy {np.__version__}")
-    rng = np.random.default_rng(7)
-    rows = []
-
-    # dense 2000 x 2000
-    n = 2000
-    score = rng.random((n, n))
-    a, b = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
-    import pyarrow as pa
-    tbl = pa.table({"a": a.ravel(), "b": b.ravel(), "score": score.ravel()})
-    con.register("dense_t", tbl)
-    con.execute("CREATE TABLE dense AS SELECT list({'a': a, 'b': b, 'score': score}) AS p FROM dense_t")
-    t_tr, tot_tr = best_of(lambda: con.execute("SELECT list_sum([m.score FOR m IN hungarian_match(p, true)]) FROM dense").fetchall()[0][0])
-    t_sp, tot_sp = best_of(lambda: score[linear_sum_assignment(score, maximize=True)].sum())
-    assert abs(tot_tr - tot_sp) < 1e-6 * tot_sp, (tot_tr, tot_sp)
-    rows.append(("dense 2000 x 2000, maximize", t_tr, "linear_sum_assignment", t_sp))
-    # The same input for both: scipy starting from the pair list (matrix built with numpy), and
-    # the part of trajdb's time that is DuckDB reading the 4M-element list.
-    pa_, pb_, ps_ = a.ravel(), b.ravel(), score.ravel()
-
-    def scipy_from_pairs():
-        m = np.full((n, n), -np.inf)
-        m[pa_, pb_] = ps_
-        r, c = linear_sum_assignment(m, maximize=True)
-        return m[r, c].sum()
-
-    t_sp2, _ = best_of(scipy_from_pairs)
-    rows.append(("  same, scipy from the pair list", t_tr, "linear_sum_assignment", t_sp2))
-    t_scan, _ = best_of(lambda: con.execute("SELECT list_sum([m.score FOR m IN p[1:1]]) , len(p) FROM dense").fetchall())
-    print(f"(DuckDB reading the 4M-element list alone: {t_scan:.3f} s)")
-
+def instances():
+    """The benchmark instances (fixed seeds): name -> dict."""
+    out = {}
+    for n in (1000, 2000):
+        rng = np.random.default_rng(7 + n)
+        score = rng.random((n, n))
+        a, b = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
+        out[f"dense {n} x {n}, maximize"] = {"kind": "dense", "n": n, "a": a.ravel(), "b": b.ravel(), "score": score}
     # sparse 50k x 50k, 500k pairs, a hidden perfect matching so that scipy's sparse solver accepts it
+    rng = np.random.default_rng(7)
     n, e = 50_000, 500_000
     perm = rng.permutation(n)
     ra = np.concatenate([np.arange(n), rng.integers(0, n, e - n)])
     rb = np.concatenate([perm, rng.integers(0, n, e - n)])
     w = rng.uniform(1.0, 100.0, e)
-    key = ra.astype(np.int64) * n + rb
-    _, first = np.unique(key, return_index=True)
-    ra, rb, w = ra[first], rb[first], w[first]
-    tbl = pa.table({"a": ra, "b": rb, "score": w})
-    con.register("sparse_t", tbl)
-    con.execute("CREATE TABLE sparse AS SELECT list({'a': a, 'b': b, 'score': score}) AS p FROM sparse_t")
-    t_tr, res = best_of(lambda: con.execute("SELECT len(m), list_sum([x.score FOR x IN m]) FROM (SELECT hungarian_match(p, false) AS m FROM sparse)").fetchall()[0])
-    g = csr_matrix((w, (ra, rb)), shape=(n, n))
-    t_sp, (r, c) = best_of(lambda: min_weight_full_bipartite_matching(g))
-    tot_sp = np.asarray(g[r, c]).ravel().sum()
-    assert res[0] == n and abs(res[1] - tot_sp) < 1e-6 * tot_sp, (res, tot_sp)
-    rows.append((f"sparse 50000 x 50000, {len(w)} pairs, minimize", t_tr, "min_weight_full_bipartite_matching", t_sp))
+    _, first = np.unique(ra.astype(np.int64) * n + rb, return_index=True)
+    # in a shuffled order: the list is not pre-sorted for trajdb (scipy gets its CSR matrix)
+    first = rng.permutation(first)
+    out[f"sparse 50000 x 50000, {len(first)} pairs, minimize"] = {"kind": "sparse", "n": n, "a": ra[first], "b": rb[first], "score": w[first]}
+    return out
 
-    print(f"\n{'task':48s} {'trajdb s':>9s} {'scipy solver':>36s} {'scipy s':>9s} {'scipy/trajdb':>13s}")
-    for name, tt, peer, ts in rows:
-        print(f"{name:48s} {tt:9.3f} {peer:>36s} {ts:9.3f} {ts / tt:12.2f}x")
+
+def time_trajdb(ext, cases, reps):
+    """trajdb's SQL time per instance: {name: (seconds, count, total)}."""
+    import pyarrow as pa
+    con = duckdb.connect(config={"allow_unsigned_extensions": "true"})
+    con.execute(f"LOAD '{os.path.abspath(ext)}'")
+    res = {}
+    for k, (name, c) in enumerate(cases.items()):
+        tbl = pa.table({"a": c["a"], "b": c["b"], "score": c["score"].ravel()})
+        con.register(f"t{k}", tbl)
+        con.execute(f"CREATE TABLE p{k} AS SELECT list({{'a': a, 'b': b, 'score': score}}) AS p FROM t{k}")
+        mx = "true" if c["kind"] == "dense" else "false"
+        q = f"SELECT len(m), list_sum([x.score FOR x IN m]) FROM (SELECT hungarian_match(p, {mx}) AS m FROM p{k})"
+        t, (cnt, tot) = best_of(lambda: con.execute(q).fetchall()[0], reps)
+        t_read, _ = best_of(lambda: con.execute(f"SELECT len(p), p[len(p)].score FROM p{k}").fetchall(), reps)
+        res[name] = (t, cnt, tot, t_read)
+    return res
+
+
+def time_peers(cases, reps):
+    """[(instance, peer, seconds, count, total)]."""
+    import lap
+    rows = []
+    for name, c in cases.items():
+        if c["kind"] == "dense":
+            score = c["score"]
+            t, (r, cc) = best_of(lambda: linear_sum_assignment(score, maximize=True), reps)
+            rows.append((name, f"scipy {scipy.__version__} linear_sum_assignment", t, len(r), float(score[r, cc].sum())))
+            neg = -score
+            t, (_, x, _) = best_of(lambda: lap.lapjv(neg), reps)
+            rows.append((name, f"lap {lap.__version__} lapjv", t, len(x), float(score[np.arange(len(x)), x].sum())))
+        else:
+            n = c["n"]
+            g = csr_matrix((c["score"], (c["a"], c["b"])), shape=(n, n))
+            t, (r, cc) = best_of(lambda: min_weight_full_bipartite_matching(g), reps)
+            rows.append((name, f"scipy {scipy.__version__} min_weight_full_bipartite_matching", t, len(r), float(np.asarray(g[r, cc]).ravel().sum())))
+    return rows
+
+
+def bench(ext, before, reps):
+    import lap
+    import pyarrow as pa
+    con = duckdb.connect()
+    threads = con.execute("SELECT current_setting('threads')").fetchall()[0][0]
+    print(f"duckdb {duckdb.__version__} ({threads} threads), scipy {scipy.__version__}, lap {lap.__version__}, "
+          f"numpy {np.__version__}, pyarrow {pa.__version__}, python {platform.python_version()}, {os.cpu_count()} cpus; best of {reps}")
+    cases = instances()
+    old = {}
+    if before:
+        child = subprocess.run([sys.executable, __file__, "--ext", before, "--trajdb-only", "--reps", str(reps)],
+                               capture_output=True, text=True, check=True)
+        old = {k: tuple(v) for k, v in json.loads(child.stdout.strip().splitlines()[-1]).items()}
+    new = time_trajdb(ext, cases, reps)
+    peers = time_peers(cases, reps)
+    print(f"\n{'instance':44s} {'before s':>9s} {'trajdb s':>9s} {'peer':>52s} {'peer s':>8s} {'peer/trajdb':>12s}")
+    for name, peer, tp, cnt, tot in peers:
+        t, tcnt, ttot, t_read = new[name]
+        assert tcnt == cnt and abs(ttot - tot) <= 1e-9 * abs(tot), (name, peer, tcnt, ttot, cnt, tot)
+        b = f"{old[name][0]:9.3f}" if name in old else f"{'-':>9s}"
+        if name in old:
+            assert old[name][1] == cnt and abs(old[name][2] - tot) <= 1e-9 * abs(tot), (name, "before", old[name], tot)
+        print(f"{name:44s} {b} {t:9.3f} {peer:>52s} {tp:8.3f} {tp / t:11.2f}x")
+    print("\ntotals agree (count equal, total within 1e-9 relative) for every instance and solver")
+    for name, (t, _, _, t_read) in new.items():
+        print(f"  {name}: of trajdb's {t:.3f} s, DuckDB reading the list (SELECT len(p), p[len(p)].score) takes {t_read:.3f} s")
 
 
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--ext")
+    ap.add_argument("--before", help="an older build of the extension, timed in a child process")
+    ap.add_argument("--reps", type=int, default=5)
+    ap.add_argument("--trajdb-only", action="store_true", help=argparse.SUPPRESS)
     ap.add_argument("--pin", action="store_true")
     a = ap.parse_args()
     if a.pin:
         pin()
+    elif a.trajdb_only:
+        print(json.dumps(time_trajdb(a.ext, instances(), a.reps)))
     else:
-        bench(a.ext)
+        bench(a.ext, a.before, a.reps)
 
 
 if __name__ == "__main__":

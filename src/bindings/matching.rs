@@ -2,7 +2,7 @@
 //! Maths: `crates/algo/src/matching/` (hungarian.rs, assign.rs).
 
 use super::registry::{p, Function, Signature, Ty};
-use super::vector::{Args, Column, Out, Rows};
+use super::vector::{Args, Column, Out};
 use crate::algo::matching::{assign, hungarian};
 use std::error::Error;
 
@@ -19,8 +19,9 @@ pub static FUNCTIONS: &[Function] = &[
                       exactly like scipy.optimize.linear_sum_assignment on the dense matrix with absent pairs forbidden (rows that cannot be matched stay unmatched \
                       instead of raising). min_score removes candidates before solving: with maximize, pairs scoring below it; with costs, pairs above it. \
                       Duplicate (a, b) pairs keep their best score; ties are broken the same way whatever the list order; the result is sorted by (a, b). \
-                      Connected components of the candidate graph are solved separately (in parallel), dense ones with lsap (scipy's LSAP), sparse ones with a sparse \
-                      shortest-augmenting-path solver. NULL or NaN scores are errors; an empty list gives an empty list.",
+                      Connected components of the candidate graph are solved separately (in parallel): a complete list or component with the dense Jonker-Volgenant \
+                      algorithm (LAPJV), the others with its sparse shortest-augmenting-path form (as scipy's min_weight_full_bipartite_matching). \
+                      NULL or NaN scores are errors; an empty list gives an empty list.",
         example: "SELECT hungarian_match([{'a': 1, 'b': 10, 'score': 0.9}, {'a': 1, 'b': 20, 'score': 0.8}, {'a': 2, 'b': 10, 'score': 0.8}], true, 0.5); -- [{'a': 1, 'b': 20, 'score': 0.8}, {'a': 2, 'b': 10, 'score': 0.8}]",
         maths: "crates/algo/src/matching/hungarian.rs",
         binding: file!(),
@@ -48,11 +49,6 @@ pub static FUNCTIONS: &[Function] = &[
 /// `(a, b, score)` candidate pairs of one list.
 type Triples = Vec<(i64, i64, f64)>;
 
-/// The candidate pairs of one list.
-fn triples(r: &Rows<'_>) -> Triples {
-    (0..r.len()).map(|k| (r.i64(0)[k], r.i64(1)[k], r.f64(2)[k])).collect()
-}
-
 /// Writes `STRUCT(a BIGINT, b BIGINT, score|w DOUBLE)[]` rows.
 fn write_triples(out: &mut Out<'_>, vals: &[Option<Triples>]) {
     type Split = (Vec<i64>, Vec<i64>, Vec<f64>);
@@ -75,7 +71,7 @@ fn hungarian_match(a: &Args<'_>, out: &mut Out<'_>) -> R {
     let vals = a.map(|r| {
         let (Some(rows), Some(mx), Some(t)) = (pairs.get(r)?, maximize.or(r, true), min_score.opt(r)) else { return Ok(None) };
         let params = hungarian::MatchParams::new(mx, t)?;
-        Ok(Some(hungarian::hungarian_match(&triples(&rows), &params)?))
+        Ok(Some(hungarian::hungarian_match_columns(rows.i64(0), rows.i64(1), rows.f64(2), &params)?))
     })?;
     write_triples(out, &vals);
     Ok(())
@@ -85,12 +81,12 @@ fn assign_pairs(a: &Args<'_>, out: &mut Out<'_>) -> R {
     let edges = a.struct_list(0);
     let vals = a.map(|r| {
         let Some(rows) = edges.get(r)? else { return Ok(None) };
-        let e = triples(&rows);
-        let chosen = assign::assign_max(&e).map_err(|x| match x {
+        let (ea, eb, ew) = (rows.i64(0), rows.i64(1), rows.f64(2));
+        let chosen = assign::assign_max_columns(ea, eb, ew).map_err(|x| match x {
             assign::AssignError::Weight { .. } => format!("edges {x}"),
             _ => x.to_string(),
         })?;
-        Ok(Some(chosen.into_iter().map(|k| e[k]).collect()))
+        Ok(Some(chosen.into_iter().map(|k| (ea[k], eb[k], ew[k])).collect()))
     })?;
     write_triples(out, &vals);
     Ok(())

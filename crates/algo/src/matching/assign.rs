@@ -57,14 +57,22 @@ impl std::error::Error for AssignError {}
 /// Indices into `edges` of a maximum-weight one-to-one matching. Edges with weight 0 are
 /// never chosen; for duplicate `(a, b)` edges the heaviest counts.
 pub fn assign_max(edges: &[(i64, i64, f64)]) -> Result<Vec<usize>, AssignError> {
-    for (k, e) in edges.iter().enumerate() {
-        if !(e.2.is_finite() && e.2 >= 0.0) {
-            return Err(AssignError::Weight { index: k, value: e.2 });
-        }
-    }
     let a: Vec<i64> = edges.iter().map(|e| e.0).collect();
     let b: Vec<i64> = edges.iter().map(|e| e.1).collect();
-    let ((na, a_of), (nb, b_of)) = (graph::dense_ids(&a), graph::dense_ids(&b));
+    let w: Vec<f64> = edges.iter().map(|e| e.2).collect();
+    assign_max_columns(&a, &b, &w)
+}
+
+/// [`assign_max`] on the edges given as three columns of equal length (the SQL list's struct
+/// fields, read in place).
+pub fn assign_max_columns(a: &[i64], b: &[i64], w: &[f64]) -> Result<Vec<usize>, AssignError> {
+    assert!(a.len() == b.len() && b.len() == w.len(), "columns of equal length");
+    for (k, &x) in w.iter().enumerate() {
+        if !(x.is_finite() && x >= 0.0) {
+            return Err(AssignError::Weight { index: k, value: x });
+        }
+    }
+    let ((na, a_of), (nb, b_of)) = (graph::dense_ids(a), graph::dense_ids(b));
     let g = graph::bipartite_components(&a_of, na, &b_of, nb);
     // the largest component's dense matrix, against the limit, before any solving
     let cells = (0..g.len()).map(|c| g.n_a[c] as u128 * g.n_b[c] as u128).max().unwrap_or(0);
@@ -77,24 +85,24 @@ pub fn assign_max(edges: &[(i64, i64, f64)]) -> Result<Vec<usize>, AssignError> 
     for c in 0..g.len() {
         let (nr, nc) = (g.n_a[c] as usize, g.n_b[c] as usize);
         let alloc = AssignError::Alloc { rows: nr, cols: nc };
-        let mut w: Vec<f64> = Vec::new();
+        let mut cost: Vec<f64> = Vec::new();
         let mut best: Vec<Option<usize>> = Vec::new();
-        w.try_reserve_exact(nr * nc).map_err(|_| alloc.clone())?;
+        cost.try_reserve_exact(nr * nc).map_err(|_| alloc.clone())?;
         best.try_reserve_exact(nr * nc).map_err(|_| alloc)?;
-        w.resize(nr * nc, 0.0);
+        cost.resize(nr * nc, 0.0);
         best.resize(nr * nc, None);
         for &k in g.edges_of(c) {
             let k = k as usize;
             let cell = g.loc_a[k] as usize * nc + g.loc_b[k] as usize;
-            if best[cell].is_none_or(|b| edges[k].2 > edges[b].2) {
+            if best[cell].is_none_or(|b| w[k] > w[b]) {
                 best[cell] = Some(k);
-                w[cell] = edges[k].2;
+                cost[cell] = w[k];
             }
         }
-        let (rows, cols) = lsap::solve(nr, nc, &w, true).map_err(|_| AssignError::Solver)?;
+        let (rows, cols) = lsap::solve(nr, nc, &cost, true).map_err(|_| AssignError::Solver)?;
         for (i, j) in rows.into_iter().zip(cols) {
             if let Some(k) = best[i * nc + j] {
-                if edges[k].2 > 0.0 {
+                if w[k] > 0.0 {
                     chosen.push(k);
                 }
             }

@@ -20,7 +20,9 @@
 //! run in parallel (rayon); the paths are read in place, never copied per pair (what made the SQL
 //! join slow: it copied both lists into every pair row).
 
-use super::{pet, ttc, ConflictError, Pet, Ttc};
+use super::pet::pet_checked;
+use super::ttc::ttc_checked;
+use super::{ConflictError, Pet, Ttc};
 use crate::limits::MEMORY_BYTES;
 use crate::traj::{speeds, Traj};
 use crate::{non_negative, positive_or_inf};
@@ -108,22 +110,19 @@ pub fn conflicts(ids: &[i64], trajs: &[Traj<'_>], max_pet: f64, radius: f64, max
     }
     cand.sort_unstable_by(|&(a, b), &(c, d)| ids[a].cmp(&ids[c]).then(ids[b].cmp(&ids[d])).then(a.cmp(&c)).then(b.cmp(&d)));
     // (pet and ttc read no work limit: nothing to carry into the rayon workers)
-    let found: Vec<Result<Option<Conflict>, ConflictError>> = cand
+    let found: Vec<Option<Conflict>> = cand
         .par_iter()
         .map(|&(a, b)| {
-            let p = pet(trajs[a], trajs[b], max_pet)?;
-            let c = ttc(trajs[a], trajs[b], radius)?;
+            // every path was validated above, and the parameters checked
+            let p = pet_checked(trajs[a], trajs[b], max_pet);
+            let c = ttc_checked(trajs[a], trajs[b], radius);
             let keep = p.is_some() || c.is_some_and(|c| c.ttc <= max_ttc);
-            Ok(keep.then_some(Conflict { a, b, pet: p, ttc: c }))
+            keep.then_some(Conflict { a, b, pet: p, ttc: c })
         })
         .collect();
     let mut out = Vec::new();
     out.try_reserve(found.len()).map_err(|_| alloc_error((found.len() * std::mem::size_of::<Conflict>()) as u128))?;
-    for f in found {
-        if let Some(c) = f? {
-            out.push(c);
-        }
-    }
+    out.extend(found.into_iter().flatten());
     Ok(out)
 }
 
@@ -136,6 +135,7 @@ fn alloc_error(bytes: u128) -> ConflictError {
 
 #[cfg(test)]
 mod tests {
+    use super::super::{pet, ttc};
     use super::*;
     use crate::traj::OwnedTraj;
     use proptest::prelude::*;

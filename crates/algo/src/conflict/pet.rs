@@ -17,8 +17,9 @@
 //! intervals on that axis overlap, then their extents on the other axis, and pairs whose time
 //! intervals are more than `max_pet` apart are skipped before any intersection is computed.
 //! Before the sweep, each path keeps only its segments within `max_pet` of the other path's time
-//! span (two binary searches), so two road users that meet for a few seconds cost the points of
-//! those seconds, not of their whole paths.
+//! span (two binary searches) and meeting the other's bounding box (the sweep would never compare
+//! the rest), so two road users that meet for a few seconds cost the points of those seconds
+//! near each other, not of their whole paths.
 //! O(log(n + m) + (n' + m') log(n' + m') + K), n', m' the segments inside those time windows, K
 //! the segment pairs overlapping on the sweep axis (O(n m) only for paths that overlap along
 //! their whole length on both axes).
@@ -88,6 +89,14 @@ fn segments_in(tr: Traj<'_>, sweep_x: bool, lo: f64, hi: f64) -> Vec<Seg> {
         .collect()
 }
 
+/// Keeps the segments of `ss` whose boxes meet the box around all of `other` (closed
+/// intervals, as the sweep compares them). Keeps the order.
+fn clip(ss: &mut Vec<Seg>, other: &[Seg]) {
+    let inf = f64::INFINITY;
+    let (lo, hi, olo, ohi) = other.iter().fold((inf, -inf, inf, -inf), |(a, b, c, d), s| (a.min(s.lo), b.max(s.hi), c.min(s.olo), d.max(s.ohi)));
+    ss.retain(|s| s.hi >= lo && s.lo <= hi && s.ohi >= olo && s.olo <= ohi);
+}
+
 /// The crossing of segments `a` and `b`, if they cross at one point.
 fn cross(a: &Seg, b: &Seg) -> Option<Pet> {
     let den = a.dx * b.dy - a.dy * b.dx;
@@ -112,8 +121,14 @@ fn cross(a: &Seg, b: &Seg) -> Option<Pet> {
 pub fn pet(a: Traj<'_>, b: Traj<'_>, max_pet: f64) -> Result<Option<Pet>, ConflictError> {
     validate(a, b)?;
     let max_pet = positive_or_inf("max_pet", max_pet)?;
+    Ok(pet_checked(a, b, max_pet))
+}
+
+/// [`pet`] of trajectories already validated, `max_pet` already checked (> 0): what
+/// [`super::conflicts`] calls per pair after validating each path once.
+pub(crate) fn pet_checked(a: Traj<'_>, b: Traj<'_>, max_pet: f64) -> Option<Pet> {
     if a.len() < 2 || b.len() < 2 {
-        return Ok(None);
+        return None;
     }
     // sweep along the axis on which the two paths spread more (fewer overlapping intervals)
     let ext = |v: &[f64]| v.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &z| (l.min(z), h.max(z)));
@@ -125,9 +140,15 @@ pub fn pet(a: Traj<'_>, b: Traj<'_>, max_pet: f64) -> Result<Option<Pet>, Confli
     // only segments within max_pet of the other path's time span can hold a crossing with
     // PET <= max_pet (t_a < b.t_0 - max_pet <= t_b - max_pet otherwise): the rest are never read
     let (ta, tb) = ((a.t[0], a.t[a.len() - 1]), (b.t[0], b.t[b.len() - 1]));
-    let segs = [segments_in(a, sweep_x, tb.0 - max_pet, tb.1 + max_pet), segments_in(b, sweep_x, ta.0 - max_pet, ta.1 + max_pet)];
+    let (mut sa, mut sb) = (segments_in(a, sweep_x, tb.0 - max_pet, tb.1 + max_pet), segments_in(b, sweep_x, ta.0 - max_pet, ta.1 + max_pet));
+    // and only segments meeting the other's bounding box: the sweep compares a pair only when
+    // their boxes meet (closed intervals on both axes), so the others are never compared
+    clip(&mut sa, &sb);
+    clip(&mut sb, &sa);
+    let segs = [sa, sb];
     let mut events: Vec<(f64, usize, usize)> = segs.iter().enumerate().flat_map(|(side, ss)| ss.iter().enumerate().map(move |(i, s)| (s.lo, side, i))).collect();
-    events.sort_by(|p, q| p.0.total_cmp(&q.0).then(p.1.cmp(&q.1)).then(p.2.cmp(&q.2)));
+    // (side, i) is unique: the unstable sort gives the one order there is
+    events.sort_unstable_by(|p, q| p.0.total_cmp(&q.0).then(p.1.cmp(&q.1)).then(p.2.cmp(&q.2)));
     let mut active: [Vec<usize>; 2] = [Vec::new(), Vec::new()];
     let mut best: Option<Pet> = None;
     for (lo, side, i) in events {
@@ -156,7 +177,7 @@ pub fn pet(a: Traj<'_>, b: Traj<'_>, max_pet: f64) -> Result<Option<Pet>, Confli
         }
         active[side].push(i);
     }
-    Ok(best)
+    best
 }
 
 #[cfg(test)]

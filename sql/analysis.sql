@@ -251,36 +251,32 @@ GROUP BY ALL ORDER BY ALL;
 -- ---------------------------------------------------------------- conflicts
 -- Every pair of road users whose times overlap within max_pet seconds and whose bounding boxes
 -- overlap, each widened by its reach (radius / 2 + its top speed x max_ttc: where a constant-velocity
--- prediction can take it within max_ttc): a range join, not all pairs. Per pair: traj_pet (the crossing with
--- the smallest PET, at most max_pet) and traj_ttc (the minimum TTC at constant velocity, radius =
--- the sum of the two road users' radii). Kept: pairs with a PET, or a TTC of at most max_ttc.
+-- prediction can take it within max_ttc), never all pairs: traj_conflicts finds them by a sweep over
+-- start times in one call (O(n log n + K), K the pairs meeting in time) and computes per pair, in
+-- parallel and without copying the paths: traj_pet (the crossing with the smallest PET, at most
+-- max_pet) and traj_ttc (the minimum TTC at constant velocity, radius = the sum of the two road
+-- users' radii). Kept: pairs with a PET, or a TTC of at most max_ttc. road_user must be unique.
 -- kind: SSAM's rule on the crossing angle: rear-end (< 30 deg), lane-change (30-85), crossing (> 85).
 -- road_user_first: who passed the conflict point first.
 CREATE OR REPLACE MACRO conflicts(tbl := 'merged', max_pet := 5.0, radius := 2.0, max_ttc := 3.0) AS TABLE
-WITH r AS (
-    SELECT road_user, class, traj, traj[1].t AS t0, traj[-1].t AS t1,
-           list_min([p.x FOR p IN traj]) AS xmin, list_max([p.x FOR p IN traj]) AS xmax,
-           list_min([p.y FOR p IN traj]) AS ymin, list_max([p.y FOR p IN traj]) AS ymax,
-           -- how far a prediction can reach within max_ttc: half the radius plus the top speed times max_ttc
-           radius::DOUBLE / 2 + coalesce(list_max([s.v FOR s IN traj_speeds(traj)]), 0) * max_ttc::DOUBLE AS reach
-    FROM query_table(tbl) WHERE len(traj) >= 2
+WITH r AS (SELECT road_user, class, traj FROM query_table(tbl) WHERE len(traj) >= 2),
+u AS (  -- the pairs are named by road_user: a repeated one would be ambiguous
+    SELECT CASE WHEN count(road_user) = count(DISTINCT road_user) THEN true
+                ELSE error('conflicts: road_user must be unique in ' || tbl || ' (got ' || (count(road_user) - count(DISTINCT road_user))::VARCHAR
+                           || ' repeated); give each road user one row') END AS ok
+    FROM r
 ),
-pairs AS (
-    SELECT a.road_user AS road_user_a, a.class AS class_a, b.road_user AS road_user_b, b.class AS class_b,
-           traj_pet(a.traj, b.traj, max_pet::DOUBLE) AS p, traj_ttc(a.traj, b.traj, radius::DOUBLE) AS c
-    FROM r a JOIN r b
-      ON a.road_user < b.road_user
-     AND a.t0 <= b.t1 + max_pet AND b.t0 <= a.t1 + max_pet
-     AND a.xmin - a.reach <= b.xmax + b.reach AND b.xmin - b.reach <= a.xmax + a.reach
-     AND a.ymin - a.reach <= b.ymax + b.reach AND b.ymin - b.reach <= a.ymax + a.reach
+c AS (
+    SELECT unnest(traj_conflicts(list(road_user ORDER BY road_user), list(traj ORDER BY road_user), max_pet::DOUBLE, radius::DOUBLE,
+                                 max_ttc::DOUBLE)) AS p
+    FROM r WHERE road_user IS NOT NULL AND (SELECT ok FROM u)
 )
-SELECT road_user_a, class_a, road_user_b, class_b,
+SELECT p.a AS road_user_a, ra.class AS class_a, p.b AS road_user_b, rb.class AS class_b,
        p.pet, p.x AS pet_x, p.y AS pet_y, p.t_first, p.t_second, p.angle AS angle_deg,
        CASE WHEN p.angle < 30 THEN 'rear-end' WHEN p.angle <= 85 THEN 'lane-change' WHEN p.angle IS NOT NULL THEN 'crossing' END AS kind,
-       CASE WHEN p.a_first THEN road_user_a WHEN NOT p.a_first THEN road_user_b END AS road_user_first,
-       c.ttc, c.t AS ttc_t, c.x AS ttc_x, c.y AS ttc_y
-FROM pairs
-WHERE p IS NOT NULL OR c.ttc <= max_ttc
+       CASE WHEN p.a_first THEN p.a WHEN NOT p.a_first THEN p.b END AS road_user_first,
+       p.ttc, p.ttc_t, p.ttc_x, p.ttc_y
+FROM c JOIN (SELECT road_user, class FROM r) ra ON ra.road_user = p.a JOIN (SELECT road_user, class FROM r) rb ON rb.road_user = p.b
 ORDER BY coalesce(p.pet, 1e300), road_user_a, road_user_b;
 
 -- ---------------------------------------------------------------- route patterns

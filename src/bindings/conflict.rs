@@ -2,7 +2,7 @@
 //! Maths: `crates/algo/src/conflict/` (pet.rs, ttc.rs).
 
 use super::registry::{p, Function, Signature, Ty, TRAJ};
-use super::vector::{Args, Out, Value};
+use super::vector::{Args, Column, Out, Value};
 use crate::algo::conflict;
 use std::error::Error;
 
@@ -18,6 +18,22 @@ const PET: Ty = Ty::Struct(&[
     ("a_first", Ty::Boolean),
 ]);
 const TTC: Ty = Ty::Struct(&[("ttc", Ty::Double), ("t", Ty::Double), ("x", Ty::Double), ("y", Ty::Double)]);
+/// One kept pair of traj_conflicts: the ids, traj_pet's fields, traj_ttc's fields (prefixed ttc_).
+const CONFLICTS: Ty = Ty::List(&Ty::Struct(&[
+    ("a", Ty::Bigint),
+    ("b", Ty::Bigint),
+    ("pet", Ty::Double),
+    ("x", Ty::Double),
+    ("y", Ty::Double),
+    ("t_first", Ty::Double),
+    ("t_second", Ty::Double),
+    ("angle", Ty::Double),
+    ("a_first", Ty::Boolean),
+    ("ttc", Ty::Double),
+    ("ttc_t", Ty::Double),
+    ("ttc_x", Ty::Double),
+    ("ttc_y", Ty::Double),
+]));
 
 pub static FUNCTIONS: &[Function] = &[
     Function {
@@ -53,7 +69,84 @@ pub static FUNCTIONS: &[Function] = &[
         signatures: &[Signature { params: &[p("a", TRAJ), p("b", TRAJ), p("radius", Ty::Double)], arities: &[], returns: TTC, kernel: ttc }],
         table: None,
     },
+    Function {
+        name: "traj_conflicts",
+        description: "traj_pet and traj_ttc for every pair of a set of road users near each other, in one call: the pairs (ids a < b) whose \
+                      times meet within max_pet (t0_a <= t1_b + max_pet and t0_b <= t1_a + max_pet) and whose bounding boxes overlap once \
+                      each is widened by its reach, radius / 2 + its top speed (traj_speeds) x max_ttc. Kept: pairs with a PET (<= max_pet) \
+                      or a TTC <= max_ttc; one element each, sorted by (a, b): traj_pet's fields (NULL: no crossing), then traj_ttc's as \
+                      ttc, ttc_t, ttc_x, ttc_y (NULL: no collision course). Trajectories with fewer than 2 points take no part. Candidates \
+                      by a sweep over start times, O(n log n + K) for K pairs meeting in time, PET and TTC in parallel, the paths read \
+                      in place (sql/analysis.sql conflicts: list(road_user ORDER BY road_user), list(traj ORDER BY road_user)). Errors: \
+                      lists of different lengths, NULL elements, NaN / infinite values, unsorted t, max_pet <= 0, radius or max_ttc < 0 \
+                      or not finite, more candidate pairs than the memory_bytes limit holds.",
+        example: "SELECT unnest(traj_conflicts([1, 2], [[{'t': 0, 'x': -10, 'y': 0}, {'t': 2, 'x': 10, 'y': 0}], [{'t': 0, 'x': 0, 'y': -10}, {'t': 4, 'x': 0, 'y': 10}]], 5.0, 2.0, 3.0)).pet; -- 1.0",
+        maths: "crates/algo/src/conflict/pairs.rs",
+        binding: file!(),
+        signatures: &[Signature {
+            params: &[
+                p("ids", Ty::List(&Ty::Bigint)),
+                p("trajs", Ty::List(&TRAJ)),
+                p("max_pet", Ty::Double),
+                p("radius", Ty::Double),
+                p("max_ttc", Ty::Double),
+            ],
+            arities: &[],
+            returns: CONFLICTS,
+            kernel: conflicts,
+        }],
+        table: None,
+    },
 ];
+
+/// The columns of one row's kept pairs (CONFLICTS' fields, in order).
+#[derive(Default)]
+struct PairCols {
+    a: Vec<i64>,
+    b: Vec<i64>,
+    pet: [Vec<Option<f64>>; 6],
+    a_first: Vec<Option<bool>>,
+    ttc: [Vec<Option<f64>>; 4],
+}
+
+fn conflicts(a: &Args<'_>, out: &mut Out<'_>) -> R {
+    let (ids, trajs, max_pet, radius, max_ttc) = (a.i64_list(0), a.traj_list(1), a.double(2), a.double(3), a.double(4));
+    let vals = a.map(|r| {
+        let (Some(id), Some(tr), Some(m), Some(rad), Some(mt)) = (ids.get(r)?, trajs.get(r)?, max_pet.get(r), radius.get(r), max_ttc.get(r)) else {
+            return Ok(None);
+        };
+        let found = conflict::conflicts(id, &tr, m, rad, mt).map_err(|e| e.describe())?;
+        let mut c = PairCols::default();
+        for f in &found {
+            c.a.push(id[f.a]);
+            c.b.push(id[f.b]);
+            let p = f.pet.map(|p| [p.pet, p.x, p.y, p.t_first(), p.t_second(), p.angle]);
+            for (k, col) in c.pet.iter_mut().enumerate() {
+                col.push(p.map(|v| v[k]));
+            }
+            c.a_first.push(f.pet.map(|p| p.t_a <= p.t_b));
+            let t = f.ttc.map(|t| [t.ttc, t.t, t.x, t.y]);
+            for (k, col) in c.ttc.iter_mut().enumerate() {
+                col.push(t.map(|v| v[k]));
+            }
+        }
+        Ok(Some(c))
+    })?;
+    let cols: Vec<Option<Vec<Column<'_>>>> = vals
+        .iter()
+        .map(|v| {
+            v.as_ref().map(|c| {
+                let mut cols = vec![Column::I64(&c.a), Column::I64(&c.b)];
+                cols.extend(c.pet.iter().map(|p| Column::OptF64(p)));
+                cols.push(Column::OptBool(&c.a_first));
+                cols.extend(c.ttc.iter().map(|t| Column::OptF64(t)));
+                cols
+            })
+        })
+        .collect();
+    out.struct_lists(&cols);
+    Ok(())
+}
 
 fn pet(a: &Args<'_>, out: &mut Out<'_>) -> R {
     let (ta, tb, max_pet) = (a.traj(0), a.traj(1), a.opt_double(2));

@@ -19,6 +19,10 @@ pub enum Column<'v> {
     I64(&'v [i64]),
     I32(&'v [i32]),
     Text(&'v [&'v str]),
+    /// DOUBLE fields that may be NULL
+    OptF64(&'v [Option<f64>]),
+    /// BOOLEAN fields that may be NULL
+    OptBool(&'v [Option<bool>]),
 }
 
 impl Column<'_> {
@@ -28,6 +32,8 @@ impl Column<'_> {
             Column::I64(s) => s.len(),
             Column::I32(s) => s.len(),
             Column::Text(s) => s.len(),
+            Column::OptF64(s) => s.len(),
+            Column::OptBool(s) => s.len(),
         }
     }
 }
@@ -164,6 +170,20 @@ fn copy_into(dst: &mut FlatVector<'_>, total: usize, off: usize, src: &Column<'_
                     dst.insert(off + k, *v);
                 }
             }
+            Column::OptF64(s) => {
+                let d = &mut dst.as_mut_slice_with_len::<f64>(total)[off..off + s.len()];
+                for (d, v) in d.iter_mut().zip(s.iter()) {
+                    *d = v.unwrap_or(0.0);
+                }
+                set_nulls_from(dst, off, s.iter().map(Option::is_none));
+            }
+            Column::OptBool(s) => {
+                let d = &mut dst.as_mut_slice_with_len::<bool>(total)[off..off + s.len()];
+                for (d, v) in d.iter_mut().zip(s.iter()) {
+                    *d = v.unwrap_or(false);
+                }
+                set_nulls_from(dst, off, s.iter().map(Option::is_none));
+            }
         }
     }
 }
@@ -182,6 +202,15 @@ fn list_entries(out: &mut ListVector<'_>, lens: impl IntoIterator<Item = Option<
         }
     }
     out.set_len(off);
+}
+
+/// NULLs at positions `off + k` of a struct field vector for every `true` of `nulls`.
+fn set_nulls_from(out: &mut FlatVector<'_>, off: usize, nulls: impl Iterator<Item = bool>) {
+    for (k, null) in nulls.enumerate() {
+        if null {
+            out.set_null(off + k);
+        }
+    }
 }
 
 fn set_nulls(out: &mut FlatVector<'_>, nulls: impl Iterator<Item = bool>) {

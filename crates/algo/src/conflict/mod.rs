@@ -11,23 +11,32 @@
 //!
 //! One operation per file: [`pet`] (path crossings by segment intersection, with a sweep over
 //! one axis as the spatial prefilter and a time window as the temporal one), [`ttc`] (one pass
-//! over the merged sample times of the common period). Candidate pairs come from SQL (a
-//! time-overlap range join, sql/analysis.sql `conflicts`), never all N² pairs here.
+//! over the merged sample times of the common period), [`pairs`] (both for every pair of a set
+//! near each other in time and space: a sweep over start times, never all N² pairs; what
+//! sql/analysis.sql `conflicts` calls through `traj_conflicts`).
 
+pub mod pairs;
 pub mod pet;
 pub mod ttc;
 
+pub use pairs::{conflicts, Conflict};
 pub use pet::{pet, Pet};
 pub use ttc::{ttc, Ttc};
 
 use crate::traj::{Traj, TrajError};
 use crate::ParamError;
 
-/// Why a conflict measure was refused: a bad trajectory (`a` or `b`) or parameter.
+/// Why a conflict measure was refused: a bad trajectory (`a` or `b`, or the k-th of a list),
+/// a bad parameter, lists of different lengths, or a work limit.
 #[derive(Clone, Debug, PartialEq)]
 pub enum ConflictError {
     Traj(&'static str, TrajError),
+    /// `trajs[k]` (0-based here, 1-based in the message) of [`conflicts`]
+    TrajAt(usize, TrajError),
     Param(ParamError),
+    /// `ids` and `trajs` of [`conflicts`] differ in length
+    Lengths { ids: usize, trajs: usize },
+    Work(crate::limits::Exceeded),
 }
 
 impl From<ParamError> for ConflictError {
@@ -41,7 +50,12 @@ impl ConflictError {
     pub fn describe(&self) -> String {
         match self {
             ConflictError::Traj(name, e) => e.describe(name),
+            ConflictError::TrajAt(k, e) => e.describe(&format!("trajs[{}]", k + 1)),
             ConflictError::Param(e) => e.to_string(),
+            ConflictError::Lengths { ids, trajs } => {
+                format!("ids and trajs must have the same length, got {ids} ids and {trajs} trajectories (list(id ORDER BY id), list(traj ORDER BY id) over the same rows)")
+            }
+            ConflictError::Work(e) => e.to_string(),
         }
     }
 }

@@ -16,8 +16,13 @@
 //! Prefilters: a sweep over the axis with the larger extent keeps only segment pairs whose
 //! intervals on that axis overlap, then their extents on the other axis, and pairs whose time
 //! intervals are more than `max_pet` apart are skipped before any intersection is computed.
-//! O((n + m) log(n + m) + K), K the segment pairs overlapping on the sweep axis (O(n m) only for
-//! paths that overlap along their whole length on both axes).
+//! Before the sweep, each path keeps only its segments within `max_pet` of the other path's time
+//! span (two binary searches) and meeting the other's bounding box (the sweep would never compare
+//! the rest), so two road users that meet for a few seconds cost the points of those seconds
+//! near each other, not of their whole paths.
+//! O(log(n + m) + (n' + m') log(n' + m') + K), n', m' the segments inside those time windows, K
+//! the segment pairs overlapping on the sweep axis (O(n m) only for paths that overlap along
+//! their whole length on both axes).
 
 use super::{validate, ConflictError};
 use crate::traj::Traj;
@@ -62,8 +67,16 @@ struct Seg {
     ohi: f64,
 }
 
+#[cfg(test)]
 fn segments(tr: Traj<'_>, sweep_x: bool) -> Vec<Seg> {
-    (1..tr.len())
+    segments_in(tr, sweep_x, f64::NEG_INFINITY, f64::INFINITY)
+}
+
+/// The segments of `tr` whose time interval meets [lo, hi] (binary search: `t` is sorted).
+fn segments_in(tr: Traj<'_>, sweep_x: bool, lo: f64, hi: f64) -> Vec<Seg> {
+    let first = tr.t.partition_point(|&t| t < lo).max(1);
+    let end = (tr.t.partition_point(|&t| t <= hi) + 1).min(tr.len());
+    (first..end.max(first))
         .filter_map(|k| {
             let (px, py, dx, dy) = (tr.x[k - 1], tr.y[k - 1], tr.x[k] - tr.x[k - 1], tr.y[k] - tr.y[k - 1]);
             if dx == 0.0 && dy == 0.0 {
@@ -74,6 +87,14 @@ fn segments(tr: Traj<'_>, sweep_x: bool) -> Vec<Seg> {
             Some(Seg { px, py, dx, dy, t0: tr.t[k - 1], dt: tr.t[k] - tr.t[k - 1], lo, hi, olo, ohi })
         })
         .collect()
+}
+
+/// Keeps the segments of `ss` whose boxes meet the box around all of `other` (closed
+/// intervals, as the sweep compares them). Keeps the order.
+fn clip(ss: &mut Vec<Seg>, other: &[Seg]) {
+    let inf = f64::INFINITY;
+    let (lo, hi, olo, ohi) = other.iter().fold((inf, -inf, inf, -inf), |(a, b, c, d), s| (a.min(s.lo), b.max(s.hi), c.min(s.olo), d.max(s.ohi)));
+    ss.retain(|s| s.hi >= lo && s.lo <= hi && s.ohi >= olo && s.olo <= ohi);
 }
 
 /// The crossing of segments `a` and `b`, if they cross at one point.
@@ -100,8 +121,14 @@ fn cross(a: &Seg, b: &Seg) -> Option<Pet> {
 pub fn pet(a: Traj<'_>, b: Traj<'_>, max_pet: f64) -> Result<Option<Pet>, ConflictError> {
     validate(a, b)?;
     let max_pet = positive_or_inf("max_pet", max_pet)?;
+    Ok(pet_checked(a, b, max_pet))
+}
+
+/// [`pet`] of trajectories already validated, `max_pet` already checked (> 0): what
+/// [`super::conflicts`] calls per pair after validating each path once.
+pub(crate) fn pet_checked(a: Traj<'_>, b: Traj<'_>, max_pet: f64) -> Option<Pet> {
     if a.len() < 2 || b.len() < 2 {
-        return Ok(None);
+        return None;
     }
     // sweep along the axis on which the two paths spread more (fewer overlapping intervals)
     let ext = |v: &[f64]| v.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &z| (l.min(z), h.max(z)));
@@ -110,9 +137,18 @@ pub fn pet(a: Traj<'_>, b: Traj<'_>, max_pet: f64) -> Result<Option<Pet>, Confli
         h1.max(h2) - l1.min(l2)
     };
     let sweep_x = span(a.x, b.x) >= span(a.y, b.y);
-    let segs = [segments(a, sweep_x), segments(b, sweep_x)];
+    // only segments within max_pet of the other path's time span can hold a crossing with
+    // PET <= max_pet (t_a < b.t_0 - max_pet <= t_b - max_pet otherwise): the rest are never read
+    let (ta, tb) = ((a.t[0], a.t[a.len() - 1]), (b.t[0], b.t[b.len() - 1]));
+    let (mut sa, mut sb) = (segments_in(a, sweep_x, tb.0 - max_pet, tb.1 + max_pet), segments_in(b, sweep_x, ta.0 - max_pet, ta.1 + max_pet));
+    // and only segments meeting the other's bounding box: the sweep compares a pair only when
+    // their boxes meet (closed intervals on both axes), so the others are never compared
+    clip(&mut sa, &sb);
+    clip(&mut sb, &sa);
+    let segs = [sa, sb];
     let mut events: Vec<(f64, usize, usize)> = segs.iter().enumerate().flat_map(|(side, ss)| ss.iter().enumerate().map(move |(i, s)| (s.lo, side, i))).collect();
-    events.sort_by(|p, q| p.0.total_cmp(&q.0).then(p.1.cmp(&q.1)).then(p.2.cmp(&q.2)));
+    // (side, i) is unique: the unstable sort gives the one order there is
+    events.sort_unstable_by(|p, q| p.0.total_cmp(&q.0).then(p.1.cmp(&q.1)).then(p.2.cmp(&q.2)));
     let mut active: [Vec<usize>; 2] = [Vec::new(), Vec::new()];
     let mut best: Option<Pet> = None;
     for (lo, side, i) in events {
@@ -141,7 +177,7 @@ pub fn pet(a: Traj<'_>, b: Traj<'_>, max_pet: f64) -> Result<Option<Pet>, Confli
         }
         active[side].push(i);
     }
-    Ok(best)
+    best
 }
 
 #[cfg(test)]
@@ -262,6 +298,43 @@ mod tests {
                 }
             }
             assert_eq!(got.map(|p| p.pet), best.map(|p| p.pet));
+        }
+    }
+
+    proptest! {
+        /// With a finite max_pet, the time windows (segments within max_pet of the other path's
+        /// span) change nothing: the same crossing as all segment pairs, for paths shifted in time
+        /// so that they meet for part of their spans or not at all.
+        #[test]
+        fn the_time_windows_agree_with_all_pairs(seed in 0u64..1_000_000, shift in -8.0f64..8.0, max_pet in 0.2f64..4.0) {
+            let mut s = seed;
+            let mut rnd = || {
+                s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                ((s >> 11) as f64) / ((1u64 << 53) as f64) - 0.5
+            };
+            let (mut a, mut b) = (OwnedTraj::default(), OwnedTraj::default());
+            let (mut xa, mut ya, mut xb, mut yb) = (0.0, 0.0, 3.0, -3.0);
+            for k in 0..80 {
+                xa += rnd() * 2.0 + 0.2;
+                ya += rnd() * 2.0;
+                xb += rnd() * 2.0;
+                yb += rnd() * 2.0 + 0.2;
+                a.push(k as f64 * 0.1, xa, ya);
+                b.push(k as f64 * 0.1 + shift, xb, yb);
+            }
+            let got = pet(a.view(), b.view(), max_pet).unwrap();
+            let (sa, sb) = (segments(a.view(), true), segments(b.view(), true));
+            let mut best: Option<Pet> = None;
+            for x in &sa {
+                for y in &sb {
+                    if let Some(c) = cross(x, y) {
+                        if c.pet <= max_pet && best.is_none_or(|b| c.pet < b.pet || (c.pet == b.pet && c.t_first() < b.t_first())) {
+                            best = Some(c);
+                        }
+                    }
+                }
+            }
+            prop_assert_eq!(got.map(|p| (p.pet, p.t_first())), best.map(|p| (p.pet, p.t_first())));
         }
     }
 }

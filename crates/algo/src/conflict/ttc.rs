@@ -16,7 +16,9 @@
 //! Both paths are piecewise linear, so on each interval between consecutive sample times of
 //! either road user Δv is constant and TTC(s) = σ - (s - u) falls at slope -1 (σ: the root at
 //! the interval's start u): the minimum over the interval is at its end (a left limit, exact,
-//! not sampled), or 0 where the interval itself reaches the collision distance. O(n + m).
+//! not sampled), or 0 where the interval itself reaches the collision distance. Only the
+//! samples inside the common period are read (binary searches for its ends):
+//! O(log(n + m) + k), k the samples of both inside it (two sorted runs merged).
 
 use super::{validate, ConflictError};
 use crate::non_negative;
@@ -50,20 +52,54 @@ fn state(tr: Traj<'_>, k: &mut usize, u: f64, v: f64) -> ([f64; 2], [f64; 2]) {
 pub fn ttc(a: Traj<'_>, b: Traj<'_>, radius: f64) -> Result<Option<Ttc>, ConflictError> {
     validate(a, b)?;
     let r = non_negative("radius", radius)?;
+    Ok(ttc_checked(a, b, r))
+}
+
+/// The sample times of `tr` strictly inside (lo, hi) (a slice: `t` is sorted), and the segment
+/// index [`state`] starts from: the last `k` with `t[k + 1] <= lo` it would walk to from 0.
+fn window(tr: Traj<'_>, lo: f64, hi: f64) -> (&[f64], usize) {
+    let (p, q) = (tr.t.partition_point(|&t| t <= lo), tr.t.partition_point(|&t| t < hi));
+    (&tr.t[p..q.max(p)], p.saturating_sub(1).min(tr.len() - 2))
+}
+
+/// [`ttc`] of trajectories already validated, `radius` already checked (>= 0, finite): what
+/// [`super::conflicts`] calls per pair after validating each path once.
+pub(crate) fn ttc_checked(a: Traj<'_>, b: Traj<'_>, r: f64) -> Option<Ttc> {
     if a.len() < 2 || b.len() < 2 {
-        return Ok(None);
+        return None;
     }
     let (lo, hi) = (a.t[0].max(b.t[0]), a.t[a.len() - 1].min(b.t[b.len() - 1]));
     if !(hi > lo) {
-        return Ok(None);
+        return None;
     }
-    // every sample time of either inside the common period, in order, once
-    let mut times: Vec<f64> = a.t.iter().chain(b.t.iter()).copied().filter(|&t| t > lo && t < hi).collect();
+    // every sample time of either inside the common period, in order, once (binary searches:
+    // the points outside the common period are never read)
+    let ((wa, mut ka), (wb, mut kb)) = (window(a, lo, hi), window(b, lo, hi));
+    let mut times: Vec<f64> = Vec::with_capacity(wa.len() + wb.len() + 2);
     times.push(lo);
+    if wa.iter().chain(wb).any(|&t| t == 0.0) {
+        // -0.0 and 0.0: sorted by `<` is not sorted by total_cmp; sort as a whole (values equal
+        // under total_cmp are the same bits, so the unstable sort gives the one order there is)
+        times.extend_from_slice(wa);
+        times.extend_from_slice(wb);
+        times.sort_unstable_by(f64::total_cmp);
+    } else {
+        // both windows are sorted, all inside (lo, hi): merge them
+        let (mut i, mut j) = (0, 0);
+        while i < wa.len() && j < wb.len() {
+            if wa[i].total_cmp(&wb[j]).is_le() {
+                times.push(wa[i]);
+                i += 1;
+            } else {
+                times.push(wb[j]);
+                j += 1;
+            }
+        }
+        times.extend_from_slice(&wa[i..]);
+        times.extend_from_slice(&wb[j..]);
+    }
     times.push(hi);
-    times.sort_by(f64::total_cmp);
     times.dedup();
-    let (mut ka, mut kb) = (0usize, 0usize);
     let mut best: Option<Ttc> = None;
     for w in times.windows(2) {
         let (u, v) = (w[0], w[1]);
@@ -74,7 +110,7 @@ pub fn ttc(a: Traj<'_>, b: Traj<'_>, radius: f64) -> Result<Option<Ttc>, Conflic
         let at = |sigma: f64| ((pa[0] + va[0] * sigma + pb[0] + vb[0] * sigma) / 2.0, (pa[1] + va[1] * sigma + pb[1] + vb[1] * sigma) / 2.0);
         if c <= 0.0 {
             let (x, y) = at(0.0);
-            return Ok(Some(Ttc { ttc: 0.0, t: u, x, y })); // in contact: TTC 0, the earliest time
+            return Some(Ttc { ttc: 0.0, t: u, x, y }); // in contact: TTC 0, the earliest time
         }
         let (qa, qb) = (wx * wx + wy * wy, 2.0 * (dx * wx + dy * wy));
         let disc = qb * qb - 4.0 * qa * c;
@@ -85,14 +121,14 @@ pub fn ttc(a: Traj<'_>, b: Traj<'_>, radius: f64) -> Result<Option<Ttc>, Conflic
         let sigma = c / ((-qb + disc.sqrt()) / 2.0);
         let (x, y) = at(sigma);
         if sigma <= v - u {
-            return Ok(Some(Ttc { ttc: 0.0, t: u + sigma, x, y })); // they reach the collision distance here
+            return Some(Ttc { ttc: 0.0, t: u + sigma, x, y }); // they reach the collision distance here
         }
         let cand = Ttc { ttc: sigma - (v - u), t: v, x, y };
         if best.is_none_or(|b| cand.ttc < b.ttc) {
             best = Some(cand);
         }
     }
-    Ok(best)
+    best
 }
 
 #[cfg(test)]
@@ -160,7 +196,74 @@ mod tests {
         assert!(ttc(bad.view(), a.view(), 1.0).unwrap_err().describe().starts_with("a[1].x must be finite"));
     }
 
+    /// The unwindowed form: every sample time filtered and sorted, segments walked from 0.
+    fn ttc_reference(a: Traj<'_>, b: Traj<'_>, r: f64) -> Option<Ttc> {
+        let (lo, hi) = (a.t[0].max(b.t[0]), a.t[a.len() - 1].min(b.t[b.len() - 1]));
+        if !(hi > lo) {
+            return None;
+        }
+        let mut times: Vec<f64> = a.t.iter().chain(b.t.iter()).copied().filter(|&t| t > lo && t < hi).collect();
+        times.push(lo);
+        times.push(hi);
+        times.sort_by(f64::total_cmp);
+        times.dedup();
+        let (mut ka, mut kb) = (0usize, 0usize);
+        let mut best: Option<Ttc> = None;
+        for w in times.windows(2) {
+            let (u, v) = (w[0], w[1]);
+            let (pa, va) = state(a, &mut ka, u, v);
+            let (pb, vb) = state(b, &mut kb, u, v);
+            let (dx, dy, wx, wy) = (pb[0] - pa[0], pb[1] - pa[1], vb[0] - va[0], vb[1] - va[1]);
+            let c = dx * dx + dy * dy - r * r;
+            let at = |sigma: f64| ((pa[0] + va[0] * sigma + pb[0] + vb[0] * sigma) / 2.0, (pa[1] + va[1] * sigma + pb[1] + vb[1] * sigma) / 2.0);
+            if c <= 0.0 {
+                let (x, y) = at(0.0);
+                return Some(Ttc { ttc: 0.0, t: u, x, y });
+            }
+            let (qa, qb) = (wx * wx + wy * wy, 2.0 * (dx * wx + dy * wy));
+            let disc = qb * qb - 4.0 * qa * c;
+            if qb >= 0.0 || disc < 0.0 || qa == 0.0 {
+                continue;
+            }
+            let sigma = c / ((-qb + disc.sqrt()) / 2.0);
+            let (x, y) = at(sigma);
+            if sigma <= v - u {
+                return Some(Ttc { ttc: 0.0, t: u + sigma, x, y });
+            }
+            let cand = Ttc { ttc: sigma - (v - u), t: v, x, y };
+            if best.is_none_or(|b| cand.ttc < b.ttc) {
+                best = Some(cand);
+            }
+        }
+        best
+    }
+
     proptest! {
+        /// Reading only the common period (binary searches) gives exactly what reading every
+        /// sample gives, for random walks shifted in time (partly, fully or not overlapping).
+        #[test]
+        fn the_window_agrees_with_every_sample(seed in 0u64..1_000_000, shift in -6.0f64..6.0, r in 0.0f64..3.0, na in 2usize..60, nb in 2usize..60) {
+            let mut s = seed;
+            let mut rnd = || {
+                s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                ((s >> 11) as f64) / ((1u64 << 53) as f64) - 0.5
+            };
+            let (mut a, mut b) = (OwnedTraj::default(), OwnedTraj::default());
+            let (mut xa, mut ya, mut xb, mut yb) = (-10.0, 0.0, 10.0, 0.0);
+            for k in 0..na {
+                xa += rnd() + 0.5;
+                ya += rnd();
+                a.push(k as f64 * 0.1, xa, ya);
+            }
+            for k in 0..nb {
+                xb += rnd() - 0.5;
+                yb += rnd();
+                b.push(k as f64 * 0.13 + shift, xb, yb);
+            }
+            prop_assert_eq!(ttc(a.view(), b.view(), r).unwrap(), ttc_reference(a.view(), b.view(), r));
+            prop_assert_eq!(ttc(b.view(), a.view(), r).unwrap(), ttc_reference(b.view(), a.view(), r));
+        }
+
         /// Constant-velocity pairs on a collision course: the sampled TTC at the first common time
         /// matches the closed form, and the minimum is 0 exactly when they reach `radius` in time.
         #[test]

@@ -1,0 +1,234 @@
+//! Conflicts of a whole set of road users in one call: every pair near each other in time and
+//! space, with its [`pet`](super::pet()) and [`ttc`](super::ttc()) (sql/analysis.sql `conflicts`).
+//!
+//! Candidate pairs (the rule the SQL macro had as a range join, unchanged): road users `a`, `b`
+//! with `id_a < id_b` whose time spans meet within `max_pet`,
+//!
+//! ```text
+//! t0_a <= t1_b + max_pet  and  t0_b <= t1_a + max_pet
+//! ```
+//!
+//! and whose bounding boxes overlap once each is widened by its reach,
+//! `reach = radius / 2 + v_max * max_ttc` (`v_max`: the top of [`crate::traj::speeds`], 0 when
+//! none): how far a constant-velocity prediction can take it within `max_ttc`. A pair is kept
+//! when it has a PET (at most `max_pet`) or a TTC of at most `max_ttc`.
+//!
+//! Candidates come from a sweep over the start times (sorted once; a road user leaves the active
+//! list when its span + `max_pet` ends before the next start), so the work is
+//! O(n log n + K_t + Σ pair cost), K_t the pairs overlapping in time within `max_pet`: linear in
+//! the road users of a day at a given traffic density, never all n² pairs. The pairs' PET and TTC
+//! run in parallel (rayon); the paths are read in place, never copied per pair (what made the SQL
+//! join slow: it copied both lists into every pair row).
+
+use super::pet::pet_checked;
+use super::ttc::ttc_checked;
+use super::{ConflictError, Pet, Ttc};
+use crate::limits::MEMORY_BYTES;
+use crate::traj::{speeds, Traj};
+use crate::{non_negative, positive_or_inf};
+use rayon::prelude::*;
+
+/// One kept pair: indices into the input (`a` has the smaller id), its PET and TTC.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Conflict {
+    pub a: usize,
+    pub b: usize,
+    pub pet: Option<Pet>,
+    pub ttc: Option<Ttc>,
+}
+
+/// Time span, bounding box and reach of one road user.
+#[derive(Clone, Copy)]
+struct Extent {
+    t0: f64,
+    t1: f64,
+    xmin: f64,
+    xmax: f64,
+    ymin: f64,
+    ymax: f64,
+    reach: f64,
+}
+
+fn extent(tr: Traj<'_>, radius: f64, max_ttc: f64) -> Extent {
+    let fold = |v: &[f64]| v.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &z| (l.min(z), h.max(z)));
+    let ((xmin, xmax), (ymin, ymax)) = (fold(tr.x), fold(tr.y));
+    let vmax = speeds(tr).1.into_iter().reduce(f64::max).unwrap_or(0.0);
+    Extent { t0: tr.t[0], t1: tr.t[tr.len() - 1], xmin, xmax, ymin, ymax, reach: radius / 2.0 + vmax * max_ttc }
+}
+
+/// The candidate rule in space (the time rule is the sweep's).
+fn boxes_meet(a: &Extent, b: &Extent) -> bool {
+    a.xmin - a.reach <= b.xmax + b.reach
+        && b.xmin - b.reach <= a.xmax + a.reach
+        && a.ymin - a.reach <= b.ymax + b.reach
+        && b.ymin - b.reach <= a.ymax + a.reach
+}
+
+/// The conflicts among `trajs` (ids in `ids`, same length; road users with fewer than 2 points
+/// take no part), sorted by (id_a, id_b) and then input position. Errors: lists of different
+/// lengths, a trajectory outside the input policy (named `trajs[k]`, 1-based), `max_pet` <= 0 or
+/// NaN, `radius` or `max_ttc` < 0 or not finite, more candidate pairs than the `memory_bytes`
+/// limit holds.
+pub fn conflicts(ids: &[i64], trajs: &[Traj<'_>], max_pet: f64, radius: f64, max_ttc: f64) -> Result<Vec<Conflict>, ConflictError> {
+    if ids.len() != trajs.len() {
+        return Err(ConflictError::Lengths { ids: ids.len(), trajs: trajs.len() });
+    }
+    let max_pet = positive_or_inf("max_pet", max_pet)?;
+    let radius = non_negative("radius", radius)?;
+    let max_ttc = non_negative("max_ttc", max_ttc)?;
+    for (k, tr) in trajs.iter().enumerate() {
+        tr.validate().map_err(|e| ConflictError::TrajAt(k, e))?;
+    }
+    let used: Vec<usize> = (0..trajs.len()).filter(|&k| trajs[k].len() >= 2).collect();
+    let ext: Vec<Option<Extent>> = trajs.iter().map(|&tr| (tr.len() >= 2).then(|| extent(tr, radius, max_ttc))).collect();
+    let e = |k: usize| ext[k].as_ref().expect("only road users with 2+ points are swept");
+    // sweep over start times; ties by position, so the candidates do not depend on the sort
+    let mut order = used;
+    order.sort_by(|&p, &q| e(p).t0.total_cmp(&e(q).t0).then(p.cmp(&q)));
+    let mut cand: Vec<(usize, usize)> = Vec::new();
+    let mut active: Vec<usize> = Vec::new();
+    for &i in &order {
+        let ei = e(i);
+        active.retain(|&j| ei.t0 <= e(j).t1 + max_pet);
+        for &j in &active {
+            let ej = e(j);
+            // t0_j <= t0_i <= t1_i + max_pet holds by the sort; the other half of the time rule
+            // is the retain above. Both halves are tested again as the SQL rule spells them.
+            if ids[i] == ids[j] || !(ej.t0 <= ei.t1 + max_pet && ei.t0 <= ej.t1 + max_pet) || !boxes_meet(ej, ei) {
+                continue;
+            }
+            let (a, b) = if ids[j] < ids[i] { (j, i) } else { (i, j) };
+            if cand.len() == cand.capacity() {
+                // the candidate list is the working table: bytes checked against memory_bytes
+                let bytes = (2 * cand.len().max(1024) * PAIR_BYTES) as u128;
+                MEMORY_BYTES.check(bytes).map_err(ConflictError::Work)?;
+                cand.try_reserve(cand.len().max(1024)).map_err(|_| alloc_error(bytes))?;
+            }
+            cand.push((a, b));
+        }
+        active.push(i);
+    }
+    cand.sort_unstable_by(|&(a, b), &(c, d)| ids[a].cmp(&ids[c]).then(ids[b].cmp(&ids[d])).then(a.cmp(&c)).then(b.cmp(&d)));
+    // (pet and ttc read no work limit: nothing to carry into the rayon workers)
+    let found: Vec<Option<Conflict>> = cand
+        .par_iter()
+        .map(|&(a, b)| {
+            // every path was validated above, and the parameters checked
+            let p = pet_checked(trajs[a], trajs[b], max_pet);
+            let c = ttc_checked(trajs[a], trajs[b], radius);
+            let keep = p.is_some() || c.is_some_and(|c| c.ttc <= max_ttc);
+            keep.then_some(Conflict { a, b, pet: p, ttc: c })
+        })
+        .collect();
+    let mut out = Vec::new();
+    out.try_reserve(found.len()).map_err(|_| alloc_error((found.len() * std::mem::size_of::<Conflict>()) as u128))?;
+    out.extend(found.into_iter().flatten());
+    Ok(out)
+}
+
+const PAIR_BYTES: usize = std::mem::size_of::<(usize, usize)>();
+
+/// An allocation the system refused, as the memory limit's error (it says how much was asked).
+fn alloc_error(bytes: u128) -> ConflictError {
+    ConflictError::Work(crate::limits::Exceeded { name: MEMORY_BYTES.name, counts: MEMORY_BYTES.counts, needed: bytes, limit: MEMORY_BYTES.get() })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::{pet, ttc};
+    use super::*;
+    use crate::traj::OwnedTraj;
+    use proptest::prelude::*;
+
+    fn line(t0: f64, x0: f64, y0: f64, vx: f64, vy: f64, n: usize, dt: f64) -> OwnedTraj {
+        let mut o = OwnedTraj::default();
+        for k in 0..n {
+            let t = k as f64 * dt;
+            o.push(t0 + t, x0 + vx * t, y0 + vy * t);
+        }
+        o
+    }
+
+    /// The obviously right version: every pair, the rule as the SQL macro spelled it.
+    fn all_pairs(ids: &[i64], trajs: &[Traj<'_>], max_pet: f64, radius: f64, max_ttc: f64) -> Vec<Conflict> {
+        let mut out = Vec::new();
+        for a in 0..trajs.len() {
+            for b in 0..trajs.len() {
+                if ids[a] >= ids[b] || trajs[a].len() < 2 || trajs[b].len() < 2 {
+                    continue;
+                }
+                let (ea, eb) = (extent(trajs[a], radius, max_ttc), extent(trajs[b], radius, max_ttc));
+                if !(ea.t0 <= eb.t1 + max_pet && eb.t0 <= ea.t1 + max_pet && boxes_meet(&ea, &eb)) {
+                    continue;
+                }
+                let p = pet(trajs[a], trajs[b], max_pet).unwrap();
+                let c = ttc(trajs[a], trajs[b], radius).unwrap();
+                if p.is_some() || c.is_some_and(|c| c.ttc <= max_ttc) {
+                    out.push(Conflict { a, b, pet: p, ttc: c });
+                }
+            }
+        }
+        out.sort_by(|x, y| ids[x.a].cmp(&ids[y.a]).then(ids[x.b].cmp(&ids[y.b])).then(x.a.cmp(&y.a)).then(x.b.cmp(&y.b)));
+        out
+    }
+
+    #[test]
+    fn a_crossing_pair_is_found_and_far_or_late_ones_are_not() {
+        // 1 and 2 cross at the origin (PET 1.5); 3 is there 60 s later; 4 is 500 m away
+        let a = line(0.0, -50.0, 0.0, 10.0, 0.0, 101, 0.1);
+        let b = line(0.0, 0.0, -32.5, 0.0, 5.0, 131, 0.1);
+        let late = line(60.0, 0.0, -32.5, 0.0, 5.0, 131, 0.1);
+        let far = line(0.0, 500.0, -32.5, 0.0, 5.0, 131, 0.1);
+        let trajs = [a.view(), b.view(), late.view(), far.view()];
+        let got = conflicts(&[1, 2, 3, 4], &trajs, 5.0, 2.0, 3.0).unwrap();
+        assert_eq!(got.len(), 1, "{got:?}");
+        assert_eq!((got[0].a, got[0].b), (0, 1));
+        assert!((got[0].pet.unwrap().pet - 1.5).abs() < 1e-9);
+        // ids decide a and b, not positions
+        let got = conflicts(&[9, 2, 3, 4], &trajs, 5.0, 2.0, 3.0).unwrap();
+        assert_eq!((got[0].a, got[0].b), (1, 0));
+        assert_eq!(got[0].pet.unwrap().t_a, got[0].pet.unwrap().t_a);
+    }
+
+    #[test]
+    fn bad_input_is_an_error_naming_the_argument() {
+        let a = line(0.0, 0.0, 0.0, 1.0, 0.0, 3, 1.0);
+        let mut bad = a.clone();
+        bad.t[2] = 0.5;
+        let e = conflicts(&[1, 2], &[a.view(), bad.view()], 5.0, 2.0, 3.0).unwrap_err().describe();
+        assert!(e.starts_with("trajs[2] must be ordered by t"), "{e}");
+        let e = conflicts(&[1], &[a.view(), a.view()], 5.0, 2.0, 3.0).unwrap_err().describe();
+        assert!(e.starts_with("ids and trajs must have the same length, got 1 ids and 2 trajectories"), "{e}");
+        assert_eq!(conflicts(&[1], &[a.view()], 0.0, 2.0, 3.0).unwrap_err().describe(), "max_pet must be > 0, got 0");
+        assert_eq!(conflicts(&[1], &[a.view()], 1.0, -2.0, 3.0).unwrap_err().describe(), "radius must be >= 0, got -2");
+        assert_eq!(conflicts(&[1], &[a.view()], 1.0, 2.0, f64::NAN).unwrap_err().describe(), "max_ttc must be >= 0, got NaN");
+        assert_eq!(conflicts(&[], &[], 1.0, 2.0, 3.0).unwrap(), vec![]);
+    }
+
+    proptest! {
+        /// Random road users crossing a site at random times, directions and speeds (duplicate
+        /// ids, one-point paths and standing road users included): the sweep finds exactly the
+        /// pairs, PETs and TTCs of the all-pairs version.
+        #[test]
+        fn the_sweep_agrees_with_all_pairs(seed in 0u64..1_000_000, n in 0usize..40, max_pet in 0.5f64..6.0, max_ttc in 0.0f64..4.0) {
+            let mut s = seed;
+            let mut rnd = || {
+                s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                ((s >> 11) as f64) / ((1u64 << 53) as f64)
+            };
+            let mut trajs = Vec::new();
+            let mut ids = Vec::new();
+            for _ in 0..n {
+                let h = rnd() * std::f64::consts::TAU;
+                let v = if rnd() < 0.1 { 0.0 } else { 1.0 + rnd() * 15.0 };
+                let len = if rnd() < 0.05 { 1 } else { 5 + (rnd() * 60.0) as usize };
+                let (x0, y0) = (-40.0 * h.cos() + rnd() * 6.0, -40.0 * h.sin() + rnd() * 6.0);
+                trajs.push(line(rnd() * 60.0, x0, y0, v * h.cos(), v * h.sin(), len, 0.1 + rnd() * 0.4));
+                ids.push((rnd() * n as f64 * 1.2) as i64);
+            }
+            let views: Vec<Traj<'_>> = trajs.iter().map(|t| t.view()).collect();
+            let got = conflicts(&ids, &views, max_pet, 2.0, max_ttc).unwrap();
+            prop_assert_eq!(got, all_pairs(&ids, &views, max_pet, 2.0, max_ttc));
+        }
+    }
+}

@@ -84,20 +84,19 @@ oq AS (
     SELECT o.*, coalesce(q.q, (SELECT max(q) FROM fuse_q)) AS q FROM obs o LEFT JOIN fuse_q q USING (class)
 ),
 f AS (
+    -- the path and its uncertainty from one smoother run (traj_fuse_with_sigma)
     SELECT road_user, n_cameras, q,
            CASE WHEN getvariable('merge_resample_s') > 0
-                THEN traj_fuse(obs, q, getvariable('merge_resample_s'), getvariable('merge_resample_max_gap')) END AS clock_traj,
-           CASE WHEN getvariable('merge_resample_s') > 0
-                THEN traj_fuse_sigma(obs, q, getvariable('merge_resample_s'), getvariable('merge_resample_max_gap')) END AS clock_sigma,
+                THEN traj_fuse_with_sigma(obs, q, getvariable('merge_resample_s'), getvariable('merge_resample_max_gap')) END AS clock_path,
            obs
     FROM oq
-)
+),
 -- a path shorter than one clock step has no clock point: one point per observation time instead
+g AS (SELECT road_user, n_cameras, q, CASE WHEN len(clock_path) > 0 THEN clock_path ELSE traj_fuse_with_sigma(obs, q) END AS path FROM f)
 SELECT road_user, n_cameras, q,
-       [{'t': r.t + o.clock_origin, 'x': r.x, 'y': r.y}
-        FOR r IN CASE WHEN len(clock_traj) > 0 THEN clock_traj ELSE traj_fuse(obs, q) END] AS traj,
-       [s.v FOR s IN CASE WHEN len(clock_traj) > 0 THEN clock_sigma ELSE traj_fuse_sigma(obs, q) END] AS sigma
-FROM f CROSS JOIN align_origin o;
+       [{'t': r.t + o.clock_origin, 'x': r.x, 'y': r.y} FOR r IN path] AS traj,
+       [r.sigma FOR r IN path] AS sigma
+FROM g CROSS JOIN align_origin o;
 
 -- merged: the fused path replaces the merged one (a road user without a q, when no class could
 -- be measured, keeps it); sigma_m = the median per-point sigma

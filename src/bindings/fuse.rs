@@ -43,6 +43,22 @@ pub static FUNCTIONS: &[Function] = &[
         signatures: &[Signature { params: &PARAMS, arities: &[2, 3, 4], returns: SERIES, kernel: fuse_sigma }],
         table: None,
     },
+    Function {
+        name: "traj_fuse_with_sigma",
+        description: "traj_fuse and traj_fuse_sigma in one call (same arguments, one smoother run): per point t, x, y and sigma = the \
+                      1-sigma position error per axis in metres. The pipeline's fuse stage uses it; the path is [{'t': p.t, 'x': p.x, 'y': p.y} \
+                      FOR p IN ...] and the uncertainties [p.sigma FOR p IN ...].",
+        example: "SELECT traj_fuse_with_sigma([{'t': 0, 'x': 0, 'y': 0, 'sigma': 0.1}, {'t': 0, 'x': 0.1, 'y': 0, 'sigma': 0.1}], 0.5); -- [{'t': 0.0, 'x': 0.05000000000000001, 'y': 0.0, 'sigma': 0.07071067811865477}]",
+        maths: MATHS,
+        binding: file!(),
+        signatures: &[Signature {
+            params: &PARAMS,
+            arities: &[2, 3, 4],
+            returns: Ty::List(&Ty::Struct(&[("t", Ty::Double), ("x", Ty::Double), ("y", Ty::Double), ("sigma", Ty::Double)])),
+            kernel: fuse_with_sigma,
+        }],
+        table: None,
+    },
 ];
 
 /// The fused path of every row (`None`: a NULL argument).
@@ -74,6 +90,14 @@ fn fuse_traj(a: &Args<'_>, out: &mut Out<'_>) -> R {
 fn fuse_sigma(a: &Args<'_>, out: &mut Out<'_>) -> R {
     let vals = fused(a)?;
     let cols: Vec<_> = vals.iter().map(|v| v.as_ref().map(|f| vec![Column::F64(&f.t), Column::F64(&f.sigma)])).collect();
+    out.struct_lists(&cols);
+    Ok(())
+}
+
+fn fuse_with_sigma(a: &Args<'_>, out: &mut Out<'_>) -> R {
+    let vals = fused(a)?;
+    let cols: Vec<_> =
+        vals.iter().map(|v| v.as_ref().map(|f| vec![Column::F64(&f.t), Column::F64(&f.x), Column::F64(&f.y), Column::F64(&f.sigma)])).collect();
     out.struct_lists(&cols);
     Ok(())
 }

@@ -195,21 +195,11 @@ pub static FUNCTIONS: &[Function] = &[
 /// Both point types (`STRUCT(x, y)[]` and `TRAJ`): x and y are the last two fields.
 fn view_polygon(a: &Args<'_>, out: &mut Out<'_>) -> R {
     let (pts, methods, param, radius, min_nb) = (a.struct_list(0), a.text(1), a.opt_double(2), a.opt_double(3), a.opt_bigint(4));
-    // the last arguments and their checked parameters: constant arguments are checked once
-    type Key = (String, Option<f64>, Option<f64>, Option<i64>);
-    let mut cache: Option<(Key, hull::HullParams)> = None;
-    let vals = a.map(|r| {
+    // one hull per row (a camera's or class's points: up to millions), the rows on all cores
+    let vals = a.par_map(|r| {
         let Some(rows) = pts.get(r)? else { return Ok(None) };
         let (Some(method), Some(param), Some(rad), Some(k)) = (methods.get(r), param.opt(r), radius.opt(r), min_nb.opt(r)) else { return Ok(None) };
-        let key = (method, param, rad, k);
-        let params = match &cache {
-            Some((k0, hp)) if *k0 == key => *hp,
-            _ => {
-                let hp = hull::HullParams::parse(&key.0, key.1, key.2.zip(key.3))?;
-                cache = Some((key, hp));
-                hp
-            }
-        };
+        let params = hull::HullParams::parse(&method, param, rad.zip(k))?;
         let n = rows.width();
         let poly = hull::view_polygon(rows.f64(n - 2), rows.f64(n - 1), &params)?;
         Ok(Some(polygon::to_wkb(&poly)))

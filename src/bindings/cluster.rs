@@ -20,7 +20,7 @@ pub static FUNCTIONS: &[Function] = &[
         name: "agglomerative_cluster",
         description: "Hierarchical clustering of the ids in pairs (e.g. track pairs with 1 - lcss similarity as distance), cut so that every merge \
                       of height <= threshold is applied (scipy fcluster 'distance'). method: 'single', 'complete', 'average', 'weighted' or 'ward' \
-                      (kodama, the fastcluster algorithms scipy uses). A pair absent from the list, or with distance 'inf', is a cannot-link: under \
+                      (scipy's algorithms and merge order, ties included: Prim's minimum spanning tree for single, the nearest-neighbour chain for the others). A pair absent from the list, or with distance 'inf', is a cannot-link: under \
                       complete, average and weighted linkage such ids never share a cluster; single linkage still joins them through a chain of close \
                       pairs (its definition). Ward assumes Euclidean distances and needs every pair: missing or infinite pairs are an error. \
                       Clusters are numbered 1.. by their smallest id; duplicated pairs keep the smallest distance; NaN or negative distances and \
@@ -102,8 +102,8 @@ pub static FUNCTIONS: &[Function] = &[
 fn dendrogram_of(pairs: &StructListCol<'_>, methods: &TextCol<'_>, r: usize) -> Result<Option<Dendrogram>, Box<dyn Error>> {
     let (Some(rows), Some(method)) = (pairs.get(r)?, methods.get(r)) else { return Ok(None) };
     let method = Linkage::parse(&method)?;
-    let p: Vec<(i64, i64, f64)> = (0..rows.len()).map(|k| (rows.i64(0)[k], rows.i64(1)[k], rows.f64(2)[k])).collect();
-    Ok(Some(linkage::dendrogram(&p, method)?))
+    let p = linkage::Pairs { a: rows.i64(0), b: rows.i64(1), distance: rows.f64(2) };
+    Ok(Some(linkage::dendrogram_pairs(p, method)?))
 }
 
 /// Writes `STRUCT(id BIGINT, cluster INTEGER)[]` rows.

@@ -2,8 +2,12 @@
 //!
 //! | file | SQL | what |
 //! |---|---|---|
-//! | [`linkage`] | `agglomerative_cluster`, `agglomerative_cluster_k`, `agglomerative_dendrogram` | linkage on sparse pairs with cannot-links (kodama), scipy-style cuts |
+//! | [`linkage`] | `agglomerative_cluster`, `agglomerative_cluster_k`, `agglomerative_dendrogram` | linkage on sparse pairs with cannot-links, scipy-style cuts (dispatch, matrix, labels) |
+//! | [`mst`] | (single) | Prim's minimum spanning tree on the condensed matrix |
+//! | [`nn_chain`] | (complete, average, weighted, ward) | the nearest-neighbour chain, Lance–Williams updates in place |
 //! | [`traj_cluster`] | `traj_cluster` | all pairwise S1/S2 distances in parallel, then [`linkage`] |
 
 pub mod linkage;
+mod mst;
+mod nn_chain;
 pub mod traj_cluster;

@@ -68,6 +68,10 @@ pub enum ClusterError {
     Memory { items: usize, bytes: usize },
     /// The condensed matrix would take more bytes than the limit `memory_bytes`.
     Limit(crate::limits::Exceeded),
+    /// A condensed list whose length is not n(n−1)/2 for any n.
+    CondensedLength(usize),
+    /// 1-based index and value of a NaN or negative entry of a condensed list.
+    CondensedValue { index: usize, value: f64 },
 }
 
 impl fmt::Display for ClusterError {
@@ -93,6 +97,11 @@ impl fmt::Display for ClusterError {
                 *bytes as f64 / (1u64 << 30) as f64
             ),
             ClusterError::Limit(e) => write!(f, "{e}, or cluster fewer items at once (e.g. per class or hour): n items need n(n-1)/2 x 8 bytes"),
+            ClusterError::CondensedLength(len) => write!(
+                f,
+                "condensed has {len} entries, which is n(n-1)/2 for no n: pass the upper triangle of an n x n distance matrix row by row (scipy's pdist / squareform layout)"
+            ),
+            ClusterError::CondensedValue { index, value } => write!(f, "condensed[{index}] must be >= 0 (or 'inf' for a cannot-link) and not NaN, got {value}"),
         }
     }
 }
@@ -320,6 +329,39 @@ struct Known {
     top: Option<f64>,
 }
 
+/// The dendrogram of a scipy-style condensed distance matrix (`pdist`'s layout: the upper
+/// triangle row by row, n(n−1)/2 entries, `+inf` = cannot-link) over the items 0..n−1. Single
+/// linkage reads `condensed` in place (no copy: O(n) memory); the other methods work on a copy.
+pub fn dendrogram_condensed(condensed: &[f64], method: Linkage) -> Result<Dendrogram, ClusterError> {
+    use rayon::prelude::*;
+    let len = condensed.len();
+    if len == 0 {
+        return Ok(Dendrogram { ids: vec![], merges: vec![] });
+    }
+    // n(n-1)/2 = len: n = (1 + sqrt(1 + 8 len)) / 2, checked exactly
+    let n = ((1.0 + (1.0 + 8.0 * len as f64).sqrt()) / 2.0).round() as usize;
+    if n * (n - 1) / 2 != len {
+        return Err(ClusterError::CondensedLength(len));
+    }
+    if n > MAX_ITEMS {
+        return Err(ClusterError::TooMany(n));
+    }
+    let bad = condensed.par_chunks(CHUNK).enumerate().filter_map(|(c, s)| s.iter().position(|d| !(*d >= 0.0)).map(|k| c * CHUNK + k)).min();
+    if let Some(k) = bad {
+        return Err(ClusterError::CondensedValue { index: k + 1, value: condensed[k] });
+    }
+    let ids: Vec<i64> = (0..n as i64).collect();
+    if method == Linkage::Single {
+        let oom = |_| ClusterError::Memory { items: n, bytes: n * 16 };
+        let raw = super::mst::mst(&Condensed::read_only(condensed, n).map_err(oom)?).map_err(oom)?;
+        let merges = label(n, raw, 1.0)?;
+        return Ok(Dendrogram { ids, merges });
+    }
+    let mut m = alloc_condensed(n, 0.0)?;
+    m.par_chunks_mut(CHUNK).zip(condensed.par_chunks(CHUNK)).for_each(|(d, s)| d.copy_from_slice(s));
+    linkage_condensed(ids, m, method)
+}
+
 /// A condensed matrix for `n` items filled with `value`, within the memory limit and fallibly.
 pub fn alloc_condensed(n: usize, value: f64) -> Result<Vec<f64>, ClusterError> {
     use rayon::prelude::*;
@@ -388,6 +430,15 @@ impl<'a> Condensed<'a> {
         start.try_reserve_exact(n)?;
         start.extend((0..n).map(|i| i * n - i * (i + 1) / 2));
         Ok(Condensed { ptr: m.as_mut_ptr(), len: m.len(), n, start, _m: std::marker::PhantomData })
+    }
+    /// A matrix that is only read: for [`super::mst`], which never calls [`Condensed::set`].
+    pub(super) fn read_only(m: &'a [f64], n: usize) -> Result<Self, std::collections::TryReserveError> {
+        assert_eq!(m.len(), n * n.saturating_sub(1) / 2);
+        let mut start = Vec::new();
+        start.try_reserve_exact(n)?;
+        start.extend((0..n).map(|i| i * n - i * (i + 1) / 2));
+        // the pointer is never written through (see above)
+        Ok(Condensed { ptr: m.as_ptr() as *mut f64, len: m.len(), n, start, _m: std::marker::PhantomData })
     }
     pub(super) fn n(&self) -> usize {
         self.n
@@ -489,7 +540,8 @@ fn linkage_known(ids: Vec<i64>, mut m: Vec<f64>, method: Linkage, known: Known) 
     }
     assert_eq!(m.len(), n * (n - 1) / 2, "linkage_condensed: a matrix of n(n-1)/2 entries");
     if method == Linkage::Ward && !known.complete {
-        if let Some(k) = m.par_iter().position_first(|d| d.is_infinite()) {
+        let first_inf = m.par_chunks(CHUNK).enumerate().filter_map(|(c, s)| s.iter().position(|d| d.is_infinite()).map(|k| c * CHUNK + k)).min();
+        if let Some(k) = first_inf {
             // Recover (i, j) of condensed index k.
             let mut i = 0;
             let mut row_start = 0;

@@ -846,6 +846,58 @@ mod tests {
         }
     }
 
+    /// scipy 1.17.1 `linkage` on condensed matrices of small integers (most heights tied;
+    /// benches/peers_cluster.py --pin writes `testdata/cluster_scipy_ties.json`): the same merges,
+    /// in the same order, through both entry points.
+    #[test]
+    fn pinned_ties_against_scipy() {
+        #[derive(serde::Deserialize)]
+        struct Case {
+            method: String,
+            condensed: Vec<f64>,
+            /// left, right, size
+            merges: Vec<[usize; 3]>,
+            /// decimal strings (parsed exactly here)
+            heights: Vec<String>,
+        }
+        #[derive(serde::Deserialize)]
+        struct Pins {
+            scipy: String,
+            cases: Vec<Case>,
+        }
+        let pins: Pins = serde_json::from_str(include_str!("testdata/cluster_scipy_ties.json")).unwrap();
+        assert!(pins.scipy.starts_with('1') && pins.cases.len() >= 50);
+        for (c, case) in pins.cases.iter().enumerate() {
+            let method = Linkage::parse(&case.method).unwrap();
+            let d = dendrogram_condensed(&case.condensed, method).unwrap();
+            let n = d.ids.len();
+            let mut pairs = Vec::new();
+            let mut k = 0;
+            for i in 0..n {
+                for j in i + 1..n {
+                    pairs.push((i as i64, j as i64, case.condensed[k]));
+                    k += 1;
+                }
+            }
+            assert_eq!(dendrogram(&pairs, method).unwrap(), d, "case {c}");
+            assert_eq!(d.merges.len(), case.merges.len());
+            for ((s, z), h) in d.merges.iter().zip(&case.merges).zip(&case.heights) {
+                assert_eq!([s.left, s.right, s.size], *z, "case {c} {}", case.method);
+                assert_eq!(s.distance, h.parse::<f64>().unwrap(), "case {c} {}", case.method);
+            }
+        }
+    }
+
+    #[test]
+    fn condensed_rules() {
+        assert_eq!(dendrogram_condensed(&[], Linkage::Single).unwrap().ids.len(), 0);
+        assert_eq!(dendrogram_condensed(&[1.0, 2.0], Linkage::Single).unwrap_err(), ClusterError::CondensedLength(2));
+        assert_eq!(dendrogram_condensed(&[1.0, -1.0, 2.0], Linkage::Average).unwrap_err(), ClusterError::CondensedValue { index: 2, value: -1.0 });
+        assert!(matches!(dendrogram_condensed(&[1.0, f64::INFINITY, 2.0], Linkage::Ward), Err(ClusterError::WardIncomplete { a: 0, b: 2 })));
+        let d = dendrogram_condensed(&[4.0], Linkage::Ward).unwrap();
+        assert_eq!(d.merges, vec![Merge { left: 0, right: 1, distance: 4.0, size: 2 }]);
+    }
+
     /// The five methods' Lance–Williams updates in their textbook form (not the algorithms'
     /// operation order).
     fn lance_williams(method: Linkage, dxi: f64, dyi: f64, dxy: f64, nx: f64, ny: f64, ni: f64) -> f64 {

@@ -3,15 +3,20 @@
 //! "infinite" must not share a cluster).
 //!
 //! # Input
-//! Pairs `(a, b, distance)`. Items are the ids that appear; they are indexed in increasing id
-//! order (index k = the k-th smallest id), which is the order of the dendrogram's leaves.
+//! Pairs `(a, b, distance)` ([`dendrogram_pairs`], three columns read in place). Items are the ids
+//! that appear; they are indexed in increasing id order (index k = the k-th smallest id), which
+//! is the order of the dendrogram's leaves. Or a scipy-style condensed matrix
+//! ([`dendrogram_condensed`], `pdist`'s layout) over the items 0..n−1.
 //! * a pair absent from the list, or with distance `+inf`, is infinitely far apart;
 //! * NaN or negative distances and self pairs `(a, a)` are errors; a duplicated pair keeps
 //!   its smallest distance (the closest evidence).
 //!
 //! # Methods and cannot-link
-//! The linkage is `kodama` (a port of fastcluster, the algorithms scipy uses): MST for single,
-//! nearest-neighbour chain for complete, average, weighted and ward. Infinite distances are
+//! The algorithms are scipy's (`scipy.cluster.hierarchy.linkage`, Müllner 2011): Prim's minimum
+//! spanning tree for single ([`super::mst`]), the nearest-neighbour chain for complete, average,
+//! weighted and ward ([`super::nn_chain`]); all five methods are reducible, so the generic
+//! algorithm (O(n³) worst case) is never needed, and it only lives in the tests as the slow,
+//! obviously right reference. Infinite distances are
 //! passed as `+inf` itself (no sentinel value that could leak into averages): the
 //! Lance–Williams updates of complete (max), average and weighted (weighted means with
 //! positive weights) keep `+inf` infinite, so two items at `+inf` can only meet in a merge at
@@ -35,18 +40,36 @@
 //! Clusters are numbered 1, 2, … in the order of their smallest id (scipy numbers them by its
 //! own traversal; the partition is the same, the numbers are not).
 //!
-//! # Ties
-//! Equal distances are resolved by kodama in the same way as fastcluster/scipy for single
-//! linkage (MST order); for the chain methods the merge order among exact ties can differ from
-//! scipy's, and then so can the dendrogram (not the partition at a threshold that does not
-//! fall on a tie). The pinned fixtures use distances without ties.
+//! # Ties: scipy's merges, bit for bit
+//! The merges are those of scipy 1.17's `linkage`, equal heights included (pinned:
+//! `testdata/cluster_scipy_ties.json`, 60 matrices of small integers; property test against a
+//! transcription of scipy's loops):
+//! * single: Prim from item 0 adds the outside item with the smallest `(distance to the tree,
+//!   index)`;
+//! * the chain methods: the chain starts at the smallest active index; the nearest neighbour of
+//!   the chain's end is the smallest `(distance, index)`, except that the element before it in
+//!   the chain wins a tie; the merged cluster keeps the larger index; the Lance–Williams updates
+//!   are computed with scipy's operations in scipy's order (ward: `sqrt` of the update, not
+//!   fastcluster's squared distances), so heights are the same doubles;
+//! * the merges are then sorted by height, **stably** (equal heights keep the order in which the
+//!   algorithm found them) and numbered by union–find (`left < right`), as scipy's `label`.
+//!
+//! Where scipy would meet `+inf` (which it never gets: it rejects non-finite input) the same
+//! rules apply with `+inf` as a value: a chain end whose every neighbour is at `+inf` takes the
+//! smallest active index. Merges at `+inf` come last; which groups they join is this rule's
+//! choice and has no meaning (no cut applies them).
 //!
 //! # Complexity
-//! O(n²) memory: one condensed matrix of n(n−1)/2 `f64`; 24 GiB holds n ≈ 80,000 (the cap
-//! [`MAX_ITEMS`]). Through SQL the list of pairs is the larger cost (24 bytes per pair in the
-//! list, plus DuckDB's own copy), so about n ≈ 25,000 with all pairs fits in 24 GiB; sparse pair
-//! lists (cannot-links left out) reach further. Time O(n²) for single (MST) and the chain
-//! methods (NN-chain, O(n²) for these reducible methods), plus O(P) to read P pairs (parallel).
+//! O(n²) memory: one condensed matrix of n(n−1)/2 `f64` (asked for in transparent huge pages on
+//! Linux: the column scans touch one cache line per row), within the `memory_bytes` limit;
+//! 24 GiB holds n ≈ 80,000 (the cap [`MAX_ITEMS`]). Besides it O(n): Prim and the chain keep
+//! lists of the active items, sizes and the chain; [`dendrogram_condensed`] with single linkage
+//! reads the caller's list in place. Through SQL the list of pairs is the larger cost (24 bytes
+//! per pair in the list, plus DuckDB's own copy), so about n ≈ 25,000 with all pairs fits in
+//! 24 GiB; sparse pair lists (cannot-links left out) reach further. Time O(n²) for every
+//! method (Prim; the NN-chain on reducible methods), plus O(P) to read P pairs: three parallel
+//! passes over the columns (id range, id marks, fill without locks) and a fourth only when the
+//! list holds duplicates.
 
 use crate::graph::UnionFind;
 use std::collections::HashMap;
@@ -240,7 +263,7 @@ fn finish(pairs: Pairs<'_>, ids: Vec<i64>, lookup: impl Fn(i64) -> usize + Sync,
     let n = ids.len();
     let Pairs { a, b, distance } = pairs;
     // self pairs are the only way to have a single item
-    if n > MAX_ITEMS || n < 2 {
+    if !(2..=MAX_ITEMS).contains(&n) {
         if let Some(e) = first_bad(pairs, 0..pairs.len()) {
             return Err(e);
         }
@@ -771,7 +794,7 @@ mod tests {
                 }
             }
         }
-        // the case: ward on 1e308 / 1.7e308 / 1e300 used to panic inside kodama
+        // the case: ward on 1e308 / 1.7e308 / 1e300 used to panic inside kodama (the former linkage crate)
         let d = dendrogram(&[(1, 2, 1e308), (2, 3, 1.7e308), (1, 3, 1e300)], Linkage::Ward).unwrap();
         assert!(d.merges.iter().all(|m| m.distance.is_finite() || m.distance == f64::INFINITY));
         assert_eq!(d.merges[0].distance, 1e300);

@@ -8,6 +8,6 @@
 //! | [`traj_cluster`] | `traj_cluster` | all pairwise S1/S2 distances in parallel, then [`linkage`] |
 
 pub mod linkage;
-mod mst;
-mod nn_chain;
+pub mod mst;
+pub mod nn_chain;
 pub mod traj_cluster;

@@ -83,6 +83,7 @@ fn nearest_par(m: &Condensed<'_>, x: u32, items: &[u32]) -> Option<(f64, u32)> {
 /// the same value as the division, from a table: a division per update costs more than the
 /// rest of it).
 #[inline(always)]
+#[allow(clippy::too_many_arguments)]
 fn update(method: Linkage, dxi: f64, dyi: f64, dxy: f64, nx: u32, ny: u32, ni: u32, recip: &[f64]) -> f64 {
     match method {
         Linkage::Complete => {

@@ -102,7 +102,7 @@ def bench(ext, n, reps, pairs_max):
     with_pairs = n <= pairs_max
     if with_pairs:
         iu = np.triu_indices(n, 1)
-        rows = pa.StructArray.from_arrays([pa.array(iu[0].astype(np.int64)), pa.array(iu[1].astype(np.int64)), pa.array(cond)], names=["a", "b", "distance"])
+        rows = pa.StructArray.from_arrays([pa.array(iu[0].astype(np.int64, copy=False)), pa.array(iu[1].astype(np.int64, copy=False)), pa.array(cond)], names=["a", "b", "distance"])
         del iu
         con.register("p", pa.table({"l": pa.LargeListArray.from_arrays(pa.array([0, len(cond)], pa.int64()), rows)}))
         con.execute("CREATE TABLE pairs AS SELECT l::STRUCT(a BIGINT, b BIGINT, distance DOUBLE)[] AS l FROM p")

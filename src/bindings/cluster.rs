@@ -2,7 +2,7 @@
 //! forms, traj_cluster.rs for trajectories in one call), Buzan et al. sections 4.3–4.5.
 
 use super::registry::{p, Function, Param, Signature, Ty, TRAJ};
-use super::vector::{Args, Column, Out, StructListCol, TextCol};
+use super::vector::{Args, Column, Out};
 use crate::algo::cluster::linkage::{self, Cut, Dendrogram, Linkage};
 use crate::algo::cluster::prototype;
 use crate::algo::cluster::traj_cluster::{self, Similarity};
@@ -13,16 +13,18 @@ type R = Result<(), Box<dyn Error>>;
 const LINKAGE: &str = "crates/algo/src/cluster/linkage.rs";
 
 const PAIRS: Ty = Ty::List(&Ty::Struct(&[("a", Ty::Bigint), ("b", Ty::Bigint), ("distance", Ty::Double)]));
+const DENDROGRAM: Ty = Ty::List(&Ty::Struct(&[("left", Ty::Bigint), ("right", Ty::Bigint), ("distance", Ty::Double), ("size", Ty::Bigint)]));
 const ASSIGNMENT: Ty = Ty::List(&Ty::Struct(&[("id", Ty::Bigint), ("cluster", Ty::Integer)]));
 const PROTOTYPE_ASSIGNMENT: Ty = Ty::List(&Ty::Struct(&[("id", Ty::Bigint), ("cluster", Ty::Integer), ("prototype", Ty::Bigint)]));
 const PAIRS_METHOD: [Param; 2] = [p("pairs", PAIRS), p("method", Ty::Varchar)];
+const CONDENSED_METHOD: [Param; 2] = [p("condensed", Ty::List(&Ty::Double)), p("method", Ty::Varchar)];
 
 pub static FUNCTIONS: &[Function] = &[
     Function {
         name: "agglomerative_cluster",
         description: "Hierarchical clustering of the ids in pairs (e.g. track pairs with 1 - lcss similarity as distance), cut so that every merge \
                       of height <= threshold is applied (scipy fcluster 'distance'). method: 'single', 'complete', 'average', 'weighted' or 'ward' \
-                      (kodama, the fastcluster algorithms scipy uses). A pair absent from the list, or with distance 'inf', is a cannot-link: under \
+                      (scipy's algorithms and merge order, ties included: Prim's minimum spanning tree for single, the nearest-neighbour chain for the others). A pair absent from the list, or with distance 'inf', is a cannot-link: under \
                       complete, average and weighted linkage such ids never share a cluster; single linkage still joins them through a chain of close \
                       pairs (its definition). Ward assumes Euclidean distances and needs every pair: missing or infinite pairs are an error. \
                       Clusters are numbered 1.. by their smallest id; duplicated pairs keep the smallest distance; NaN or negative distances and \
@@ -30,12 +32,7 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT agglomerative_cluster([{'a': 1, 'b': 2, 'distance': 0.1}, {'a': 2, 'b': 3, 'distance': 0.2}, {'a': 1, 'b': 3, 'distance': 0.9}], 'average', 0.3); -- [{'id': 1, 'cluster': 1}, {'id': 2, 'cluster': 1}, {'id': 3, 'cluster': 2}]",
         maths: LINKAGE,
         binding: file!(),
-        signatures: &[Signature {
-            params: &[PAIRS_METHOD[0], PAIRS_METHOD[1], p("threshold", Ty::Double)],
-            arities: &[],
-            returns: ASSIGNMENT,
-            kernel: cluster_threshold,
-        }],
+        signatures: &[Signature { params: &[PAIRS_METHOD[0], PAIRS_METHOD[1], p("threshold", Ty::Double)], arities: &[], returns: ASSIGNMENT, kernel: cluster_threshold }],
         table: None,
     },
     Function {
@@ -46,27 +43,30 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT agglomerative_cluster_k([{'a': 1, 'b': 2, 'distance': 0.1}, {'a': 2, 'b': 3, 'distance': 0.2}, {'a': 1, 'b': 3, 'distance': 0.9}], 'single', 1); -- [{'id': 1, 'cluster': 1}, {'id': 2, 'cluster': 1}, {'id': 3, 'cluster': 1}]",
         maths: LINKAGE,
         binding: file!(),
-        signatures: &[Signature {
-            params: &[PAIRS_METHOD[0], PAIRS_METHOD[1], p("k", Ty::Bigint)],
-            arities: &[],
-            returns: ASSIGNMENT,
-            kernel: cluster_k,
-        }],
+        signatures: &[Signature { params: &[PAIRS_METHOD[0], PAIRS_METHOD[1], p("k", Ty::Bigint)], arities: &[], returns: ASSIGNMENT, kernel: cluster_k }],
         table: None,
     },
     Function {
         name: "agglomerative_dendrogram",
         description: "The merges in scipy's linkage format, for plotting: leaves 0..n-1 are the ids in increasing order, merge i creates cluster n + i; \
-                      left < right; distance 'inf' for merges forced across cannot-link pairs. Same methods and input rules as agglomerative_cluster.",
+                      left < right; distance 'inf' for merges forced across cannot-link pairs. Same methods and input rules as agglomerative_cluster (a condensed matrix: \
+                      agglomerative_dendrogram_condensed). Equal heights keep scipy's order (the merges are scipy.cluster.hierarchy.linkage's, ties included).",
         example: "SELECT agglomerative_dendrogram([{'a': 7, 'b': 9, 'distance': 0.5}, {'a': 7, 'b': 8, 'distance': 0.25}, {'a': 8, 'b': 9, 'distance': 1}], 'complete'); -- [{'left': 0, 'right': 1, 'distance': 0.25, 'size': 2}, {'left': 2, 'right': 3, 'distance': 1.0, 'size': 3}]",
         maths: LINKAGE,
         binding: file!(),
-        signatures: &[Signature {
-            params: &PAIRS_METHOD,
-            arities: &[],
-            returns: Ty::List(&Ty::Struct(&[("left", Ty::Bigint), ("right", Ty::Bigint), ("distance", Ty::Double), ("size", Ty::Bigint)])),
-            kernel: dendrogram,
-        }],
+        signatures: &[Signature { params: &PAIRS_METHOD, arities: &[], returns: DENDROGRAM, kernel: dendrogram }],
+        table: None,
+    },
+    Function {
+        name: "agglomerative_dendrogram_condensed",
+        description: "agglomerative_dendrogram of a scipy-style condensed distance matrix instead of pairs: the upper triangle of the n x n \
+                      matrix row by row, n(n-1)/2 values (scipy.spatial.distance.pdist's layout, what scipy.cluster.hierarchy.linkage takes); \
+                      'inf' is a cannot-link. The leaves are 0..n-1. Same methods, rules and merges (scipy's, ties included); single linkage reads \
+                      the list in place, without a copy of the matrix. Errors: a length that is n(n-1)/2 for no n, NaN or negative values.",
+        example: "SELECT agglomerative_dendrogram_condensed([0.5, 0.25, 1.0], 'complete'); -- [{'left': 0, 'right': 2, 'distance': 0.25, 'size': 2}, {'left': 1, 'right': 3, 'distance': 1.0, 'size': 3}]",
+        maths: LINKAGE,
+        binding: file!(),
+        signatures: &[Signature { params: &CONDENSED_METHOD, arities: &[], returns: DENDROGRAM, kernel: dendrogram_condensed }],
         table: None,
     },
     Function {
@@ -130,12 +130,16 @@ pub static FUNCTIONS: &[Function] = &[
     },
 ];
 
-/// The dendrogram of one row's pairs and method.
-fn dendrogram_of(pairs: &StructListCol<'_>, methods: &TextCol<'_>, r: usize) -> Result<Option<Dendrogram>, Box<dyn Error>> {
-    let (Some(rows), Some(method)) = (pairs.get(r)?, methods.get(r)) else { return Ok(None) };
-    let method = Linkage::parse(&method)?;
-    let p: Vec<(i64, i64, f64)> = (0..rows.len()).map(|k| (rows.i64(0)[k], rows.i64(1)[k], rows.f64(2)[k])).collect();
-    Ok(Some(linkage::dendrogram(&p, method)?))
+/// The dendrogram of one row's pairs (or condensed matrix) and method.
+fn dendrogram_of(a: &Args<'_>, condensed: bool, r: usize) -> Result<Option<Dendrogram>, Box<dyn Error>> {
+    let Some(method) = a.text(1).get(r) else { return Ok(None) };
+    if condensed {
+        let Some(m) = a.f64_list(0).get(r)? else { return Ok(None) };
+        return Ok(Some(linkage::dendrogram_condensed(m, Linkage::parse(&method)?)?));
+    }
+    let Some(rows) = a.struct_list(0).get(r)? else { return Ok(None) };
+    let p = linkage::Pairs { a: rows.i64(0), b: rows.i64(1), distance: rows.f64(2) };
+    Ok(Some(linkage::dendrogram_pairs(p, Linkage::parse(&method)?)?))
 }
 
 /// Writes `STRUCT(id BIGINT, cluster INTEGER)[]` rows.
@@ -145,12 +149,11 @@ fn write_assignments(out: &mut Out<'_>, vals: &[Option<(Vec<i64>, Vec<u32>)>]) {
     out.struct_lists(&cols);
 }
 
-/// Both flat cuts; `cut` reads column 2 of a row.
-fn cluster_with(a: &Args<'_>, out: &mut Out<'_>, cut: impl Fn(usize) -> Result<Option<Cut>, Box<dyn Error>>) -> R {
-    let (pairs, methods) = (a.struct_list(0), a.text(1));
+/// Both flat cuts (of pairs; `condensed` for a condensed matrix); `cut` reads column 2 of a row.
+fn cluster_with(a: &Args<'_>, out: &mut Out<'_>, condensed: bool, cut: impl Fn(usize) -> Result<Option<Cut>, Box<dyn Error>>) -> R {
     let vals = a.map(|r| {
         let Some(c) = cut(r)? else { return Ok(None) };
-        let Some(d) = dendrogram_of(&pairs, &methods, r)? else { return Ok(None) };
+        let Some(d) = dendrogram_of(a, condensed, r)? else { return Ok(None) };
         let labels = linkage::flat(&d, c);
         Ok(Some((d.ids, labels)))
     })?;
@@ -160,18 +163,17 @@ fn cluster_with(a: &Args<'_>, out: &mut Out<'_>, cut: impl Fn(usize) -> Result<O
 
 fn cluster_threshold(a: &Args<'_>, out: &mut Out<'_>) -> R {
     let t = a.double(2);
-    cluster_with(a, out, |r| Ok(t.get(r).map(Cut::threshold).transpose()?))
+    cluster_with(a, out, false, |r| Ok(t.get(r).map(Cut::threshold).transpose()?))
 }
 
 fn cluster_k(a: &Args<'_>, out: &mut Out<'_>) -> R {
     let k = a.bigint(2);
-    cluster_with(a, out, |r| Ok(k.get(r).map(Cut::k).transpose()?))
+    cluster_with(a, out, false, |r| Ok(k.get(r).map(Cut::k).transpose()?))
 }
 
-fn dendrogram(a: &Args<'_>, out: &mut Out<'_>) -> R {
-    let (pairs, methods) = (a.struct_list(0), a.text(1));
+fn write_dendrogram(a: &Args<'_>, out: &mut Out<'_>, condensed: bool) -> R {
     let vals = a.map(|r| {
-        let Some(d) = dendrogram_of(&pairs, &methods, r)? else { return Ok(None) };
+        let Some(d) = dendrogram_of(a, condensed, r)? else { return Ok(None) };
         let m = &d.merges;
         Ok(Some((
             m.iter().map(|x| x.left as i64).collect::<Vec<_>>(),
@@ -184,6 +186,12 @@ fn dendrogram(a: &Args<'_>, out: &mut Out<'_>) -> R {
         vals.iter().map(|v| v.as_ref().map(|(l, r, d, s)| vec![Column::I64(l), Column::I64(r), Column::F64(d), Column::I64(s)])).collect();
     out.struct_lists(&cols);
     Ok(())
+}
+fn dendrogram(a: &Args<'_>, out: &mut Out<'_>) -> R {
+    write_dendrogram(a, out, false)
+}
+fn dendrogram_condensed(a: &Args<'_>, out: &mut Out<'_>) -> R {
+    write_dendrogram(a, out, true)
 }
 
 fn traj_cluster(a: &Args<'_>, out: &mut Out<'_>) -> R {

@@ -1,10 +1,16 @@
-//! Times agglomerative clustering on n random 2-D points (all pairs) without DuckDB:
-//! `cargo run --release --no-default-features --example cluster_timing -- 5000`
+//! Times agglomerative clustering on n random 2-D points (all pairs) without DuckDB, in phases:
+//! pairs -> dendrogram, and the linkage alone on a ready matrix (best of REPS=3).
+//! `cargo run --release -p trajdb-algo --example cluster_timing -- 5000 [method ...]`
 use std::time::Instant;
-use trajdb_algo::cluster::linkage::{dendrogram, Linkage};
+use trajdb_algo::cluster::linkage::{dendrogram_pairs, linkage_condensed, Linkage, Pairs};
 
 fn main() {
-    let n: usize = std::env::args().nth(1).and_then(|s| s.parse().ok()).unwrap_or(5000);
+    let mut args = std::env::args().skip(1);
+    let n: usize = args.next().and_then(|s| s.parse().ok()).unwrap_or(5000);
+    let mut methods: Vec<String> = args.collect();
+    if methods.is_empty() {
+        methods = ["single", "complete", "average", "weighted", "ward"].map(String::from).to_vec();
+    }
     let mut s = 5u64;
     let mut rnd = || {
         s ^= s << 13;
@@ -13,15 +19,31 @@ fn main() {
         (s >> 11) as f64 / (1u64 << 53) as f64 * 1000.0
     };
     let pts: Vec<(f64, f64)> = (0..n).map(|_| (rnd(), rnd())).collect();
-    let mut pairs = Vec::with_capacity(n * (n - 1) / 2);
+    let len = n * (n - 1) / 2;
+    let (mut a, mut b, mut d) = (Vec::with_capacity(len), Vec::with_capacity(len), Vec::with_capacity(len));
     for i in 0..n {
         for j in i + 1..n {
-            pairs.push((i as i64, j as i64, ((pts[i].0 - pts[j].0).powi(2) + (pts[i].1 - pts[j].1).powi(2)).sqrt()));
+            a.push(i as i64);
+            b.push(j as i64);
+            d.push(((pts[i].0 - pts[j].0).powi(2) + (pts[i].1 - pts[j].1).powi(2)).sqrt());
         }
     }
-    for m in ["single", "complete", "average", "weighted", "ward"] {
-        let t = Instant::now();
-        let d = dendrogram(&pairs, Linkage::parse(m).unwrap()).unwrap();
-        println!("{m:9} n={n}: {:.3} s (last merge {:.3})", t.elapsed().as_secs_f64(), d.merges.last().unwrap().distance);
+    let ids: Vec<i64> = (0..n as i64).collect();
+    let reps: usize = std::env::var("REPS").ok().and_then(|s| s.parse().ok()).unwrap_or(3);
+    for m in &methods {
+        let method = Linkage::parse(m).unwrap();
+        let (mut total, mut link) = (f64::INFINITY, f64::INFINITY);
+        for _ in 0..reps {
+            let t = Instant::now();
+            let full = dendrogram_pairs(Pairs { a: &a, b: &b, distance: &d }, method).unwrap();
+            total = total.min(t.elapsed().as_secs_f64());
+            let mut m2 = trajdb_algo::cluster::linkage::alloc_condensed(n, 0.0).unwrap();
+            m2.copy_from_slice(&d);
+            let t = Instant::now();
+            let only = linkage_condensed(ids.clone(), m2, method).unwrap();
+            link = link.min(t.elapsed().as_secs_f64());
+            assert_eq!(full, only);
+        }
+        println!("{m:9} n={n}: pairs->dendrogram {total:.3} s, linkage alone {link:.3} s (best of {reps})");
     }
 }

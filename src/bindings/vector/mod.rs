@@ -20,7 +20,7 @@ mod read;
 pub mod table;
 mod write;
 
-pub use read::{I64ListCol, OptCol, OptRegionCol, PrimCol, RegionCol, RegionListCol, Rows, SeriesCol, StructCol, StructListCol, TextCol, Traj3Col, TrajCol, TrajListCol};
+pub use read::{F64ListCol, I64ListCol, OptCol, OptRegionCol, PrimCol, RegionCol, RegionListCol, Rows, SeriesCol, StructCol, StructListCol, TextCol, Traj3Col, TrajCol, TrajListCol};
 pub use write::{chunk_set_bool, chunk_set_f64, chunk_set_i64, chunk_set_null, Column, Out, Value};
 
 use super::types::{Param, Ty};
@@ -115,7 +115,14 @@ impl<'a> Args<'a> {
         TrajListCol::new(self.chunk, col, self.name(col))
     }
     pub fn i64_list(&self, col: usize) -> I64ListCol<'a> {
-        I64ListCol::new(self.chunk, col, self.name(col))
+        debug_assert!(matches!(self.params[col].ty, Ty::List(Ty::Bigint)));
+        // SAFETY: the registered signature declares `col` as BIGINT[].
+        unsafe { I64ListCol::new(self.chunk, col, self.name(col)) }
+    }
+    pub fn f64_list(&self, col: usize) -> F64ListCol<'a> {
+        debug_assert!(matches!(self.params[col].ty, Ty::List(Ty::Double)));
+        // SAFETY: the registered signature declares `col` as DOUBLE[].
+        unsafe { F64ListCol::new(self.chunk, col, self.name(col)) }
     }
     /// A `LIST(STRUCT)` argument with the fields of its declared type.
     pub fn struct_list(&self, col: usize) -> StructListCol<'a> {

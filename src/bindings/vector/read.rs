@@ -329,22 +329,29 @@ impl<'a> TrajListCol<'a> {
 }
 
 /// A `BIGINT[]` argument.
-pub struct I64ListCol<'a> {
+pub type I64ListCol<'a> = PrimListCol<'a, i64>;
+/// A `DOUBLE[]` argument.
+pub type F64ListCol<'a> = PrimListCol<'a, f64>;
+
+/// A list of a fixed-width type (`BIGINT[]` → i64, `DOUBLE[]` → f64), read in place.
+pub struct PrimListCol<'a, T> {
     lists: Lists<'a>,
-    data: &'a [i64],
+    data: &'a [T],
     validity: Validity,
     param: &'static str,
 }
 
-impl<'a> I64ListCol<'a> {
-    pub(super) fn new(chunk: &'a DataChunkHandle, col: usize, param: &'static str) -> Self {
-        // SAFETY: the signature declares `col` as LIST(BIGINT); its child holds `child_len` BIGINTs.
+impl<'a, T> PrimListCol<'a, T> {
+    /// # Safety
+    /// The signature declares `col` as a LIST of the SQL type whose values are `T`.
+    pub(super) unsafe fn new(chunk: &'a DataChunkHandle, col: usize, param: &'static str) -> Self {
+        // SAFETY: the child of the LIST vector holds `child_len` values of type T (caller).
         unsafe {
             let lists = Lists::of(vector(chunk, col), chunk.len());
-            I64ListCol { data: data(lists.child, lists.child_len), validity: Validity::of(lists.child), lists, param }
+            PrimListCol { data: data(lists.child, lists.child_len), validity: Validity::of(lists.child), lists, param }
         }
     }
-    pub fn get(&self, row: usize) -> Res<Option<&'a [i64]>> {
+    pub fn get(&self, row: usize) -> Res<Option<&'a [T]>> {
         let Some(r) = self.lists.range(row) else { return Ok(None) };
         if let Some(k) = self.validity.first_null(r.clone()) {
             return Err(format!("{}[{}] is NULL", self.param, k - r.start + 1).into());

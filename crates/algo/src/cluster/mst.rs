@@ -1,0 +1,133 @@
+//! Single linkage by Prim's minimum spanning tree on the condensed matrix (Müllner 2011,
+//! "Modern hierarchical, agglomerative clustering algorithms", fig. 6; scipy's
+//! `mst_single_linkage`, fastcluster's `MST_linkage_core`).
+//!
+//! Starting from item 0, every step adds the item `y` outside the tree whose distance to the
+//! tree, `D[y] = min over tree items t of d(t, y)`, is smallest, after updating `D` with the
+//! item `x` added last: `D[i] <- min(D[i], d(x, i))`. The step is recorded as `(x, y, D[y])`;
+//! sorted by height (stably) and relabelled by union–find ([`super::linkage`]) these n − 1
+//! edges are the single-linkage dendrogram (Müllner, theorem 3: every item added between the
+//! tree end of `y`'s edge and `x` joined at a height `<= D[y]`).
+//!
+//! # Ties and cannot-links
+//! `y` is the item with the smallest `(D[y], y)`: among equal distances the smallest index,
+//! which is scipy's choice (its scan keeps the first strict minimum in index order), so the
+//! steps are scipy's, ties included. `+inf` (cannot-link) is an ordinary value here: when every
+//! item outside the tree is at `+inf`, the smallest index is added at height `+inf`.
+//!
+//! # Complexity
+//! O(n²) time (every entry of the matrix is read once), O(n) memory besides the matrix (the
+//! items outside the tree with their `D`, in index order, finished items marked NaN and
+//! squeezed out when they are a quarter). For large n each step's scan runs in parallel chunks
+//! (rayon), each returning its own minimum.
+
+use super::linkage::{Condensed, RawMerge};
+use rayon::prelude::*;
+
+/// Below this many items outside the tree a step is scanned on one thread (a rayon split costs
+/// a few microseconds; a step over 4,096 items about as much).
+const PAR_MIN: usize = 4096;
+/// Items per parallel chunk.
+const CHUNK: usize = 2048;
+
+/// The smallest `(D, index)` of a chunk: `(distance, item, position)`; `None` if every item of
+/// the chunk is finished.
+type Best = Option<(f64, u32, usize)>;
+
+fn better(a: Best, b: Best) -> Best {
+    match (a, b) {
+        (Some(x), Some(y)) => Some(if (y.0, y.1) < (x.0, x.1) { y } else { x }),
+        (x, None) => x,
+        (None, y) => y,
+    }
+}
+
+/// Updates `dmin` with the distances to `x` and returns the chunk's best; `base` is the position
+/// of the chunk's first item. Finished items have `dmin` NaN and are never chosen.
+#[inline]
+fn scan(m: &Condensed<'_>, x: u32, items: &[u32], dmin: &mut [f64], base: usize) -> Best {
+    // items are increasing: those below x read column x (one per row), the others row x
+    let split = items.partition_point(|&i| i < x);
+    let mut best_d = f64::INFINITY;
+    let mut best_k = usize::MAX;
+    let xs = x as usize;
+    for k in 0..split {
+        let d = m.get_lower(items[k] as usize, xs);
+        let v = &mut dmin[k];
+        if d < *v {
+            *v = d;
+        }
+        if *v < best_d {
+            best_d = *v;
+            best_k = k;
+        }
+    }
+    let row = m.row(xs);
+    // x itself may still be listed (finished, NaN) until the next squeeze
+    let from = if split < items.len() && items[split] == x { split + 1 } else { split };
+    for k in from..items.len() {
+        let d = row[items[k] as usize - xs - 1];
+        let v = &mut dmin[k];
+        if d < *v {
+            *v = d;
+        }
+        if *v < best_d {
+            best_d = *v;
+            best_k = k;
+        }
+    }
+    if best_k == usize::MAX {
+        // every live item at +inf (or none live): the first live one
+        best_k = dmin.iter().position(|v| !v.is_nan())?;
+    }
+    Some((best_d, items[best_k], base + best_k))
+}
+
+/// The n − 1 Prim steps `(x, y, height)` in the order they are taken (unsorted).
+pub(super) fn mst(m: &Condensed<'_>) -> Result<Vec<RawMerge>, std::collections::TryReserveError> {
+    let n = m.n();
+    let mut steps = Vec::new();
+    steps.try_reserve_exact(n.saturating_sub(1))?;
+    if n < 2 {
+        return Ok(steps);
+    }
+    let mut items: Vec<u32> = Vec::new();
+    items.try_reserve_exact(n - 1)?;
+    items.extend(1..n as u32);
+    let mut dmin: Vec<f64> = Vec::new();
+    dmin.try_reserve_exact(n - 1)?;
+    dmin.resize(n - 1, f64::INFINITY);
+    let mut finished = 0usize;
+    let mut x = 0u32;
+    for _ in 0..n - 1 {
+        let best = if items.len() >= PAR_MIN {
+            items
+                .par_chunks(CHUNK)
+                .zip(dmin.par_chunks_mut(CHUNK))
+                .enumerate()
+                .map(|(c, (it, dm))| scan(m, x, it, dm, c * CHUNK))
+                .reduce(|| None, better)
+        } else {
+            scan(m, x, &items, &mut dmin, 0)
+        };
+        let (d, y, k) = best.expect("an item outside the tree remains");
+        steps.push(RawMerge { x, y, distance: d });
+        dmin[k] = f64::NAN;
+        finished += 1;
+        x = y;
+        if finished * 4 > items.len() {
+            let mut w = 0;
+            for r in 0..items.len() {
+                if !dmin[r].is_nan() {
+                    items[w] = items[r];
+                    dmin[w] = dmin[r];
+                    w += 1;
+                }
+            }
+            items.truncate(w);
+            dmin.truncate(w);
+            finished = 0;
+        }
+    }
+    Ok(steps)
+}

@@ -596,7 +596,7 @@ SELECT reason, count(*) AS tracks_dropped FROM clean_dropped GROUP BY reason ORD
 -- reads: points, calib_cameras, calib_fit_window, calibrated(), calibrated_values()
 -- makes: quality_endpoints, quality_views, quality_start_density, quality_candidates, quality_breaks,
 --        quality_events, quality_labels, quality_links, quality_reach_links, quality_flags
--- work: quality_fit, quality_events_cv, quality_reach, points_linked
+-- work: quality_fit, quality_events_cv, quality_reach
 -- changes: points
 -- parameters: quality_inset, quality_max_dist, quality_max_gap
 --
@@ -622,7 +622,7 @@ SELECT reason, count(*) AS tracks_dropped FROM clean_dropped GROUP BY reason ORD
 --   quality_reach_links(camera, from_id, to_id)       'reach' links between chains (merge.sql offers them last)
 --   quality_flags(camera, track_id, flag)             'split' / 'merge' participants
 --   quality_labels(camera, track_id, label, coherence) object / fragment / group (traj_labels, motion coherency)
---   points_linked                                     points with track_id replaced by linked_id (and `points` becomes it)
+--   points                                            (changed) track_id replaced by linked_id
 --
 -- Links (docs/association.md): from the measured noise, not from fixed distances. Every end and
 -- start of one camera and class within quality_max_gap (2.5 s) and inside the view (more than
@@ -641,7 +641,7 @@ SELECT reason, count(*) AS tracks_dropped FROM clean_dropped GROUP BY reason ORD
 -- 0.906 -> 0.973 at link precision 1.000, dut_roundabout_2cam 1.000 / 1.000; waiting crowds at
 -- sigma 0.15-0.3 m: link precision 0.91-0.96 -> 1.000.
 --
--- It ends by replacing `points` with `points_linked` (the original rows stay in
+-- It ends by replacing `points`' track_id by linked_id (the original rows stay in
 -- quality_endpoints / quality_links), so the cross-camera stages run on linked tracks.
 -- Parameters (quality_*): declared once in src/app/params.rs, defaults in sql/params.sql;
 -- `trajdb params` lists them, `trajdb pipeline --param name=value` or SET VARIABLE sets them.
@@ -839,12 +839,11 @@ SELECT DISTINCT camera, ev.from_id AS track_id, ev.kind AS flag FROM quality_eve
 UNION
 SELECT DISTINCT camera, ev.to_id, ev.kind FROM quality_events WHERE ev.kind IN ('split', 'merge');
 
-CREATE OR REPLACE TEMP TABLE points_linked AS
+-- The later stages work on the linked tracks. (In place: a second copy of every point, kept as
+-- points_linked, was 150 MB of a day's peak memory.)
+CREATE OR REPLACE TEMP TABLE points AS
 SELECT p.* REPLACE (coalesce(l.linked_id, p.track_id) AS track_id)
 FROM points p LEFT JOIN quality_links l USING (camera, track_id);
-
--- The later stages work on the linked tracks.
-CREATE OR REPLACE TEMP TABLE points AS SELECT * FROM points_linked;
 
 SELECT ev.kind, count(*) AS events FROM quality_events GROUP BY ev.kind ORDER BY ev.kind;
 SELECT label, count(*) AS tracks FROM quality_labels GROUP BY label ORDER BY label;
@@ -1503,6 +1502,11 @@ FROM calibration_summary s
 LEFT JOIN cams c1 ON c1.camera = try_cast(regexp_extract(s.scope, '^cameras? (-?[0-9]+)', 1) AS INTEGER)
 LEFT JOIN cams c2 ON c2.camera = try_cast(regexp_extract(s.scope, '^cameras -?[0-9]+-(-?[0-9]+)$', 1) AS INTEGER)
 LEFT JOIN cams cv ON s.scope = 'pipeline' AND s.quantity IN ('reference camera', 'cluster_camera') AND cv.camera = s.value;
+
+-- align_tracks (every track's path, resampled) and align_keys have served: dropped, not kept for
+-- the rest of the run (memory). IF EXISTS: a window run never makes them.
+DROP TABLE IF EXISTS align_tracks;
+DROP TABLE IF EXISTS align_keys;
 ;
 -- stage: overlap
 -- reads: points, calib_cameras, align_frames
@@ -1555,6 +1559,9 @@ FROM (
     FROM view_points
     GROUP BY GROUPING SETS ((camera, class), (camera))
 ) h LEFT JOIN calib_cameras n USING (camera));
+-- view_points (every real point in the reference frame) has served: dropped, not kept for the
+-- rest of the run (100 MB of a day's peak memory). IF EXISTS: a window run never makes it.
+DROP TABLE IF EXISTS view_points;
 
 CREATE OR REPLACE TEMP TABLE view_overlaps AS
 SELECT *, polygon_area(polygon) AS area_m2 FROM (

@@ -652,3 +652,8 @@ FROM calibration_summary s
 LEFT JOIN cams c1 ON c1.camera = try_cast(regexp_extract(s.scope, '^cameras? (-?[0-9]+)', 1) AS INTEGER)
 LEFT JOIN cams c2 ON c2.camera = try_cast(regexp_extract(s.scope, '^cameras -?[0-9]+-(-?[0-9]+)$', 1) AS INTEGER)
 LEFT JOIN cams cv ON s.scope = 'pipeline' AND s.quantity IN ('reference camera', 'cluster_camera') AND cv.camera = s.value;
+
+-- align_tracks (every track's path, resampled) and align_keys have served: dropped, not kept for
+-- the rest of the run (memory). IF EXISTS: a window run never makes them.
+DROP TABLE IF EXISTS align_tracks;
+DROP TABLE IF EXISTS align_keys;

@@ -2,7 +2,7 @@
 -- reads: points, calib_cameras, calib_fit_window, calibrated(), calibrated_values()
 -- makes: quality_endpoints, quality_views, quality_start_density, quality_candidates, quality_breaks,
 --        quality_events, quality_labels, quality_links, quality_reach_links, quality_flags
--- work: quality_fit, quality_events_cv, quality_reach, points_linked
+-- work: quality_fit, quality_events_cv, quality_reach
 -- changes: points
 -- parameters: quality_inset, quality_max_dist, quality_max_gap
 --
@@ -28,7 +28,7 @@
 --   quality_reach_links(camera, from_id, to_id)       'reach' links between chains (merge.sql offers them last)
 --   quality_flags(camera, track_id, flag)             'split' / 'merge' participants
 --   quality_labels(camera, track_id, label, coherence) object / fragment / group (traj_labels, motion coherency)
---   points_linked                                     points with track_id replaced by linked_id (and `points` becomes it)
+--   points                                            (changed) track_id replaced by linked_id
 --
 -- Links (docs/association.md): from the measured noise, not from fixed distances. Every end and
 -- start of one camera and class within quality_max_gap (2.5 s) and inside the view (more than
@@ -47,7 +47,7 @@
 -- 0.906 -> 0.973 at link precision 1.000, dut_roundabout_2cam 1.000 / 1.000; waiting crowds at
 -- sigma 0.15-0.3 m: link precision 0.91-0.96 -> 1.000.
 --
--- It ends by replacing `points` with `points_linked` (the original rows stay in
+-- It ends by replacing `points`' track_id by linked_id (the original rows stay in
 -- quality_endpoints / quality_links), so the cross-camera stages run on linked tracks.
 -- Parameters (quality_*): declared once in src/app/params.rs, defaults in sql/params.sql;
 -- `trajdb params` lists them, `trajdb pipeline --param name=value` or SET VARIABLE sets them.
@@ -245,12 +245,11 @@ SELECT DISTINCT camera, ev.from_id AS track_id, ev.kind AS flag FROM quality_eve
 UNION
 SELECT DISTINCT camera, ev.to_id, ev.kind FROM quality_events WHERE ev.kind IN ('split', 'merge');
 
-CREATE OR REPLACE TEMP TABLE points_linked AS
+-- The later stages work on the linked tracks. (In place: a second copy of every point, kept as
+-- points_linked, was 150 MB of a day's peak memory.)
+CREATE OR REPLACE TEMP TABLE points AS
 SELECT p.* REPLACE (coalesce(l.linked_id, p.track_id) AS track_id)
 FROM points p LEFT JOIN quality_links l USING (camera, track_id);
-
--- The later stages work on the linked tracks.
-CREATE OR REPLACE TEMP TABLE points AS SELECT * FROM points_linked;
 
 SELECT ev.kind, count(*) AS events FROM quality_events GROUP BY ev.kind ORDER BY ev.kind;
 SELECT label, count(*) AS tracks FROM quality_labels GROUP BY label ORDER BY label;

@@ -1505,8 +1505,10 @@ LEFT JOIN cams cv ON s.scope = 'pipeline' AND s.quantity IN ('reference camera',
 
 -- align_tracks (every track's path, resampled) and align_keys have served: dropped, not kept for
 -- the rest of the run (memory). IF EXISTS: a window run never makes them.
-DROP TABLE IF EXISTS align_tracks;
-DROP TABLE IF EXISTS align_keys;
+-- Qualified temp.main: an unqualified name would reach a table of the user's own of that name
+-- when the temporary one is absent.
+DROP TABLE IF EXISTS temp.main.align_tracks;
+DROP TABLE IF EXISTS temp.main.align_keys;
 ;
 -- stage: overlap
 -- reads: points, calib_cameras, align_frames
@@ -1561,7 +1563,9 @@ FROM (
 ) h LEFT JOIN calib_cameras n USING (camera));
 -- view_points (every real point in the reference frame) has served: dropped, not kept for the
 -- rest of the run (100 MB of a day's peak memory). IF EXISTS: a window run never makes it.
-DROP TABLE IF EXISTS view_points;
+-- Qualified temp.main: an unqualified name would reach a table of the user's own of that name
+-- when the temporary one is absent.
+DROP TABLE IF EXISTS temp.main.view_points;
 
 CREATE OR REPLACE TEMP TABLE view_overlaps AS
 SELECT *, polygon_area(polygon) AS area_m2 FROM (

@@ -655,5 +655,7 @@ LEFT JOIN cams cv ON s.scope = 'pipeline' AND s.quantity IN ('reference camera',
 
 -- align_tracks (every track's path, resampled) and align_keys have served: dropped, not kept for
 -- the rest of the run (memory). IF EXISTS: a window run never makes them.
-DROP TABLE IF EXISTS align_tracks;
-DROP TABLE IF EXISTS align_keys;
+-- Qualified temp.main: an unqualified name would reach a table of the user's own of that name
+-- when the temporary one is absent.
+DROP TABLE IF EXISTS temp.main.align_tracks;
+DROP TABLE IF EXISTS temp.main.align_keys;

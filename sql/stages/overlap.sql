@@ -51,7 +51,9 @@ FROM (
 ) h LEFT JOIN calib_cameras n USING (camera));
 -- view_points (every real point in the reference frame) has served: dropped, not kept for the
 -- rest of the run (100 MB of a day's peak memory). IF EXISTS: a window run never makes it.
-DROP TABLE IF EXISTS view_points;
+-- Qualified temp.main: an unqualified name would reach a table of the user's own of that name
+-- when the temporary one is absent.
+DROP TABLE IF EXISTS temp.main.view_points;
 
 CREATE OR REPLACE TEMP TABLE view_overlaps AS
 SELECT *, polygon_area(polygon) AS area_m2 FROM (

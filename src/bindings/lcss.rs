@@ -152,11 +152,14 @@ fn time_window_rows<T: Send, E: Error + 'static>(
     f: impl Fn(crate::algo::traj::Traj<'_>, crate::algo::traj::Traj<'_>, &TimeWindowParams, Option<&crate::algo::geometry::region::Region>) -> Result<T, E> + Sync,
 ) -> Result<Vec<Option<T>>, Box<dyn Error>> {
     let (ta, tb, params, region) = (a.traj(0), a.traj(1), tw_params(a), a.opt_region(5));
-    // the polygons first, in row order (parsed once per distinct polygon), then the rows on all cores
-    let regions = a.map(|r| Ok(Some(region.get(r)?)))?;
+    // the polygons first (parsed once per distinct polygon, RegionCol's cache is not shared), a
+    // bad one kept as its row's error; then the rows on all cores, each checking its arguments in
+    // the order of a row-by-row run: a NULL trajectory still gives NULL, the first bad row wins
+    let regions: Vec<Result<Option<Option<std::sync::Arc<crate::algo::geometry::region::Region>>>, String>> =
+        (0..a.rows()).map(|r| region.get(r).map_err(|e| e.to_string())).collect();
     a.par_map(|r| {
         let (Some(x), Some(y), Some(p)) = (ta.get(r)?, tb.get(r)?, params(r)?) else { return Ok(None) };
-        let Some(Some(reg)) = &regions[r] else { return Ok(None) };
+        let Some(reg) = regions[r].clone()? else { return Ok(None) };
         tw::check_work(x.t, y.t, p.time_window())?;
         Ok(Some(f(x, y, &p, reg.as_deref())?))
     })

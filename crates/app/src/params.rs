@@ -27,25 +27,32 @@ pub struct Param {
     /// where the parameter is measured). Every number is finite.
     pub lo: f64,
     pub hi: f64,
+    /// The values a text parameter may take (compared trimmed and case-insensitively); empty:
+    /// any text. Checked with the rest, before any stage runs.
+    pub choices: &'static [&'static str],
 }
 
 const fn d(name: &'static str, default: &'static str, stage: &'static str, description: &'static str) -> Param {
-    Param { name, kind: Kind::Double, default, stage, description, lo: 0.0, hi: f64::INFINITY }
+    Param { name, kind: Kind::Double, default, stage, description, lo: 0.0, hi: f64::INFINITY, choices: &[] }
 }
 const fn i(name: &'static str, default: &'static str, stage: &'static str, description: &'static str) -> Param {
-    Param { name, kind: Kind::Integer, default, stage, description, lo: 0.0, hi: f64::INFINITY }
+    Param { name, kind: Kind::Integer, default, stage, description, lo: 0.0, hi: f64::INFINITY, choices: &[] }
 }
 const fn b(name: &'static str, default: &'static str, stage: &'static str, description: &'static str) -> Param {
-    Param { name, kind: Kind::Boolean, default, stage, description, lo: 0.0, hi: f64::INFINITY }
+    Param { name, kind: Kind::Boolean, default, stage, description, lo: 0.0, hi: f64::INFINITY, choices: &[] }
 }
 const fn s(name: &'static str, default: &'static str, stage: &'static str, description: &'static str) -> Param {
-    Param { name, kind: Kind::Text, default, stage, description, lo: 0.0, hi: f64::INFINITY }
+    Param { name, kind: Kind::Text, default, stage, description, lo: 0.0, hi: f64::INFINITY, choices: &[] }
 }
 
 impl Param {
     /// This parameter, its numbers restricted to `[lo, hi]`.
     const fn within(self, lo: f64, hi: f64) -> Param {
         Param { lo, hi, ..self }
+    }
+    /// This text parameter, restricted to `choices`.
+    const fn one_of(self, choices: &'static [&'static str]) -> Param {
+        Param { choices, ..self }
     }
 }
 
@@ -78,7 +85,7 @@ pub const PARAMS: &[Param] = &[
     i("align_min_support", "3", "align", "a camera pair needs at least this many agreeing track pairs").within(1.0, 1e9),
     d("align_trim", "0.1", "align", "share of point pairs the trimmed refit leaves out").within(0.0, 0.9),
     d("align_refine_rms_m", "auto", "align", "second pass: track pairs within this RMS (m) of the first fit are kept (auto: 0.05 + 2 sigma_pair)"),
-    s("overlap_method", "'convex'", "overlap", "view polygon hull: 'convex' or 'concave'"),
+    s("overlap_method", "'convex'", "overlap", "view polygon hull: 'convex' or 'concave'").one_of(&["convex", "concave"]),
     d("overlap_concavity", "2.0", "overlap", "concavity of the concave hull").within(1e-09, 1e6),
     d("overlap_radius_m", "2.0", "overlap", "density rule: a point counts with overlap_min_neighbours others within this radius (m)"),
     i("overlap_min_neighbours", "3", "overlap", "density rule: neighbours a point needs").within(0.0, 1e6),
@@ -95,7 +102,7 @@ pub const PARAMS: &[Param] = &[
     d("cluster_epsilon", "2.0", "cluster", "Buzan's epsilon (m)").within(1e-09, 1e6),
     d("cluster_rho", "0.5", "cluster", "Buzan's rho: length ratio below which tracks are not compared").within(0.0, 1.0),
     d("cluster_threshold", "0.5", "cluster", "average-linkage cut height"),
-    s("cluster_method", "'auto'", "cluster", "'exact' (every pair of tracks, traj_cluster), 'prototypes' (traj_cluster_prototypes: linear in the tracks) or 'auto' (exact up to cluster_exact_max tracks of a class, prototypes above)"),
+    s("cluster_method", "'auto'", "cluster", "'exact' (every pair of tracks, traj_cluster), 'prototypes' (traj_cluster_prototypes: linear in the tracks) or 'auto' (exact up to cluster_exact_max tracks of a class, prototypes above)").one_of(&["auto", "exact", "prototypes"]),
     i("cluster_exact_max", "3000", "cluster", "with cluster_method auto, the most tracks of one class clustered exactly (3,000: 4.5 M pairs, a few seconds)").within(0.0, 80000.0),
     b("cluster_translation_invariant", "false", "cluster", "use S2 (shapes anywhere) instead of S1 (routes)"),
 ];
@@ -167,6 +174,10 @@ impl Param {
             },
             Kind::Text => {
                 let inner = v.strip_prefix('\'').and_then(|x| x.strip_suffix('\'')).unwrap_or(v);
+                if !self.choices.is_empty() && !self.choices.iter().any(|c| c.eq_ignore_ascii_case(inner.trim())) {
+                    let list: Vec<String> = self.choices.iter().map(|c| format!("'{c}'")).collect();
+                    return Err(bad(&format!("one of {}", list.join(", "))));
+                }
                 format!("'{}'", inner.replace('\'', "''"))
             }
         })
@@ -270,13 +281,15 @@ mod tests {
         assert_eq!(p.literal("0.4").unwrap(), "0.4::DOUBLE");
         assert!(p.literal("abc").unwrap_err().to_string().contains("merge_eta must be a number or auto, got \"abc\""));
         assert_eq!(p.literal("AUTO").unwrap(), "NULL::DOUBLE");
-        assert!(find("overlap_method").unwrap().literal("auto").unwrap() == "'auto'");
+        assert!(find("overlap_method").unwrap().literal("auto").unwrap_err().to_string().contains("must be one of 'convex', 'concave'"));
+        assert_eq!(find("cluster_method").unwrap().literal(" Exact ").unwrap(), "'Exact'");
+        assert!(find("cluster_method").unwrap().literal("fast").unwrap_err().to_string().contains("cluster_method must be one of 'auto', 'exact', 'prototypes'"));
         assert!(p.literal("NaN").is_err());
         assert_eq!(find("clean_xi").unwrap().literal("4").unwrap(), "4::BIGINT");
         assert!(find("clean_xi").unwrap().literal("4.5").is_err());
         assert_eq!(find("cluster_translation_invariant").unwrap().literal("TRUE").unwrap(), "true");
         assert_eq!(find("overlap_method").unwrap().literal("concave").unwrap(), "'concave'");
-        assert_eq!(find("overlap_method").unwrap().literal("'x''; DROP'").unwrap(), "'x''''; DROP'");
+        assert_eq!(find("input_columns").unwrap().literal("'x''; DROP'").unwrap(), "'x''''; DROP'");
     }
 
     #[test]

@@ -36,7 +36,7 @@
 //! radius (tens to a few thousand), not the number of trajectories; when every trajectory is its
 //! own prototype (nothing alike) the cost is the exact method's.
 
-use super::linkage::{self as cluster, Cut, Linkage};
+use super::linkage::{self as cluster, ClusterError, Cut, Linkage};
 use super::traj_cluster::{self as tc, Similarity, TrajClusterError};
 use crate::lcss::index::IndexParams;
 use crate::traj::Traj;
@@ -129,7 +129,13 @@ pub fn cluster_prototypes(
     let pt: Vec<Traj<'_>> = protos.iter().map(|&k| trajs[k]).collect();
     let m = tc::distances(&pt, p, sim)?;
     let linked = tc::linked_items(&m, protos.len());
-    let d = cluster::linkage_condensed((0..protos.len() as i64).collect(), m, method).map_err(TrajClusterError::Cluster)?;
+    // leaves are prototype positions: an error naming two of them names their trajectories' ids
+    let d = cluster::linkage_condensed((0..protos.len() as i64).collect(), m, method).map_err(|e| {
+        TrajClusterError::Cluster(match e {
+            ClusterError::WardIncomplete { a, b } => ClusterError::WardIncomplete { a: ids[protos[a as usize]], b: ids[protos[b as usize]] },
+            e => e,
+        })
+    })?;
     let flat = cluster::flat(&d, cut);
     let mut members = vec![0usize; protos.len()];
     for &o in &owner {

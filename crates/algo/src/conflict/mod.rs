@@ -36,6 +36,8 @@ pub enum ConflictError {
     Param(ParamError),
     /// `ids` and `trajs` of [`conflicts`] differ in length
     Lengths { ids: usize, trajs: usize },
+    /// the same id twice in `ids` of [`conflicts`] (a road user's pairs would be lost or doubled)
+    DuplicateId(i64),
     Work(crate::limits::Exceeded),
 }
 
@@ -54,6 +56,9 @@ impl ConflictError {
             ConflictError::Param(e) => e.to_string(),
             ConflictError::Lengths { ids, trajs } => {
                 format!("ids and trajs must have the same length, got {ids} ids and {trajs} trajectories (list(id ORDER BY id), list(traj ORDER BY id) over the same rows)")
+            }
+            ConflictError::DuplicateId(id) => {
+                format!("ids must be distinct (one path per road user), got {id} twice; aggregate one row per road user first")
             }
             ConflictError::Work(e) => e.to_string(),
         }

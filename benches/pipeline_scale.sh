@@ -16,7 +16,7 @@ W="${1:-${TMPDIR:-/tmp}/trajdb-scale}"
 mkdir -p "$W"
 run() {  # name scenario_dir
     echo "== $1"
-    /usr/bin/time -f "peak RSS %M KB, wall %e s" "$PY" -m trajdb pipeline --input "$2/points.parquet" --out "$W/$1.results" 2>&1 | grep -v '^\['"trajdb"'\] report' || true
+    /usr/bin/time -f "peak RSS %M KB, wall %e s" "$PY" -m trajdb pipeline --input "$2/points.parquet" --out "$W/$1.results" 2>&1 | grep -v 'report.html' || true
     "$PY" -m trajdb score "$2" --results "$W/$1.results"
 }
 for s in dut_intersection_3cam dut_roundabout_2cam; do

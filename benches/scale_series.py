@@ -69,14 +69,28 @@ def child(points, out):
 
 def simulate(out, minutes, traffic, seed):
     """A scenario of `trajdb simulate` (3 cameras, 5 Hz), with the simulator's memory limit raised
-    for the large ones (its default, 4 GB, refuses 16x the traffic of a day)."""
+    for the large ones (its default, 4 GB, refuses 16x the traffic of a day). The simulator makes
+    at most a day (1,440 minutes): longer recordings repeat one simulated span of the same site
+    (same seed, so the same cameras and clocks) back to back, each repeat's times shifted by the
+    span and its track ids by the largest id + 1."""
     if os.path.exists(os.path.join(out, "points.parquet")):
         return
     import trajdb
 
     con = trajdb.connect()
     con.execute("SELECT trajdb_limit('memory_bytes', 20000000000)").fetchall()
-    trajdb.simulate(con, out, cameras=3, minutes=float(minutes), traffic=float(traffic), rate_hz=5.0, seed=seed, world_rate_hz=0.0)
+    if minutes <= 1440:
+        trajdb.simulate(con, out, cameras=3, minutes=float(minutes), traffic=float(traffic), rate_hz=5.0, seed=seed, world_rate_hz=0.0)
+    else:
+        parts = math.ceil(minutes / 1440)
+        span = minutes / parts
+        one = out + ".part"
+        simulate(one, span, traffic, seed)
+        os.makedirs(out, exist_ok=True)
+        src = os.path.join(one, "points.parquet")
+        con.execute("""COPY (SELECT p.* REPLACE (p.t + k * ? AS t, p.track_id + k * (m.top + 1) AS track_id)
+                             FROM read_parquet(?) p, range(?) r(k), (SELECT max(track_id) AS top FROM read_parquet(?)) m)
+                       TO ? (FORMAT parquet)""", [span * 60.0, src, parts, src, os.path.join(out, "points.parquet")])
     con.close()
 
 

@@ -194,16 +194,25 @@ fn dendrogram_condensed(a: &Args<'_>, out: &mut Out<'_>) -> R {
     write_dendrogram(a, out, true)
 }
 
-fn traj_cluster(a: &Args<'_>, out: &mut Out<'_>) -> R {
-    let (ids, trajs, methods, thr, delta, eps) = (a.i64_list(0), a.traj_list(1), a.text(2), a.double(3), a.bigint(4), a.double(5));
-    let (rho, ti) = (a.opt_double(6), a.opt_boolean(7));
-    let vals = a.map(|r| {
-        let (Some(id), Some(tr), Some(method), Some(t), Some(d), Some(e)) = (ids.get(r)?, trajs.get(r)?, methods.get(r), thr.get(r), delta.get(r), eps.get(r))
-        else {
-            return Ok(None);
+/// The trailing similarity arguments of traj_cluster and traj_cluster_prototypes, from column
+/// `first`: delta, epsilon [, rho [, translation_invariant]], per row as S1 / S2 and the values
+/// (checked by `IndexParams::new` where each caller checked them before); `None` when one is NULL.
+type SimilarityRow = (Similarity, i64, f64, Option<f64>);
+fn similarity_args<'a>(a: &Args<'a>, first: usize) -> impl Fn(usize) -> Option<SimilarityRow> + 'a {
+    let (delta, eps, rho, ti) = (a.bigint(first), a.double(first + 1), a.opt_double(first + 2), a.opt_boolean(first + 3));
+    move |r| {
+        let (Some(d), Some(e), Some(rho), Some(translation_invariant)) = (delta.get(r), eps.get(r), rho.opt(r), ti.or(r, false)) else {
+            return None;
         };
-        let (Some(rho), Some(translation_invariant)) = (rho.opt(r), ti.or(r, false)) else { return Ok(None) };
-        let sim = if translation_invariant { Similarity::S2 } else { Similarity::S1 };
+        Some((if translation_invariant { Similarity::S2 } else { Similarity::S1 }, d, e, rho))
+    }
+}
+
+fn traj_cluster(a: &Args<'_>, out: &mut Out<'_>) -> R {
+    let (ids, trajs, methods, thr, similarity) = (a.i64_list(0), a.traj_list(1), a.text(2), a.double(3), similarity_args(a, 4));
+    let vals = a.map(|r| {
+        let (Some(id), Some(tr), Some(method), Some(t)) = (ids.get(r)?, trajs.get(r)?, methods.get(r), thr.get(r)) else { return Ok(None) };
+        let Some((sim, d, e, rho)) = similarity(r) else { return Ok(None) };
         let cut = Cut::threshold(t)?;
         let method = Linkage::parse(&method)?;
         let p = IndexParams::new(d, e, rho)?;
@@ -215,15 +224,12 @@ fn traj_cluster(a: &Args<'_>, out: &mut Out<'_>) -> R {
 
 fn traj_cluster_prototypes(a: &Args<'_>, out: &mut Out<'_>) -> R {
     let (ids, trajs, methods, thr, radius) = (a.i64_list(0), a.traj_list(1), a.text(2), a.double(3), a.double(4));
-    let (delta, eps, rho, ti) = (a.bigint(5), a.double(6), a.opt_double(7), a.opt_boolean(8));
+    let similarity = similarity_args(a, 5);
     let vals = a.map(|r| {
-        let (Some(id), Some(tr), Some(method), Some(t), Some(rad), Some(d), Some(e)) =
-            (ids.get(r)?, trajs.get(r)?, methods.get(r), thr.get(r), radius.get(r), delta.get(r), eps.get(r))
-        else {
+        let (Some(id), Some(tr), Some(method), Some(t), Some(rad)) = (ids.get(r)?, trajs.get(r)?, methods.get(r), thr.get(r), radius.get(r)) else {
             return Ok(None);
         };
-        let (Some(rho), Some(translation_invariant)) = (rho.opt(r), ti.or(r, false)) else { return Ok(None) };
-        let sim = if translation_invariant { Similarity::S2 } else { Similarity::S1 };
+        let Some((sim, d, e, rho)) = similarity(r) else { return Ok(None) };
         let method = Linkage::parse(&method)?;
         let p = IndexParams::new(d, e, rho)?;
         let c = prototype::cluster_prototypes(id, &tr, &p, sim, method, t, rad)?;

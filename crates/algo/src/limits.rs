@@ -180,6 +180,15 @@ pub fn current() -> Option<Arc<Limits>> {
     SCOPE.with(|s| s.borrow().clone())
 }
 
+/// Runs `f` within `scope` (a caller's [`current`], carried to a worker thread), or as it is
+/// when the caller had none: how rayon workers obey the limits of the call that spawned them.
+pub fn within<R>(scope: &Option<Arc<Limits>>, f: impl FnOnce() -> R) -> R {
+    match scope {
+        Some(l) => with_scope(l, f),
+        None => f(),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

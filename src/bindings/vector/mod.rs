@@ -91,13 +91,7 @@ impl<'a> Args<'a> {
         let scope = crate::algo::limits::current();
         let rows: Vec<Result<Option<T>, String>> = (0..self.rows())
             .into_par_iter()
-            .map(|r| {
-                let run = || f(r).map_err(|e| e.to_string());
-                match &scope {
-                    Some(l) => crate::algo::limits::with_scope(l, run),
-                    None => run(),
-                }
-            })
+            .map(|r| crate::algo::limits::within(&scope, || f(r).map_err(|e| e.to_string())))
             .collect();
         rows.into_iter().map(|v| v.map_err(|e| e.into())).collect()
     }

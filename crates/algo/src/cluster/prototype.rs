@@ -70,13 +70,8 @@ pub fn cluster_prototypes(
     }
     let cut = Cut::threshold(threshold).map_err(TrajClusterError::Cluster)?;
     let n = ids.len();
-    if sim == Similarity::S2 {
-        // the worst case: every pair compared (each trajectory its own prototype)
-        tc::check_s2(trajs, p, |ca, cb| match cb {
-            None => ca * ca.saturating_sub(1) / 2,
-            Some(cb) => ca * cb,
-        })?;
-    }
+    // S2: the worst case, every pair compared (each trajectory its own prototype)
+    tc::check_s2(trajs, p, sim)?;
     let boxes: Vec<[f64; 4]> = trajs.iter().map(tc::bbox).collect();
     // the visit: longest first, then the first point, then the id
     let mut visit: Vec<usize> = (0..n).collect();
@@ -105,10 +100,7 @@ pub fn cluster_prototypes(
         let known = protos.len();
         let found: Vec<Option<(f64, usize)>> = block
             .par_iter()
-            .map(|&k| match &scope {
-                Some(l) => crate::limits::with_scope(l, || nearest(k, &protos[..known], 0)),
-                None => nearest(k, &protos[..known], 0),
-            })
+            .map(|&k| crate::limits::within(&scope, || nearest(k, &protos[..known], 0)))
             .collect::<Result<_, _>>()?;
         for (&k, old) in block.iter().zip(found) {
             let new = nearest(k, &protos, known)?;

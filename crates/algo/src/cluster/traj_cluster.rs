@@ -138,7 +138,7 @@ pub fn distances(trajs: &[Traj<'_>], p: &IndexParams, sim: Similarity) -> Result
     // the workers check the LCSS work limit of the caller's scope
     let scope = crate::limits::current();
     rows.into_par_iter().enumerate().try_for_each(|(i, row)| {
-        let mut fill = || -> Result<(), TrajClusterError> {
+        let fill = || -> Result<(), TrajClusterError> {
             for (k, cell) in row.iter_mut().enumerate() {
                 let j = i + 1 + k;
                 let s = similarity(trajs[i], trajs[j], &bbox[i], &bbox[j], p, sim)?;
@@ -148,10 +148,7 @@ pub fn distances(trajs: &[Traj<'_>], p: &IndexParams, sim: Similarity) -> Result
             }
             Ok(())
         };
-        match &scope {
-            Some(l) => crate::limits::with_scope(l, fill),
-            None => fill(),
-        }
+        crate::limits::within(&scope, fill)
     })?;
     Ok(m)
 }
@@ -172,11 +169,14 @@ pub(crate) fn id_order(ids: &[i64], n_trajs: usize) -> Result<Vec<usize>, TrajCl
     Ok(order)
 }
 
-/// S2 tries every candidate translation of every pair: LCSS cells x candidates per pair,
-/// summed over the pairs that may be compared (by distinct lengths, O(L²)), against the work
-/// limit `lcss_cells`; `pairs(ca, cb)` counts the pairs of two length groups of sizes ca, cb
-/// (`None` for pairs within one group).
-pub(crate) fn check_s2(trajs: &[Traj<'_>], p: &IndexParams, pairs: impl Fn(u128, Option<u128>) -> u128) -> Result<(), TrajClusterError> {
+/// The work of S2 (nothing to check for S1): it tries every candidate translation of every
+/// pair, LCSS cells x candidates per pair, summed over all pairs (by distinct lengths, O(L²)),
+/// against the work limit `lcss_cells`; the pair sizes against S2's exact search first. All pairs
+/// is the exact clustering's work and the prototype clustering's worst case.
+pub(crate) fn check_s2(trajs: &[Traj<'_>], p: &IndexParams, sim: Similarity) -> Result<(), TrajClusterError> {
+    if sim != Similarity::S2 {
+        return Ok(());
+    }
     let longest = trajs.iter().map(|t| t.len()).max().unwrap_or(0);
     lcss_translate::check_size(longest, longest, p).map_err(|e| TrajClusterError::TooLarge(e.to_string()))?;
     let mut by_len: std::collections::BTreeMap<usize, u128> = std::collections::BTreeMap::new();
@@ -188,9 +188,9 @@ pub(crate) fn check_s2(trajs: &[Traj<'_>], p: &IndexParams, pairs: impl Fn(u128,
     let lens: Vec<(u128, u128)> = by_len.into_iter().map(|(l, c)| (l as u128, c)).collect();
     let mut work: u128 = 0;
     for (i, &(la, ca)) in lens.iter().enumerate() {
-        work = work.saturating_add(pairs(ca, None).saturating_mul(pair(la, la)));
+        work = work.saturating_add((ca * ca.saturating_sub(1) / 2).saturating_mul(pair(la, la)));
         for &(lb, cb) in &lens[i + 1..] {
-            work = work.saturating_add(pairs(ca, Some(cb)).saturating_mul(pair(la, lb)));
+            work = work.saturating_add(ca.saturating_mul(cb).saturating_mul(pair(la, lb)));
         }
     }
     crate::limits::LCSS_CELLS.check(work).map_err(TrajClusterError::Work)
@@ -208,12 +208,7 @@ pub fn cluster_trajectories(
 ) -> Result<(Vec<i64>, Vec<u32>), TrajClusterError> {
     let order = id_order(ids, trajs.len())?;
     let n = ids.len();
-    if sim == Similarity::S2 {
-        check_s2(trajs, p, |ca, cb| match cb {
-            None => ca * ca.saturating_sub(1) / 2,
-            Some(cb) => ca * cb,
-        })?;
-    }
+    check_s2(trajs, p, sim)?;
     let sorted_ids: Vec<i64> = order.iter().map(|&k| ids[k]).collect();
     let sorted: Vec<Traj<'_>> = order.iter().map(|&k| trajs[k]).collect();
     let m = distances(&sorted, p, sim)?;

@@ -77,3 +77,14 @@ fn validate(a: Traj<'_>, b: Traj<'_>) -> Result<(), ConflictError> {
     a.validate().map_err(|e| ConflictError::Traj("a", e))?;
     b.validate().map_err(|e| ConflictError::Traj("b", e))
 }
+
+/// Test paths of the conflict tests: n points from (x0, y0) at t0, velocity (vx, vy), every dt.
+#[cfg(test)]
+pub(crate) fn test_line(t0: f64, x0: f64, y0: f64, vx: f64, vy: f64, n: usize, dt: f64) -> crate::traj::OwnedTraj {
+    let mut o = crate::traj::OwnedTraj::default();
+    for k in 0..n {
+        let t = k as f64 * dt;
+        o.push(t0 + t, x0 + vx * t, y0 + vy * t);
+    }
+    o
+}

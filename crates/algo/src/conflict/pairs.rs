@@ -144,17 +144,9 @@ fn alloc_error(bytes: u128) -> ConflictError {
 mod tests {
     use super::super::{pet, ttc};
     use super::*;
-    use crate::traj::OwnedTraj;
     use proptest::prelude::*;
 
-    fn line(t0: f64, x0: f64, y0: f64, vx: f64, vy: f64, n: usize, dt: f64) -> OwnedTraj {
-        let mut o = OwnedTraj::default();
-        for k in 0..n {
-            let t = k as f64 * dt;
-            o.push(t0 + t, x0 + vx * t, y0 + vy * t);
-        }
-        o
-    }
+    use super::super::test_line as line;
 
     /// The obviously right version: every pair, the rule as the SQL macro spelled it.
     fn all_pairs(ids: &[i64], trajs: &[Traj<'_>], max_pet: f64, radius: f64, max_ttc: f64) -> Vec<Conflict> {

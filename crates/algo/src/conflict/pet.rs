@@ -186,14 +186,7 @@ mod tests {
     use crate::traj::OwnedTraj;
     use proptest::prelude::*;
 
-    fn line(t0: f64, x0: f64, y0: f64, vx: f64, vy: f64, n: usize, dt: f64) -> OwnedTraj {
-        let mut o = OwnedTraj::default();
-        for k in 0..n {
-            let t = k as f64 * dt;
-            o.push(t0 + t, x0 + vx * t, y0 + vy * t);
-        }
-        o
-    }
+    use super::super::test_line as line;
 
     #[test]
     fn a_right_angle_crossing_has_the_kinematic_pet() {

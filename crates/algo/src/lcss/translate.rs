@@ -115,10 +115,7 @@ pub fn best_axis_translation(a: &[f64], b: &[f64], delta: usize, epsilon: f64) -
             use rayon::prelude::*;
             // the workers check the work limit of the caller's scope
             let scope = crate::limits::current();
-            let len = |c: f64| match &scope {
-                Some(l) => crate::limits::with_scope(l, || axis_length(a, b, delta, epsilon, c)),
-                None => axis_length(a, b, delta, epsilon, c),
-            };
+            let len = |c: f64| crate::limits::within(&scope, || axis_length(a, b, delta, epsilon, c));
             todo.par_iter().map(|&(_, c)| len(c)).collect::<Result<_, _>>()?
         } else {
             todo.iter().map(|&(_, c)| axis_length(a, b, delta, epsilon, c)).collect::<Result<_, _>>()?

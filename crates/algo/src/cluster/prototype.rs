@@ -4,9 +4,10 @@
 //! # Method
 //! TrafficIntelligence's prototype (leader) clustering with LCSS (Saunier & Morency; `ml.py
 //! prototypeCluster`), followed by the exact linkage over the prototypes:
-//! 1. **Prototypes.** The trajectories are visited longest first (ties: first point's x, then
-//!    y, then id, so the visit does not depend on how ids were assigned when lengths or starts
-//!    differ). Each is compared with the prototypes so far by Buzan's distance
+//! 1. **Prototypes.** The trajectories are visited longest first (ties: the earliest start time,
+//!    then the id: an order that moving or rotating the frame, shifting the clock, relabelling
+//!    the ids or reordering the rows leaves as it is, unless two tracks of one length start at
+//!    the same instant). Each is compared with the prototypes so far by Buzan's distance
 //!    `d = 1 − min(S_x, S_y)` (S1 or S2, with δ, ε, ρ: [`super::traj_cluster::similarity`]). When
 //!    the nearest prototype is within `radius` (ties: the earliest prototype) the trajectory
 //!    becomes its member; otherwise it becomes a new prototype. Longest first because a long
@@ -73,12 +74,10 @@ pub fn cluster_prototypes(
     // S2: the worst case, every pair compared (each trajectory its own prototype)
     tc::check_s2(trajs, p, sim)?;
     let boxes: Vec<[f64; 4]> = trajs.iter().map(tc::bbox).collect();
-    // the visit: longest first, then the first point, then the id
+    // the visit: longest first, then the earliest start, then the id
     let mut visit: Vec<usize> = (0..n).collect();
-    let first = |k: usize| (trajs[k].x.first().copied().unwrap_or(0.0), trajs[k].y.first().copied().unwrap_or(0.0));
-    visit.sort_by(|&a, &b| {
-        trajs[b].len().cmp(&trajs[a].len()).then(first(a).0.total_cmp(&first(b).0)).then(first(a).1.total_cmp(&first(b).1)).then(ids[a].cmp(&ids[b]))
-    });
+    let start = |k: usize| trajs[k].t.first().copied().unwrap_or(0.0);
+    visit.sort_by(|&a, &b| trajs[b].len().cmp(&trajs[a].len()).then(start(a).total_cmp(&start(b))).then(ids[a].cmp(&ids[b])));
     // nearest prototype among protos[from..to] of item k: (distance, position), ties to the earliest
     let nearest = |k: usize, protos: &[usize], from: usize| -> Result<Option<(f64, usize)>, TrajClusterError> {
         let mut best: Option<(f64, usize)> = None;
@@ -221,7 +220,7 @@ mod tests {
         let got = cluster_prototypes(&ids, &trajs, &p, Similarity::S1, Linkage::Average, 0.5, 0.25).unwrap();
         // the slow obvious visit
         let mut visit: Vec<usize> = (0..700).collect();
-        visit.sort_by(|&a, &b| trajs[b].len().cmp(&trajs[a].len()).then(trajs[a].x[0].total_cmp(&trajs[b].x[0])).then(trajs[a].y[0].total_cmp(&trajs[b].y[0])).then(a.cmp(&b)));
+        visit.sort_by(|&a, &b| trajs[b].len().cmp(&trajs[a].len()).then(trajs[a].t[0].total_cmp(&trajs[b].t[0])).then(a.cmp(&b)));
         let mut protos: Vec<usize> = Vec::new();
         let mut owner = vec![0usize; 700];
         for &k in &visit {

@@ -2099,10 +2099,10 @@ WHERE len(traj) >= 6;
 -- cluster 0. (The same by hand, for other distances: lcss_s1 over a self-join of cluster_tracks,
 -- then agglomerative_cluster(list({'a', 'b', 'distance'}), 'average', threshold): 86 s instead of
 -- a few on a Mellingen-sized day, because the join materialises two trajectories per pair.)
--- Prototypes (issue 28): all pairs of a day's 9,500 cars of one camera are 45 M LCSS (17 s on 2
+-- Prototypes (issue 28): all pairs of a day's 9,500 cars of one camera are 45 M LCSS (9.4 s on 2
 -- cores), growing with the square of the day. traj_cluster_prototypes visits the tracks longest
 -- first and lets each join the nearest prototype within half the cut height (or become one),
--- then clusters the prototypes exactly: 0.15 s for the same cars. Its partition is not the exact
+-- then clusters the prototypes exactly: 0.09 s for the same cars. Its partition is not the exact
 -- one (docs/clustering.md: adjusted Rand index against the exact clustering and against the
 -- simulator's true routes); cluster_method = 'exact' keeps the exact one for any size, 'auto'
 -- uses it up to cluster_exact_max tracks of a class.

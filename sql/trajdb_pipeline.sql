@@ -1610,9 +1610,10 @@ ORDER BY class, cam_a, cam_b;
 -- sql/align.sql and `view_overlaps` / `view_merge_order` from sql/overlap.sql.
 -- Output (the defaults below were chosen on benches/accuracy_merge.py, see the parameters):
 --   merge_tracks(camera, track_id, class, uid, traj, t0, t1)   tracks in the common frame
---   merge_scores(uid_a, uid_b, camera_a, camera_b, eta,      LCSS similarity inside P^{a∩b} (eq. 2.10), and for
---                n_common, msd, n_eff, r, r_gate, score,       candidates (eta >= merge_eta) the evidence over the
---                candidate)                                     WHOLE common time (below; docs/association.md)
+--   merge_scores(uid_a, uid_b, camera_a, camera_b, eta,      LCSS similarity inside P^{a∩b} (eq. 2.10) of every
+--                n_common, msd, n_eff, r, r_gate, score,       pair with eta > 0, and for candidates (eta >=
+--                candidate)                                     merge_eta) the evidence over the WHOLE common time
+--                                                              (below; docs/association.md)
 --   merge_links(uid_a, uid_b, eta, score, kind)                'hungarian' (one-to-one per camera pair),
 --                                                              'split' (a second piece of a split track) or
 --                                                              'reach' (a within-camera break quality.sql leaves
@@ -1698,18 +1699,16 @@ CREATE OR REPLACE TEMP MACRO merge_r_gate(n_eff) AS
     (1 - 2 / (9 * 2 * n_eff) + 3.09 * sqrt(2 / (9 * 2 * n_eff))) ** 3 + 0.25;
 
 CREATE OR REPLACE TEMP TABLE merge_scores AS
--- The pairs of tracks of one class in two cameras whose times come within merge_time_window.
--- An interval join on class alone compares every pair of a class (n^2 over a day); instead each
--- track lists the time buckets it covers (a's widened by the window), the join is on (class,
--- bucket), and a pair is kept in the first bucket both cover, so once: linear in the tracks for
--- a given traffic (on a Mellingen-sized day as fast as the interval join, 3-4 s; 16 days would
--- be 256 times the interval join's comparisons). The bucket width is the median track duration
--- (measured, at least 1 s), so a track covers about two buckets whatever the site's speeds and
--- rates. One join carries the trajectories: a join of id pairs first and two joins to fetch
--- the trajectories after it gathered every list twice from hash tables (17 s instead of 3).
+-- The pairs of tracks of one class in two cameras that come within the camera pair's epsilon of
+-- each other, inside their view overlap, within merge_time_window seconds: every pair with
+-- eta > 0 (a pair not listed has eta = 0). lcss_similarity_pairs scores a whole camera pair's
+-- class in one call, its candidates from a space-time grid (crates/algo/src/lcss/sparse.rs):
+-- only road users near each other are compared, so the cost grows with the road users per
+-- window and not with their square. (It was a join of every pair of a class that overlapped in
+-- time, the pair join carrying both trajectories: with 4 times the road users at once that was
+-- 16 times the pairs, the stage grew as n^1.6 in density; benches/scale_series.py.)
 WITH cfg AS (
-    -- what a camera pair's class needs (a few rows), joined to one side before the pair join:
-    -- joined after it, every small join moved both trajectory lists of 230,000 pairs again (5 s)
+    -- what a camera pair's class needs (a few rows)
     SELECT o.class, o.cam_a, o.cam_b, o.polygon, e.value AS epsilon, c.sigma_d_m, m.period_max, m.step_s
     FROM view_overlaps o
     JOIN calib_match c ON c.cam_a = o.cam_a AND c.cam_b = o.cam_b
@@ -1717,35 +1716,40 @@ WITH cfg AS (
     JOIN merge_periods m ON m.cam_a = o.cam_a AND m.cam_b = o.cam_b
     WHERE o.area_m2 > 0
 ),
-bw AS (SELECT greatest(coalesce(median(t1 - t0), 1.0), 1.0) AS b FROM merge_tracks),
-pa AS MATERIALIZED (
-    SELECT m.*, f.* EXCLUDE (class), floor((t0 - getvariable('merge_time_window')) / b)::BIGINT AS k0,
-           unnest(range(floor((t0 - getvariable('merge_time_window')) / b)::BIGINT, floor((t1 + getvariable('merge_time_window')) / b)::BIGINT + 1)) AS k
-    FROM merge_tracks m JOIN cfg f ON f.class = m.class AND f.cam_a = m.camera, bw
+sides AS (
+    SELECT camera, class, list(uid ORDER BY uid) AS ids, list(traj ORDER BY uid) AS trajs
+    FROM merge_tracks GROUP BY camera, class
 ),
-pb AS MATERIALIZED (
-    SELECT m.*, floor(t0 / b)::BIGINT AS k0, unnest(range(floor(t0 / b)::BIGINT, floor(t1 / b)::BIGINT + 1)) AS k
-    FROM merge_tracks m, bw
+s AS (
+    SELECT f.cam_a, f.cam_b, f.sigma_d_m, f.period_max, f.step_s,
+           unnest(lcss_similarity_pairs(a.ids, a.trajs, b.ids, b.trajs, f.epsilon, getvariable('merge_time_window'),
+                                        calibrated('merge_min_points')::BIGINT, f.polygon)) AS q
+    FROM cfg f
+    JOIN sides a ON a.class = f.class AND a.camera = f.cam_a
+    JOIN sides b ON b.class = f.class AND b.camera = f.cam_b
 ),
-l AS (
-    SELECT a.uid AS uid_a, b.uid AS uid_b, a.camera AS camera_a, b.camera AS camera_b, a.t0 AS t0_a, a.t1 AS t1_a, b.t0 AS t0_b, b.t1 AS t1_b,
-           lcss_similarity(a.traj, b.traj, a.epsilon, getvariable('merge_time_window'),
-                           calibrated('merge_min_points')::BIGINT, a.polygon) AS eta,
-           a.sigma_d_m, a.period_max, a.step_s, a.traj AS traj_a, b.traj AS traj_b
-    FROM pa a
-    JOIN pb b
-      ON a.class = b.class AND a.cam_b = b.camera AND a.k = b.k AND a.k = greatest(a.k0, b.k0)
-     AND a.t0 <= b.t1 + getvariable('merge_time_window') AND b.t0 <= a.t1 + getvariable('merge_time_window')
+l AS MATERIALIZED (
+    SELECT s.q.a AS uid_a, s.q.b AS uid_b, s.cam_a AS camera_a, s.cam_b AS camera_b, ta.t0 AS t0_a, ta.t1 AS t1_a, tb.t0 AS t0_b, tb.t1 AS t1_b,
+           s.q.eta AS eta, s.sigma_d_m, s.period_max, s.step_s
+    FROM s
+    JOIN (SELECT uid, t0, t1 FROM merge_tracks) ta ON ta.uid = s.q.a
+    JOIN (SELECT uid, t0, t1 FROM merge_tracks) tb ON tb.uid = s.q.b
 ),
 -- the whole common time of the candidates (LCSS eta >= merge_eta): squared distances at every
 -- common time step, wherever the two tracks are, inside the overlap polygon or not
+-- (only the candidates fetch their trajectories)
 d AS (
-    SELECT l.* EXCLUDE (traj_a, traj_b, period_max, step_s),
-           CASE WHEN l.eta >= getvariable('merge_eta')
-                THEN [(c.fx - c.mx) ** 2 + (c.fy - c.my) ** 2
-                      FOR c IN traj_correspond(l.traj_a, l.traj_b, greatest(getvariable('merge_resample_max_gap'), 1.5 * l.period_max))] END AS d2,
+    SELECT l.* EXCLUDE (period_max, step_s),
+           [(c.fx - c.mx) ** 2 + (c.fy - c.my) ** 2
+            FOR c IN traj_correspond(ta.traj, tb.traj, greatest(getvariable('merge_resample_max_gap'), 1.5 * l.period_max))] AS d2,
            l.period_max, l.step_s
     FROM l
+    JOIN (SELECT uid, traj FROM merge_tracks) ta ON ta.uid = l.uid_a
+    JOIN (SELECT uid, traj FROM merge_tracks) tb ON tb.uid = l.uid_b
+    WHERE l.eta >= getvariable('merge_eta')
+    UNION ALL BY NAME
+    SELECT l.* EXCLUDE (period_max, step_s), NULL::DOUBLE[] AS d2, l.period_max, l.step_s
+    FROM l WHERE NOT (l.eta >= getvariable('merge_eta'))
 ),
 r AS (
     SELECT d.* EXCLUDE (d2), len(d2) AS n_common, list_avg(d2) AS msd,

@@ -71,15 +71,15 @@ pub static FUNCTIONS: &[Function] = &[
     },
     Function {
         name: "traj_conflicts",
-        description: "traj_pet and traj_ttc for every pair of a set of road users near each other, in one call: the pairs (ids a < b) whose \
-                      times meet within max_pet (t0_a <= t1_b + max_pet and t0_b <= t1_a + max_pet) and whose bounding boxes overlap once \
-                      each is widened by its reach, radius / 2 + its top speed (traj_speeds) x max_ttc. Kept: pairs with a PET (<= max_pet) \
-                      or a TTC <= max_ttc; one element each, sorted by (a, b): traj_pet's fields (NULL: no crossing), then traj_ttc's as \
-                      ttc, ttc_t, ttc_x, ttc_y (NULL: no collision course). Trajectories with fewer than 2 points take no part. Candidates \
-                      by a sweep over start times, O(n log n + K) for K pairs meeting in time, PET and TTC in parallel, the paths read \
-                      in place (sql/analysis.sql conflicts: list(road_user ORDER BY road_user), list(traj ORDER BY road_user)). Errors: \
-                      lists of different lengths, NULL elements, NaN / infinite values, unsorted t, max_pet <= 0, radius or max_ttc < 0 \
-                      or not finite, more candidate pairs than the memory_bytes limit holds.",
+        description: "traj_pet and traj_ttc for every pair of a set of road users near each other, in one call: the pairs (ids a < b) with a PET \
+                      <= max_pet or a TTC <= max_ttc. Kept: one element each, sorted by (a, b): traj_pet's fields (NULL: no crossing), \
+                      then traj_ttc's as ttc, ttc_t, ttc_x, ttc_y (NULL: no collision course). Trajectories with fewer than 2 points \
+                      take no part. Candidates from a space-time grid of path pieces (8 segments each, widened by radius / 2 + the \
+                      piece's top speed x max_ttc, spans by max_pet / 2): only road users near each other are scored, O(P log P + K) for \
+                      P pieces and K pairs of pieces near each other, linear in the road users per window; PET and TTC in parallel, the \
+                      paths read in place (sql/analysis.sql conflicts: list(road_user ORDER BY road_user), list(traj ORDER BY \
+                      road_user)). Errors: lists of different lengths, NULL elements, NaN / infinite values, unsorted t, max_pet <= 0, \
+                      radius or max_ttc < 0 or not finite, more candidate pairs than the memory_bytes limit holds.",
         example: "SELECT unnest(traj_conflicts([1, 2], [[{'t': 0, 'x': -10, 'y': 0}, {'t': 2, 'x': 10, 'y': 0}], [{'t': 0, 'x': 0, 'y': -10}, {'t': 4, 'x': 0, 'y': 10}]], 5.0, 2.0, 3.0)).pet; -- 1.0",
         maths: "crates/algo/src/conflict/pairs.rs",
         binding: file!(),

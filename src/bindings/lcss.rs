@@ -135,6 +135,38 @@ pub static FUNCTIONS: &[Function] = &[
         }],
         table: None,
     },
+    Function {
+        name: "lcss_similarity_pairs",
+        description: "lcss_similarity for every pair of two sets of trajectories, in one call, returning only the pairs with eta > 0 (a pair \
+                      not listed has eta = 0): a sparse similarity matrix. Each element: a, b (the ids of the pair, from ids_a and \
+                      ids_b) and eta, exactly lcss_similarity(trajs_a[i], trajs_b[j], epsilon, time_window, min_points, region). \
+                      Candidates come from a space-time grid (cells of 2 epsilon by 2 time_window; with region every trajectory is \
+                      restricted to it once): only pairs that come within epsilon of each other within time_window seconds are \
+                      scored, so the cost grows with the road users near each other, not with all pairs that overlap in time \
+                      (sql/stages/merge.sql scores each camera pair this way). O(P log P + lookups + banded LCSS of the candidates), \
+                      P the points of trajs_b; pairs in parallel. Sorted by (position in trajs_a, position in trajs_b). Errors: ids \
+                      and trajs lists of different lengths, NULL elements, NaN / infinite values, unsorted t, epsilon or time_window \
+                      <= 0, min_points < 0, a bad polygon, a pair over the lcss_cells limit.",
+        example: "SELECT unnest(lcss_similarity_pairs([1, 2], [[{'t':0,'x':0,'y':0},{'t':1,'x':1,'y':0}], [{'t':0,'x':50,'y':0}]], [7], [[{'t':0.1,'x':0.2,'y':0},{'t':1.1,'x':1.2,'y':0}]], 1.0, 0.5)); -- {'a': 1, 'b': 7, 'eta': 1.0}",
+        maths: "crates/algo/src/lcss/sparse.rs",
+        binding: file!(),
+        signatures: &[Signature {
+            params: &[
+                p("ids_a", Ty::List(&Ty::Bigint)),
+                p("trajs_a", Ty::List(&TRAJ)),
+                p("ids_b", Ty::List(&Ty::Bigint)),
+                p("trajs_b", Ty::List(&TRAJ)),
+                p("epsilon", Ty::Double),
+                p("time_window", Ty::Double),
+                p("min_points", Ty::Bigint),
+                p("region", GEOMETRY),
+            ],
+            arities: &[6, 7, 8],
+            returns: Ty::List(&Ty::Struct(&[("a", Ty::Bigint), ("b", Ty::Bigint), ("eta", Ty::Double)])),
+            kernel: similarity_pairs,
+        }],
+        table: None,
+    },
 ];
 
 /// The time-window parameters of `row` (columns 2, 3 and the optional 4); `None` when one is NULL.
@@ -257,5 +289,37 @@ fn s2(a: &Args<'_>, out: &mut Out<'_>) -> R {
         Ok([s.sx, s.sy, s.cx, s.cy].map(Value::F64).to_vec())
     })?;
     out.structs(&vals);
+    Ok(())
+}
+
+/// lcss_similarity_pairs: one sparse similarity matrix per row (the pairs in parallel inside).
+fn similarity_pairs(a: &Args<'_>, out: &mut Out<'_>) -> R {
+    let (ia, ta, ib, tb) = (a.i64_list(0), a.traj_list(1), a.i64_list(2), a.traj_list(3));
+    let (eps, t, xi, region) = (a.double(4), a.double(5), a.opt_bigint(6), a.opt_region(7));
+    let vals = a.map(|r| {
+        let (Some(ia), Some(ta), Some(ib), Some(tb)) = (ia.get(r)?, ta.get(r)?, ib.get(r)?, tb.get(r)?) else { return Ok(None) };
+        let (Some(eps), Some(t), Some(xi)) = (eps.get(r), t.get(r), xi.or(r, 0)) else { return Ok(None) };
+        let p = TimeWindowParams::new(eps, t, xi)?;
+        let Some(reg) = region.get(r)? else { return Ok(None) };
+        for (ids, trajs, side) in [(ia, &ta, "a"), (ib, &tb, "b")] {
+            if ids.len() != trajs.len() {
+                return Err(format!(
+                    "ids_{side} has {} elements but trajs_{side} has {}; pass list(id ORDER BY id) and list(traj ORDER BY id) of the same rows",
+                    ids.len(),
+                    trajs.len()
+                )
+                .into());
+            }
+        }
+        let found = crate::algo::lcss::sparse::similarity_sparse(&ta, &tb, &p, reg.as_deref())?;
+        let (ka, kb, eta): (Vec<i64>, Vec<i64>, Vec<f64>) = (
+            found.iter().map(|q| ia[q.a]).collect(),
+            found.iter().map(|q| ib[q.b]).collect(),
+            found.iter().map(|q| q.eta).collect(),
+        );
+        Ok(Some((ka, kb, eta)))
+    })?;
+    let cols: Vec<_> = vals.iter().map(|v| v.as_ref().map(|(x, y, e)| vec![Column::I64(x), Column::I64(y), Column::F64(e)])).collect();
+    out.struct_lists(&cols);
     Ok(())
 }

@@ -15,6 +15,7 @@
 //! near each other in time and space: a sweep over start times, never all N² pairs; what
 //! sql/analysis.sql `conflicts` calls through `traj_conflicts`).
 
+pub mod candidates;
 pub mod pairs;
 pub mod pet;
 pub mod ttc;

@@ -6,6 +6,7 @@
 //! | [`time_window`] | `lcss_length`, `lcss_similarity`, `lcss_distance`, `lcss_matches`, `lcss_series_*` | thesis eq. 2.9/2.10, Alg. 1: match within ε metres and T seconds, optionally inside a region |
 //! | [`index`] | `lcss_index_similarity`, `lcss_s1` | Buzan def. 4.1/4.2: match within ε and δ list positions |
 //! | [`translate`] | `lcss_s2` | Buzan def. 4.3, lemma 4.2: the best S1 over all translations |
+//! | [`sparse`] | `lcss_similarity_pairs` | η of eq. 2.10 for every pair of two sets with η > 0, candidates from a space-time grid |
 //!
 //! Every parameter is checked once, in [`time_window::TimeWindowParams`] or
 //! [`index::IndexParams`]; a violation is an [`LcssError`].
@@ -19,6 +20,7 @@ use std::fmt;
 
 pub mod band;
 pub mod index;
+pub mod sparse;
 pub mod time_window;
 pub mod translate;
 

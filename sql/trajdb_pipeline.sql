@@ -2443,13 +2443,14 @@ LEFT JOIN spot_q q ON q.approach_in IS NOT DISTINCT FROM m.approach_in AND q.app
 GROUP BY ALL ORDER BY ALL;
 
 -- ---------------------------------------------------------------- conflicts
--- Every pair of road users whose times overlap within max_pet seconds and whose bounding boxes
--- overlap, each widened by its reach (radius / 2 + its top speed x max_ttc: where a constant-velocity
--- prediction can take it within max_ttc), never all pairs: traj_conflicts finds them by a sweep over
--- start times in one call (O(n log n + K), K the pairs meeting in time) and computes per pair, in
--- parallel and without copying the paths: traj_pet (the crossing with the smallest PET, at most
--- max_pet) and traj_ttc (the minimum TTC at constant velocity, radius = the sum of the two road
--- users' radii). Kept: pairs with a PET, or a TTC of at most max_ttc. road_user must be unique.
+-- Every pair of road users near each other in time and space, never all pairs: traj_conflicts
+-- scores only pairs whose path pieces come within their reach (radius / 2 + the piece's top speed
+-- x max_ttc: where a constant-velocity prediction can take it within max_ttc) within max_pet
+-- seconds, found on a space-time grid in one call (linear in the road users near each other), and
+-- computes per pair, in parallel and without copying the paths: traj_pet (the crossing with the
+-- smallest PET, at most max_pet) and traj_ttc (the minimum TTC at constant velocity, radius = the
+-- sum of the two road users' radii). Kept: pairs with a PET, or a TTC of at most max_ttc.
+-- road_user must be unique.
 -- kind: SSAM's rule on the crossing angle: rear-end (< 30 deg), lane-change (30-85), crossing (> 85).
 -- road_user_first: who passed the conflict point first.
 CREATE OR REPLACE MACRO conflicts(tbl := 'merged', max_pet := 5.0, radius := 2.0, max_ttc := 3.0) AS TABLE

@@ -154,6 +154,33 @@ pub static FUNCTIONS: &[Function] = &[
         table: None,
     },
     Function {
+        name: "traj_msd_pairs",
+        description: "Mean squared distance of many track pairs over their common time, in one call: for each (a, b) of pairs (ids from ids_a \
+                      and ids_b), n_common = the point pairs of traj_correspond(trajs_a[a], trajs_b[b], max_gap) and msd = the mean of their \
+                      squared distances (m², NULL when n_common = 0), bit for bit list_avg([(c.fx - c.mx) ** 2 + (c.fy - c.my) ** 2 FOR c \
+                      IN traj_correspond(...)]) without building the list. One element per pair, in the order of pairs. The tracks are \
+                      read in place and the pairs run in parallel: no trajectory is copied per pair (sql/stages/merge.sql weighs its \
+                      candidates with it). O(n + m) a pair. Errors: ids and trajs lists of different lengths, duplicate ids on one \
+                      side, a pair naming an id not in its side, max_gap <= 0.",
+        example: "SELECT traj_msd_pairs([1], [[{'t':0,'x':0,'y':0},{'t':1,'x':1,'y':0}]], [2], [[{'t':0,'x':0,'y':1},{'t':1,'x':1,'y':1}]], [{'a': 1, 'b': 2}], 0.5); -- [{'a': 1, 'b': 2, 'n_common': 2, 'msd': 1.0}]",
+        maths: "crates/algo/src/align/msd.rs",
+        binding: file!(),
+        signatures: &[Signature {
+            params: &[
+                p("ids_a", Ty::List(&Ty::Bigint)),
+                p("trajs_a", Ty::List(&TRAJ)),
+                p("ids_b", Ty::List(&Ty::Bigint)),
+                p("trajs_b", Ty::List(&TRAJ)),
+                p("pairs", Ty::List(&Ty::Struct(&[("a", Ty::Bigint), ("b", Ty::Bigint)]))),
+                p("max_gap", Ty::Double),
+            ],
+            arities: &[],
+            returns: Ty::List(&Ty::Struct(&[("a", Ty::Bigint), ("b", Ty::Bigint), ("n_common", Ty::Bigint), ("msd", Ty::Double)])),
+            kernel: traj_msd_pairs,
+        }],
+        table: None,
+    },
+    Function {
         name: "rigid_fit_scan",
         description: "Clock offset hypotheses of one track pair: rigid_fit(traj_correspond(fixed, moving, max_gap, dt)) at every dt = -max_shift, \
                       -max_shift + step, ..., max_shift (dt: moving clock minus fixed clock). A straight track fits at every dt (the translation slides \
@@ -564,5 +591,47 @@ fn speed_lag_fn(a: &Args<'_>, out: &mut Out<'_>) -> R {
         Ok(speed_lag::speed_lag(x, y, &grid, m as usize)?.map(|l| vec![Value::F64(l.lag), Value::F64(l.corr), Value::I64(l.n as i64)]))
     })?;
     out.structs(&vals);
+    Ok(())
+}
+
+/// Positions of `ids` (one side of traj_msd_pairs); a duplicate id is an error.
+fn positions(ids: &[i64], side: &str) -> Result<std::collections::HashMap<i64, usize>, Box<dyn Error>> {
+    let mut at = std::collections::HashMap::with_capacity(ids.len());
+    for (k, &id) in ids.iter().enumerate() {
+        if at.insert(id, k).is_some() {
+            return Err(format!("ids_{side} must be distinct (one track per id), got {id} twice").into());
+        }
+    }
+    Ok(at)
+}
+
+fn traj_msd_pairs(a: &Args<'_>, out: &mut Out<'_>) -> R {
+    let (ia, ta, ib, tb, pairs, gap) = (a.i64_list(0), a.traj_list(1), a.i64_list(2), a.traj_list(3), a.struct_list(4), a.double(5));
+    let vals = a.map(|r| {
+        let (Some(ia), Some(ta), Some(ib), Some(tb), Some(pairs), Some(gap)) = (ia.get(r)?, ta.get(r)?, ib.get(r)?, tb.get(r)?, pairs.get(r)?, gap.get(r)) else {
+            return Ok(None);
+        };
+        for (ids, trajs, side) in [(ia, &ta, "a"), (ib, &tb, "b")] {
+            if ids.len() != trajs.len() {
+                return Err(format!("ids_{side} has {} elements but trajs_{side} has {}; pass list(id ORDER BY id) and list(traj ORDER BY id) of the same rows", ids.len(), trajs.len()).into());
+            }
+        }
+        let (pa, pb) = (positions(ia, "a")?, positions(ib, "b")?);
+        let (ka, kb) = (pairs.i64(0), pairs.i64(1));
+        let mut at = Vec::new();
+        at.try_reserve(ka.len()).map_err(|_| "traj_msd_pairs: out of memory for the pairs")?;
+        for k in 0..ka.len() {
+            let p = *pa.get(&ka[k]).ok_or_else(|| format!("pairs[{}].a = {} is not in ids_a", k + 1, ka[k]))?;
+            let q = *pb.get(&kb[k]).ok_or_else(|| format!("pairs[{}].b = {} is not in ids_b", k + 1, kb[k]))?;
+            at.push((p, q));
+        }
+        let m = crate::algo::align::msd::msd_pairs(&ta, &tb, &at, gap)?;
+        let n: Vec<i64> = m.iter().map(|v| v.0 as i64).collect();
+        let msd: Vec<Option<f64>> = m.iter().map(|v| v.1).collect();
+        Ok(Some((ka.to_vec(), kb.to_vec(), n, msd)))
+    })?;
+    let cols: Vec<_> =
+        vals.iter().map(|v| v.as_ref().map(|(x, y, n, m)| vec![Column::I64(x), Column::I64(y), Column::I64(n), Column::OptF64(m)])).collect();
+    out.struct_lists(&cols);
     Ok(())
 }

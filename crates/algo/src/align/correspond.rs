@@ -41,6 +41,19 @@ pub fn correspond(fixed: Traj<'_>, moving: Traj<'_>, max_gap: f64) -> Result<Pai
 /// is not copied (the shifted times are computed where they are read, by the same subtraction,
 /// so the pairs are those of `correspond` on a shifted copy). `max_gap` already checked.
 pub(crate) fn correspond_into(fixed: Traj<'_>, moving: Traj<'_>, dt: f64, max_gap: f64, out: &mut Pairs) {
+    each_pair(fixed, moving, dt, max_gap, |t, u, fx, fy, mx, my| {
+        out.t.push(t);
+        out.u.push(u);
+        out.fx.push(fx);
+        out.fy.push(fy);
+        out.mx.push(mx);
+        out.my.push(my);
+    });
+}
+
+/// The pairs of [`correspond_into`] handed to `f(t, u, fx, fy, mx, my)` in time order, without
+/// building them (the one walk both use).
+pub(crate) fn each_pair(fixed: Traj<'_>, moving: Traj<'_>, dt: f64, max_gap: f64, mut f: impl FnMut(f64, f64, f64, f64, f64, f64)) {
     let m = moving.len();
     if m == 0 {
         return;
@@ -66,12 +79,7 @@ pub(crate) fn correspond_into(fixed: Traj<'_>, moving: Traj<'_>, dt: f64, max_ga
             let u = (t - t0) / (t1 - t0);
             (moving.x[j] + u * (moving.x[j + 1] - moving.x[j]), moving.y[j] + u * (moving.y[j + 1] - moving.y[j]), u)
         };
-        out.t.push(t);
-        out.u.push(u);
-        out.fx.push(fixed.x[i]);
-        out.fy.push(fixed.y[i]);
-        out.mx.push(x);
-        out.my.push(y);
+        f(t, u, fixed.x[i], fixed.y[i], x, y);
     }
 }
 

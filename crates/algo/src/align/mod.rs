@@ -4,6 +4,7 @@
 //! |---|---|---|
 //! | [`rigid`] | `rigid_fit`, `rigid_rms`, `transform_apply`, `transform_point`, `transform_compose`, `transform_invert` | 2-D similarity transforms; Umeyama/Kabsch fit from known pairs, trimmed (LTS) |
 //! | [`correspond`] | `traj_correspond` | time-interpolated point pairs of two tracks (one transform hypothesis) |
+//! | [`msd`] | `traj_msd_pairs` | mean squared distance of track pairs over their common time (merge evidence) |
 //! | [`shift`] | `rigid_fit_scan`, `rigid_fit_shifted` | clock offsets: the fit of a track pair at every time shift (a Hough line), and the joint fit of many pairs with the best shift |
 //! | [`xcorr`] | `activity_lag` | the coarse clock offset of two cameras over every lag: cross-correlation of their activity (FFT, [`fft`]) |
 //! | [`shift_under`] | `rigid_shift_under` | the clock offset of one track pair under a known transform (align.sql's drift measurement) |
@@ -12,6 +13,7 @@
 //! | [`cpd3`] | `cpd_align` (3-D) | the same model in 3-D (rotation by SVD) |
 
 pub mod correspond;
+pub mod msd;
 pub mod cpd;
 pub mod fft;
 pub mod cpd3;

@@ -21,11 +21,13 @@
 //! So the kept pairs, and their PET and TTC, are exactly those of the whole-path rule (the
 //! property test in pairs.rs compares with all pairs).
 //!
-//! The grid: cells of the median piece size in space and the median widened span in time, so a
-//! piece covers about 2 cells a dimension; each pair of pieces is tested once, in the first
-//! cell both cover. A piece that would cover more than [`MAX_CELLS`] cells (a very fast or
-//! very long one) is tested against every piece instead. O(P log P + Σ_cells k² ) for P pieces
-//! and k pieces per cell: linear in the road users at a given density in space.
+//! The grid: cells of twice the median piece size in space and twice the median widened span in
+//! time, so a piece covers 1 or 2 cells a dimension. Each road user is entered once in every cell its
+//! pieces cover; the road users sharing a cell are the coarse pairs, and a pair is kept when
+//! two of its pieces meet (two pointers over both paths' pieces in time). A piece that would
+//! cover more than [`MAX_CELLS`] cells (a very fast or very long one) is tested against every
+//! piece instead. O(E log E + Σ_cells u² + Σ_pairs pieces) for E entries and u road users per
+//! cell: linear in the road users at a given density in space.
 
 use super::ConflictError;
 use crate::limits::{Exceeded, MEMORY_BYTES};
@@ -125,48 +127,102 @@ fn try_vec<T>(n: usize) -> Result<Vec<T>, ConflictError> {
     Ok(v)
 }
 
-/// The candidate pairs among `trajs` (positions; paths of 2+ points, already validated), as
-/// `(p, q)` with `p < q`, sorted and distinct. `half_pet` = max_pet / 2 (may be infinite).
-pub(crate) fn candidates(trajs: &[Traj<'_>], radius: f64, max_ttc: f64, half_pet: f64) -> Result<Vec<(u32, u32)>, ConflictError> {
-    let total: usize = trajs.iter().map(|t| t.len() / PIECE + 1).sum();
-    let mut pieces: Vec<Piece> = try_vec(total)?;
-    for (k, tr) in trajs.iter().enumerate() {
-        if tr.len() >= 2 {
-            pieces_of(k, *tr, radius, max_ttc, half_pet, &mut pieces);
+/// Whether a piece of one road user meets a piece of the other (`p`, `q`: their pieces, each in
+/// time order): two pointers over the spans, O(|p| + |q| + the span overlaps).
+fn paths_meet(p: &[Piece], q: &[Piece]) -> bool {
+    let mut j0 = 0;
+    for a in p {
+        while j0 < q.len() && q[j0].t1 < a.t0 {
+            j0 += 1;
         }
-    }
-    // cell sizes: what a piece spans (medians: a few fast or long pieces do not set them)
-    let gs = Axis(median(pieces.iter().map(|p| (p.x1 - p.x0).max(p.y1 - p.y0)).collect()));
-    let gt = Axis(median(pieces.iter().map(|p| p.t1 - p.t0).collect()));
-    let range = |p: &Piece| ((gt.cell(p.t0), gt.cell(p.t1)), (gs.cell(p.x0), gs.cell(p.x1)), (gs.cell(p.y0), gs.cell(p.y1)));
-    let span = |(a, b): (i64, i64)| (b as i128 - a as i128 + 1) as u128;
-    type Key = (i64, i64, i64);
-    let mut entries: Vec<(Key, u32)> = Vec::new();
-    let mut wide: Vec<u32> = Vec::new();
-    for (k, p) in pieces.iter().enumerate() {
-        let (rt, rx, ry) = range(p);
-        let cells = span(rt) * span(rx) * span(ry);
-        if cells > MAX_CELLS as u128 {
-            wide.push(k as u32);
-            continue;
-        }
-        let need = entries.len() + cells as usize;
-        if need > entries.capacity() {
-            let want = need.max(2 * entries.capacity()).max(1024);
-            let bytes = (want * std::mem::size_of::<(Key, u32)>()) as u128;
-            memory(bytes)?;
-            entries.try_reserve(want - entries.len()).map_err(|_| alloc_error(bytes))?;
-        }
-        for ct in rt.0..=rt.1 {
-            for cx in rx.0..=rx.1 {
-                for cy in ry.0..=ry.1 {
-                    entries.push(((ct, cx, cy), k as u32));
-                }
+        for b in &q[j0..] {
+            if b.t0 > a.t1 {
+                break;
+            }
+            if a.meets(b) {
+                return true;
             }
         }
     }
+    false
+}
+
+/// The candidate pairs among `trajs` (positions; paths of 2+ points, already validated), as
+/// `(p, q)` with `p < q`, sorted and distinct. `half_pet` = max_pet / 2 (may be infinite).
+pub(crate) fn candidates(trajs: &[Traj<'_>], radius: f64, max_ttc: f64, half_pet: f64) -> Result<Vec<(u32, u32)>, ConflictError> {
+    // every road user's pieces (in parallel), then one list: pieces[first[k]..first[k + 1]] are
+    // road user k's, in time order
+    let per_user: Vec<Result<Vec<Piece>, ConflictError>> = trajs
+        .par_iter()
+        .enumerate()
+        .map(|(k, tr)| {
+            let mut v = Vec::new();
+            if tr.len() >= 2 {
+                let n = tr.len() / PIECE + 1;
+                v.try_reserve(n).map_err(|_| alloc_error((n * std::mem::size_of::<Piece>()) as u128))?;
+                pieces_of(k, *tr, radius, max_ttc, half_pet, &mut v);
+            }
+            Ok(v)
+        })
+        .collect();
+    let total: usize = per_user.iter().map(|r| r.as_ref().map_or(0, Vec::len)).sum();
+    let mut pieces: Vec<Piece> = try_vec(total)?;
+    let mut first: Vec<usize> = try_vec(trajs.len() + 1)?;
+    for r in per_user {
+        first.push(pieces.len());
+        pieces.extend(r?);
+    }
+    first.push(pieces.len());
+    let of = |k: u32| &pieces[first[k as usize]..first[k as usize + 1]];
+    // cell sizes: what a piece spans (medians: a few fast or long pieces do not set them)
+    let gs = Axis(2.0 * median(pieces.iter().map(|p| (p.x1 - p.x0).max(p.y1 - p.y0)).collect()));
+    let gt = Axis(2.0 * median(pieces.iter().map(|p| p.t1 - p.t0).collect()));
+    let range = |p: &Piece| ((gt.cell(p.t0), gt.cell(p.t1)), (gs.cell(p.x0), gs.cell(p.x1)), (gs.cell(p.y0), gs.cell(p.y1)));
+    let span = |(a, b): (i64, i64)| (b as i128 - a as i128 + 1) as u128;
+    type Key = (i64, i64, i64);
+    // the cells each road user's pieces cover, once per road user and cell (its consecutive
+    // pieces mostly cover the same cells: deduplicated per road user, in parallel); pieces that
+    // would cover more than MAX_CELLS cells are `wide`
+    type Cells = (Vec<(Key, u32)>, Vec<u32>);
+    let per_user: Vec<Result<Cells, ConflictError>> = (0..trajs.len())
+        .into_par_iter()
+        .map(|k| {
+            let (mut cells, mut wide): Cells = (Vec::new(), Vec::new());
+            for (i, p) in pieces[first[k]..first[k + 1]].iter().enumerate() {
+                let (rt, rx, ry) = range(p);
+                let n = span(rt) * span(rx) * span(ry);
+                if n > MAX_CELLS as u128 {
+                    wide.push((first[k] + i) as u32);
+                    continue;
+                }
+                cells.try_reserve(n as usize).map_err(|_| alloc_error(n * std::mem::size_of::<(Key, u32)>() as u128))?;
+                for ct in rt.0..=rt.1 {
+                    for cx in rx.0..=rx.1 {
+                        for cy in ry.0..=ry.1 {
+                            cells.push(((ct, cx, cy), k as u32));
+                        }
+                    }
+                }
+            }
+            cells.sort_unstable();
+            cells.dedup();
+            Ok((cells, wide))
+        })
+        .collect();
+    let mut n_entries = 0usize;
+    for r in &per_user {
+        n_entries += r.as_ref().map_or(0, |c| c.0.len());
+    }
+    let mut entries: Vec<(Key, u32)> = try_vec(n_entries)?;
+    let mut wide: Vec<u32> = Vec::new();
+    for r in per_user {
+        let (c, w) = r?;
+        entries.extend(c);
+        wide.extend(w);
+    }
     entries.par_sort_unstable();
-    // cell groups, then the piece pairs of each group tested in their first common cell
+    entries.dedup();
+    // the road users sharing a cell, pair by pair
     let mut groups: Vec<(usize, usize)> = Vec::new();
     let mut s = 0;
     while s < entries.len() {
@@ -179,35 +235,26 @@ pub(crate) fn candidates(trajs: &[Traj<'_>], radius: f64, max_ttc: f64, half_pet
         }
         s = e;
     }
-    let first = |a: &Piece, b: &Piece| -> Key {
-        let (ra, rb) = (range(a), range(b));
-        (ra.0 .0.max(rb.0 .0), ra.1 .0.max(rb.1 .0), ra.2 .0.max(rb.2 .0))
-    };
-    let who = |p: u32| pieces[p as usize].who;
-    let pair = |a: u32, b: u32| if a < b { (a, b) } else { (b, a) };
-    let per_group: Vec<Vec<(u32, u32)>> = groups
+    // the coarse pairs are the working table: their bytes checked before any is made
+    let coarse: u128 = groups.iter().map(|&(s, e)| ((e - s) as u128) * ((e - s - 1) as u128) / 2).sum();
+    memory(coarse * std::mem::size_of::<(u32, u32)>() as u128)?;
+    let per_group: Vec<Result<Vec<(u32, u32)>, ConflictError>> = groups
         .par_iter()
         .map(|&(s, e)| {
-            let cell = entries[s].0;
+            let k = (e - s) * (e - s - 1) / 2;
             let mut out = Vec::new();
+            out.try_reserve(k).map_err(|_| alloc_error((k * std::mem::size_of::<(u32, u32)>()) as u128))?;
             for i in s..e {
-                let p = &pieces[entries[i].1 as usize];
                 for j in i + 1..e {
-                    let q = &pieces[entries[j].1 as usize];
-                    if p.who != q.who && p.meets(q) && first(p, q) == cell {
-                        out.push(pair(p.who, q.who));
-                    }
+                    out.push((entries[i].1, entries[j].1)); // sorted by who within a cell
                 }
             }
-            out.sort_unstable();
-            out.dedup();
-            out
+            Ok(out)
         })
         .collect();
-    let n: usize = per_group.iter().map(Vec::len).sum();
-    let mut pairs: Vec<(u32, u32)> = try_vec(n)?;
+    let mut pairs: Vec<(u32, u32)> = try_vec(coarse as usize)?;
     for g in per_group {
-        pairs.extend(g);
+        pairs.extend(g?);
     }
     // the wide pieces against every piece (time-sorted: only those whose span can meet)
     if !wide.is_empty() {
@@ -225,14 +272,15 @@ pub(crate) fn candidates(trajs: &[Traj<'_>], radius: f64, max_ttc: f64, half_pet
                         memory(bytes)?;
                         pairs.try_reserve(want).map_err(|_| alloc_error(bytes))?;
                     }
-                    pairs.push(pair(who(w), who(q)));
+                    pairs.push((pw.who.min(pq.who), pw.who.max(pq.who)));
                 }
             }
         }
     }
     pairs.par_sort_unstable();
     pairs.dedup();
-    Ok(pairs)
+    // sharing a cell is not meeting: keep the pairs with two pieces that meet
+    Ok(pairs.into_par_iter().filter(|&(p, q)| paths_meet(of(p), of(q))).collect())
 }
 
 #[cfg(test)]

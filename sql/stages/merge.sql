@@ -119,12 +119,14 @@ WITH cfg AS (
     JOIN merge_periods m ON m.cam_a = o.cam_a AND m.cam_b = o.cam_b
     WHERE o.area_m2 > 0
 ),
-sides AS (
+sides AS MATERIALIZED (
     SELECT camera, class, list(uid ORDER BY uid) AS ids, list(traj ORDER BY uid) AS trajs
     FROM merge_tracks GROUP BY camera, class
 ),
+-- (the lists are read where they are stored: a copy of them per camera pair in a materialised
+-- table, or per candidate pair in a join, was the stage's peak memory)
 s AS MATERIALIZED (
-    SELECT f.cam_a, f.cam_b, f.sigma_d_m, f.period_max, f.step_s, a.ids AS ids_a, a.trajs AS trajs_a, b.ids AS ids_b, b.trajs AS trajs_b,
+    SELECT f.class, f.cam_a, f.cam_b, f.sigma_d_m, f.period_max, f.step_s,
            lcss_similarity_pairs(a.ids, a.trajs, b.ids, b.trajs, f.epsilon, getvariable('merge_time_window'),
                                  calibrated('merge_min_points')::BIGINT, f.polygon) AS q
     FROM cfg f
@@ -135,9 +137,11 @@ s AS MATERIALIZED (
 -- every common time step, wherever the two tracks are, inside the overlap polygon or not
 -- (traj_msd_pairs: list_avg of traj_correspond's squared distances, the tracks read in place)
 m AS (
-    SELECT unnest(traj_msd_pairs(ids_a, trajs_a, ids_b, trajs_b, [{'a': p.a, 'b': p.b} FOR p IN q IF p.eta >= getvariable('merge_eta')],
-                                 greatest(getvariable('merge_resample_max_gap'), 1.5 * period_max))) AS c
+    SELECT unnest(traj_msd_pairs(a.ids, a.trajs, b.ids, b.trajs, [{'a': p.a, 'b': p.b} FOR p IN s.q IF p.eta >= getvariable('merge_eta')],
+                                 greatest(getvariable('merge_resample_max_gap'), 1.5 * s.period_max))) AS c
     FROM s
+    JOIN sides a ON a.class = s.class AND a.camera = s.cam_a
+    JOIN sides b ON b.class = s.class AND b.camera = s.cam_b
 ),
 e AS (SELECT cam_a, cam_b, sigma_d_m, period_max, step_s, unnest(q) AS q FROM s),
 r AS (

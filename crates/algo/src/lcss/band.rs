@@ -104,10 +104,12 @@ pub(crate) fn with_scratch<R>(m: usize, f: impl FnOnce(&mut Scratch) -> R) -> Re
 /// table unchanged (C[i][j] = C[i-1][j] for all j), so they are skipped. Returns `C[n][m]`,
 /// or `None` as soon as `visit` returns false.
 /// `scratch` comes from [`with_scratch`] (`row` is `m + 1` zeros).
-fn run_rows<B, M, V>(scratch: &mut Scratch, n: usize, m: usize, mut band: B, mut is_match: M, mut visit: V) -> Option<usize>
+/// `row_match(i, lo, hi, hits)` appends the match tests of row `i` against columns `lo..hi` to
+/// `hits` (one bool a column, in order; [`cell_tests`] makes one from an `is_match(i, j)`).
+fn run_rows<B, R, V>(scratch: &mut Scratch, n: usize, m: usize, mut band: B, mut row_match: R, mut visit: V) -> Option<usize>
 where
     B: Iterator<Item = (usize, usize)>,
-    M: FnMut(usize, usize) -> bool,
+    R: FnMut(usize, usize, usize, &mut Vec<bool>),
     V: FnMut(usize, usize, usize, &[u32]) -> bool,
 {
     // row[c] = C[i][c] for c <= filled (1-based columns); C[i][c] = row[filled] for c > filled.
@@ -124,13 +126,11 @@ where
         // Match tests first, branch-free (vectorisable); on real data most rows of most pairs
         // have none and are skipped here.
         hits.clear();
-        let mut any = false;
-        for j in lo..hi {
-            let h = is_match(i, j);
-            any |= h;
-            hits.push(h);
+        if lo < hi {
+            row_match(i, lo, hi, hits);
+            debug_assert_eq!(hits.len(), hi - lo);
         }
-        if !any {
+        if !hits.iter().fold(false, |any, &h| any | h) {
             if !visit(i, lo, lo, &[]) {
                 return None;
             }
@@ -168,12 +168,30 @@ where
     B::IntoIter: Clone,
     M: FnMut(usize, usize) -> bool,
 {
+    lcss_len_rows(n, m, band, cell_tests(is_match))
+}
+
+/// A row matcher for [`lcss_len_rows`] from a per-cell `is_match(i, j)`.
+fn cell_tests<M: FnMut(usize, usize) -> bool>(mut is_match: M) -> impl FnMut(usize, usize, usize, &mut Vec<bool>) {
+    move |i, lo, hi, hits| hits.extend((lo..hi).map(|j| is_match(i, j)))
+}
+
+/// [`lcss_len`] with the match tests made a row at a time: `row_match(i, lo, hi, hits)`
+/// appends to `hits` whether `a_i` matches `b_j` for every `j` in `lo..hi`, in order (a caller
+/// with columns as slices tests a whole row in one vectorised loop). Same contract, limit and
+/// result.
+pub fn lcss_len_rows<B, R>(n: usize, m: usize, band: B, row_match: R) -> Result<usize, LcssError>
+where
+    B: IntoIterator<Item = (usize, usize)>,
+    B::IntoIter: Clone,
+    R: FnMut(usize, usize, usize, &mut Vec<bool>),
+{
     if n == 0 || m == 0 {
         return Ok(0);
     }
     let band = band.into_iter();
     check_cells(&band)?;
-    Ok(with_scratch(m, |s| run_rows(s, n, m, band, is_match, |_, _, _, _| true))?.unwrap_or(0))
+    Ok(with_scratch(m, |s| run_rows(s, n, m, band, row_match, |_, _, _, _| true))?.unwrap_or(0))
 }
 
 /// The most bytes a [`BandTable`] of `n` rows and `cells` band cells can take: 4 bytes a cell
@@ -215,7 +233,7 @@ impl BandTable {
             return Err(LcssError::Alloc { bytes: table_bytes(n, 0) });
         }
         t.ne.resize(n + 1, 0);
-        let done = with_scratch(m, |s| run_rows(s, n, m, band, is_match, |i, lo, hi, cells| {
+        let done = with_scratch(m, |s| run_rows(s, n, m, band, cell_tests(is_match), |i, lo, hi, cells| {
             if t.vals.try_reserve(cells.len()).is_err() {
                 return false;
             }

@@ -20,7 +20,7 @@
 //! memory ([`length`], [`similarity`]); [`matches`] needs O(n + Σ w_i) memory, 4 bytes a band
 //! cell, checked against the limit `memory_bytes` before the work and allocated fallibly.
 
-use super::band::{lcss_len, table_bytes, BandTable};
+use super::band::{lcss_len, lcss_len_rows, table_bytes, BandTable};
 use super::LcssError;
 use crate::limits;
 use crate::geometry::region::{clip, Region};
@@ -125,7 +125,10 @@ fn pruned_bands(a: Traj<'_>, b: Traj<'_>, eps: f64, tw: f64, bands: &mut Vec<(us
     if bands.try_reserve(n).is_err() || boxes.try_reserve(m.div_ceil(BLOCK)).is_err() {
         return Err(LcssError::Alloc { bytes: n as u128 * 16 + m as u128 * 4 });
     }
-    bands.extend(time_band(a.t, b.t, tw));
+    bands.resize(n, (0, 0));
+    for (slot, band) in bands.iter_mut().zip(time_band(a.t, b.t, tw)) {
+        *slot = band;
+    }
     boxes.extend((0..m.div_ceil(BLOCK)).map(|k| bbox(b, (k * BLOCK, ((k + 1) * BLOCK).min(m)))));
     for r0 in (0..n).step_by(BLOCK) {
         let r1 = (r0 + BLOCK).min(n);
@@ -208,9 +211,15 @@ pub fn length(a: Traj<'_>, b: Traj<'_>, p: &TimeWindowParams) -> Result<usize, L
     check_work(a.t, b.t, p.time_window)?;
     let e2 = p.epsilon * p.epsilon;
     with_pruned_bands(a, b, p.epsilon, p.time_window, |bands| {
-        lcss_len(a.len(), b.len(), bands.iter().copied(), |i, j| {
-            let (dx, dy) = (a.x[i] - b.x[j], a.y[i] - b.y[j]);
-            dx * dx + dy * dy < e2
+        if bands.iter().all(|&(lo, hi)| lo == hi) {
+            return Ok(0); // every block pruned: no point pair matches
+        }
+        lcss_len_rows(a.len(), b.len(), bands.iter().copied(), |i, lo, hi, hits| {
+            let (ax, ay) = (a.x[i], a.y[i]);
+            hits.extend(b.x[lo..hi].iter().zip(&b.y[lo..hi]).map(|(&bx, &by)| {
+                let (dx, dy) = (ax - bx, ay - by);
+                dx * dx + dy * dy < e2
+            }));
         })
     })
 }

@@ -7,6 +7,12 @@
 //! ```
 //! PAIRS.bin: u32 count, then per pair: u32 n, n×(t, x, y) f64, u32 m, m×(t, x, y) f64 (little endian).
 //! OUT.bin: count × f64 similarity. Prints `{"pairs": N, "single_thread_s": .., "parallel_s": .., "threads": ..}`.
+//!
+//! Profiling modes (same arguments as `time`): `prefilter` (only `may_match`), `validate` (only
+//! the input checks of both sides), `sqlpath` (what `lcss_length` does per row in SQL: validate
+//! with bounding boxes, the work check, the box shortcut, then `length`). `REPS=N` in the
+//! environment sets the repetitions (default 10); a small PAIRS.bin that fits in cache times the
+//! kernel as SQL sees it (DuckDB hands over a chunk it has just materialised).
 
 use rayon::prelude::*;
 use std::time::Instant;

@@ -179,8 +179,12 @@ fn tw_params<'a>(a: &Args<'a>) -> impl Fn(usize) -> Result<Option<TimeWindowPara
 }
 
 /// Runs `f(a, b, params, region)` for every row of a time-window call; the first error stops it.
-fn time_window_rows<T: Send, E: Error + 'static>(
+/// A pair whose bounding boxes are ε or more apart ([`crate::algo::traj::Bounds::within`], from the pass that
+/// validates the points) has no matching point pair, inside any region too: it gets `unmatched`
+/// (the form's value for L = 0) without `f`, after the same argument checks.
+fn time_window_rows<T: Send + Sync + Clone, E: Error + 'static>(
     a: &Args<'_>,
+    unmatched: T,
     f: impl Fn(crate::algo::traj::Traj<'_>, crate::algo::traj::Traj<'_>, &TimeWindowParams, Option<&crate::algo::geometry::region::Region>) -> Result<T, E> + Sync,
 ) -> Result<Vec<Option<T>>, Box<dyn Error>> {
     let (ta, tb, params, region) = (a.traj(0), a.traj(1), tw_params(a), a.opt_region(5));
@@ -190,25 +194,28 @@ fn time_window_rows<T: Send, E: Error + 'static>(
     let regions: Vec<Result<Option<Option<std::sync::Arc<crate::algo::geometry::region::Region>>>, String>> =
         (0..a.rows()).map(|r| region.get(r).map_err(|e| e.to_string())).collect();
     a.par_map(|r| {
-        let (Some(x), Some(y), Some(p)) = (ta.get(r)?, tb.get(r)?, params(r)?) else { return Ok(None) };
+        let (Some((x, bx)), Some((y, by)), Some(p)) = (ta.get_bounded(r)?, tb.get_bounded(r)?, params(r)?) else { return Ok(None) };
         let Some(reg) = regions[r].clone()? else { return Ok(None) };
         tw::check_work(x.t, y.t, p.time_window())?;
+        if !bx.within(&by, p.epsilon()) {
+            return Ok(Some(unmatched.clone()));
+        }
         Ok(Some(f(x, y, &p, reg.as_deref())?))
     })
 }
 
 fn length(a: &Args<'_>, out: &mut Out<'_>) -> R {
-    out.flat(&time_window_rows(a, |x, y, p, reg| tw::length_in(x, y, p, reg).map(|l| l as i64))?);
+    out.flat(&time_window_rows(a, 0, |x, y, p, reg| tw::length_in(x, y, p, reg).map(|l| l as i64))?);
     Ok(())
 }
 
 fn similarity(a: &Args<'_>, out: &mut Out<'_>) -> R {
-    out.flat(&time_window_rows(a, tw::similarity_in)?);
+    out.flat(&time_window_rows(a, 0.0, tw::similarity_in)?);
     Ok(())
 }
 
 fn distance(a: &Args<'_>, out: &mut Out<'_>) -> R {
-    out.flat(&time_window_rows(a, |x, y, p, reg| tw::similarity_in(x, y, p, reg).map(|s| 1.0 - s))?);
+    out.flat(&time_window_rows(a, 1.0, |x, y, p, reg| tw::similarity_in(x, y, p, reg).map(|s| 1.0 - s))?);
     Ok(())
 }
 
@@ -221,7 +228,7 @@ fn write_pairs(out: &mut Out<'_>, vals: &[Option<Vec<(usize, usize)>>]) {
 }
 
 fn matches(a: &Args<'_>, out: &mut Out<'_>) -> R {
-    write_pairs(out, &time_window_rows(a, tw::matches_in)?);
+    write_pairs(out, &time_window_rows(a, Vec::new(), tw::matches_in)?);
     Ok(())
 }
 

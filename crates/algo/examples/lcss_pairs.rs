@@ -7,6 +7,12 @@
 //! ```
 //! PAIRS.bin: u32 count, then per pair: u32 n, n×(t, x, y) f64, u32 m, m×(t, x, y) f64 (little endian).
 //! OUT.bin: count × f64 similarity. Prints `{"pairs": N, "single_thread_s": .., "parallel_s": .., "threads": ..}`.
+//!
+//! Profiling modes (same arguments as `time`): `prefilter` (only `may_match`), `validate` (only
+//! the input checks of both sides), `sqlpath` (what `lcss_length` does per row in SQL: validate
+//! with bounding boxes, the work check, the box shortcut, then `length`). `REPS=N` in the
+//! environment sets the repetitions (default 10); a small PAIRS.bin that fits in cache times the
+//! kernel as SQL sees it (DuckDB hands over a chunk it has just materialised).
 
 use rayon::prelude::*;
 use std::time::Instant;
@@ -58,13 +64,26 @@ fn main() {
             let (e, t): (f64, f64) = (args[4].parse().unwrap(), args[5].parse().unwrap());
             Box::new(move |a, b| lcss::may_match(a.view(), b.view(), e, t) as u8 as f64)
         }
+        "validate" => Box::new(move |a, b| (a.view().validate().is_ok() && b.view().validate().is_ok()) as u8 as f64),
+        "sqlpath" => {
+            let tp = TimeWindowParams::new(args[4].parse().unwrap(), args[5].parse().unwrap(), 0).unwrap();
+            Box::new(move |a, b| {
+                let (ba, bb) = (a.view().validate_bounds().unwrap(), b.view().validate_bounds().unwrap());
+                lcss::check_work(&a.t, &b.t, tp.time_window()).unwrap();
+                if !ba.within(&bb, tp.epsilon()) {
+                    return 0.0;
+                }
+                lcss::length(a.view(), b.view(), &tp).expect("within lcss_cells") as f64
+            })
+        }
         m => panic!("unknown mode {m}"),
     };
     // One warm-up pass (page faults, CPU clock ramp), then the best of 10 repetitions, single
     // thread then all cores.
     let mut out: Vec<f64> = pairs.iter().map(|(a, b)| f(a, b)).collect();
+    let reps: usize = std::env::var("REPS").ok().and_then(|v| v.parse().ok()).unwrap_or(10);
     let mut best1 = f64::INFINITY;
-    for _ in 0..10 {
+    for _ in 0..reps {
         let t0 = Instant::now();
         out = pairs.iter().map(|(a, b)| f(a, b)).collect::<Vec<f64>>();
         best1 = best1.min(t0.elapsed().as_secs_f64());

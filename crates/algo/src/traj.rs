@@ -71,7 +71,104 @@ impl<'a> Traj<'a> {
     }
     /// Checks the input policy of this module.
     pub fn validate(&self) -> Result<(), TrajError> {
-        check(self.t, &[("x", self.x), ("y", self.y)])
+        self.validate_bounds().map(|_| ())
+    }
+    /// [`Traj::validate`] and the bounding box of the points, in one pass over the columns
+    /// (the readers of the SQL functions call it for every trajectory argument; the LCSS
+    /// bindings use the box to answer pairs that are more than ε apart without another pass).
+    /// O(n); an empty trajectory has the empty box [`Bounds::EMPTY`].
+    pub fn validate_bounds(&self) -> Result<Bounds, TrajError> {
+        match scan(*self) {
+            Some(b) => Ok(b),
+            None => check(self.t, &[("x", self.x), ("y", self.y)]).map(|_| bounds_slow(*self)),
+        }
+    }
+}
+
+/// Axis-aligned bounding box of a trajectory's points (`min > max` for no points).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Bounds {
+    pub min_x: f64,
+    pub max_x: f64,
+    pub min_y: f64,
+    pub max_y: f64,
+}
+
+impl Bounds {
+    /// The box of no points: every gap to it is infinite.
+    pub const EMPTY: Bounds = Bounds { min_x: f64::INFINITY, max_x: f64::NEG_INFINITY, min_y: f64::INFINITY, max_y: f64::NEG_INFINITY };
+
+    /// Whether some point of `self` and some point of `other` could be less than `eps` apart:
+    /// false when the boxes are at least `eps` apart on one axis (then so is every pair of
+    /// points, `‖a − b‖ >= |a_x − b_x|`) or when one is empty.
+    pub fn within(&self, other: &Bounds, eps: f64) -> bool {
+        !(self.min_x - other.max_x >= eps
+            || other.min_x - self.max_x >= eps
+            || self.min_y - other.max_y >= eps
+            || other.min_y - self.max_y >= eps
+            || self.min_x > self.max_x
+            || other.min_x > other.max_x)
+    }
+}
+
+#[inline(always)]
+fn lo(a: f64, b: f64) -> f64 {
+    if b < a { b } else { a }
+}
+#[inline(always)]
+fn hi(a: f64, b: f64) -> f64 {
+    if b > a { b } else { a }
+}
+
+/// One branch-free pass over `t`, `x`, `y` in two lanes (one SSE2 register each; it
+/// vectorises): the bounding box when every value is finite and `t` is non-decreasing, else
+/// `None` (then the scans of [`check`] find the first offending position, and the box is
+/// computed again). A sum of finite values is finite unless it overflows, and NaN or ±inf when
+/// one is not, so a finite sum proves every value finite (an overflow only takes the slow
+/// path); `t_k − t_{k−1}` of finite times is negative exactly when they are out of order.
+fn scan(tr: Traj<'_>) -> Option<Bounds> {
+    let n = tr.len();
+    if n == 0 {
+        return Some(Bounds::EMPTY);
+    }
+    let (t0, x0, y0) = (tr.t[0], tr.x[0], tr.y[0]);
+    let mut sum = [t0 + x0 + y0, 0.0];
+    let mut step = [0.0f64; 2];
+    let (mut x_lo, mut x_hi, mut y_lo, mut y_hi) = ([x0; 2], [x0; 2], [y0; 2], [y0; 2]);
+    let (prev, t, x, y) = (&tr.t[..n - 1], &tr.t[1..], &tr.x[1..], &tr.y[1..]);
+    let (pc, tc, xc, yc) = (prev.chunks_exact(2), t.chunks_exact(2), x.chunks_exact(2), y.chunks_exact(2));
+    let rest = (pc.remainder(), tc.remainder(), xc.remainder(), yc.remainder());
+    let lo2 = |a: [f64; 2], b: &[f64]| [lo(a[0], b[0]), lo(a[1], b[1])];
+    let hi2 = |a: [f64; 2], b: &[f64]| [hi(a[0], b[0]), hi(a[1], b[1])];
+    for (((p, t), x), y) in pc.zip(tc).zip(xc).zip(yc) {
+        sum = [sum[0] + (t[0] + x[0] + y[0]), sum[1] + (t[1] + x[1] + y[1])];
+        step = [lo(step[0], t[0] - p[0]), lo(step[1], t[1] - p[1])];
+        x_lo = lo2(x_lo, x);
+        x_hi = hi2(x_hi, x);
+        y_lo = lo2(y_lo, y);
+        y_hi = hi2(y_hi, y);
+    }
+    if let (Some(&p), Some(&t), Some(&x), Some(&y)) = (rest.0.first(), rest.1.first(), rest.2.first(), rest.3.first()) {
+        sum[1] += t + x + y;
+        step[1] = lo(step[1], t - p);
+        x_lo[1] = lo(x_lo[1], x);
+        x_hi[1] = hi(x_hi[1], x);
+        y_lo[1] = lo(y_lo[1], y);
+        y_hi[1] = hi(y_hi[1], y);
+    }
+    let total = sum[0] + sum[1];
+    let ok = total - total == 0.0 && step[0] >= 0.0 && step[1] >= 0.0;
+    ok.then(|| Bounds { min_x: lo(x_lo[0], x_lo[1]), max_x: hi(x_hi[0], x_hi[1]), min_y: lo(y_lo[0], y_lo[1]), max_y: hi(y_hi[0], y_hi[1]) })
+}
+
+/// The bounding box by plain folds (the slow path of [`Traj::validate_bounds`]; finite input).
+fn bounds_slow(tr: Traj<'_>) -> Bounds {
+    let fold = |s: &[f64], f: fn(f64, f64) -> f64, z: f64| s.iter().copied().fold(z, f);
+    Bounds {
+        min_x: fold(tr.x, lo, f64::INFINITY),
+        max_x: fold(tr.x, hi, f64::NEG_INFINITY),
+        min_y: fold(tr.y, lo, f64::INFINITY),
+        max_y: fold(tr.y, hi, f64::NEG_INFINITY),
     }
 }
 
@@ -168,12 +265,48 @@ impl fmt::Display for TrajError {
 impl std::error::Error for TrajError {}
 
 /// The input policy: every column finite (t first), then t non-decreasing.
+/// The input policy, O(n): a branch-free pass over the columns first (every value finite,
+/// `t` non-decreasing; it vectorises, and it runs once per row of every SQL call), and only
+/// when it fails the scans below that find the first offending position for the error.
 fn check(t: &[f64], cols: &[(&'static str, &[f64])]) -> Result<(), TrajError> {
+    if all_finite(t) && cols.iter().all(|(_, c)| all_finite(c)) && all_sorted(t) {
+        return Ok(());
+    }
     check_finite("t", t)?;
     for (name, c) in cols {
         check_finite(name, c)?;
     }
     check_sorted(t)
+}
+
+/// Whether every value is finite, without early exit (`|v| < inf` is false for NaN and ±inf).
+fn all_finite(v: &[f64]) -> bool {
+    let mut ok = [true; 4];
+    let chunks = v.chunks_exact(4);
+    let rest = chunks.remainder();
+    for c in chunks {
+        for k in 0..4 {
+            ok[k] &= c[k].abs() < f64::INFINITY;
+        }
+    }
+    rest.iter().all(|a| a.abs() < f64::INFINITY) && ok.iter().all(|&b| b)
+}
+
+/// Whether `t` is non-decreasing, without early exit (NaN-free input: [`all_finite`] first).
+fn all_sorted(t: &[f64]) -> bool {
+    if t.len() < 2 {
+        return true;
+    }
+    let (prev, next) = (&t[..t.len() - 1], &t[1..]);
+    let mut ok = [true; 4];
+    let (pc, nc) = (prev.chunks_exact(4), next.chunks_exact(4));
+    let (pr, nr) = (pc.remainder(), nc.remainder());
+    for (p, n) in pc.zip(nc) {
+        for k in 0..4 {
+            ok[k] &= n[k] >= p[k];
+        }
+    }
+    pr.iter().zip(nr).all(|(p, n)| n >= p) && ok.iter().all(|&b| b)
 }
 
 fn check_finite(field: &'static str, v: &[f64]) -> Result<(), TrajError> {
@@ -527,6 +660,42 @@ mod tests {
         assert_eq!(Traj3::new(&x, &x, &x, &z).validate().unwrap_err().describe("a"), "a[2].z must be finite, got NaN");
         let s = Traj::new(&t, &x, &x).select(&[2, 0]);
         assert_eq!((s.t, s.x), (vec![0.5, 0.0], vec![3.0, 1.0]));
+    }
+
+    proptest::proptest! {
+        /// The branch-free pass of `check` agrees with the obviously-right early-exit scans
+        /// (lengths around the 4-lane chunks, NaN / ±inf and unsorted times anywhere).
+        #[test]
+        fn fast_validation_agrees_with_the_scans(
+            v in proptest::collection::vec(proptest::prop_oneof![
+                8 => proptest::strategy::Strategy::prop_map(0u8..6, |k| k as f64),
+                1 => proptest::sample::select(vec![f64::NAN, f64::INFINITY, f64::NEG_INFINITY]),
+            ], 0..14),
+            sort in proptest::bool::ANY,
+        ) {
+            use proptest::prelude::*;
+            let mut t = v.clone();
+            if sort {
+                t.sort_by(|a, b| a.total_cmp(b));
+            }
+            let slow = check_finite("t", &t).is_ok() && check_finite("x", &v).is_ok() && check_sorted(&t).is_ok();
+            prop_assert_eq!(all_finite(&t) && all_finite(&v) && all_sorted(&t), slow);
+            prop_assert_eq!(Traj::new(&t, &v, &v).validate().is_ok(), slow);
+            // the fused pass: same verdict (same error), and the box of the points
+            let y: Vec<f64> = v.iter().rev().copied().collect();
+            let tr = Traj::new(&t, &v, &y);
+            let want = check(&t, &[("x", &v), ("y", &y)]);
+            match tr.validate_bounds() {
+                Ok(b) => {
+                    prop_assert!(want.is_ok());
+                    let min = |s: &[f64]| s.iter().copied().fold(f64::INFINITY, f64::min);
+                    let max = |s: &[f64]| s.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+                    prop_assert_eq!(b, Bounds { min_x: min(&v), max_x: max(&v), min_y: min(&y), max_y: max(&y) });
+                }
+                // (compared as messages: the errors hold the offending value, maybe NaN)
+                Err(e) => prop_assert_eq!(Some(e.describe("a")), want.err().map(|w| w.describe("a"))),
+            }
+        }
     }
 
     #[test]

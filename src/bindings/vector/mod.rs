@@ -51,6 +51,9 @@ fn struct_fields(ty: &Ty) -> Vec<(&'static str, Kind)> {
         .collect()
 }
 
+/// Rows per work item of [`Args::par_map`] (a 2,048-row chunk makes 64 items).
+const PAR_BLOCK: usize = 32;
+
 /// The input of one call: the chunk, and the declared parameters of the matched signature.
 pub struct Args<'a> {
     chunk: &'a DataChunkHandle,
@@ -86,14 +89,23 @@ impl<'a> Args<'a> {
     /// of the chunk's vectors, shared by the workers for the duration of the call (their `Sync`
     /// below); the work limits of the caller's scope hold on the workers; the error reported is
     /// the first row's in row order (every row runs), with its message.
+    ///
+    /// The rows go to the workers in blocks of [`PAR_BLOCK`], each block entering the caller's
+    /// scope once: per row, the scope's shared reference count was touched by both cores
+    /// (cache-line traffic that cost more than a cheap row, e.g. an LCSS pair that cannot match).
     pub fn par_map<T: Send>(&self, f: impl Fn(usize) -> Res<Option<T>> + Sync) -> Res<Vec<Option<T>>> {
         use rayon::prelude::*;
         let scope = crate::algo::limits::current();
-        let rows: Vec<Result<Option<T>, String>> = (0..self.rows())
+        let n = self.rows();
+        let blocks: Vec<Vec<Result<Option<T>, String>>> = (0..n.div_ceil(PAR_BLOCK))
             .into_par_iter()
-            .map(|r| crate::algo::limits::within(&scope, || f(r).map_err(|e| e.to_string())))
+            .map(|k| {
+                crate::algo::limits::within(&scope, || {
+                    (k * PAR_BLOCK..((k + 1) * PAR_BLOCK).min(n)).map(|r| f(r).map_err(|e| e.to_string())).collect()
+                })
+            })
             .collect();
-        rows.into_iter().map(|v| v.map_err(|e| e.into())).collect()
+        blocks.into_iter().flatten().map(|v| v.map_err(|e| e.into())).collect()
     }
 
     pub fn traj(&self, col: usize) -> TrajCol<'a> {

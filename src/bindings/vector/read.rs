@@ -7,7 +7,7 @@
 
 use super::Kind;
 use crate::algo::geometry::region::Region;
-use crate::algo::traj::{Series, Traj, Traj3};
+use crate::algo::traj::{Bounds, Series, Traj, Traj3};
 use duckdb::core::{DataChunkHandle, FlatVector, LogicalTypeId};
 use duckdb::ffi::{self, duckdb_string_t};
 use duckdb::types::DuckString;
@@ -35,13 +35,26 @@ impl Validity {
     fn all_valid(&self) -> bool {
         self.0.is_null()
     }
-    /// The first NULL position in `r`, if any.
+    /// The first NULL position in `r`, if any: 64 rows a step (a mask word whose rows in `r`
+    /// are all valid is skipped whole; this runs over every point of every trajectory argument).
     fn first_null(&self, r: Range<usize>) -> Option<usize> {
-        if self.all_valid() {
-            None
-        } else {
-            r.into_iter().find(|&k| self.is_null(k))
+        if self.all_valid() || r.is_empty() {
+            return None;
         }
+        let (mut k, end) = (r.start, r.end);
+        while k < end {
+            let (w, bit) = (k / 64, k % 64);
+            let span = (64 - bit).min(end - k);
+            // SAFETY: the mask covers every row of its vector and `k < end <= rows`.
+            let word = unsafe { *self.0.add(w) } >> bit;
+            let want = if span == 64 { u64::MAX } else { (1u64 << span) - 1 };
+            let nulls = !word & want;
+            if nulls != 0 {
+                return Some(k + nulls.trailing_zeros() as usize);
+            }
+            k += span;
+        }
+        None
     }
 }
 
@@ -251,6 +264,15 @@ impl<'a> TrajCol<'a> {
     pub fn get(&self, row: usize) -> Res<Option<Traj<'a>>> {
         to_traj(&self.0, row, self.0.param)
     }
+    /// [`TrajCol::get`] with the bounding box of the points, from the same validating pass
+    /// ([`Traj::validate_bounds`]).
+    pub fn get_bounded(&self, row: usize) -> Res<Option<(Traj<'a>, Bounds)>> {
+        let (c, name) = (&self.0, self.0.param);
+        let Some(r) = c.checked_range(row, name)? else { return Ok(None) };
+        let tr = Traj::new(c.f64_at(0, r.clone()), c.f64_at(1, r.clone()), c.f64_at(2, r));
+        let b = tr.validate_bounds().map_err(|e| e.describe(name))?;
+        Ok(Some((tr, b)))
+    }
     pub fn raw_len(&self, row: usize) -> Option<usize> {
         self.0.raw_len(row)
     }
@@ -391,46 +413,51 @@ impl<'a> StructCol<'a> {
 }
 
 /// A flat column of one fixed-width type `T` (DOUBLE → f64, BIGINT → i64, BOOLEAN → bool).
-pub struct PrimCol<'a, T> {
-    v: FlatVector<'a>,
-    n: usize,
-    _t: std::marker::PhantomData<T>,
+pub struct PrimCol<'a, T: Prim> {
+    data: &'a [T::Raw],
+    validity: Validity,
 }
 
-/// The Rust types [`PrimCol`] reads.
+/// The Rust types [`PrimCol`] reads, with the storage of their SQL type.
 pub trait Prim: Copy {
-    /// # Safety
-    /// `v` holds at least `n` values of this SQL type.
-    unsafe fn read(v: &FlatVector<'_>, n: usize, row: usize) -> Self;
+    type Raw: Copy;
+    fn from_raw(r: Self::Raw) -> Self;
 }
 impl Prim for f64 {
-    unsafe fn read(v: &FlatVector<'_>, n: usize, row: usize) -> Self {
-        unsafe { v.as_slice_with_len::<f64>(n)[row] }
+    type Raw = f64;
+    fn from_raw(r: f64) -> f64 {
+        r
     }
 }
 impl Prim for i64 {
-    unsafe fn read(v: &FlatVector<'_>, n: usize, row: usize) -> Self {
-        unsafe { v.as_slice_with_len::<i64>(n)[row] }
+    type Raw = i64;
+    fn from_raw(r: i64) -> i64 {
+        r
     }
 }
 impl Prim for bool {
-    unsafe fn read(v: &FlatVector<'_>, n: usize, row: usize) -> Self {
-        // BOOLEAN is one byte, 0 or 1.
-        unsafe { v.as_slice_with_len::<u8>(n)[row] != 0 }
+    // BOOLEAN is one byte, 0 or 1.
+    type Raw = u8;
+    fn from_raw(r: u8) -> bool {
+        r != 0
     }
 }
 
 impl<'a, T: Prim> PrimCol<'a, T> {
+    /// The data buffer and validity mask, borrowed once (a row read is then a load, not two
+    /// FFI calls).
     pub(super) fn new(chunk: &'a DataChunkHandle, col: usize) -> Self {
-        PrimCol { v: chunk.flat_vector(col), n: chunk.len(), _t: std::marker::PhantomData }
+        let v = vector(chunk, col);
+        // SAFETY: the signature declares this column with T's SQL type, whose storage is
+        // `T::Raw`; the chunk is flat and holds `chunk.len()` rows.
+        PrimCol { data: unsafe { data(v, chunk.len()) }, validity: Validity::of(v) }
     }
     /// The value of `row`, `None` when NULL.
     pub fn get(&self, row: usize) -> Option<T> {
-        if self.v.row_is_null(row as u64) {
+        if self.validity.is_null(row) {
             None
         } else {
-            // SAFETY: the signature declares this column with T's SQL type; `row < n`.
-            Some(unsafe { T::read(&self.v, self.n, row) })
+            Some(T::from_raw(self.data[row]))
         }
     }
 }
@@ -438,7 +465,7 @@ impl<'a, T: Prim> PrimCol<'a, T> {
 /// An optional trailing argument (absent from the shorter overloads). The NULL policy of every
 /// optional argument, once: present and NULL gives `None` (the row's result is NULL); absent
 /// gives the default.
-pub struct OptCol<'a, T>(Option<PrimCol<'a, T>>);
+pub struct OptCol<'a, T: Prim>(Option<PrimCol<'a, T>>);
 
 impl<'a, T: Prim> OptCol<'a, T> {
     pub(super) fn new(chunk: &'a DataChunkHandle, col: usize) -> Self {

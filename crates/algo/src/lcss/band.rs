@@ -52,20 +52,69 @@ fn check_cells<B: Iterator<Item = (usize, usize)> + Clone>(band: &B) -> Result<(
     crate::limits::LCSS_CELLS.check(cells).map_err(LcssError::Work)
 }
 
+/// The working rows of [`run_rows`]: kept per thread and reused, so a call allocates nothing
+/// once its thread has seen a trajectory as long (an LCSS of two road users of a few hundred
+/// points each is a few hundred nanoseconds of work; two allocations were a good part of it).
+#[derive(Default)]
+pub(crate) struct Scratch {
+    row: Vec<u32>,
+    hits: Vec<bool>,
+}
+
+/// Buffers above this many columns are not kept after the call (a rare long trajectory does
+/// not pin its buffers on every worker thread).
+const KEEP_COLUMNS: usize = 1 << 16;
+
+thread_local! {
+    static SCRATCH: std::cell::RefCell<Scratch> = std::cell::RefCell::new(Scratch::default());
+}
+
+/// Runs `f` with this thread's [`Scratch`], its row sized for `m` columns (a fresh one if the
+/// thread's is in use). The row is allocated fallibly: [`LcssError::Alloc`] when it fails.
+pub(crate) fn with_scratch<R>(m: usize, f: impl FnOnce(&mut Scratch) -> R) -> Result<R, LcssError> {
+    let prepare = |s: &mut Scratch| -> Result<(), LcssError> {
+        s.row.clear();
+        s.hits.clear();
+        if s.row.try_reserve(m + 1).is_err() || s.hits.try_reserve(m).is_err() {
+            return Err(LcssError::Alloc { bytes: (m as u128 + 1) * 5 });
+        }
+        s.row.resize(m + 1, 0);
+        Ok(())
+    };
+    SCRATCH.with(|cell| match cell.try_borrow_mut() {
+        Ok(mut s) => {
+            prepare(&mut s)?;
+            let r = f(&mut s);
+            if m > KEEP_COLUMNS {
+                *s = Scratch::default();
+            }
+            Ok(r)
+        }
+        Err(_) => {
+            let mut s = Scratch::default();
+            prepare(&mut s)?;
+            Ok(f(&mut s))
+        }
+    })
+}
+
 /// Runs the banded recurrence row by row. For every row `i`, `visit(i, lo, hi, cells)` gets the
 /// row's effective band and, when it is non-empty, the new values of columns `lo+1..=hi`
 /// (1-based). Rows whose band holds no match are reported with `hi = lo`: they leave the
 /// table unchanged (C[i][j] = C[i-1][j] for all j), so they are skipped. Returns `C[n][m]`,
 /// or `None` as soon as `visit` returns false.
-fn run_rows<B, M, V>(n: usize, m: usize, mut band: B, mut is_match: M, mut visit: V) -> Option<usize>
+/// `scratch` comes from [`with_scratch`] (`row` is `m + 1` zeros).
+/// `row_match(i, lo, hi, hits)` appends the match tests of row `i` against columns `lo..hi` to
+/// `hits` (one bool a column, in order; [`cell_tests`] makes one from an `is_match(i, j)`).
+fn run_rows<B, R, V>(scratch: &mut Scratch, n: usize, m: usize, mut band: B, mut row_match: R, mut visit: V) -> Option<usize>
 where
     B: Iterator<Item = (usize, usize)>,
-    M: FnMut(usize, usize) -> bool,
+    R: FnMut(usize, usize, usize, &mut Vec<bool>),
     V: FnMut(usize, usize, usize, &[u32]) -> bool,
 {
     // row[c] = C[i][c] for c <= filled (1-based columns); C[i][c] = row[filled] for c > filled.
-    let mut row = vec![0u32; m + 1];
-    let mut hits: Vec<bool> = Vec::new();
+    let Scratch { row, hits } = scratch;
+    debug_assert!(row.len() == m + 1);
     let mut filled = 0usize;
     let mut prev = (0, 0);
     for i in 0..n {
@@ -77,13 +126,11 @@ where
         // Match tests first, branch-free (vectorisable); on real data most rows of most pairs
         // have none and are skipped here.
         hits.clear();
-        let mut any = false;
-        for j in lo..hi {
-            let h = is_match(i, j);
-            any |= h;
-            hits.push(h);
+        if lo < hi {
+            row_match(i, lo, hi, hits);
+            debug_assert_eq!(hits.len(), hi - lo);
         }
-        if !any {
+        if !hits.iter().fold(false, |any, &h| any | h) {
             if !visit(i, lo, lo, &[]) {
                 return None;
             }
@@ -96,7 +143,7 @@ where
         }
         let mut diag = row[lo];
         let mut left = row[lo];
-        for (c, &h) in (lo + 1..=hi).zip(&hits) {
+        for (c, &h) in (lo + 1..=hi).zip(hits.iter()) {
             let up = row[c];
             let v = if h { diag + 1 } else { up.max(left) };
             diag = up;
@@ -121,12 +168,30 @@ where
     B::IntoIter: Clone,
     M: FnMut(usize, usize) -> bool,
 {
+    lcss_len_rows(n, m, band, cell_tests(is_match))
+}
+
+/// A row matcher for [`lcss_len_rows`] from a per-cell `is_match(i, j)`.
+fn cell_tests<M: FnMut(usize, usize) -> bool>(mut is_match: M) -> impl FnMut(usize, usize, usize, &mut Vec<bool>) {
+    move |i, lo, hi, hits| hits.extend((lo..hi).map(|j| is_match(i, j)))
+}
+
+/// [`lcss_len`] with the match tests made a row at a time: `row_match(i, lo, hi, hits)`
+/// appends to `hits` whether `a_i` matches `b_j` for every `j` in `lo..hi`, in order (a caller
+/// with columns as slices tests a whole row in one vectorised loop). Same contract, limit and
+/// result.
+pub fn lcss_len_rows<B, R>(n: usize, m: usize, band: B, row_match: R) -> Result<usize, LcssError>
+where
+    B: IntoIterator<Item = (usize, usize)>,
+    B::IntoIter: Clone,
+    R: FnMut(usize, usize, usize, &mut Vec<bool>),
+{
     if n == 0 || m == 0 {
         return Ok(0);
     }
     let band = band.into_iter();
     check_cells(&band)?;
-    Ok(run_rows(n, m, band, is_match, |_, _, _, _| true).unwrap_or(0))
+    Ok(with_scratch(m, |s| run_rows(s, n, m, band, row_match, |_, _, _, _| true))?.unwrap_or(0))
 }
 
 /// The most bytes a [`BandTable`] of `n` rows and `cells` band cells can take: 4 bytes a cell
@@ -168,7 +233,7 @@ impl BandTable {
             return Err(LcssError::Alloc { bytes: table_bytes(n, 0) });
         }
         t.ne.resize(n + 1, 0);
-        let done = run_rows(n, m, band, is_match, |i, lo, hi, cells| {
+        let done = with_scratch(m, |s| run_rows(s, n, m, band, cell_tests(is_match), |i, lo, hi, cells| {
             if t.vals.try_reserve(cells.len()).is_err() {
                 return false;
             }
@@ -178,7 +243,7 @@ impl BandTable {
             t.ne[i + 1] = if lo < hi { i + 1 } else { t.ne[i] };
             t.vals.extend_from_slice(cells);
             true
-        });
+        }))?;
         match done {
             Some(_) => Ok(t),
             None => Err(LcssError::Alloc { bytes: table_bytes(n, t.vals.len() as u128 * 2) }),

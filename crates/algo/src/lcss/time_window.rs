@@ -20,7 +20,7 @@
 //! memory ([`length`], [`similarity`]); [`matches`] needs O(n + Σ w_i) memory, 4 bytes a band
 //! cell, checked against the limit `memory_bytes` before the work and allocated fallibly.
 
-use super::band::{lcss_len, table_bytes, BandTable};
+use super::band::{lcss_len, lcss_len_rows, table_bytes, BandTable};
 use super::LcssError;
 use crate::limits;
 use crate::geometry::region::{clip, Region};
@@ -78,14 +78,17 @@ fn open_range(t: &[f64], lo: f64, hi: f64) -> (usize, usize) {
     (s, e.max(s))
 }
 
-/// Axis-aligned bounding box `(min_x, max_x, min_y, max_y)` of points `r` of `tr`.
+/// Axis-aligned bounding box `(min_x, max_x, min_y, max_y)` of points `r` of `tr` (finite
+/// coordinates, [`Traj::validate`]): plain comparisons (`f64::min` keeps NaN semantics and
+/// is slower); on finite input the result is the same.
+#[inline]
 fn bbox(tr: Traj<'_>, r: (usize, usize)) -> (f64, f64, f64, f64) {
     let mut b = (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY);
-    for k in r.0..r.1 {
-        b.0 = b.0.min(tr.x[k]);
-        b.1 = b.1.max(tr.x[k]);
-        b.2 = b.2.min(tr.y[k]);
-        b.3 = b.3.max(tr.y[k]);
+    for (&x, &y) in tr.x[r.0..r.1].iter().zip(&tr.y[r.0..r.1]) {
+        b.0 = if x < b.0 { x } else { b.0 };
+        b.1 = if x > b.1 { x } else { b.1 };
+        b.2 = if y < b.2 { y } else { b.2 };
+        b.3 = if y > b.3 { y } else { b.3 };
     }
     b
 }
@@ -115,11 +118,18 @@ const BLOCK: usize = 8;
 /// B blocks its band touches are more than ε apart on some axis. An emptied row is exactly a
 /// row without matches, which leaves the LCSS table unchanged, so the result is identical;
 /// the bands stay monotone (an emptied row becomes `(lo, lo)`). O(n + m).
-fn pruned_bands(a: Traj<'_>, b: Traj<'_>, eps: f64, tw: f64) -> Vec<(usize, usize)> {
+fn pruned_bands(a: Traj<'_>, b: Traj<'_>, eps: f64, tw: f64, bands: &mut Vec<(usize, usize)>, boxes: &mut Vec<(f64, f64, f64, f64)>) -> Result<(), LcssError> {
     let (n, m) = (a.len(), b.len());
-    let mut bands: Vec<(usize, usize)> = time_band(a.t, b.t, tw).collect();
-    let bboxes: Vec<(f64, f64, f64, f64)> =
-        (0..m.div_ceil(BLOCK)).map(|k| bbox(b, (k * BLOCK, ((k + 1) * BLOCK).min(m)))).collect();
+    bands.clear();
+    boxes.clear();
+    if bands.try_reserve(n).is_err() || boxes.try_reserve(m.div_ceil(BLOCK)).is_err() {
+        return Err(LcssError::Alloc { bytes: n as u128 * 16 + m as u128 * 4 });
+    }
+    bands.resize(n, (0, 0));
+    for (slot, band) in bands.iter_mut().zip(time_band(a.t, b.t, tw)) {
+        *slot = band;
+    }
+    boxes.extend((0..m.div_ceil(BLOCK)).map(|k| bbox(b, (k * BLOCK, ((k + 1) * BLOCK).min(m)))));
     for r0 in (0..n).step_by(BLOCK) {
         let r1 = (r0 + BLOCK).min(n);
         let (lo, hi) = (bands[r0].0, bands[r1 - 1].1);
@@ -127,7 +137,7 @@ fn pruned_bands(a: Traj<'_>, b: Traj<'_>, eps: f64, tw: f64) -> Vec<(usize, usiz
             continue;
         }
         let mut bb = (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY);
-        for q in &bboxes[lo / BLOCK..=(hi - 1) / BLOCK] {
+        for q in &boxes[lo / BLOCK..=(hi - 1) / BLOCK] {
             bb = (bb.0.min(q.0), bb.1.max(q.1), bb.2.min(q.2), bb.3.max(q.3));
         }
         let ba = bbox(a, (r0, r1));
@@ -137,12 +147,52 @@ fn pruned_bands(a: Traj<'_>, b: Traj<'_>, eps: f64, tw: f64) -> Vec<(usize, usiz
             }
         }
     }
-    bands
+    Ok(())
+}
+
+/// The buffers of [`pruned_bands`], kept per thread and reused (no allocation per pair once
+/// a thread has seen trajectories as long); dropped after a call above [`KEEP_ROWS`] rows.
+#[derive(Default)]
+struct Bands {
+    bands: Vec<(usize, usize)>,
+    boxes: Vec<(f64, f64, f64, f64)>,
+}
+
+const KEEP_ROWS: usize = 1 << 16;
+
+thread_local! {
+    static BANDS: std::cell::RefCell<Bands> = std::cell::RefCell::new(Bands::default());
+}
+
+/// Runs `f` on the pruned bands of `a` against `b` ([`pruned_bands`]), in this thread's
+/// buffers (fresh ones if they are in use).
+fn with_pruned_bands<R>(a: Traj<'_>, b: Traj<'_>, eps: f64, tw: f64, f: impl FnOnce(&[(usize, usize)]) -> Result<R, LcssError>) -> Result<R, LcssError> {
+    let run = |s: &mut Bands| {
+        pruned_bands(a, b, eps, tw, &mut s.bands, &mut s.boxes)?;
+        f(&s.bands)
+    };
+    BANDS.with(|cell| match cell.try_borrow_mut() {
+        Ok(mut s) => {
+            let r = run(&mut s);
+            if a.len() > KEEP_ROWS || b.len() > KEEP_ROWS {
+                *s = Bands::default();
+            }
+            r
+        }
+        Err(_) => run(&mut Bands::default()),
+    })
 }
 
 /// The cells of the LCSS table inside the time band (before pruning), against the work limit
 /// `lcss_cells`: `Err` before a call would run for long. O(n + m); `times` of A and B sorted.
+///
+/// The band has at most `n m` cells, so when `n m` is within the limit the band is not
+/// counted (the answer is the same; the count is an O(n + m) pass over both time columns on
+/// every call, most of which stop at [`may_match`]).
 pub fn check_work(a_t: &[f64], b_t: &[f64], tw: f64) -> Result<(), LcssError> {
+    if limits::LCSS_CELLS.check(a_t.len() as u128 * b_t.len() as u128).is_ok() {
+        return Ok(());
+    }
     limits::LCSS_CELLS.check(band_cells(a_t, b_t, tw)).map_err(LcssError::Work)
 }
 
@@ -160,10 +210,17 @@ pub fn length(a: Traj<'_>, b: Traj<'_>, p: &TimeWindowParams) -> Result<usize, L
     }
     check_work(a.t, b.t, p.time_window)?;
     let e2 = p.epsilon * p.epsilon;
-    let bands = pruned_bands(a, b, p.epsilon, p.time_window);
-    lcss_len(a.len(), b.len(), bands.iter().copied(), |i, j| {
-        let (dx, dy) = (a.x[i] - b.x[j], a.y[i] - b.y[j]);
-        dx * dx + dy * dy < e2
+    with_pruned_bands(a, b, p.epsilon, p.time_window, |bands| {
+        if bands.iter().all(|&(lo, hi)| lo == hi) {
+            return Ok(0); // every block pruned: no point pair matches
+        }
+        lcss_len_rows(a.len(), b.len(), bands.iter().copied(), |i, lo, hi, hits| {
+            let (ax, ay) = (a.x[i], a.y[i]);
+            hits.extend(b.x[lo..hi].iter().zip(&b.y[lo..hi]).map(|(&bx, &by)| {
+                let (dx, dy) = (ax - bx, ay - by);
+                dx * dx + dy * dy < e2
+            }));
+        })
     })
 }
 
@@ -212,9 +269,10 @@ pub fn matches(a: Traj<'_>, b: Traj<'_>, p: &TimeWindowParams) -> Result<Vec<(us
         dx * dx + dy * dy < e2
     };
     check_work(a.t, b.t, p.time_window)?;
-    let bands = pruned_bands(a, b, p.epsilon, p.time_window);
-    check_table(bands.iter().copied(), a.len())?;
-    traceback(a.len(), b.len(), bands.iter().copied(), is_match)
+    with_pruned_bands(a, b, p.epsilon, p.time_window, |bands| {
+        check_table(bands.iter().copied(), a.len())?;
+        traceback(a.len(), b.len(), bands.iter().copied(), is_match)
+    })
 }
 
 /// The positions in `a` and in `b` of the points a region kept.
@@ -321,6 +379,10 @@ mod tests {
             }
             prop_assert_eq!(length(a, b, &p).unwrap() as u32, want);
             prop_assert_eq!(length(b, a, &p).unwrap() as u32, want, "symmetry");
+            // the SQL bindings' shortcut (boxes ε apart: no match) on short, scattered inputs
+            if !a.validate_bounds().unwrap().within(&b.validate_bounds().unwrap(), eps) {
+                prop_assert_eq!(want, 0);
+            }
             let m = matches(a, b, &p).unwrap();
             prop_assert_eq!(m.len() as u32, want);
             for &(i, j) in &m { prop_assert!(ok(i, j)); }
@@ -369,6 +431,11 @@ mod tests {
             let m = matches(a, b, &p).unwrap();
             prop_assert_eq!(m.len() as u32, want);
             for &(i, j) in &m { prop_assert!(ok(i, j)); }
+            // the SQL bindings' shortcut: boxes from the validating pass that are ε apart
+            // mean no match (and every form's value for L = 0)
+            if !a.validate_bounds().unwrap().within(&b.validate_bounds().unwrap(), eps) {
+                prop_assert_eq!(want, 0);
+            }
         }
     }
 

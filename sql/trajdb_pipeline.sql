@@ -1716,47 +1716,41 @@ WITH cfg AS (
     JOIN merge_periods m ON m.cam_a = o.cam_a AND m.cam_b = o.cam_b
     WHERE o.area_m2 > 0
 ),
-sides AS (
+sides AS MATERIALIZED (
     SELECT camera, class, list(uid ORDER BY uid) AS ids, list(traj ORDER BY uid) AS trajs
     FROM merge_tracks GROUP BY camera, class
 ),
-s AS (
-    SELECT f.cam_a, f.cam_b, f.sigma_d_m, f.period_max, f.step_s,
-           unnest(lcss_similarity_pairs(a.ids, a.trajs, b.ids, b.trajs, f.epsilon, getvariable('merge_time_window'),
-                                        calibrated('merge_min_points')::BIGINT, f.polygon)) AS q
+-- (the lists are read where they are stored: a copy of them per camera pair in a materialised
+-- table, or per candidate pair in a join, was the stage's peak memory)
+s AS MATERIALIZED (
+    SELECT f.class, f.cam_a, f.cam_b, f.sigma_d_m, f.period_max, f.step_s,
+           lcss_similarity_pairs(a.ids, a.trajs, b.ids, b.trajs, f.epsilon, getvariable('merge_time_window'),
+                                 calibrated('merge_min_points')::BIGINT, f.polygon) AS q
     FROM cfg f
     JOIN sides a ON a.class = f.class AND a.camera = f.cam_a
     JOIN sides b ON b.class = f.class AND b.camera = f.cam_b
 ),
-l AS MATERIALIZED (
-    SELECT s.q.a AS uid_a, s.q.b AS uid_b, s.cam_a AS camera_a, s.cam_b AS camera_b, ta.t0 AS t0_a, ta.t1 AS t1_a, tb.t0 AS t0_b, tb.t1 AS t1_b,
-           s.q.eta AS eta, s.sigma_d_m, s.period_max, s.step_s
+-- the whole common time of the candidates (LCSS eta >= merge_eta): the mean squared distance at
+-- every common time step, wherever the two tracks are, inside the overlap polygon or not
+-- (traj_msd_pairs: list_avg of traj_correspond's squared distances, the tracks read in place)
+m AS (
+    SELECT unnest(traj_msd_pairs(a.ids, a.trajs, b.ids, b.trajs, [{'a': p.a, 'b': p.b} FOR p IN s.q IF p.eta >= getvariable('merge_eta')],
+                                 greatest(getvariable('merge_resample_max_gap'), 1.5 * s.period_max))) AS c
     FROM s
-    JOIN (SELECT uid, t0, t1 FROM merge_tracks) ta ON ta.uid = s.q.a
-    JOIN (SELECT uid, t0, t1 FROM merge_tracks) tb ON tb.uid = s.q.b
+    JOIN sides a ON a.class = s.class AND a.camera = s.cam_a
+    JOIN sides b ON b.class = s.class AND b.camera = s.cam_b
 ),
--- the whole common time of the candidates (LCSS eta >= merge_eta): squared distances at every
--- common time step, wherever the two tracks are, inside the overlap polygon or not
--- (only the candidates fetch their trajectories)
-d AS (
-    SELECT l.* EXCLUDE (period_max, step_s),
-           [(c.fx - c.mx) ** 2 + (c.fy - c.my) ** 2
-            FOR c IN traj_correspond(ta.traj, tb.traj, greatest(getvariable('merge_resample_max_gap'), 1.5 * l.period_max))] AS d2,
-           l.period_max, l.step_s
-    FROM l
-    JOIN (SELECT uid, traj FROM merge_tracks) ta ON ta.uid = l.uid_a
-    JOIN (SELECT uid, traj FROM merge_tracks) tb ON tb.uid = l.uid_b
-    WHERE l.eta >= getvariable('merge_eta')
-    UNION ALL BY NAME
-    SELECT l.* EXCLUDE (period_max, step_s), NULL::DOUBLE[] AS d2, l.period_max, l.step_s
-    FROM l WHERE NOT (l.eta >= getvariable('merge_eta'))
-),
+e AS (SELECT cam_a, cam_b, sigma_d_m, period_max, step_s, unnest(q) AS q FROM s),
 r AS (
-    SELECT d.* EXCLUDE (d2), len(d2) AS n_common, list_avg(d2) AS msd,
+    SELECT e.q.a AS uid_a, e.q.b AS uid_b, e.cam_a AS camera_a, e.cam_b AS camera_b, ta.t0 AS t0_a, ta.t1 AS t1_a, tb.t0 AS t0_b, tb.t1 AS t1_b,
+           e.q.eta AS eta, e.sigma_d_m, e.period_max, e.step_s, m.c.n_common, m.c.msd,
            -- independent samples: one per sampling period of the slower camera
-           greatest(len(d2) * least(step_s / period_max, 1.0), 1.0) AS n_eff,
-           list_avg(d2) / greatest(2 * sigma_d_m ** 2, 1e-12) AS r
-    FROM d
+           greatest(m.c.n_common * least(e.step_s / e.period_max, 1.0), 1.0) AS n_eff,
+           m.c.msd / greatest(2 * e.sigma_d_m ** 2, 1e-12) AS r
+    FROM e
+    JOIN (SELECT uid, t0, t1 FROM merge_tracks) ta ON ta.uid = e.q.a
+    JOIN (SELECT uid, t0, t1 FROM merge_tracks) tb ON tb.uid = e.q.b
+    LEFT JOIN m ON m.c.a = e.q.a AND m.c.b = e.q.b
 )
 SELECT r.*,
        -- the gate: chi2(2 n_eff) / (2 n_eff) at 0.999 (Wilson-Hilferty), at least merge_gate_floor

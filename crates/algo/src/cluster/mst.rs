@@ -31,15 +31,14 @@ use rayon::prelude::*;
 /// Below this many items outside the tree a step is scanned on one thread: a rayon split costs a
 /// few microseconds a step; at n = 5,000 on 2 cores the serial steps were as fast for single
 /// linkage (0.095 s vs 0.093 s) and faster for the chain methods (0.112-0.142 s vs 0.132-0.155 s,
-/// `examples/cluster_timing`).
+/// `examples/cluster_timing`; measured before the prefetch).
 const PAR_MIN: usize = 8192;
 /// Items per parallel chunk.
 const CHUNK: usize = 2048;
-/// How many items ahead the column scans prefetch.
 /// How many items ahead the column scans prefetch (at n = 5,000, best of 3 in CPU time on a
 /// shared machine, `examples/condensed_timing`: none 0.124 s single / 0.126 s average, 16 ahead
 /// 0.078 / 0.101, 32 0.058 / 0.085, 64 0.047 / 0.081, 96 0.044 / 0.075).
-const AHEAD: usize = 64;
+pub(super) const AHEAD: usize = 64;
 
 /// The smallest `(D, index)` of a chunk: `(distance, item, position)`; `None` if every item of
 /// the chunk is finished.
@@ -156,3 +155,4 @@ pub(super) fn mst(m: &Condensed<'_>) -> Result<(Vec<RawMerge>, bool), std::colle
     }
     Ok((steps, valid))
 }
+

@@ -29,6 +29,7 @@
 //! prefetched [`AHEAD`] items ahead, as in [`super::mst`].
 
 use super::linkage::{Condensed, Linkage, RawMerge};
+use super::mst::AHEAD;
 use rayon::prelude::*;
 
 /// Below this many active clusters a scan or update runs on one thread (see mst.rs: at n = 5,000
@@ -36,11 +37,6 @@ use rayon::prelude::*;
 const PAR_MIN: usize = 8192;
 /// Clusters per parallel chunk.
 const CHUNK: usize = 2048;
-/// How many items ahead the column scans prefetch.
-/// How many items ahead the column scans prefetch (at n = 5,000, best of 3 in CPU time on a
-/// shared machine, `examples/condensed_timing`: none 0.124 s single / 0.126 s average, 16 ahead
-/// 0.078 / 0.101, 32 0.058 / 0.085, 64 0.047 / 0.081, 96 0.044 / 0.075).
-const AHEAD: usize = 64;
 
 /// The smallest `(distance, cluster)` over `items` other than `x`; `None` when there is none.
 #[inline]

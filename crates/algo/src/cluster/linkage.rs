@@ -64,7 +64,8 @@
 //! Linux: the column scans touch one cache line per row), within the `memory_bytes` limit;
 //! 24 GiB holds n ≈ 80,000 (the cap [`MAX_ITEMS`]). Besides it O(n): Prim and the chain keep
 //! lists of the active items, sizes and the chain; [`dendrogram_condensed`] with single linkage
-//! reads the caller's list in place. Through SQL the list of pairs is the larger cost (24 bytes
+//! reads the caller's list in place and checks its entries inside Prim's scan, the other
+//! methods copy it in one pass that checks it (no pass of its own for the checks). Through SQL the list of pairs is the larger cost (24 bytes
 //! per pair in the list, plus DuckDB's own copy), so about n ≈ 25,000 with all pairs fits in
 //! 24 GiB; sparse pair lists (cannot-links left out) reach further. Time O(n²) for every
 //! method (Prim; the NN-chain on reducible methods), plus O(P) to read P pairs: three parallel

@@ -155,4 +155,3 @@ pub(super) fn mst(m: &Condensed<'_>) -> Result<(Vec<RawMerge>, bool), std::colle
     }
     Ok((steps, valid))
 }
-

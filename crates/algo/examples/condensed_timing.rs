@@ -3,20 +3,20 @@
 //! child is: no huge pages), against the linkage alone on a ready matrix. Best of REPS=3.
 //! `cargo run --release -p trajdb-algo --example condensed_timing -- 5000 [method ...]`
 use std::time::Instant;
+use trajdb_algo::cluster::linkage::{alloc_condensed, dendrogram_condensed, linkage_condensed, Linkage};
 
-/// CPU time of this thread (with CPU=1 in the environment: steadier than wall time on a shared
-/// machine, for the serial sizes), else wall time since `t`.
+/// CPU time of this thread (with CPU=1 in the environment, on Linux: steadier than wall time on a
+/// shared machine, for the serial sizes below 8,192 items), else wall time since `t`.
 fn secs(t: Instant) -> f64 {
+    #[cfg(target_os = "linux")]
     if std::env::var_os("CPU").is_some() {
         let mut ts = libc::timespec { tv_sec: 0, tv_nsec: 0 };
         // SAFETY: a valid timespec pointer.
         unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut ts) };
-        ts.tv_sec as f64 + ts.tv_nsec as f64 * 1e-9
-    } else {
-        t.elapsed().as_secs_f64()
+        return ts.tv_sec as f64 + ts.tv_nsec as f64 * 1e-9;
     }
+    t.elapsed().as_secs_f64()
 }
-use trajdb_algo::cluster::linkage::{alloc_condensed, dendrogram_condensed, linkage_condensed, Linkage};
 
 fn main() {
     let mut args = std::env::args().skip(1);

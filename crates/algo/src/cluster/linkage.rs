@@ -64,7 +64,8 @@
 //! Linux: the column scans touch one cache line per row), within the `memory_bytes` limit;
 //! 24 GiB holds n ≈ 80,000 (the cap [`MAX_ITEMS`]). Besides it O(n): Prim and the chain keep
 //! lists of the active items, sizes and the chain; [`dendrogram_condensed`] with single linkage
-//! reads the caller's list in place. Through SQL the list of pairs is the larger cost (24 bytes
+//! reads the caller's list in place and checks its entries inside Prim's scan, the other
+//! methods copy it in one pass that checks it (no pass of its own for the checks). Through SQL the list of pairs is the larger cost (24 bytes
 //! per pair in the list, plus DuckDB's own copy), so about n ≈ 25,000 with all pairs fits in
 //! 24 GiB; sparse pair lists (cannot-links left out) reach further. Time O(n²) for every
 //! method (Prim; the NN-chain on reducible methods), plus O(P) to read P pairs: three parallel
@@ -369,34 +370,72 @@ pub fn dendrogram_condensed(condensed: &[f64], method: Linkage) -> Result<Dendro
     if n > MAX_ITEMS {
         return Err(ClusterError::TooMany(n));
     }
-    let bad = condensed.par_chunks(CHUNK).enumerate().filter_map(|(c, s)| s.iter().position(|d| !(*d >= 0.0)).map(|k| c * CHUNK + k)).min();
-    if let Some(k) = bad {
-        return Err(ClusterError::CondensedValue { index: k + 1, value: condensed[k] });
-    }
+    let first_bad = || {
+        let k = condensed.par_chunks(CHUNK).enumerate().filter_map(|(c, s)| s.iter().position(|d| !(*d >= 0.0)).map(|k| c * CHUNK + k)).min()?;
+        Some(ClusterError::CondensedValue { index: k + 1, value: condensed[k] })
+    };
     let ids: Vec<i64> = (0..n as i64).collect();
+    let oom = |_| ClusterError::Memory { items: n, bytes: n * 16 };
     if method == Linkage::Single {
-        let oom = |_| ClusterError::Memory { items: n, bytes: n * 16 };
-        let raw = super::mst::mst(&Condensed::read_only(condensed, n).map_err(oom)?).map_err(oom)?;
+        // Prim reads every entry once and reports whether one was NaN or negative: the check
+        // costs no pass of its own (the error, rare, then finds the first bad entry)
+        let (raw, valid) = super::mst::mst(&Condensed::read_only(condensed, n).map_err(oom)?).map_err(oom)?;
+        if !valid {
+            return Err(first_bad().expect("a NaN or negative entry"));
+        }
         let merges = label(n, raw, 1.0)?;
         return Ok(Dendrogram { ids, merges });
     }
-    let mut m = alloc_condensed(n, 0.0)?;
-    m.par_chunks_mut(CHUNK).zip(condensed.par_chunks(CHUNK)).for_each(|(d, s)| d.copy_from_slice(s));
-    linkage_condensed(ids, m, method)
+    // One pass copies the list into the working matrix and checks it on the way: NaN or
+    // negative entries, the largest finite entry and whether one is +inf (ward's check).
+    let mut m = alloc_condensed_uninit(n)?;
+    let (valid, top, complete) = m.spare_capacity_mut()[..len]
+        .par_chunks_mut(CHUNK)
+        .zip(condensed.par_chunks(CHUNK))
+        .map(|(dst, src)| {
+            let (mut valid, mut top, mut complete) = (true, 0.0f64, true);
+            for (w, &d) in dst.iter_mut().zip(src) {
+                w.write(d);
+                valid &= d >= 0.0;
+                if d.is_finite() {
+                    top = top.max(d);
+                } else {
+                    complete = false;
+                }
+            }
+            (valid, top, complete)
+        })
+        .reduce(|| (true, 0.0, true), |a, b| (a.0 && b.0, a.1.max(b.1), a.2 && b.2));
+    if !valid {
+        return Err(first_bad().expect("a NaN or negative entry"));
+    }
+    // SAFETY: the pass above wrote each of the `len` elements (the chunks of `dst` cover them).
+    unsafe { m.set_len(len) };
+    linkage_known(ids, m, method, Known { complete, top: Some(top) })
 }
 
-/// A condensed matrix for `n` items filled with `value`, within the memory limit and fallibly.
-pub fn alloc_condensed(n: usize, value: f64) -> Result<Vec<f64>, ClusterError> {
-    use rayon::prelude::*;
+/// A condensed matrix for `n` items, allocated (within the memory limit, fallibly, in huge
+/// pages) but not written: capacity n(n−1)/2, length 0.
+fn alloc_condensed_uninit(n: usize) -> Result<Vec<f64>, ClusterError> {
     let len = n * n.saturating_sub(1) / 2;
     // bounded by the limit, and fallible: too little memory is an error, never an abort of the host
     crate::limits::MEMORY_BYTES.check(len as u128 * 8).map_err(ClusterError::Limit)?;
     let mut m: Vec<f64> = Vec::new();
     m.try_reserve_exact(len).map_err(|_| ClusterError::Memory { items: n, bytes: len * 8 })?;
     huge_pages(&mut m, len);
-    // SAFETY: capacity is `len`; every element is written below before it is read.
+    Ok(m)
+}
+
+/// A condensed matrix for `n` items filled with `value`, within the memory limit and fallibly.
+pub fn alloc_condensed(n: usize, value: f64) -> Result<Vec<f64>, ClusterError> {
+    use rayon::prelude::*;
+    let len = n * n.saturating_sub(1) / 2;
+    let mut m = alloc_condensed_uninit(n)?;
+    m.spare_capacity_mut()[..len].par_chunks_mut(1 << 16).for_each(|c| c.iter_mut().for_each(|w| {
+        w.write(value);
+    }));
+    // SAFETY: every one of the `len` elements was written above.
     unsafe { m.set_len(len) };
-    m.par_chunks_mut(1 << 16).for_each(|c| c.fill(value));
     Ok(m)
 }
 
@@ -479,6 +518,20 @@ impl<'a> Condensed<'a> {
         let k = self.at(i, j);
         // SAFETY: k < len (checked in `at`); no write to this cell runs concurrently (`set`).
         unsafe { *self.ptr.add(k) }
+    }
+    /// A hint to the processor to load `d(i, j)` (`i < j`) into the cache: the column scans
+    /// read one cache line per row, and the loads the out-of-order core overlaps by itself
+    /// are too few to hide the memory's latency.
+    #[inline(always)]
+    pub(super) fn prefetch_lower(&self, i: usize, j: usize) {
+        #[cfg(target_arch = "x86_64")]
+        {
+            let k = self.at(i, j);
+            // SAFETY: a prefetch neither faults nor changes memory; the address is in the matrix.
+            unsafe { std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(self.ptr.add(k) as *const i8) };
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        let _ = (i, j);
     }
     /// `d(i, j)` for `i != j`.
     #[inline(always)]
@@ -595,7 +648,7 @@ fn linkage_known(ids: Vec<i64>, mut m: Vec<f64>, method: Linkage, known: Known) 
     let raw = {
         let c = Condensed::new(&mut m, n).map_err(oom)?;
         match method {
-            Linkage::Single => super::mst::mst(&c),
+            Linkage::Single => super::mst::mst(&c).map(|(raw, _)| raw),
             _ => super::nn_chain::nn_chain(&c, method),
         }
         .map_err(oom)?
@@ -1073,6 +1126,40 @@ mod tests {
             let dist = matrix(n, &vals, &holes, true, inf);
             let got = ours(&dist, method);
             prop_assert_eq!(got.merges, scipy_transcription(&dist, method));
+        }
+
+        /// The condensed form checks its entries inside the linkage's own passes (single: in
+        /// Prim's scan; the others: in the copy): the same dendrogram as the pairs, the first NaN
+        /// or negative entry as the error, and ward's missing pairs, also for distances scaled
+        /// near the ends of the f64 range.
+        #[test]
+        fn condensed_equals_pairs(n in 2usize..40, vals in prop::collection::vec(0.0f64..1.0, 97), holes in prop::collection::vec(prop::bool::weighted(0.2), 97), m in 0usize..5, inf in any::<bool>(), scale in 0usize..3, bad in prop::collection::vec((0usize..800, 0usize..3), 0..3)) {
+            let method = METHODS[m];
+            let f = [1.0, 1e300, 1e-300][scale];
+            let dist = matrix(n, &vals, &holes, scale == 0, inf);
+            let mut cond = Vec::new();
+            let mut pairs = Vec::new();
+            for i in 0..n {
+                for j in i + 1..n {
+                    cond.push(dist[i][j] * f);
+                    pairs.push((i as i64, j as i64, dist[i][j] * f));
+                }
+            }
+            for &(k, v) in &bad {
+                let k = k % cond.len();
+                let v = [f64::NAN, -1.0, -0.5 * f][v];
+                cond[k] = v;
+                pairs[k].2 = v;
+            }
+            let got = dendrogram_condensed(&cond, method);
+            match dendrogram(&pairs, method) {
+                Ok(want) => prop_assert_eq!(got.unwrap(), want),
+                Err(ClusterError::Distance { index, value }) => {
+                    let e = got.unwrap_err();
+                    prop_assert!(matches!(e, ClusterError::CondensedValue { index: i, value: v } if i == index && v.to_bits() == value.to_bits()), "{:?} vs {} {}", e, index, value);
+                }
+                Err(e) => prop_assert_eq!(got.unwrap_err(), e),
+            }
         }
     }
 

@@ -25,9 +25,11 @@
 //! O(n²) time: every merge updates one row and column of the active clusters (O(n)), and the
 //! chain grows at most 3n times in all (each growth costs one O(n) scan). O(n) memory besides the
 //! matrix (the sorted active list, sizes, the chain). Scans and updates over many active
-//! clusters run in parallel chunks (rayon).
+//! clusters run in parallel chunks (rayon). Their column reads (one cache line per row) are
+//! prefetched [`AHEAD`] items ahead, as in [`super::mst`].
 
 use super::linkage::{Condensed, Linkage, RawMerge};
+use super::mst::AHEAD;
 use rayon::prelude::*;
 
 /// Below this many active clusters a scan or update runs on one thread (see mst.rs: at n = 5,000
@@ -43,7 +45,11 @@ fn nearest(m: &Condensed<'_>, x: u32, items: &[u32]) -> Option<(f64, u32)> {
     let xs = x as usize;
     let mut best_d = f64::INFINITY;
     let mut best = u32::MAX;
-    for &i in &items[..split] {
+    let col = &items[..split];
+    for (k, &i) in col.iter().enumerate() {
+        if let Some(&f) = col.get(k + AHEAD) {
+            m.prefetch_lower(f as usize, xs);
+        }
         let d = m.get_lower(i as usize, xs);
         if d < best_d {
             best_d = d;
@@ -110,18 +116,38 @@ fn update(method: Linkage, dxi: f64, dyi: f64, dxy: f64, nx: u32, ny: u32, ni: u
 }
 
 /// Writes `d(i, y) <- update(d(i, x), d(i, y))` for the active `items` (x < y; x and y skipped).
+/// The items below `y` read column `y` (one cache line per row, prefetched ahead), those below
+/// `x` column `x` too; the rest read rows.
 #[inline]
 #[allow(clippy::too_many_arguments)]
 fn update_all<M: MethodConst>(m: &Condensed<'_>, items: &[u32], sizes: &[u32], recip: &[f64], x: usize, y: usize, dxy: f64, nx: u32, ny: u32) {
-    for &i in items {
+    let below_y = &items[..items.partition_point(|&i| (i as usize) < y)];
+    for (k, &i) in below_y.iter().enumerate() {
+        if let Some(&f) = below_y.get(k + AHEAD) {
+            let f = f as usize;
+            if f < x {
+                m.prefetch_lower(f, x);
+            }
+            m.prefetch_lower(f, y);
+        }
         let i = i as usize;
-        if i == x || i == y {
+        if i == x {
             continue;
         }
-        let (dxi, dyi) = (m.get(i, x), m.get(i, y));
+        let (dxi, dyi) = (m.get(i, x), m.get_lower(i, y));
         let v = update(M::METHOD, dxi, dyi, dxy, nx, ny, sizes[i], recip);
         // SAFETY: each active i writes only its own cell (i, y), which no other i reads or
         // writes during this update; nothing holds a slice of the matrix meanwhile.
+        unsafe { m.set(i, y, v) };
+    }
+    for &i in &items[below_y.len()..] {
+        let i = i as usize;
+        if i == y {
+            continue;
+        }
+        let (dxi, dyi) = (m.get_lower(x, i), m.get_lower(y, i));
+        let v = update(M::METHOD, dxi, dyi, dxy, nx, ny, sizes[i], recip);
+        // SAFETY: as above.
         unsafe { m.set(i, y, v) };
     }
 }

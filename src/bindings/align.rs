@@ -595,7 +595,7 @@ fn speed_lag_fn(a: &Args<'_>, out: &mut Out<'_>) -> R {
 }
 
 /// Positions of `ids` (one side of traj_msd_pairs); a duplicate id is an error.
-fn positions(ids: &[i64], side: &str) -> Result<std::collections::HashMap<i64, usize>, Box<dyn Error>> {
+pub(super) fn positions(ids: &[i64], side: &str) -> Result<std::collections::HashMap<i64, usize>, Box<dyn Error>> {
     let mut at = std::collections::HashMap::with_capacity(ids.len());
     for (k, &id) in ids.iter().enumerate() {
         if at.insert(id, k).is_some() {

@@ -145,8 +145,8 @@ pub static FUNCTIONS: &[Function] = &[
                       scored, so the cost grows with the road users near each other, not with all pairs that overlap in time \
                       (sql/stages/merge.sql scores each camera pair this way). O(P log P + lookups + banded LCSS of the candidates), \
                       P the points of trajs_b; pairs in parallel. Sorted by (position in trajs_a, position in trajs_b). Errors: ids \
-                      and trajs lists of different lengths, NULL elements, NaN / infinite values, unsorted t, epsilon or time_window \
-                      <= 0, min_points < 0, a bad polygon, a pair over the lcss_cells limit.",
+                      and trajs lists of different lengths, duplicate ids on one side, NULL elements, NaN / infinite values, unsorted t, \
+                      epsilon or time_window <= 0, min_points < 0, a bad polygon, a pair over the lcss_cells limit.",
         example: "SELECT unnest(lcss_similarity_pairs([1, 2], [[{'t':0,'x':0,'y':0},{'t':1,'x':1,'y':0}], [{'t':0,'x':50,'y':0}]], [7], [[{'t':0.1,'x':0.2,'y':0},{'t':1.1,'x':1.2,'y':0}]], 1.0, 0.5)); -- {'a': 1, 'b': 7, 'eta': 1.0}",
         maths: "crates/algo/src/lcss/sparse.rs",
         binding: file!(),
@@ -318,6 +318,9 @@ fn similarity_pairs(a: &Args<'_>, out: &mut Out<'_>) -> R {
                 .into());
             }
         }
+        // one trajectory per id, as traj_msd_pairs and traj_conflicts: a repeated id would give pairs no one can tell apart
+        super::align::positions(ia, "a")?;
+        super::align::positions(ib, "b")?;
         let found = crate::algo::lcss::sparse::similarity_sparse(&ta, &tb, &p, reg.as_deref())?;
         let (ka, kb, eta): (Vec<i64>, Vec<i64>, Vec<f64>) = (
             found.iter().map(|q| ia[q.a]).collect(),

@@ -190,7 +190,8 @@ pub(crate) fn candidates(trajs: &[Traj<'_>], radius: f64, max_ttc: f64, half_pet
             let (mut cells, mut wide): Cells = (Vec::new(), Vec::new());
             for (i, p) in pieces[first[k]..first[k + 1]].iter().enumerate() {
                 let (rt, rx, ry) = range(p);
-                let n = span(rt) * span(rx) * span(ry);
+                // saturating: a reach past f64::MAX spans 2^64 cells a side, 2^192 in all
+                let n = span(rt).saturating_mul(span(rx)).saturating_mul(span(ry));
                 if n > MAX_CELLS as u128 {
                     wide.push((first[k] + i) as u32);
                     continue;
@@ -315,6 +316,30 @@ mod tests {
                 o
             })
             .collect()
+    }
+
+    #[test]
+    fn a_reach_past_the_grid_is_a_wide_piece_not_an_abort() {
+        // max_ttc 1e20 (or an infinite speed) makes a piece span more cells than i64 holds
+        let still = |x: f64, y: f64| {
+            let mut o = OwnedTraj::default();
+            o.push(0.0, x, y);
+            o.push(1.0, x, y);
+            o
+        };
+        let mut fast = OwnedTraj::default();
+        fast.push(0.0, 0.0, 10.0);
+        fast.push(1.0, 1.0, 10.0);
+        let mut inf_speed = OwnedTraj::default();
+        for (t, x) in [(0.0, 0.0), (5e-324, 1.0), (1.0, 2.0)] {
+            inf_speed.push(t, x, 10.0);
+        }
+        let (a, b) = (still(0.0, 0.0), still(50.0, 0.0));
+        for (c, max_ttc) in [(&fast, 1e20), (&fast, 1e300), (&inf_speed, 2.0)] {
+            let v = [a.view(), b.view(), c.view()];
+            let got = candidates(&v, 1.0, max_ttc, 0.5).unwrap();
+            assert_eq!(got, vec![(0, 2), (1, 2)], "max_ttc {max_ttc}");
+        }
     }
 
     proptest! {

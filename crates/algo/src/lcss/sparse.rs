@@ -49,6 +49,9 @@ pub struct Pair {
     pub eta: f64,
 }
 
+/// The most cells one point's query box may cover (2 a dimension, 3 with rounding: 27).
+const MAX_QUERY_CELLS: u128 = 64;
+
 /// A grid cell: (time, x, y) indices.
 type Cell = (i64, i64, i64);
 
@@ -184,6 +187,14 @@ pub fn similarity_sparse(a: &[Traj<'_>], b: &[Traj<'_>], p: &TimeWindowParams, r
                         }
                         last = Some(q);
                         let ((t0, t1), (x0, x1), (y0, y1)) = q;
+                        let w = |a: i64, b: i64| (b as i128 - a as i128 + 1) as u128;
+                        if w(t0, t1).saturating_mul(w(x0, x1)).saturating_mul(w(y0, y1)) > MAX_QUERY_CELLS {
+                            // a box of 2 cells a side spans more only where v ± reach overflowed
+                            // (|v| near f64::MAX): every trajectory of b is a candidate instead
+                            cand.clear();
+                            cand.extend((0..vb.len() as u32).filter(|&j| !short(vb[j as usize].len())));
+                            break;
+                        }
                         for ct in t0..=t1 {
                             for cx in x0..=x1 {
                                 for cy in y0..=y1 {
@@ -304,6 +315,18 @@ mod tests {
         let p = TimeWindowParams::new(eps, 0.5, 0).unwrap();
         let got = similarity_sparse(&[a.view()], &[b.view(), c.view()], &p, None).unwrap();
         assert_eq!(got, vec![Pair { a: 0, b: 0, eta: 1.0 }, Pair { a: 0, b: 1, eta: 1.0 }]);
+    }
+
+    #[test]
+    fn a_query_box_past_f64_max_does_not_walk_the_cells() {
+        // x - eps overflows to -inf: the box would span 2^63 cells; every b is a candidate instead
+        let a = owned(&[(0.0, -1.7e308, 0.0)]);
+        let b = owned(&[(0.0, 0.0, 0.0)]);
+        let p = TimeWindowParams::new(8e307, 1.0, 0).unwrap();
+        assert_eq!(similarity_sparse(&[a.view()], &[b.view()], &p, None).unwrap(), dense(&[a.view()], &[b.view()], &p, None));
+        let a = owned(&[(1e308, 0.0, 0.0)]);
+        let p = TimeWindowParams::new(1.0, 8e307, 0).unwrap();
+        assert_eq!(similarity_sparse(&[a.view()], &[b.view()], &p, None).unwrap(), dense(&[a.view()], &[b.view()], &p, None));
     }
 
     #[test]

@@ -166,14 +166,7 @@ pub static FUNCTIONS: &[Function] = &[
         maths: "crates/algo/src/align/msd.rs",
         binding: file!(),
         signatures: &[Signature {
-            params: &[
-                p("ids_a", Ty::List(&Ty::Bigint)),
-                p("trajs_a", Ty::List(&TRAJ)),
-                p("ids_b", Ty::List(&Ty::Bigint)),
-                p("trajs_b", Ty::List(&TRAJ)),
-                p("pairs", Ty::List(&Ty::Struct(&[("a", Ty::Bigint), ("b", Ty::Bigint)]))),
-                p("max_gap", Ty::Double),
-            ],
+            params: two_sets_params!(p("pairs", Ty::List(&Ty::Struct(&[("a", Ty::Bigint), ("b", Ty::Bigint)]))), p("max_gap", Ty::Double)),
             arities: &[],
             returns: Ty::List(&Ty::Struct(&[("a", Ty::Bigint), ("b", Ty::Bigint), ("n_common", Ty::Bigint), ("msd", Ty::Double)])),
             kernel: traj_msd_pairs,
@@ -594,8 +587,29 @@ fn speed_lag_fn(a: &Args<'_>, out: &mut Out<'_>) -> R {
     Ok(())
 }
 
-/// Positions of `ids` (one side of traj_msd_pairs); a duplicate id is an error.
-pub(super) fn positions(ids: &[i64], side: &str) -> Result<std::collections::HashMap<i64, usize>, Box<dyn Error>> {
+/// The parameters of a call on two sets of trajectories (`ids_a, trajs_a, ids_b, trajs_b`, then
+/// `$rest`): traj_msd_pairs, lcss_similarity_pairs.
+macro_rules! two_sets_params {
+    ($($rest:expr),*) => {
+        &[p("ids_a", Ty::List(&Ty::Bigint)), p("trajs_a", Ty::List(&TRAJ)), p("ids_b", Ty::List(&Ty::Bigint)), p("trajs_b", Ty::List(&TRAJ)), $($rest),*]
+    };
+}
+pub(super) use two_sets_params;
+
+/// The id positions of both sets of a two-set call; lists of different lengths or a duplicate
+/// id on one side are errors.
+pub(super) type Positions = std::collections::HashMap<i64, usize>;
+pub(super) fn two_sets(ia: &[i64], ta: &[crate::algo::traj::Traj<'_>], ib: &[i64], tb: &[crate::algo::traj::Traj<'_>]) -> Result<(Positions, Positions), Box<dyn Error>> {
+    for (ids, n, side) in [(ia, ta.len(), "a"), (ib, tb.len(), "b")] {
+        if ids.len() != n {
+            return Err(format!("ids_{side} has {} elements but trajs_{side} has {n}; pass list(id ORDER BY id) and list(traj ORDER BY id) of the same rows", ids.len()).into());
+        }
+    }
+    Ok((positions(ia, "a")?, positions(ib, "b")?))
+}
+
+/// Positions of `ids` (one side of a two-set call); a duplicate id is an error.
+fn positions(ids: &[i64], side: &str) -> Result<std::collections::HashMap<i64, usize>, Box<dyn Error>> {
     let mut at = std::collections::HashMap::with_capacity(ids.len());
     for (k, &id) in ids.iter().enumerate() {
         if at.insert(id, k).is_some() {
@@ -611,12 +625,7 @@ fn traj_msd_pairs(a: &Args<'_>, out: &mut Out<'_>) -> R {
         let (Some(ia), Some(ta), Some(ib), Some(tb), Some(pairs), Some(gap)) = (ia.get(r)?, ta.get(r)?, ib.get(r)?, tb.get(r)?, pairs.get(r)?, gap.get(r)) else {
             return Ok(None);
         };
-        for (ids, trajs, side) in [(ia, &ta, "a"), (ib, &tb, "b")] {
-            if ids.len() != trajs.len() {
-                return Err(format!("ids_{side} has {} elements but trajs_{side} has {}; pass list(id ORDER BY id) and list(traj ORDER BY id) of the same rows", ids.len(), trajs.len()).into());
-            }
-        }
-        let (pa, pb) = (positions(ia, "a")?, positions(ib, "b")?);
+        let (pa, pb) = two_sets(ia, &ta, ib, &tb)?;
         let (ka, kb) = (pairs.i64(0), pairs.i64(1));
         let mut at = Vec::new();
         at.try_reserve(ka.len()).map_err(|_| "traj_msd_pairs: out of memory for the pairs")?;

@@ -151,16 +151,7 @@ pub static FUNCTIONS: &[Function] = &[
         maths: "crates/algo/src/lcss/sparse.rs",
         binding: file!(),
         signatures: &[Signature {
-            params: &[
-                p("ids_a", Ty::List(&Ty::Bigint)),
-                p("trajs_a", Ty::List(&TRAJ)),
-                p("ids_b", Ty::List(&Ty::Bigint)),
-                p("trajs_b", Ty::List(&TRAJ)),
-                p("epsilon", Ty::Double),
-                p("time_window", Ty::Double),
-                p("min_points", Ty::Bigint),
-                p("region", GEOMETRY),
-            ],
+            params: super::align::two_sets_params!(p("epsilon", Ty::Double), p("time_window", Ty::Double), p("min_points", Ty::Bigint), p("region", GEOMETRY)),
             arities: &[6, 7, 8],
             returns: Ty::List(&Ty::Struct(&[("a", Ty::Bigint), ("b", Ty::Bigint), ("eta", Ty::Double)])),
             kernel: similarity_pairs,
@@ -308,19 +299,8 @@ fn similarity_pairs(a: &Args<'_>, out: &mut Out<'_>) -> R {
         let (Some(eps), Some(t), Some(xi)) = (eps.get(r), t.get(r), xi.or(r, 0)) else { return Ok(None) };
         let p = TimeWindowParams::new(eps, t, xi)?;
         let Some(reg) = region.get(r)? else { return Ok(None) };
-        for (ids, trajs, side) in [(ia, &ta, "a"), (ib, &tb, "b")] {
-            if ids.len() != trajs.len() {
-                return Err(format!(
-                    "ids_{side} has {} elements but trajs_{side} has {}; pass list(id ORDER BY id) and list(traj ORDER BY id) of the same rows",
-                    ids.len(),
-                    trajs.len()
-                )
-                .into());
-            }
-        }
-        // one trajectory per id, as traj_msd_pairs and traj_conflicts: a repeated id would give pairs no one can tell apart
-        super::align::positions(ia, "a")?;
-        super::align::positions(ib, "b")?;
+        // lists of one length, one trajectory per id (a repeated id would give pairs no one can tell apart)
+        super::align::two_sets(ia, &ta, ib, &tb)?;
         let found = crate::algo::lcss::sparse::similarity_sparse(&ta, &tb, &p, reg.as_deref())?;
         let (ka, kb, eta): (Vec<i64>, Vec<i64>, Vec<f64>) = (
             found.iter().map(|q| ia[q.a]).collect(),

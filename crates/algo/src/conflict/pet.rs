@@ -174,11 +174,7 @@ pub(crate) fn pet_checked(a: Traj<'_>, b: Traj<'_>, max_pet: f64) -> Option<Pet>
                 continue;
             }
             if let Some(c) = cross(sa, sb) {
-                let better = match &best {
-                    None => true,
-                    Some(b) => c.pet < b.pet || (c.pet == b.pet && c.t_first() < b.t_first()),
-                };
-                if c.pet <= max_pet && better {
+                if c.pet <= max_pet && better(&c, &best) {
                     best = Some(c);
                 }
             }

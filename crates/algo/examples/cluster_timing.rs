@@ -2,23 +2,13 @@
 //! pairs -> dendrogram, and the linkage alone on a ready matrix (best of REPS=3).
 //! `cargo run --release -p trajdb-algo --example cluster_timing -- 5000 [method ...]`
 use std::time::Instant;
+
+#[path = "common/points.rs"]
+mod points;
 use trajdb_algo::cluster::linkage::{dendrogram_pairs, linkage_condensed, Linkage, Pairs};
 
 fn main() {
-    let mut args = std::env::args().skip(1);
-    let n: usize = args.next().and_then(|s| s.parse().ok()).unwrap_or(5000);
-    let mut methods: Vec<String> = args.collect();
-    if methods.is_empty() {
-        methods = ["single", "complete", "average", "weighted", "ward"].map(String::from).to_vec();
-    }
-    let mut s = 5u64;
-    let mut rnd = || {
-        s ^= s << 13;
-        s ^= s >> 7;
-        s ^= s << 17;
-        (s >> 11) as f64 / (1u64 << 53) as f64 * 1000.0
-    };
-    let pts: Vec<(f64, f64)> = (0..n).map(|_| (rnd(), rnd())).collect();
+    let (n, methods, pts) = points::setup();
     let len = n * (n - 1) / 2;
     let (mut a, mut b, mut d) = (Vec::with_capacity(len), Vec::with_capacity(len), Vec::with_capacity(len));
     for i in 0..n {

@@ -3,6 +3,9 @@
 //! child is: no huge pages), against the linkage alone on a ready matrix. Best of REPS=3.
 //! `cargo run --release -p trajdb-algo --example condensed_timing -- 5000 [method ...]`
 use std::time::Instant;
+
+#[path = "common/points.rs"]
+mod points;
 use trajdb_algo::cluster::linkage::{alloc_condensed, dendrogram_condensed, linkage_condensed, Linkage};
 
 /// CPU time of this thread (with CPU=1 in the environment, on Linux: steadier than wall time on a
@@ -19,20 +22,7 @@ fn secs(t: Instant) -> f64 {
 }
 
 fn main() {
-    let mut args = std::env::args().skip(1);
-    let n: usize = args.next().and_then(|s| s.parse().ok()).unwrap_or(5000);
-    let mut methods: Vec<String> = args.collect();
-    if methods.is_empty() {
-        methods = ["single", "complete", "average", "weighted", "ward"].map(String::from).to_vec();
-    }
-    let mut s = 5u64;
-    let mut rnd = || {
-        s ^= s << 13;
-        s ^= s >> 7;
-        s ^= s << 17;
-        (s >> 11) as f64 / (1u64 << 53) as f64 * 1000.0
-    };
-    let pts: Vec<(f64, f64)> = (0..n).map(|_| (rnd(), rnd())).collect();
+    let (n, methods, pts) = points::setup();
     let mut d = Vec::with_capacity(n * (n - 1) / 2);
     for i in 0..n {
         for j in i + 1..n {

@@ -102,12 +102,15 @@ impl Bounds {
     /// false when the boxes are at least `eps` apart on one axis (then so is every pair of
     /// points, `‖a − b‖ >= |a_x − b_x|`) or when one is empty.
     pub fn within(&self, other: &Bounds, eps: f64) -> bool {
-        !(self.min_x - other.max_x >= eps
-            || other.min_x - self.max_x >= eps
-            || self.min_y - other.max_y >= eps
-            || other.min_y - self.max_y >= eps
-            || self.min_x > self.max_x
-            || other.min_x > other.max_x)
+        if self.min_x > self.max_x || other.min_x > other.max_x {
+            return false;
+        }
+        // (eps = inf: no spatial constraint, also where a difference overflows to inf)
+        eps == f64::INFINITY
+            || !(self.min_x - other.max_x >= eps
+                || other.min_x - self.max_x >= eps
+                || self.min_y - other.max_y >= eps
+                || other.min_y - self.max_y >= eps)
     }
 }
 

@@ -20,7 +20,7 @@
 //! O(δ · (n + m)) time (lemma 4.1) and O(m) memory per axis.
 
 use super::band::lcss_len;
-use super::LcssError;
+use super::{LcssError, Within};
 use crate::traj::Traj;
 
 /// Checked parameters of the index-window form.
@@ -106,11 +106,8 @@ pub fn joint_length(a: Traj<'_>, b: Traj<'_>, p: &IndexParams) -> Result<usize, 
     if p.rejects(a.len(), b.len()) || !boxes_within(a, b, p.epsilon) {
         return Ok(0);
     }
-    let e2 = p.epsilon * p.epsilon;
-    lcss_len(a.len(), b.len(), index_band(a.len(), b.len(), p.delta), |i, j| {
-        let (dx, dy) = (a.x[i] - b.x[j], a.y[i] - b.y[j]);
-        dx * dx + dy * dy < e2
-    })
+    let w = Within::new(p.epsilon);
+    lcss_len(a.len(), b.len(), index_band(a.len(), b.len(), p.delta), |i, j| w.test(a.x[i] - b.x[j], a.y[i] - b.y[j]))
 }
 
 /// Exact O(n + m) pre-check: the ε-inflated bounding boxes of the two point sets intersect.
@@ -121,7 +118,8 @@ fn boxes_within(a: Traj<'_>, b: Traj<'_>, eps: f64) -> bool {
     };
     let ((ax0, ax1), (ay0, ay1)) = bb(a.x, a.y);
     let ((bx0, bx1), (by0, by1)) = bb(b.x, b.y);
-    !(ax0 - bx1 >= eps || bx0 - ax1 >= eps || ay0 - by1 >= eps || by0 - ay1 >= eps)
+    // (eps = inf: no spatial constraint, also where a difference overflows to inf)
+    eps == f64::INFINITY || !(ax0 - bx1 >= eps || bx0 - ax1 >= eps || ay0 - by1 >= eps || by0 - ay1 >= eps)
 }
 
 /// `joint_length / min(n, m)`.

@@ -24,6 +24,37 @@ pub mod sparse;
 pub mod time_window;
 pub mod translate;
 
+/// The kernels' match test `‖(dx, dy)‖ < ε`. It compares squares, `dx² + dy² < ε²`, wherever ε²
+/// is a normal number: there an overflowing square is a distance above ε and an underflowing one
+/// a distance below it, so the squares decide as the distance does. Below ε ≈ 1.5e-154 or above
+/// ε ≈ 1.3e154, ε² itself underflows or overflows (identical points scored 0 at ε = 1e-300), so
+/// those use `hypot`; ε = +inf matches every pair (no spatial constraint).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Within {
+    eps: f64,
+    e2: f64,
+    squared: bool,
+}
+
+impl Within {
+    pub(crate) fn new(eps: f64) -> Self {
+        let e2 = eps * eps;
+        Within { eps, e2, squared: e2.is_normal() }
+    }
+    /// Whether the squared test is exact for this ε (callers branch once, outside their loops).
+    pub(crate) fn squared(&self) -> bool {
+        self.squared
+    }
+    #[inline]
+    pub(crate) fn test(&self, dx: f64, dy: f64) -> bool {
+        if self.squared {
+            dx * dx + dy * dy < self.e2
+        } else {
+            self.eps == f64::INFINITY || dx.hypot(dy) < self.eps
+        }
+    }
+}
+
 /// A parameter was out of range. The message names the parameter and the value.
 #[derive(Clone, Debug, PartialEq)]
 pub enum LcssError {

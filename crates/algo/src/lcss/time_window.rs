@@ -21,7 +21,7 @@
 //! cell, checked against the limit `memory_bytes` before the work and allocated fallibly.
 
 use super::band::{lcss_len, lcss_len_rows, table_bytes, BandTable};
-use super::LcssError;
+use super::{LcssError, Within};
 use crate::limits;
 use crate::geometry::region::{clip, Region};
 use crate::traj::band::{Bound, TimeBand};
@@ -107,7 +107,8 @@ pub fn may_match(a: Traj<'_>, b: Traj<'_>, eps: f64, tw: f64) -> bool {
         return false;
     }
     let (ba, bb) = (bbox(a, ra), bbox(b, rb));
-    !(ba.0 - bb.1 >= eps || bb.0 - ba.1 >= eps || ba.2 - bb.3 >= eps || bb.2 - ba.3 >= eps)
+    // (eps = inf: no spatial constraint, also where a difference overflows to inf)
+    eps == f64::INFINITY || !(ba.0 - bb.1 >= eps || bb.0 - ba.1 >= eps || ba.2 - bb.3 >= eps || bb.2 - ba.3 >= eps)
 }
 
 /// Rows per block in [`pruned_bands`].
@@ -141,7 +142,7 @@ fn pruned_bands(a: Traj<'_>, b: Traj<'_>, eps: f64, tw: f64, bands: &mut Vec<(us
             bb = (bb.0.min(q.0), bb.1.max(q.1), bb.2.min(q.2), bb.3.max(q.3));
         }
         let ba = bbox(a, (r0, r1));
-        if ba.0 - bb.1 >= eps || bb.0 - ba.1 >= eps || ba.2 - bb.3 >= eps || bb.2 - ba.3 >= eps {
+        if eps < f64::INFINITY && (ba.0 - bb.1 >= eps || bb.0 - ba.1 >= eps || ba.2 - bb.3 >= eps || bb.2 - ba.3 >= eps) {
             for row in &mut bands[r0..r1] {
                 row.1 = row.0;
             }
@@ -209,17 +210,24 @@ pub fn length(a: Traj<'_>, b: Traj<'_>, p: &TimeWindowParams) -> Result<usize, L
         return Ok(0);
     }
     check_work(a.t, b.t, p.time_window)?;
-    let e2 = p.epsilon * p.epsilon;
+    let w = Within::new(p.epsilon);
     with_pruned_bands(a, b, p.epsilon, p.time_window, |bands| {
         if bands.iter().all(|&(lo, hi)| lo == hi) {
             return Ok(0); // every block pruned: no point pair matches
         }
         lcss_len_rows(a.len(), b.len(), bands.iter().copied(), |i, lo, hi, hits| {
             let (ax, ay) = (a.x[i], a.y[i]);
-            hits.extend(b.x[lo..hi].iter().zip(&b.y[lo..hi]).map(|(&bx, &by)| {
-                let (dx, dy) = (ax - bx, ay - by);
-                dx * dx + dy * dy < e2
-            }));
+            let pts = b.x[lo..hi].iter().zip(&b.y[lo..hi]);
+            if w.squared() {
+                // the common case, branch-free so the row test vectorises
+                let e2 = p.epsilon * p.epsilon;
+                hits.extend(pts.map(|(&bx, &by)| {
+                    let (dx, dy) = (ax - bx, ay - by);
+                    dx * dx + dy * dy < e2
+                }));
+            } else {
+                hits.extend(pts.map(|(&bx, &by)| w.test(ax - bx, ay - by)));
+            }
         })
     })
 }
@@ -263,11 +271,8 @@ pub fn matches(a: Traj<'_>, b: Traj<'_>, p: &TimeWindowParams) -> Result<Vec<(us
     if p.too_short(a.len(), b.len()) || !may_match(a, b, p.epsilon, p.time_window) {
         return Ok(Vec::new());
     }
-    let e2 = p.epsilon * p.epsilon;
-    let is_match = |i: usize, j: usize| {
-        let (dx, dy) = (a.x[i] - b.x[j], a.y[i] - b.y[j]);
-        dx * dx + dy * dy < e2
-    };
+    let w = Within::new(p.epsilon);
+    let is_match = |i: usize, j: usize| w.test(a.x[i] - b.x[j], a.y[i] - b.y[j]);
     check_work(a.t, b.t, p.time_window)?;
     with_pruned_bands(a, b, p.epsilon, p.time_window, |bands| {
         check_table(bands.iter().copied(), a.len())?;
@@ -338,6 +343,27 @@ pub fn series_matches(a: Series<'_>, b: Series<'_>, p: &TimeWindowParams) -> Res
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn epsilon_at_the_ends_of_f64_matches_as_the_distance_does() {
+        use crate::traj::OwnedTraj;
+        let pt = |x: f64| {
+            let mut o = OwnedTraj::default();
+            o.push(0.0, x, 1.0);
+            o
+        };
+        let sim = |a: &OwnedTraj, b: &OwnedTraj, eps: f64| similarity(a.view(), b.view(), &TimeWindowParams::new(eps, 1.0, 0).unwrap()).unwrap();
+        // eps^2 underflows: identical points still match, points 2e-300 apart do not
+        assert_eq!(sim(&pt(1.0), &pt(1.0), 1e-300), 1.0);
+        assert_eq!(sim(&pt(0.0), &pt(2e-300), 1e-300), 0.0);
+        // eps^2 overflows: 1e160 apart is within 1e200, 1e201 apart is not
+        assert_eq!(sim(&pt(1.0), &pt(1e160), 1e200), 1.0);
+        assert_eq!(sim(&pt(0.0), &pt(1e201), 1e200), 0.0);
+        // eps = inf: no spatial constraint, even where the difference overflows
+        assert_eq!(sim(&pt(-1e300), &pt(1e300), f64::INFINITY), 1.0);
+        assert_eq!(sim(&pt(-1.7e308), &pt(1.7e308), f64::INFINITY), 1.0);
+        let m = matches(pt(1.0).view(), pt(1.0).view(), &TimeWindowParams::new(1e-300, 1.0, 0).unwrap()).unwrap();
+        assert_eq!(m, vec![(0, 0)]);
+    }
     use crate::lcss::band::naive;
     use super::*;
     use proptest::prelude::*;

@@ -11,6 +11,7 @@
 //! - an empty trajectory is valid.
 
 pub mod band;
+pub mod grid;
 
 use super::{positive, positive_or_inf, ParamError};
 use std::fmt;

@@ -63,11 +63,8 @@ fn scan(m: &Condensed<'_>, x: u32, items: &[u32], dmin: &mut [f64], base: usize)
     let mut best_k = usize::MAX;
     let xs = x as usize;
     let mut valid = true;
-    for k in 0..split {
-        if let Some(&f) = items[..split].get(k + AHEAD) {
-            m.prefetch_lower(f as usize, xs);
-        }
-        let d = m.get_lower(items[k] as usize, xs);
+    // one item's step, the same on both sides of x: its distance to x lowers its dmin
+    let mut step = |k: usize, d: f64| {
         valid &= d >= 0.0;
         let v = &mut dmin[k];
         if d < *v {
@@ -77,21 +74,18 @@ fn scan(m: &Condensed<'_>, x: u32, items: &[u32], dmin: &mut [f64], base: usize)
             best_d = *v;
             best_k = k;
         }
+    };
+    for k in 0..split {
+        if let Some(&f) = items[..split].get(k + AHEAD) {
+            m.prefetch_lower(f as usize, xs);
+        }
+        step(k, m.get_lower(items[k] as usize, xs));
     }
     let row = m.row(xs);
     // x itself may still be listed (finished, NaN) until the next squeeze
     let from = if split < items.len() && items[split] == x { split + 1 } else { split };
     for k in from..items.len() {
-        let d = row[items[k] as usize - xs - 1];
-        valid &= d >= 0.0;
-        let v = &mut dmin[k];
-        if d < *v {
-            *v = d;
-        }
-        if *v < best_d {
-            best_d = *v;
-            best_k = k;
-        }
+        step(k, row[items[k] as usize - xs - 1]);
     }
     if best_k == usize::MAX {
         // every live item at +inf (or none live): the first live one

@@ -31,6 +31,7 @@
 
 use super::ConflictError;
 use crate::limits::{Exceeded, MEMORY_BYTES};
+use crate::traj::grid::CellAxis;
 use crate::traj::Traj;
 use rayon::prelude::*;
 
@@ -54,21 +55,6 @@ struct Piece {
 impl Piece {
     fn meets(&self, o: &Piece) -> bool {
         self.t0 <= o.t1 && o.t0 <= self.t1 && self.x0 <= o.x1 && o.x0 <= self.x1 && self.y0 <= o.y1 && o.y0 <= self.y1
-    }
-}
-
-/// One grid axis: cells of `size` (not finite or not > 0: one cell).
-#[derive(Clone, Copy)]
-struct Axis(f64);
-
-impl Axis {
-    fn cell(&self, v: f64) -> i64 {
-        if self.0.is_finite() && self.0 > 0.0 {
-            // `as` saturates (an infinite end lands in the end cell): only more candidates
-            (v / self.0).floor() as i64
-        } else {
-            0
-        }
     }
 }
 
@@ -115,7 +101,8 @@ fn memory(bytes: u128) -> Result<(), ConflictError> {
     MEMORY_BYTES.check(bytes).map_err(ConflictError::Work)
 }
 
-fn alloc_error(bytes: u128) -> ConflictError {
+/// An allocation the system refused, as the memory limit's error (it says how much was asked).
+pub(super) fn alloc_error(bytes: u128) -> ConflictError {
     ConflictError::Work(Exceeded { name: MEMORY_BYTES.name, counts: MEMORY_BYTES.counts, needed: bytes, limit: MEMORY_BYTES.get() })
 }
 
@@ -175,8 +162,8 @@ pub(crate) fn candidates(trajs: &[Traj<'_>], radius: f64, max_ttc: f64, half_pet
     first.push(pieces.len());
     let of = |k: u32| &pieces[first[k as usize]..first[k as usize + 1]];
     // cell sizes: what a piece spans (medians: a few fast or long pieces do not set them)
-    let gs = Axis(2.0 * median(pieces.iter().map(|p| (p.x1 - p.x0).max(p.y1 - p.y0)).collect()));
-    let gt = Axis(2.0 * median(pieces.iter().map(|p| p.t1 - p.t0).collect()));
+    let gs = CellAxis(2.0 * median(pieces.iter().map(|p| (p.x1 - p.x0).max(p.y1 - p.y0)).collect()));
+    let gt = CellAxis(2.0 * median(pieces.iter().map(|p| p.t1 - p.t0).collect()));
     let range = |p: &Piece| ((gt.cell(p.t0), gt.cell(p.t1)), (gs.cell(p.x0), gs.cell(p.x1)), (gs.cell(p.y0), gs.cell(p.y1)));
     let span = |(a, b): (i64, i64)| (b as i128 - a as i128 + 1) as u128;
     type Key = (i64, i64, i64);

@@ -23,11 +23,10 @@
 //! pairs' PET and TTC run in parallel (rayon); the paths are read in place, never copied per
 //! pair (what made the SQL join slow: it copied both lists into every pair row).
 
-use super::candidates::candidates;
+use super::candidates::{alloc_error, candidates};
 use super::pet::pet_checked;
 use super::ttc::ttc_checked;
 use super::{ConflictError, Pet, Ttc};
-use crate::limits::MEMORY_BYTES;
 #[cfg(test)]
 use crate::traj::speeds;
 use crate::traj::Traj;
@@ -125,11 +124,6 @@ pub fn conflicts(ids: &[i64], trajs: &[Traj<'_>], max_pet: f64, radius: f64, max
     out.try_reserve(found.len()).map_err(|_| alloc_error((found.len() * std::mem::size_of::<Conflict>()) as u128))?;
     out.extend(found.into_iter().flatten());
     Ok(out)
-}
-
-/// An allocation the system refused, as the memory limit's error (it says how much was asked).
-fn alloc_error(bytes: u128) -> ConflictError {
-    ConflictError::Work(crate::limits::Exceeded { name: MEMORY_BYTES.name, counts: MEMORY_BYTES.counts, needed: bytes, limit: MEMORY_BYTES.get() })
 }
 
 #[cfg(test)]

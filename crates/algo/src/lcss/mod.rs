@@ -41,9 +41,9 @@ impl Within {
         let e2 = eps * eps;
         Within { eps, e2, squared: e2.is_normal() }
     }
-    /// Whether the squared test is exact for this ε (callers branch once, outside their loops).
-    pub(crate) fn squared(&self) -> bool {
-        self.squared
+    /// ε² when the squared test is exact for this ε (callers branch once, outside their loops).
+    pub(crate) fn squared_bound(&self) -> Option<f64> {
+        self.squared.then_some(self.e2)
     }
     #[inline]
     pub(crate) fn test(&self, dx: f64, dy: f64) -> bool {

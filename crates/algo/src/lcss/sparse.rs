@@ -36,6 +36,7 @@ use super::time_window::{similarity, TimeWindowParams};
 use super::LcssError;
 use crate::geometry::region::{clip, Region};
 use crate::limits::{self, MEMORY_BYTES};
+use crate::traj::grid::CellAxis;
 use crate::traj::{OwnedTraj, Traj};
 use rayon::prelude::*;
 use std::collections::{HashMap, HashSet};
@@ -78,32 +79,23 @@ impl Hasher for CellHasher {
 type CellMap<V> = HashMap<Cell, V, BuildHasherDefault<CellHasher>>;
 type CellSet = HashSet<Cell, BuildHasherDefault<CellHasher>>;
 
-/// One dimension of the grid: cells of `size` (infinite: one cell), queried `± reach`.
+/// One dimension of the grid: cells of `2 · reach` (infinite: one cell), queried `± reach`.
 #[derive(Clone, Copy)]
 struct Axis {
-    size: f64,
+    cells: CellAxis,
     reach: f64,
 }
 
 impl Axis {
     fn new(reach: f64) -> Self {
-        Axis { size: 2.0 * reach, reach }
+        Axis { cells: CellAxis(2.0 * reach), reach }
     }
     fn cell(&self, v: f64) -> i64 {
-        if self.size.is_finite() {
-            // `as` saturates: far-out values share the end cells, which only adds candidates
-            (v / self.size).floor() as i64
-        } else {
-            0
-        }
+        self.cells.cell(v)
     }
     /// The cells a point at `v` can match in: those of `v − reach` to `v + reach`.
     fn range(&self, v: f64) -> (i64, i64) {
-        if self.size.is_finite() {
-            (self.cell(v - self.reach), self.cell(v + self.reach))
-        } else {
-            (0, 0)
-        }
+        (self.cell(v - self.reach), self.cell(v + self.reach))
     }
 }
 

@@ -218,9 +218,8 @@ pub fn length(a: Traj<'_>, b: Traj<'_>, p: &TimeWindowParams) -> Result<usize, L
         lcss_len_rows(a.len(), b.len(), bands.iter().copied(), |i, lo, hi, hits| {
             let (ax, ay) = (a.x[i], a.y[i]);
             let pts = b.x[lo..hi].iter().zip(&b.y[lo..hi]);
-            if w.squared() {
+            if let Some(e2) = w.squared_bound() {
                 // the common case, branch-free so the row test vectorises
-                let e2 = p.epsilon * p.epsilon;
                 hits.extend(pts.map(|(&bx, &by)| {
                     let (dx, dy) = (ax - bx, ay - by);
                     dx * dx + dy * dy < e2

@@ -193,6 +193,13 @@ def check_conflicts():
         print(f"  PET {pair}: {g[0]:.4f} s (known {pet:.4f}) at ({g[1]:.3f}, {g[2]:.3f})")
         assert abs(g[0] - pet) < 0.1 and math.hypot(g[1] - x, g[2] - y) < 0.1, (pair, g, pet)
     assert not any(5 in p for p in res), f"road user 5 is a minute away from every other: {res}"
+    # top_conflicts: the rows of conflicts() with the k smallest PETs, the same columns and values,
+    # whatever k (ties at the k-th included), in PET order
+    full = con.execute("FROM conflicts(tbl := 'scene', max_pet := 5.0) WHERE pet IS NOT NULL ORDER BY pet, road_user_a, road_user_b").fetchall()
+    for k in (1, 2, 3, 10):
+        top = con.execute(f"FROM top_conflicts(tbl := 'scene', k := {k}, max_pet := 5.0)").fetchall()
+        assert top == full[:k], (k, top, full)
+    print(f"  top_conflicts: the first k rows of conflicts() for k = 1, 2, 3, 10 ({len(full)} crossings)")
     # TTC: head-on, both braking to a stop at t = 2, 60 m apart: TTC(s) = 4.9 - s, min 2.9 at t = 2
     con.execute("""CREATE TABLE headon AS
         WITH k AS (SELECT k / 10.0 AS t FROM range(0, 51) r(k))

@@ -88,6 +88,26 @@ fn pieces_of(who: usize, tr: Traj<'_>, radius: f64, max_ttc: f64, half_pet: f64,
     }
 }
 
+/// The size of the pieces that move, for the space cells: the mean of the finite sizes up to the
+/// 99th percentile, or the median when that is larger. In a queue most pieces stand still (a
+/// few centimetres wide); cells of their size would enter every moving piece in hundreds of
+/// cells. The mean follows the moving ones, and the cap keeps a few huge pieces (a jump
+/// across the site) from making one cell of everything. The cell size decides the cost only,
+/// never the pairs.
+fn typical(mut v: Vec<f64>) -> f64 {
+    v.retain(|x| x.is_finite());
+    if v.is_empty() {
+        return f64::INFINITY;
+    }
+    let n = v.len();
+    let cap = *v.select_nth_unstable_by(n - 1 - n / 100, f64::total_cmp).1;
+    let cnt = v.iter().filter(|&&x| x <= cap).count() as f64;
+    // each term divided first: the sum of a million sizes near f64::MAX stays finite
+    let mean = v.iter().filter(|&&x| x <= cap).map(|&x| x / cnt).sum::<f64>();
+    let med = *v.select_nth_unstable_by(n / 2, f64::total_cmp).1;
+    mean.max(med)
+}
+
 fn median(mut v: Vec<f64>) -> f64 {
     v.retain(|x| x.is_finite());
     if v.is_empty() {
@@ -117,7 +137,12 @@ fn try_vec<T>(n: usize) -> Result<Vec<T>, ConflictError> {
 /// Whether a piece of one road user meets a piece of the other (`p`, `q`: their pieces, each in
 /// time order): two pointers over the spans, O(|p| + |q| + the span overlaps).
 fn paths_meet(p: &[Piece], q: &[Piece]) -> bool {
-    let mut j0 = 0;
+    // the shorter path against the part of the longer one inside its span: a road user that stays
+    // for hours (parked, queued) costs each passer-by the pieces of its seconds, not of its hours
+    let (p, q) = if p.len() <= q.len() { (p, q) } else { (q, p) };
+    let Some(first) = p.first() else { return false };
+    // widened spans of one path's pieces start and end in time order
+    let mut j0 = q.partition_point(|b| b.t1 < first.t0);
     for a in p {
         while j0 < q.len() && q[j0].t1 < a.t0 {
             j0 += 1;
@@ -162,7 +187,7 @@ pub(crate) fn candidates(trajs: &[Traj<'_>], radius: f64, max_ttc: f64, half_pet
     first.push(pieces.len());
     let of = |k: u32| &pieces[first[k as usize]..first[k as usize + 1]];
     // cell sizes: what a piece spans (medians: a few fast or long pieces do not set them)
-    let gs = CellAxis(2.0 * median(pieces.iter().map(|p| (p.x1 - p.x0).max(p.y1 - p.y0)).collect()));
+    let gs = CellAxis(2.0 * typical(pieces.iter().map(|p| (p.x1 - p.x0).max(p.y1 - p.y0)).collect()));
     let gt = CellAxis(2.0 * median(pieces.iter().map(|p| p.t1 - p.t0).collect()));
     let range = |p: &Piece| ((gt.cell(p.t0), gt.cell(p.t1)), (gs.cell(p.x0), gs.cell(p.x1)), (gs.cell(p.y0), gs.cell(p.y1)));
     let span = |(a, b): (i64, i64)| (b as i128 - a as i128 + 1) as u128;

@@ -13,15 +13,18 @@
 //! one axis as the spatial prefilter and a time window as the temporal one), [`ttc`] (one pass
 //! over the merged sample times of the common period), [`pairs`] (both for every pair of a set
 //! near each other in time and space: a sweep over start times, never all N² pairs; what
-//! sql/analysis.sql `conflicts` calls through `traj_conflicts`).
+//! sql/analysis.sql `conflicts` calls through `traj_conflicts`), [`top`] (the pairs with the k
+//! smallest PETs, searching the PET bound upward: `top_conflicts`, `traj_conflicts_top`).
 
 pub mod candidates;
 pub mod pairs;
 pub mod pet;
+pub mod top;
 pub mod ttc;
 
 pub use pairs::{conflicts, Conflict};
 pub use pet::{pet, Pet};
+pub use top::top_conflicts;
 pub use ttc::{ttc, Ttc};
 
 use crate::traj::{Traj, TrajError};

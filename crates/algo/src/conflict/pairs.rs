@@ -78,37 +78,13 @@ fn boxes_meet(a: &Extent, b: &Extent) -> bool {
 /// NaN, `radius` or `max_ttc` < 0 or not finite, more candidate pairs than the `memory_bytes`
 /// limit holds.
 pub fn conflicts(ids: &[i64], trajs: &[Traj<'_>], max_pet: f64, radius: f64, max_ttc: f64) -> Result<Vec<Conflict>, ConflictError> {
-    if ids.len() != trajs.len() {
-        return Err(ConflictError::Lengths { ids: ids.len(), trajs: trajs.len() });
-    }
-    {
-        let mut sorted = ids.to_vec();
-        sorted.sort_unstable();
-        if let Some(w) = sorted.windows(2).find(|w| w[0] == w[1]) {
-            return Err(ConflictError::DuplicateId(w[0]));
-        }
-    }
     let max_pet = positive_or_inf("max_pet", max_pet)?;
     let radius = non_negative("radius", radius)?;
     let max_ttc = non_negative("max_ttc", max_ttc)?;
-    for (k, tr) in trajs.iter().enumerate() {
-        tr.validate().map_err(|e| ConflictError::TrajAt(k, e))?;
-    }
+    check_set(ids, trajs)?;
     // candidates on a space-time grid of path pieces (candidates.rs): a superset of the pairs
     // the whole-path rule above keeps, never every pair that meets in time
-    let cand: Vec<(usize, usize)> = candidates(trajs, radius, max_ttc, max_pet / 2.0)?
-        .into_iter()
-        .map(|(p, q)| {
-            let (p, q) = (p as usize, q as usize);
-            if ids[q] < ids[p] {
-                (q, p)
-            } else {
-                (p, q)
-            }
-        })
-        .collect();
-    let mut cand = cand;
-    cand.sort_unstable_by(|&(a, b), &(c, d)| ids[a].cmp(&ids[c]).then(ids[b].cmp(&ids[d])).then(a.cmp(&c)).then(b.cmp(&d)));
+    let cand = ordered_candidates(ids, trajs, radius, max_ttc, max_pet / 2.0)?;
     // (pet and ttc read no work limit: nothing to carry into the rayon workers)
     let found: Vec<Option<Conflict>> = cand
         .par_iter()
@@ -124,6 +100,40 @@ pub fn conflicts(ids: &[i64], trajs: &[Traj<'_>], max_pet: f64, radius: f64, max
     out.try_reserve(found.len()).map_err(|_| alloc_error((found.len() * std::mem::size_of::<Conflict>()) as u128))?;
     out.extend(found.into_iter().flatten());
     Ok(out)
+}
+
+/// The checks of a set of road users (shared with [`super::top`]): lists of the same length,
+/// distinct ids, every path inside the input policy (named `trajs[k]`, 1-based).
+pub(super) fn check_set(ids: &[i64], trajs: &[Traj<'_>]) -> Result<(), ConflictError> {
+    if ids.len() != trajs.len() {
+        return Err(ConflictError::Lengths { ids: ids.len(), trajs: trajs.len() });
+    }
+    let mut sorted = ids.to_vec();
+    sorted.sort_unstable();
+    if let Some(w) = sorted.windows(2).find(|w| w[0] == w[1]) {
+        return Err(ConflictError::DuplicateId(w[0]));
+    }
+    for (k, tr) in trajs.iter().enumerate() {
+        tr.validate().map_err(|e| ConflictError::TrajAt(k, e))?;
+    }
+    Ok(())
+}
+
+/// The candidate pairs as positions `(a, b)` with `ids[a] < ids[b]`, sorted by the ids.
+pub(super) fn ordered_candidates(ids: &[i64], trajs: &[Traj<'_>], radius: f64, max_ttc: f64, half_pet: f64) -> Result<Vec<(usize, usize)>, ConflictError> {
+    let mut cand: Vec<(usize, usize)> = candidates(trajs, radius, max_ttc, half_pet)?
+        .into_iter()
+        .map(|(p, q)| {
+            let (p, q) = (p as usize, q as usize);
+            if ids[q] < ids[p] {
+                (q, p)
+            } else {
+                (p, q)
+            }
+        })
+        .collect();
+    cand.sort_unstable_by(|&(a, b), &(c, d)| ids[a].cmp(&ids[c]).then(ids[b].cmp(&ids[d])).then(a.cmp(&c)).then(b.cmp(&d)));
+    Ok(cand)
 }
 
 #[cfg(test)]

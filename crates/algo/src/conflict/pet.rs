@@ -17,12 +17,15 @@
 //! intervals on that axis overlap, then their extents on the other axis, and pairs whose time
 //! intervals are more than `max_pet` apart are skipped before any intersection is computed.
 //! Before the sweep, each path keeps only its segments within `max_pet` of the other path's time
-//! span (two binary searches) and meeting the other's bounding box (the sweep would never compare
-//! the rest), so two road users that meet for a few seconds cost the points of those seconds
-//! near each other, not of their whole paths.
+//! span (two binary searches), narrowed to the first and last meeting the box of the other's
+//! window (the sweep would never compare the rest), so two road users that meet for a few
+//! seconds cost the points of those seconds near each other, not of their whole paths. Where
+//! the two still share more than 4 `max_pet` seconds (a queue, following in one lane), the
+//! sweep runs over time instead: a merge of the two paths' segments, already in time order.
 //! O(log(n + m) + (n' + m') log(n' + m') + K), n', m' the segments inside those time windows, K
 //! the segment pairs overlapping on the sweep axis (O(n m) only for paths that overlap along
-//! their whole length on both axes).
+//! their whole length on both axes); over time O(n' + m' + K_t), K_t the segment pairs within
+//! `max_pet` in time.
 
 use super::{validate, ConflictError};
 use crate::traj::Traj;
@@ -69,24 +72,54 @@ struct Seg {
 
 #[cfg(test)]
 fn segments(tr: Traj<'_>, sweep_x: bool) -> Vec<Seg> {
-    segments_in(tr, sweep_x, f64::NEG_INFINITY, f64::INFINITY)
+    segments_of(tr, sweep_x, window(tr, f64::NEG_INFINITY, f64::INFINITY))
 }
 
-/// The segments of `tr` whose time interval meets [lo, hi] (binary search: `t` is sorted).
-fn segments_in(tr: Traj<'_>, sweep_x: bool, lo: f64, hi: f64) -> Vec<Seg> {
+/// The segments (k - 1, k) of `tr` whose time interval meets [lo, hi], as the range of k
+/// (binary search: `t` is sorted).
+fn window(tr: Traj<'_>, lo: f64, hi: f64) -> std::ops::Range<usize> {
     let first = tr.t.partition_point(|&t| t < lo).max(1);
     let end = (tr.t.partition_point(|&t| t <= hi) + 1).min(tr.len());
-    (first..end.max(first))
-        .filter_map(|k| {
-            let (px, py, dx, dy) = (tr.x[k - 1], tr.y[k - 1], tr.x[k] - tr.x[k - 1], tr.y[k] - tr.y[k - 1]);
-            if dx == 0.0 && dy == 0.0 {
-                return None; // standing still: no direction, and no crossing another segment could not find
-            }
-            let (xs, ys) = ((px.min(px + dx), px.max(px + dx)), (py.min(py + dy), py.max(py + dy)));
-            let ((lo, hi), (olo, ohi)) = if sweep_x { (xs, ys) } else { (ys, xs) };
-            Some(Seg { px, py, dx, dy, t0: tr.t[k - 1], dt: tr.t[k] - tr.t[k - 1], lo, hi, olo, ohi })
-        })
-        .collect()
+    first..end.max(first)
+}
+
+/// Segment (k - 1, k) of `tr`, or `None` standing still (no direction, and no crossing another
+/// segment could not find).
+#[inline]
+fn segment(tr: Traj<'_>, k: usize, sweep_x: bool) -> Option<Seg> {
+    let (px, py, dx, dy) = (tr.x[k - 1], tr.y[k - 1], tr.x[k] - tr.x[k - 1], tr.y[k] - tr.y[k - 1]);
+    if dx == 0.0 && dy == 0.0 {
+        return None;
+    }
+    let (xs, ys) = ((px.min(px + dx), px.max(px + dx)), (py.min(py + dy), py.max(py + dy)));
+    let ((lo, hi), (olo, ohi)) = if sweep_x { (xs, ys) } else { (ys, xs) };
+    Some(Seg { px, py, dx, dy, t0: tr.t[k - 1], dt: tr.t[k] - tr.t[k - 1], lo, hi, olo, ohi })
+}
+
+/// The box (x0, x1, y0, y1) of the points of segments `ks` of `tr` (empty: an empty box).
+fn window_box(tr: Traj<'_>, ks: &std::ops::Range<usize>) -> [f64; 4] {
+    if ks.is_empty() {
+        return [f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY];
+    }
+    (ks.start - 1..ks.end).fold([f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY], |[a, b, c, d], k| {
+        [a.min(tr.x[k]), b.max(tr.x[k]), c.min(tr.y[k]), d.max(tr.y[k])]
+    })
+}
+
+/// `ks` narrowed to its first and last segment whose box meets `bx` (closed intervals).
+fn narrow(tr: Traj<'_>, ks: std::ops::Range<usize>, bx: &[f64; 4]) -> std::ops::Range<usize> {
+    let meets = |k: usize| {
+        let (x0, x1, y0, y1) = (tr.x[k - 1], tr.x[k], tr.y[k - 1], tr.y[k]);
+        x0.max(x1) >= bx[0] && x0.min(x1) <= bx[1] && y0.max(y1) >= bx[2] && y0.min(y1) <= bx[3]
+    };
+    let Some(first) = ks.clone().find(|&k| meets(k)) else { return ks.start..ks.start };
+    let last = ks.clone().rev().find(|&k| meets(k)).unwrap_or(first);
+    first..last + 1
+}
+
+/// The segments (k - 1, k) of `tr` for k in `ks`, but those standing still.
+fn segments_of(tr: Traj<'_>, sweep_x: bool, ks: std::ops::Range<usize>) -> Vec<Seg> {
+    ks.filter_map(|k| segment(tr, k, sweep_x)).collect()
 }
 
 /// Keeps the segments of `ss` whose boxes meet the box around all of `other` (closed
@@ -130,30 +163,41 @@ pub(crate) fn pet_checked(a: Traj<'_>, b: Traj<'_>, max_pet: f64) -> Option<Pet>
     if a.len() < 2 || b.len() < 2 {
         return None;
     }
-    // sweep along the axis on which the two paths spread more (fewer overlapping intervals)
-    let ext = |v: &[f64]| v.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &z| (l.min(z), h.max(z)));
-    let span = |p: &[f64], q: &[f64]| {
-        let ((l1, h1), (l2, h2)) = (ext(p), ext(q));
-        h1.max(h2) - l1.min(l2)
-    };
-    let sweep_x = span(a.x, b.x) >= span(a.y, b.y);
     // only segments within max_pet of the other path's time span can hold a crossing with
     // PET <= max_pet (t_a < b.t_0 - max_pet <= t_b - max_pet otherwise): the rest are never read
     let (ta, tb) = ((a.t[0], a.t[a.len() - 1]), (b.t[0], b.t[b.len() - 1]));
-    let (mut sa, mut sb) = (segments_in(a, sweep_x, tb.0 - max_pet, tb.1 + max_pet), segments_in(b, sweep_x, ta.0 - max_pet, ta.1 + max_pet));
+    let (wa, wb) = (window(a, tb.0 - max_pet, tb.1 + max_pet), window(b, ta.0 - max_pet, ta.1 + max_pet));
+    // and only segments meeting the box of the other's window can cross it: each window narrowed
+    // to the first and last such segment (one pass, nothing allocated; a road user standing for
+    // minutes beside another's path costs the seconds where they come near)
+    let (ba, bb) = (window_box(a, &wa), window_box(b, &wb));
+    let (wa, wb) = (narrow(a, wa, &bb), narrow(b, wb, &ba));
+    if wa.is_empty() || wb.is_empty() {
+        return None;
+    }
+    // long shared times (a queue, road users following each other): sweep over time, where a
+    // segment meets only 2 max_pet seconds of the other path; short encounters (the usual
+    // crossing) stay with the space sweep, which there compares fewer pairs. Either compares
+    // every segment pair the other would find a crossing in, so the result is the same.
+    let t_lo = a.t[wa.start - 1].min(b.t[wb.start - 1]);
+    let t_hi = a.t[wa.end - 1].max(b.t[wb.end - 1]);
+    if max_pet.is_finite() && t_hi - t_lo > 4.0 * max_pet {
+        return time_sweep([a, b], [wa, wb], max_pet);
+    }
+    // sweep along the axis on which the two windows' points spread more (fewer overlapping
+    // intervals; either axis finds the same crossing)
+    let ext = |v: &[f64], w: &std::ops::Range<usize>| v[w.start - 1..w.end].iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &z| (l.min(z), h.max(z)));
+    let span = |p: &[f64], q: &[f64]| {
+        let ((l1, h1), (l2, h2)) = (ext(p, &wa), ext(q, &wb));
+        h1.max(h2) - l1.min(l2)
+    };
+    let sweep_x = span(a.x, b.x) >= span(a.y, b.y);
+    let (mut sa, mut sb) = (segments_of(a, sweep_x, wa), segments_of(b, sweep_x, wb));
     // and only segments meeting the other's bounding box: the sweep compares a pair only when
     // their boxes meet (closed intervals on both axes), so the others are never compared
     clip(&mut sa, &sb);
     clip(&mut sb, &sa);
     let segs = [sa, sb];
-    // long shared times (a queue, road users following each other): sweep over time, where a
-    // segment meets only 2 max_pet seconds of the other path; short encounters (the usual
-    // crossing) stay with the space sweep, which there compares fewer pairs. Either compares
-    // every segment pair the other would find a crossing in, so the result is the same.
-    let (t_lo, t_hi) = segs.iter().flatten().fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), g| (l.min(g.t0), h.max(g.t0 + g.dt)));
-    if max_pet.is_finite() && t_hi - t_lo > 4.0 * max_pet {
-        return time_sweep(&segs, max_pet);
-    }
     let mut events: Vec<(f64, usize, usize)> = segs.iter().enumerate().flat_map(|(side, ss)| ss.iter().enumerate().map(move |(i, s)| (s.lo, side, i))).collect();
     // (side, i) is unique: the unstable sort gives the one order there is
     events.sort_unstable_by(|p, q| p.0.total_cmp(&q.0).then(p.1.cmp(&q.1)).then(p.2.cmp(&q.2)));
@@ -198,31 +242,38 @@ fn better(c: &Pet, best: &Option<Pet>) -> bool {
 /// road users following each other in one lane overlap along their whole paths on both axes
 /// (a space sweep compares every segment pair: O(n m), what made conflicts grow as n^1.5 with
 /// congestion); in time each segment meets only the others' segments of 2 max_pet seconds.
-/// O((n' + m') log(n' + m') + K_t), K_t the segment pairs within max_pet in time. The same
-/// crossings are compared, so the same one is returned (ties: the earlier first passage).
-fn time_sweep(segs: &[Vec<Seg>; 2], max_pet: f64) -> Option<Pet> {
-    let mut events: Vec<(f64, usize, usize)> = segs.iter().enumerate().flat_map(|(side, ss)| ss.iter().enumerate().map(move |(i, s)| (s.t0, side, i))).collect();
-    events.sort_unstable_by(|p, q| p.0.total_cmp(&q.0).then(p.1.cmp(&q.1)).then(p.2.cmp(&q.2)));
-    let mut active: [Vec<usize>; 2] = [Vec::new(), Vec::new()];
+/// Both paths' segments are in time order already: the sweep is a merge of the two windows
+/// `ks` (segments k - 1..k), and a side's active segments are a range of it (their ends are in
+/// order too), so nothing is sorted or allocated: O(n' + m' + K_t), K_t the segment pairs within
+/// max_pet in time. The same crossings are compared as by the space sweep, so the same one is
+/// returned (ties: the earlier first passage).
+fn time_sweep(tr: [Traj<'_>; 2], ks: [std::ops::Range<usize>; 2], max_pet: f64) -> Option<Pet> {
     let mut best: Option<Pet> = None;
-    for (t0, side, i) in events {
+    let (mut next, mut lo) = ([ks[0].start, ks[1].start], [ks[0].start, ks[1].start]);
+    while next[0] < ks[0].end || next[1] < ks[1].end {
+        // events in (start time, side, k) order
+        let side = if next[1] >= ks[1].end || (next[0] < ks[0].end && tr[0].t[next[0] - 1].total_cmp(&tr[1].t[next[1] - 1]).is_le()) { 0 } else { 1 };
+        let k = next[side];
+        next[side] += 1;
+        let Some(s) = segment(tr[side], k, true) else { continue };
         let other = 1 - side;
-        // o.t0 <= t0 (sorted): the prefilter's other half, t0 > o.t0 + o.dt + max_pet, drops o for good
-        active[other].retain(|&j| !(t0 > segs[other][j].t0 + segs[other][j].dt + max_pet));
-        let s = &segs[side][i];
-        for &j in &active[other] {
-            let o = &segs[other][j];
+        // the other's segments that started before s (merged in order) and ended more than
+        // max_pet before it starts are done with for good (the temporal prefilter)
+        while lo[other] < next[other] && s.t0 > tr[other].t[lo[other]] + max_pet {
+            lo[other] += 1;
+        }
+        for j in lo[other]..next[other] {
+            let Some(o) = segment(tr[other], j, true) else { continue };
             if o.hi < s.lo || s.hi < o.lo || o.ohi < s.olo || s.ohi < o.olo {
                 continue;
             }
-            let (sa, sb) = if side == 0 { (s, o) } else { (o, s) };
+            let (sa, sb) = if side == 0 { (&s, &o) } else { (&o, &s) };
             if let Some(c) = cross(sa, sb) {
                 if c.pet <= max_pet && better(&c, &best) {
                     best = Some(c);
                 }
             }
         }
-        active[side].push(i);
     }
     best
 }
@@ -344,7 +395,8 @@ mod tests {
     proptest! {
         /// With a finite max_pet, the time windows (segments within max_pet of the other path's
         /// span) change nothing: the same crossing as all segment pairs, for paths shifted in time
-        /// so that they meet for part of their spans or not at all.
+        /// so that they meet for part of their spans or not at all (a long shared time: the time
+        /// sweep; a short one: the space sweep).
         #[test]
         fn the_time_windows_agree_with_all_pairs(seed in 0u64..1_000_000, shift in -8.0f64..8.0, max_pet in 0.2f64..4.0) {
             let mut s = seed;
@@ -355,10 +407,15 @@ mod tests {
             let (mut a, mut b) = (OwnedTraj::default(), OwnedTraj::default());
             let (mut xa, mut ya, mut xb, mut yb) = (0.0, 0.0, 3.0, -3.0);
             for k in 0..80 {
-                xa += rnd() * 2.0 + 0.2;
-                ya += rnd() * 2.0;
-                xb += rnd() * 2.0;
-                yb += rnd() * 2.0 + 0.2;
+                // now and then standing still (a queue: segments with no direction)
+                if rnd() > -0.35 {
+                    xa += rnd() * 2.0 + 0.2;
+                    ya += rnd() * 2.0;
+                }
+                if rnd() > -0.35 {
+                    xb += rnd() * 2.0;
+                    yb += rnd() * 2.0 + 0.2;
+                }
                 a.push(k as f64 * 0.1, xa, ya);
                 b.push(k as f64 * 0.1 + shift, xb, yb);
             }

@@ -1,0 +1,225 @@
+//! The `k` most severe crossings of a set of road users: the pairs with the smallest PET, without
+//! scoring every pair that has one (sql/analysis.sql `top_conflicts`, the report's near misses).
+//!
+//! [`super::conflicts`] returns every pair with a PET of at most `max_pet` (or a TTC of at most
+//! `max_ttc`). That table is output-bound: in congestion every road user in a queue crosses the
+//! paths of the ones ahead within seconds, so at 4 times the road users per minute the pairs with
+//! a PET under 3 s grew 57 times (benches/scale_series.py, density). A report that shows the 15
+//! smallest PETs needs none of the others. Here the PET bound is searched upward:
+//!
+//! ```text
+//! g_0 = max_pet / 16,  g_{i+1} = min(2 g_i, max_pet)
+//! round i: P_i = { pairs with PET <= g_i }  (candidates with spans widened by g_i / 2, pet(a, b, g_i))
+//! stop at the first i with |P_i| >= k, or g_i = max_pet
+//! ```
+//!
+//! Exact: a pair's PET below `g` is its smallest crossing, found with the bound `g` as with any
+//! larger one (the same crossing, ties the earlier first passage: [`super::pet`]), and the
+//! candidates at `g` hold every pair with a PET of at most `g` ([`super::candidates`]). When
+//! `|P_i| >= k`, the k-th smallest PET is `v <= g_i`, and every pair with a PET of at most `v` is
+//! in `P_i`. Kept: the pairs with a PET of at most `v` (ties at the k-th are all kept, so the
+//! answer does not depend on the order of the input), with their TTC at `radius` as
+//! [`super::conflicts`] gives it. A pair with a TTC but no PET is not a crossing and is not here.
+//! With `max_pet` infinite, the search stops once `g` passes the whole recording's time span
+//! (every PET is below it).
+//!
+//! Within a round the workers share the k-th smallest PET found so far: a pair is searched up to
+//! it, not up to `g` (it only falls, and the answer's k-th is at most it, so no kept pair is
+//! missed; in a jam the first few hundred pairs bring it to microseconds).
+//!
+//! The starting bound only sets how many rounds run, never the answer. Cost: the rounds' sum,
+//! at most about twice the last round (each round's candidates grow with `g`), and each round
+//! scores only pairs whose paths cross within `g` seconds: O(P log P + K_g) per round for P path
+//! pieces and K_g the piece pairs within `g` of each other, instead of all pairs within
+//! `max_pet`.
+
+use super::candidates::alloc_error;
+use super::pairs::{check_set, ordered_candidates, Conflict};
+use super::pet::pet_checked;
+use super::ttc::ttc_checked;
+use super::ConflictError;
+use crate::traj::Traj;
+use crate::{non_negative, positive_or_inf, ParamError};
+use rayon::prelude::*;
+use std::collections::BinaryHeap;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Mutex;
+
+/// The pairs (`a` has the smaller id) with the `k` smallest PETs of at most `max_pet` (all pairs
+/// tied with the k-th), each with its TTC at `radius`, sorted by (id_a, id_b). `k = 0`: none.
+/// Errors: those of [`super::conflicts`], and `k` < 0.
+pub fn top_conflicts(ids: &[i64], trajs: &[Traj<'_>], k: i64, max_pet: f64, radius: f64) -> Result<Vec<Conflict>, ConflictError> {
+    let max_pet = positive_or_inf("max_pet", max_pet)?;
+    let radius = non_negative("radius", radius)?;
+    if k < 0 {
+        return Err(ParamError { name: "k", value: k as f64, rule: ">= 0" }.into());
+    }
+    check_set(ids, trajs)?;
+    let k = k as usize;
+    if k == 0 {
+        return Ok(Vec::new());
+    }
+    // the recording's span: no PET exceeds it, so a bound past it finds every crossing
+    let (t0, t1) = trajs.iter().filter(|t| t.len() >= 2).fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), t| (l.min(t.t[0]), h.max(t.t[t.len() - 1])));
+    if t0 > t1 {
+        return Ok(Vec::new());
+    }
+    let whole = (t1 - t0) * 2.0 + 1.0;
+    let last = max_pet.min(whole);
+    let mut g = if max_pet.is_finite() { max_pet / 16.0 } else { 1.0f64.min(last) };
+    let found = loop {
+        let cand = ordered_candidates(ids, trajs, 0.0, 0.0, g / 2.0)?;
+        // within a round, the k-th smallest PET found so far bounds the rest (it only falls, and
+        // the answer's k-th is at most it): a pair is searched up to it, not up to g
+        let bound = Bound::new(k, g);
+        let found: Vec<(usize, usize, super::Pet)> = cand
+            .par_iter()
+            .filter_map(|&(a, b)| {
+                let p = pet_checked(trajs[a], trajs[b], bound.get())?;
+                bound.offer(p.pet);
+                Some((a, b, p))
+            })
+            .collect();
+        if found.len() >= k || g >= last {
+            break found;
+        }
+        g = (g * 2.0).min(last);
+    };
+    if found.is_empty() {
+        return Ok(Vec::new());
+    }
+    let mut pets: Vec<f64> = found.iter().map(|f| f.2.pet).collect();
+    let cut = if pets.len() > k { *pets.select_nth_unstable_by(k - 1, f64::total_cmp).1 } else { f64::INFINITY };
+    let kept: Vec<Conflict> = found
+        .into_par_iter()
+        .filter(|f| f.2.pet <= cut)
+        .map(|(a, b, p)| Conflict { a, b, pet: Some(p), ttc: ttc_checked(trajs[a], trajs[b], radius) })
+        .collect();
+    let mut out = Vec::new();
+    out.try_reserve(kept.len()).map_err(|_| alloc_error((kept.len() * std::mem::size_of::<Conflict>()) as u128))?;
+    out.extend(kept);
+    Ok(out)
+}
+
+/// The k-th smallest PET found so far in a round (or the round's bound `g` while fewer than k
+/// are found), shared by the workers: read without a lock, updated under one only when a PET
+/// below it is found (after the first few pairs, rarely).
+struct Bound {
+    k: usize,
+    bits: AtomicU64,
+    heap: Mutex<BinaryHeap<OrdF64>>,
+}
+
+/// A PET (finite, >= 0) ordered for the max-heap.
+#[derive(PartialEq, PartialOrd)]
+struct OrdF64(f64);
+impl Eq for OrdF64 {}
+impl Ord for OrdF64 {
+    fn cmp(&self, o: &Self) -> std::cmp::Ordering {
+        self.0.total_cmp(&o.0)
+    }
+}
+
+impl Bound {
+    fn new(k: usize, g: f64) -> Bound {
+        Bound { k, bits: AtomicU64::new(g.to_bits()), heap: Mutex::new(BinaryHeap::new()) }
+    }
+    fn get(&self) -> f64 {
+        f64::from_bits(self.bits.load(Ordering::Relaxed))
+    }
+    fn offer(&self, pet: f64) {
+        if pet >= self.get() {
+            return; // changes nothing (the k-th stays), and at the bound ties are kept anyway
+        }
+        // a poisoned lock (a panic elsewhere) only loses the pruning, never a pair
+        let Ok(mut h) = self.heap.lock() else { return };
+        h.push(OrdF64(pet));
+        if h.len() > self.k {
+            h.pop();
+        }
+        if h.len() == self.k {
+            if let Some(top) = h.peek() {
+                self.bits.fetch_min(top.0.to_bits(), Ordering::Relaxed);
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::conflicts;
+    use super::super::test_line as line;
+    use super::*;
+    use proptest::prelude::*;
+
+    /// The obviously right version: every conflict, those with a PET, the k smallest and ties.
+    fn slow(ids: &[i64], trajs: &[Traj<'_>], k: usize, max_pet: f64, radius: f64) -> Vec<Conflict> {
+        let all: Vec<Conflict> = conflicts(ids, trajs, max_pet, radius, 0.0).unwrap().into_iter().filter(|c| c.pet.is_some()).collect();
+        let mut pets: Vec<f64> = all.iter().map(|c| c.pet.unwrap().pet).collect();
+        pets.sort_by(f64::total_cmp);
+        if k == 0 || pets.is_empty() {
+            return Vec::new();
+        }
+        let cut = pets[(k - 1).min(pets.len() - 1)];
+        all.into_iter().filter(|c| c.pet.unwrap().pet <= cut).collect()
+    }
+
+    #[test]
+    fn the_smallest_pets_and_their_ties() {
+        // 1 crosses 2 (PET 1.5) and 3 (PET 0.5); 4 crosses 1 with PET 0.5 as well (a tie)
+        let a = line(0.0, -50.0, 0.0, 10.0, 0.0, 101, 0.1);
+        let b = line(0.0, 0.0, -32.5, 0.0, 5.0, 131, 0.1);
+        let c = line(-1.0, 0.0, -27.5, 0.0, 5.0, 131, 0.1);
+        let d = line(-1.0, 0.0, 27.5, 0.0, -5.0, 131, 0.1);
+        let trajs = [a.view(), b.view(), c.view(), d.view()];
+        let ids = [1, 2, 3, 4];
+        let all = conflicts(&ids, &trajs, 5.0, 2.0, 3.0).unwrap();
+        let one = top_conflicts(&ids, &trajs, 1, 5.0, 2.0).unwrap();
+        assert_eq!(one.len(), 2, "{one:?}");
+        assert!(one.iter().all(|c| (c.pet.unwrap().pet - 0.5).abs() < 1e-9));
+        // the same rows (TTC included) as the full table
+        for c in &one {
+            assert!(all.contains(c), "{c:?}");
+        }
+        assert_eq!(top_conflicts(&ids, &trajs, 10, 5.0, 2.0).unwrap(), slow(&ids, &trajs, 10, 5.0, 2.0));
+        assert_eq!(top_conflicts(&ids, &trajs, 10, f64::INFINITY, 2.0).unwrap(), slow(&ids, &trajs, 10, f64::INFINITY, 2.0));
+        assert_eq!(top_conflicts(&ids, &trajs, 0, 5.0, 2.0).unwrap(), vec![]);
+        assert_eq!(top_conflicts(&[], &[], 3, 5.0, 2.0).unwrap(), vec![]);
+    }
+
+    #[test]
+    fn bad_parameters_are_errors_naming_them() {
+        let a = line(0.0, 0.0, 0.0, 1.0, 0.0, 3, 1.0);
+        assert_eq!(top_conflicts(&[1], &[a.view()], -1, 5.0, 2.0).unwrap_err().describe(), "k must be >= 0, got -1");
+        assert_eq!(top_conflicts(&[1], &[a.view()], 1, 0.0, 2.0).unwrap_err().describe(), "max_pet must be > 0, got 0");
+        assert_eq!(top_conflicts(&[1], &[a.view()], 1, 1.0, f64::NAN).unwrap_err().describe(), "radius must be >= 0, got NaN");
+        assert!(matches!(top_conflicts(&[1, 1], &[a.view(), a.view()], 1, 1.0, 2.0), Err(ConflictError::DuplicateId(1))));
+    }
+
+    proptest! {
+        /// Random crossings and queues (road users following one lane): the same rows as the
+        /// k smallest of the full table, ties included, for any k and max_pet.
+        #[test]
+        fn the_search_agrees_with_the_full_table(seed in 0u64..1_000_000, n in 0usize..40, k in 0usize..30, max_pet in 0.2f64..8.0, inf in any::<bool>()) {
+            let mut s = seed;
+            let mut rnd = || {
+                s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                ((s >> 11) as f64) / ((1u64 << 53) as f64)
+            };
+            let mut trajs = Vec::new();
+            for _ in 0..n {
+                // half of them in two lanes with small angles (queues, rear-end crossings)
+                let h = if rnd() < 0.5 { (rnd() - 0.5) * 0.2 + if rnd() < 0.5 { 0.0 } else { 1.5 } } else { rnd() * std::f64::consts::TAU };
+                let v = if rnd() < 0.1 { 0.0 } else { 1.0 + rnd() * 15.0 };
+                let len = if rnd() < 0.05 { 1 } else { 5 + (rnd() * 60.0) as usize };
+                let (x0, y0) = (-40.0 * h.cos() + rnd() * 3.0, -40.0 * h.sin() + rnd() * 3.0);
+                // times on a 0.1 s grid: exact PET ties happen
+                trajs.push(line((rnd() * 300.0).round() / 10.0, x0, y0, v * h.cos(), v * h.sin(), len, 0.1 + (rnd() * 4.0).round() / 10.0));
+            }
+            let ids: Vec<i64> = (0..n as i64).map(|k| k * 5 - 7).collect();
+            let views: Vec<Traj<'_>> = trajs.iter().map(|t| t.view()).collect();
+            let m = if inf { f64::INFINITY } else { max_pet };
+            prop_assert_eq!(top_conflicts(&ids, &views, k as i64, m, 2.0).unwrap(), slow(&ids, &views, k, m, 2.0));
+        }
+    }
+}

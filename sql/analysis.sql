@@ -281,8 +281,8 @@ SELECT p.a AS road_user_a, ra.class AS class_a, p.b AS road_user_b, rb.class AS 
 FROM c JOIN (SELECT road_user, class FROM r) ra ON ra.road_user = p.a JOIN (SELECT road_user, class FROM r) rb ON rb.road_user = p.b
 ORDER BY coalesce(p.pet, 1e300), road_user_a, road_user_b;
 
--- The k most severe crossings: the rows of conflicts() with the k smallest PETs (at most max_pet;
--- every pair tied with the k-th too), without computing the rest (traj_conflicts_top searches the
+-- The k most severe crossings: the first k rows of conflicts() by (pet, road_user_a, road_user_b)
+-- (PETs at most max_pet), without computing the rest (traj_conflicts_top searches the
 -- PET bound upward from max_pet / 16: in congestion conflicts() grows with the square of the road
 -- users in a queue, this with the near misses asked for). Same columns as conflicts(); a pair with a
 -- TTC but no crossing is not a crossing and is not here. The report's near misses.

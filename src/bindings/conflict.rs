@@ -100,7 +100,7 @@ pub static FUNCTIONS: &[Function] = &[
     Function {
         name: "traj_conflicts_top",
         description: "The k pairs of a set of road users with the smallest PET (at most max_pet), without scoring every pair that has \
-                      one: the elements of traj_conflicts with a PET, the k smallest and every pair tied with the k-th, sorted by (a, b), \
+                      one: the elements of traj_conflicts with a PET, the first k by (pet, a, b) (ties broken by the ids), sorted by (a, b), \
                       each with its TTC at radius. A pair with a TTC but no crossing is not included. The PET bound is searched upward \
                       from max_pet / 16, doubling until k pairs are found: each round scores only the pairs that cross within the \
                       bound, so the cost follows the near misses asked for, not the congestion (sql/analysis.sql top_conflicts; \

@@ -134,17 +134,28 @@ fn clip(ss: &mut Vec<Seg>, other: &[Seg]) {
 fn cross(a: &Seg, b: &Seg) -> Option<Pet> {
     let den = a.dx * b.dy - a.dy * b.dx;
     let (la, lb) = (a.dx.hypot(a.dy), b.dx.hypot(b.dy));
-    if den.abs() <= 1e-12 * la * lb {
-        return None; // parallel or collinear
-    }
     let (qx, qy) = (b.px - a.px, b.py - a.py);
-    let s = (qx * b.dy - qy * b.dx) / den;
-    let u = (qx * a.dy - qy * a.dx) / den;
+    let (s, u, cos) = if den.is_finite() && (la * lb).is_finite() && (qx * b.dy).is_finite() && (qx * a.dy).is_finite() && (qy * b.dx).is_finite() && (qy * a.dx).is_finite() {
+        if den.abs() <= 1e-12 * la * lb {
+            return None; // parallel or collinear
+        }
+        ((qx * b.dy - qy * b.dx) / den, (qx * a.dy - qy * a.dx) / den, (a.dx * b.dx + a.dy * b.dy) / (la * lb))
+    } else {
+        // products past f64::MAX (coordinates near 1e300: a hostile or broken frame): the same
+        // test on unit directions, where every product is at most |q| (the common case above
+        // keeps its exact arithmetic)
+        let (ux, uy, vx, vy) = (a.dx / la, a.dy / la, b.dx / lb, b.dy / lb);
+        let sin = ux * vy - uy * vx;
+        if !(sin.abs() > 1e-12) {
+            return None;
+        }
+        (((qx * vy - qy * vx) / sin) / la, ((qx * uy - qy * ux) / sin) / lb, ux * vx + uy * vy)
+    };
     if !(0.0..=1.0).contains(&s) || !(0.0..=1.0).contains(&u) {
         return None;
     }
     let (t_a, t_b) = (a.t0 + s * a.dt, b.t0 + u * b.dt);
-    let cos = ((a.dx * b.dx + a.dy * b.dy) / (la * lb)).clamp(-1.0, 1.0);
+    let cos = cos.clamp(-1.0, 1.0);
     Some(Pet { pet: (t_a - t_b).abs(), x: a.px + s * a.dx, y: a.py + s * a.dy, t_a, t_b, angle: cos.acos().to_degrees() })
 }
 
@@ -390,6 +401,20 @@ mod tests {
             }
             assert_eq!(got.map(|p| p.pet), best.map(|p| p.pet));
         }
+    }
+
+    #[test]
+    fn a_crossing_at_1e300_is_found() {
+        // the right-angle crossing scaled by 1e298: every product of coordinates overflows
+        let k = 1e298;
+        let mut a = OwnedTraj::default();
+        a.push(0.0, -10.0 * k, 0.0);
+        a.push(2.0, 10.0 * k, 0.0);
+        let mut b = OwnedTraj::default();
+        b.push(0.0, 0.0, -10.0 * k);
+        b.push(4.0, 0.0, 10.0 * k);
+        let p = pet(a.view(), b.view(), f64::INFINITY).unwrap().unwrap();
+        assert!((p.pet - 1.0).abs() < 1e-9 && p.x.abs() < 1e-6 * k && (p.angle - 90.0).abs() < 1e-9, "{p:?}");
     }
 
     proptest! {

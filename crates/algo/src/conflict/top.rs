@@ -8,7 +8,7 @@
 //! smallest PETs needs none of the others. Here the PET bound is searched upward:
 //!
 //! ```text
-//! g_0 = max_pet / 16,  g_{i+1} = min(2 g_i, max_pet)
+//! g_0 = max_pet / 16,  g_{i+1} = min(2 g_i, max_pet)   (g_5 = max_pet)
 //! round i: P_i = { pairs with PET <= g_i }  (candidates with spans widened by g_i / 2, pet(a, b, g_i))
 //! stop at the first i with |P_i| >= k, or g_i = max_pet
 //! ```
@@ -17,11 +17,13 @@
 //! larger one (the same crossing, ties the earlier first passage: [`super::pet`]), and the
 //! candidates at `g` hold every pair with a PET of at most `g` ([`super::candidates`]). When
 //! `|P_i| >= k`, the k-th smallest PET is `v <= g_i`, and every pair with a PET of at most `v` is
-//! in `P_i`. Kept: the pairs with a PET of at most `v` (ties at the k-th are all kept, so the
-//! answer does not depend on the order of the input), with their TTC at `radius` as
-//! [`super::conflicts`] gives it. A pair with a TTC but no PET is not a crossing and is not here.
+//! in `P_i`. Kept: the first k pairs by (PET, id_a, id_b), the rows `ORDER BY pet, a, b LIMIT k`
+//! of the full table would give (ties at the k-th broken by the ids, so the answer does not
+//! depend on the order of the input, and a crowd at one point does not return a million rows
+//! for k = 15), with their TTC at `radius` as [`super::conflicts`] gives it. A pair with a TTC but no PET is not a crossing and is not here.
 //! With `max_pet` infinite, the search stops once `g` passes the whole recording's time span
-//! (every PET is below it).
+//! (every PET is below it). After 5 doublings the next round takes the last bound at once
+//! (`max_pet`, or the span: at most 6 rounds).
 //!
 //! Within a round the workers share the k-th smallest PET found so far: a pair is searched up to
 //! it, not up to `g` (it only falls, and the answer's k-th is at most it, so no kept pair is
@@ -45,8 +47,9 @@ use std::collections::BinaryHeap;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Mutex;
 
-/// The pairs (`a` has the smaller id) with the `k` smallest PETs of at most `max_pet` (all pairs
-/// tied with the k-th), each with its TTC at `radius`, sorted by (id_a, id_b). `k = 0`: none.
+/// The pairs (`a` has the smaller id) with the `k` smallest PETs of at most `max_pet` (ties
+/// broken by (id_a, id_b): the first k of the PET order), each with its TTC at `radius`, sorted by
+/// (id_a, id_b). `k = 0`: none.
 /// Errors: those of [`super::conflicts`], and `k` < 0.
 pub fn top_conflicts(ids: &[i64], trajs: &[Traj<'_>], k: i64, max_pet: f64, radius: f64) -> Result<Vec<Conflict>, ConflictError> {
     let max_pet = positive_or_inf("max_pet", max_pet)?;
@@ -67,7 +70,9 @@ pub fn top_conflicts(ids: &[i64], trajs: &[Traj<'_>], k: i64, max_pet: f64, radi
     let whole = (t1 - t0) * 2.0 + 1.0;
     let last = max_pet.min(whole);
     let mut g = if max_pet.is_finite() { max_pet / 16.0 } else { 1.0f64.min(last) };
+    let mut rounds = 0;
     let found = loop {
+        rounds += 1;
         let cand = ordered_candidates(ids, trajs, 0.0, 0.0, g / 2.0)?;
         // within a round, the k-th smallest PET found so far bounds the rest (it only falls, and
         // the answer's k-th is at most it): a pair is searched up to it, not up to g
@@ -83,16 +88,28 @@ pub fn top_conflicts(ids: &[i64], trajs: &[Traj<'_>], k: i64, max_pet: f64, radi
         if found.len() >= k || g >= last {
             break found;
         }
-        g = (g * 2.0).min(last);
+        // at most 5 doublings, then the last bound: with no max_pet and a span of 1e300 seconds
+        // the doubling alone would take a thousand rounds
+        g = if rounds >= 5 { last } else { (g * 2.0).min(last) };
     };
     if found.is_empty() {
         return Ok(Vec::new());
     }
-    let mut pets: Vec<f64> = found.iter().map(|f| f.2.pet).collect();
-    let cut = if pets.len() > k { *pets.select_nth_unstable_by(k - 1, f64::total_cmp).1 } else { f64::INFINITY };
+    // the first k by (PET, id_a, id_b): pairs are distinct, so that is one order, whatever the
+    // order of the input
+    let mut found = found;
+    let key = |f: &(usize, usize, super::Pet)| (f.2.pet, ids[f.0], ids[f.1]);
+    let by_key = |x: &(usize, usize, super::Pet), y: &(usize, usize, super::Pet)| {
+        let (p, q) = (key(x), key(y));
+        p.0.total_cmp(&q.0).then(p.1.cmp(&q.1)).then(p.2.cmp(&q.2))
+    };
+    if found.len() > k {
+        found.select_nth_unstable_by(k - 1, by_key);
+        found.truncate(k);
+    }
+    found.sort_unstable_by(|x, y| (ids[x.0], ids[x.1]).cmp(&(ids[y.0], ids[y.1])));
     let kept: Vec<Conflict> = found
         .into_par_iter()
-        .filter(|f| f.2.pet <= cut)
         .map(|(a, b, p)| Conflict { a, b, pet: Some(p), ttc: ttc_checked(trajs[a], trajs[b], radius) })
         .collect();
     let mut out = Vec::new();
@@ -161,16 +178,14 @@ mod tests {
     use super::*;
     use proptest::prelude::*;
 
-    /// The obviously right version: every conflict, those with a PET, the k smallest and ties.
+    /// The obviously right version: every conflict with a PET, ordered by (PET, id_a, id_b), the
+    /// first k, back in (id_a, id_b) order.
     fn slow(ids: &[i64], trajs: &[Traj<'_>], k: usize, max_pet: f64, radius: f64) -> Vec<Conflict> {
-        let all: Vec<Conflict> = conflicts(ids, trajs, max_pet, radius, 0.0).unwrap().into_iter().filter(|c| c.pet.is_some()).collect();
-        let mut pets: Vec<f64> = all.iter().map(|c| c.pet.unwrap().pet).collect();
-        pets.sort_by(f64::total_cmp);
-        if k == 0 || pets.is_empty() {
-            return Vec::new();
-        }
-        let cut = pets[(k - 1).min(pets.len() - 1)];
-        all.into_iter().filter(|c| c.pet.unwrap().pet <= cut).collect()
+        let mut all: Vec<Conflict> = conflicts(ids, trajs, max_pet, radius, 0.0).unwrap().into_iter().filter(|c| c.pet.is_some()).collect();
+        all.sort_by(|x, y| x.pet.unwrap().pet.total_cmp(&y.pet.unwrap().pet).then(ids[x.a].cmp(&ids[y.a])).then(ids[x.b].cmp(&ids[y.b])));
+        all.truncate(k);
+        all.sort_by_key(|c| (ids[c.a], ids[c.b]));
+        all
     }
 
     #[test]
@@ -183,11 +198,14 @@ mod tests {
         let trajs = [a.view(), b.view(), c.view(), d.view()];
         let ids = [1, 2, 3, 4];
         let all = conflicts(&ids, &trajs, 5.0, 2.0, 3.0).unwrap();
+        // k = 1: of the two tied at 0.5 s, the first by ids; k = 2: both
         let one = top_conflicts(&ids, &trajs, 1, 5.0, 2.0).unwrap();
-        assert_eq!(one.len(), 2, "{one:?}");
-        assert!(one.iter().all(|c| (c.pet.unwrap().pet - 0.5).abs() < 1e-9));
+        assert_eq!(one.iter().map(|c| (c.a, c.b)).collect::<Vec<_>>(), vec![(0, 2)], "{one:?}");
+        let two = top_conflicts(&ids, &trajs, 2, 5.0, 2.0).unwrap();
+        assert_eq!(two.iter().map(|c| (c.a, c.b)).collect::<Vec<_>>(), vec![(0, 2), (0, 3)], "{two:?}");
+        assert!(two.iter().all(|c| (c.pet.unwrap().pet - 0.5).abs() < 1e-9));
         // the same rows (TTC included) as the full table
-        for c in &one {
+        for c in &two {
             assert!(all.contains(c), "{c:?}");
         }
         assert_eq!(top_conflicts(&ids, &trajs, 10, 5.0, 2.0).unwrap(), slow(&ids, &trajs, 10, 5.0, 2.0));
@@ -207,7 +225,7 @@ mod tests {
 
     proptest! {
         /// Random crossings and queues (road users following one lane): the same rows as the
-        /// k smallest of the full table, ties included, for any k and max_pet.
+        /// first k of the full table by (PET, ids), for any k and max_pet.
         #[test]
         fn the_search_agrees_with_the_full_table(seed in 0u64..1_000_000, n in 0usize..40, k in 0usize..30, max_pet in 0.2f64..8.0, inf in any::<bool>()) {
             let mut s = seed;

@@ -106,6 +106,16 @@ pub(crate) fn ttc_checked(a: Traj<'_>, b: Traj<'_>, r: f64) -> Option<Ttc> {
         let (pa, va) = state(a, &mut ka, u, v);
         let (pb, vb) = state(b, &mut kb, u, v);
         let (dx, dy, wx, wy) = (pb[0] - pa[0], pb[1] - pa[1], vb[0] - va[0], vb[1] - va[1]);
+        // σ solves |Δp + Δv σ| = r, which scaling Δp, Δv and r together leaves alone: past
+        // 1e150 (coordinates of a broken frame) they are scaled by a power of 2 (exact), so the
+        // squares below do not overflow to inf - inf = NaN; the common case is untouched
+        let m = dx.abs().max(dy.abs()).max(wx.abs()).max(wy.abs()).max(r);
+        let (dx, dy, wx, wy, r) = if m > 1e150 && m.is_finite() {
+            let f = 2f64.powi(-(m.log2().ceil() as i32));
+            (dx * f, dy * f, wx * f, wy * f, r * f)
+        } else {
+            (dx, dy, wx, wy, r)
+        };
         let c = dx * dx + dy * dy - r * r;
         let at = |sigma: f64| ((pa[0] + va[0] * sigma + pb[0] + vb[0] * sigma) / 2.0, (pa[1] + va[1] * sigma + pb[1] + vb[1] * sigma) / 2.0);
         if c <= 0.0 {
@@ -133,6 +143,20 @@ pub(crate) fn ttc_checked(a: Traj<'_>, b: Traj<'_>, r: f64) -> Option<Ttc> {
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn a_head_on_at_1e299_has_the_kinematic_ttc() {
+        // at t = 1 8e299 apart, closing at 2e299 per second: TTC = (8e299 - 2) / 2e299 = 4
+        let k = 1e299;
+        let mut a = crate::traj::OwnedTraj::default();
+        a.push(0.0, -5.0 * k, 0.0);
+        a.push(1.0, -4.0 * k, 0.0);
+        let mut b = crate::traj::OwnedTraj::default();
+        b.push(0.0, 5.0 * k, 0.0);
+        b.push(1.0, 4.0 * k, 0.0);
+        let c = super::ttc(a.view(), b.view(), 2.0).unwrap().unwrap();
+        assert!((c.ttc - 4.0).abs() < 1e-9 && c.t == 1.0 && c.x.abs() < 1e-6 * k, "{c:?}");
+    }
+
     use super::*;
     use crate::traj::OwnedTraj;
     use proptest::prelude::*;

@@ -2448,7 +2448,8 @@ GROUP BY ALL ORDER BY ALL;
 -- road_user must be unique.
 -- kind: SSAM's rule on the crossing angle: rear-end (< 30 deg), lane-change (30-85), crossing (> 85).
 -- road_user_first: who passed the conflict point first.
-CREATE OR REPLACE MACRO conflicts(tbl := 'merged', max_pet := 5.0, radius := 2.0, max_ttc := 3.0) AS TABLE
+-- top := k: only the first k by (pet, road_user_a, road_user_b), as top_conflicts() below.
+CREATE OR REPLACE MACRO conflicts(tbl := 'merged', max_pet := 5.0, radius := 2.0, max_ttc := 3.0, top := NULL) AS TABLE
 WITH r AS (SELECT road_user, class, traj FROM query_table(tbl) WHERE len(traj) >= 2),
 u AS (  -- the pairs are named by road_user: a repeated one would be ambiguous
     SELECT CASE WHEN count(road_user) = count(DISTINCT road_user) THEN true
@@ -2457,8 +2458,11 @@ u AS (  -- the pairs are named by road_user: a repeated one would be ambiguous
     FROM r
 ),
 c AS (
-    SELECT unnest(traj_conflicts(list(road_user ORDER BY road_user), list(traj ORDER BY road_user), max_pet::DOUBLE, radius::DOUBLE,
-                                 max_ttc::DOUBLE)) AS p
+    SELECT unnest(CASE WHEN top IS NULL
+                       THEN traj_conflicts(list(road_user ORDER BY road_user), list(traj ORDER BY road_user), max_pet::DOUBLE, radius::DOUBLE,
+                                           max_ttc::DOUBLE)
+                       ELSE traj_conflicts_top(list(road_user ORDER BY road_user), list(traj ORDER BY road_user), top::BIGINT, max_pet::DOUBLE,
+                                               radius::DOUBLE) END) AS p
     FROM r WHERE road_user IS NOT NULL AND (SELECT ok FROM u)
 )
 SELECT p.a AS road_user_a, ra.class AS class_a, p.b AS road_user_b, rb.class AS class_b,
@@ -2470,30 +2474,13 @@ FROM c JOIN (SELECT road_user, class FROM r) ra ON ra.road_user = p.a JOIN (SELE
 ORDER BY coalesce(p.pet, 1e300), road_user_a, road_user_b;
 
 -- The k most severe crossings: the first k rows of conflicts() by (pet, road_user_a, road_user_b)
--- (PETs at most max_pet), without computing the rest (traj_conflicts_top searches the
--- PET bound upward from max_pet / 16: in congestion conflicts() grows with the square of the road
--- users in a queue, this with the near misses asked for). Same columns as conflicts(); a pair with a
--- TTC but no crossing is not a crossing and is not here. The report's near misses.
+-- (PETs at most max_pet), without computing the rest (conflicts(top := k) calls traj_conflicts_top,
+-- which searches the PET bound upward from max_pet / 16: in congestion conflicts() grows with the
+-- square of the road users in a queue, this with the near misses asked for). Same columns as
+-- conflicts(); a pair with a TTC but no crossing is not a crossing and is not here. The report's
+-- near misses.
 CREATE OR REPLACE MACRO top_conflicts(tbl := 'merged', k := 15, max_pet := 5.0, radius := 2.0) AS TABLE
-WITH r AS (SELECT road_user, class, traj FROM query_table(tbl) WHERE len(traj) >= 2),
-u AS (
-    SELECT CASE WHEN count(road_user) = count(DISTINCT road_user) THEN true
-                ELSE error('top_conflicts: road_user must be unique in ' || tbl || ' (got ' || (count(road_user) - count(DISTINCT road_user))::VARCHAR
-                           || ' repeated); give each road user one row') END AS ok
-    FROM r
-),
-c AS (
-    SELECT unnest(traj_conflicts_top(list(road_user ORDER BY road_user), list(traj ORDER BY road_user), k::BIGINT, max_pet::DOUBLE,
-                                     radius::DOUBLE)) AS p
-    FROM r WHERE road_user IS NOT NULL AND (SELECT ok FROM u)
-)
-SELECT p.a AS road_user_a, ra.class AS class_a, p.b AS road_user_b, rb.class AS class_b,
-       p.pet, p.x AS pet_x, p.y AS pet_y, p.t_first, p.t_second, p.angle AS angle_deg,
-       CASE WHEN p.angle < 30 THEN 'rear-end' WHEN p.angle <= 85 THEN 'lane-change' WHEN p.angle IS NOT NULL THEN 'crossing' END AS kind,
-       CASE WHEN p.a_first THEN p.a WHEN NOT p.a_first THEN p.b END AS road_user_first,
-       p.ttc, p.ttc_t, p.ttc_x, p.ttc_y
-FROM c JOIN (SELECT road_user, class FROM r) ra ON ra.road_user = p.a JOIN (SELECT road_user, class FROM r) rb ON rb.road_user = p.b
-ORDER BY p.pet, road_user_a, road_user_b;
+FROM conflicts(tbl := tbl, max_pet := max_pet, radius := radius, top := k) ORDER BY pet, road_user_a, road_user_b;
 
 -- ---------------------------------------------------------------- route patterns
 -- Route patterns of the merged road users: per movement (entry approach, exit approach), the paths

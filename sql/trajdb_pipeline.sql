@@ -2451,18 +2451,23 @@ GROUP BY ALL ORDER BY ALL;
 -- top := k: only the first k by (pet, road_user_a, road_user_b), as top_conflicts() below.
 CREATE OR REPLACE MACRO conflicts(tbl := 'merged', max_pet := 5.0, radius := 2.0, max_ttc := 3.0, top := NULL) AS TABLE
 WITH r AS (SELECT road_user, class, traj FROM query_table(tbl) WHERE len(traj) >= 2),
-u AS (  -- the pairs are named by road_user: a repeated one would be ambiguous
-    SELECT CASE WHEN count(road_user) = count(DISTINCT road_user) THEN true
+u AS (  -- the pairs are named by road_user: a repeated one would be ambiguous; a NULL parameter
+        -- would silently give no rows
+    SELECT CASE WHEN max_pet IS NULL OR radius IS NULL OR (max_ttc IS NULL AND top IS NULL)
+                THEN error('conflicts: max_pet, radius and max_ttc must not be NULL (got max_pet ' || coalesce(max_pet::VARCHAR, 'NULL')
+                           || ', radius ' || coalesce(radius::VARCHAR, 'NULL') || ', max_ttc ' || coalesce(max_ttc::VARCHAR, 'NULL')
+                           || '); leave one out for its default')
+                WHEN count(road_user) = count(DISTINCT road_user) THEN true
                 ELSE error('conflicts: road_user must be unique in ' || tbl || ' (got ' || (count(road_user) - count(DISTINCT road_user))::VARCHAR
                            || ' repeated); give each road user one row') END AS ok
     FROM r
 ),
-c AS (
+c AS (  -- (ids as BIGINT: integer and decimal road_user columns of any width)
     SELECT unnest(CASE WHEN top IS NULL
-                       THEN traj_conflicts(list(road_user ORDER BY road_user), list(traj ORDER BY road_user), max_pet::DOUBLE, radius::DOUBLE,
-                                           max_ttc::DOUBLE)
-                       ELSE traj_conflicts_top(list(road_user ORDER BY road_user), list(traj ORDER BY road_user), top::BIGINT, max_pet::DOUBLE,
-                                               radius::DOUBLE) END) AS p
+                       THEN traj_conflicts(list(road_user::BIGINT ORDER BY road_user), list(traj ORDER BY road_user), max_pet::DOUBLE,
+                                           radius::DOUBLE, max_ttc::DOUBLE)
+                       ELSE traj_conflicts_top(list(road_user::BIGINT ORDER BY road_user), list(traj ORDER BY road_user), top::BIGINT,
+                                               max_pet::DOUBLE, radius::DOUBLE) END) AS p
     FROM r WHERE road_user IS NOT NULL AND (SELECT ok FROM u)
 )
 SELECT p.a AS road_user_a, ra.class AS class_a, p.b AS road_user_b, rb.class AS class_b,
@@ -2479,8 +2484,9 @@ ORDER BY coalesce(p.pet, 1e300), road_user_a, road_user_b;
 -- square of the road users in a queue, this with the near misses asked for). Same columns as
 -- conflicts(); a pair with a TTC but no crossing is not a crossing and is not here. The report's
 -- near misses.
+-- k := NULL: every crossing (no limit).
 CREATE OR REPLACE MACRO top_conflicts(tbl := 'merged', k := 15, max_pet := 5.0, radius := 2.0) AS TABLE
-FROM conflicts(tbl := tbl, max_pet := max_pet, radius := radius, top := k) ORDER BY pet, road_user_a, road_user_b;
+FROM conflicts(tbl := tbl, max_pet := max_pet, radius := radius, top := k) WHERE pet IS NOT NULL ORDER BY pet, road_user_a, road_user_b;
 
 -- ---------------------------------------------------------------- route patterns
 -- Route patterns of the merged road users: per movement (entry approach, exit approach), the paths

@@ -32,6 +32,7 @@ ROOT = os.path.dirname(HERE)
 sys.path.insert(0, os.path.join(ROOT, "python"))
 os.environ["TRAJDB_EXTENSION"] = os.path.abspath(sys.argv[1])
 
+import duckdb  # noqa: E402
 import trajdb  # noqa: E402
 
 ANALYSIS = open(os.path.join(ROOT, "sql", "analysis.sql"), encoding="utf-8").read()
@@ -200,6 +201,23 @@ def check_conflicts():
         top = con.execute(f"FROM top_conflicts(tbl := 'scene', k := {k}, max_pet := 5.0)").fetchall()
         assert top == full[:k], (k, top, full)
     print(f"  top_conflicts: the first k rows of conflicts() for k = 1, 2, 3, 10 ({len(full)} crossings)")
+    # k NULL: every crossing (no TTC-only rows); a NULL parameter is an error, not an empty table
+    assert con.execute("FROM top_conflicts(tbl := 'scene', k := NULL, max_pet := 5.0)").fetchall() == full
+    for bad in ("max_pet := NULL", "radius := NULL"):
+        try:
+            con.execute(f"FROM top_conflicts(tbl := 'scene', {bad})").fetchall()
+            raise AssertionError(f"{bad}: no error")
+        except duckdb.Error as e:
+            assert "max_pet, radius and max_ttc must not be NULL" in str(e), e
+    try:
+        con.execute("FROM conflicts(tbl := 'scene', max_ttc := NULL)").fetchall()
+        raise AssertionError("max_ttc NULL: no error")
+    except duckdb.Error as e:
+        assert "must not be NULL" in str(e), e
+    # road_user of another integer type (UBIGINT, HUGEINT): the same pairs
+    con.execute("CREATE TABLE scene_u AS SELECT road_user::UBIGINT AS road_user, class, traj FROM scene")
+    assert [(a, b, p) for a, b, p in con.execute("SELECT road_user_a, road_user_b, pet FROM top_conflicts(tbl := 'scene_u', k := 10)").fetchall()] \
+        == [(r[0], r[2], r[4]) for r in full]
     # TTC: head-on, both braking to a stop at t = 2, 60 m apart: TTC(s) = 4.9 - s, min 2.9 at t = 2
     con.execute("""CREATE TABLE headon AS
         WITH k AS (SELECT k / 10.0 AS t FROM range(0, 51) r(k))

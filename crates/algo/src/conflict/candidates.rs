@@ -63,7 +63,10 @@ fn pieces_of(who: usize, tr: Traj<'_>, radius: f64, max_ttc: f64, half_pet: f64,
     let mut s = 0;
     while s + 1 < n {
         let e = (s + PIECE).min(n - 1);
-        let mut p = Piece { who: who as u32, t0: tr.t[s] - half_pet, t1: tr.t[e] + half_pet, x0: f64::INFINITY, x1: f64::NEG_INFINITY, y0: f64::INFINITY, y1: f64::NEG_INFINITY };
+        // widened by a few units of rounding too: a pair whose PET is exactly max_pet meets
+        let slack = 16.0 * f64::EPSILON * (tr.t[s].abs().max(tr.t[e].abs()) + half_pet);
+        let (t0, t1) = (tr.t[s] - half_pet - slack, tr.t[e] + half_pet + slack);
+        let mut p = Piece { who: who as u32, t0, t1, x0: f64::INFINITY, x1: f64::NEG_INFINITY, y0: f64::INFINITY, y1: f64::NEG_INFINITY };
         let mut vmax: f64 = 0.0;
         for k in s..=e {
             p.x0 = p.x0.min(tr.x[k]);

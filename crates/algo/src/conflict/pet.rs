@@ -135,15 +135,15 @@ fn cross(a: &Seg, b: &Seg) -> Option<Pet> {
     let den = a.dx * b.dy - a.dy * b.dx;
     let (la, lb) = (a.dx.hypot(a.dy), b.dx.hypot(b.dy));
     let (qx, qy) = (b.px - a.px, b.py - a.py);
-    let (s, u, cos) = if den.is_finite() && (la * lb).is_finite() && (qx * b.dy).is_finite() && (qx * a.dy).is_finite() && (qy * b.dx).is_finite() && (qy * a.dx).is_finite() {
+    let (s, u, cos) = if la * lb > 1e-250 && den.is_finite() && (la * lb).is_finite() && (qx * b.dy).is_finite() && (qx * a.dy).is_finite() && (qy * b.dx).is_finite() && (qy * a.dx).is_finite() {
         if den.abs() <= 1e-12 * la * lb {
             return None; // parallel or collinear
         }
         ((qx * b.dy - qy * b.dx) / den, (qx * a.dy - qy * a.dx) / den, (a.dx * b.dx + a.dy * b.dy) / (la * lb))
     } else {
-        // products past f64::MAX (coordinates near 1e300: a hostile or broken frame): the same
-        // test on unit directions, where every product is at most |q| (the common case above
-        // keeps its exact arithmetic)
+        // products past f64::MAX or below 1e-250 (coordinates near 1e300 or 1e-150: a hostile
+        // or broken frame): the same test on unit directions, where every product is at most |q|
+        // and nothing underflows to "parallel" (the common case above keeps its arithmetic)
         let (ux, uy, vx, vy) = (a.dx / la, a.dy / la, b.dx / lb, b.dy / lb);
         let sin = ux * vy - uy * vx;
         if !(sin.abs() > 1e-12) {
@@ -177,7 +177,12 @@ pub(crate) fn pet_checked(a: Traj<'_>, b: Traj<'_>, max_pet: f64) -> Option<Pet>
     // only segments within max_pet of the other path's time span can hold a crossing with
     // PET <= max_pet (t_a < b.t_0 - max_pet <= t_b - max_pet otherwise): the rest are never read
     let (ta, tb) = ((a.t[0], a.t[a.len() - 1]), (b.t[0], b.t[b.len() - 1]));
-    let (wa, wb) = (window(a, tb.0 - max_pet, tb.1 + max_pet), window(b, ta.0 - max_pet, ta.1 + max_pet));
+    // the prefilters compare with `reach`, max_pet widened by a few units of rounding of the
+    // times involved: `tb.0 - max_pet` rounds, and a pair whose PET is exactly max_pet must not
+    // be filtered out by it (the final test, `pet <= max_pet`, is exact)
+    let scale = ta.0.abs().max(ta.1.abs()).max(tb.0.abs()).max(tb.1.abs());
+    let reach = max_pet + 16.0 * f64::EPSILON * (scale + max_pet);
+    let (wa, wb) = (window(a, tb.0 - reach, tb.1 + reach), window(b, ta.0 - reach, ta.1 + reach));
     // and only segments meeting the box of the other's window can cross it: each window narrowed
     // to the first and last such segment (one pass, nothing allocated; a road user standing for
     // minutes beside another's path costs the seconds where they come near)
@@ -193,7 +198,7 @@ pub(crate) fn pet_checked(a: Traj<'_>, b: Traj<'_>, max_pet: f64) -> Option<Pet>
     let t_lo = a.t[wa.start - 1].min(b.t[wb.start - 1]);
     let t_hi = a.t[wa.end - 1].max(b.t[wb.end - 1]);
     if max_pet.is_finite() && t_hi - t_lo > 4.0 * max_pet {
-        return time_sweep([a, b], [wa, wb], max_pet);
+        return time_sweep([a, b], [wa, wb], max_pet, reach);
     }
     // sweep along the axis on which the two windows' points spread more (fewer overlapping
     // intervals; either axis finds the same crossing)
@@ -225,7 +230,7 @@ pub(crate) fn pet_checked(a: Traj<'_>, b: Traj<'_>, max_pet: f64) -> Option<Pet>
             }
             let (sa, sb) = if side == 0 { (s, o) } else { (o, s) };
             // temporal prefilter: the two segments' times can be at most max_pet apart
-            if sa.t0 > sb.t0 + sb.dt + max_pet || sb.t0 > sa.t0 + sa.dt + max_pet {
+            if sa.t0 > sb.t0 + sb.dt + reach || sb.t0 > sa.t0 + sa.dt + reach {
                 continue;
             }
             if let Some(c) = cross(sa, sb) {
@@ -239,11 +244,18 @@ pub(crate) fn pet_checked(a: Traj<'_>, b: Traj<'_>, max_pet: f64) -> Option<Pet>
     best
 }
 
-/// The better of two crossings: the smaller PET, then the earlier first passage.
+/// The better of two crossings: the smaller PET, then the earlier first passage, then (two
+/// crossings at the same PET and time: rare, but a grid of times makes them) the smaller x, y,
+/// angle and `t_a`: a total order, so the crossing returned does not depend on the order the
+/// sweep met them in (space or time sweep, any `max_pet` that holds it).
 fn better(c: &Pet, best: &Option<Pet>) -> bool {
     match best {
         None => true,
-        Some(b) => c.pet < b.pet || (c.pet == b.pet && c.t_first() < b.t_first()),
+        Some(b) => {
+            let key = |p: &Pet| [p.pet, p.t_first(), p.x, p.y, p.angle, p.t_a];
+            let (k, l) = (key(c), key(b));
+            k.iter().zip(l.iter()).map(|(u, v)| u.total_cmp(v)).find(|o| o.is_ne()) == Some(std::cmp::Ordering::Less)
+        }
     }
 }
 
@@ -258,7 +270,7 @@ fn better(c: &Pet, best: &Option<Pet>) -> bool {
 /// order too), so nothing is sorted or allocated: O(n' + m' + K_t), K_t the segment pairs within
 /// max_pet in time. The same crossings are compared as by the space sweep, so the same one is
 /// returned (ties: the earlier first passage).
-fn time_sweep(tr: [Traj<'_>; 2], ks: [std::ops::Range<usize>; 2], max_pet: f64) -> Option<Pet> {
+fn time_sweep(tr: [Traj<'_>; 2], ks: [std::ops::Range<usize>; 2], max_pet: f64, reach: f64) -> Option<Pet> {
     let mut best: Option<Pet> = None;
     let (mut next, mut lo) = ([ks[0].start, ks[1].start], [ks[0].start, ks[1].start]);
     while next[0] < ks[0].end || next[1] < ks[1].end {
@@ -270,7 +282,7 @@ fn time_sweep(tr: [Traj<'_>; 2], ks: [std::ops::Range<usize>; 2], max_pet: f64) 
         let other = 1 - side;
         // the other's segments that started before s (merged in order) and ended more than
         // max_pet before it starts are done with for good (the temporal prefilter)
-        while lo[other] < next[other] && s.t0 > tr[other].t[lo[other]] + max_pet {
+        while lo[other] < next[other] && s.t0 > tr[other].t[lo[other]] + reach {
             lo[other] += 1;
         }
         for j in lo[other]..next[other] {
@@ -404,17 +416,32 @@ mod tests {
     }
 
     #[test]
-    fn a_crossing_at_1e300_is_found() {
-        // the right-angle crossing scaled by 1e298: every product of coordinates overflows
-        let k = 1e298;
+    fn a_crossing_at_every_scale_is_found() {
+        // the right-angle crossing scaled by 1e-300 .. 1e298: products of coordinates underflow
+        // or overflow
+        for k in [1e-300, 1e-200, 1e-170, 1e-100, 1.0, 1e100, 1e200, 1e298] {
+            let mut a = OwnedTraj::default();
+            a.push(0.0, -10.0 * k, 0.0);
+            a.push(2.0, 10.0 * k, 0.0);
+            let mut b = OwnedTraj::default();
+            b.push(0.0, 0.0, -10.0 * k);
+            b.push(4.0, 0.0, 10.0 * k);
+            let p = pet(a.view(), b.view(), f64::INFINITY).unwrap().unwrap();
+            assert!((p.pet - 1.0).abs() < 1e-9 && p.x.abs() < 1e-6 * k && (p.angle - 90.0).abs() < 1e-9, "{k}: {p:?}");
+        }
+    }
+
+    #[test]
+    fn a_pet_of_exactly_max_pet_is_found() {
+        // the probe's case: a ends at the origin at t = 0.1, b starts there at 1.35; PET 1.25,
+        // and 1.35 - 1.25 rounds to just above 0.1
         let mut a = OwnedTraj::default();
-        a.push(0.0, -10.0 * k, 0.0);
-        a.push(2.0, 10.0 * k, 0.0);
+        a.push(-0.9, 1.0, 1.0);
+        a.push(0.1, 0.0, 0.0);
         let mut b = OwnedTraj::default();
-        b.push(0.0, 0.0, -10.0 * k);
-        b.push(4.0, 0.0, 10.0 * k);
-        let p = pet(a.view(), b.view(), f64::INFINITY).unwrap().unwrap();
-        assert!((p.pet - 1.0).abs() < 1e-9 && p.x.abs() < 1e-6 * k && (p.angle - 90.0).abs() < 1e-9, "{p:?}");
+        b.push(1.35, 0.0, 0.0);
+        b.push(2.35, -1.0, 1.0);
+        assert_eq!(pet(a.view(), b.view(), 1.25).unwrap().map(|p| p.pet), Some(1.25));
     }
 
     proptest! {

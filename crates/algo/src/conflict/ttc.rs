@@ -106,13 +106,17 @@ pub(crate) fn ttc_checked(a: Traj<'_>, b: Traj<'_>, r: f64) -> Option<Ttc> {
         let (pa, va) = state(a, &mut ka, u, v);
         let (pb, vb) = state(b, &mut kb, u, v);
         let (dx, dy, wx, wy) = (pb[0] - pa[0], pb[1] - pa[1], vb[0] - va[0], vb[1] - va[1]);
-        // σ solves |Δp + Δv σ| = r, which scaling Δp, Δv and r together leaves alone: past
-        // 1e150 (coordinates of a broken frame) they are scaled by a power of 2 (exact), so the
-        // squares below do not overflow to inf - inf = NaN; the common case is untouched
+        // σ solves |Δp + Δv σ| = r, which scaling Δp, Δv and r together leaves alone: past 1e60
+        // or below 1e-60 (coordinates of a broken frame, or a unit a billion times off) they are
+        // scaled by a power of 2 (exact), so the squares below neither overflow to inf - inf =
+        // NaN nor underflow to contact; the common case is untouched
         let m = dx.abs().max(dy.abs()).max(wx.abs()).max(wy.abs()).max(r);
-        let (dx, dy, wx, wy, r) = if m > 1e150 && m.is_finite() {
-            let f = 2f64.powi(-(m.log2().ceil() as i32));
-            (dx * f, dy * f, wx * f, wy * f, r * f)
+        let (dx, dy, wx, wy, r) = if m.is_finite() && m > 0.0 && !(1e-60..=1e60).contains(&m) {
+            // to [0.5, 1]: the squares and products below (up to the 4th power) neither overflow
+            // nor underflow; in two factors, as 2^1074 or 2^-1074 alone is not a normal number
+            let k = -(m.log2().ceil() as i32);
+            let (f, g) = (pow2(k / 2), pow2(k - k / 2));
+            (dx * f * g, dy * f * g, wx * f * g, wy * f * g, r * f * g)
         } else {
             (dx, dy, wx, wy, r)
         };
@@ -141,6 +145,11 @@ pub(crate) fn ttc_checked(a: Traj<'_>, b: Traj<'_>, r: f64) -> Option<Ttc> {
     best
 }
 
+/// 2^k for |k| <= 1022 (a normal number, exact).
+fn pow2(k: i32) -> f64 {
+    f64::from_bits(((k.clamp(-1022, 1023) + 1023) as u64) << 52)
+}
+
 #[cfg(test)]
 mod tests {
     #[test]
@@ -155,6 +164,31 @@ mod tests {
         b.push(1.0, 4.0 * k, 0.0);
         let c = super::ttc(a.view(), b.view(), 2.0).unwrap().unwrap();
         assert!((c.ttc - 4.0).abs() < 1e-9 && c.t == 1.0 && c.x.abs() < 1e-6 * k, "{c:?}");
+    }
+
+    #[test]
+    fn the_kinematic_ttc_holds_at_every_scale() {
+        // a head-on pair 10 apart closing at 2 per second, radius 2: TTC 3 at t = 1 (8 apart),
+        // with positions, speeds and the radius scaled together by 1e-300 .. 1e300; and two
+        // standing 9e307 apart are not in contact
+        for e in [-300, -200, -170, -150, -100, -80, -60, -10, 0, 10, 60, 80, 100, 150, 200, 300] {
+            let k = 10f64.powi(e);
+            let mut a = crate::traj::OwnedTraj::default();
+            a.push(0.0, -5.0 * k, 0.0);
+            a.push(1.0, -4.0 * k, 0.0);
+            let mut b = crate::traj::OwnedTraj::default();
+            b.push(0.0, 5.0 * k, 0.0);
+            b.push(1.0, 4.0 * k, 0.0);
+            let c = super::ttc(a.view(), b.view(), 2.0 * k).unwrap().unwrap();
+            assert!((c.ttc - 3.0).abs() < 1e-9 && c.t == 1.0, "1e{e}: {c:?}");
+        }
+        let mut a = crate::traj::OwnedTraj::default();
+        a.push(0.0, -4.5e307, 0.0);
+        a.push(1.0, -4.5e307, 0.0);
+        let mut b = crate::traj::OwnedTraj::default();
+        b.push(0.0, 4.5e307, 0.0);
+        b.push(1.0, 4.5e307, 0.0);
+        assert_eq!(super::ttc(a.view(), b.view(), 2.0).unwrap(), None);
     }
 
     use super::*;

@@ -152,18 +152,9 @@ fn pow2(k: i32) -> f64 {
 
 #[cfg(test)]
 mod tests {
-    #[test]
-    fn a_head_on_at_1e299_has_the_kinematic_ttc() {
-        // at t = 1 8e299 apart, closing at 2e299 per second: TTC = (8e299 - 2) / 2e299 = 4
-        let k = 1e299;
-        let mut a = crate::traj::OwnedTraj::default();
-        a.push(0.0, -5.0 * k, 0.0);
-        a.push(1.0, -4.0 * k, 0.0);
-        let mut b = crate::traj::OwnedTraj::default();
-        b.push(0.0, 5.0 * k, 0.0);
-        b.push(1.0, 4.0 * k, 0.0);
-        let c = super::ttc(a.view(), b.view(), 2.0).unwrap().unwrap();
-        assert!((c.ttc - 4.0).abs() < 1e-9 && c.t == 1.0 && c.x.abs() < 1e-6 * k, "{c:?}");
+    /// A head-on pair along x: at t = 0 at -5k and 5k, at t = 1 at -4k and 4k.
+    fn head_on(k: f64) -> (OwnedTraj, OwnedTraj) {
+        (tr(&[(0.0, -5.0 * k, 0.0), (1.0, -4.0 * k, 0.0)]), tr(&[(0.0, 5.0 * k, 0.0), (1.0, 4.0 * k, 0.0)]))
     }
 
     #[test]
@@ -173,21 +164,15 @@ mod tests {
         // standing 9e307 apart are not in contact
         for e in [-300, -200, -170, -150, -100, -80, -60, -10, 0, 10, 60, 80, 100, 150, 200, 300] {
             let k = 10f64.powi(e);
-            let mut a = crate::traj::OwnedTraj::default();
-            a.push(0.0, -5.0 * k, 0.0);
-            a.push(1.0, -4.0 * k, 0.0);
-            let mut b = crate::traj::OwnedTraj::default();
-            b.push(0.0, 5.0 * k, 0.0);
-            b.push(1.0, 4.0 * k, 0.0);
+            let (a, b) = head_on(k);
             let c = super::ttc(a.view(), b.view(), 2.0 * k).unwrap().unwrap();
             assert!((c.ttc - 3.0).abs() < 1e-9 && c.t == 1.0, "1e{e}: {c:?}");
         }
-        let mut a = crate::traj::OwnedTraj::default();
-        a.push(0.0, -4.5e307, 0.0);
-        a.push(1.0, -4.5e307, 0.0);
-        let mut b = crate::traj::OwnedTraj::default();
-        b.push(0.0, 4.5e307, 0.0);
-        b.push(1.0, 4.5e307, 0.0);
+        // at 1e299 with a radius of 2 m: 8e299 apart at t = 1, closing at 2e299 per second: TTC 4
+        let (a, b) = head_on(1e299);
+        let c = super::ttc(a.view(), b.view(), 2.0).unwrap().unwrap();
+        assert!((c.ttc - 4.0).abs() < 1e-9 && c.t == 1.0 && c.x.abs() < 1e-293, "{c:?}");
+        let (a, b) = (tr(&[(0.0, -4.5e307, 0.0), (1.0, -4.5e307, 0.0)]), tr(&[(0.0, 4.5e307, 0.0), (1.0, 4.5e307, 0.0)]));
         assert_eq!(super::ttc(a.view(), b.view(), 2.0).unwrap(), None);
     }
 

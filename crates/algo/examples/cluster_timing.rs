@@ -15,11 +15,11 @@ fn main() {
         for j in i + 1..n {
             a.push(i as i64);
             b.push(j as i64);
-            d.push(((pts[i].0 - pts[j].0).powi(2) + (pts[i].1 - pts[j].1).powi(2)).sqrt());
+            d.push(points::dist(&pts, i, j));
         }
     }
     let ids: Vec<i64> = (0..n as i64).collect();
-    let reps: usize = std::env::var("REPS").ok().and_then(|s| s.parse().ok()).unwrap_or(3);
+    let reps = points::reps();
     for m in &methods {
         let method = Linkage::parse(m).unwrap();
         let (mut total, mut link) = (f64::INFINITY, f64::INFINITY);

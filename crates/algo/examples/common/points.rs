@@ -18,3 +18,13 @@ pub fn setup() -> (usize, Vec<String>, Vec<(f64, f64)>) {
     let pts: Vec<(f64, f64)> = (0..n).map(|_| (rnd(), rnd())).collect();
     (n, methods, pts)
 }
+
+/// The Euclidean distance of points `i` and `j`.
+pub fn dist(pts: &[(f64, f64)], i: usize, j: usize) -> f64 {
+    ((pts[i].0 - pts[j].0).powi(2) + (pts[i].1 - pts[j].1).powi(2)).sqrt()
+}
+
+/// Repetitions per timing: `REPS` in the environment, default 3.
+pub fn reps() -> usize {
+    std::env::var("REPS").ok().and_then(|s| s.parse().ok()).unwrap_or(3)
+}

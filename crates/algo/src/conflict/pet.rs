@@ -201,13 +201,9 @@ pub(crate) fn pet_checked(a: Traj<'_>, b: Traj<'_>, max_pet: f64) -> Option<Pet>
         return time_sweep([a, b], [wa, wb], max_pet, reach);
     }
     // sweep along the axis on which the two windows' points spread more (fewer overlapping
-    // intervals; either axis finds the same crossing)
-    let ext = |v: &[f64], w: &std::ops::Range<usize>| v[w.start - 1..w.end].iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &z| (l.min(z), h.max(z)));
-    let span = |p: &[f64], q: &[f64]| {
-        let ((l1, h1), (l2, h2)) = (ext(p, &wa), ext(q, &wb));
-        h1.max(h2) - l1.min(l2)
-    };
-    let sweep_x = span(a.x, b.x) >= span(a.y, b.y);
+    // intervals; either axis finds the same crossing, `better` being a total order)
+    // (the boxes of the windows before narrowing: the axis only sets the cost)
+    let sweep_x = ba[1].max(bb[1]) - ba[0].min(bb[0]) >= ba[3].max(bb[3]) - ba[2].min(bb[2]);
     let (mut sa, mut sb) = (segments_of(a, sweep_x, wa), segments_of(b, sweep_x, wb));
     // and only segments meeting the other's bounding box: the sweep compares a pair only when
     // their boxes meet (closed intervals on both axes), so the others are never compared

@@ -71,7 +71,7 @@ pub fn top_conflicts(ids: &[i64], trajs: &[Traj<'_>], k: i64, max_pet: f64, radi
     let last = max_pet.min(whole);
     let mut g = if max_pet.is_finite() { max_pet / 16.0 } else { 1.0f64.min(last) };
     let mut rounds = 0;
-    let found = loop {
+    let mut found = loop {
         rounds += 1;
         let cand = ordered_candidates(ids, trajs, 0.0, 0.0, g / 2.0)?;
         // within a round, the k-th smallest PET found so far bounds the rest (it only falls, and
@@ -97,7 +97,6 @@ pub fn top_conflicts(ids: &[i64], trajs: &[Traj<'_>], k: i64, max_pet: f64, radi
     }
     // the first k by (PET, id_a, id_b): pairs are distinct, so that is one order, whatever the
     // order of the input
-    let mut found = found;
     let key = |f: &(usize, usize, super::Pet)| (f.2.pet, ids[f.0], ids[f.1]);
     let by_key = |x: &(usize, usize, super::Pet), y: &(usize, usize, super::Pet)| {
         let (p, q) = (key(x), key(y));

@@ -10,10 +10,17 @@
 //! (tests/test_sandbox_python.py checks that it does not). So each call opens its own
 //! in-memory DuckDB in this process, registers trajdb's functions there, runs the manifest,
 //! writes the result files and closes it:
-//! - **Sandbox.** Before any statement the private database gets the caller's file-access
-//!   settings (`enable_external_access`, `allowed_directories`, `disabled_filesystems`) as read
-//!   through the bind's client context, and its `threads` and `memory_limit`: it may read and
-//!   write exactly what the caller's SQL may. A setting that cannot be read closes access.
+//! - **Sandbox, by construction.** The private database may touch exactly the files the
+//!   caller's own file system let the bind open: the bind opens the input (the pattern, and
+//!   each file it matches) for reading and the results folder for writing through the calling
+//!   connection's file system (src/bindings/vector/fs.rs), where every sandbox setting DuckDB
+//!   has applies (`enable_external_access`, `allowed_directories`, `allowed_paths`,
+//!   `disabled_filesystems`, and any later one), and refuses when it refuses. Before any
+//!   statement the private database gets `allowed_paths` = those input paths,
+//!   `allowed_directories` = the results folder, `enable_external_access = false` and
+//!   `lock_configuration = true`: no statement of the run can read or write anything else, nor
+//!   lift the restriction. So a file the caller may not read is never opened, and no error
+//!   message can quote its rows. It also takes the caller's `threads` and `memory_limit`.
 //!   Work limits (`trajdb_limit`) are the caller's database's.
 //! - **Catalog.** The private database reads files (Parquet, CSV, JSON, globs), not the
 //!   caller's tables: a table or DataFrame input goes through `trajdb_stages` on the caller's
@@ -38,11 +45,12 @@ use trajdb_app::plan::Step;
 /// The caller's settings the private database takes over (see the module doc).
 #[derive(Clone, Debug, Default)]
 pub struct Settings {
-    /// `enable_external_access`; `None` (unreadable) closes access.
-    pub external: Option<bool>,
-    pub allowed_directories: Vec<String>,
-    /// `disabled_filesystems` names `LocalFileSystem`.
-    pub local_disabled: bool,
+    /// The paths the run may read (the input pattern and the files it matched), each opened
+    /// through the caller's file system at bind.
+    pub read_paths: Vec<String>,
+    /// The folders the run may write into (the results folder, resolved), each checked through
+    /// the caller's file system at bind.
+    pub write_dirs: Vec<String>,
     pub threads: Option<String>,
     pub memory_limit: Option<String>,
     /// `autoinstall_known_extensions` / `autoload_known_extensions`; `None` (unreadable): off.
@@ -90,16 +98,16 @@ pub fn open(settings: &Settings, steps: Vec<Step>, register: impl FnOnce(&Connec
     if let Some(m) = settings.memory_limit.as_deref().filter(|m| !m.trim().is_empty()) {
         con.execute_batch(&format!("SET memory_limit = {}", quote(m)))?;
     }
-    if !settings.allowed_directories.is_empty() {
-        let list: Vec<String> = settings.allowed_directories.iter().map(|d| quote(d)).collect();
-        con.execute_batch(&format!("SET allowed_directories = [{}]", list.join(", ")))?;
+    // only what the caller's file system allowed at bind (module doc); then locked
+    let list = |v: &[String]| v.iter().map(|d| quote(d)).collect::<Vec<_>>().join(", ");
+    if !settings.read_paths.is_empty() {
+        con.execute_batch(&format!("SET allowed_paths = [{}]", list(&settings.read_paths)))?;
     }
-    if settings.local_disabled {
-        con.execute_batch("SET disabled_filesystems = 'LocalFileSystem'")?;
+    if !settings.write_dirs.is_empty() {
+        con.execute_batch(&format!("SET allowed_directories = [{}]", list(&settings.write_dirs)))?;
     }
-    if settings.external != Some(true) {
-        con.execute_batch("SET enable_external_access = false")?;
-    }
+    con.execute_batch("SET enable_external_access = false")?;
+    con.execute_batch("SET lock_configuration = true")?;
     register(&con)?;
     Ok(Run { con, steps, next: 0, undo: Vec::new(), started: Instant::now(), finished: false })
 }

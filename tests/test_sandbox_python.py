@@ -11,6 +11,10 @@ the loadable extension in PyPI DuckDB.
   replaces trajdb's own earlier scenario; '' and a file in place of the folder are refused;
 - limits per database: two databases in one process (two duckdb.connect()) do not see each
   other's trajdb_limit; the cursors of one database share its limits, also in worker threads;
+- the caller's own file system (issue 37): `disabled_filesystems` (which DuckDB 2.0.1 reports as
+  '' to an extension), with and without lock_configuration, refuses trajdb_pipeline,
+  trajdb_simulate and trajdb_results_begin/end; an input the caller may not read is never read
+  (its rows never quoted); NUL bytes in paths and parameters are refused, never cut;
 - the extension keeps no connection of its own: a database file closed in this process opens
   in another process.
 
@@ -194,6 +198,80 @@ def test_sandbox(ext, scratch):
     other.close()
 
 
+# ---------------------------------------------------------------- the caller's own file system
+def test_caller_file_system(ext, scratch):
+    """Issue 37 HIGH 1: settings DuckDB does not report (disabled_filesystems reads '' in 2.0.1)
+    still bind trajdb, because every path goes through the caller's own file system first; the
+    private database of trajdb_pipeline may then touch only what that file system allowed.
+    And NUL bytes: a path is read whole, never cut at the NUL."""
+    secret = os.path.join(scratch, "secret.csv")
+    with open(secret, "w") as f:
+        f.write("camera,track_id,class,t,x,y\n1,1,TOP-SECRET-KEY-123,0,0,0\n1,1,TOP-SECRET-KEY-123,1,1,1\n")
+    for lock in (False, True):
+        con = connect(ext)
+        con.execute("SET disabled_filesystems = 'LocalFileSystem'")
+        if lock:
+            con.execute("SET lock_configuration = true")
+        tag = " (lock_configuration)" if lock else ""
+        out = os.path.join(scratch, f"out-{lock}")
+        msg = error_of(con, "CALL trajdb_pipeline(?, out_dir := ?)", [secret, out]) or ""
+        check("disabled_filesystems: trajdb_pipeline is refused, reads and writes nothing" + tag,
+              "disabled by configuration" in msg and "TOP-SECRET" not in msg and not os.path.exists(out), msg)
+        sim = os.path.join(scratch, f"sim-{lock}")
+        msg = error_of(con, "FROM trajdb_simulate(?, minutes := 0.1)", [sim]) or ""
+        check("disabled_filesystems: trajdb_simulate is refused and creates nothing" + tag,
+              "disabled by configuration" in msg and not os.path.exists(sim), msg)
+        rb = os.path.join(scratch, f"rb-{lock}")
+        msg = error_of(con, "FROM trajdb_results_begin(?, 'points.parquet')", [rb]) or ""
+        check("disabled_filesystems: trajdb_results_begin is refused and creates nothing" + tag,
+              "disabled by configuration" in msg and not os.path.exists(rb), msg)
+        msg = error_of(con, "FROM trajdb_results_end(?, false)", [rb]) or ""
+        check("disabled_filesystems: trajdb_results_end is refused" + tag, "disabled by configuration" in msg, msg)
+        con.close()
+    # writing allowed, reading the input not: the input is never opened, its rows never quoted
+    allowed = os.path.join(scratch, "allowed")
+    os.makedirs(allowed)
+    con = connect(ext)
+    con.execute("SET allowed_directories = [?]", [allowed + "/"])
+    con.execute("SET enable_external_access = false")
+    out = os.path.join(allowed, "out")
+    msg = error_of(con, "CALL trajdb_pipeline(?, out_dir := ?)", [secret, out]) or ""
+    check("sandbox: an input outside allowed_directories is refused before it is read",
+          "cannot read" in msg and "TOP-SECRET" not in msg and not os.path.exists(out), msg)
+    # a glob reaching outside is refused before it is listed
+    msg = error_of(con, "CALL trajdb_pipeline(?, out_dir := ?)", [os.path.join(scratch, "*.csv"), out]) or ""
+    check("sandbox: a glob outside allowed_directories is refused", "cannot read" in msg and "TOP-SECRET" not in msg, msg)
+    # inside: a scenario and a run, both in the allowed folder, work (the private database's
+    # allow-list holds the input and the results folder)
+    sim = os.path.join(allowed, "sim")
+    msg = error_of(con, "FROM trajdb_simulate(?, minutes := 0.3)", [sim])
+    check("sandbox: trajdb_simulate inside allowed_directories works", msg is None, str(msg))
+    msg = error_of(con, "CALL trajdb_pipeline(?, out_dir := ?)", [os.path.join(sim, "poin*.csv"), out])
+    check("sandbox: trajdb_pipeline from and into allowed_directories works (a glob input)",
+          msg is None and os.path.exists(os.path.join(out, "merged.parquet")), str(msg))
+    con.close()
+    # NUL bytes: refused whole, nothing made at the cut-off name
+    con = connect(ext)
+    cwd = os.getcwd()
+    os.chdir(scratch)
+    try:
+        for name, sql in [
+            ("trajdb_pipeline input", "CALL trajdb_pipeline('in.csv' || chr(0) || 'zz', out_dir := 'nul-a')"),
+            ("trajdb_pipeline out_dir", "CALL trajdb_pipeline('in.csv', out_dir := 'nul-b' || chr(0) || 'x')"),
+            ("trajdb_pipeline parameter", "CALL trajdb_pipeline('in.csv', out_dir := 'nul-c', input_columns := 'camera=c' || chr(0) || 'x')"),
+            ("trajdb_simulate dir", "FROM trajdb_simulate('nul-d' || chr(0) || 'x', minutes := 0.1)"),
+            ("trajdb_results_begin out", "FROM trajdb_results_begin('nul-e' || chr(0) || 'x', 'in.csv')"),
+            ("trajdb_stages params", "FROM trajdb_stages('in.csv', params := '{}' || chr(0) || 'x')"),
+            ("trajdb_script path", "FROM trajdb_script('sql/score.sql' || chr(0) || 'x')"),
+        ]:
+            msg = error_of(con, sql) or ""
+            made = [n for n in os.listdir(scratch) if n.startswith("nul-")]
+            check(f"NUL byte: {name} is refused, nothing made", "NUL" in msg and not made, f"{msg} {made}")
+    finally:
+        os.chdir(cwd)
+    con.close()
+
+
 # ---------------------------------------------------------------- overwrites
 def test_overwrite(ext, scratch):
     con = connect(ext)
@@ -265,7 +343,7 @@ def main():
     print(f"duckdb {duckdb.__version__}")
     scratch = tempfile.mkdtemp(prefix="trajdb-sandbox-")
     try:
-        for test in [test_bad_arguments, test_sandbox, test_overwrite, test_limits]:
+        for test in [test_bad_arguments, test_sandbox, test_caller_file_system, test_overwrite, test_limits]:
             sub = os.path.join(scratch, test.__name__)
             os.makedirs(sub)
             test(ext, sub)

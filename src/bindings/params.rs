@@ -6,8 +6,8 @@
 //!   folder and replace the earlier results (crates/app/src/outdir.rs: the only code that may delete).
 //!   Table functions, not scalars: they run exactly once per statement (a scalar with side
 //!   effects may be evaluated again by the optimizer), and their bind sees the connection's
-//!   file-access settings (enable_external_access, allowed_directories), which they obey as
-//!   COPY ... TO does.
+//!   file system (every sandbox setting of the connection applies, as to its COPY ... TO:
+//!   src/bindings/vector/fs.rs).
 
 use super::registry::{p, Function, Signature, Table, Ty};
 use super::vector::table::{self, BindArgs, Rows, TableFn};
@@ -87,6 +87,14 @@ fn once(job: &Job, scan: &Once, out: &mut Rows<'_>, run: impl FnOnce(&Job) -> Re
     Ok(n)
 }
 
+/// `Ok` when the calling connection may write into folder `out`: its readable settings, then
+/// its own file system, which has the last word (src/bindings/vector/fs.rs).
+pub(crate) fn may_write_into(args: &BindArgs<'_>, out: &str) -> Result<(), Box<dyn Error>> {
+    args.file_access().may_write_into(out)?;
+    args.caller_fs()?.may_write_into(&outdir::absolute(out)?)?;
+    Ok(())
+}
+
 struct Begin;
 
 impl TableFn for Begin {
@@ -99,7 +107,7 @@ impl TableFn for Begin {
         if out.trim().is_empty() {
             return Err("out is '' (empty); name a results folder, e.g. 'results'".into());
         }
-        args.file_access().may_write_into(&out)?;
+        may_write_into(args, &out)?;
         Ok(Job { out, input: args.text(1)?.unwrap_or_default(), commit: true })
     }
     fn init(_: &Job) -> Result<Once, Box<dyn Error>> {
@@ -141,7 +149,7 @@ impl TableFn for End {
     fn bind(args: &BindArgs<'_>) -> Result<Job, Box<dyn Error>> {
         let out = args.text(0)?.ok_or("out is NULL; the folder given to trajdb_results_begin")?;
         let commit = args.boolean(1)?.ok_or("commit is NULL; true (replace the results) or false (abort the run)")?;
-        args.file_access().may_write_into(&out)?;
+        may_write_into(args, &out)?;
         Ok(Job { out, input: String::new(), commit })
     }
     fn init(_: &Job) -> Result<Once, Box<dyn Error>> {

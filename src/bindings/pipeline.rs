@@ -73,6 +73,30 @@ const PIPELINE: Function = Function {
 
 struct PipelineFn;
 
+/// The paths a run may read for `input` (a file, a glob or a URL): the input itself and, for a
+/// glob, every file it matches now, each opened for reading through the caller's file system
+/// (`fs`), which refuses what the caller's own SQL may not read. The pattern is checked before
+/// it is listed, so a folder the caller may not read is never listed either. The list is
+/// expanded in a throwaway database allowed exactly the pattern; a file that appears between
+/// here and the run is not on the list, and the run's read of it is refused.
+fn readable_inputs(fs: &super::vector::fs::CallerFs, input: &str) -> Result<Vec<String>, Box<dyn Error>> {
+    fs.may_read(input)?;
+    let mut paths = vec![input.to_string()];
+    if input.contains(['*', '?', '[', '{']) {
+        let con = duckdb::Connection::open_in_memory()?;
+        con.execute_batch(&format!("SET allowed_paths = ['{}']", input.replace('\'', "''")))?;
+        con.execute_batch("SET enable_external_access = false; SET lock_configuration = true")?;
+        let mut st = con.prepare("SELECT file FROM glob(?) ORDER BY file")?;
+        let files = st.query_map([input], |r| r.get::<_, String>(0))?;
+        for f in files {
+            let f = f?;
+            fs.may_read(&f)?;
+            paths.push(f);
+        }
+    }
+    Ok(paths)
+}
+
 /// The run of one statement: opened on the first call, one stage per call after it; rows
 /// waiting to be written; done.
 pub struct PipelineScan(Mutex<(Option<runner::Run>, Vec<Log>, bool)>);
@@ -93,15 +117,17 @@ impl TableFn for PipelineFn {
         if out.trim().is_empty() {
             return Err("out_dir is '' (empty); name a results folder, e.g. out_dir := 'results'".into());
         }
-        let access = args.file_access();
-        access.may_write_into(&out)?;
+        // the settings DuckDB lets us read, then the caller's own file system, which has the
+        // last word (src/runner.rs, "Sandbox, by construction")
+        super::params::may_write_into(args, &out)?;
+        let out_dir = crate::app::outdir::absolute(&out)?;
+        let read_paths = readable_inputs(&args.caller_fs()?, &input)?;
         let params: Vec<(String, String)> = args.named_as_text()?.into_iter().filter(|(k, _)| k != "out_dir").collect();
         let steps = plan::plan(&Request { input, out: Some(out), part: Part::All, params })?;
         let flag = |name: &str| args.setting(name).map(|v| v.eq_ignore_ascii_case("true"));
         let settings = Settings {
-            external: access.external,
-            allowed_directories: access.allowed_directories,
-            local_disabled: access.local_disabled,
+            read_paths,
+            write_dirs: vec![out_dir.to_string_lossy().into_owned()],
             threads: args.setting("threads"),
             memory_limit: args.setting("memory_limit"),
             autoinstall: flag("autoinstall_known_extensions"),

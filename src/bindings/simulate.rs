@@ -82,7 +82,7 @@ impl TableFn for SimulateTable {
         // not, so there a statement PREPAREd before SET enable_external_access = false still
         // writes; it was prepared by whoever could write then (the setting cannot be turned
         // back on, so nothing prepared after it escapes).
-        args.file_access().may_write_into(&dir)?;
+        super::params::may_write_into(args, &dir)?;
         let mut p = SimParams::default();
         if let Some(v) = args.named_bigint("cameras")? {
             p.cameras = usize::try_from(v).map_err(|_| format!("cameras must be >= 1, got {v}"))?;

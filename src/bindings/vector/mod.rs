@@ -16,6 +16,7 @@
 //!   in `crate::algo` (its parameter types and `validate` methods). An empty list is a valid,
 //!   empty trajectory.
 
+pub mod fs;
 mod read;
 pub mod table;
 mod write;

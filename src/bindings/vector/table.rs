@@ -21,6 +21,7 @@
 //! (DuckDB's own cast said only `Failed to cast value: Could not convert string 'x' to INT64`);
 //! the reference shows their declared types.
 
+use super::fs::{text_of, CallerFs};
 use crate::algo::limits::{self, Limits};
 use crate::bindings::types::{Database, Param, Table};
 use duckdb::core::{DataChunkHandle, Inserter, LogicalTypeHandle, LogicalTypeId};
@@ -120,6 +121,15 @@ pub struct BindArgs<'a> {
     limits: &'a Arc<Limits>,
 }
 
+/// A value as text: VARCHAR read whole (an error naming `name` when it holds a NUL byte),
+/// any other type as DuckDB prints it.
+fn value_text(name: &str, v: &Value) -> Res<String> {
+    if matches!(v.logical_type_id(), LogicalTypeId::Varchar | LogicalTypeId::StringLiteral) {
+        return text_of(v).map_err(|e| format!("{name} {e}").into());
+    }
+    Ok(v.to_string())
+}
+
 /// An SQL type name for messages.
 fn type_name(t: LogicalTypeId) -> String {
     match t {
@@ -158,7 +168,7 @@ impl BindArgs<'_> {
         let mut out = Vec::new();
         for p in self.table.named {
             if let Some((_, v)) = self.named(p.name)? {
-                out.push((p.name.to_string(), v.to_string()));
+                out.push((p.name.to_string(), value_text(p.name, &v)?));
             }
         }
         Ok(out)
@@ -181,7 +191,7 @@ impl BindArgs<'_> {
         if !matches!(ty, LogicalTypeId::Varchar | LogicalTypeId::StringLiteral) {
             return Err(format!("{} must be text (VARCHAR), got {} {:?}", p.name, type_name(ty), v.to_string()).into());
         }
-        Ok(Some(v.to_string()))
+        Ok(Some(text_of(&v).map_err(|e| format!("{} {e}", p.name))?))
     }
 
     /// Positional BOOLEAN argument `k` (true / false, or the text 'true' / 'false'); `None` when
@@ -192,7 +202,7 @@ impl BindArgs<'_> {
         if ty == LogicalTypeId::Boolean {
             return Ok(Some(v.to_bool()));
         }
-        let text = v.to_string();
+        let text = value_text(p.name, &v)?;
         match text.trim().to_ascii_lowercase().as_str() {
             "true" if matches!(ty, LogicalTypeId::Varchar | LogicalTypeId::StringLiteral) => Ok(Some(true)),
             "false" if matches!(ty, LogicalTypeId::Varchar | LogicalTypeId::StringLiteral) => Ok(Some(false)),
@@ -221,7 +231,7 @@ impl BindArgs<'_> {
             return Ok(Some(v.to_int64()));
         }
         let numeric = matches!(ty, L::UBigint | L::Hugeint | L::UHugeint | L::Decimal | L::Float | L::Double | L::IntegerLiteral);
-        let text = v.to_string();
+        let text = value_text(p.name, &v)?;
         let t = text.trim();
         let whole = t.parse::<i64>().ok().or_else(|| t.parse::<f64>().ok().filter(|f| f.fract() == 0.0 && f.abs() < 9.2e18).map(|f| f as i64));
         match whole {
@@ -237,7 +247,7 @@ impl BindArgs<'_> {
         if !matches!(ty, LogicalTypeId::Varchar | LogicalTypeId::StringLiteral) {
             return Err(format!("{name} must be text ({}), got {} {:?}", p.ty.sql(), type_name(ty), v.to_string()).into());
         }
-        Ok(Some(v.to_string()))
+        Ok(Some(text_of(&v).map_err(|e| format!("{name} {e}"))?))
     }
 
     /// A named DOUBLE argument (`None`: left out): a number, or text that reads as one.
@@ -251,11 +261,18 @@ impl BindArgs<'_> {
         ) {
             return Ok(Some(v.to_double()));
         }
-        let text = v.to_string();
+        let text = value_text(p.name, &v)?;
         match text.trim().parse::<f64>() {
             Ok(f) if matches!(ty, L::Varchar | L::StringLiteral | L::IntegerLiteral) => Ok(Some(f)),
             _ => Err(format!("{name} must be a number ({}), got {} {text:?}", p.ty.sql(), type_name(ty)).into()),
         }
+    }
+
+    /// The calling connection's own file system: every path trajdb reads or writes for the
+    /// caller is opened through it first (`super::fs`), so that every sandbox setting DuckDB
+    /// has applies as to the caller's own SQL.
+    pub fn caller_fs(&self) -> Res<CallerFs> {
+        Ok(CallerFs::of(self.info)?)
     }
 
     /// DuckDB's file-access settings as the calling connection sees them.

@@ -55,7 +55,7 @@ const RESULTS_BEGIN: Function = Function {
     description: "Claims the results folder `out` for one pipeline run and returns (one row, column staging) the folder to write the result \
                   files into, inside `out`. Refused before any work: NULL or '', '/', a file, a folder holding files that trajdb did not \
                   write, a folder that is or contains `input` (a path or glob; a table name is not checked), a folder another run is \
-                  writing into, and any folder where COPY ... TO may not write (enable_external_access, allowed_directories). A new \
+                  writing into, and any folder this connection's own file system refuses (every sandbox setting, as for COPY ... TO). A new \
                   folder is created with normal permissions. End the run with trajdb_results_end.",
     example: "SELECT count(*) FROM trajdb_results_begin('/tmp/trajdb-example-results', 'points.parquet'); -- 1",
     maths: "crates/app/src/outdir.rs",
@@ -131,7 +131,7 @@ const RESULTS_END: Function = Function {
                   in the staging folder replace the earlier results (all targets are checked first, then each file is renamed into place; \
                   earlier result files this run did not write are removed; files that trajdb did not write are never touched) and one row \
                   per file is returned; with false the staging folder is removed, the earlier results stay as they were, and no row is \
-                  returned (also when no run was open). Obeys enable_external_access and allowed_directories as COPY ... TO does.",
+                  returned (also when no run was open). Obeys this connection's own file system (every sandbox setting) as COPY ... TO does.",
     example: "SELECT count(*) FROM trajdb_results_end('/tmp/trajdb-example-results', false); -- 0",
     maths: "crates/app/src/outdir.rs",
     binding: file!(),

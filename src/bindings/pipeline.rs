@@ -60,8 +60,8 @@ const PIPELINE: Function = Function {
                   calibration.csv, matches.csv, merged.parquet, clusters.csv, links.csv, report.html), claimed before any work and \
                   replaced only when every file is written; every other named parameter is a pipeline parameter (`FROM trajdb_params()`; \
                   'auto' where measured), checked by name, type and range. Returns one row per stage as it finishes (seconds, statements, its file), one \
-                  per warning and a total; an interrupt stops it after the current stage and undoes it (earlier results stay). It runs in a private in-memory database with this connection's file-access settings, threads, \
-                  memory and work limits (src/runner.rs): it reads files, not this database's tables (for a table or a DataFrame run \
+                  per warning and a total; an interrupt stops it after the current stage and undoes it (earlier results stay). It runs in a private in-memory database with this connection's threads, memory and work limits, allowed exactly the \
+                  input files and results folder this connection's own file system let it open (every sandbox setting applies) (src/runner.rs): it reads files, not this database's tables (for a table or a DataFrame run \
                   trajdb_stages on your connection, as Python's trajdb.pipeline does), and leaves nothing in this database: read the \
                   results from `out_dir`.",
     example: "SELECT count(*) > 0 FROM trajdb_params(); -- true",

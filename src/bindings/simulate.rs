@@ -36,8 +36,8 @@ pub static FUNCTIONS: &[Function] = &[Function {
     name: "trajdb_simulate",
     description: "Simulates an intersection seen by several cameras (the simulator of `trajdb simulate`, same seed, same scenario) and writes \
                   the scenario files into dir, a new or empty folder or one holding an earlier scenario (any other folder is refused, and \
-                  files are replaced whole, never half-written; it writes only where COPY ... TO may: enable_external_access, \
-                  allowed_directories): points.csv (the input of sql/pipeline.sql), cameras.csv, truth.csv, world.csv, objects.csv and \
+                  files are replaced whole, never half-written; it writes only where this connection's own file system \
+                  lets it, as for COPY ... TO): points.csv (the input of sql/pipeline.sql), cameras.csv, truth.csv, world.csv, objects.csv and \
                   README.txt. One row: dir and the counts. Named parameters (defaults): cameras (3), minutes (5), seed (1), rate_hz (10 Hz; or a list \
                   as text, one per camera, cycled: '2,5,7.5,10'), \
                   traffic (1), pedestrians (1), noise_sigma_min / noise_sigma_max (0.05 / 0.15 m), noise_tracks_per_min (1), clock_offset_max \

@@ -5,6 +5,11 @@
 -- Every table macro reads a table or view NAMED by tbl (default 'merged'; query_table, so a name,
 -- never SQL) with at least road_user, class, traj (TRAJ = STRUCT(t, x, y)[] ordered by t, one
 -- frame, one clock: the pipeline's fused paths on a regular step). Times are the traj's seconds.
+-- Everything here is TEMP (never stored in your database file; fine on a read-only one) and named
+-- trajdb_*: each macro is trajdb_<name>, its intermediate results (CTEs) are trajdb_* too, so a
+-- table of yours of any other name is read as itself. The short names below (routes() ...) are
+-- defined last, one statement each: python/trajdb leaves out one whose name is already yours
+-- (docs/analysis.md "Your database, your names").
 --
 --   road_user_ends(tbl, head_m)      each road user's entry / exit point, time and heading
 --   approaches(tbl, ...)             the approaches (arms) found in the data: where road users enter and leave

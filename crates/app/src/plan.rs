@@ -163,7 +163,10 @@ pub fn leaves_the_session(stmt: &str, made: &[String]) -> Option<String> {
             (!w.get(k).is_some_and(|n| n.starts_with("temp."))).then(|| "it drops an object not named temp.…".to_string())
         }
         "set" => (w.get(1) != Some(&"variable")).then(|| "it changes a setting (only SET VARIABLE is the session's own)".to_string()),
-        "select" | "from" | "with" | "copy" | "values" | "" => None,
+        // COPY (query) TO file only: COPY table FROM file would fill a table
+        "copy" => (!(first.starts_with("copy(") || w.get(1).is_some_and(|x| x.starts_with('('))))
+            .then(|| "only COPY (query) TO is part of a run".to_string()),
+        "select" | "from" | "with" | "values" | "" => None,
         other => Some(format!("{other} statements are not part of a run")),
     }
 }
@@ -436,6 +439,9 @@ mod tests {
             "CHECKPOINT",
             "SET search_path = 'x'",
             "CREATE SCHEMA s",
+            "COPY points FROM 'x.csv'",
+            "COPY user_table TO 'x.csv'",
+            "CALL pragma_version()",
         ] {
             assert!(leaves_the_session(bad, &made).is_some(), "{bad}");
         }
@@ -451,6 +457,7 @@ mod tests {
             "SELECT 1",
             "FROM trajdb_results_end('r', true)",
             "COPY (SELECT 1) TO 'x.csv'",
+            "COPY\n(FROM result_transforms() ORDER BY cam_from) TO 'x' (HEADER)",
         ] {
             assert_eq!(leaves_the_session(good, &made), None, "{good}");
         }

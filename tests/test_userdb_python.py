@@ -58,6 +58,7 @@ def user_objects(con):
         "approaches": con.execute("FROM approaches ORDER BY ALL").fetchall(),
         "analysis_no_gates": con.execute("FROM analysis_no_gates ORDER BY ALL").fetchall(),
         "movements_table": con.execute("FROM main.movements_mine ORDER BY ALL").fetchall(),
+        "gate_from_wkt": con.execute("SELECT gate_from_wkt('x')").fetchall(),
     }
 
 
@@ -72,11 +73,17 @@ def make_user_db(path):
     con.execute("CREATE TABLE approaches AS SELECT * FROM (VALUES ('north', 1.5), ('south', 2.5)) v(arm, w)")
     con.execute("CREATE VIEW analysis_no_gates AS SELECT 'my view' AS what")
     con.execute("CREATE TABLE movements_mine AS SELECT 1 AS a")
+    con.execute("CREATE MACRO gate_from_wkt(w) AS 'my gate ' || w")
     con.execute("CREATE TABLE pts AS FROM read_parquet(?)", [SCENE])
     con.close()
 
 
 def check_file_database(tmp):
+    # every short name of sql/analysis.sql is one the Python runner recognises (and can leave out)
+    con = trajdb.connect()
+    shorts = {trajdb.short_name(sql) for (sql,) in con.execute("SELECT sql FROM trajdb_script('sql/analysis.sql') ORDER BY k").fetchall()}
+    assert shorts - {None} == set(MACROS) | {"gate_from_wkt"}, shorts
+    con.close()
     db = os.path.join(tmp, "mine.duckdb")
     make_user_db(db)
     con = duckdb.connect(db)
@@ -90,7 +97,7 @@ def check_file_database(tmp):
     said = " | ".join(str(w.message) for w in caught)
     # the user's names: still theirs in this very session, trajdb's under its own prefix
     assert user_objects(con) == mine, (user_objects(con), mine)
-    for name in ("routes", "approaches"):
+    for name in ("routes", "approaches", "gate_from_wkt"):
         assert f"{name}() " in said or f".{name} is yours" in said, said
     assert "trajdb_routes()" in said and "trajdb_approaches()" in said, said
     assert con.execute("SELECT count(*) FROM trajdb_approaches()").fetchone()[0] >= 2

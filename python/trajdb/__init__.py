@@ -264,7 +264,8 @@ _SHORT_NAME = re.compile(r"^\s*CREATE\s+OR\s+REPLACE\s+TEMP\s+MACRO\s+([A-Za-z_]
 
 def short_name(sql):
     """The name a statement of sql/analysis.sql gives to trajdb_<name> (or None)."""
-    m = _SHORT_NAME.match(sql)
+    code = "\n".join(line for line in sql.splitlines() if not line.lstrip().startswith("--"))
+    m = _SHORT_NAME.match(code)
     return m.group(1).lower() if m else None
 
 

@@ -212,7 +212,21 @@ FROM points);
 -- units: the sampling period and the speeds of road users are known to within a factor of a
 -- few; times in milliseconds (1.7e12) or coordinates in millimetres give implausible ones (and,
 -- left alone, 0 road users): a clear error naming the column and the unit it seems to be in.
--- Measured on a sample of the observed points (median period and median speed of moving points).
+-- Measured per track on the observed points of whole tracks (at most 2,000, drawn by a hash of
+-- their ids: lag() over a row sample would measure the gaps between sampled rows, not between
+-- samples): each track's median period and median speed of moving points; the input's are the
+-- medians OVER TRACKS, so each track weighs the same whatever its length: a few absurd tracks
+-- (three 30-hour tracks of a million points each) cannot move them, while a wrong unit (t in
+-- milliseconds for every track) moves every track and is still refused. Tracks whose own values
+-- are implausible are listed in load_unit_outliers (kept; the run's warnings name them).
+CREATE OR REPLACE TEMP TABLE load_unit_tracks AS
+SELECT camera, track_id, count(*) AS points, max(t) - min(t) AS span_s,
+       median(dt) FILTER (WHERE dt > 0) AS period,
+       median(sqrt(dx * dx + dy * dy) / dt) FILTER (WHERE dt > 0 AND sqrt(dx * dx + dy * dy) > 0) AS speed
+FROM (SELECT camera, track_id, t, t - lag(t) OVER w AS dt, x - lag(x) OVER w AS dx, y - lag(y) OVER w AS dy
+      FROM points WHERE estimated = 0 AND hash(camera, track_id) % greatest(1, (SELECT count(DISTINCT (camera, track_id)) FROM points) // 2000) = 0
+      WINDOW w AS (PARTITION BY camera, track_id ORDER BY t))
+GROUP BY camera, track_id;
 SET VARIABLE load_check = (SELECT CASE
     WHEN period > 20 THEN error(format('load: column t looks like {} rather than seconds: the median time between a track''s points is {} '
         || '(road-user cameras sample every 0.01-2 s). Fix: give t in seconds, e.g. a view with t / {} AS t, or a TIMESTAMP',
@@ -223,13 +237,15 @@ SET VARIABLE load_check = (SELECT CASE
     WHEN speed < 0.02 THEN error(format('load: the median speed of moving points is {} m/s, too slow for road users (0.5-40 m/s): t may be in '
         || 'milliseconds (median period {} units) or x, y in kilometres. Fix: give t in seconds and x, y in metres', speed, round(period, 4)))
     END
-FROM (SELECT median(dt) FILTER (WHERE dt > 0) AS period,
-             median(sqrt(dx * dx + dy * dy) / dt) FILTER (WHERE dt > 0 AND sqrt(dx * dx + dy * dy) > 0) AS speed
-      FROM (SELECT t - lag(t) OVER w AS dt, x - lag(x) OVER w AS dx, y - lag(y) OVER w AS dy
-            -- whole tracks (at most 2,000, drawn by a hash of their ids): lag() over a row
-            -- sample would measure the gaps between sampled rows, not between samples
-            FROM points WHERE estimated = 0 AND hash(camera, track_id) % greatest(1, (SELECT count(DISTINCT (camera, track_id)) FROM points) // 2000) = 0
-            WINDOW w AS (PARTITION BY camera, track_id ORDER BY t))));
+FROM (SELECT median(period) AS period, median(speed) AS speed FROM load_unit_tracks));
+-- the tracks measured above whose own period or speed is outside what the check accepts for
+-- the input (kept: a parked car may crawl, a track may be sparse; named in the warnings)
+CREATE OR REPLACE TEMP TABLE load_unit_outliers AS
+SELECT camera, track_id, points, span_s, period, speed,
+       CASE WHEN period > 20 THEN 'median period ' || round(period, 1) || ' s'
+            WHEN speed > 150 THEN 'median speed ' || round(speed, 1) || ' m/s'
+            ELSE 'median speed ' || round(speed, 4) || ' m/s' END AS why
+FROM load_unit_tracks WHERE period > 20 OR speed > 150 OR speed < 0.02;
 -- a track is (camera, track_id) whatever its class does: a classifier that flickers between
 -- classes gets the track's majority class (ties: the first class name), and the flicker is
 -- listed in load_class_flicker (camera, track_id, class kept, classes with their point counts)

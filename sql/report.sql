@@ -41,10 +41,10 @@ FROM merged;
 -- macros, defined again here so that the report stands alone after .read sql/pipeline.sql
 .read sql/analysis.sql
 CREATE OR REPLACE TEMP TABLE report_movements AS
-SELECT approach_in, approach_out, movement, class, sum(road_users) AS n FROM movements() GROUP BY ALL;
+SELECT approach_in, approach_out, movement, class, sum(road_users) AS n FROM trajdb_movements() GROUP BY ALL;
 CREATE OR REPLACE TEMP TABLE report_conflicts AS
 -- (the 15 smallest PETs under 3 s of conflicts(), found without computing the rest)
-FROM top_conflicts(k := 15, max_pet := 3.0) WHERE pet < 3 ORDER BY pet, road_user_a, road_user_b LIMIT 15;
+FROM trajdb_top_conflicts(k := 15, max_pet := 3.0) WHERE pet < 3 ORDER BY pet, road_user_a, road_user_b LIMIT 15;
 CREATE OR REPLACE TEMP TABLE report_rows AS
 SELECT 'meta' AS s, 1 AS k, ['input', getvariable('pipeline_input')] AS c
 UNION ALL SELECT 'meta', 2, ['xi', calibrated('merge_min_points')::BIGINT::VARCHAR]

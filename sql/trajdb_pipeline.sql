@@ -332,7 +332,21 @@ FROM points);
 -- units: the sampling period and the speeds of road users are known to within a factor of a
 -- few; times in milliseconds (1.7e12) or coordinates in millimetres give implausible ones (and,
 -- left alone, 0 road users): a clear error naming the column and the unit it seems to be in.
--- Measured on a sample of the observed points (median period and median speed of moving points).
+-- Measured per track on the observed points of whole tracks (at most 2,000, drawn by a hash of
+-- their ids: lag() over a row sample would measure the gaps between sampled rows, not between
+-- samples): each track's median period and median speed of moving points; the input's are the
+-- medians OVER TRACKS, so each track weighs the same whatever its length: a few absurd tracks
+-- (three 30-hour tracks of a million points each) cannot move them, while a wrong unit (t in
+-- milliseconds for every track) moves every track and is still refused. Tracks whose own values
+-- are implausible are listed in load_unit_outliers (kept; the run's warnings name them).
+CREATE OR REPLACE TEMP TABLE load_unit_tracks AS
+SELECT camera, track_id, count(*) AS points, max(t) - min(t) AS span_s,
+       median(dt) FILTER (WHERE dt > 0) AS period,
+       median(sqrt(dx * dx + dy * dy) / dt) FILTER (WHERE dt > 0 AND sqrt(dx * dx + dy * dy) > 0) AS speed
+FROM (SELECT camera, track_id, t, t - lag(t) OVER w AS dt, x - lag(x) OVER w AS dx, y - lag(y) OVER w AS dy
+      FROM points WHERE estimated = 0 AND hash(camera, track_id) % greatest(1, (SELECT count(DISTINCT (camera, track_id)) FROM points) // 2000) = 0
+      WINDOW w AS (PARTITION BY camera, track_id ORDER BY t))
+GROUP BY camera, track_id;
 SET VARIABLE load_check = (SELECT CASE
     WHEN period > 20 THEN error(format('load: column t looks like {} rather than seconds: the median time between a track''s points is {} '
         || '(road-user cameras sample every 0.01-2 s). Fix: give t in seconds, e.g. a view with t / {} AS t, or a TIMESTAMP',
@@ -343,13 +357,15 @@ SET VARIABLE load_check = (SELECT CASE
     WHEN speed < 0.02 THEN error(format('load: the median speed of moving points is {} m/s, too slow for road users (0.5-40 m/s): t may be in '
         || 'milliseconds (median period {} units) or x, y in kilometres. Fix: give t in seconds and x, y in metres', speed, round(period, 4)))
     END
-FROM (SELECT median(dt) FILTER (WHERE dt > 0) AS period,
-             median(sqrt(dx * dx + dy * dy) / dt) FILTER (WHERE dt > 0 AND sqrt(dx * dx + dy * dy) > 0) AS speed
-      FROM (SELECT t - lag(t) OVER w AS dt, x - lag(x) OVER w AS dx, y - lag(y) OVER w AS dy
-            -- whole tracks (at most 2,000, drawn by a hash of their ids): lag() over a row
-            -- sample would measure the gaps between sampled rows, not between samples
-            FROM points WHERE estimated = 0 AND hash(camera, track_id) % greatest(1, (SELECT count(DISTINCT (camera, track_id)) FROM points) // 2000) = 0
-            WINDOW w AS (PARTITION BY camera, track_id ORDER BY t))));
+FROM (SELECT median(period) AS period, median(speed) AS speed FROM load_unit_tracks));
+-- the tracks measured above whose own period or speed is outside what the check accepts for
+-- the input (kept: a parked car may crawl, a track may be sparse; named in the warnings)
+CREATE OR REPLACE TEMP TABLE load_unit_outliers AS
+SELECT camera, track_id, points, span_s, period, speed,
+       CASE WHEN period > 20 THEN 'median period ' || round(period, 1) || ' s'
+            WHEN speed > 150 THEN 'median speed ' || round(speed, 1) || ' m/s'
+            ELSE 'median speed ' || round(speed, 4) || ' m/s' END AS why
+FROM load_unit_tracks WHERE period > 20 OR speed > 150 OR speed < 0.02;
 -- a track is (camera, track_id) whatever its class does: a classifier that flickers between
 -- classes gets the track's majority class (ties: the first class name), and the flicker is
 -- listed in load_class_flicker (camera, track_id, class kept, classes with their point counts)
@@ -2153,7 +2169,7 @@ FROM cluster_assign a JOIN load_ids i ON i.camera = calibrated('cluster_camera')
 -- trajdb: what a finished pipeline run should tell its user, one row each, in table
 -- pipeline_warnings (k, message). Every runner (trajdb pipeline, trajdb.pipeline in Python, the
 -- DuckDB CLI after `.read sql/pipeline.sql`) reads this one table.
--- reads: points, align_frames, load_class_flicker, load_duplicates, load_ids; parameters: cluster_classes,
+-- reads: points, align_frames, load_class_flicker, load_duplicates, load_ids, load_unit_outliers; parameters: cluster_classes,
 -- load_no_class (set by the load)   makes: pipeline_warnings
 CREATE OR REPLACE TEMP TABLE pipeline_warnings AS
 WITH c AS (SELECT (SELECT count(DISTINCT camera) FROM points) AS cams, (SELECT count(*) FROM align_frames) AS aligned,
@@ -2184,7 +2200,16 @@ WHERE len(list_filter(wanted, lambda w: NOT list_contains(have, w))) > 0
 UNION ALL
 SELECT 6, 'the input has no class column: every track is of one class, ''unknown'' (give a class column, or map one with '
           || 'input_columns = ''class=your_column'', to match and cluster each class on its own)'
-WHERE getvariable('load_no_class');
+WHERE getvariable('load_no_class')
+UNION ALL
+SELECT 7, format('{} tracks have a sampling period or speed far outside a road user''s, unlike the rest of the input (kept; table '
+                 || 'load_unit_outliers): {}{}', count(*),
+                 string_agg(format('camera {} track {} ({} points over {} h, {})', i.camera_in, i.track_in, o.points, round(o.span_s / 3600, 1), o.why),
+                            '; ' ORDER BY o.camera, o.track_id) FILTER (WHERE o.rank <= 10),
+                 CASE WHEN count(*) > 10 THEN '; ...' ELSE '' END)
+FROM (SELECT *, row_number() OVER (ORDER BY camera, track_id) AS rank FROM load_unit_outliers) o
+LEFT JOIN load_ids i ON i.camera = o.camera AND i.track_id = o.track_id
+HAVING count(*) > 0;
 ;
 -- trajdb: the analyst's questions as SQL macros (issue 29 §4; docs/analysis.md).
 --
@@ -2193,6 +2218,11 @@ WHERE getvariable('load_no_class');
 -- Every table macro reads a table or view NAMED by tbl (default 'merged'; query_table, so a name,
 -- never SQL) with at least road_user, class, traj (TRAJ = STRUCT(t, x, y)[] ordered by t, one
 -- frame, one clock: the pipeline's fused paths on a regular step). Times are the traj's seconds.
+-- Everything here is TEMP (never stored in your database file; fine on a read-only one) and named
+-- trajdb_*: each macro is trajdb_<name>, its intermediate results (CTEs) are trajdb_* too, so a
+-- table of yours of any other name is read as itself. The short names below (routes() ...) are
+-- defined last, one statement each: python/trajdb leaves out one whose name is already yours
+-- (docs/analysis.md "Your database, your names").
 --
 --   road_user_ends(tbl, head_m)      each road user's entry / exit point, time and heading
 --   approaches(tbl, ...)             the approaches (arms) found in the data: where road users enter and leave
@@ -2217,25 +2247,25 @@ WHERE getvariable('load_no_class');
 
 -- ---------------------------------------------------------------- scalar helpers
 -- An angle in degrees wrapped into (-180, 180].
-CREATE OR REPLACE MACRO analysis_wrap_deg(a) AS a - 360.0 * ceil((a - 180.0) / 360.0);
+CREATE OR REPLACE TEMP MACRO trajdb_wrap_deg(a) AS a - 360.0 * ceil((a - 180.0) / 360.0);
 
 -- The movement of a turn of `turn` degrees (counter-clockwise positive in a right-handed frame).
-CREATE OR REPLACE MACRO analysis_movement(turn, through_deg := 45.0, uturn_deg := 135.0) AS
+CREATE OR REPLACE TEMP MACRO trajdb_movement_name(turn, through_deg := 45.0, uturn_deg := 135.0) AS
     CASE WHEN turn IS NULL THEN NULL
          WHEN abs(turn) < through_deg THEN 'through'
          WHEN abs(turn) >= uturn_deg THEN 'u-turn'
          WHEN turn > 0 THEN 'left' ELSE 'right' END;
 
 -- A gate from WKT: 'LINESTRING (x1 y1, x2 y2)' -> {x1, y1, x2, y2}; an error for anything else.
-CREATE OR REPLACE MACRO analysis_wkt_numbers(wkt) AS
+CREATE OR REPLACE TEMP MACRO trajdb_wkt_numbers(wkt) AS
     list_transform(regexp_extract_all(wkt, '[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?'), lambda s: s::DOUBLE);
-CREATE OR REPLACE MACRO gate_from_wkt(wkt) AS
-    CASE WHEN len(analysis_wkt_numbers(wkt)) = 4 AND regexp_matches(wkt, '^\s*LINESTRING\s*\(', 'i')
-         THEN {'x1': analysis_wkt_numbers(wkt)[1], 'y1': analysis_wkt_numbers(wkt)[2], 'x2': analysis_wkt_numbers(wkt)[3], 'y2': analysis_wkt_numbers(wkt)[4]}
+CREATE OR REPLACE TEMP MACRO trajdb_gate_from_wkt(wkt) AS
+    CASE WHEN len(trajdb_wkt_numbers(wkt)) = 4 AND regexp_matches(wkt, '^\s*LINESTRING\s*\(', 'i')
+         THEN {'x1': trajdb_wkt_numbers(wkt)[1], 'y1': trajdb_wkt_numbers(wkt)[2], 'x2': trajdb_wkt_numbers(wkt)[3], 'y2': trajdb_wkt_numbers(wkt)[4]}
          ELSE error('gate_from_wkt: a gate is LINESTRING (x1 y1, x2 y2) with two points, got ' || coalesce(wkt, 'NULL')) END;
 
 -- Where segment p -> q (points of a TRAJ) crosses the gate (x1, y1)-(x2, y2): its time, or NULL.
-CREATE OR REPLACE MACRO analysis_gate_time(p, q, x1, y1, x2, y2) AS (
+CREATE OR REPLACE TEMP MACRO trajdb_gate_time(p, q, x1, y1, x2, y2) AS (
     CASE WHEN ((q.x - p.x) * (y2 - y1) - (q.y - p.y) * (x2 - x1)) <> 0 THEN
         CASE WHEN ((x1 - p.x) * (y2 - y1) - (y1 - p.y) * (x2 - x1)) / ((q.x - p.x) * (y2 - y1) - (q.y - p.y) * (x2 - x1)) BETWEEN 0 AND 1
               AND ((x1 - p.x) * (q.y - p.y) - (y1 - p.y) * (q.x - p.x)) / ((q.x - p.x) * (y2 - y1) - (q.y - p.y) * (x2 - x1)) BETWEEN 0 AND 1
@@ -2247,8 +2277,8 @@ CREATE OR REPLACE MACRO analysis_gate_time(p, q, x1, y1, x2, y2) AS (
 -- Per road user: entry (first point) and exit (last point), their times, and the heading of travel
 -- there (degrees, atan2 in the frame): from the first point to the first point at least head_m
 -- metres from it, and from the last point at least head_m metres before the end to the end.
-CREATE OR REPLACE MACRO road_user_ends(tbl := 'merged', head_m := 5.0) AS TABLE
-WITH r AS (
+CREATE OR REPLACE TEMP MACRO trajdb_road_user_ends(tbl := 'merged', head_m := 5.0) AS TABLE
+WITH trajdb_r AS (
     SELECT road_user, class, traj,
            coalesce(list_position(list_transform(traj, lambda p: (p.x - traj[1].x) ** 2 + (p.y - traj[1].y) ** 2 >= head_m::DOUBLE ** 2), true), len(traj)) AS k_in,
            len(traj) + 1 - coalesce(list_position(list_transform(list_reverse(traj), lambda p: (p.x - traj[-1].x) ** 2 + (p.y - traj[-1].y) ** 2 >= head_m::DOUBLE ** 2), true), len(traj)) AS k_out
@@ -2260,7 +2290,7 @@ SELECT road_user, class, traj,
        CASE WHEN k_in > 1 THEN degrees(atan2(traj[k_in].y - traj[1].y, traj[k_in].x - traj[1].x)) END AS h_in,
        traj[-1].t AS t_out, traj[-1].x AS x_out, traj[-1].y AS y_out,
        CASE WHEN k_out < len(traj) THEN degrees(atan2(traj[-1].y - traj[k_out].y, traj[-1].x - traj[k_out].x)) END AS h_out
-FROM r;
+FROM trajdb_r;
 
 -- ---------------------------------------------------------------- approaches from the data
 -- 1. the site's centre: the least-squares meeting point of every entry and exit heading line
@@ -2271,51 +2301,51 @@ FROM r;
 --    circle is opened at its widest gap); approaches with fewer than min_users ends are dropped.
 -- Named by the compass point of their mean bearing in the frame (E = +x, N = +y: the frame's
 -- axes, not geography), with a number when two share one; lo_deg..hi_deg is the sector.
-CREATE OR REPLACE MACRO approaches(tbl := 'merged', centre_x := NULL, centre_y := NULL, min_radius_m := 8.0, gap_deg := 25.0,
+CREATE OR REPLACE TEMP MACRO trajdb_approaches(tbl := 'merged', centre_x := NULL, centre_y := NULL, min_radius_m := 8.0, gap_deg := 25.0,
                                    min_users := 3, head_m := 5.0) AS TABLE
-WITH e AS (FROM road_user_ends(tbl := tbl, head_m := head_m)),
-lines AS (
-    SELECT x_in AS ax, y_in AS ay, radians(h_in) AS h FROM e WHERE h_in IS NOT NULL
-    UNION ALL SELECT x_out, y_out, radians(h_out) FROM e WHERE h_out IS NOT NULL
+WITH trajdb_e AS (FROM trajdb_road_user_ends(tbl := tbl, head_m := head_m)),
+trajdb_lines AS (
+    SELECT x_in AS ax, y_in AS ay, radians(h_in) AS h FROM trajdb_e WHERE h_in IS NOT NULL
+    UNION ALL SELECT x_out, y_out, radians(h_out) FROM trajdb_e WHERE h_out IS NOT NULL
 ),
-m AS (  -- sum of (I - d d^T) and of (I - d d^T) a over every line
+trajdb_m AS (  -- sum of (I - d d^T) and of (I - d d^T) a over every line
     SELECT sum(1 - cos(h) ** 2) AS m11, sum(-cos(h) * sin(h)) AS m12, sum(1 - sin(h) ** 2) AS m22,
            sum((1 - cos(h) ** 2) * ax - cos(h) * sin(h) * ay) AS b1, sum(-cos(h) * sin(h) * ax + (1 - sin(h) ** 2) * ay) AS b2
-    FROM lines
+    FROM trajdb_lines
 ),
-c AS (
+trajdb_c AS (
     SELECT coalesce(centre_x::DOUBLE, (b1 * m22 - b2 * m12) / nullif(m11 * m22 - m12 * m12, 0)) AS cx,
            coalesce(centre_y::DOUBLE, (m11 * b2 - m12 * b1) / nullif(m11 * m22 - m12 * m12, 0)) AS cy
-    FROM m
+    FROM trajdb_m
 ),
-ends AS (
-    SELECT 'in' AS side, degrees(atan2(y_in - cy, x_in - cx)) AS bearing FROM e, c
-    WHERE sqrt((x_in - cx) ** 2 + (y_in - cy) ** 2) >= min_radius_m AND abs(analysis_wrap_deg(h_in - degrees(atan2(y_in - cy, x_in - cx)) - 180)) < 45
+trajdb_ends AS (
+    SELECT 'in' AS side, degrees(atan2(y_in - cy, x_in - cx)) AS bearing FROM trajdb_e, trajdb_c
+    WHERE sqrt((x_in - cx) ** 2 + (y_in - cy) ** 2) >= min_radius_m AND abs(trajdb_wrap_deg(h_in - degrees(atan2(y_in - cy, x_in - cx)) - 180)) < 45
     UNION ALL
-    SELECT 'out', degrees(atan2(y_out - cy, x_out - cx)) FROM e, c
-    WHERE sqrt((x_out - cx) ** 2 + (y_out - cy) ** 2) >= min_radius_m AND abs(analysis_wrap_deg(h_out - degrees(atan2(y_out - cy, x_out - cx)))) < 45
+    SELECT 'out', degrees(atan2(y_out - cy, x_out - cx)) FROM trajdb_e, trajdb_c
+    WHERE sqrt((x_out - cx) ** 2 + (y_out - cy) ** 2) >= min_radius_m AND abs(trajdb_wrap_deg(h_out - degrees(atan2(y_out - cy, x_out - cx)))) < 45
 ),
-s AS (SELECT side, (bearing + 360) % 360 AS b FROM ends),
-g AS (SELECT side, b, b - lag(b) OVER (ORDER BY b) AS gap FROM s),
-cut AS (  -- open the circle after its widest gap (the wrap-around gap counts too)
-    SELECT CASE WHEN (SELECT min(b) + 360 - max(b) FROM s) >= coalesce((SELECT max(gap) FROM g), 0) THEN (SELECT min(b) FROM s)
-                ELSE (SELECT arg_max(b, gap) FROM g) END AS start
+trajdb_s AS (SELECT side, (bearing + 360) % 360 AS b FROM trajdb_ends),
+trajdb_g AS (SELECT side, b, b - lag(b) OVER (ORDER BY b) AS gap FROM trajdb_s),
+trajdb_cut AS (  -- open the circle after its widest gap (the wrap-around gap counts too)
+    SELECT CASE WHEN (SELECT min(b) + 360 - max(b) FROM trajdb_s) >= coalesce((SELECT max(gap) FROM trajdb_g), 0) THEN (SELECT min(b) FROM trajdb_s)
+                ELSE (SELECT arg_max(b, gap) FROM trajdb_g) END AS start
 ),
-r AS (SELECT side, (b - start + 360) % 360 AS br FROM s, cut),
-rg AS (SELECT side, br, br - lag(br) OVER (ORDER BY br) AS gap FROM r),
-k AS (SELECT side, br, sum(CASE WHEN gap > gap_deg THEN 1 ELSE 0 END) OVER (ORDER BY br ROWS UNBOUNDED PRECEDING) AS cluster FROM rg),
-a AS (
+trajdb_r AS (SELECT side, (b - start + 360) % 360 AS br FROM trajdb_s, trajdb_cut),
+trajdb_rg AS (SELECT side, br, br - lag(br) OVER (ORDER BY br) AS gap FROM trajdb_r),
+trajdb_k AS (SELECT side, br, sum(CASE WHEN gap > gap_deg THEN 1 ELSE 0 END) OVER (ORDER BY br ROWS UNBOUNDED PRECEDING) AS cluster FROM trajdb_rg),
+trajdb_a AS (
     SELECT cluster, min(br) AS lo, max(br) AS hi, count(*) FILTER (WHERE side = 'in') AS n_in, count(*) FILTER (WHERE side = 'out') AS n_out,
-           (degrees(atan2(avg(sin(radians(br))), avg(cos(radians(br))))) + (SELECT start FROM cut) + 720) % 360 AS bearing
-    FROM k GROUP BY cluster HAVING count(*) >= min_users
+           (degrees(atan2(avg(sin(radians(br))), avg(cos(radians(br))))) + (SELECT start FROM trajdb_cut) + 720) % 360 AS bearing
+    FROM trajdb_k GROUP BY cluster HAVING count(*) >= min_users
 ),
-named AS (
-    SELECT *, ['E', 'NE', 'N', 'NW', 'W', 'SW', 'S', 'SE'][(round(bearing / 45)::INTEGER % 8) + 1] AS compass FROM a
+trajdb_named AS (
+    SELECT *, ['E', 'NE', 'N', 'NW', 'W', 'SW', 'S', 'SE'][(round(bearing / 45)::INTEGER % 8) + 1] AS compass FROM trajdb_a
 )
 SELECT compass || CASE WHEN count(*) OVER (PARTITION BY compass) > 1 THEN row_number() OVER (PARTITION BY compass ORDER BY bearing)::VARCHAR ELSE '' END AS approach,
-       bearing AS bearing_deg, (lo + (SELECT start FROM cut)) % 360 AS lo_deg, (hi + (SELECT start FROM cut)) % 360 AS hi_deg,
-       n_in, n_out, (SELECT cx FROM c) AS centre_x, (SELECT cy FROM c) AS centre_y
-FROM named ORDER BY bearing;
+       bearing AS bearing_deg, (lo + (SELECT start FROM trajdb_cut)) % 360 AS lo_deg, (hi + (SELECT start FROM trajdb_cut)) % 360 AS hi_deg,
+       n_in, n_out, (SELECT cx FROM trajdb_c) AS centre_x, (SELECT cy FROM trajdb_c) AS centre_y
+FROM trajdb_named ORDER BY bearing;
 
 -- ---------------------------------------------------------------- movements per road user
 -- Entry and exit approach, turn angle and movement of every road user.
@@ -2327,70 +2357,70 @@ FROM named ORDER BY bearing;
 -- at least two crossings). turn_deg = exit heading - entry heading (road_user_ends), wrapped into
 -- (-180, 180], negated when left_handed; movement = through (|turn| < through_deg), u-turn
 -- (|turn| >= uturn_deg), left (turn > 0) or right; NULL when either approach is unknown.
-CREATE OR REPLACE MACRO road_user_movements(tbl := 'merged', gates := NULL, left_handed := false, head_m := 5.0, through_deg := 45.0,
+CREATE OR REPLACE TEMP MACRO trajdb_road_user_movements(tbl := 'merged', gates := NULL, left_handed := false, head_m := 5.0, through_deg := 45.0,
                                             uturn_deg := 135.0, centre_x := NULL, centre_y := NULL, min_radius_m := 8.0,
                                             gap_deg := 25.0, min_users := 3) AS TABLE
-WITH e AS (FROM road_user_ends(tbl := tbl, head_m := head_m)),
-ap AS (
-    FROM approaches(tbl := tbl, centre_x := centre_x, centre_y := centre_y, min_radius_m := min_radius_m, gap_deg := gap_deg,
+WITH trajdb_e AS (FROM trajdb_road_user_ends(tbl := tbl, head_m := head_m)),
+trajdb_ap AS (
+    FROM trajdb_approaches(tbl := tbl, centre_x := centre_x, centre_y := centre_y, min_radius_m := min_radius_m, gap_deg := gap_deg,
                     min_users := min_users, head_m := head_m)
     WHERE gates IS NULL
 ),
-c AS (SELECT any_value(ap.centre_x) AS cx, any_value(ap.centre_y) AS cy FROM ap),  -- qualified: centre_x alone is the parameter
-data_in AS (
-    SELECT e.road_user, ap.approach FROM e, c, ap
+trajdb_c AS (SELECT any_value(trajdb_ap.centre_x) AS cx, any_value(trajdb_ap.centre_y) AS cy FROM trajdb_ap),  -- qualified: centre_x alone is the parameter
+trajdb_data_in AS (
+    SELECT trajdb_e.road_user, trajdb_ap.approach FROM trajdb_e, trajdb_c, trajdb_ap
     WHERE sqrt((x_in - cx) ** 2 + (y_in - cy) ** 2) >= min_radius_m
-      AND abs(analysis_wrap_deg(h_in - degrees(atan2(y_in - cy, x_in - cx)) - 180)) < 45
-      AND abs(analysis_wrap_deg(degrees(atan2(y_in - cy, x_in - cx)) - (ap.lo_deg + ap.hi_deg) / 2
-                                - CASE WHEN ap.hi_deg < ap.lo_deg THEN 180 ELSE 0 END))
-          <= ((ap.hi_deg - ap.lo_deg + 360) % 360) / 2 + gap_deg / 2
+      AND abs(trajdb_wrap_deg(h_in - degrees(atan2(y_in - cy, x_in - cx)) - 180)) < 45
+      AND abs(trajdb_wrap_deg(degrees(atan2(y_in - cy, x_in - cx)) - (trajdb_ap.lo_deg + trajdb_ap.hi_deg) / 2
+                                - CASE WHEN trajdb_ap.hi_deg < trajdb_ap.lo_deg THEN 180 ELSE 0 END))
+          <= ((trajdb_ap.hi_deg - trajdb_ap.lo_deg + 360) % 360) / 2 + gap_deg / 2
 ),
-data_out AS (
-    SELECT e.road_user, ap.approach FROM e, c, ap
+trajdb_data_out AS (
+    SELECT trajdb_e.road_user, trajdb_ap.approach FROM trajdb_e, trajdb_c, trajdb_ap
     WHERE sqrt((x_out - cx) ** 2 + (y_out - cy) ** 2) >= min_radius_m
-      AND abs(analysis_wrap_deg(h_out - degrees(atan2(y_out - cy, x_out - cx)))) < 45
-      AND abs(analysis_wrap_deg(degrees(atan2(y_out - cy, x_out - cx)) - (ap.lo_deg + ap.hi_deg) / 2
-                                - CASE WHEN ap.hi_deg < ap.lo_deg THEN 180 ELSE 0 END))
-          <= ((ap.hi_deg - ap.lo_deg + 360) % 360) / 2 + gap_deg / 2
+      AND abs(trajdb_wrap_deg(h_out - degrees(atan2(y_out - cy, x_out - cx)))) < 45
+      AND abs(trajdb_wrap_deg(degrees(atan2(y_out - cy, x_out - cx)) - (trajdb_ap.lo_deg + trajdb_ap.hi_deg) / 2
+                                - CASE WHEN trajdb_ap.hi_deg < trajdb_ap.lo_deg THEN 180 ELSE 0 END))
+          <= ((trajdb_ap.hi_deg - trajdb_ap.lo_deg + 360) % 360) / 2 + gap_deg / 2
 ),
-gate_cross AS (
-    SELECT e.road_user, g.approach, unnest(list_filter(
-               list_transform(range(1, len(e.traj)), lambda i: analysis_gate_time(e.traj[i], e.traj[i + 1], g.x1, g.y1, g.x2, g.y2)),
+trajdb_gate_cross AS (
+    SELECT trajdb_e.road_user, g.approach, unnest(list_filter(
+               list_transform(range(1, len(trajdb_e.traj)), lambda i: trajdb_gate_time(trajdb_e.traj[i], trajdb_e.traj[i + 1], g.x1, g.y1, g.x2, g.y2)),
                lambda t: t IS NOT NULL)) AS t
-    FROM e, query_table(coalesce(gates, 'analysis_no_gates')) g
+    FROM trajdb_e, query_table(coalesce(gates, 'trajdb_no_gates')) g
     WHERE gates IS NOT NULL
 ),
-gate_ends AS (
+trajdb_gate_ends AS (
     SELECT road_user, arg_min(approach, t) AS approach_in, arg_max(approach, t) AS approach_out
-    FROM gate_cross GROUP BY road_user HAVING count(*) >= 2
+    FROM trajdb_gate_cross GROUP BY road_user HAVING count(*) >= 2
 ),
-j AS (
-    SELECT e.*,
-           CASE WHEN gates IS NULL THEN (SELECT any_value(approach) FROM data_in d WHERE d.road_user = e.road_user)
-                ELSE (SELECT any_value(approach_in) FROM gate_ends d WHERE d.road_user = e.road_user) END AS approach_in,
-           CASE WHEN gates IS NULL THEN (SELECT any_value(approach) FROM data_out d WHERE d.road_user = e.road_user)
-                ELSE (SELECT any_value(approach_out) FROM gate_ends d WHERE d.road_user = e.road_user) END AS approach_out,
-           CASE WHEN left_handed THEN -1 ELSE 1 END * analysis_wrap_deg(h_out - h_in) AS turn_deg
-    FROM e
+trajdb_j AS (
+    SELECT trajdb_e.*,
+           CASE WHEN gates IS NULL THEN (SELECT any_value(approach) FROM trajdb_data_in d WHERE d.road_user = trajdb_e.road_user)
+                ELSE (SELECT any_value(approach_in) FROM trajdb_gate_ends d WHERE d.road_user = trajdb_e.road_user) END AS approach_in,
+           CASE WHEN gates IS NULL THEN (SELECT any_value(approach) FROM trajdb_data_out d WHERE d.road_user = trajdb_e.road_user)
+                ELSE (SELECT any_value(approach_out) FROM trajdb_gate_ends d WHERE d.road_user = trajdb_e.road_user) END AS approach_out,
+           CASE WHEN left_handed THEN -1 ELSE 1 END * trajdb_wrap_deg(h_out - h_in) AS turn_deg
+    FROM trajdb_e
 )
 SELECT road_user, class, t_in, t_out, approach_in, approach_out, turn_deg,
        CASE WHEN approach_in IS NOT NULL AND approach_out IS NOT NULL
-            THEN analysis_movement(turn_deg, through_deg := through_deg, uturn_deg := uturn_deg) END AS movement
-FROM j ORDER BY road_user;
+            THEN trajdb_movement_name(turn_deg, through_deg := through_deg, uturn_deg := uturn_deg) END AS movement
+FROM trajdb_j ORDER BY road_user;
 
 -- An empty gates table for query_table when no gates are given (query_table needs an existing name).
-CREATE OR REPLACE VIEW analysis_no_gates AS
+CREATE OR REPLACE TEMP VIEW trajdb_no_gates AS
 SELECT NULL::VARCHAR AS approach, NULL::DOUBLE AS x1, NULL::DOUBLE AS y1, NULL::DOUBLE AS x2, NULL::DOUBLE AS y2 WHERE false;
 
 -- ---------------------------------------------------------------- turning movement counts
 -- Road users per bin of bin_s seconds (by entry time; default 900 = 15 minutes, bins at multiples
 -- of bin_s on the traj clock), entry approach, exit approach, movement and class. Only road users
 -- with both approaches known (see road_user_movements for the others).
-CREATE OR REPLACE MACRO movements(tbl := 'merged', bin_s := 900, gates := NULL, left_handed := false, head_m := 5.0,
+CREATE OR REPLACE TEMP MACRO trajdb_movements(tbl := 'merged', bin_s := 900, gates := NULL, left_handed := false, head_m := 5.0,
                                   through_deg := 45.0, uturn_deg := 135.0, centre_x := NULL, centre_y := NULL,
                                   min_radius_m := 8.0, gap_deg := 25.0, min_users := 3) AS TABLE
 SELECT floor(t_in / bin_s::DOUBLE) * bin_s::DOUBLE AS bin_start, approach_in, approach_out, movement, class, count(*) AS road_users
-FROM road_user_movements(tbl := tbl, gates := gates, left_handed := left_handed, head_m := head_m, through_deg := through_deg,
+FROM trajdb_road_user_movements(tbl := tbl, gates := gates, left_handed := left_handed, head_m := head_m, through_deg := through_deg,
                          uturn_deg := uturn_deg, centre_x := centre_x, centre_y := centre_y, min_radius_m := min_radius_m,
                          gap_deg := gap_deg, min_users := min_users)
 WHERE movement IS NOT NULL
@@ -2400,7 +2430,7 @@ GROUP BY ALL ORDER BY ALL;
 -- Per road user: the speed samples of its path (traj_speeds: finite differences, on the pipeline's
 -- regular step each sample weighs the same time), their median, 85th percentile and maximum, the
 -- mean speed (path length / duration) and the travel time through the site (t_out - t_in).
-CREATE OR REPLACE MACRO road_user_speeds(tbl := 'merged') AS TABLE
+CREATE OR REPLACE TEMP MACRO trajdb_road_user_speeds(tbl := 'merged') AS TABLE
 SELECT road_user, class, traj_length_m(traj) / nullif(traj_duration(traj), 0) AS mean_speed,
        list_median([s.v FOR s IN traj_speeds(traj)]) AS median_speed,
        list_aggregate([s.v FOR s IN traj_speeds(traj)], 'quantile_cont', 0.85) AS p85_speed,
@@ -2412,29 +2442,29 @@ WHERE len(traj) >= 2;
 -- 85th and 95th percentiles (and the mean) of their mean speeds (m/s) and travel times (s), and of
 -- every speed sample pooled (the spot-speed distribution). Road users with an unknown movement
 -- form the rows with NULL approaches.
-CREATE OR REPLACE MACRO speeds(tbl := 'merged', gates := NULL, left_handed := false, head_m := 5.0, through_deg := 45.0,
+CREATE OR REPLACE TEMP MACRO trajdb_speeds(tbl := 'merged', gates := NULL, left_handed := false, head_m := 5.0, through_deg := 45.0,
                                uturn_deg := 135.0, centre_x := NULL, centre_y := NULL, min_radius_m := 8.0, gap_deg := 25.0,
                                min_users := 3) AS TABLE
-WITH m AS (FROM road_user_movements(tbl := tbl, gates := gates, left_handed := left_handed, head_m := head_m, through_deg := through_deg,
+WITH trajdb_m AS (FROM trajdb_road_user_movements(tbl := tbl, gates := gates, left_handed := left_handed, head_m := head_m, through_deg := through_deg,
                                     uturn_deg := uturn_deg, centre_x := centre_x, centre_y := centre_y, min_radius_m := min_radius_m,
                                     gap_deg := gap_deg, min_users := min_users)),
-s AS (FROM road_user_speeds(tbl := tbl)),
-spot AS (SELECT road_user, unnest(traj_speeds(traj)).v AS v FROM query_table(tbl)),
-spot_q AS (
-    SELECT m.approach_in, m.approach_out, m.movement, m.class,
+trajdb_s AS (FROM trajdb_road_user_speeds(tbl := tbl)),
+trajdb_spot AS (SELECT road_user, unnest(traj_speeds(traj)).v AS v FROM query_table(tbl)),
+trajdb_spot_q AS (
+    SELECT trajdb_m.approach_in, trajdb_m.approach_out, trajdb_m.movement, trajdb_m.class,
            quantile_cont(v, [0.15, 0.5, 0.85, 0.95]) AS q
-    FROM spot JOIN m USING (road_user) GROUP BY ALL
+    FROM trajdb_spot JOIN trajdb_m USING (road_user) GROUP BY ALL
 )
-SELECT m.approach_in, m.approach_out, m.movement, m.class, count(*) AS road_users,
-       avg(s.mean_speed) AS speed_mean, quantile_cont(s.mean_speed, 0.15) AS speed_p15, quantile_cont(s.mean_speed, 0.5) AS speed_p50,
-       quantile_cont(s.mean_speed, 0.85) AS speed_p85, quantile_cont(s.mean_speed, 0.95) AS speed_p95,
+SELECT trajdb_m.approach_in, trajdb_m.approach_out, trajdb_m.movement, trajdb_m.class, count(*) AS road_users,
+       avg(trajdb_s.mean_speed) AS speed_mean, quantile_cont(trajdb_s.mean_speed, 0.15) AS speed_p15, quantile_cont(trajdb_s.mean_speed, 0.5) AS speed_p50,
+       quantile_cont(trajdb_s.mean_speed, 0.85) AS speed_p85, quantile_cont(trajdb_s.mean_speed, 0.95) AS speed_p95,
        any_value(q.q[1]) AS spot_p15, any_value(q.q[2]) AS spot_p50, any_value(q.q[3]) AS spot_p85, any_value(q.q[4]) AS spot_p95,
-       avg(s.travel_time_s) AS travel_time_mean, quantile_cont(s.travel_time_s, 0.15) AS travel_time_p15,
-       quantile_cont(s.travel_time_s, 0.5) AS travel_time_p50, quantile_cont(s.travel_time_s, 0.85) AS travel_time_p85,
-       quantile_cont(s.travel_time_s, 0.95) AS travel_time_p95
-FROM m JOIN s USING (road_user)
-LEFT JOIN spot_q q ON q.approach_in IS NOT DISTINCT FROM m.approach_in AND q.approach_out IS NOT DISTINCT FROM m.approach_out
-                  AND q.movement IS NOT DISTINCT FROM m.movement AND q.class IS NOT DISTINCT FROM m.class
+       avg(trajdb_s.travel_time_s) AS travel_time_mean, quantile_cont(trajdb_s.travel_time_s, 0.15) AS travel_time_p15,
+       quantile_cont(trajdb_s.travel_time_s, 0.5) AS travel_time_p50, quantile_cont(trajdb_s.travel_time_s, 0.85) AS travel_time_p85,
+       quantile_cont(trajdb_s.travel_time_s, 0.95) AS travel_time_p95
+FROM trajdb_m JOIN trajdb_s USING (road_user)
+LEFT JOIN trajdb_spot_q q ON q.approach_in IS NOT DISTINCT FROM trajdb_m.approach_in AND q.approach_out IS NOT DISTINCT FROM trajdb_m.approach_out
+                  AND q.movement IS NOT DISTINCT FROM trajdb_m.movement AND q.class IS NOT DISTINCT FROM trajdb_m.class
 GROUP BY ALL ORDER BY ALL;
 
 -- ---------------------------------------------------------------- conflicts
@@ -2449,9 +2479,9 @@ GROUP BY ALL ORDER BY ALL;
 -- kind: SSAM's rule on the crossing angle: rear-end (< 30 deg), lane-change (30-85), crossing (> 85).
 -- road_user_first: who passed the conflict point first.
 -- top := k: only the first k by (pet, road_user_a, road_user_b), as top_conflicts() below.
-CREATE OR REPLACE MACRO conflicts(tbl := 'merged', max_pet := 5.0, radius := 2.0, max_ttc := 3.0, top := NULL) AS TABLE
-WITH r AS (SELECT road_user, class, traj FROM query_table(tbl) WHERE len(traj) >= 2),
-u AS (  -- the pairs are named by road_user: a repeated one would be ambiguous; a NULL parameter
+CREATE OR REPLACE TEMP MACRO trajdb_conflicts(tbl := 'merged', max_pet := 5.0, radius := 2.0, max_ttc := 3.0, top := NULL) AS TABLE
+WITH trajdb_r AS (SELECT road_user, class, traj FROM query_table(tbl) WHERE len(traj) >= 2),
+trajdb_u AS (  -- the pairs are named by road_user: a repeated one would be ambiguous; a NULL parameter
         -- would silently give no rows
     SELECT CASE WHEN max_pet IS NULL OR radius IS NULL OR (max_ttc IS NULL AND top IS NULL)
                 THEN error('conflicts: max_pet, radius and max_ttc must not be NULL (got max_pet ' || coalesce(max_pet::VARCHAR, 'NULL')
@@ -2460,22 +2490,22 @@ u AS (  -- the pairs are named by road_user: a repeated one would be ambiguous; 
                 WHEN count(road_user) = count(DISTINCT road_user) THEN true
                 ELSE error('conflicts: road_user must be unique in ' || tbl || ' (got ' || (count(road_user) - count(DISTINCT road_user))::VARCHAR
                            || ' repeated); give each road user one row') END AS ok
-    FROM r
+    FROM trajdb_r
 ),
-c AS (  -- (ids as BIGINT: integer and decimal road_user columns of any width)
+trajdb_c AS (  -- (ids as BIGINT: integer and decimal road_user columns of any width)
     SELECT unnest(CASE WHEN top IS NULL
                        THEN traj_conflicts(list(road_user::BIGINT ORDER BY road_user), list(traj ORDER BY road_user), max_pet::DOUBLE,
                                            radius::DOUBLE, max_ttc::DOUBLE)
                        ELSE traj_conflicts_top(list(road_user::BIGINT ORDER BY road_user), list(traj ORDER BY road_user), top::BIGINT,
                                                max_pet::DOUBLE, radius::DOUBLE) END) AS p
-    FROM r WHERE road_user IS NOT NULL AND (SELECT ok FROM u)
+    FROM trajdb_r WHERE road_user IS NOT NULL AND (SELECT ok FROM trajdb_u)
 )
 SELECT p.a AS road_user_a, ra.class AS class_a, p.b AS road_user_b, rb.class AS class_b,
        p.pet, p.x AS pet_x, p.y AS pet_y, p.t_first, p.t_second, p.angle AS angle_deg,
        CASE WHEN p.angle < 30 THEN 'rear-end' WHEN p.angle <= 85 THEN 'lane-change' WHEN p.angle IS NOT NULL THEN 'crossing' END AS kind,
        CASE WHEN p.a_first THEN p.a WHEN NOT p.a_first THEN p.b END AS road_user_first,
        p.ttc, p.ttc_t, p.ttc_x, p.ttc_y
-FROM c JOIN (SELECT road_user, class FROM r) ra ON ra.road_user = p.a JOIN (SELECT road_user, class FROM r) rb ON rb.road_user = p.b
+FROM trajdb_c JOIN (SELECT road_user, class FROM trajdb_r) ra ON ra.road_user = p.a JOIN (SELECT road_user, class FROM trajdb_r) rb ON rb.road_user = p.b
 ORDER BY coalesce(p.pet, 1e300), road_user_a, road_user_b;
 
 -- The k most severe crossings: the first k rows of conflicts() by (pet, road_user_a, road_user_b)
@@ -2485,8 +2515,8 @@ ORDER BY coalesce(p.pet, 1e300), road_user_a, road_user_b;
 -- conflicts(); a pair with a TTC but no crossing is not a crossing and is not here. The report's
 -- near misses.
 -- k := NULL: every crossing (no limit).
-CREATE OR REPLACE MACRO top_conflicts(tbl := 'merged', k := 15, max_pet := 5.0, radius := 2.0) AS TABLE
-FROM conflicts(tbl := tbl, max_pet := max_pet, radius := radius, top := k) WHERE pet IS NOT NULL ORDER BY pet, road_user_a, road_user_b;
+CREATE OR REPLACE TEMP MACRO trajdb_top_conflicts(tbl := 'merged', k := 15, max_pet := 5.0, radius := 2.0) AS TABLE
+FROM trajdb_conflicts(tbl := tbl, max_pet := max_pet, radius := radius, top := k) WHERE pet IS NOT NULL ORDER BY pet, road_user_a, road_user_b;
 
 -- ---------------------------------------------------------------- route patterns
 -- Route patterns of the merged road users: per movement (entry approach, exit approach), the paths
@@ -2494,31 +2524,56 @@ FROM conflicts(tbl := tbl, max_pet := max_pet, radius := radius, top := k) WHERE
 -- and delta samples of warping, cut at threshold): lanes and paths within one movement. One row per
 -- pattern: its road users, their classes, and the member of median length as its example.
 -- Road users with an unknown movement are not clustered.
-CREATE OR REPLACE MACRO routes(tbl := 'merged', epsilon := 1.5, delta := 30, threshold := 0.5, gates := NULL, left_handed := false,
+CREATE OR REPLACE TEMP MACRO trajdb_routes(tbl := 'merged', epsilon := 1.5, delta := 30, threshold := 0.5, gates := NULL, left_handed := false,
                                head_m := 5.0, through_deg := 45.0, uturn_deg := 135.0, centre_x := NULL, centre_y := NULL,
                                min_radius_m := 8.0, gap_deg := 25.0, min_users := 3) AS TABLE
-WITH m AS (FROM road_user_movements(tbl := tbl, gates := gates, left_handed := left_handed, head_m := head_m, through_deg := through_deg,
+WITH trajdb_m AS (FROM trajdb_road_user_movements(tbl := tbl, gates := gates, left_handed := left_handed, head_m := head_m, through_deg := through_deg,
                                     uturn_deg := uturn_deg, centre_x := centre_x, centre_y := centre_y, min_radius_m := min_radius_m,
                                     gap_deg := gap_deg, min_users := min_users)
            WHERE movement IS NOT NULL),
-p AS (SELECT m.*, traj_resample(t.traj, 1.0) AS traj FROM m JOIN query_table(tbl) t USING (road_user)),
-cl AS (
+trajdb_p AS (SELECT trajdb_m.*, traj_resample(t.traj, 1.0) AS traj FROM trajdb_m JOIN query_table(tbl) t USING (road_user)),
+trajdb_cl AS (
     SELECT approach_in, approach_out, movement,
            traj_cluster(list(road_user ORDER BY road_user), list(traj ORDER BY road_user), 'average',
                         threshold::DOUBLE, delta::BIGINT, epsilon::DOUBLE) AS ks
-    FROM p WHERE len(traj) >= 2 GROUP BY approach_in, approach_out, movement
+    FROM trajdb_p WHERE len(traj) >= 2 GROUP BY approach_in, approach_out, movement
 ),
-c AS (SELECT approach_in, approach_out, movement, unnest(ks) AS k FROM cl),
-j AS (SELECT c.approach_in, c.approach_out, c.movement, k.cluster AS pattern, p.road_user, p.class, traj_length_m(p.traj) AS len
-      FROM c JOIN p ON p.road_user = k.id),
-cc AS (
+trajdb_c AS (SELECT approach_in, approach_out, movement, unnest(ks) AS k FROM trajdb_cl),
+trajdb_j AS (SELECT trajdb_c.approach_in, trajdb_c.approach_out, trajdb_c.movement, k.cluster AS pattern, trajdb_p.road_user, trajdb_p.class, traj_length_m(trajdb_p.traj) AS len
+      FROM trajdb_c JOIN trajdb_p ON trajdb_p.road_user = k.id),
+trajdb_cc AS (
     SELECT approach_in, approach_out, movement, pattern, string_agg(class || ' ' || n, ', ' ORDER BY class) AS classes
-    FROM (SELECT approach_in, approach_out, movement, pattern, class, count(*) AS n FROM j GROUP BY ALL)
+    FROM (SELECT approach_in, approach_out, movement, pattern, class, count(*) AS n FROM trajdb_j GROUP BY ALL)
     GROUP BY ALL
 )
 SELECT approach_in, approach_out, movement, pattern, count(*) AS road_users, list(road_user ORDER BY road_user) AS road_user_ids,
-       any_value(cc.classes) AS classes, list(road_user ORDER BY len, road_user)[(count(*) + 1) // 2] AS example_road_user
-FROM j JOIN cc USING (approach_in, approach_out, movement, pattern)
+       any_value(trajdb_cc.classes) AS classes, list(road_user ORDER BY len, road_user)[(count(*) + 1) // 2] AS example_road_user
+FROM trajdb_j JOIN trajdb_cc USING (approach_in, approach_out, movement, pattern)
 GROUP BY approach_in, approach_out, movement, pattern
 ORDER BY road_users DESC, approach_in, approach_out, pattern;
+
+-- ---------------------------------------------------------------- the names you call
+-- Each name above is trajdb_<name>; these are the short names, one statement each, so that a host
+-- can leave out one whose name is yours (python/trajdb: a table, view or macro of yours called
+-- routes stays what `routes` means; trajdb_routes() is trajdb's). TEMP, as everything here:
+-- nothing of trajdb's is stored in your database file.
+CREATE OR REPLACE TEMP MACRO gate_from_wkt(wkt) AS trajdb_gate_from_wkt(wkt);
+CREATE OR REPLACE TEMP MACRO road_user_ends(tbl := 'merged', head_m := 5.0) AS TABLE
+FROM trajdb_road_user_ends(tbl := tbl, head_m := head_m);
+CREATE OR REPLACE TEMP MACRO approaches(tbl := 'merged', centre_x := NULL, centre_y := NULL, min_radius_m := 8.0, gap_deg := 25.0, min_users := 3, head_m := 5.0) AS TABLE
+FROM trajdb_approaches(tbl := tbl, centre_x := centre_x, centre_y := centre_y, min_radius_m := min_radius_m, gap_deg := gap_deg, min_users := min_users, head_m := head_m);
+CREATE OR REPLACE TEMP MACRO road_user_movements(tbl := 'merged', gates := NULL, left_handed := false, head_m := 5.0, through_deg := 45.0, uturn_deg := 135.0, centre_x := NULL, centre_y := NULL, min_radius_m := 8.0, gap_deg := 25.0, min_users := 3) AS TABLE
+FROM trajdb_road_user_movements(tbl := tbl, gates := gates, left_handed := left_handed, head_m := head_m, through_deg := through_deg, uturn_deg := uturn_deg, centre_x := centre_x, centre_y := centre_y, min_radius_m := min_radius_m, gap_deg := gap_deg, min_users := min_users);
+CREATE OR REPLACE TEMP MACRO movements(tbl := 'merged', bin_s := 900, gates := NULL, left_handed := false, head_m := 5.0, through_deg := 45.0, uturn_deg := 135.0, centre_x := NULL, centre_y := NULL, min_radius_m := 8.0, gap_deg := 25.0, min_users := 3) AS TABLE
+FROM trajdb_movements(tbl := tbl, bin_s := bin_s, gates := gates, left_handed := left_handed, head_m := head_m, through_deg := through_deg, uturn_deg := uturn_deg, centre_x := centre_x, centre_y := centre_y, min_radius_m := min_radius_m, gap_deg := gap_deg, min_users := min_users);
+CREATE OR REPLACE TEMP MACRO road_user_speeds(tbl := 'merged') AS TABLE
+FROM trajdb_road_user_speeds(tbl := tbl);
+CREATE OR REPLACE TEMP MACRO speeds(tbl := 'merged', gates := NULL, left_handed := false, head_m := 5.0, through_deg := 45.0, uturn_deg := 135.0, centre_x := NULL, centre_y := NULL, min_radius_m := 8.0, gap_deg := 25.0, min_users := 3) AS TABLE
+FROM trajdb_speeds(tbl := tbl, gates := gates, left_handed := left_handed, head_m := head_m, through_deg := through_deg, uturn_deg := uturn_deg, centre_x := centre_x, centre_y := centre_y, min_radius_m := min_radius_m, gap_deg := gap_deg, min_users := min_users);
+CREATE OR REPLACE TEMP MACRO conflicts(tbl := 'merged', max_pet := 5.0, radius := 2.0, max_ttc := 3.0, top := NULL) AS TABLE
+FROM trajdb_conflicts(tbl := tbl, max_pet := max_pet, radius := radius, max_ttc := max_ttc, top := top);
+CREATE OR REPLACE TEMP MACRO top_conflicts(tbl := 'merged', k := 15, max_pet := 5.0, radius := 2.0) AS TABLE
+FROM trajdb_top_conflicts(tbl := tbl, k := k, max_pet := max_pet, radius := radius);
+CREATE OR REPLACE TEMP MACRO routes(tbl := 'merged', epsilon := 1.5, delta := 30, threshold := 0.5, gates := NULL, left_handed := false, head_m := 5.0, through_deg := 45.0, uturn_deg := 135.0, centre_x := NULL, centre_y := NULL, min_radius_m := 8.0, gap_deg := 25.0, min_users := 3) AS TABLE
+FROM trajdb_routes(tbl := tbl, epsilon := epsilon, delta := delta, threshold := threshold, gates := gates, left_handed := left_handed, head_m := head_m, through_deg := through_deg, uturn_deg := uturn_deg, centre_x := centre_x, centre_y := centre_y, min_radius_m := min_radius_m, gap_deg := gap_deg, min_users := min_users);
 ;

@@ -1,7 +1,7 @@
 -- trajdb: what a finished pipeline run should tell its user, one row each, in table
 -- pipeline_warnings (k, message). Every runner (trajdb pipeline, trajdb.pipeline in Python, the
 -- DuckDB CLI after `.read sql/pipeline.sql`) reads this one table.
--- reads: points, align_frames, load_class_flicker, load_duplicates, load_ids; parameters: cluster_classes,
+-- reads: points, align_frames, load_class_flicker, load_duplicates, load_ids, load_unit_outliers; parameters: cluster_classes,
 -- load_no_class (set by the load)   makes: pipeline_warnings
 CREATE OR REPLACE TEMP TABLE pipeline_warnings AS
 WITH c AS (SELECT (SELECT count(DISTINCT camera) FROM points) AS cams, (SELECT count(*) FROM align_frames) AS aligned,
@@ -32,4 +32,13 @@ WHERE len(list_filter(wanted, lambda w: NOT list_contains(have, w))) > 0
 UNION ALL
 SELECT 6, 'the input has no class column: every track is of one class, ''unknown'' (give a class column, or map one with '
           || 'input_columns = ''class=your_column'', to match and cluster each class on its own)'
-WHERE getvariable('load_no_class');
+WHERE getvariable('load_no_class')
+UNION ALL
+SELECT 7, format('{} tracks have a sampling period or speed far outside a road user''s, unlike the rest of the input (kept; table '
+                 || 'load_unit_outliers): {}{}', count(*),
+                 string_agg(format('camera {} track {} ({} points over {} h, {})', i.camera_in, i.track_in, o.points, round(o.span_s / 3600, 1), o.why),
+                            '; ' ORDER BY o.camera, o.track_id) FILTER (WHERE o.rank <= 10),
+                 CASE WHEN count(*) > 10 THEN '; ...' ELSE '' END)
+FROM (SELECT *, row_number() OVER (ORDER BY camera, track_id) AS rank FROM load_unit_outliers) o
+LEFT JOIN load_ids i ON i.camera = o.camera AND i.track_id = o.track_id
+HAVING count(*) > 0;

@@ -75,6 +75,26 @@ def creates(code):
     return [(m.group(2).lower(), m.group(1).upper() == "MACRO") for m in CREATE.finditer(code)]
 
 
+ANY_CREATE = re.compile(r"\bCREATE\s+(?:OR\s+REPLACE\s+)?(TEMP\s+|TEMPORARY\s+)?(\w+)\s+(?:IF\s+NOT\s+EXISTS\s+)?([\w.]+)", re.I)
+
+
+def persistent_creates():
+    """Every CREATE in every SQL file under sql/ (the stages, the load, analysis.sql, report.sql,
+    ...) is TEMP: a run on your connection stores nothing in your database file (issue 37 §6;
+    crates/app/src/plan.rs refuses such a manifest at run time too)."""
+    errors = []
+    for dirpath, _, files in os.walk(os.path.join(ROOT, "sql")):
+        for f in sorted(files):
+            if not f.endswith(".sql"):
+                continue
+            rel = os.path.relpath(os.path.join(dirpath, f), ROOT)
+            bare = strip_strings(strip_comments(open(os.path.join(dirpath, f), encoding="utf-8").read()))
+            for m in ANY_CREATE.finditer(bare):
+                if not m.group(1):
+                    errors.append(f"{rel}: CREATE {m.group(2)} {m.group(3)} is not TEMP: it would be stored in the user's database")
+    return errors
+
+
 def load_objects():
     """What the load step of sql/pipeline.sql creates (before `.read sql/stages.sql`)."""
     text = open(os.path.join(ROOT, "sql/pipeline.sql"), encoding="utf-8").read()
@@ -222,6 +242,7 @@ def main():
             check("parameters", header["parameters"], params)
         for n in new:
             made[n] = kinds[n]
+    errors += persistent_creates()
     if errors:
         print("\n".join(errors))
         print(f"check_stage_contracts: {len(errors)} mismatch(es)")

@@ -20,6 +20,7 @@ import glob
 import hashlib
 import json
 import os
+import re
 import shutil
 import sys
 import tempfile
@@ -169,8 +170,10 @@ def load(con):
     return con
 
 
-def connect(database=":memory:", **config):
-    """duckdb.connect with unsigned extensions allowed and trajdb loaded. The connection also
+def connect(database=":memory:", read_only=False, **config):
+    """duckdb.connect with unsigned extensions allowed and trajdb loaded: `database` a file (or
+    ':memory:'), `read_only=True` opens it read-only, as duckdb.connect does (trajdb.pipeline then
+    runs entirely in TEMP: nothing of trajdb's is written to a database file). The connection also
     finds trajdb by name (`LOAD trajdb`: extension_dir() is added to `extension_directories`,
     after DuckDB's default ~/.duckdb/extensions), and DuckDB's progress bar is off unless stdout
     and stderr are a terminal (`enable_progress_bar=True` keeps it; a setting of this connection,
@@ -187,7 +190,7 @@ def connect(database=":memory:", **config):
         config["extension_directories"] = list(config["extension_directories"]) + [by_name]
     elif by_name is not None and "extension_directory" not in config:
         config["extension_directories"] = [DEFAULT_EXTENSION_DIR, by_name]
-    con = duckdb.connect(database, config=config)
+    con = duckdb.connect(os.fspath(database), read_only=bool(read_only), config=config)
     con.execute(f"SET enable_progress_bar = {'true' if bar else 'false'}")
     return load(con)
 
@@ -254,17 +257,71 @@ def _steps(con, query, args):
     return con.execute(f"SELECT stage, file, sql, undo FROM {query} ORDER BY k", args).fetchall()
 
 
+# A statement that gives one of trajdb's macros its short name (sql/analysis.sql: `routes` is a
+# name for trajdb_routes): left out when the name is already yours.
+_SHORT_NAME = re.compile(r"^\s*CREATE\s+OR\s+REPLACE\s+TEMP\s+MACRO\s+([A-Za-z_][A-Za-z0-9_]*)\s*\(.*?\)\s+AS\s+(?:TABLE\s+FROM\s+)?trajdb_\1\s*\(", re.S | re.I)
+
+
+def short_name(sql):
+    """The name a statement of sql/analysis.sql gives to trajdb_<name> (or None)."""
+    code = "\n".join(line for line in sql.splitlines() if not line.lstrip().startswith("--"))
+    m = _SHORT_NAME.match(code)
+    return m.group(1).lower() if m else None
+
+
+def names_taken(con, names):
+    """{name: 'macro main.routes'} for each of `names` that already means something that is not
+    trajdb's on `con`: a table, view, macro or function of any database or schema the connection
+    sees (the file's, an attached one's, TEMP ones). trajdb's own short names (an earlier run:
+    a TEMP macro whose body calls trajdb_<name>) are trajdb's and may be defined again."""
+    names = sorted({n.lower() for n in names})
+    if not names:
+        return {}
+    rows = con.execute(
+        """SELECT lower(name), kind || ' ' || database_name || '.' || schema_name || '.' || name FROM (
+               SELECT function_name AS name, CASE WHEN function_type LIKE '%macro%' THEN 'macro' ELSE 'function' END AS kind,
+                      database_name, schema_name, coalesce(macro_definition, '') AS body
+               FROM duckdb_functions() WHERE NOT internal
+               UNION ALL SELECT table_name, 'table', database_name, schema_name, '' FROM duckdb_tables()
+               UNION ALL SELECT view_name, 'view', database_name, schema_name, '' FROM duckdb_views() WHERE NOT internal)
+           WHERE list_contains(?, lower(name))
+             AND NOT (database_name = 'temp' AND kind = 'macro' AND contains(body, 'trajdb_' || lower(name) || '('))
+           ORDER BY ALL""",
+        [names],
+    ).fetchall()
+    taken = {}
+    for name, what in rows:
+        taken.setdefault(name, what)
+    return taken
+
+
 def execute_steps(con, steps, progress=False):
     """Runs the statements of trajdb_stages() / trajdb_script() on `con`: each row in order;
     after a row succeeds its `undo` is remembered; when one fails, the remembered undos run
     last-first and the error is raised with the stage and file it came from. This loop is the
     whole runner on the Python side: the statements, the parameters and the results folder's
     rules come from the extension (crates/app/src/plan.rs). With `progress`, each stage's time
-    goes to stderr as a plain line. Returns [(stage, seconds)]."""
+    goes to stderr as a plain line. Returns [(stage, seconds)].
+
+    Your names stay yours: a statement that would give one of trajdb's analysis macros its short
+    name (`routes`, `approaches`, ...: sql/analysis.sql) is left out when that name is already a
+    table, view, macro or function of yours (checked once, before the first statement), with a
+    warning naming it; trajdb's macro is still there as trajdb_<name>. Every other statement
+    creates TEMP objects only (crates/app/src/plan.rs refuses a manifest that would not)."""
     import sys
 
+    steps = list(steps)
+    taken = names_taken(con, [n for n in (short_name(s[2]) for s in steps) if n])
+    for name, what in taken.items():
+        warnings.warn(
+            f"trajdb: {what} is yours and keeps its name; trajdb's macro is trajdb_{name}() "
+            f"(call it by that name, or rename yours to get trajdb's as {name}())",
+            stacklevel=3,
+        )
     undo, timings = [], []
     for stage, file, sql, undo_sql in steps:
+        if taken and short_name(sql) in taken:
+            continue
         t = time.perf_counter()
         try:
             con.execute(sql).fetchall()

@@ -108,12 +108,18 @@ pub const PARAMS: &[Param] = &[
 ];
 
 /// The parameters of a JSON object (`{"merge_eta": 0.6, "cluster_classes": "car"}`): numbers,
-/// booleans and text as text, for [`resolve`] to check. Anything else is an error naming it.
+/// booleans and text as text, for [`resolve`] to check. Anything else is an error naming it, and
+/// so is a key given twice (`{"merge_eta": 0.6, "merge_eta": 0.4}`: JSON parsers disagree on
+/// which one wins, so neither is taken silently; the object is read in order, never into a map).
 pub fn from_json(text: &str) -> Result<Vec<(String, String)>, Box<dyn Error>> {
-    let obj: serde_json::Map<String, serde_json::Value> = serde_json::from_str(if text.trim().is_empty() { "{}" } else { text })
+    let entries = ordered_object(if text.trim().is_empty() { "{}" } else { text })
         .map_err(|e| format!("params must be a JSON object of parameter names and values, e.g. '{{\"merge_eta\": 0.6}}' ({e})"))?;
-    let mut out = Vec::with_capacity(obj.len());
-    for (k, v) in obj {
+    let mut out: Vec<(String, String)> = Vec::new();
+    out.try_reserve(entries.len()).map_err(|_| "params: too many entries to hold")?;
+    for (k, v) in entries {
+        if out.iter().any(|(seen, _)| *seen == k) {
+            return Err(format!("params: parameter {k} is given twice in the JSON object; give each parameter once").into());
+        }
         let text = match v {
             serde_json::Value::String(s) => s,
             serde_json::Value::Number(n) => n.to_string(),
@@ -123,6 +129,28 @@ pub fn from_json(text: &str) -> Result<Vec<(String, String)>, Box<dyn Error>> {
         out.push((k, text));
     }
     Ok(out)
+}
+
+/// A JSON object's entries in the order written, repeats kept (serde_json's Map keeps the last).
+fn ordered_object(text: &str) -> Result<Vec<(String, serde_json::Value)>, serde_json::Error> {
+    struct Entries;
+    impl<'de> serde::de::Visitor<'de> for Entries {
+        type Value = Vec<(String, serde_json::Value)>;
+        fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+            f.write_str("a JSON object")
+        }
+        fn visit_map<A: serde::de::MapAccess<'de>>(self, mut map: A) -> Result<Self::Value, A::Error> {
+            let mut out = Vec::new();
+            while let Some(entry) = map.next_entry::<String, serde_json::Value>()? {
+                out.push(entry);
+            }
+            Ok(out)
+        }
+    }
+    let mut de = serde_json::Deserializer::from_str(text);
+    let entries = serde::Deserializer::deserialize_map(&mut de, Entries)?;
+    de.end()?;
+    Ok(entries)
 }
 
 /// The SQL type name of a parameter kind.
@@ -301,6 +329,23 @@ mod tests {
         assert!(e.starts_with("pipeline: unknown parameter \"nope\"; known: input_columns, clean_drop_estimated_tails"), "{e}");
         for p in PARAMS {
             p.literal(p.default).unwrap();
+        }
+    }
+
+    #[test]
+    fn json_params_keep_their_order_and_refuse_a_repeated_key() {
+        let v = from_json(r#"{"merge_eta": 0.6, "cluster_classes": "car", "clean_drop_estimated_tails": true}"#).unwrap();
+        assert_eq!(
+            v,
+            vec![("merge_eta".into(), "0.6".into()), ("cluster_classes".into(), "car".into()), ("clean_drop_estimated_tails".into(), "true".into())]
+        );
+        assert!(from_json("").unwrap().is_empty() && from_json(" {} ").unwrap().is_empty());
+        let e = from_json(r#"{"merge_eta": 0.6, "merge_resample_s": 0.2, "merge_eta": 0.4}"#).unwrap_err().to_string();
+        assert!(e.contains("parameter merge_eta is given twice"), "{e}");
+        // the same value twice is still two keys: refused, not guessed
+        assert!(from_json(r#"{"merge_eta": 0.6, "merge_eta": 0.6}"#).is_err());
+        for bad in ["[1]", "{\"merge_eta\": 0.6} x", "{\"merge_eta\": [1]}", "\"x\""] {
+            assert!(from_json(bad).is_err(), "{bad}");
         }
     }
 

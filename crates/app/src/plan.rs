@@ -133,6 +133,66 @@ pub fn statement_target(stmt: &str) -> Option<String> {
     }
 }
 
+/// Why `stmt` could change something outside the session (the caller's database file, an
+/// attached database, a setting), or `None` when it only touches the session: every object a
+/// manifest creates is TEMP (TEMP objects live in the connection's own in-memory catalog: never
+/// stored in a database file, allowed on a read-only one, gone when the connection closes), it
+/// changes (INSERT / UPDATE / DELETE / DROP) only objects it created TEMP earlier (`made`) or
+/// names `temp.` explicitly, and it runs no statement that writes a catalog or a setting (ATTACH,
+/// ALTER, COMMENT, CHECKPOINT, SET other than SET VARIABLE, ...). Statements that only read, or
+/// write files (COPY ... TO: the results folder's rules, outdir.rs), pass.
+pub fn leaves_the_session(stmt: &str, made: &[String]) -> Option<String> {
+    let code: String = stmt.lines().filter(|l| !l.trim_start().starts_with("--")).collect::<Vec<_>>().join("\n");
+    let words: Vec<String> = code.split_whitespace().take(8).map(|w| w.to_ascii_lowercase()).collect();
+    let w: Vec<&str> = words.iter().map(String::as_str).collect();
+    let first = w.first().copied().unwrap_or("");
+    let head = first.split('(').next().unwrap_or("");
+    let temp_made = |name: Option<String>| name.is_some_and(|n| made.contains(&n));
+    match head {
+        "create" => {
+            let k = if w.get(1) == Some(&"or") && w.get(2) == Some(&"replace") { 3 } else { 1 };
+            (!matches!(w.get(k), Some(&"temp") | Some(&"temporary"))).then(|| "it creates an object that is not TEMP".to_string())
+        }
+        "insert" | "delete" | "update" => {
+            let raw = if head == "update" { w.get(1) } else { w.get(2) };
+            let qualified_temp = raw.is_some_and(|r| r.starts_with("temp."));
+            (!qualified_temp && !temp_made(statement_target(stmt))).then(|| "it changes a table the run did not create TEMP".to_string())
+        }
+        "drop" => {
+            let k = if w.get(2) == Some(&"if") && w.get(3) == Some(&"exists") { 4 } else { 2 };
+            (!w.get(k).is_some_and(|n| n.starts_with("temp."))).then(|| "it drops an object not named temp.…".to_string())
+        }
+        "set" => (w.get(1) != Some(&"variable")).then(|| "it changes a setting (only SET VARIABLE is the session's own)".to_string()),
+        // COPY (query) TO file only: COPY table FROM file would fill a table
+        "copy" => (!(first.starts_with("copy(") || w.get(1).is_some_and(|x| x.starts_with('('))))
+            .then(|| "only COPY (query) TO is part of a run".to_string()),
+        "select" | "from" | "with" | "values" | "" => None,
+        other => Some(format!("{other} statements are not part of a run")),
+    }
+}
+
+/// Refuses a manifest with a statement that [`leaves_the_session`]: the guarantee that a run
+/// stores nothing in, and replaces nothing of, the caller's database holds by this check of
+/// every statement, whatever a SQL file says (a test runs it on every part and script).
+/// `host_made`: tables the host creates TEMP before the rows run (a window's site tables).
+pub fn check_session_only(steps: &[Step], host_made: &[&str]) -> Result<(), Box<dyn Error>> {
+    let mut made: Vec<String> = host_made.iter().map(|s| s.to_string()).collect();
+    for s in steps {
+        if let Some(why) = leaves_the_session(&s.sql, &made) {
+            let line = s.sql.lines().find(|l| !l.trim_start().starts_with("--")).unwrap_or("").trim();
+            return Err(format!(
+                "trajdb: a statement of {} (stage {}) could write to your database: {why} ({line}); a run keeps everything in TEMP",
+                s.file, s.stage
+            )
+            .into());
+        }
+        if let (Some(name), true) = (&s.makes, is_temp_create(&s.sql)) {
+            made.push(name.clone());
+        }
+    }
+    Ok(())
+}
+
 fn push_script(out: &mut Vec<Step>, stage: &str, file: &str, text: &str) {
     for s in sql::split_statements(text) {
         let stmt = s.trim().to_string();
@@ -233,6 +293,8 @@ pub fn plan(req: &Request) -> Result<Vec<Step>, Box<dyn Error>> {
             undo: None,
         });
     }
+    let host_made: &[&str] = if req.part == Part::Window { SITE_TABLES } else { &[] };
+    check_session_only(&steps, host_made)?;
     Ok(steps)
 }
 
@@ -249,12 +311,36 @@ fn clock_step(stage: &str, file: &str) -> Step {
     Step { stage: stage.to_string(), file: file.to_string(), makes: statement_target(&sql), sql, undo: None }
 }
 
+/// Every name an embedded SQL file creates TEMP (the tables a file run alone may change).
+fn temp_tables_of_trajdb() -> Result<Vec<String>, Box<dyn Error>> {
+    let mut names = Vec::new();
+    for (path, _) in sql::SQL_FILES {
+        let mut steps = Vec::new();
+        push_script(&mut steps, "script", path, &sql::expand_embedded(path)?);
+        for s in steps {
+            if let (Some(name), true) = (s.makes, is_temp_create(&s.sql)) {
+                names.push(name);
+            }
+        }
+    }
+    Ok(names)
+}
+
+fn is_temp_create(stmt: &str) -> bool {
+    let code: String = stmt.lines().filter(|l| !l.trim_start().starts_with("--")).collect::<Vec<_>>().join("\n");
+    let w: Vec<String> = code.split_whitespace().take(4).map(|w| w.to_ascii_lowercase()).collect();
+    w.first().is_some_and(|f| f == "create") && w.iter().any(|x| x == "temp" || x == "temporary")
+}
+
 /// The statements of one embedded SQL file (`sql/score.sql`, `sql/report.sql`, ...), its
 /// `.read` lines expanded: what `.read FILE` runs in the DuckDB CLI.
 pub fn script(path: &str) -> Result<Vec<Step>, Box<dyn Error>> {
     let text = sql::expand_embedded(path)?;
     let mut steps = Vec::new();
     push_script(&mut steps, "script", path, &text);
+    // one file of a run (a stage alone, as tests/test_stages_python.py runs them) changes the TEMP
+    // tables of the files before it: the tables trajdb's SQL creates TEMP
+    check_session_only(&steps, &temp_tables_of_trajdb()?.iter().map(String::as_str).collect::<Vec<_>>())?;
     Ok(steps)
 }
 
@@ -321,6 +407,63 @@ mod tests {
         assert!(plan(&r).is_err());
         r.params = vec![("merge_eta".into(), "0.6".into())];
         assert!(plan(&r).unwrap().iter().any(|s| s.sql.contains("merge_eta = 0.6")));
+    }
+
+    #[test]
+    fn every_run_and_script_stays_in_the_session() {
+        // plan() and script() refuse a manifest that would write to the caller's database; these
+        // are every manifest this build can produce
+        for part in [Part::All, Part::Site, Part::Window] {
+            let out = if part == Part::All { Some("results") } else { None };
+            plan(&req(part, out)).unwrap();
+        }
+        plan(&req(Part::All, None)).unwrap();
+        for (path, _) in sql::SQL_FILES {
+            if let Err(e) = script(path) {
+                assert!(!e.to_string().contains("could write to your database"), "{path}: {e}");
+            }
+        }
+        let made = vec!["points".to_string()];
+        for bad in [
+            "CREATE OR REPLACE MACRO routes() AS TABLE SELECT 1",
+            "CREATE VIEW analysis_no_gates AS SELECT 1",
+            "CREATE TABLE IF NOT EXISTS x (a INT)",
+            "-- c\nCREATE OR REPLACE TABLE merged AS SELECT 1",
+            "INSERT INTO user_table SELECT 1",
+            "UPDATE user_table SET a = 1",
+            "DELETE FROM main.points",
+            "DROP TABLE IF EXISTS routes",
+            "ATTACH 'x.db'",
+            "ALTER TABLE points ADD COLUMN z INT",
+            "COMMENT ON MACRO routes IS 'x'",
+            "CHECKPOINT",
+            "SET search_path = 'x'",
+            "CREATE SCHEMA s",
+            "COPY points FROM 'x.csv'",
+            "COPY user_table TO 'x.csv'",
+            "CALL pragma_version()",
+        ] {
+            assert!(leaves_the_session(bad, &made).is_some(), "{bad}");
+        }
+        for good in [
+            "CREATE OR REPLACE TEMP MACRO routes() AS TABLE SELECT 1",
+            "create temporary table x as select 1",
+            "CREATE TEMP TABLE IF NOT EXISTS pipeline_warnings (k INT)",
+            "INSERT INTO points SELECT 1",
+            "DELETE FROM points WHERE true",
+            "UPDATE points SET a = 1",
+            "DROP TABLE IF EXISTS temp.main.align_keys",
+            "SET VARIABLE x = 1",
+            "SELECT 1",
+            "FROM trajdb_results_end('r', true)",
+            "COPY (SELECT 1) TO 'x.csv'",
+            "COPY\n(FROM result_transforms() ORDER BY cam_from) TO 'x' (HEADER)",
+        ] {
+            assert_eq!(leaves_the_session(good, &made), None, "{good}");
+        }
+        let steps = vec![Step { stage: "s".into(), file: "f.sql".into(), sql: "CREATE MACRO m() AS 1".into(), makes: Some("m".into()), undo: None }];
+        let e = check_session_only(&steps, &[]).unwrap_err().to_string();
+        assert!(e.contains("f.sql") && e.contains("not TEMP"), "{e}");
     }
 
     #[test]

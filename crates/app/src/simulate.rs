@@ -1114,7 +1114,7 @@ pub fn simulate_into(p: &SimParams, dir: &Path, command: &str) -> Result<Scenari
 /// folder ([`outdir::claim`]).
 fn claim(dir: &Path) -> Result<outdir::Claim, SimError> {
     let out = dir.to_str().ok_or_else(|| SimError::Folder(format!("the folder name {} is not UTF-8; name another folder", dir.display())))?;
-    Ok(outdir::claim(out, &[])?)
+    Ok(outdir::claim(out, &[], outdir::Kind::Scenario)?)
 }
 
 impl Scenario {
@@ -1360,7 +1360,7 @@ mod tests {
         let a = simulate_into(&tiny(), &d, "test a").unwrap();
         assert_eq!(names(&d), [outdir::MANIFEST, "README.txt", "cameras.csv", "objects.csv", "points.csv", "truth.csv", "world.csv"]);
         let manifest = std::fs::read_to_string(d.join(outdir::MANIFEST)).unwrap();
-        assert!(manifest.lines().any(|l| l.split('\t').next() == Some("points.csv")), "{manifest}");
+        assert!(manifest.lines().any(|l| l.split('\t').nth(1) == Some("points.csv")), "{manifest}");
         assert_eq!(std::fs::read_to_string(d.join("points.csv")).unwrap().lines().count(), a.points.len() + 1);
         // a file the user adds later is not trajdb's: it stays; world.csv (not written now) goes
         std::fs::write(d.join("notes.txt"), "mine").unwrap();

@@ -822,7 +822,7 @@ fn check_inputs(dir: &Path, out: &str, inputs: &[&str], catalog: Catalog<'_>) ->
         }
         match catalog {
             Catalog::Files => {}
-            Catalog::Unknown if has_files => {
+            Catalog::Unknown if has_files && !looks_like_a_file(input) => {
                 return err(format!(
                     "results folder: the input {input:?} is no file trajdb can see (a table or view?) and out {out:?} holds earlier files; \
                      trajdb cannot tell whether the input reads them: run through trajdb_stages (which describes the views), or pick a new out"
@@ -833,6 +833,13 @@ fn check_inputs(dir: &Path, out: &str, inputs: &[&str], catalog: Catalog<'_>) ->
         }
     }
     Ok(())
+}
+
+/// A missing file rather than a table or view name: a separator, or a data file's extension.
+fn looks_like_a_file(input: &str) -> bool {
+    let l = input.to_ascii_lowercase();
+    l.contains('/')
+        || [".parquet", ".csv", ".tsv", ".json", ".ndjson", ".jsonl", ".txt", ".gz", ".zst"].iter().any(|e| l.ends_with(e))
 }
 
 /// `path` (a path, a glob or a `file://` URL) checked against `out`; `false` when it names no
@@ -1489,6 +1496,7 @@ mod issue37 {
         claim_checked(o, &["raw"], Catalog::Views(&views), Kind::Results).unwrap().abort();
         claim_checked(o, &["a_table"], Catalog::Views(&views), Kind::Results).unwrap().abort();
         assert!(claim_checked(o, &["pts"], Catalog::Unknown, Kind::Results).unwrap_err().to_string().contains("cannot tell"));
+        claim_checked(o, &["missing/points.parquet"], Catalog::Unknown, Kind::Results).unwrap().abort();
         claim_checked(d.join("fresh").to_str().unwrap(), &["dyn"], Catalog::Views(&views), Kind::Results).unwrap().abort();
         assert_eq!(fs::read_to_string(&merged).unwrap(), "m");
     }

@@ -1121,8 +1121,9 @@ impl Scenario {
     /// Writes points.csv, cameras.csv, truth.csv, world.csv (unless world_rate_hz = 0),
     /// objects.csv and README.txt into `dir` (created if needed).
     ///
-    /// Never loses a file: `dir` must be new, empty, or hold an earlier trajdb scenario or result
-    /// set (its manifest `.trajdb-results` lists what trajdb wrote); any other folder is refused
+    /// Never loses a file: `dir` must be new, empty, or hold an earlier trajdb scenario (its
+    /// manifest `.trajdb-results`, of kind scenario, lists what trajdb wrote; a pipeline's
+    /// results folder is refused, as a pipeline refuses a scenario's); any other folder is refused
     /// before anything is written. The files are written into a staging folder inside `dir` and
     /// renamed into place, so a failure leaves the earlier scenario (or nothing) behind, never a
     /// half-written one; files of the earlier scenario that this one does not write go.

@@ -46,6 +46,11 @@ def main():
     if not os.path.exists("trajdb.duckdb_extension") or not os.path.samefile(ext, "trajdb.duckdb_extension"):
         raise SystemExit(f"run from a checkout whose ./trajdb.duckdb_extension is {ext}")
     readme = open("README.md").read()
+    # the examples' own scratch folder in /tmp, from an earlier run (perhaps of an earlier trajdb,
+    # whose manifests the results-folder rules refuse): removed first
+    import shutil
+    if os.path.isdir("/tmp/trajdb-readme-results") and not os.path.islink("/tmp/trajdb-readme-results"):
+        shutil.rmtree("/tmp/trajdb-readme-results")
 
     sql = block(readme, "### DuckDB CLI", "sql")
     con = duckdb.connect(config={"allow_unsigned_extensions": "true"})

@@ -115,6 +115,11 @@ def main():
     here = os.path.dirname(os.path.abspath(__file__))
     files = sorted(f for f in glob.glob(os.path.join(here, "sql", "*.slt")) if flt in f)
     passed = failed = 0
+    # the .slt files' own scratch folders in /tmp, from an earlier run (perhaps of an earlier
+    # trajdb, whose manifests the results-folder rules refuse): this runner's, removed first
+    import shutil
+    for d in glob.glob("/tmp/trajdb-slt-*") + ["/tmp/trajdb-example-results", "/tmp/trajdb-sim-example"]:
+        shutil.rmtree(d, ignore_errors=True) if os.path.isdir(d) and not os.path.islink(d) else None
     print(f"duckdb {duckdb.__version__}, extension {ext}")
     for f in files:
         err = run_file(ext, f)

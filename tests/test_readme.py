@@ -46,6 +46,11 @@ def main():
     if not os.path.exists("trajdb.duckdb_extension") or not os.path.samefile(ext, "trajdb.duckdb_extension"):
         raise SystemExit(f"run from a checkout whose ./trajdb.duckdb_extension is {ext}")
     readme = open("README.md").read()
+    # the examples' own scratch folder in /tmp, from an earlier run (perhaps of an earlier trajdb,
+    # whose manifests the results-folder rules refuse): removed first
+    import shutil
+    if os.path.isdir("/tmp/trajdb-readme-results") and not os.path.islink("/tmp/trajdb-readme-results"):
+        shutil.rmtree("/tmp/trajdb-readme-results")
 
     sql = block(readme, "### DuckDB CLI", "sql")
     con = duckdb.connect(config={"allow_unsigned_extensions": "true"})
@@ -70,6 +75,33 @@ def main():
     r = subprocess.run([sys.executable, "-c", py], cwd=ROOT, capture_output=True, text=True, env=env)
     assert r.returncode == 0, r.stderr
     print("ok   README Python block")
+
+    # the loop "without the package", as written: a run, then a failing run releases the results
+    # folder (its undo ends the claim) and keeps the earlier results (issue 37)
+    loop = block(readme, "Without the package, the extension alone does the same: `trajdb_stages()` lists the statements of", "python")
+    sys.path.insert(0, os.path.join(ROOT, "python"))
+    os.environ["TRAJDB_EXTENSION"] = ext
+    import tempfile
+    import trajdb
+    w = tempfile.mkdtemp(prefix="trajdb-readme-loop-")
+    con = trajdb.connect()
+    trajdb.simulate(con, os.path.join(w, "sim"), cameras=2, minutes=1, seed=3)
+    out = os.path.join(w, "results")
+    exec(loop, {"con": con, "path": os.path.join(w, "sim", "points.parquet"), "out": out})
+    first = {n: open(os.path.join(out, n), "rb").read() for n in os.listdir(out)}
+    assert "merged.parquet" in first, sorted(first)
+    con.execute("CREATE TABLE no_columns AS SELECT 1 AS a")
+    try:
+        exec(loop, {"con": con, "path": "no_columns", "out": out})
+        raise AssertionError("the README loop did not fail on a table without the columns")
+    except duckdb.Error:
+        pass
+    now = {n: open(os.path.join(out, n), "rb").read() for n in os.listdir(out)}
+    assert now == first, (sorted(first), sorted(now))
+    # the claim was released: the folder can be claimed again at once
+    con.execute("FROM trajdb_results_begin(?, '')", [out]).fetchall()
+    con.execute("FROM trajdb_results_end(?, false)", [out]).fetchall()
+    print("ok   README trajdb_stages loop: runs, and a failing run releases the folder and keeps the results")
 
 
 if __name__ == "__main__":

@@ -17,6 +17,7 @@ usage: python3 tests/test_safety_python.py path/to/trajdb.duckdb_extension
 """
 import os
 import stat
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -164,8 +165,10 @@ def main():
     check("a manifest trajdb did not write (naming ../victim.txt) deletes nothing", ok and os.path.exists(os.path.join(w, "victim.txt")), msg)
     with open(os.path.join(hostile, ".trajdb-results"), "w") as f:
         f.write("# trajdb results: the files below were written by trajdb and may be replaced by its next run into this folder\n../victim.txt\n")
-    ok, msg = raises(lambda: trajdb.pipeline(con, scene, out=hostile), "plain file name")
+    ok, msg = raises(lambda: trajdb.pipeline(con, scene, out=hostile), "earlier trajdb")
     check("a manifest in trajdb's form naming ../victim.txt deletes nothing", ok and os.path.exists(os.path.join(w, "victim.txt")), msg)
+
+    issue37(w, con, scene)
 
     # ---- 2. injection
     marker = os.path.join(w, "pwned")
@@ -366,6 +369,150 @@ def main():
     else:
         print(f"test_safety_python: {len(FAILED)} FAILED: {FAILED}")
         sys.exit(1)
+
+
+def issue37(w, con, scene):
+    """Issue 37, HIGH 4 and 5: trajdb removes or replaces only what it can prove it wrote."""
+    # a pipeline into a folder trajdb.simulate wrote: refused, the scenario byte-identical
+    sim = os.path.join(w, "i37-sim")
+    trajdb.simulate(con, sim, cameras=2, minutes=1, seed=4)
+    before = tree(sim)
+    ok, msg = raises(lambda: trajdb.pipeline(con, os.path.join(sim, "points.parquet"), out=sim), "")
+    check("i37: a pipeline into a scenario folder is refused", "input" in msg or "scenario" in msg, msg)
+    ok, msg = raises(lambda: trajdb.pipeline(con, "scene", out=sim), "holds a scenario", "results")
+    check("i37: ... also from a table input, with a clear message (out='<dir>/results')", ok, msg)
+    check("i37: ... points.parquet, truth.csv, world.csv, cameras.csv byte-identical", tree(sim) == before and
+          {"points.parquet", "truth.csv", "world.csv", "cameras.csv"} <= set(before), sorted(before))
+    res = os.path.join(sim, "results")
+    trajdb.pipeline(con, "scene", out=res)
+    check("i37: results beside the scenario, in a folder of their own", os.path.exists(os.path.join(res, "merged.parquet")))
+    ok, msg = raises(lambda: trajdb.simulate(con, res, cameras=2, minutes=1, seed=5), "results of a trajdb pipeline run")
+    check("i37: a simulate into a results folder is refused", ok and os.path.exists(os.path.join(res, "merged.parquet")), msg)
+    check("i37: the scenario is still byte-identical", {k: v for k, v in tree(sim).items() if not k.startswith("results")} == before)
+
+    for part in (_i37_views, _i37_lookalikes, _i37_lock_link, _i37_name_only, _i37_edit, _i37_export, _i37_copy):
+        try:
+            part(w, con)
+        except Exception as ex:  # noqa: BLE001  (the rest still runs: each part is its own reproducer)
+            check(f"i37: {part.__name__} ran", False, repr(ex))
+
+
+def _i37_views(w, con):
+    # the input behind a view, and a file:// URL, into out
+    res = os.path.join(w, "i37-views")
+    trajdb.pipeline(con, "scene", out=res)
+    merged = os.path.join(res, "merged.parquet")
+    kept = tree(res)
+    con.execute("CREATE OR REPLACE VIEW i37_view AS SELECT * FROM read_parquet(" + "'" + merged.replace("'", "''") + "')")
+    con.execute("CREATE OR REPLACE TEMP VIEW i37_outer AS SELECT * FROM i37_view")
+    for inp in ["i37_view", "i37_outer"]:
+        ok, msg = raises(lambda: trajdb.pipeline(con, inp, out=res), "is or contains the input", "i37_view")
+        check(f"i37: a view over out/merged.parquet ({inp}) is refused", ok and tree(res) == kept, msg)
+    ok, msg = raises(lambda: trajdb.pipeline(con, "file://" + merged, out=res), "is or contains the input")
+    check("i37: a file:// URL into out is refused", ok and tree(res) == kept, msg)
+    ok, msg = raises(lambda: con.execute("FROM trajdb_results_begin(?, 'i37_view')", [res]).fetchall(), "cannot tell")
+    check("i37: trajdb_results_begin with a view and no views := is refused where out holds results", ok and tree(res) == kept, msg)
+
+
+
+def _i37_lookalikes(w, con):
+    # (a) a user's folder holding only .trajdb-partial-old/
+    a = os.path.join(w, "i37-a")
+    os.makedirs(os.path.join(a, ".trajdb-partial-old"))
+    with open(os.path.join(a, ".trajdb-partial-old", "points.csv"), "w") as f:
+        f.write("mine")
+    ok, msg = raises(lambda: trajdb.pipeline(con, "scene", out=a), "did not write")
+    check("i37 (a): a folder holding only .trajdb-partial-old/ is refused, its files stay", ok and tree(a) == {".trajdb-partial-old/points.csv": b"mine"}, msg)
+
+    # (b) a user's .trajdb-lock, and a hard link under that name to a user's file
+    b = os.path.join(w, "i37-b")
+    os.makedirs(b)
+    with open(os.path.join(b, ".trajdb-lock"), "w") as f:
+        f.write("my lock notes")
+    raises(lambda: trajdb.pipeline(con, "scene", out=b))
+    check("i37 (b): a user's .trajdb-lock is not truncated", open(os.path.join(b, ".trajdb-lock")).read() == "my lock notes")
+
+
+def _i37_lock_link(w, con):
+    # (b) a hard link under the lock's name to a user's file: in an otherwise empty folder, and
+    # beside earlier results
+    thesis = os.path.join(w, "i37-thesis.txt")
+    with open(thesis, "w") as f:
+        f.write("my thesis")
+    b1 = os.path.join(w, "i37-b1")
+    os.makedirs(b1)
+    os.link(thesis, os.path.join(b1, ".trajdb-lock"))
+    raises(lambda: trajdb.pipeline(con, "scene", out=b1))
+    check("i37 (b): a hard link named .trajdb-lock (in an empty folder) is not truncated", open(thesis).read() == "my thesis")
+    b2 = os.path.join(w, "i37-b2")
+    trajdb.pipeline(con, "scene", out=b2)
+    if os.path.exists(os.path.join(b2, ".trajdb-lock")):
+        os.remove(os.path.join(b2, ".trajdb-lock"))  # an earlier trajdb's
+    os.link(thesis, os.path.join(b2, ".trajdb-lock"))
+    trajdb.pipeline(con, "scene", out=b2)
+    check("i37 (b): a hard link named .trajdb-lock beside results is not written", open(thesis).read() == "my thesis")
+
+
+
+def _i37_name_only(w, con):
+    # (c) a hand-written manifest naming points.csv without an identity deletes nothing
+    for k, head in enumerate(["# trajdb results: the files below were written by trajdb and may be replaced by its next run into this folder\n",
+                              "# trajdb manifest 2: the files below were written by trajdb (name, size:fingerprint) and may be replaced by "
+                              "its next run of the same kind into this folder\nkind\tresults\n"]):
+        c = os.path.join(w, f"i37-c{k}")
+        os.makedirs(c)
+        with open(os.path.join(c, "points.csv"), "w") as f:
+            f.write("my points")
+        with open(os.path.join(c, ".trajdb-results"), "w") as f:
+            f.write(head + "points.csv\n")
+        ok, msg = raises(lambda: trajdb.pipeline(con, "scene", out=c), "will not")
+        check(f"i37 (c): a name-only manifest line for points.csv deletes nothing ({['old', 'new'][k]} form)",
+              ok and open(os.path.join(c, "points.csv")).read() == "my points", msg)
+
+
+
+def _i37_edit(w, con):
+    # (d) an edited merged.parquet with its size and mtime restored is not overwritten
+    d = os.path.join(w, "i37-d")
+    trajdb.pipeline(con, "scene", out=d)
+    m = os.path.join(d, "merged.parquet")
+    st = os.stat(m)
+    with open(m, "r+b") as f:
+        f.seek(st.st_size // 2)
+        byte = f.read(1)
+        f.seek(st.st_size // 2)
+        f.write(bytes([byte[0] ^ 0xFF]))
+    os.utime(m, ns=(st.st_atime_ns, st.st_mtime_ns))
+    edited = open(m, "rb").read()
+    ok, msg = raises(lambda: trajdb.pipeline(con, "scene", out=d), "merged.parquet changed since trajdb wrote it")
+    check("i37 (d): an edit with size and mtime restored: the run is refused, the file stays", ok and open(m, "rb").read() == edited, msg)
+
+
+
+def _i37_export(w, con):
+    # (e) trajdb.export leaves a user's <path>.partial alone
+    e = os.path.join(w, "i37-e.geojson")
+    with open(e + ".partial", "w") as f:
+        f.write("my partial notes")
+    trajdb.export(con, e)
+    check("i37 (e): export leaves the user's <path>.partial untouched", open(e + ".partial").read() == "my partial notes" and os.path.exists(e))
+    check("i37 (e): ... and leaves no temporary file of its own",
+          sorted(n for n in os.listdir(w) if n.startswith("i37-e")) == ["i37-e.geojson", "i37-e.geojson.partial"], os.listdir(w))
+
+
+
+def _i37_copy(w, con):
+    # a copied results folder can be reused
+    res = os.path.join(w, "i37-orig")
+    trajdb.pipeline(con, "scene", out=res)
+    cp = os.path.join(w, "i37-copy")
+    shutil.copytree(res, cp)
+    try:
+        trajdb.pipeline(con, "scene", out=cp)
+        ok, msg = True, ""
+    except Exception as ex:  # noqa: BLE001
+        ok, msg = False, str(ex)
+    check("i37: a copied results folder can be reused", ok and os.path.exists(os.path.join(cp, "merged.parquet")), msg)
 
 
 if __name__ == "__main__":

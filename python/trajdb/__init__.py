@@ -461,7 +461,8 @@ def simulate(con, out, **params):
     # points.parquet is in the manifest: a later scenario into `out` replaces it with the rest.
     args = "".join(f", {k} := ?" for k in params)
     out = os.path.abspath(os.fspath(out))
-    staging = con.execute("FROM trajdb_results_begin(?, '')", [out]).fetchone()[0]
+    # kind 'scenario': a scenario folder is never a pipeline's results folder, nor the reverse
+    staging = con.execute("FROM trajdb_results_begin(?, '', kind := 'scenario')", [out]).fetchone()[0]
     try:
         row = con.execute(f"FROM trajdb_simulate(?{args})", [staging, *params.values()]).fetchall()[0]
         con.execute("SET VARIABLE trajdb_sim_csv = ?", [os.path.join(staging, "points.csv")])

@@ -29,6 +29,7 @@ import datetime
 import json
 import math
 import os
+import secrets
 import sqlite3
 import struct
 
@@ -177,16 +178,29 @@ def export(source, path, format=None, control_points=None, crs=None, overwrite=F
     for r in rows:
         xym = [(*(fit(q["x"], q["y"]) if fit else (q["x"], q["y"])), q["t"]) for q in r["traj"]]
         feats.append((r, xym))
-    tmp = path + ".partial"
-    if os.path.exists(tmp):
-        os.remove(tmp)
-    if fmt == "geojson":
-        _geojson(tmp, feats, epsg)
-    elif fmt == "gpkg":
-        _gpkg(tmp, feats, epsg)
-    else:
-        _geoparquet(tmp, feats, epsg)
-    os.replace(tmp, path)
+    # a temporary name of this call's own (pid + random), created with O_EXCL: never a file of
+    # the user's (a `<path>.partial` of theirs stays as it is), and removed only by this call
+    while True:
+        tmp = f"{path}.{os.getpid()}-{secrets.token_hex(6)}.partial"
+        try:
+            os.close(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666))
+            break
+        except FileExistsError:
+            continue
+    try:
+        if fmt == "geojson":
+            _geojson(tmp, feats, epsg)
+        elif fmt == "gpkg":
+            _gpkg(tmp, feats, epsg)
+        else:
+            _geoparquet(tmp, feats, epsg)
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.remove(tmp)
+        except OSError:
+            pass
+        raise
     return len(feats)
 
 

@@ -45,7 +45,7 @@ fn params_sql(a: &Args<'_>, out: &mut Out<'_>) -> Result<(), Box<dyn Error>> {
 
 const BEGIN_TABLE: Table = Table {
     params: &[p("out", Ty::Varchar), p("input", Ty::Varchar)],
-    named: &[],
+    named: &[p("kind", Ty::Varchar), p("views", Ty::Varchar)],
     columns: &[("staging", Ty::Varchar)],
     register: table::register::<Begin>,
 };
@@ -54,8 +54,11 @@ const RESULTS_BEGIN: Function = Function {
     name: "trajdb_results_begin",
     description: "Claims the results folder `out` for one pipeline run and returns (one row, column staging) the folder to write the result \
                   files into, inside `out`. Refused before any work: NULL or '', '/', a file, a folder holding files that trajdb did not \
-                  write, a folder that is or contains `input` (a path or glob; a table name is not checked), a folder another run is \
-                  writing into, and any folder this connection's own file system refuses (every sandbox setting, as for COPY ... TO). A new \
+                  write, a folder that is or contains `input` (a path, glob or file:// URL; a view is followed to the files its definition names \
+                  when `views` gives the caller's views, as trajdb_stages does: the JSON list of duckdb_views()' database, schema, name, \
+                  sql; a view input without them, or one that builds its paths at run time, is refused where `out` holds earlier files), \
+                  a folder of the other kind (`kind` 'results', the default, or 'scenario' for trajdb.simulate: a pipeline never \
+                  writes into a scenario's folder, nor a simulation into results), a folder another run is writing into, and any folder this connection's own file system refuses (every sandbox setting, as for COPY ... TO). A new \
                   folder is created with normal permissions. End the run with trajdb_results_end.",
     example: "SELECT count(*) FROM trajdb_results_begin('/tmp/trajdb-example-results', 'points.parquet'); -- 1",
     maths: "crates/app/src/outdir.rs",
@@ -69,6 +72,9 @@ pub struct Job {
     out: String,
     input: String,
     commit: bool,
+    kind: outdir::Kind,
+    /// The caller's views (JSON of duckdb_views()), to follow a view input to its files.
+    views: Option<String>,
 }
 
 /// The rows to emit (the side effect runs once, on the first call).
@@ -107,14 +113,20 @@ impl TableFn for Begin {
         if out.trim().is_empty() {
             return Err("out is '' (empty); name a results folder, e.g. 'results'".into());
         }
+        let kind = outdir::Kind::parse(&args.named_text("kind")?.unwrap_or_default())?;
+        let views = args.named_text("views")?;
         may_write_into(args, &out)?;
-        Ok(Job { out, input: args.text(1)?.unwrap_or_default(), commit: true })
+        Ok(Job { out, input: args.text(1)?.unwrap_or_default(), commit: true, kind, views })
     }
     fn init(_: &Job) -> Result<Once, Box<dyn Error>> {
         Ok(Once(Mutex::new(None)))
     }
     fn func(job: &Job, scan: &Once, out: &mut Rows<'_>) -> Result<usize, Box<dyn Error>> {
-        once(job, scan, out, |j| Ok(vec![outdir::open::begin(&j.out, &[&j.input])?.to_string_lossy().into_owned()]))
+        let catalog = match &job.views {
+            Some(v) => outdir::Catalog::Views(v),
+            None => outdir::Catalog::Unknown,
+        };
+        once(job, scan, out, |j| Ok(vec![outdir::open::begin(&j.out, &[&j.input], catalog, j.kind)?.to_string_lossy().into_owned()]))
     }
 }
 
@@ -150,7 +162,7 @@ impl TableFn for End {
         let out = args.text(0)?.ok_or("out is NULL; the folder given to trajdb_results_begin")?;
         let commit = args.boolean(1)?.ok_or("commit is NULL; true (replace the results) or false (abort the run)")?;
         may_write_into(args, &out)?;
-        Ok(Job { out, input: String::new(), commit })
+        Ok(Job { out, input: String::new(), commit, kind: outdir::Kind::Results, views: None })
     }
     fn init(_: &Job) -> Result<Once, Box<dyn Error>> {
         Ok(Once(Mutex::new(None)))

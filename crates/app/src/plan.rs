@@ -229,10 +229,24 @@ pub fn plan(req: &Request) -> Result<Vec<Step>, Box<dyn Error>> {
     //    staging folder removed, the earlier results left as they were) when a later step fails
     if let Some(out) = &req.out {
         let o = sql::sql_string(out);
+        // the caller's views, so that a view input is followed to the files it reads (out must
+        // not contain them; crates/app/src/outdir.rs)
+        steps.push(Step {
+            stage: "params".into(),
+            file: "trajdb_stages".into(),
+            sql: "SET VARIABLE trajdb_input_views = (SELECT coalesce(to_json(list({'database': database_name, 'schema': schema_name, \
+                  'name': view_name, 'sql': sql}))::VARCHAR, '[]') FROM duckdb_views() WHERE NOT internal)"
+                .into(),
+            makes: None,
+            undo: None,
+        });
         steps.push(Step {
             stage: "params".into(),
             file: "trajdb_results_begin".into(),
-            sql: format!("SET VARIABLE out_dir = (SELECT staging FROM trajdb_results_begin({o}, {}))", sql::sql_string(&req.input)),
+            sql: format!(
+                "SET VARIABLE out_dir = (SELECT staging FROM trajdb_results_begin({o}, {}, views := getvariable('trajdb_input_views')))",
+                sql::sql_string(&req.input)
+            ),
             makes: None,
             undo: Some(format!("FROM trajdb_results_end({o}, false)")),
         });

@@ -1114,15 +1114,16 @@ pub fn simulate_into(p: &SimParams, dir: &Path, command: &str) -> Result<Scenari
 /// folder ([`outdir::claim`]).
 fn claim(dir: &Path) -> Result<outdir::Claim, SimError> {
     let out = dir.to_str().ok_or_else(|| SimError::Folder(format!("the folder name {} is not UTF-8; name another folder", dir.display())))?;
-    Ok(outdir::claim(out, &[])?)
+    Ok(outdir::claim(out, &[], outdir::Kind::Scenario)?)
 }
 
 impl Scenario {
     /// Writes points.csv, cameras.csv, truth.csv, world.csv (unless world_rate_hz = 0),
     /// objects.csv and README.txt into `dir` (created if needed).
     ///
-    /// Never loses a file: `dir` must be new, empty, or hold an earlier trajdb scenario or result
-    /// set (its manifest `.trajdb-results` lists what trajdb wrote); any other folder is refused
+    /// Never loses a file: `dir` must be new, empty, or hold an earlier trajdb scenario (its
+    /// manifest `.trajdb-results`, of kind scenario, lists what trajdb wrote; a pipeline's
+    /// results folder is refused, as a pipeline refuses a scenario's); any other folder is refused
     /// before anything is written. The files are written into a staging folder inside `dir` and
     /// renamed into place, so a failure leaves the earlier scenario (or nothing) behind, never a
     /// half-written one; files of the earlier scenario that this one does not write go.
@@ -1360,7 +1361,7 @@ mod tests {
         let a = simulate_into(&tiny(), &d, "test a").unwrap();
         assert_eq!(names(&d), [outdir::MANIFEST, "README.txt", "cameras.csv", "objects.csv", "points.csv", "truth.csv", "world.csv"]);
         let manifest = std::fs::read_to_string(d.join(outdir::MANIFEST)).unwrap();
-        assert!(manifest.lines().any(|l| l.split('\t').next() == Some("points.csv")), "{manifest}");
+        assert!(manifest.lines().any(|l| l.split('\t').nth(1) == Some("points.csv")), "{manifest}");
         assert_eq!(std::fs::read_to_string(d.join("points.csv")).unwrap().lines().count(), a.points.len() + 1);
         // a file the user adds later is not trajdb's: it stays; world.csv (not written now) goes
         std::fs::write(d.join("notes.txt"), "mine").unwrap();

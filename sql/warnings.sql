@@ -1,7 +1,7 @@
 -- trajdb: what a finished pipeline run should tell its user, one row each, in table
 -- pipeline_warnings (k, message). Every runner (trajdb pipeline, trajdb.pipeline in Python, the
 -- DuckDB CLI after `.read sql/pipeline.sql`) reads this one table.
--- reads: points, align_frames, load_class_flicker, load_duplicates, load_ids; parameters: cluster_classes,
+-- reads: points, align_frames, load_class_flicker, load_duplicates, load_ids, load_twins; parameters: cluster_classes,
 -- load_no_class (set by the load)   makes: pipeline_warnings
 CREATE OR REPLACE TEMP TABLE pipeline_warnings AS
 WITH c AS (SELECT (SELECT count(DISTINCT camera) FROM points) AS cams, (SELECT count(*) FROM align_frames) AS aligned,
@@ -23,6 +23,13 @@ UNION ALL
 SELECT 4, format('{} input rows repeat the (camera, track_id, t) of another row ({} of those times with other x, y); each was kept once '
                  || '(table load_duplicates)', repeats, conflicting)
 FROM c WHERE repeats > 0
+UNION ALL
+SELECT 7, format('camera {} is camera {} exported again ({}% of its points coincide with camera {}''s, same x, y to 0.1 mm, at a time difference '
+                 || 'of {} s): its points were left out of the run, so that no road user is doubled (table load_twins)',
+                 d.camera_in, k.camera_in, round(100 * w.share, 1), k.camera_in, w.time_difference_s)
+FROM load_twins w
+JOIN (SELECT DISTINCT camera, camera_in FROM load_ids) d ON d.camera = w.camera_dropped
+JOIN (SELECT DISTINCT camera, camera_in FROM load_ids) k ON k.camera = w.camera_kept
 UNION ALL
 SELECT 5, format('cluster_classes names {} that the input does not have (its classes: {}); nothing of that name was clustered',
                  list_filter(wanted, lambda w: NOT list_contains(have, w))::VARCHAR, have::VARCHAR)

@@ -475,7 +475,7 @@ DELETE FROM points WHERE camera IN (SELECT camera_dropped FROM load_twins);
 -- exact copy, which the load has already dropped: sql/pipeline.sql, load_twins).
 CREATE OR REPLACE TEMP TABLE calib_camera_order AS
 SELECT camera, row_number() OVER (ORDER BY n_points DESC, n_tracks DESC, total_ms DESC, camera) AS data_rank, n_points, n_tracks, total_ms
-FROM (SELECT camera, sum(n) AS n_points, count(*) AS n_tracks, sum(round((t1 - t0) * 1000))::BIGINT AS total_ms
+FROM (SELECT camera, sum(n)::BIGINT AS n_points, count(*) AS n_tracks, sum(round((t1 - t0) * 1000))::BIGINT AS total_ms
       FROM (SELECT camera, track_id, count(*) AS n, min(t) AS t0, max(t) AS t1 FROM points WHERE estimated = 0 GROUP BY camera, track_id)
       GROUP BY camera);
 

@@ -257,4 +257,39 @@ UPDATE points SET class = f.class FROM load_class_flicker f
 WHERE points.camera = f.camera AND points.track_id = f.track_id AND points.class <> f.class;
 -- integer ids: load_ids maps each track's ids to themselves
 INSERT INTO load_ids SELECT DISTINCT camera, camera, track_id, track_id FROM points WHERE NOT getvariable('load_text_ids');
+-- a camera exported twice under another id: its twin aligned with it at 0 deg, 0 m, 0 s, pulled
+-- the other cameras' calibration and doubled every road user it saw. Evidence (SQL's join): each
+-- camera's points in cells of 0.1 mm of its own frame (cells a camera fills once: a standing road
+-- user's repeats are left out, so no cell pairs many points with many); for each camera pair the
+-- most cells both fill at ONE time difference (rounded to the microsecond: 0 for a plain copy, a
+-- constant for a copy with a shifted clock). The decision is camera_twin's (crates/algo/src/align/
+-- twin.rs: share of the smaller camera's points >= 0.5; real camera pairs measure 0, a copy 1).
+-- Detected: identical, subset and clock-shifted copies, whatever their track ids; not: a copy with
+-- its frame moved, noise added or other sample times (it is aligned as a camera of its own).
+-- Each pair is oriented by the data (more points first; the camera id only between two cameras of
+-- equal counts, i.e. identical copies, where either choice gives the same road users), and the
+-- copy's points are left out of everything after the load (alignment, matching, merging), so no
+-- road user is doubled; load_twins lists them and the run warns, naming both cameras.
+CREATE OR REPLACE TEMP TABLE load_twins AS
+WITH cells AS (
+    SELECT camera, round(x * 1e4) AS cx, round(y * 1e4) AS cy, any_value(t) AS t
+    FROM points GROUP BY camera, cx, cy HAVING count(*) = 1
+),
+n AS (SELECT camera, count(*) AS n FROM cells GROUP BY camera),
+pairs AS (
+    SELECT a.camera AS cam_a, b.camera AS cam_b, a.n AS n_a, b.n AS n_b
+    FROM n a JOIN n b ON a.n > b.n OR (a.n = b.n AND a.camera < b.camera)
+),
+co AS (
+    SELECT cam_a, cam_b, max(shared) AS shared, arg_min(dt_us, (-shared, abs(dt_us), dt_us)) / 1e6 AS dt_s
+    FROM (SELECT p.cam_a, p.cam_b, round((b.t - a.t) * 1e6) AS dt_us, count(*) AS shared
+          FROM pairs p JOIN cells a ON a.camera = p.cam_a JOIN cells b ON b.camera = p.cam_b AND b.cx = a.cx AND b.cy = a.cy
+          GROUP BY ALL)
+    GROUP BY ALL
+)
+SELECT CASE WHEN v.copy = 2 THEN p.cam_a ELSE p.cam_b END AS camera_kept, CASE WHEN v.copy = 2 THEN p.cam_b ELSE p.cam_a END AS camera_dropped,
+       v.share, co.dt_s AS time_difference_s, p.n_a, p.n_b
+FROM pairs p JOIN co USING (cam_a, cam_b), LATERAL (SELECT camera_twin(p.n_a, p.n_b, co.shared) AS v) x
+WHERE v.twin;
+DELETE FROM points WHERE camera IN (SELECT camera_dropped FROM load_twins);
 .read sql/stages.sql

@@ -377,12 +377,47 @@ UPDATE points SET class = f.class FROM load_class_flicker f
 WHERE points.camera = f.camera AND points.track_id = f.track_id AND points.class <> f.class;
 -- integer ids: load_ids maps each track's ids to themselves
 INSERT INTO load_ids SELECT DISTINCT camera, camera, track_id, track_id FROM points WHERE NOT getvariable('load_text_ids');
+-- a camera exported twice under another id: its twin aligned with it at 0 deg, 0 m, 0 s, pulled
+-- the other cameras' calibration and doubled every road user it saw. Evidence (SQL's join): each
+-- camera's points in cells of 0.1 mm of its own frame (cells a camera fills once: a standing road
+-- user's repeats are left out, so no cell pairs many points with many); for each camera pair the
+-- most cells both fill at ONE time difference (rounded to the microsecond: 0 for a plain copy, a
+-- constant for a copy with a shifted clock). The decision is camera_twin's (crates/algo/src/align/
+-- twin.rs: share of the smaller camera's points >= 0.5; real camera pairs measure 0, a copy 1).
+-- Detected: identical, subset and clock-shifted copies, whatever their track ids; not: a copy with
+-- its frame moved, noise added or other sample times (it is aligned as a camera of its own).
+-- Each pair is oriented by the data (more points first; the camera id only between two cameras of
+-- equal counts, i.e. identical copies, where either choice gives the same road users), and the
+-- copy's points are left out of everything after the load (alignment, matching, merging), so no
+-- road user is doubled; load_twins lists them and the run warns, naming both cameras.
+CREATE OR REPLACE TEMP TABLE load_twins AS
+WITH cells AS (
+    SELECT camera, round(x * 1e4) AS cx, round(y * 1e4) AS cy, any_value(t) AS t
+    FROM points GROUP BY camera, cx, cy HAVING count(*) = 1
+),
+n AS (SELECT camera, count(*) AS n FROM cells GROUP BY camera),
+pairs AS (
+    SELECT a.camera AS cam_a, b.camera AS cam_b, a.n AS n_a, b.n AS n_b
+    FROM n a JOIN n b ON a.n > b.n OR (a.n = b.n AND a.camera < b.camera)
+),
+co AS (
+    SELECT cam_a, cam_b, max(shared) AS shared, arg_min(dt_us, (-shared, abs(dt_us), dt_us)) / 1e6 AS dt_s
+    FROM (SELECT p.cam_a, p.cam_b, round((b.t - a.t) * 1e6) AS dt_us, count(*) AS shared
+          FROM pairs p JOIN cells a ON a.camera = p.cam_a JOIN cells b ON b.camera = p.cam_b AND b.cx = a.cx AND b.cy = a.cy
+          GROUP BY ALL)
+    GROUP BY ALL
+)
+SELECT CASE WHEN v.copy = 2 THEN p.cam_a ELSE p.cam_b END AS camera_kept, CASE WHEN v.copy = 2 THEN p.cam_b ELSE p.cam_a END AS camera_dropped,
+       v.share, co.dt_s AS time_difference_s, p.n_a, p.n_b
+FROM pairs p JOIN co USING (cam_a, cam_b), LATERAL (SELECT camera_twin(p.n_a, p.n_b, co.shared) AS v) x
+WHERE v.twin;
+DELETE FROM points WHERE camera IN (SELECT camera_dropped FROM load_twins);
 -- trajdb: the pipeline's stages, in order: THE one list. `trajdb pipeline`, `trajdb demo` and
 -- sql/pipeline.sql (the DuckDB CLI) all run exactly these files. Each reads `points` and the
 -- tables of the stages before it; see the header of each file.
 -- stage: calibrate
 -- reads: points
--- makes: calib_cameras, calib_classes, calib_fit_window, calib_pairs, calibration, calibrated(),
+-- makes: calib_camera_order, calib_cameras, calib_classes, calib_fit_window, calib_pairs, calibration, calibrated(),
 --        calibrated_values()
 -- work: -
 -- changes: -
@@ -445,6 +480,20 @@ INSERT INTO load_ids SELECT DISTINCT camera, camera, track_id, track_id FROM poi
 --    within-camera break links (quality.sql) extrapolate least-squares lines fitted over
 --    calib_fit_window.fit_window_s with the camera's sigma_m, allow the class's accel_p95 during the
 --    gap, and compare a link with an unrelated start by the measured density of starts.
+
+-- Camera ids are labels: every choice the stages make between cameras (which camera of a pair
+-- is fitted onto which, the reference camera, the spanning tree's ties, the merge order, the
+-- cluster camera, road-user numbering) goes by this order, which the cameras' DATA gives, so
+-- renumbering the cameras ((camera + 1) % 3, text ids) changes nothing but the labels
+-- (tests/test_invariance_python.py). The key: more real points first, then more tracks, then
+-- the longer total track time (ms; a clock shift or a moved frame leaves all three unchanged).
+-- The camera id decides only between cameras equal in all three (in practice a camera and its
+-- exact copy, which the load has already dropped: sql/pipeline.sql, load_twins).
+CREATE OR REPLACE TEMP TABLE calib_camera_order AS
+SELECT camera, row_number() OVER (ORDER BY n_points DESC, n_tracks DESC, total_ms DESC, camera) AS data_rank, n_points, n_tracks, total_ms
+FROM (SELECT camera, sum(n)::BIGINT AS n_points, count(*) AS n_tracks, sum(round((t1 - t0) * 1000))::BIGINT AS total_ms
+      FROM (SELECT camera, track_id, count(*) AS n, min(t) AS t0, max(t) AS t1 FROM points WHERE estimated = 0 GROUP BY camera, track_id)
+      GROUP BY camera);
 
 CREATE OR REPLACE TEMP TABLE calib_cameras AS
 WITH d AS (
@@ -524,8 +573,8 @@ FROM (
          '1.5 x the longest sampling period'),
         ('merge_min_points', greatest(3, ceil((SELECT max(period_s) FROM calib_cameras) / nullif(getvariable('merge_resample_s'), 0)) + 1),
          getvariable('merge_min_points')::DOUBLE, '2 real samples of the slowest camera on the common clock, at least 3'),
-        ('cluster_camera', (SELECT camera FROM points WHERE estimated = 0 GROUP BY camera ORDER BY count(DISTINCT track_id) DESC, camera LIMIT 1),
-         getvariable('cluster_camera')::DOUBLE, 'the camera with the most real tracks (ties: the lowest id)')
+        ('cluster_camera', (SELECT camera FROM calib_camera_order ORDER BY n_tracks DESC, data_rank LIMIT 1),
+         getvariable('cluster_camera')::DOUBLE, 'the camera with the most real tracks (ties: the first in calib_camera_order, by data)')
     ) t(parameter, measured, given, rule)
     UNION ALL
     SELECT 'align_max_rms_m', 'camera pair', cam_a, cam_b, NULL, 0.1 + 3 * sigma_pair_m, getvariable('align_max_rms_m'), '0.1 + 3 sigma_pair'
@@ -865,7 +914,7 @@ SELECT ev.kind, count(*) AS events FROM quality_events GROUP BY ev.kind ORDER BY
 SELECT label, count(*) AS tracks FROM quality_labels GROUP BY label ORDER BY label;
 ;
 -- stage: align
--- reads: points, load_ids, calib_cameras, calib_pairs, calibration, calibrated_values()
+-- reads: points, load_ids, calib_camera_order, calib_cameras, calib_pairs, calibration, calibrated_values()
 -- makes: align_frames, align_origin, align_pairs, align_clock, calib_match, calibration_summary,
 --        result_transforms(), result_calibration()
 -- work: align_centroids, align_tracks, align_activity, align_coarse, align_scan, align_keys, align_sample(),
@@ -973,11 +1022,19 @@ GROUP BY camera;
 --    close to it, so large winners are trusted: a heuristic, not yet measured), is searched again over 4 times the range (passes 2 and 3: up to 16 x), and keeps the wider
 --    search's winner when it has more votes. A pair truly in range wins inside it and is never
 --    searched again, so in-range results are those of a single pass.
+--    Which camera of a pair is fixed and which is moved onto it is the cameras' data order
+--    (calib_camera_order: the fixed one comes first), never their ids: the fits below are not
+--    exactly symmetric (interpolation goes one way, the trims differ), so fitting by id order
+--    moved a pair by 0.09 deg and 5 ms when the cameras were renumbered. Every later choice of
+--    this stage (votes, samples, refits) depends on the tracks' content, so with the direction
+--    fixed by data the whole stage is a function of the data alone.
 CREATE OR REPLACE TEMP TABLE align_coarse AS
 SELECT p.cam_fixed, p.cam_moving, l.dt AS centre, l.score, l.runner_up, l.half_width_s
 FROM (SELECT DISTINCT a.camera AS cam_fixed, b.camera AS cam_moving
       FROM (SELECT DISTINCT camera, class FROM align_tracks) a JOIN (SELECT DISTINCT camera, class FROM align_tracks) b
-        ON a.camera < b.camera AND a.class = b.class) p
+        ON a.class = b.class
+      JOIN calib_camera_order ra ON ra.camera = a.camera JOIN calib_camera_order rb ON rb.camera = b.camera
+      WHERE ra.data_rank < rb.data_rank) p
 JOIN align_activity ea ON ea.camera = p.cam_fixed JOIN align_activity eb ON eb.camera = p.cam_moving,
 -- bins of half the first search range, but at most 2^22 bins per camera (a recording of more
 -- than 24 days, e.g. a month's archive, gets wider bins instead of a memory error naming a
@@ -1057,7 +1114,7 @@ SELECT h.cam_fixed, h.cam_moving, track_fixed, track_moving, h.centre + f.dt AS 
        cos(f.theta) * m.cx - sin(f.theta) * m.cy + f.tx - fc.cx AS qx,
        sin(f.theta) * m.cx + cos(f.theta) * m.cy + f.ty - fc.cy AS qy
 FROM (SELECT cam_fixed, cam_moving, track_fixed, track_moving, centre, unnest(fits) AS f FROM cand) h
-JOIN calibrated_values('align_max_rms_m') c ON c.cam_a = h.cam_fixed AND c.cam_b = h.cam_moving
+JOIN calibrated_values('align_max_rms_m') c ON c.cam_a = least(h.cam_fixed, h.cam_moving) AND c.cam_b = greatest(h.cam_fixed, h.cam_moving)
 JOIN align_centroids fc ON fc.camera = h.cam_fixed JOIN align_centroids m ON m.camera = h.cam_moving
 WHERE f.n >= getvariable('align_min_pairs') AND f.span >= getvariable('align_min_span_m')
   AND f.rms < c.value;
@@ -1232,7 +1289,7 @@ coarse AS (
     JOIN (SELECT cam_fixed, cam_moving, max(max_off) AS max_off FROM align_scan GROUP BY ALL) s USING (cam_fixed, cam_moving)
     JOIN align_tracks a ON a.camera = c.cam_fixed AND a.track_id = c.track_fixed
     JOIN align_tracks m ON m.camera = c.cam_moving AND m.track_id = c.track_moving
-    JOIN calibrated_values('align_refine_rms_m') cp ON cp.cam_a = c.cam_fixed AND cp.cam_b = c.cam_moving
+    JOIN calibrated_values('align_refine_rms_m') cp ON cp.cam_a = least(c.cam_fixed, c.cam_moving) AND cp.cam_b = greatest(c.cam_fixed, c.cam_moving)
     WHERE p.fit IS NOT NULL
 )
 SELECT cam_fixed, cam_moving, track_fixed, track_moving, x, traj_fixed, traj_moving,
@@ -1330,7 +1387,7 @@ CREATE OR REPLACE TEMP TABLE align_pairs AS FROM align_refit();
 CREATE OR REPLACE TEMP TABLE align_support AS
 SELECT s.*
 FROM align_support s JOIN align_pairs a USING (cam_fixed, cam_moving)
-JOIN calibrated_values('align_refine_rms_m') c ON c.cam_a = s.cam_fixed AND c.cam_b = s.cam_moving
+JOIN calibrated_values('align_refine_rms_m') c ON c.cam_a = least(s.cam_fixed, s.cam_moving) AND c.cam_b = greatest(s.cam_fixed, s.cam_moving)
 WHERE a.fit IS NOT NULL
   AND rigid_rms(traj_correspond(s.traj_fixed, s.traj_moving, 0.5, a.fit.dt),
                 {'theta': a.fit.theta, 'tx': a.fit.tx, 'ty': a.fit.ty, 'scale': a.fit.scale}) < c.value;
@@ -1358,7 +1415,7 @@ d AS (
 )
 SELECT p.cam_a, p.cam_b, coalesce(d.sigma_d, p.sigma_pair_m) AS sigma_d_m, coalesce(d.n_pairs, 0) AS n_pairs,
        CASE WHEN d.sigma_d IS NULL THEN 'camera noise' ELSE 'matched residuals' END AS source
-FROM calib_pairs p LEFT JOIN d ON d.cam_fixed = p.cam_a AND d.cam_moving = p.cam_b;
+FROM calib_pairs p LEFT JOIN d ON least(d.cam_fixed, d.cam_moving) = p.cam_a AND greatest(d.cam_fixed, d.cam_moving) = p.cam_b;
 
 -- merge_epsilon into calibration (calibrate.sql's one table of resolved `auto` values): per
 -- camera pair, and the 'default' row trajectory_merge uses for a road user of any cameras (the
@@ -1377,7 +1434,7 @@ FROM (SELECT 'camera pair' AS scope, cam_a, cam_b, greatest(sqrt(2 * ln(100)) * 
      (SELECT getvariable('merge_epsilon') AS given) g;
 
 -- 4. spanning tree: widest path from every camera to the reference camera (the one with the
---    most support), composing moving -> fixed transforms (inverted when walked backwards).
+--    most support; ties: the first in the data order), composing moving -> fixed transforms (inverted when walked backwards).
 --    Clocks: each edge src -> dst carries t_src = (1 + D) t_dst + O on the cameras' own clocks.
 --    On the relative clocks y = (1 + D) x + O_rel (O_rel = c (1 + D), c the refit's offset), so
 --    with the origins o_m, o_f: O = O_rel + o_m - (1 + D) o_f (O = c + o_m - o_f when D = 0).
@@ -1404,23 +1461,26 @@ FROM align_pairs p JOIN align_clock c USING (cam_fixed, cam_moving);
 CREATE OR REPLACE TEMP TABLE align_frames AS
 WITH RECURSIVE
 ref AS (
-    SELECT src AS camera FROM align_edges GROUP BY src ORDER BY sum(support) DESC, src LIMIT 1
+    SELECT e.src AS camera FROM align_edges e JOIN calib_camera_order o ON o.camera = e.src
+    GROUP BY e.src ORDER BY sum(e.support) DESC, any_value(o.data_rank) LIMIT 1
 ),
-walk(camera, node, tf, dt, drift, drift_var, bottleneck, hops, visited) AS (
+-- ranks: the path's cameras in the data order (calib_camera_order), the tie-break between
+-- paths of equal bottleneck and hops (camera ids are labels)
+walk(camera, node, tf, dt, drift, drift_var, bottleneck, hops, visited, ranks) AS (
     -- start at each camera with the identity, walk edges towards the reference; clocks compose:
     -- t_cam = (1 + Dw) t_node + Ow and t_node = (1 + De) t_dst + Oe give
     -- t_cam = (1 + Dw)(1 + De) t_dst + (1 + Dw) Oe + Ow
     SELECT camera, camera, {'theta': 0.0::DOUBLE, 'tx': 0.0::DOUBLE, 'ty': 0.0::DOUBLE, 'scale': 1.0::DOUBLE}, 0.0::DOUBLE, 0.0::DOUBLE, 0.0::DOUBLE,
-           1e18::DOUBLE, 0, [camera]
-    FROM (SELECT DISTINCT camera FROM points)
+           1e18::DOUBLE, 0, [camera], [data_rank]
+    FROM (SELECT DISTINCT camera FROM points) LEFT JOIN calib_camera_order USING (camera)
     UNION ALL
     SELECT w.camera, e.dst, transform_compose(e.tf, w.tf),
            CASE WHEN w.drift = 0 THEN w.dt + e.dt ELSE (1 + w.drift) * e.dt + w.dt END,
            CASE WHEN w.drift = 0 AND e.drift = 0 THEN 0.0 ELSE w.drift + e.drift + w.drift * e.drift END,
            w.drift_var + e.drift_se ** 2,
            least(w.bottleneck, e.support), w.hops + 1,
-           list_append(w.visited, e.dst)
-    FROM walk w JOIN align_edges e ON e.src = w.node
+           list_append(w.visited, e.dst), list_append(w.ranks, o.data_rank)
+    FROM walk w JOIN align_edges e ON e.src = w.node JOIN calib_camera_order o ON o.camera = e.dst
     WHERE NOT list_contains(w.visited, e.dst) AND w.node <> (SELECT camera FROM ref)
 )
 SELECT w.camera, (SELECT camera FROM ref) AS reference, w.tf AS to_reference, w.dt AS clock_offset_s,
@@ -1428,7 +1488,7 @@ SELECT w.camera, (SELECT camera FROM ref) AS reference, w.tf AS to_reference, w.
        CASE WHEN w.hops = 0 THEN NULL ELSE w.bottleneck END AS bottleneck_support
 FROM walk w
 WHERE w.node = (SELECT camera FROM ref)
-QUALIFY row_number() OVER (PARTITION BY w.camera ORDER BY w.bottleneck DESC, w.hops) = 1;
+QUALIFY row_number() OVER (PARTITION BY w.camera ORDER BY w.bottleneck DESC, w.hops, w.ranks) = 1;
 
 -- What was measured and chosen (calibration.csv and the report): per camera, per camera pair,
 -- and the pipeline-wide values (`given` when --param / SET VARIABLE set them).
@@ -1527,7 +1587,7 @@ DROP TABLE IF EXISTS temp.main.align_tracks;
 DROP TABLE IF EXISTS temp.main.align_keys;
 ;
 -- stage: overlap
--- reads: points, calib_cameras, align_frames
+-- reads: points, calib_camera_order, calib_cameras, align_frames
 -- makes: view_polygons, view_overlaps, view_merge_order, view_overlaps_chain
 -- work: view_points
 -- changes: -
@@ -1554,7 +1614,8 @@ DROP TABLE IF EXISTS temp.main.align_keys;
 --   noise correction: the hull of noisy points overshoots the true view edge, so each P^k is
 --   shrunk by overlap_shrink_sigmas x the camera's position noise, measured from its own tracks
 --   (calib_cameras.sigma_m, sql/stages/calibrate.sql; 0 switches the correction off);
---   merge order: ascending camera id (the table view_merge_order can be replaced).
+--   merge order: the cameras' data order (calib_camera_order: camera ids are labels; the table
+--   view_merge_order can be replaced).
 -- Parameters (overlap_*): declared once in src/app/params.rs, defaults in sql/params.sql;
 -- `trajdb params` lists them, `trajdb pipeline --param name=value` or SET VARIABLE sets them.
 
@@ -1590,8 +1651,8 @@ FROM view_polygons a JOIN view_polygons b ON a.class = b.class AND a.camera < b.
 
 -- The merge order Ω (thesis Alg. 3/4): position -> camera. Replace to merge in another order.
 CREATE OR REPLACE TEMP TABLE view_merge_order AS
-SELECT row_number() OVER (ORDER BY camera) AS position, camera
-FROM (SELECT DISTINCT camera FROM view_polygons);
+SELECT row_number() OVER (ORDER BY o.data_rank, v.camera) AS position, v.camera
+FROM (SELECT DISTINCT camera FROM view_polygons) v LEFT JOIN calib_camera_order o USING (camera);
 
 CREATE OR REPLACE TEMP TABLE view_overlaps_chain AS
 SELECT *, polygon_area(polygon) AS area_m2 FROM (
@@ -1612,7 +1673,7 @@ FROM view_overlaps o
 ORDER BY class, cam_a, cam_b;
 ;
 -- stage: merge
--- reads: points, load_ids, calib_cameras, calibrated(), calibrated_values(), quality_endpoints, quality_links,
+-- reads: points, load_ids, calib_camera_order, calib_cameras, calibrated(), calibrated_values(), quality_endpoints, quality_links,
 --        quality_reach_links, align_frames, align_origin, calib_match, view_overlaps, view_merge_order
 -- makes: merge_tracks, merge_scores, merge_links, merge_groups, merged, merge_chains, merge_road_users(),
 --        result_matches(), result_road_users(), result_links()
@@ -1689,7 +1750,9 @@ ORDER BY class, cam_a, cam_b;
 -- lost. It has no view overlap, so none of its tracks is scored against another camera's.
 CREATE OR REPLACE TEMP TABLE merge_tracks AS
 -- uid: one BIGINT per (camera, track_id), dense, so any camera and track id fits
-SELECT p.camera, p.track_id, p.class, dense_rank() OVER (ORDER BY p.camera, p.track_id) AS uid,
+-- (numbered in the cameras' data order, calib_camera_order: camera ids are labels, and the uid
+-- breaks ties between equal scores below)
+SELECT p.camera, p.track_id, p.class, dense_rank() OVER (ORDER BY any_value(r.data_rank), p.camera, p.track_id) AS uid,
        CASE WHEN getvariable('merge_resample_s') > 0
             THEN [{'t': q.t + o.clock_origin, 'x': q.x, 'y': q.y}
                   FOR q IN traj_resample(transform_apply(list({'t': p.t - o.clock_origin, 'x': p.x, 'y': p.y} ORDER BY p.t), any_value(f.to_reference)),
@@ -1698,6 +1761,7 @@ SELECT p.camera, p.track_id, p.class, dense_rank() OVER (ORDER BY p.camera, p.tr
        min(p.t) AS t0, max(p.t) AS t1
 FROM points p
 CROSS JOIN align_origin o
+LEFT JOIN calib_camera_order r USING (camera)
 JOIN (SELECT c.camera, coalesce(a.to_reference, {'theta': 0.0::DOUBLE, 'tx': 0.0::DOUBLE, 'ty': 0.0::DOUBLE, 'scale': 1.0::DOUBLE}) AS to_reference
       FROM (SELECT DISTINCT camera FROM points) c LEFT JOIN align_frames a USING (camera)) f USING (camera)
 WHERE p.estimated = 0
@@ -2169,7 +2233,7 @@ FROM cluster_assign a JOIN load_ids i ON i.camera = calibrated('cluster_camera')
 -- trajdb: what a finished pipeline run should tell its user, one row each, in table
 -- pipeline_warnings (k, message). Every runner (trajdb pipeline, trajdb.pipeline in Python, the
 -- DuckDB CLI after `.read sql/pipeline.sql`) reads this one table.
--- reads: points, align_frames, load_class_flicker, load_duplicates, load_ids, load_unit_outliers; parameters: cluster_classes,
+-- reads: points, align_frames, load_class_flicker, load_duplicates, load_ids, load_twins, load_unit_outliers; parameters: cluster_classes,
 -- load_no_class (set by the load)   makes: pipeline_warnings
 CREATE OR REPLACE TEMP TABLE pipeline_warnings AS
 WITH c AS (SELECT (SELECT count(DISTINCT camera) FROM points) AS cams, (SELECT count(*) FROM align_frames) AS aligned,
@@ -2192,6 +2256,13 @@ SELECT 4, format('{} input rows repeat the (camera, track_id, t) of another row 
                  || '(table load_duplicates)', repeats, conflicting)
 FROM c WHERE repeats > 0
 UNION ALL
+SELECT 7, format('camera {} is camera {} exported again ({}% of its points coincide with camera {}''s, same x, y to 0.1 mm, at a time difference '
+                 || 'of {} s): its points were left out of the run, so that no road user is doubled (table load_twins)',
+                 d.camera_in, k.camera_in, round(100 * w.share, 1), k.camera_in, w.time_difference_s)
+FROM load_twins w
+JOIN (SELECT DISTINCT camera, camera_in FROM load_ids) d ON d.camera = w.camera_dropped
+JOIN (SELECT DISTINCT camera, camera_in FROM load_ids) k ON k.camera = w.camera_kept
+UNION ALL
 SELECT 5, format('cluster_classes names {} that the input does not have (its classes: {}); nothing of that name was clustered',
                  list_filter(wanted, lambda w: NOT list_contains(have, w))::VARCHAR, have::VARCHAR)
 FROM (SELECT [lower(trim(x)) FOR x IN string_split(coalesce(getvariable('cluster_classes'), ''), ',') IF trim(x) <> ''] AS wanted,
@@ -2202,7 +2273,7 @@ SELECT 6, 'the input has no class column: every track is of one class, ''unknown
           || 'input_columns = ''class=your_column'', to match and cluster each class on its own)'
 WHERE getvariable('load_no_class')
 UNION ALL
-SELECT 7, format('{} tracks have a sampling period or speed far outside a road user''s, unlike the rest of the input (kept; table '
+SELECT 8, format('{} tracks have a sampling period or speed far outside a road user''s, unlike the rest of the input (kept; table '
                  || 'load_unit_outliers): {}{}', count(*),
                  string_agg(format('camera {} track {} ({} points over {} h, {})', i.camera_in, i.track_in, o.points, round(o.span_s / 3600, 1), o.why),
                             '; ' ORDER BY o.camera, o.track_id) FILTER (WHERE o.rank <= 10),

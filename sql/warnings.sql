@@ -1,7 +1,7 @@
 -- trajdb: what a finished pipeline run should tell its user, one row each, in table
 -- pipeline_warnings (k, message). Every runner (trajdb pipeline, trajdb.pipeline in Python, the
 -- DuckDB CLI after `.read sql/pipeline.sql`) reads this one table.
--- reads: points, align_frames, load_class_flicker, load_duplicates, load_ids, load_unit_outliers; parameters: cluster_classes,
+-- reads: points, align_frames, load_class_flicker, load_duplicates, load_ids, load_twins, load_unit_outliers; parameters: cluster_classes,
 -- load_no_class (set by the load)   makes: pipeline_warnings
 CREATE OR REPLACE TEMP TABLE pipeline_warnings AS
 WITH c AS (SELECT (SELECT count(DISTINCT camera) FROM points) AS cams, (SELECT count(*) FROM align_frames) AS aligned,
@@ -24,6 +24,13 @@ SELECT 4, format('{} input rows repeat the (camera, track_id, t) of another row 
                  || '(table load_duplicates)', repeats, conflicting)
 FROM c WHERE repeats > 0
 UNION ALL
+SELECT 7, format('camera {} is camera {} exported again ({}% of its points coincide with camera {}''s, same x, y to 0.1 mm, at a time difference '
+                 || 'of {} s): its points were left out of the run, so that no road user is doubled (table load_twins)',
+                 d.camera_in, k.camera_in, round(100 * w.share, 1), k.camera_in, w.time_difference_s)
+FROM load_twins w
+JOIN (SELECT DISTINCT camera, camera_in FROM load_ids) d ON d.camera = w.camera_dropped
+JOIN (SELECT DISTINCT camera, camera_in FROM load_ids) k ON k.camera = w.camera_kept
+UNION ALL
 SELECT 5, format('cluster_classes names {} that the input does not have (its classes: {}); nothing of that name was clustered',
                  list_filter(wanted, lambda w: NOT list_contains(have, w))::VARCHAR, have::VARCHAR)
 FROM (SELECT [lower(trim(x)) FOR x IN string_split(coalesce(getvariable('cluster_classes'), ''), ',') IF trim(x) <> ''] AS wanted,
@@ -34,7 +41,7 @@ SELECT 6, 'the input has no class column: every track is of one class, ''unknown
           || 'input_columns = ''class=your_column'', to match and cluster each class on its own)'
 WHERE getvariable('load_no_class')
 UNION ALL
-SELECT 7, format('{} tracks have a sampling period or speed far outside a road user''s, unlike the rest of the input (kept; table '
+SELECT 8, format('{} tracks have a sampling period or speed far outside a road user''s, unlike the rest of the input (kept; table '
                  || 'load_unit_outliers): {}{}', count(*),
                  string_agg(format('camera {} track {} ({} points over {} h, {})', i.camera_in, i.track_in, o.points, round(o.span_s / 3600, 1), o.why),
                             '; ' ORDER BY o.camera, o.track_id) FILTER (WHERE o.rank <= 10),

@@ -8,6 +8,13 @@ tracks) must be identical when
   over every lag, and the exact search is centred on it),
 - the track ids are relabelled (another integer per track) or the rows reordered (and then the
   route patterns of the prototype clustering too),
+- the CAMERA ids are relabelled (a cyclic shift (camera + 1) % n, a reversal, text ids in another
+  order): the same road users AND the same transforms and clocks between the same cameras, to
+  1e-9 (camera ids are labels: every choice between cameras goes by calib_camera_order, the
+  cameras' data; issue 37 measured 0.09 deg and 5 ms when they were not),
+- a camera is exported twice under another id (a copy, a copy with its clock shifted, a copy of
+  half its rows): the same road users and transforms as without it, and a warning naming both
+  cameras (sql/pipeline.sql, load_twins; camera_twin),
 on a simulated scene and on the shared scenes from real trajectories (when ../shared/data is
 beside the clone). Before align.sql voted about each camera's centroid, frames in UTM aligned no
 camera at all.
@@ -82,6 +89,58 @@ def clocks_agree(before, after, shift, cams):
     return True
 
 
+# camera relabellings: (name, SQL of the relabelled table from base, map from the new id back to the old)
+def camera_relabellings(cams):
+    n, hi = len(cams), max(cams)
+    names = ["west", "north", "east", "south", "up", "down", "zeta", "alpha"]
+    text = {c: f"{names[k % len(names)]}-{k}" for k, c in enumerate(sorted(cams))}  # not the ids' order
+    return [
+        (f"camera ids shifted (camera + 1) % {n}", f"SELECT * REPLACE ((camera + 1) % {n} AS camera) FROM base",
+         {(c + 1) % n: c for c in cams}),
+        ("camera ids reversed", f"SELECT * REPLACE ({hi} - camera AS camera) FROM base", {hi - c: c for c in cams}),
+        ("camera ids as text", "SELECT * REPLACE (CASE camera " + " ".join(f"WHEN {c} THEN '{v}'" for c, v in text.items())
+         + " END AS camera) FROM base", {v: c for c, v in text.items()}),
+    ]
+
+
+def twin_copies(cams):
+    """A camera exported twice under a new id: the whole camera, the camera with its clock shifted
+    by 12.5 s, its first half (a subset)."""
+    c, new = min(cams), max(cams) + 7
+    return [
+        (f"camera {c} exported again as {new}", f"FROM base UNION ALL SELECT * REPLACE ({new} AS camera) FROM base WHERE camera = {c}"),
+        (f"camera {c} exported again as {new}, clock +12.5 s",
+         f"FROM base UNION ALL SELECT * REPLACE ({new} AS camera, t + 12.5 AS t) FROM base WHERE camera = {c}"),
+        (f"camera {c}'s first half exported again as {new}",
+         f"FROM base UNION ALL SELECT * REPLACE ({new} AS camera) FROM base WHERE camera = {c} "
+         f"AND t < (SELECT (min(t) + max(t)) / 2 FROM base WHERE camera = {c})"),
+    ]
+
+
+def users_in(con, unlabel=lambda c: c):
+    """The road users as sets of the input's own (camera, track_id), from result_road_users()
+    (merged.parquet's sources: text ids come back as text)."""
+    return {frozenset((unlabel(s["camera"]), s["track_id"]) for s in r[0]) for r in con.sql("SELECT sources FROM result_road_users()").fetchall()}
+
+
+def transforms(con, unlabel=lambda c: c):
+    """(cam_from, cam_to) in the original ids -> (theta_rad, tx, ty, clock_offset_s, clock_drift_ppm), from result_transforms()"""
+    return {(unlabel(r[0]), unlabel(r[1])): r[2:] for r in
+            con.sql("SELECT cam_from, cam_to, theta_rad, tx, ty, clock_offset_s, clock_drift_ppm FROM result_transforms()").fetchall()}
+
+
+def transforms_agree(before, after, tol=1e-9):
+    """The same pairs, each value within tol (radians, metres, seconds, ppm); prints the largest difference."""
+    if before.keys() != after.keys():
+        print(f"     transforms between {sorted(after)} instead of {sorted(before)}")
+        return False
+    worst = max((abs(a - b), k, i) for k in before for i, (a, b) in enumerate(zip(before[k], after[k]))) if before else (0.0, None, None)
+    if worst[0] > tol:
+        print(f"     largest transform difference {worst[0]:.3g} ({['theta_rad', 'tx', 'ty', 'clock_offset_s', 'clock_drift_ppm'][worst[2]]} of {worst[1]})")
+        return False
+    return True
+
+
 def main():
     warnings.simplefilter("ignore")
     failed = []
@@ -108,6 +167,29 @@ def main():
             if ok and (change in CLOCK or change in UNLABEL or change == "rows reordered"):
                 ok = clocks_agree(fb, frames(con), CLOCK.get(change, lambda c, cams: 0.0), cam_ids)
             print(("ok   " if ok else "FAIL ") + f"{name}: {change}: {len(got)} road users" + ("" if ok else f", {len(got ^ base)} differ from the {len(base)} of the original"))
+            if not ok:
+                failed.append(f"{name}: {change}")
+        # camera ids are labels: relabelled cameras give the same road users and the same
+        # transforms and clocks between the same cameras (to 1e-9: in practice bit for bit)
+        tb, base_in = transforms(con), users_in(con)
+        for change, q, back in camera_relabellings(cam_ids):
+            con.execute(f"CREATE OR REPLACE TABLE v AS {q}")
+            trajdb.pipeline(con, "v")
+            got = users_in(con, lambda c: back[c])
+            ok = got == base_in and transforms_agree(tb, transforms(con, lambda c: back[c]))
+            print(("ok   " if ok else "FAIL ") + f"{name}: {change}: {len(got)} road users, the same transforms"
+                  + ("" if ok else f", {len(got ^ base_in)} road users differ from the {len(base_in)} of the original"))
+            if not ok:
+                failed.append(f"{name}: {change}")
+        # a camera exported twice under another id: left out after the load (with a warning that
+        # names both cameras), so the road users and the other cameras' transforms are as without it
+        for change, q in twin_copies(cam_ids):
+            con.execute(f"CREATE OR REPLACE TABLE v AS {q}")
+            trajdb.pipeline(con, "v")
+            got, msgs = users_in(con), [m for m in trajdb.warnings_of(con) if "exported again" in m]
+            ok = got == base_in and transforms_agree(tb, transforms(con)) and len(msgs) == 1
+            print(("ok   " if ok else "FAIL ") + f"{name}: {change}: {len(got)} road users, the same transforms, warned: {msgs}"
+                  + ("" if ok else f"; {len(got ^ base_in)} road users differ from the {len(base_in)} of the original"))
             if not ok:
                 failed.append(f"{name}: {change}")
         # the prototype clustering (issue 28) on the same scene: its visit order (longest first, then

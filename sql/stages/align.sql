@@ -1,5 +1,5 @@
 -- stage: align
--- reads: points, load_ids, calib_cameras, calib_pairs, calibration, calibrated_values()
+-- reads: points, load_ids, calib_camera_order, calib_cameras, calib_pairs, calibration, calibrated_values()
 -- makes: align_frames, align_origin, align_pairs, align_clock, calib_match, calibration_summary,
 --        result_transforms(), result_calibration()
 -- work: align_centroids, align_tracks, align_activity, align_coarse, align_scan, align_keys, align_sample(),
@@ -107,11 +107,19 @@ GROUP BY camera;
 --    close to it, so large winners are trusted: a heuristic, not yet measured), is searched again over 4 times the range (passes 2 and 3: up to 16 x), and keeps the wider
 --    search's winner when it has more votes. A pair truly in range wins inside it and is never
 --    searched again, so in-range results are those of a single pass.
+--    Which camera of a pair is fixed and which is moved onto it is the cameras' data order
+--    (calib_camera_order: the fixed one comes first), never their ids: the fits below are not
+--    exactly symmetric (interpolation goes one way, the trims differ), so fitting by id order
+--    moved a pair by 0.09 deg and 5 ms when the cameras were renumbered. Every later choice of
+--    this stage (votes, samples, refits) depends on the tracks' content, so with the direction
+--    fixed by data the whole stage is a function of the data alone.
 CREATE OR REPLACE TEMP TABLE align_coarse AS
 SELECT p.cam_fixed, p.cam_moving, l.dt AS centre, l.score, l.runner_up, l.half_width_s
 FROM (SELECT DISTINCT a.camera AS cam_fixed, b.camera AS cam_moving
       FROM (SELECT DISTINCT camera, class FROM align_tracks) a JOIN (SELECT DISTINCT camera, class FROM align_tracks) b
-        ON a.camera < b.camera AND a.class = b.class) p
+        ON a.class = b.class
+      JOIN calib_camera_order ra ON ra.camera = a.camera JOIN calib_camera_order rb ON rb.camera = b.camera
+      WHERE ra.data_rank < rb.data_rank) p
 JOIN align_activity ea ON ea.camera = p.cam_fixed JOIN align_activity eb ON eb.camera = p.cam_moving,
 -- bins of half the first search range, but at most 2^22 bins per camera (a recording of more
 -- than 24 days, e.g. a month's archive, gets wider bins instead of a memory error naming a
@@ -191,7 +199,7 @@ SELECT h.cam_fixed, h.cam_moving, track_fixed, track_moving, h.centre + f.dt AS 
        cos(f.theta) * m.cx - sin(f.theta) * m.cy + f.tx - fc.cx AS qx,
        sin(f.theta) * m.cx + cos(f.theta) * m.cy + f.ty - fc.cy AS qy
 FROM (SELECT cam_fixed, cam_moving, track_fixed, track_moving, centre, unnest(fits) AS f FROM cand) h
-JOIN calibrated_values('align_max_rms_m') c ON c.cam_a = h.cam_fixed AND c.cam_b = h.cam_moving
+JOIN calibrated_values('align_max_rms_m') c ON c.cam_a = least(h.cam_fixed, h.cam_moving) AND c.cam_b = greatest(h.cam_fixed, h.cam_moving)
 JOIN align_centroids fc ON fc.camera = h.cam_fixed JOIN align_centroids m ON m.camera = h.cam_moving
 WHERE f.n >= getvariable('align_min_pairs') AND f.span >= getvariable('align_min_span_m')
   AND f.rms < c.value;
@@ -366,7 +374,7 @@ coarse AS (
     JOIN (SELECT cam_fixed, cam_moving, max(max_off) AS max_off FROM align_scan GROUP BY ALL) s USING (cam_fixed, cam_moving)
     JOIN align_tracks a ON a.camera = c.cam_fixed AND a.track_id = c.track_fixed
     JOIN align_tracks m ON m.camera = c.cam_moving AND m.track_id = c.track_moving
-    JOIN calibrated_values('align_refine_rms_m') cp ON cp.cam_a = c.cam_fixed AND cp.cam_b = c.cam_moving
+    JOIN calibrated_values('align_refine_rms_m') cp ON cp.cam_a = least(c.cam_fixed, c.cam_moving) AND cp.cam_b = greatest(c.cam_fixed, c.cam_moving)
     WHERE p.fit IS NOT NULL
 )
 SELECT cam_fixed, cam_moving, track_fixed, track_moving, x, traj_fixed, traj_moving,
@@ -464,7 +472,7 @@ CREATE OR REPLACE TEMP TABLE align_pairs AS FROM align_refit();
 CREATE OR REPLACE TEMP TABLE align_support AS
 SELECT s.*
 FROM align_support s JOIN align_pairs a USING (cam_fixed, cam_moving)
-JOIN calibrated_values('align_refine_rms_m') c ON c.cam_a = s.cam_fixed AND c.cam_b = s.cam_moving
+JOIN calibrated_values('align_refine_rms_m') c ON c.cam_a = least(s.cam_fixed, s.cam_moving) AND c.cam_b = greatest(s.cam_fixed, s.cam_moving)
 WHERE a.fit IS NOT NULL
   AND rigid_rms(traj_correspond(s.traj_fixed, s.traj_moving, 0.5, a.fit.dt),
                 {'theta': a.fit.theta, 'tx': a.fit.tx, 'ty': a.fit.ty, 'scale': a.fit.scale}) < c.value;
@@ -492,7 +500,7 @@ d AS (
 )
 SELECT p.cam_a, p.cam_b, coalesce(d.sigma_d, p.sigma_pair_m) AS sigma_d_m, coalesce(d.n_pairs, 0) AS n_pairs,
        CASE WHEN d.sigma_d IS NULL THEN 'camera noise' ELSE 'matched residuals' END AS source
-FROM calib_pairs p LEFT JOIN d ON d.cam_fixed = p.cam_a AND d.cam_moving = p.cam_b;
+FROM calib_pairs p LEFT JOIN d ON least(d.cam_fixed, d.cam_moving) = p.cam_a AND greatest(d.cam_fixed, d.cam_moving) = p.cam_b;
 
 -- merge_epsilon into calibration (calibrate.sql's one table of resolved `auto` values): per
 -- camera pair, and the 'default' row trajectory_merge uses for a road user of any cameras (the
@@ -511,7 +519,7 @@ FROM (SELECT 'camera pair' AS scope, cam_a, cam_b, greatest(sqrt(2 * ln(100)) * 
      (SELECT getvariable('merge_epsilon') AS given) g;
 
 -- 4. spanning tree: widest path from every camera to the reference camera (the one with the
---    most support), composing moving -> fixed transforms (inverted when walked backwards).
+--    most support; ties: the first in the data order), composing moving -> fixed transforms (inverted when walked backwards).
 --    Clocks: each edge src -> dst carries t_src = (1 + D) t_dst + O on the cameras' own clocks.
 --    On the relative clocks y = (1 + D) x + O_rel (O_rel = c (1 + D), c the refit's offset), so
 --    with the origins o_m, o_f: O = O_rel + o_m - (1 + D) o_f (O = c + o_m - o_f when D = 0).
@@ -538,23 +546,26 @@ FROM align_pairs p JOIN align_clock c USING (cam_fixed, cam_moving);
 CREATE OR REPLACE TEMP TABLE align_frames AS
 WITH RECURSIVE
 ref AS (
-    SELECT src AS camera FROM align_edges GROUP BY src ORDER BY sum(support) DESC, src LIMIT 1
+    SELECT e.src AS camera FROM align_edges e JOIN calib_camera_order o ON o.camera = e.src
+    GROUP BY e.src ORDER BY sum(e.support) DESC, any_value(o.data_rank) LIMIT 1
 ),
-walk(camera, node, tf, dt, drift, drift_var, bottleneck, hops, visited) AS (
+-- ranks: the path's cameras in the data order (calib_camera_order), the tie-break between
+-- paths of equal bottleneck and hops (camera ids are labels)
+walk(camera, node, tf, dt, drift, drift_var, bottleneck, hops, visited, ranks) AS (
     -- start at each camera with the identity, walk edges towards the reference; clocks compose:
     -- t_cam = (1 + Dw) t_node + Ow and t_node = (1 + De) t_dst + Oe give
     -- t_cam = (1 + Dw)(1 + De) t_dst + (1 + Dw) Oe + Ow
     SELECT camera, camera, {'theta': 0.0::DOUBLE, 'tx': 0.0::DOUBLE, 'ty': 0.0::DOUBLE, 'scale': 1.0::DOUBLE}, 0.0::DOUBLE, 0.0::DOUBLE, 0.0::DOUBLE,
-           1e18::DOUBLE, 0, [camera]
-    FROM (SELECT DISTINCT camera FROM points)
+           1e18::DOUBLE, 0, [camera], [data_rank]
+    FROM (SELECT DISTINCT camera FROM points) LEFT JOIN calib_camera_order USING (camera)
     UNION ALL
     SELECT w.camera, e.dst, transform_compose(e.tf, w.tf),
            CASE WHEN w.drift = 0 THEN w.dt + e.dt ELSE (1 + w.drift) * e.dt + w.dt END,
            CASE WHEN w.drift = 0 AND e.drift = 0 THEN 0.0 ELSE w.drift + e.drift + w.drift * e.drift END,
            w.drift_var + e.drift_se ** 2,
            least(w.bottleneck, e.support), w.hops + 1,
-           list_append(w.visited, e.dst)
-    FROM walk w JOIN align_edges e ON e.src = w.node
+           list_append(w.visited, e.dst), list_append(w.ranks, o.data_rank)
+    FROM walk w JOIN align_edges e ON e.src = w.node JOIN calib_camera_order o ON o.camera = e.dst
     WHERE NOT list_contains(w.visited, e.dst) AND w.node <> (SELECT camera FROM ref)
 )
 SELECT w.camera, (SELECT camera FROM ref) AS reference, w.tf AS to_reference, w.dt AS clock_offset_s,
@@ -562,7 +573,7 @@ SELECT w.camera, (SELECT camera FROM ref) AS reference, w.tf AS to_reference, w.
        CASE WHEN w.hops = 0 THEN NULL ELSE w.bottleneck END AS bottleneck_support
 FROM walk w
 WHERE w.node = (SELECT camera FROM ref)
-QUALIFY row_number() OVER (PARTITION BY w.camera ORDER BY w.bottleneck DESC, w.hops) = 1;
+QUALIFY row_number() OVER (PARTITION BY w.camera ORDER BY w.bottleneck DESC, w.hops, w.ranks) = 1;
 
 -- What was measured and chosen (calibration.csv and the report): per camera, per camera pair,
 -- and the pipeline-wide values (`given` when --param / SET VARIABLE set them).

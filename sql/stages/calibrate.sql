@@ -1,6 +1,6 @@
 -- stage: calibrate
 -- reads: points
--- makes: calib_cameras, calib_classes, calib_fit_window, calib_pairs, calibration, calibrated(),
+-- makes: calib_camera_order, calib_cameras, calib_classes, calib_fit_window, calib_pairs, calibration, calibrated(),
 --        calibrated_values()
 -- work: -
 -- changes: -
@@ -63,6 +63,20 @@
 --    within-camera break links (quality.sql) extrapolate least-squares lines fitted over
 --    calib_fit_window.fit_window_s with the camera's sigma_m, allow the class's accel_p95 during the
 --    gap, and compare a link with an unrelated start by the measured density of starts.
+
+-- Camera ids are labels: every choice the stages make between cameras (which camera of a pair
+-- is fitted onto which, the reference camera, the spanning tree's ties, the merge order, the
+-- cluster camera, road-user numbering) goes by this order, which the cameras' DATA gives, so
+-- renumbering the cameras ((camera + 1) % 3, text ids) changes nothing but the labels
+-- (tests/test_invariance_python.py). The key: more real points first, then more tracks, then
+-- the longer total track time (ms; a clock shift or a moved frame leaves all three unchanged).
+-- The camera id decides only between cameras equal in all three (in practice a camera and its
+-- exact copy, which the load has already dropped: sql/pipeline.sql, load_twins).
+CREATE OR REPLACE TEMP TABLE calib_camera_order AS
+SELECT camera, row_number() OVER (ORDER BY n_points DESC, n_tracks DESC, total_ms DESC, camera) AS data_rank, n_points, n_tracks, total_ms
+FROM (SELECT camera, sum(n)::BIGINT AS n_points, count(*) AS n_tracks, sum(round((t1 - t0) * 1000))::BIGINT AS total_ms
+      FROM (SELECT camera, track_id, count(*) AS n, min(t) AS t0, max(t) AS t1 FROM points WHERE estimated = 0 GROUP BY camera, track_id)
+      GROUP BY camera);
 
 CREATE OR REPLACE TEMP TABLE calib_cameras AS
 WITH d AS (
@@ -142,8 +156,8 @@ FROM (
          '1.5 x the longest sampling period'),
         ('merge_min_points', greatest(3, ceil((SELECT max(period_s) FROM calib_cameras) / nullif(getvariable('merge_resample_s'), 0)) + 1),
          getvariable('merge_min_points')::DOUBLE, '2 real samples of the slowest camera on the common clock, at least 3'),
-        ('cluster_camera', (SELECT camera FROM points WHERE estimated = 0 GROUP BY camera ORDER BY count(DISTINCT track_id) DESC, camera LIMIT 1),
-         getvariable('cluster_camera')::DOUBLE, 'the camera with the most real tracks (ties: the lowest id)')
+        ('cluster_camera', (SELECT camera FROM calib_camera_order ORDER BY n_tracks DESC, data_rank LIMIT 1),
+         getvariable('cluster_camera')::DOUBLE, 'the camera with the most real tracks (ties: the first in calib_camera_order, by data)')
     ) t(parameter, measured, given, rule)
     UNION ALL
     SELECT 'align_max_rms_m', 'camera pair', cam_a, cam_b, NULL, 0.1 + 3 * sigma_pair_m, getvariable('align_max_rms_m'), '0.1 + 3 sigma_pair'

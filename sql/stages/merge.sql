@@ -1,5 +1,5 @@
 -- stage: merge
--- reads: points, load_ids, calib_cameras, calibrated(), calibrated_values(), quality_endpoints, quality_links,
+-- reads: points, load_ids, calib_camera_order, calib_cameras, calibrated(), calibrated_values(), quality_endpoints, quality_links,
 --        quality_reach_links, align_frames, align_origin, calib_match, view_overlaps, view_merge_order
 -- makes: merge_tracks, merge_scores, merge_links, merge_groups, merged, merge_chains, merge_road_users(),
 --        result_matches(), result_road_users(), result_links()
@@ -76,7 +76,9 @@
 -- lost. It has no view overlap, so none of its tracks is scored against another camera's.
 CREATE OR REPLACE TEMP TABLE merge_tracks AS
 -- uid: one BIGINT per (camera, track_id), dense, so any camera and track id fits
-SELECT p.camera, p.track_id, p.class, dense_rank() OVER (ORDER BY p.camera, p.track_id) AS uid,
+-- (numbered in the cameras' data order, calib_camera_order: camera ids are labels, and the uid
+-- breaks ties between equal scores below)
+SELECT p.camera, p.track_id, p.class, dense_rank() OVER (ORDER BY any_value(r.data_rank), p.camera, p.track_id) AS uid,
        CASE WHEN getvariable('merge_resample_s') > 0
             THEN [{'t': q.t + o.clock_origin, 'x': q.x, 'y': q.y}
                   FOR q IN traj_resample(transform_apply(list({'t': p.t - o.clock_origin, 'x': p.x, 'y': p.y} ORDER BY p.t), any_value(f.to_reference)),
@@ -85,6 +87,7 @@ SELECT p.camera, p.track_id, p.class, dense_rank() OVER (ORDER BY p.camera, p.tr
        min(p.t) AS t0, max(p.t) AS t1
 FROM points p
 CROSS JOIN align_origin o
+LEFT JOIN calib_camera_order r USING (camera)
 JOIN (SELECT c.camera, coalesce(a.to_reference, {'theta': 0.0::DOUBLE, 'tx': 0.0::DOUBLE, 'ty': 0.0::DOUBLE, 'scale': 1.0::DOUBLE}) AS to_reference
       FROM (SELECT DISTINCT camera FROM points) c LEFT JOIN align_frames a USING (camera)) f USING (camera)
 WHERE p.estimated = 0

@@ -1,5 +1,5 @@
 -- stage: overlap
--- reads: points, calib_cameras, align_frames
+-- reads: points, calib_camera_order, calib_cameras, align_frames
 -- makes: view_polygons, view_overlaps, view_merge_order, view_overlaps_chain
 -- work: view_points
 -- changes: -
@@ -26,7 +26,8 @@
 --   noise correction: the hull of noisy points overshoots the true view edge, so each P^k is
 --   shrunk by overlap_shrink_sigmas x the camera's position noise, measured from its own tracks
 --   (calib_cameras.sigma_m, sql/stages/calibrate.sql; 0 switches the correction off);
---   merge order: ascending camera id (the table view_merge_order can be replaced).
+--   merge order: the cameras' data order (calib_camera_order: camera ids are labels; the table
+--   view_merge_order can be replaced).
 -- Parameters (overlap_*): declared once in src/app/params.rs, defaults in sql/params.sql;
 -- `trajdb params` lists them, `trajdb pipeline --param name=value` or SET VARIABLE sets them.
 
@@ -62,8 +63,8 @@ FROM view_polygons a JOIN view_polygons b ON a.class = b.class AND a.camera < b.
 
 -- The merge order Ω (thesis Alg. 3/4): position -> camera. Replace to merge in another order.
 CREATE OR REPLACE TEMP TABLE view_merge_order AS
-SELECT row_number() OVER (ORDER BY camera) AS position, camera
-FROM (SELECT DISTINCT camera FROM view_polygons);
+SELECT row_number() OVER (ORDER BY o.data_rank, v.camera) AS position, v.camera
+FROM (SELECT DISTINCT camera FROM view_polygons) v LEFT JOIN calib_camera_order o USING (camera);
 
 CREATE OR REPLACE TEMP TABLE view_overlaps_chain AS
 SELECT *, polygon_area(polygon) AS area_m2 FROM (

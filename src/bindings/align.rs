@@ -288,6 +288,27 @@ pub static FUNCTIONS: &[Function] = &[
         table: None,
     },
     Function {
+        name: "camera_twin",
+        description: "Is one camera the other exported twice (under another id)? From counts the caller's join makes: points_a and points_b, each \
+                      camera's points that fill a 0.1 mm cell of its own frame alone, and shared, the most of them that fall in the same cell as \
+                      a point of the other camera at ONE time difference (0 for a plain copy, a constant for a copy with a shifted clock). share = \
+                      shared / min(points_a, points_b); twin when share >= min_share (default 0.5: real camera pairs measure 0, a copy 1); copy = \
+                      the camera to drop: 1 (a) or 2 (b), the one with fewer points (b on a tie); 0 when not a twin. sql/pipeline.sql drops the \
+                      copy's points after the load and warns, naming both cameras. Detects identical, subset and clock-shifted copies; not a \
+                      copy whose frame was moved or with noise added. Errors: min_share outside (0, 1], a negative count, shared larger than \
+                      the smaller count. O(1).",
+        example: "SELECT camera_twin(1000, 1000, 1000); -- {'share': 1.0, 'twin': true, 'copy': 2}",
+        maths: "crates/algo/src/align/twin.rs",
+        binding: file!(),
+        signatures: &[Signature {
+            params: &[p("points_a", Ty::Bigint), p("points_b", Ty::Bigint), p("shared", Ty::Bigint), p("min_share", Ty::Double)],
+            arities: &[3, 4],
+            returns: Ty::Struct(&[("share", Ty::Double), ("twin", Ty::Boolean), ("copy", Ty::Bigint)]),
+            kernel: camera_twin_fn,
+        }],
+        table: None,
+    },
+    Function {
         name: "speed_lag",
         description: "The clock offset of one track pair from their speed profiles alone (speed does not depend on either camera's frame): \
                       for every lag on the grid centre + k step, |k step| <= half_width, the Pearson correlation of a's speed (central \
@@ -566,6 +587,26 @@ fn rigid_shift_under(a: &Args<'_>, out: &mut Out<'_>) -> R {
         let grid = ShiftGrid::new(c, h, s)?;
         Ok(shift_under::best_shift_under(f, m, &t, &grid, g, mp as usize)?
             .map(|b| vec![Value::F64(b.dt), Value::F64(b.rms), Value::I64(b.n as i64), Value::F64(b.se), Value::Bool(b.at_edge)]))
+    })?;
+    out.structs(&vals);
+    Ok(())
+}
+
+fn camera_twin_fn(a: &Args<'_>, out: &mut Out<'_>) -> R {
+    use crate::algo::align::twin::{self, Side};
+    let (na, nb, sh, ms) = (a.bigint(0), a.bigint(1), a.bigint(2), a.opt_double(3));
+    let vals = a.map(|r| {
+        let (Some(na), Some(nb), Some(sh), Some(ms)) = (na.get(r), nb.get(r), sh.get(r), ms.or(r, twin::DEFAULT_MIN_SHARE)) else {
+            return Ok(None);
+        };
+        let count = |name: &str, v: i64| u64::try_from(v).map_err(|_| format!("{name} must be >= 0 (a count of points), got {v}"));
+        let v = twin::camera_twin(count("points_a", na)?, count("points_b", nb)?, count("shared", sh)?, ms)?;
+        let copy = match v.copy {
+            None => 0,
+            Some(Side::A) => 1,
+            Some(Side::B) => 2,
+        };
+        Ok(Some(vec![Value::F64(v.share), Value::Bool(v.twin), Value::I64(copy)]))
     })?;
     out.structs(&vals);
     Ok(())

@@ -9,6 +9,7 @@
 //! | [`xcorr`] | `activity_lag` | the coarse clock offset of two cameras over every lag: cross-correlation of their activity (FFT, [`fft`]) |
 //! | [`shift_under`] | `rigid_shift_under` | the clock offset of one track pair under a known transform (align.sql's drift measurement) |
 //! | [`speed_lag`] | `speed_lag` | the clock offset of one track pair from their speed profiles (frame-free): align.sql's second coarse offset where the activity peak was too far off |
+//! | [`twin`] | `camera_twin` | is one camera the other exported twice (the load's twin check, sql/pipeline.sql) |
 //! | [`cpd`] | `cpd_align` (2-D) | rigid TimeCPD, thesis eq. 2.7/2.8, Alg. 5–8, sparse time-windowed E-step |
 //! | [`cpd3`] | `cpd_align` (3-D) | the same model in 3-D (rotation by SVD) |
 
@@ -23,4 +24,5 @@ pub mod rigid;
 pub mod shift;
 pub mod shift_under;
 pub mod speed_lag;
+pub mod twin;
 pub mod xcorr;

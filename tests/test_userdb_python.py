@@ -232,7 +232,7 @@ def check_unit_check(tmp):
     for stage, file, sql, _ in trajdb.stages(con, "scene_plus"):
         if stage == "warnings":
             con.execute(sql)
-    msg = [m for (m,) in con.execute("SELECT message FROM pipeline_warnings WHERE k = 7").fetchall()]
+    msg = [m for (m,) in con.execute("SELECT message FROM pipeline_warnings WHERE k = 8").fetchall()]
     assert len(msg) == 1 and "3 tracks" in msg[0] and "camera 0 track 900002 (1080000 points over 30.0 h" in msg[0], msg
     # a real scene alone: nothing flagged
     load_only(con, "scene")

@@ -56,7 +56,7 @@ impl fmt::Display for EventError {
                 f,
                 "more than {cap} (end, start) pairs of these tracks are near each other (each is an event row of {PAIR_BYTES} bytes), \
                  above the limit {limit} = {value}: the tracks crowd together in time and space; reduce max_gap or max_dist, pass fewer \
-                 tracks per call (one camera and class), or raise it with SELECT trajdb_limit('{limit}', {})",
+                 tracks per call (one camera and class), or raise it with CALL trajdb_set_limit('{limit}', {})",
                 value.saturating_mul(4)
             ),
             EventError::Work(e) => e.fmt(f),
@@ -736,7 +736,7 @@ mod tests {
         let e = events_capped(&tracks, None, &p, 1000, &limits::OUTPUT_POINTS).unwrap_err();
         assert_eq!(e, EventError::TooManyPairs { cap: 1000, limit: "output_points", value: limits::OUTPUT_POINTS.get() });
         let msg = e.to_string();
-        assert!(msg.starts_with("more than 1000 (end, start) pairs") && msg.contains("reduce max_gap or max_dist") && msg.contains("trajdb_limit('output_points'"), "{msg}");
+        assert!(msg.starts_with("more than 1000 (end, start) pairs") && msg.contains("reduce max_gap or max_dist") && msg.contains("trajdb_set_limit('output_points'"), "{msg}");
         // 400 x 399 pairs fit the default cap
         assert_eq!(events(&tracks, None, &p).unwrap().len(), 400 * 399 * 2);
         // the cap from the limits: the smaller of the rows and the bytes
@@ -788,7 +788,7 @@ mod tests {
         let e = labels(&tracks, &ev, &LabelParams::default()).unwrap_err();
         let needed = (k * (k - 1) / 2) as u128;
         assert_eq!(e, EventError::Work(limits::LABEL_PAIRS.check(needed).unwrap_err()));
-        assert!(e.to_string().contains("raise it with SELECT trajdb_limit('label_pairs', 1249975000)"), "{e}");
+        assert!(e.to_string().contains("raise it with CALL trajdb_set_limit('label_pairs', 1249975000)"), "{e}");
     }
 
     #[test]

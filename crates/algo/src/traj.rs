@@ -251,7 +251,7 @@ impl TrajError {
             TrajError::TooManyPoints(n) => {
                 let l = &crate::limits::OUTPUT_POINTS;
                 format!(
-                    "would produce {n:.0} points, above the work limit {} = {}; use a longer period, or raise it with SELECT trajdb_limit('{}', {n:.0})",
+                    "would produce {n:.0} points, above the work limit {} = {}; use a longer period, or raise it with CALL trajdb_set_limit('{}', {n:.0})",
                     l.name,
                     l.get(),
                     l.name

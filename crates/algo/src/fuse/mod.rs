@@ -174,7 +174,7 @@ impl FuseError {
             FuseError::TooManyPoints(n) => {
                 let l = &limits::OUTPUT_POINTS;
                 format!(
-                    "would produce {n:.0} points, above the work limit {} = {}; use a longer period, or raise it with SELECT trajdb_limit('{}', {n:.0})",
+                    "would produce {n:.0} points, above the work limit {} = {}; use a longer period, or raise it with CALL trajdb_set_limit('{}', {n:.0})",
                     l.name,
                     l.get(),
                     l.name
@@ -184,7 +184,7 @@ impl FuseError {
                 let l = &limits::MEMORY_BYTES;
                 format!(
                     "needs {bytes} bytes of filter state, above the work limit {} = {} or more than could be allocated; fuse fewer observations \
-                     per call (one road user at a time), or raise it with SELECT trajdb_limit('{}', {bytes})",
+                     per call (one road user at a time), or raise it with CALL trajdb_set_limit('{}', {bytes})",
                     l.name,
                     l.get(),
                     l.name

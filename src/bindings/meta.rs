@@ -66,8 +66,8 @@ const TRAJDB_SET_LIMIT: Function = Function {
          (pairs in cpd_align's time band x max_iter, default 2e10), 'output_points' (points one call returns, default 5e7), 'memory_bytes' \
          (working memory of one call beyond its input and output, default 4e9), 'shift_pair_fits' (point pairs one rigid_fit_shifted fits, \
          default 2e8), 'label_pairs' (child pairs traj_labels compares, default 1e9), 'assign_steps' (assign_pairs' dense solves, rows x \
-         columns x min of each component, default 2e11), 'pet_segment_pairs' (segment pairs traj_pet and the conflict functions examine, \
-         default 2e9). Refused while lock_configuration is true (or cannot be read): a locked configuration locks trajdb's limits too. \
+         columns x min of each component, default 2e11), 'pet_segment_pairs' (segment pairs one traj_pet examines; traj_conflicts and traj_conflicts_top: per pair of road users, \
+         default 5e7). Refused while lock_configuration is true (or cannot be read): a locked configuration locks trajdb's limits too. \
          DuckDB's C API lets no extension see Ctrl-C inside a call: the limits keep every call short instead. Whatever a limit says, an \
          allocation that does not fit is an error, never an abort."
     ),

@@ -284,7 +284,7 @@ fn events_capped(tracks: &[Endpoints], interior: Option<&Region>, p: &EventParam
     }
     let inside = |x: f64, y: f64| interior.is_none_or(|r| r.contains(x, y));
     let mut starts: Vec<usize> = (0..tracks.len()).filter(|&k| inside(tracks[k].x0, tracks[k].y0)).collect();
-    starts.sort_by(|&a, &b| tracks[a].t0.total_cmp(&tracks[b].t0).then(tracks[a].id.cmp(&tracks[b].id)));
+    starts.sort_unstable_by(|&a, &b| tracks[a].t0.total_cmp(&tracks[b].t0).then(tracks[a].id.cmp(&tracks[b].id)));  // ids are distinct: a total order, no merge buffer
     let start_t: Vec<f64> = starts.iter().map(|&k| tracks[k].t0).collect();
     let grid = StartGrid::new(tracks, &starts, p.radius(p.max_gap));
     // (end index, start index, gap, dist)
@@ -312,7 +312,7 @@ fn events_capped(tracks: &[Endpoints], interior: Option<&Region>, p: &EventParam
     // the ends in time order, so that the time window of the starts only moves forward (two
     // pointers instead of two binary searches, which missed the cache on every end)
     let mut ends: Vec<usize> = (0..tracks.len()).filter(|&k| inside(tracks[k].x1, tracks[k].y1)).collect();
-    ends.sort_by(|&a, &b| tracks[a].t1.total_cmp(&tracks[b].t1).then(tracks[a].id.cmp(&tracks[b].id)));
+    ends.sort_unstable_by(|&a, &b| tracks[a].t1.total_cmp(&tracks[b].t1).then(tracks[a].id.cmp(&tracks[b].id)));  // ids are distinct: a total order, no merge buffer
     let (mut lo, mut hi) = (0usize, 0usize);
     for &ka in &ends {
         let a = &tracks[ka];
@@ -373,7 +373,10 @@ fn events_capped(tracks: &[Endpoints], interior: Option<&Region>, p: &EventParam
             }
         }
     }
-    out.sort_by(|p, q| p.from.cmp(&q.from).then(p.to.cmp(&q.to)).then((p.kind as u8).cmp(&(q.kind as u8))));
+    // (from, to, kind) is unique (one near pair per (end, start), each kind once): the in-place
+    // unstable sort gives the one order there is and allocates nothing (sort_by's merge buffer
+    // of half the rows was an infallible allocation: the abort of issue 37)
+    out.sort_unstable_by(|p, q| p.from.cmp(&q.from).then(p.to.cmp(&q.to)).then((p.kind as u8).cmp(&(q.kind as u8))));
     Ok(out)
 }
 
@@ -692,7 +695,10 @@ mod tests {
                 }
             }
         }
-        out.sort_by(|p, q| p.from.cmp(&q.from).then(p.to.cmp(&q.to)).then((p.kind as u8).cmp(&(q.kind as u8))));
+        // (from, to, kind) is unique (one near pair per (end, start), each kind once): the in-place
+    // unstable sort gives the one order there is and allocates nothing (sort_by's merge buffer
+    // of half the rows was an infallible allocation: the abort of issue 37)
+    out.sort_unstable_by(|p, q| p.from.cmp(&q.from).then(p.to.cmp(&q.to)).then((p.kind as u8).cmp(&(q.kind as u8))));
         out
     }
 

@@ -33,7 +33,7 @@
 //! | `shift_pair_fits` | point pairs one `rigid_fit_shifted` fits: shifts × points of all track pairs, summed over its grid passes (checked before each) | 2e8 |
 //! | `label_pairs` | child pairs `traj_labels` compares (eq. 5: k(k−1)/2 for a split or merge into k tracks, summed) | 1e9 |
 //! | `assign_steps` | `assign_pairs`' dense solves: rows × columns × min(rows, columns) of each connected component, summed (the O(k³) bound of the shortest-augmenting-path solver) | 2e11 |
-//! | `pet_segment_pairs` | segment pairs `traj_pet` (and each pair of `traj_conflicts`) examines in its sweep, counted as it goes | 2e9 |
+//! | `pet_segment_pairs` | segment pairs one `traj_pet` examines in its sweep (`traj_conflicts`, `traj_conflicts_top`: per pair of road users), counted as it goes | 5e7 |
 
 use std::cell::RefCell;
 use std::fmt;
@@ -55,7 +55,7 @@ pub static MEMORY_BYTES: Limit = Limit::new("memory_bytes", "bytes of working me
 pub static SHIFT_PAIR_FITS: Limit = Limit::new("shift_pair_fits", "point-pair fits (shifts x points)", 200_000_000);
 pub static LABEL_PAIRS: Limit = Limit::new("label_pairs", "child pairs compared", 1_000_000_000);
 pub static ASSIGN_STEPS: Limit = Limit::new("assign_steps", "dense assignment steps (rows x columns x min(rows, columns), summed over components)", 200_000_000_000);
-pub static PET_SEGMENT_PAIRS: Limit = Limit::new("pet_segment_pairs", "segment pairs examined", 2_000_000_000);
+pub static PET_SEGMENT_PAIRS: Limit = Limit::new("pet_segment_pairs", "segment pairs examined", 50_000_000);
 
 /// Every limit, in the order of the table above.
 pub static ALL: [&Limit; 8] = [&LCSS_CELLS, &CPD_PAIR_VISITS, &OUTPUT_POINTS, &MEMORY_BYTES, &SHIFT_PAIR_FITS, &LABEL_PAIRS, &ASSIGN_STEPS, &PET_SEGMENT_PAIRS];

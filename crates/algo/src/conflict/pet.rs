@@ -31,10 +31,11 @@
 //! K (or K_t) is known only as the sweep proceeds: two long paths standing and jittering in one
 //! place, or zigzagging over each other, overlap everywhere (K = n m). Each sweep counts the
 //! segment pairs it examines (K, K_t, before the box and time prefilters) and stops with the
-//! `pet_segment_pairs` error ([`crate::limits::PET_SEGMENT_PAIRS`], default 2e9: a few seconds)
+//! `pet_segment_pairs` error ([`crate::limits::PET_SEGMENT_PAIRS`], default 5e7: about a second)
 //! once the count passes it, so that one call is bounded whatever the input (DuckDB's C API
 //! gives a scalar function no way to see an interrupt inside a call: its work limit is what
-//! bounds it). [`super::conflicts`] gives each pair its own count. The segment and event lists
+//! bounds it). [`super::conflicts`] and `conflicts_top` give each pair of road users its own
+//! count (a day holds 10^5 candidate pairs, themselves bounded by `memory_bytes`). The segment and event lists
 //! are fallible allocations (the `memory_bytes` error, never an abort).
 
 use super::candidates::alloc_error;
@@ -87,24 +88,48 @@ fn segments(tr: Traj<'_>, sweep_x: bool) -> Vec<Seg> {
     segments_of(tr, sweep_x, window(tr, f64::NEG_INFINITY, f64::INFINITY)).unwrap()
 }
 
-/// The work counter of one sweep: segment pairs examined, against the limit read once by the
-/// caller (in its own thread: the limits' scope is per thread).
-struct Work {
-    done: u64,
+/// The work budget of one search: segment pairs examined (shareable across threads), against the `pet_segment_pairs` limit read once by the caller (in its own thread: the limits'
+/// scope is per thread).
+pub(crate) struct Budget {
+    done: std::sync::atomic::AtomicU64,
     limit: u64,
 }
 
-impl Work {
-    fn new(limit: u64) -> Work {
-        Work { done: 0, limit }
+impl Budget {
+    /// The budget of the current scope's `pet_segment_pairs`.
+    pub(crate) fn from_limit() -> Budget {
+        Budget::new(PET_SEGMENT_PAIRS.get())
     }
-    /// Counts `n` more pairs; the `pet_segment_pairs` error once past the limit.
+    pub(crate) fn new(limit: u64) -> Budget {
+        Budget { done: std::sync::atomic::AtomicU64::new(0), limit }
+    }
+}
+
+/// One sweep's count, added to its [`Budget`] every 2^16 pairs and at the end.
+struct Work<'b> {
+    local: u64,
+    budget: &'b Budget,
+}
+
+impl Work<'_> {
+    fn new(budget: &Budget) -> Work<'_> {
+        Work { local: 0, budget }
+    }
+    /// Counts `n` more pairs; the `pet_segment_pairs` error once the call is past the limit.
     #[inline]
     fn add(&mut self, n: usize) -> Result<(), ConflictError> {
-        self.done = self.done.saturating_add(n as u64);
-        if self.done > self.limit {
-            // the count so far: the whole sweep would need at least this many
-            return Err(ConflictError::Work(Exceeded { name: PET_SEGMENT_PAIRS.name, counts: PET_SEGMENT_PAIRS.counts, needed: self.done as u128, limit: self.limit }));
+        self.local = self.local.saturating_add(n as u64);
+        if self.local >= 1 << 16 {
+            self.flush()?;
+        }
+        Ok(())
+    }
+    fn flush(&mut self) -> Result<(), ConflictError> {
+        let done = self.budget.done.fetch_add(self.local, std::sync::atomic::Ordering::Relaxed).saturating_add(self.local);
+        self.local = 0;
+        if done > self.budget.limit {
+            // the count so far: the whole search would need at least this many
+            return Err(ConflictError::Work(Exceeded { name: PET_SEGMENT_PAIRS.name, counts: PET_SEGMENT_PAIRS.counts, needed: done as u128, limit: self.budget.limit }));
         }
         Ok(())
     }
@@ -204,17 +229,23 @@ fn cross(a: &Seg, b: &Seg) -> Option<Pet> {
 pub fn pet(a: Traj<'_>, b: Traj<'_>, max_pet: f64) -> Result<Option<Pet>, ConflictError> {
     validate(a, b)?;
     let max_pet = positive_or_inf("max_pet", max_pet)?;
-    pet_checked(a, b, max_pet, PET_SEGMENT_PAIRS.get())
+    pet_checked(a, b, max_pet, &Budget::from_limit())
 }
 
 /// [`pet`] of trajectories already validated, `max_pet` already checked (> 0), examining at
-/// most `max_pairs` segment pairs (the `pet_segment_pairs` limit, read by the caller in its own
-/// thread): what [`super::conflicts`] calls per pair after validating each path once.
-pub(crate) fn pet_checked(a: Traj<'_>, b: Traj<'_>, max_pet: f64, max_pairs: u64) -> Result<Option<Pet>, ConflictError> {
+/// most what is left of `budget` (the call's `pet_segment_pairs`, shared by all its pairs): what
+/// [`super::conflicts`] calls per pair after validating each path once.
+pub(crate) fn pet_checked(a: Traj<'_>, b: Traj<'_>, max_pet: f64, budget: &Budget) -> Result<Option<Pet>, ConflictError> {
+    let mut work = Work::new(budget);
+    let found = sweep(a, b, max_pet, &mut work)?;
+    work.flush()?;
+    Ok(found)
+}
+
+fn sweep(a: Traj<'_>, b: Traj<'_>, max_pet: f64, work: &mut Work<'_>) -> Result<Option<Pet>, ConflictError> {
     if a.len() < 2 || b.len() < 2 {
         return Ok(None);
     }
-    let mut work = Work::new(max_pairs);
     // only segments within max_pet of the other path's time span can hold a crossing with
     // PET <= max_pet (t_a < b.t_0 - max_pet <= t_b - max_pet otherwise): the rest are never read
     let (ta, tb) = ((a.t[0], a.t[a.len() - 1]), (b.t[0], b.t[b.len() - 1]));
@@ -239,7 +270,7 @@ pub(crate) fn pet_checked(a: Traj<'_>, b: Traj<'_>, max_pet: f64, max_pairs: u64
     let t_lo = a.t[wa.start - 1].min(b.t[wb.start - 1]);
     let t_hi = a.t[wa.end - 1].max(b.t[wb.end - 1]);
     if max_pet.is_finite() && t_hi - t_lo > 4.0 * max_pet {
-        return time_sweep([a, b], [wa, wb], max_pet, reach, &mut work);
+        return time_sweep([a, b], [wa, wb], max_pet, reach, work);
     }
     // sweep along the axis on which the two windows' points spread more (fewer overlapping
     // intervals; either axis finds the same crossing, `better` being a total order)
@@ -316,7 +347,7 @@ fn better(c: &Pet, best: &Option<Pet>) -> bool {
 /// order too), so nothing is sorted or allocated: O(n' + m' + K_t), K_t the segment pairs within
 /// max_pet in time. The same crossings are compared as by the space sweep, so the same one is
 /// returned (ties: the earlier first passage).
-fn time_sweep(tr: [Traj<'_>; 2], ks: [std::ops::Range<usize>; 2], max_pet: f64, reach: f64, work: &mut Work) -> Result<Option<Pet>, ConflictError> {
+fn time_sweep(tr: [Traj<'_>; 2], ks: [std::ops::Range<usize>; 2], max_pet: f64, reach: f64, work: &mut Work<'_>) -> Result<Option<Pet>, ConflictError> {
     let mut best: Option<Pet> = None;
     let (mut next, mut lo) = ([ks[0].start, ks[1].start], [ks[0].start, ks[1].start]);
     while next[0] < ks[0].end || next[1] < ks[1].end {
@@ -386,7 +417,7 @@ mod tests {
             assert!(e.describe().contains("segment pairs examined, above the work limit pet_segment_pairs = 100000; raise it with CALL trajdb_set_limit('pet_segment_pairs'"), "{e}");
         }
         // within the default: the same paths give their crossing, as with no limit at all
-        let full = pet_checked(a.view(), b.view(), f64::INFINITY, u64::MAX).unwrap();
+        let full = pet_checked(a.view(), b.view(), f64::INFINITY, &Budget::new(u64::MAX)).unwrap();
         assert!(full.is_some());
         assert_eq!(pet(a.view(), b.view(), f64::INFINITY).unwrap(), full);
         // a path crossing another once costs far below the limit

@@ -71,8 +71,8 @@ pub fn top_conflicts(ids: &[i64], trajs: &[Traj<'_>], k: i64, max_pet: f64, radi
     let last = max_pet.min(whole);
     let mut g = if max_pet.is_finite() { max_pet / 16.0 } else { 1.0f64.min(last) };
     let mut rounds = 0;
-    // PET's work limit per pair, read in this thread (the limits' scope), carried as a value
-    let max_pairs = crate::limits::PET_SEGMENT_PAIRS.get();
+    // PET's work limit per pair of road users, read in this thread (the limits' scope)
+    let limit = crate::limits::PET_SEGMENT_PAIRS.get();
     let mut found = loop {
         rounds += 1;
         let cand = ordered_candidates(ids, trajs, 0.0, 0.0, g / 2.0)?;
@@ -81,7 +81,7 @@ pub fn top_conflicts(ids: &[i64], trajs: &[Traj<'_>], k: i64, max_pet: f64, radi
         let bound = Bound::new(k, g);
         let found: Vec<(usize, usize, super::Pet)> = cand
             .par_iter()
-            .filter_map(|&(a, b)| match pet_checked(trajs[a], trajs[b], bound.get(), max_pairs) {
+            .filter_map(|&(a, b)| match pet_checked(trajs[a], trajs[b], bound.get(), &super::pet::Budget::new(limit)) {
                 Ok(Some(p)) => {
                     bound.offer(p.pet);
                     Some(Ok((a, b, p)))

@@ -47,6 +47,15 @@ CREATE TABLE texts AS SELECT string_agg('x', '') AS v FROM range({N});
 CREATE TABLE polys AS SELECT list(CASE WHEN i % 2 = 0 THEN 'POLYGON ((0 0, 10 0, 10 10, 0 10, 0 0))' ELSE 'POLYGON ((0 0, ' || i || ' 0, ' || i || ' 1, 0 1, 0 0))' END) AS v FROM range(200000) r(i);
 """
 STRUCT_TABLES = {}
+# reproducers of the issue, besides the generic inputs: close endpoints whose 2e7 near pairs fit
+# but whose event rows did not (traj_events aborted the host on 64,000 such endpoints under a 4 GB
+# cap: "memory allocation of 1096319880 bytes failed")
+CLOSE_ENDS = ("(SELECT list({'id': i, 't0': (i % 2) * 1.0 + (i % 1000) * 0.0001, 'x0': (i % 10) * 0.01, 'y0': 0.0, 't1': (i % 2) * 1.0 + 0.5 + (i % 1000) * 0.0001, "
+              "'x1': (i % 7) * 0.01, 'y1': 0.0, 'vx1': 0.0, 'vy1': 0.0}) FROM range(9000) r(i))")
+EXTRA = {
+    "traj_events": [f"SELECT (traj_events({CLOSE_ENDS}, 10.0, 10.0)) IS NULL"],
+    "traj_resample": ["SELECT (traj_resample([{'t': 0, 'x': 0, 'y': 0}, {'t': 1e6, 'x': 1, 'y': 0}], 1e-6)) IS NULL"],
+}
 
 def polygon_wkt(n):
     import math
@@ -217,6 +226,7 @@ def rlimit_cases(ext, con, scratch):
                 args = [f"{a}::{t}" for a, t in zip(args, types)]
                 sql = f"SELECT ({fn}({', '.join(args)})) IS NULL"
                 calls += [("default", sql)]
+        calls += [("default", q) for q in EXTRA.get(fn, [])]
         # the lifted run of each scalar call after its default runs
         calls += [("lifted", s) for m, s in list(calls) if m == "default" and not s.startswith("FROM")]
         if not calls:

@@ -58,7 +58,7 @@ def case_rigid(ext):
     out = [("rigid_fit_shifted 20k points x 20,001 shifts", s, e or f"dt {r[0][0]['dt']:.4f}")]
     if e and "shift_pair_fits" in e:
         # the same work with the limit raised: how long the refused call would have taken
-        con.execute("SELECT trajdb_limit('shift_pair_fits', 1000000000)")
+        con.execute("CALL trajdb_set_limit('shift_pair_fits', 1000000000)")
         s, r, e = timed(con, q)
         out.append(("rigid_fit_shifted 20k x 20,001, shift_pair_fits raised to 1e9", s, e or f"dt {r[0][0]['dt']:.4f}"))
     return out

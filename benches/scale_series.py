@@ -78,7 +78,7 @@ def simulate(out, minutes, traffic, seed):
     import trajdb
 
     con = trajdb.connect()
-    con.execute("SELECT trajdb_limit('memory_bytes', 20000000000)").fetchall()
+    con.execute("CALL trajdb_set_limit('memory_bytes', 20000000000)").fetchall()
     if minutes <= 1440:
         trajdb.simulate(con, out, cameras=3, minutes=float(minutes), traffic=float(traffic), rate_hz=5.0, seed=seed, world_rate_hz=0.0)
     else:

@@ -7,7 +7,8 @@
 #      fuzz cases generated for step 4 (tests/fuzz.rs writes them; no DuckDB in any test binary)
 #   2. the loadable extension: build, footer; docs/functions.md is what trajdb_reference() says
 #   3. in DuckDB 2.0 (PyPI): tests/sql/*.slt, the fuzz cases, robustness (concurrency, interrupt,
-#      work limits), safety (results folder, injection, sandbox, parameters), table functions in
+#      work limits), every function under RLIMIT_AS and every long kernel under an interrupt
+#      (tests/test_rlimit_python.py), safety (results folder, injection, sandbox, parameters), table functions in
 #      a child process, invariance (frames, clocks, ids, row order), crowds, the scorer, the
 #      README's examples, each stage alone (tests/test_stages_python.py) and its contract
 #      header (tests/check_stage_contracts.py), the `trajdb` command (tests/test_cli_python.py),
@@ -57,6 +58,7 @@ PY="$VENV/bin/python"
 "$PY" tests/run_slt_python.py "$EXT"
 "$PY" tests/run_fuzz_python.py "$EXT" "$FUZZ_CASES"
 "$PY" tests/test_robust_python.py "$EXT"
+"$PY" tests/test_rlimit_python.py "$EXT"
 "$PY" tests/test_safety_python.py "$EXT"
 "$PY" tests/test_sandbox_python.py "$EXT"
 "$PY" tests/test_invariance_python.py "$EXT"
@@ -91,6 +93,7 @@ PY15="$SPATIAL_VENV/bin/python"
 "$PY15" tests/run_slt_python.py "$EXT"
 "$PY15" tests/run_fuzz_python.py "$EXT" "$FUZZ_CASES"
 "$PY15" tests/test_robust_python.py "$EXT"
+"$PY15" tests/test_rlimit_python.py "$EXT"
 "$PY15" tests/test_safety_python.py "$EXT"
 "$PY15" tests/test_sandbox_python.py "$EXT"
 "$PY15" tests/test_crowd_python.py "$EXT"

@@ -177,7 +177,7 @@ def main():
         f"(SELECT 1); COPY (SELECT 1) TO '{marker}' --",
         "read_text('/etc/passwd')",
         f"trajdb_simulate('{w}' || chr(47) || 'evil')",
-        "scene' ; SELECT trajdb_limit('lcss_cells', 1) --",
+        "scene' ; CALL trajdb_set_limit('lcss_cells', 1) --",
     ]:
         ok, msg = raises(lambda: trajdb.pipeline(con, evil), "neither a table")
         check(f"input {evil[:40]!r} is a (missing) file name, not SQL", ok and not os.path.exists(marker) and "root:" not in msg

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Never lose a user's file, never abort the host: the table functions and trajdb_limit through
+"""Never lose a user's file, never abort the host: the table functions and trajdb_set_limit through
 the loadable extension in PyPI DuckDB.
 
 - NULL, '' and wrong types to every table function (found in trajdb_functions()): each call, in
@@ -10,7 +10,7 @@ the loadable extension in PyPI DuckDB.
 - overwrites: a folder holding a user's file is refused and the file is untouched; a rerun
   replaces trajdb's own earlier scenario; '' and a file in place of the folder are refused;
 - limits per database: two databases in one process (two duckdb.connect()) do not see each
-  other's trajdb_limit; the cursors of one database share its limits, also in worker threads;
+  other's trajdb_set_limit; the cursors of one database share its limits, also in worker threads;
 - the caller's own file system (issue 37): `disabled_filesystems` (which DuckDB 2.0.1 reports as
   '' to an extension), with and without lock_configuration, refuses trajdb_pipeline,
   trajdb_simulate and trajdb_results_begin/end; an input the caller may not read is never read
@@ -308,7 +308,7 @@ MANY = "SELECT sum(len(traj_resample([{'t': 0, 'x': 0, 'y': 0}, {'t': 2 + i % 3,
 def test_limits(ext, scratch):
     a, b = connect(ext), connect(ext)
     default = b.execute("SELECT trajdb_limit('output_points')").fetchall()[0][0]
-    prev = a.execute("SELECT trajdb_limit('output_points', 10)").fetchall()[0][0]
+    prev = a.execute("FROM trajdb_set_limit('output_points', 10)").fetchall()[0][1]
     check("limits: setting returns the previous value", prev == default, str(prev))
     got_a = a.execute("SELECT trajdb_limit('output_points')").fetchall()[0][0]
     got_b = b.execute("SELECT trajdb_limit('output_points')").fetchall()[0][0]
@@ -323,8 +323,14 @@ def test_limits(ext, scratch):
     check("limits: a's limit holds in DuckDB's worker threads", "output_points = 10" in msg, msg)
     check("limits: b runs the same multi-threaded query", error_of(b, MANY) is None)
     # b raises its limit: a stays at 10
-    b.execute("SELECT trajdb_limit('output_points', 123456789)").fetchall()
+    b.execute("CALL trajdb_set_limit('output_points', 123456789)").fetchall()
     check("limits: b's change does not reach a", a.execute("SELECT trajdb_limit('output_points')").fetchall()[0][0] == 10)
+    # a locked, sandboxed connection cannot lift a limit (issue 37 HIGH 2): refused, unchanged
+    b.execute("SET enable_external_access = false")
+    b.execute("SET lock_configuration = true")
+    msg = error_of(b, "CALL trajdb_set_limit('output_points', 9000000000000000000)") or ""
+    check("limits: lock_configuration locks trajdb's limits", "lock_configuration is true" in msg
+          and b.execute("SELECT trajdb_limit('output_points')").fetchall()[0][0] == 123456789, msg)
     a.close()
     b.close()
     # the extension holds no connection of its own: a closed database file opens elsewhere

@@ -471,7 +471,7 @@ fn traj_correspond(a: &Args<'_>, out: &mut Out<'_>) -> R {
     })?;
     let cols: Vec<_> =
         vals.iter().map(|v| v.as_ref().map(|p| vec![Column::F64(&p.fx), Column::F64(&p.fy), Column::F64(&p.mx), Column::F64(&p.my)])).collect();
-    out.struct_lists(&cols);
+    out.struct_lists(&cols)?;
     Ok(())
 }
 
@@ -481,7 +481,7 @@ fn transform_apply(a: &Args<'_>, out: &mut Out<'_>) -> R {
         let (Some(x), Some(t)) = (tr.get(r)?, transform(&tf, a, 1, r)?) else { return Ok(None) };
         Ok(Some(t.apply_traj(x)))
     })?;
-    out.trajs(&vals);
+    out.trajs(&vals)?;
     Ok(())
 }
 
@@ -539,7 +539,7 @@ fn rigid_fit_scan(a: &Args<'_>, out: &mut Out<'_>) -> R {
         .iter()
         .map(|v| v.as_ref().map(|(dt, th, tx, ty, rms, n, span)| vec![Column::F64(dt), Column::F64(th), Column::F64(tx), Column::F64(ty), Column::F64(rms), Column::I64(n), Column::F64(span)]))
         .collect();
-    out.struct_lists(&cols);
+    out.struct_lists(&cols)?;
     Ok(())
 }
 
@@ -682,6 +682,6 @@ fn traj_msd_pairs(a: &Args<'_>, out: &mut Out<'_>) -> R {
     })?;
     let cols: Vec<_> =
         vals.iter().map(|v| v.as_ref().map(|(x, y, n, m)| vec![Column::I64(x), Column::I64(y), Column::I64(n), Column::OptF64(m)])).collect();
-    out.struct_lists(&cols);
+    out.struct_lists(&cols)?;
     Ok(())
 }

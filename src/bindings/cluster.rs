@@ -143,10 +143,10 @@ fn dendrogram_of(a: &Args<'_>, condensed: bool, r: usize) -> Result<Option<Dendr
 }
 
 /// Writes `STRUCT(id BIGINT, cluster INTEGER)[]` rows.
-fn write_assignments(out: &mut Out<'_>, vals: &[Option<(Vec<i64>, Vec<u32>)>]) {
+fn write_assignments(out: &mut Out<'_>, vals: &[Option<(Vec<i64>, Vec<u32>)>]) -> Result<(), String> {
     let as_i32: Vec<Option<(&Vec<i64>, Vec<i32>)>> = vals.iter().map(|v| v.as_ref().map(|(ids, c)| (ids, c.iter().map(|&x| x as i32).collect()))).collect();
     let cols: Vec<_> = as_i32.iter().map(|v| v.as_ref().map(|(ids, c)| vec![Column::I64(ids), Column::I32(c)])).collect();
-    out.struct_lists(&cols);
+    out.struct_lists(&cols)
 }
 
 /// Both flat cuts (of pairs; `condensed` for a condensed matrix); `cut` reads column 2 of a row.
@@ -157,7 +157,7 @@ fn cluster_with(a: &Args<'_>, out: &mut Out<'_>, condensed: bool, cut: impl Fn(u
         let labels = linkage::flat(&d, c);
         Ok(Some((d.ids, labels)))
     })?;
-    write_assignments(out, &vals);
+    write_assignments(out, &vals)?;
     Ok(())
 }
 
@@ -184,7 +184,7 @@ fn write_dendrogram(a: &Args<'_>, out: &mut Out<'_>, condensed: bool) -> R {
     })?;
     let cols: Vec<_> =
         vals.iter().map(|v| v.as_ref().map(|(l, r, d, s)| vec![Column::I64(l), Column::I64(r), Column::F64(d), Column::I64(s)])).collect();
-    out.struct_lists(&cols);
+    out.struct_lists(&cols)?;
     Ok(())
 }
 fn dendrogram(a: &Args<'_>, out: &mut Out<'_>) -> R {
@@ -218,7 +218,7 @@ fn traj_cluster(a: &Args<'_>, out: &mut Out<'_>) -> R {
         let p = IndexParams::new(d, e, rho)?;
         Ok(Some(traj_cluster::cluster_trajectories(id, &tr, &p, sim, method, cut)?))
     })?;
-    write_assignments(out, &vals);
+    write_assignments(out, &vals)?;
     Ok(())
 }
 
@@ -236,6 +236,6 @@ fn traj_cluster_prototypes(a: &Args<'_>, out: &mut Out<'_>) -> R {
         Ok(Some((c.ids, c.cluster.iter().map(|&x| x as i32).collect::<Vec<i32>>(), c.prototype)))
     })?;
     let cols: Vec<_> = vals.iter().map(|v| v.as_ref().map(|(i, c, p)| vec![Column::I64(i), Column::I32(c), Column::I64(p)])).collect();
-    out.struct_lists(&cols);
+    out.struct_lists(&cols)?;
     Ok(())
 }

@@ -157,7 +157,7 @@ fn conflicts(a: &Args<'_>, out: &mut Out<'_>) -> R {
         let found = conflict::conflicts(id, &tr, m, rad, mt).map_err(|e| e.describe())?;
         Ok(Some(PairCols::of(id, &found)))
     })?;
-    write_pairs(&vals, out);
+    write_pairs(&vals, out)?;
     Ok(())
 }
 
@@ -170,11 +170,11 @@ fn conflicts_top(a: &Args<'_>, out: &mut Out<'_>) -> R {
         let found = conflict::top_conflicts(id, &tr, k, m, rad).map_err(|e| e.describe())?;
         Ok(Some(PairCols::of(id, &found)))
     })?;
-    write_pairs(&vals, out);
+    write_pairs(&vals, out)?;
     Ok(())
 }
 
-fn write_pairs(vals: &[Option<PairCols>], out: &mut Out<'_>) {
+fn write_pairs(vals: &[Option<PairCols>], out: &mut Out<'_>) -> Result<(), String> {
     let cols: Vec<Option<Vec<Column<'_>>>> = vals
         .iter()
         .map(|v| {
@@ -187,7 +187,7 @@ fn write_pairs(vals: &[Option<PairCols>], out: &mut Out<'_>) {
             })
         })
         .collect();
-    out.struct_lists(&cols);
+    out.struct_lists(&cols)
 }
 
 fn pet(a: &Args<'_>, out: &mut Out<'_>) -> R {

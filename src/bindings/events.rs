@@ -1,6 +1,7 @@
 //! SQL: events between the tracks of one camera (Zhao et al. III.A) and object / fragment /
 //! group labels (section IV). Maths: `crates/algo/src/events.rs`.
 
+use super::try_map;
 use super::registry::{p, Function, Param, Signature, Ty, GEOMETRY};
 use super::vector::{Args, Column, Out, Rows};
 use crate::algo::events::{self, Endpoints, EventParams, LabelParams};
@@ -124,24 +125,27 @@ fn traj_events(a: &Args<'_>, out: &mut Out<'_>) -> R {
         let p = p.with_accel(acc)?;
         Ok(Some(events::events(&endpoints(&f), region.as_deref(), &p)?))
     })?;
+    // the result's columns are as long as the events: allocated fallibly (super::try_map)
     let split: Vec<Option<_>> = vals
         .iter()
         .map(|v| {
-            v.as_ref().map(|ev: &Vec<events::Event>| {
-                let kind: Vec<&str> = ev.iter().map(|e| e.kind.as_str()).collect();
-                let from: Vec<i64> = ev.iter().map(|e| e.from).collect();
-                let to: Vec<i64> = ev.iter().map(|e| e.to).collect();
-                let gap: Vec<f64> = ev.iter().map(|e| e.gap).collect();
-                let dist: Vec<f64> = ev.iter().map(|e| e.dist).collect();
-                (kind, from, to, gap, dist)
-            })
+            v.as_ref()
+                .map(|ev: &Vec<events::Event>| -> Result<_, String> {
+                    let kind: Vec<&str> = try_map(ev, |e| e.kind.as_str())?;
+                    let from: Vec<i64> = try_map(ev, |e| e.from)?;
+                    let to: Vec<i64> = try_map(ev, |e| e.to)?;
+                    let gap: Vec<f64> = try_map(ev, |e| e.gap)?;
+                    let dist: Vec<f64> = try_map(ev, |e| e.dist)?;
+                    Ok((kind, from, to, gap, dist))
+                })
+                .transpose()
         })
-        .collect();
+        .collect::<Result<_, String>>()?;
     let cols: Vec<_> = split
         .iter()
         .map(|v| v.as_ref().map(|(k, f, t, g, d)| vec![Column::Text(k), Column::I64(f), Column::I64(t), Column::F64(g), Column::F64(d)]))
         .collect();
-    out.struct_lists(&cols);
+    out.struct_lists(&cols)?;
     Ok(())
 }
 
@@ -165,15 +169,14 @@ fn traj_labels(a: &Args<'_>, out: &mut Out<'_>) -> R {
     let split: Vec<Option<_>> = vals
         .iter()
         .map(|v| {
-            v.as_ref().map(|l: &Vec<(i64, events::Label, f64)>| {
-                let id: Vec<i64> = l.iter().map(|x| x.0).collect();
-                let label: Vec<&str> = l.iter().map(|x| x.1.as_str()).collect();
-                let coh: Vec<f64> = l.iter().map(|x| x.2).collect();
-                (id, label, coh)
-            })
+            v.as_ref()
+                .map(|l: &Vec<(i64, events::Label, f64)>| -> Result<_, String> {
+                    Ok((try_map(l, |x| x.0)?, try_map(l, |x| x.1.as_str())?, try_map(l, |x| x.2)?))
+                })
+                .transpose()
         })
-        .collect();
+        .collect::<Result<_, String>>()?;
     let cols: Vec<_> = split.iter().map(|v| v.as_ref().map(|(i, l, c)| vec![Column::I64(i), Column::Text(l), Column::F64(c)])).collect();
-    out.struct_lists(&cols);
+    out.struct_lists(&cols)?;
     Ok(())
 }

@@ -83,14 +83,14 @@ fn fused(a: &Args<'_>) -> Result<Vec<Option<FusedPath>>, Box<dyn Error>> {
 
 fn fuse_traj(a: &Args<'_>, out: &mut Out<'_>) -> R {
     let vals: Vec<Option<OwnedTraj>> = fused(a)?.into_iter().map(|f| f.map(|f| OwnedTraj { t: f.t, x: f.x, y: f.y })).collect();
-    out.trajs(&vals);
+    out.trajs(&vals)?;
     Ok(())
 }
 
 fn fuse_sigma(a: &Args<'_>, out: &mut Out<'_>) -> R {
     let vals = fused(a)?;
     let cols: Vec<_> = vals.iter().map(|v| v.as_ref().map(|f| vec![Column::F64(&f.t), Column::F64(&f.sigma)])).collect();
-    out.struct_lists(&cols);
+    out.struct_lists(&cols)?;
     Ok(())
 }
 
@@ -98,6 +98,6 @@ fn fuse_with_sigma(a: &Args<'_>, out: &mut Out<'_>) -> R {
     let vals = fused(a)?;
     let cols: Vec<_> =
         vals.iter().map(|v| v.as_ref().map(|f| vec![Column::F64(&f.t), Column::F64(&f.x), Column::F64(&f.y), Column::F64(&f.sigma)])).collect();
-    out.struct_lists(&cols);
+    out.struct_lists(&cols)?;
     Ok(())
 }

@@ -212,6 +212,7 @@ fn overlap(a: &Args<'_>, out: &mut Out<'_>) -> R {
     let (pa, pb) = (a.region(0), a.region(1));
     let vals = a.map(|r| {
         let (Some(x), Some(y)) = (pa.get(r)?, pb.get(r)?) else { return Ok(None) };
+        polygon::overlay_room([&*x, &*y])?;
         Ok(Some(polygon::to_wkb(&polygon::overlap(&x, &y))))
     })?;
     out.blobs(&vals);
@@ -220,7 +221,11 @@ fn overlap(a: &Args<'_>, out: &mut Out<'_>) -> R {
 
 fn union(a: &Args<'_>, out: &mut Out<'_>) -> R {
     let l = a.region_list(0);
-    out.blobs(&a.map(|r| Ok(l.get(r)?.map(|ps| polygon::to_wkb(&polygon::union_all(ps.iter())))))?);
+    out.blobs(&a.map(|r| {
+        let Some(ps) = l.get(r)? else { return Ok(None) };
+        polygon::overlay_room(ps.iter())?;
+        Ok(Some(polygon::to_wkb(&polygon::union_all(ps.iter()))))
+    })?);
     Ok(())
 }
 
@@ -228,6 +233,7 @@ fn buffer(a: &Args<'_>, out: &mut Out<'_>) -> R {
     let (pc, d) = (a.region(0), a.double(1));
     let vals = a.map(|r| {
         let (Some(x), Some(d)) = (pc.get(r)?, d.get(r)) else { return Ok(None) };
+        polygon::overlay_room([&*x])?;
         Ok(Some(polygon::to_wkb(&polygon::buffer(&x, d)?)))
     })?;
     out.blobs(&vals);
@@ -268,7 +274,7 @@ fn clip(a: &Args<'_>, out: &mut Out<'_>) -> R {
         let (Some(t), Some(reg)) = (tr.get(r)?, pc.get(r)?) else { return Ok(None) };
         Ok(Some(region::clip(t, &reg).0))
     })?;
-    out.trajs(&vals);
+    out.trajs(&vals)?;
     Ok(())
 }
 

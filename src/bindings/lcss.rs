@@ -211,15 +211,15 @@ fn distance(a: &Args<'_>, out: &mut Out<'_>) -> R {
 }
 
 /// Writes matched pairs as 1-based `STRUCT(i, j)[]`.
-fn write_pairs(out: &mut Out<'_>, vals: &[Option<Vec<(usize, usize)>>]) {
+fn write_pairs(out: &mut Out<'_>, vals: &[Option<Vec<(usize, usize)>>]) -> Result<(), String> {
     let ij: Vec<Option<(Vec<i32>, Vec<i32>)>> =
         vals.iter().map(|v| v.as_ref().map(|m| m.iter().map(|&(i, j)| (i as i32 + 1, j as i32 + 1)).unzip())).collect();
     let cols: Vec<_> = ij.iter().map(|v| v.as_ref().map(|(i, j)| vec![Column::I32(i), Column::I32(j)])).collect();
-    out.struct_lists(&cols);
+    out.struct_lists(&cols)
 }
 
 fn matches(a: &Args<'_>, out: &mut Out<'_>) -> R {
-    write_pairs(out, &time_window_rows(a, Vec::new(), tw::matches_in)?);
+    write_pairs(out, &time_window_rows(a, Vec::new(), tw::matches_in)?)?;
     Ok(())
 }
 
@@ -247,7 +247,7 @@ fn series_similarity(a: &Args<'_>, out: &mut Out<'_>) -> R {
 }
 
 fn series_matches(a: &Args<'_>, out: &mut Out<'_>) -> R {
-    write_pairs(out, &series_rows(a, tw::series_matches)?);
+    write_pairs(out, &series_rows(a, tw::series_matches)?)?;
     Ok(())
 }
 
@@ -310,6 +310,6 @@ fn similarity_pairs(a: &Args<'_>, out: &mut Out<'_>) -> R {
         Ok(Some((ka, kb, eta)))
     })?;
     let cols: Vec<_> = vals.iter().map(|v| v.as_ref().map(|(x, y, e)| vec![Column::I64(x), Column::I64(y), Column::F64(e)])).collect();
-    out.struct_lists(&cols);
+    out.struct_lists(&cols)?;
     Ok(())
 }

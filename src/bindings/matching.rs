@@ -50,7 +50,7 @@ pub static FUNCTIONS: &[Function] = &[
 type Triples = Vec<(i64, i64, f64)>;
 
 /// Writes `STRUCT(a BIGINT, b BIGINT, score|w DOUBLE)[]` rows.
-fn write_triples(out: &mut Out<'_>, vals: &[Option<Triples>]) {
+fn write_triples(out: &mut Out<'_>, vals: &[Option<Triples>]) -> Result<(), String> {
     type Split = (Vec<i64>, Vec<i64>, Vec<f64>);
     let split: Vec<Option<Split>> = vals
         .iter()
@@ -63,7 +63,7 @@ fn write_triples(out: &mut Out<'_>, vals: &[Option<Triples>]) {
         })
         .collect();
     let cols: Vec<_> = split.iter().map(|v| v.as_ref().map(|(a, b, w)| vec![Column::I64(a), Column::I64(b), Column::F64(w)])).collect();
-    out.struct_lists(&cols);
+    out.struct_lists(&cols)
 }
 
 fn hungarian_match(a: &Args<'_>, out: &mut Out<'_>) -> R {
@@ -73,7 +73,7 @@ fn hungarian_match(a: &Args<'_>, out: &mut Out<'_>) -> R {
         let params = hungarian::MatchParams::new(mx, t)?;
         Ok(Some(hungarian::hungarian_match_columns(rows.i64(0), rows.i64(1), rows.f64(2), &params)?))
     })?;
-    write_triples(out, &vals);
+    write_triples(out, &vals)?;
     Ok(())
 }
 
@@ -88,6 +88,6 @@ fn assign_pairs(a: &Args<'_>, out: &mut Out<'_>) -> R {
         })?;
         Ok(Some(chosen.into_iter().map(|k| (ea[k], eb[k], ew[k])).collect()))
     })?;
-    write_triples(out, &vals);
+    write_triples(out, &vals)?;
     Ok(())
 }

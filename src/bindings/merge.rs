@@ -85,7 +85,7 @@ fn merge_pair(a: &Args<'_>, out: &mut Out<'_>) -> R {
         let Some(reg) = region.get(r)? else { return Ok(None) };
         Ok(Some(merge::merge_two(x, y, &p, reg.as_deref())?))
     })?;
-    out.trajs(&vals);
+    out.trajs(&vals)?;
     Ok(())
 }
 
@@ -105,7 +105,7 @@ fn merge_list(a: &Args<'_>, out: &mut Out<'_>) -> R {
         let refs: Option<Vec<&Region>> = regs.as_ref().map(|v| v.iter().collect());
         Ok(Some(merge::merge_chain(&ts, &p, refs.as_deref())?.0))
     })?;
-    out.trajs(&vals);
+    out.trajs(&vals)?;
     Ok(())
 }
 
@@ -120,6 +120,6 @@ fn merge_groups(a: &Args<'_>, out: &mut Out<'_>) -> R {
         Ok(Some((t.i64(0).to_vec(), groups)))
     })?;
     let cols: Vec<_> = vals.iter().map(|v| v.as_ref().map(|(ids, g)| vec![Column::I64(ids), Column::I64(g)])).collect();
-    out.struct_lists(&cols);
+    out.struct_lists(&cols)?;
     Ok(())
 }

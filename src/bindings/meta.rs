@@ -1,4 +1,13 @@
-//! SQL: `trajdb_functions()`, the function reference as a table (rows from the registry).
+//! SQL: `trajdb_functions()`, the function reference as a table (rows from the registry);
+//! `trajdb_limit(name)`, a work limit read; `CALL trajdb_set_limit(name, value)`, a work limit set.
+//!
+//! # Limits under `lock_configuration`
+//! Setting a limit changes what every connection to the database may do, as a setting does, so
+//! a locked configuration locks it too. Only a table function's bind sees the caller's client
+//! context (a scalar function has none in C API v1), so the setter is the table function
+//! `trajdb_set_limit`, whose bind reads `lock_configuration` ([`BindArgs::configuration_locked`])
+//! and refuses when it is true or cannot be read; the scalar `trajdb_limit` only reads. No other
+//! function changes a limit ([`limits::Limits::set`] is called here alone).
 
 use super::registry::{p, Doc, Function, Signature, Table, Ty};
 use super::vector::table::{self, BindArgs, Rows, TableFn};
@@ -17,17 +26,13 @@ const COLUMNS: &[(&str, Ty)] = &[
     ("test", Ty::Varchar),
 ];
 
-pub static FUNCTIONS: &[Function] = &[TRAJDB_FUNCTIONS, TRAJDB_LIMIT];
+pub static FUNCTIONS: &[Function] = &[TRAJDB_FUNCTIONS, TRAJDB_LIMIT, TRAJDB_SET_LIMIT];
 
 const TRAJDB_LIMIT: Function = Function {
     name: "trajdb_limit",
-    description: "Reads or sets a work limit, the most work one call may do (crates/algo/src/limits.rs): 'lcss_cells' (cells of one LCSS table; traj_cluster with S2 sums them over pairs and translations, \
-                  default 1e10), 'cpd_pair_visits' (pairs in cpd_align's time band x max_iter, default 2e10), 'output_points' (points one \
-                  call returns, default 5e7), 'memory_bytes' (working memory of one call beyond its input and output, default 4e9), \
-                  'shift_pair_fits' (point pairs one rigid_fit_shifted fits, default 2e8), 'label_pairs' (child pairs traj_labels compares, \
-                  default 1e9), 'assign_steps' (assign_pairs' dense solves, rows x columns x min of each component, default 2e11). A call above a limit stops at once with an error that names it. With a value it sets the limit \
-                  for this database (every connection to it; other databases in the process keep their own) and returns the previous one. \
-                  DuckDB's C API lets no extension see Ctrl-C inside a call: the limits keep every call short instead.",
+    description: "Reads a work limit, the most work one call may do (crates/algo/src/limits.rs; the names are listed under trajdb_set_limit). \
+                  A call above a limit stops at once with an error that names it. Setting one is CALL trajdb_set_limit(name, value): \
+                  trajdb_limit(name, value) is an error that says so.",
     example: "SELECT trajdb_limit('lcss_cells'); -- 10000000000",
     maths: "crates/algo/src/limits.rs",
     binding: file!(),
@@ -41,13 +46,87 @@ fn limit(a: &Args<'_>, out: &mut Out<'_>) -> Result<(), Box<dyn std::error::Erro
     let mine = limits::current().ok_or("no database limits in scope (please report this)")?;
     let vals = a.map(|r| {
         let (Some(n), Some(v)) = (name.get(r), value.opt(r)) else { return Ok(None) };
-        Ok(Some(match v {
-            Some(v) => mine.set(&n, v)?,
-            None => mine.get(limits::find(&n)?),
-        } as i64))
+        let l = limits::find(&n)?;
+        if let Some(v) = v {
+            // a scalar sees no client context, so it cannot honour lock_configuration: it never sets
+            return Err(format!("setting a limit is CALL trajdb_set_limit('{}', {v}) (refused while lock_configuration is true); trajdb_limit(name) only reads", l.name).into());
+        }
+        Ok(Some(mine.get(l) as i64))
     })?;
     out.flat(&vals);
     Ok(())
+}
+
+const TRAJDB_SET_LIMIT: Function = Function {
+    name: "trajdb_set_limit",
+    description: concat!(
+        "Sets a work limit, the most work one call may do (crates/algo/src/limits.rs), for this database (every connection to it; other \
+         databases in the process keep their own), and returns its name, the previous value and the new one. The limits: ",
+        "'lcss_cells' (cells of one LCSS table; traj_cluster with S2 sums them over pairs and translations, default 1e10), 'cpd_pair_visits' \
+         (pairs in cpd_align's time band x max_iter, default 2e10), 'output_points' (points one call returns, default 5e7), 'memory_bytes' \
+         (working memory of one call beyond its input and output, default 4e9), 'shift_pair_fits' (point pairs one rigid_fit_shifted fits, \
+         default 2e8), 'label_pairs' (child pairs traj_labels compares, default 1e9), 'assign_steps' (assign_pairs' dense solves, rows x \
+         columns x min of each component, default 2e11), 'pet_segment_pairs' (segment pairs one traj_pet examines; traj_conflicts and traj_conflicts_top: per pair of road users, \
+         default 5e7). Refused while lock_configuration is true (or cannot be read): a locked configuration locks trajdb's limits too. \
+         DuckDB's C API lets no extension see Ctrl-C inside a call: the limits keep every call short instead. Whatever a limit says, an \
+         allocation that does not fit is an error, never an abort."
+    ),
+    example: "CALL trajdb_set_limit('lcss_cells', 20000000000);",
+    maths: "crates/algo/src/limits.rs",
+    binding: file!(),
+    signatures: &[],
+    table: Some(SET_TABLE),
+};
+
+const SET_COLUMNS: &[(&str, Ty)] = &[("name", Ty::Varchar), ("previous", Ty::Bigint), ("value", Ty::Bigint)];
+
+const SET_TABLE: Table = Table { params: &[p("name", Ty::Varchar), p("value", Ty::Bigint)], named: &[], columns: SET_COLUMNS, register: table::register::<SetLimit> };
+
+struct SetLimit;
+
+struct SetBind {
+    limits: std::sync::Arc<limits::Limits>,
+    name: &'static str,
+    value: i64,
+}
+
+impl TableFn for SetLimit {
+    const TABLE: &'static Table = &SET_TABLE;
+    type Bind = SetBind;
+    /// The previous value, once set (init runs once per execution), and whether the row was sent.
+    type Scan = (u64, std::sync::atomic::AtomicBool);
+
+    fn bind(args: &BindArgs<'_>) -> Result<Self::Bind, Box<dyn Error>> {
+        let name = args.text(0)?.ok_or("name is NULL; give one of the limits' names")?;
+        let l = limits::find(&name)?;
+        let value = args.bigint(1)?.ok_or("value is NULL; give a whole number >= 1")?;
+        if value < 1 {
+            return Err(limits::LimitError::Value(value).into());
+        }
+        if args.configuration_locked() {
+            return Err(format!(
+                "lock_configuration is true (or cannot be read), so the work limits are locked as every setting is; {} stays {}",
+                l.name,
+                args.limits().get(l)
+            )
+            .into());
+        }
+        Ok(SetBind { limits: std::sync::Arc::clone(args.limits()), name: l.name, value })
+    }
+
+    fn init(b: &Self::Bind) -> Result<Self::Scan, Box<dyn Error>> {
+        Ok((b.limits.set(b.name, b.value)?, std::sync::atomic::AtomicBool::new(false)))
+    }
+
+    fn func(b: &Self::Bind, scan: &Self::Scan, out: &mut Rows<'_>) -> Result<usize, Box<dyn Error>> {
+        if scan.1.swap(true, Ordering::SeqCst) {
+            return Ok(0);
+        }
+        out.text(0, 0, b.name);
+        out.bigint(1, 0, scan.0.min(i64::MAX as u64) as i64);
+        out.bigint(2, 0, b.value);
+        Ok(1)
+    }
 }
 
 const TRAJDB_FUNCTIONS: Function = Function {

@@ -27,6 +27,16 @@ pub mod vector;
 use duckdb::Connection;
 use registry::{Doc, Function};
 
+/// `f` of every element of `s`, into a vector allocated fallibly: result columns sized by the
+/// input are errors naming their size when they do not fit, never an abort.
+pub(crate) fn try_map<T, U>(s: &[T], f: impl FnMut(&T) -> U) -> Result<Vec<U>, String> {
+    let mut v = Vec::new();
+    v.try_reserve_exact(s.len())
+        .map_err(|_| format!("the result holds {} rows (about {} bytes a column), more than this process can allocate; return less per call", s.len(), s.len() as u128 * std::mem::size_of::<U>() as u128))?;
+    v.extend(s.iter().map(f));
+    Ok(v)
+}
+
 /// Every function, in reference order.
 pub fn functions() -> Vec<&'static Function> {
     [traj::FUNCTIONS, lcss::FUNCTIONS, align::FUNCTIONS, geometry::FUNCTIONS, matching::FUNCTIONS, merge::FUNCTIONS, fuse::FUNCTIONS, cluster::FUNCTIONS, conflict::FUNCTIONS, events::FUNCTIONS, meta::FUNCTIONS, params::FUNCTIONS, pipeline::FUNCTIONS, simulate::FUNCTIONS, report::FUNCTIONS]

@@ -161,14 +161,14 @@ fn time_range(a: &Args<'_>, out: &mut Out<'_>) -> R {
 }
 
 /// Writes `(t, v)` series results.
-fn write_series(out: &mut Out<'_>, vals: &[Option<(Vec<f64>, Vec<f64>)>]) {
+fn write_series(out: &mut Out<'_>, vals: &[Option<(Vec<f64>, Vec<f64>)>]) -> Result<(), String> {
     let cols: Vec<_> = vals.iter().map(|v| v.as_ref().map(|(t, v)| vec![Column::F64(t), Column::F64(v)])).collect();
-    out.struct_lists(&cols);
+    out.struct_lists(&cols)
 }
 
 fn speeds(a: &Args<'_>, out: &mut Out<'_>) -> R {
     let tr = a.traj(0);
-    write_series(out, &a.map(|r| Ok(tr.get(r)?.map(traj::speeds)))?);
+    write_series(out, &a.map(|r| Ok(tr.get(r)?.map(traj::speeds)))?)?;
     Ok(())
 }
 
@@ -178,7 +178,7 @@ fn turn_rates(a: &Args<'_>, out: &mut Out<'_>) -> R {
         let (Some(t), Some(s)) = (tr.get(r)?, step.or(r, 1.0)) else { return Ok(None) };
         Ok(Some(traj::turn_rates(t, s)?))
     })?;
-    write_series(out, &vals);
+    write_series(out, &vals)?;
     Ok(())
 }
 
@@ -203,6 +203,6 @@ fn resample(a: &Args<'_>, out: &mut Out<'_>) -> R {
         let (Some(t), Some(p), Some(g)) = (tr.get(r)?, period.get(r), gap.or(r, f64::INFINITY)) else { return Ok(None) };
         Ok(Some(traj::resample(t, p, g)?))
     })?;
-    out.trajs(&vals);
+    out.trajs(&vals)?;
     Ok(())
 }

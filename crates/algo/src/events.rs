@@ -56,7 +56,7 @@ impl fmt::Display for EventError {
                 f,
                 "more than {cap} (end, start) pairs of these tracks are near each other (each is an event row of {PAIR_BYTES} bytes), \
                  above the limit {limit} = {value}: the tracks crowd together in time and space; reduce max_gap or max_dist, pass fewer \
-                 tracks per call (one camera and class), or raise it with SELECT trajdb_limit('{limit}', {})",
+                 tracks per call (one camera and class), or raise it with CALL trajdb_set_limit('{limit}', {})",
                 value.saturating_mul(4)
             ),
             EventError::Work(e) => e.fmt(f),
@@ -284,7 +284,7 @@ fn events_capped(tracks: &[Endpoints], interior: Option<&Region>, p: &EventParam
     }
     let inside = |x: f64, y: f64| interior.is_none_or(|r| r.contains(x, y));
     let mut starts: Vec<usize> = (0..tracks.len()).filter(|&k| inside(tracks[k].x0, tracks[k].y0)).collect();
-    starts.sort_by(|&a, &b| tracks[a].t0.total_cmp(&tracks[b].t0).then(tracks[a].id.cmp(&tracks[b].id)));
+    starts.sort_unstable_by(|&a, &b| tracks[a].t0.total_cmp(&tracks[b].t0).then(tracks[a].id.cmp(&tracks[b].id)));  // ids are distinct: a total order, no merge buffer
     let start_t: Vec<f64> = starts.iter().map(|&k| tracks[k].t0).collect();
     let grid = StartGrid::new(tracks, &starts, p.radius(p.max_gap));
     // (end index, start index, gap, dist)
@@ -312,7 +312,7 @@ fn events_capped(tracks: &[Endpoints], interior: Option<&Region>, p: &EventParam
     // the ends in time order, so that the time window of the starts only moves forward (two
     // pointers instead of two binary searches, which missed the cache on every end)
     let mut ends: Vec<usize> = (0..tracks.len()).filter(|&k| inside(tracks[k].x1, tracks[k].y1)).collect();
-    ends.sort_by(|&a, &b| tracks[a].t1.total_cmp(&tracks[b].t1).then(tracks[a].id.cmp(&tracks[b].id)));
+    ends.sort_unstable_by(|&a, &b| tracks[a].t1.total_cmp(&tracks[b].t1).then(tracks[a].id.cmp(&tracks[b].id)));  // ids are distinct: a total order, no merge buffer
     let (mut lo, mut hi) = (0usize, 0usize);
     for &ka in &ends {
         let a = &tracks[ka];
@@ -373,7 +373,10 @@ fn events_capped(tracks: &[Endpoints], interior: Option<&Region>, p: &EventParam
             }
         }
     }
-    out.sort_by(|p, q| p.from.cmp(&q.from).then(p.to.cmp(&q.to)).then((p.kind as u8).cmp(&(q.kind as u8))));
+    // (from, to, kind) is unique (one near pair per (end, start), each kind once): the in-place
+    // unstable sort gives the one order there is and allocates nothing (sort_by's merge buffer
+    // of half the rows was an infallible allocation: the abort of issue 37)
+    out.sort_unstable_by(|p, q| p.from.cmp(&q.from).then(p.to.cmp(&q.to)).then((p.kind as u8).cmp(&(q.kind as u8))));
     Ok(out)
 }
 
@@ -692,7 +695,10 @@ mod tests {
                 }
             }
         }
-        out.sort_by(|p, q| p.from.cmp(&q.from).then(p.to.cmp(&q.to)).then((p.kind as u8).cmp(&(q.kind as u8))));
+        // (from, to, kind) is unique (one near pair per (end, start), each kind once): the in-place
+    // unstable sort gives the one order there is and allocates nothing (sort_by's merge buffer
+    // of half the rows was an infallible allocation: the abort of issue 37)
+    out.sort_unstable_by(|p, q| p.from.cmp(&q.from).then(p.to.cmp(&q.to)).then((p.kind as u8).cmp(&(q.kind as u8))));
         out
     }
 
@@ -736,7 +742,7 @@ mod tests {
         let e = events_capped(&tracks, None, &p, 1000, &limits::OUTPUT_POINTS).unwrap_err();
         assert_eq!(e, EventError::TooManyPairs { cap: 1000, limit: "output_points", value: limits::OUTPUT_POINTS.get() });
         let msg = e.to_string();
-        assert!(msg.starts_with("more than 1000 (end, start) pairs") && msg.contains("reduce max_gap or max_dist") && msg.contains("trajdb_limit('output_points'"), "{msg}");
+        assert!(msg.starts_with("more than 1000 (end, start) pairs") && msg.contains("reduce max_gap or max_dist") && msg.contains("trajdb_set_limit('output_points'"), "{msg}");
         // 400 x 399 pairs fit the default cap
         assert_eq!(events(&tracks, None, &p).unwrap().len(), 400 * 399 * 2);
         // the cap from the limits: the smaller of the rows and the bytes
@@ -788,7 +794,7 @@ mod tests {
         let e = labels(&tracks, &ev, &LabelParams::default()).unwrap_err();
         let needed = (k * (k - 1) / 2) as u128;
         assert_eq!(e, EventError::Work(limits::LABEL_PAIRS.check(needed).unwrap_err()));
-        assert!(e.to_string().contains("raise it with SELECT trajdb_limit('label_pairs', 1249975000)"), "{e}");
+        assert!(e.to_string().contains("raise it with CALL trajdb_set_limit('label_pairs', 1249975000)"), "{e}");
     }
 
     #[test]

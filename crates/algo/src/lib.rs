@@ -18,7 +18,7 @@
 //! | [`fuse`] | fused paths: constant-velocity Kalman filter + RTS smoother over every camera's observations of one road user (seed 003 §3.8) |
 //! | [`events`] | broken / split / merge events within one camera, object / fragment / group labels |
 //! | [`graph`] | union–find and the connected components of a bipartite edge list (shared) |
-//! | [`limits`] | work limits per call (LCSS cells, CPD pair visits, output points), raised with `trajdb_limit` |
+//! | [`limits`] | work limits per call (LCSS cells, CPD pair visits, output points), raised with `CALL trajdb_set_limit` (refused under `lock_configuration`) |
 
 // `!(x > 0.0)` is used on purpose throughout: unlike `x <= 0.0` it also rejects NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]

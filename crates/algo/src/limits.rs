@@ -2,9 +2,15 @@
 //! with an error instead of running for hours (DuckDB's C API gives an extension no way to see
 //! the client's interrupt, so Ctrl-C and `con.interrupt()` only stop a query between chunks).
 //!
-//! Every limit has a documented default, and `SELECT trajdb_limit('name', value)` raises (or
-//! lowers) it for one database; `trajdb_limit('name')` reads it. The check runs before the
-//! work, from sizes alone (O(n + m)).
+//! Every limit has a documented default, and `CALL trajdb_set_limit('name', value)` raises (or
+//! lowers) it for one database, unless its configuration is locked (`lock_configuration`:
+//! src/bindings/meta.rs); `trajdb_limit('name')` reads it. The check runs before the work, from
+//! sizes alone (O(n + m)), or, where only the work itself tells (`pet_segment_pairs`), as the
+//! work proceeds, counted in the loop that does it.
+//!
+//! A limit bounds work and memory a call is *allowed*; it never makes an allocation safe. Every
+//! allocation sized by input is fallible (`try_reserve` or a checked size first) and becomes a
+//! typed error, whatever the limits say, so that a raised limit ends in an error, not an abort.
 //!
 //! # Whose limits
 //! Each DuckDB database that loads trajdb gets its own [`Limits`] (made when its functions are
@@ -27,6 +33,7 @@
 //! | `shift_pair_fits` | point pairs one `rigid_fit_shifted` fits: shifts × points of all track pairs, summed over its grid passes (checked before each) | 2e8 |
 //! | `label_pairs` | child pairs `traj_labels` compares (eq. 5: k(k−1)/2 for a split or merge into k tracks, summed) | 1e9 |
 //! | `assign_steps` | `assign_pairs`' dense solves: rows × columns × min(rows, columns) of each connected component, summed (the O(k³) bound of the shortest-augmenting-path solver) | 2e11 |
+//! | `pet_segment_pairs` | segment pairs one `traj_pet` examines in its sweep (`traj_conflicts`, `traj_conflicts_top`: per pair of road users), counted as it goes | 5e7 |
 
 use std::cell::RefCell;
 use std::fmt;
@@ -48,9 +55,10 @@ pub static MEMORY_BYTES: Limit = Limit::new("memory_bytes", "bytes of working me
 pub static SHIFT_PAIR_FITS: Limit = Limit::new("shift_pair_fits", "point-pair fits (shifts x points)", 200_000_000);
 pub static LABEL_PAIRS: Limit = Limit::new("label_pairs", "child pairs compared", 1_000_000_000);
 pub static ASSIGN_STEPS: Limit = Limit::new("assign_steps", "dense assignment steps (rows x columns x min(rows, columns), summed over components)", 200_000_000_000);
+pub static PET_SEGMENT_PAIRS: Limit = Limit::new("pet_segment_pairs", "segment pairs examined", 50_000_000);
 
 /// Every limit, in the order of the table above.
-pub static ALL: [&Limit; 7] = [&LCSS_CELLS, &CPD_PAIR_VISITS, &OUTPUT_POINTS, &MEMORY_BYTES, &SHIFT_PAIR_FITS, &LABEL_PAIRS, &ASSIGN_STEPS];
+pub static ALL: [&Limit; 8] = [&LCSS_CELLS, &CPD_PAIR_VISITS, &OUTPUT_POINTS, &MEMORY_BYTES, &SHIFT_PAIR_FITS, &LABEL_PAIRS, &ASSIGN_STEPS, &PET_SEGMENT_PAIRS];
 
 impl Limit {
     const fn new(name: &'static str, counts: &'static str, default: u64) -> Limit {
@@ -86,7 +94,7 @@ impl fmt::Display for Exceeded {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(
             f,
-            "this call needs {} {}, above the work limit {} = {}; raise it with SELECT trajdb_limit('{}', {})",
+            "this call needs {} {}, above the work limit {} = {}; raise it with CALL trajdb_set_limit('{}', {})",
             self.needed,
             self.counts,
             self.name,
@@ -197,8 +205,8 @@ mod tests {
     fn check_set_and_errors() {
         assert!(OUTPUT_POINTS.check(50_000_000).is_ok());
         let e = OUTPUT_POINTS.check(50_000_001).unwrap_err();
-        assert!(e.to_string().contains("raise it with SELECT trajdb_limit('output_points', 50000001)"), "{e}");
-        assert_eq!(find("nope").unwrap_err().to_string(), "name must be one of lcss_cells, cpd_pair_visits, output_points, memory_bytes, shift_pair_fits, label_pairs, assign_steps, got 'nope'");
+        assert!(e.to_string().contains("raise it with CALL trajdb_set_limit('output_points', 50000001)"), "{e}");
+        assert_eq!(find("nope").unwrap_err().to_string(), "name must be one of lcss_cells, cpd_pair_visits, output_points, memory_bytes, shift_pair_fits, label_pairs, assign_steps, pet_segment_pairs, got 'nope'");
         let mine = Arc::new(Limits::default());
         assert_eq!(mine.set("lcss_cells", 0).unwrap_err(), LimitError::Value(0));
         assert_eq!(mine.set("CPD_PAIR_VISITS", 7).unwrap(), CPD_PAIR_VISITS.default);

@@ -357,7 +357,7 @@ mod tests {
         l.set("lcss_cells", 1599).unwrap();
         let e = with_scope(&l, || merge_two(a.view(), a.view(), &p, None)).unwrap_err();
         assert!(matches!(&e, MergeError::Lcss(LcssError::Work(x)) if x.needed == 1600 && x.limit == 1599), "{e}");
-        assert!(e.to_string().contains("lcss_cells") && e.to_string().contains("trajdb_limit('lcss_cells', 1600)"), "{e}");
+        assert!(e.to_string().contains("lcss_cells") && e.to_string().contains("trajdb_set_limit('lcss_cells', 1600)"), "{e}");
         l.set("lcss_cells", 1600).unwrap();
         assert_eq!(with_scope(&l, || merge_two(a.view(), a.view(), &p, None)).unwrap(), a);
     }

@@ -226,6 +226,8 @@ pub enum TrajError {
     Param(ParamError),
     /// [`resample`] would produce more points than the work limit `output_points`.
     TooManyPoints(f64),
+    /// [`resample`]'s output of this many points could not be allocated (whatever the limit).
+    OutOfMemory(f64),
 }
 
 impl From<ParamError> for TrajError {
@@ -248,10 +250,14 @@ impl TrajError {
                 index
             ),
             TrajError::Param(e) => e.to_string(),
+            TrajError::OutOfMemory(n) => format!(
+                "would produce {n:.0} points ({:.0} bytes), which could not be allocated; use a longer period, or resample a shorter piece per call",
+                n * 24.0
+            ),
             TrajError::TooManyPoints(n) => {
                 let l = &crate::limits::OUTPUT_POINTS;
                 format!(
-                    "would produce {n:.0} points, above the work limit {} = {}; use a longer period, or raise it with SELECT trajdb_limit('{}', {n:.0})",
+                    "would produce {n:.0} points, above the work limit {} = {}; use a longer period, or raise it with CALL trajdb_set_limit('{}', {n:.0})",
                     l.name,
                     l.get(),
                     l.name
@@ -488,6 +494,12 @@ pub fn resample(tr: Traj<'_>, period: f64, max_gap: f64) -> Result<OwnedTraj, Tr
             value: period,
         }));
     }
+    // the output, reserved for the estimate (an upper bound, give or take rounding) fallibly:
+    // a limit raised past what memory holds is an error, never an abort
+    let want = (estimate as usize).saturating_add(2);
+    if out.t.try_reserve_exact(want).is_err() || out.x.try_reserve_exact(want).is_err() || out.y.try_reserve_exact(want).is_err() {
+        return Err(TrajError::OutOfMemory(estimate));
+    }
     let mut k = (t0 / period).ceil() as i64;
     let mut j = 0usize;
     loop {
@@ -529,6 +541,18 @@ mod tests {
 
     /// Issue 17 (found by the fuzz harness): equal times and a period of 1e-320 walked the
     /// clock forever; the clock index must stay an exact f64 integer.
+    /// Issue 37: with output_points lifted, a resample into 1e12 points is an error (its output
+    /// is reserved fallibly first), not an abort of the host.
+    #[test]
+    fn resample_past_memory_is_an_error_whatever_the_limit() {
+        let lifted = std::sync::Arc::new(crate::limits::Limits::default());
+        lifted.set("output_points", i64::MAX).unwrap();
+        let tr = OwnedTraj { t: vec![0.0, 1e6], x: vec![0.0, 1.0], y: vec![0.0, 0.0] };
+        let e = crate::limits::with_scope(&lifted, || resample(tr.view(), 1e-6, f64::INFINITY)).unwrap_err();
+        assert!(matches!(e, TrajError::OutOfMemory(_)), "{e}");
+        assert!(e.describe("traj").contains("could not be allocated"), "{e}");
+    }
+
     #[test]
     fn resample_refuses_a_period_below_the_clock_resolution() {
         let (t, x, y) = ([1.0, 1.0], [0.0, 1.0], [0.0, 0.0]);

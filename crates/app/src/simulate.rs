@@ -518,7 +518,7 @@ impl Budget {
     fn too_large(&self) -> SimError {
         SimError::Param(format!(
             "this scenario needs more than memory_bytes = {} bytes; reduce minutes, traffic or pedestrians (or cameras, rate_hz, \
-             noise_tracks_per_min), or raise the limit (in SQL: SELECT trajdb_limit('memory_bytes', {}))",
+             noise_tracks_per_min), or raise the limit (in SQL: CALL trajdb_set_limit('memory_bytes', {}))",
             self.limit,
             self.limit.saturating_mul(4)
         ))

@@ -298,6 +298,37 @@ impl BindArgs<'_> {
         let disabled = get("disabled_filesystems").filter(|v| !v.is_null() && v.logical_type_id() == LogicalTypeId::Varchar).map(|v| v.to_string()).unwrap_or_default();
         FileAccess { external, allowed_directories, local_disabled: disabled.split(',').any(|f| f.trim().eq_ignore_ascii_case("LocalFileSystem")) }
     }
+
+    /// Positional BIGINT argument `k` (`None` when NULL): an integer, or a number or text that is
+    /// a whole number in BIGINT's range.
+    pub fn bigint(&self, k: usize) -> Res<Option<i64>> {
+        let Some((p, v)) = self.positional(k)? else { return Ok(None) };
+        use LogicalTypeId as L;
+        let ty = v.logical_type_id();
+        if matches!(ty, L::Tinyint | L::Smallint | L::Integer | L::Bigint | L::UTinyint | L::USmallint | L::UInteger) {
+            return Ok(Some(v.to_int64()));
+        }
+        let numeric = matches!(ty, L::UBigint | L::Hugeint | L::UHugeint | L::Decimal | L::Float | L::Double | L::IntegerLiteral);
+        let text = v.to_string();
+        let t = text.trim();
+        let whole = t.parse::<i64>().ok().or_else(|| t.parse::<f64>().ok().filter(|f| f.fract() == 0.0 && f.abs() < 9.2e18).map(|f| f as i64));
+        match whole {
+            Some(n) if numeric || matches!(ty, L::Varchar | L::StringLiteral) => Ok(Some(n)),
+            _ => Err(format!("{} must be a whole number ({}), got {} {text:?}", p.name, p.ty.sql(), type_name(ty)).into()),
+        }
+    }
+
+    /// `lock_configuration` as the calling connection sees it (through the bind's client
+    /// context): `true` when it is true, and also when it cannot be read (a DuckDB without
+    /// `duckdb_client_context_get_config_option`, or a value that is not a boolean), so that
+    /// what a locked configuration forbids is never allowed by an unreadable one.
+    pub fn configuration_locked(&self) -> bool {
+        let v = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| self.info.get_config_option("lock_configuration"))).ok().flatten();
+        match v {
+            Some(v) if !v.is_null() && v.logical_type_id() == LogicalTypeId::Boolean => v.to_bool(),
+            _ => true,
+        }
+    }
 }
 
 /// DuckDB's settings that decide which files SQL may touch (as `COPY ... TO` obeys them).

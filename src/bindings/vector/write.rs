@@ -125,10 +125,17 @@ impl<'a> Out<'a> {
 
     /// `LIST(STRUCT)` results: each row is `None` (NULL) or one [`Column`] per declared field,
     /// all of the row's list length.
-    pub fn struct_lists(&mut self, vals: &[Option<Vec<Column<'_>>>]) {
-        let mut out = self.v.list_vector();
+    ///
+    /// DuckDB's reserve of the list child throws (and so aborts the host through this Rust
+    /// frame) when it cannot allocate; so the bytes it will need are first allocated and freed
+    /// here, fallibly ([`probe`]): too large a result is an error naming its size, never an abort.
+    pub fn struct_lists(&mut self, vals: &[Option<Vec<Column<'_>>>]) -> Result<(), String> {
         let row_len = |cols: &Vec<Column<'_>>| cols.first().map_or(0, Column::len);
         let total: usize = vals.iter().flatten().map(row_len).sum();
+        // every field of a list element: 16 bytes at most (a VARCHAR's string_t), plus validity
+        let nfields = vals.iter().flatten().map(Vec::len).next().unwrap_or(0);
+        probe(total, 17 * nfields.max(1))?;
+        let mut out = self.v.list_vector();
         {
             // struct_child(total) reserves room for every element before any is written.
             let child = out.struct_child(total);
@@ -145,14 +152,28 @@ impl<'a> Out<'a> {
             }
         }
         list_entries(&mut out, vals.iter().map(|v| v.as_ref().map(row_len)));
+        Ok(())
     }
 
     /// Trajectory results (`STRUCT(t, x, y)[]`).
-    pub fn trajs(&mut self, vals: &[Option<OwnedTraj>]) {
+    pub fn trajs(&mut self, vals: &[Option<OwnedTraj>]) -> Result<(), String> {
         let cols: Vec<Option<Vec<Column<'_>>>> =
             vals.iter().map(|v| v.as_ref().map(|t| vec![Column::F64(&t.t), Column::F64(&t.x), Column::F64(&t.y)])).collect();
-        self.struct_lists(&cols);
+        self.struct_lists(&cols)
     }
+}
+
+/// `Ok` when `n` elements of `bytes_each` bytes could be allocated now (a fallible allocation
+/// of that size, freed at once: untouched, it costs an address range, not memory); otherwise
+/// the error that names the size. Run before DuckDB allocates a result of that size, whose
+/// failure would throw through Rust and abort the host.
+pub fn probe(n: usize, bytes_each: usize) -> Result<(), String> {
+    let bytes = (n as u128) * (bytes_each as u128);
+    let refuse = || format!("the result holds {n} list elements (about {bytes} bytes), more than this process can allocate; return less per call");
+    let b = usize::try_from(bytes).map_err(|_| refuse())?;
+    let mut v: Vec<u8> = Vec::new();
+    v.try_reserve_exact(b).map_err(|_| refuse())?;
+    Ok(())
 }
 
 /// Copies one field's values of one row to positions `off..` of a struct field vector of

@@ -506,7 +506,7 @@ mod tests {
         let e = joint(&[(a.view(), b.view())], &g, 0.5, 0.1, Noise::default()).unwrap_err();
         assert_eq!(e, ShiftError::Work(limits::SHIFT_PAIR_FITS.check(20_001 * points).unwrap_err()));
         let msg = e.to_string();
-        assert!(msg.contains("trajdb_limit('shift_pair_fits', 400020000)") && msg.contains("search fewer shifts"), "{msg}");
+        assert!(msg.contains("trajdb_set_limit('shift_pair_fits', 400020000)") && msg.contains("search fewer shifts"), "{msg}");
         // a usual grid on the same tracks is within the limit
         assert!(check_joint_work(&[(a.view(), b.view())], &ShiftGrid::new(0.2, 0.2, 0.005).unwrap(), 1 + MAX_WALKS as u128).is_ok());
     }

@@ -373,7 +373,7 @@ mod tests {
                     if views[p].len() < 2 || views[q].len() < 2 {
                         continue;
                     }
-                    let kept = pet_checked(views[p], views[q], max_pet).is_some()
+                    let kept = pet_checked(views[p], views[q], max_pet, &super::super::pet::Budget::new(u64::MAX)).unwrap().is_some()
                         || ttc_checked(views[p], views[q], radius).is_some_and(|c| c.ttc <= max_ttc);
                     if kept {
                         prop_assert!(got.binary_search(&(p as u32, q as u32)).is_ok(), "pair ({p}, {q}) kept but not a candidate");

@@ -85,17 +85,20 @@ pub fn conflicts(ids: &[i64], trajs: &[Traj<'_>], max_pet: f64, radius: f64, max
     // candidates on a space-time grid of path pieces (candidates.rs): a superset of the pairs
     // the whole-path rule above keeps, never every pair that meets in time
     let cand = ordered_candidates(ids, trajs, radius, max_ttc, max_pet / 2.0)?;
-    // (pet and ttc read no work limit: nothing to carry into the rayon workers)
+    // PET's work limit, read here (the limits' scope is this thread's) and carried into the
+    // rayon workers as a value: each pair of road users may examine that many segment pairs (a
+    // real day's call holds 10^5 pairs; the candidates themselves are bounded by memory_bytes)
+    let limit = crate::limits::PET_SEGMENT_PAIRS.get();
     let found: Vec<Option<Conflict>> = cand
         .par_iter()
         .map(|&(a, b)| {
             // every path was validated above, and the parameters checked
-            let p = pet_checked(trajs[a], trajs[b], max_pet);
+            let p = pet_checked(trajs[a], trajs[b], max_pet, &super::pet::Budget::new(limit))?;
             let c = ttc_checked(trajs[a], trajs[b], radius);
             let keep = p.is_some() || c.is_some_and(|c| c.ttc <= max_ttc);
-            keep.then_some(Conflict { a, b, pet: p, ttc: c })
+            Ok(keep.then_some(Conflict { a, b, pet: p, ttc: c }))
         })
-        .collect();
+        .collect::<Result<_, ConflictError>>()?;
     let mut out = Vec::new();
     out.try_reserve(found.len()).map_err(|_| alloc_error((found.len() * std::mem::size_of::<Conflict>()) as u128))?;
     out.extend(found.into_iter().flatten());

@@ -26,10 +26,23 @@
 //! the segment pairs overlapping on the sweep axis (O(n m) only for paths that overlap along
 //! their whole length on both axes); over time O(n' + m' + K_t), K_t the segment pairs within
 //! `max_pet` in time.
+//!
+//! # Work limit
+//! K (or K_t) is known only as the sweep proceeds: two long paths standing and jittering in one
+//! place, or zigzagging over each other, overlap everywhere (K = n m). Each sweep counts the
+//! segment pairs it examines (K, K_t, before the box and time prefilters) and stops with the
+//! `pet_segment_pairs` error ([`crate::limits::PET_SEGMENT_PAIRS`], default 5e7: about a second)
+//! once the count passes it, so that one call is bounded whatever the input (DuckDB's C API
+//! gives a scalar function no way to see an interrupt inside a call: its work limit is what
+//! bounds it). [`super::conflicts`] and `conflicts_top` give each pair of road users its own
+//! count (a day holds 10^5 candidate pairs, themselves bounded by `memory_bytes`). The segment and event lists
+//! are fallible allocations (the `memory_bytes` error, never an abort).
 
+use super::candidates::alloc_error;
 use super::{validate, ConflictError};
-use crate::traj::Traj;
+use crate::limits::{Exceeded, PET_SEGMENT_PAIRS};
 use crate::positive_or_inf;
+use crate::traj::Traj;
 
 /// One crossing: the PET, the crossing point, when each road user was there, and the angle
 /// between their directions of travel there (degrees, 0 = same direction, 180 = opposite).
@@ -72,7 +85,54 @@ struct Seg {
 
 #[cfg(test)]
 fn segments(tr: Traj<'_>, sweep_x: bool) -> Vec<Seg> {
-    segments_of(tr, sweep_x, window(tr, f64::NEG_INFINITY, f64::INFINITY))
+    segments_of(tr, sweep_x, window(tr, f64::NEG_INFINITY, f64::INFINITY)).unwrap()
+}
+
+/// The work budget of one search: segment pairs examined (shareable across threads), against the `pet_segment_pairs` limit read once by the caller (in its own thread: the limits'
+/// scope is per thread).
+pub(crate) struct Budget {
+    done: std::sync::atomic::AtomicU64,
+    limit: u64,
+}
+
+impl Budget {
+    /// The budget of the current scope's `pet_segment_pairs`.
+    pub(crate) fn from_limit() -> Budget {
+        Budget::new(PET_SEGMENT_PAIRS.get())
+    }
+    pub(crate) fn new(limit: u64) -> Budget {
+        Budget { done: std::sync::atomic::AtomicU64::new(0), limit }
+    }
+}
+
+/// One sweep's count, added to its [`Budget`] every 2^16 pairs and at the end.
+struct Work<'b> {
+    local: u64,
+    budget: &'b Budget,
+}
+
+impl Work<'_> {
+    fn new(budget: &Budget) -> Work<'_> {
+        Work { local: 0, budget }
+    }
+    /// Counts `n` more pairs; the `pet_segment_pairs` error once the call is past the limit.
+    #[inline]
+    fn add(&mut self, n: usize) -> Result<(), ConflictError> {
+        self.local = self.local.saturating_add(n as u64);
+        if self.local >= 1 << 16 {
+            self.flush()?;
+        }
+        Ok(())
+    }
+    fn flush(&mut self) -> Result<(), ConflictError> {
+        let done = self.budget.done.fetch_add(self.local, std::sync::atomic::Ordering::Relaxed).saturating_add(self.local);
+        self.local = 0;
+        if done > self.budget.limit {
+            // the count so far: the whole search would need at least this many
+            return Err(ConflictError::Work(Exceeded { name: PET_SEGMENT_PAIRS.name, counts: PET_SEGMENT_PAIRS.counts, needed: done as u128, limit: self.budget.limit }));
+        }
+        Ok(())
+    }
 }
 
 /// The segments (k - 1, k) of `tr` whose time interval meets [lo, hi], as the range of k
@@ -117,9 +177,13 @@ fn narrow(tr: Traj<'_>, ks: std::ops::Range<usize>, bx: &[f64; 4]) -> std::ops::
     first..last + 1
 }
 
-/// The segments (k - 1, k) of `tr` for k in `ks`, but those standing still.
-fn segments_of(tr: Traj<'_>, sweep_x: bool, ks: std::ops::Range<usize>) -> Vec<Seg> {
-    ks.filter_map(|k| segment(tr, k, sweep_x)).collect()
+/// The segments (k - 1, k) of `tr` for k in `ks`, but those standing still (a fallible
+/// allocation).
+fn segments_of(tr: Traj<'_>, sweep_x: bool, ks: std::ops::Range<usize>) -> Result<Vec<Seg>, ConflictError> {
+    let mut v = Vec::new();
+    v.try_reserve_exact(ks.len()).map_err(|_| alloc_error((ks.len() * std::mem::size_of::<Seg>()) as u128))?;
+    v.extend(ks.filter_map(|k| segment(tr, k, sweep_x)));
+    Ok(v)
 }
 
 /// Keeps the segments of `ss` whose boxes meet the box around all of `other` (closed
@@ -165,14 +229,22 @@ fn cross(a: &Seg, b: &Seg) -> Option<Pet> {
 pub fn pet(a: Traj<'_>, b: Traj<'_>, max_pet: f64) -> Result<Option<Pet>, ConflictError> {
     validate(a, b)?;
     let max_pet = positive_or_inf("max_pet", max_pet)?;
-    Ok(pet_checked(a, b, max_pet))
+    pet_checked(a, b, max_pet, &Budget::from_limit())
 }
 
-/// [`pet`] of trajectories already validated, `max_pet` already checked (> 0): what
+/// [`pet`] of trajectories already validated, `max_pet` already checked (> 0), examining at
+/// most what is left of `budget` (the call's `pet_segment_pairs`, shared by all its pairs): what
 /// [`super::conflicts`] calls per pair after validating each path once.
-pub(crate) fn pet_checked(a: Traj<'_>, b: Traj<'_>, max_pet: f64) -> Option<Pet> {
+pub(crate) fn pet_checked(a: Traj<'_>, b: Traj<'_>, max_pet: f64, budget: &Budget) -> Result<Option<Pet>, ConflictError> {
+    let mut work = Work::new(budget);
+    let found = sweep(a, b, max_pet, &mut work)?;
+    work.flush()?;
+    Ok(found)
+}
+
+fn sweep(a: Traj<'_>, b: Traj<'_>, max_pet: f64, work: &mut Work<'_>) -> Result<Option<Pet>, ConflictError> {
     if a.len() < 2 || b.len() < 2 {
-        return None;
+        return Ok(None);
     }
     // only segments within max_pet of the other path's time span can hold a crossing with
     // PET <= max_pet (t_a < b.t_0 - max_pet <= t_b - max_pet otherwise): the rest are never read
@@ -189,7 +261,7 @@ pub(crate) fn pet_checked(a: Traj<'_>, b: Traj<'_>, max_pet: f64) -> Option<Pet>
     let (ba, bb) = (window_box(a, &wa), window_box(b, &wb));
     let (wa, wb) = (narrow(a, wa, &bb), narrow(b, wb, &ba));
     if wa.is_empty() || wb.is_empty() {
-        return None;
+        return Ok(None);
     }
     // long shared times (a queue, road users following each other): sweep over time, where a
     // segment meets only 2 max_pet seconds of the other path; short encounters (the usual
@@ -198,25 +270,34 @@ pub(crate) fn pet_checked(a: Traj<'_>, b: Traj<'_>, max_pet: f64) -> Option<Pet>
     let t_lo = a.t[wa.start - 1].min(b.t[wb.start - 1]);
     let t_hi = a.t[wa.end - 1].max(b.t[wb.end - 1]);
     if max_pet.is_finite() && t_hi - t_lo > 4.0 * max_pet {
-        return time_sweep([a, b], [wa, wb], max_pet, reach);
+        return time_sweep([a, b], [wa, wb], max_pet, reach, work);
     }
     // sweep along the axis on which the two windows' points spread more (fewer overlapping
     // intervals; either axis finds the same crossing, `better` being a total order)
     // (the boxes of the windows before narrowing: the axis only sets the cost)
     let sweep_x = ba[1].max(bb[1]) - ba[0].min(bb[0]) >= ba[3].max(bb[3]) - ba[2].min(bb[2]);
-    let (mut sa, mut sb) = (segments_of(a, sweep_x, wa), segments_of(b, sweep_x, wb));
+    let (mut sa, mut sb) = (segments_of(a, sweep_x, wa)?, segments_of(b, sweep_x, wb)?);
     // and only segments meeting the other's bounding box: the sweep compares a pair only when
     // their boxes meet (closed intervals on both axes), so the others are never compared
     clip(&mut sa, &sb);
     clip(&mut sb, &sa);
     let segs = [sa, sb];
-    let mut events: Vec<(f64, usize, usize)> = segs.iter().enumerate().flat_map(|(side, ss)| ss.iter().enumerate().map(move |(i, s)| (s.lo, side, i))).collect();
+    let n_events = segs[0].len() + segs[1].len();
+    let mut events: Vec<(f64, usize, usize)> = Vec::new();
+    events.try_reserve_exact(n_events).map_err(|_| alloc_error((n_events * std::mem::size_of::<(f64, usize, usize)>()) as u128))?;
+    events.extend(segs.iter().enumerate().flat_map(|(side, ss)| ss.iter().enumerate().map(move |(i, s)| (s.lo, side, i))));
+    // the active lists hold at most every segment of their side: reserved once, never grown
+    let mut active: [Vec<usize>; 2] = [Vec::new(), Vec::new()];
+    for (side, act) in active.iter_mut().enumerate() {
+        act.try_reserve_exact(segs[side].len()).map_err(|_| alloc_error((segs[side].len() * std::mem::size_of::<usize>()) as u128))?;
+    }
     // (side, i) is unique: the unstable sort gives the one order there is
     events.sort_unstable_by(|p, q| p.0.total_cmp(&q.0).then(p.1.cmp(&q.1)).then(p.2.cmp(&q.2)));
-    let mut active: [Vec<usize>; 2] = [Vec::new(), Vec::new()];
     let mut best: Option<Pet> = None;
     for (lo, side, i) in events {
         let other = 1 - side;
+        // every active segment of the other side is examined (retain, then the loop below)
+        work.add(active[other].len())?;
         active[other].retain(|&j| segs[other][j].hi >= lo);
         let s = &segs[side][i];
         for &j in &active[other] {
@@ -237,7 +318,7 @@ pub(crate) fn pet_checked(a: Traj<'_>, b: Traj<'_>, max_pet: f64) -> Option<Pet>
         }
         active[side].push(i);
     }
-    best
+    Ok(best)
 }
 
 /// The better of two crossings: the smaller PET, then the earlier first passage, then (two
@@ -266,7 +347,7 @@ fn better(c: &Pet, best: &Option<Pet>) -> bool {
 /// order too), so nothing is sorted or allocated: O(n' + m' + K_t), K_t the segment pairs within
 /// max_pet in time. The same crossings are compared as by the space sweep, so the same one is
 /// returned (ties: the earlier first passage).
-fn time_sweep(tr: [Traj<'_>; 2], ks: [std::ops::Range<usize>; 2], max_pet: f64, reach: f64) -> Option<Pet> {
+fn time_sweep(tr: [Traj<'_>; 2], ks: [std::ops::Range<usize>; 2], max_pet: f64, reach: f64, work: &mut Work<'_>) -> Result<Option<Pet>, ConflictError> {
     let mut best: Option<Pet> = None;
     let (mut next, mut lo) = ([ks[0].start, ks[1].start], [ks[0].start, ks[1].start]);
     while next[0] < ks[0].end || next[1] < ks[1].end {
@@ -281,6 +362,7 @@ fn time_sweep(tr: [Traj<'_>; 2], ks: [std::ops::Range<usize>; 2], max_pet: f64, 
         while lo[other] < next[other] && s.t0 > tr[other].t[lo[other]] + reach {
             lo[other] += 1;
         }
+        work.add(next[other] - lo[other])?;
         for j in lo[other]..next[other] {
             let Some(o) = segment(tr[other], j, true) else { continue };
             if o.hi < s.lo || s.hi < o.lo || o.ohi < s.olo || s.ohi < o.olo {
@@ -294,7 +376,7 @@ fn time_sweep(tr: [Traj<'_>; 2], ks: [std::ops::Range<usize>; 2], max_pet: f64, 
             }
         }
     }
-    best
+    Ok(best)
 }
 
 #[cfg(test)]
@@ -304,6 +386,45 @@ mod tests {
     use proptest::prelude::*;
 
     use super::super::test_line as line;
+
+    /// Two road users standing and jittering in one place for `n` points each (every segment
+    /// pair overlaps on both axes: K = n m, what took 36 s at n = 40,000).
+    fn jitter(n: usize, seed: u64) -> OwnedTraj {
+        let mut s = seed;
+        let mut r = move || {
+            s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (s >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let t: Vec<f64> = (0..n).map(|k| k as f64 * 0.1).collect();
+        let x: Vec<f64> = (0..n).map(|_| r()).collect();
+        let y: Vec<f64> = (0..n).map(|_| r()).collect();
+        OwnedTraj { t, x, y }
+    }
+
+    #[test]
+    fn the_sweeps_stop_at_the_segment_pair_limit() {
+        use crate::limits::{with_scope, Limits};
+        use std::sync::Arc;
+        let (a, b) = (jitter(3000, 1), jitter(3000, 2));
+        let low = Arc::new(Limits::default());
+        low.set("pet_segment_pairs", 100_000).unwrap();
+        // the space sweep (no max_pet) and the time sweep (a long shared time) both stop
+        for max_pet in [f64::INFINITY, 5.0] {
+            let e = with_scope(&low, || pet(a.view(), b.view(), max_pet)).unwrap_err();
+            let ConflictError::Work(w) = &e else { panic!("{e:?}") };
+            assert_eq!((w.name, w.limit), ("pet_segment_pairs", 100_000));
+            assert!(w.needed > 100_000, "{w:?}");
+            assert!(e.describe().contains("segment pairs examined, above the work limit pet_segment_pairs = 100000; raise it with CALL trajdb_set_limit('pet_segment_pairs'"), "{e}");
+        }
+        // within the default: the same paths give their crossing, as with no limit at all
+        let full = pet_checked(a.view(), b.view(), f64::INFINITY, &Budget::new(u64::MAX)).unwrap();
+        assert!(full.is_some());
+        assert_eq!(pet(a.view(), b.view(), f64::INFINITY).unwrap(), full);
+        // a path crossing another once costs far below the limit
+        let c = OwnedTraj { t: vec![0.0, 1.0], x: vec![-5.0, 5.0], y: vec![0.5, 0.5] };
+        let d = OwnedTraj { t: vec![0.0, 1.0], x: vec![0.5, 0.5], y: vec![-5.0, 5.0] };
+        assert!(with_scope(&low, || pet(c.view(), d.view(), f64::INFINITY)).unwrap().is_some());
+    }
 
     #[test]
     fn a_right_angle_crossing_has_the_kinematic_pet() {

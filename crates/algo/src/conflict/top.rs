@@ -71,6 +71,8 @@ pub fn top_conflicts(ids: &[i64], trajs: &[Traj<'_>], k: i64, max_pet: f64, radi
     let last = max_pet.min(whole);
     let mut g = if max_pet.is_finite() { max_pet / 16.0 } else { 1.0f64.min(last) };
     let mut rounds = 0;
+    // PET's work limit per pair of road users, read in this thread (the limits' scope)
+    let limit = crate::limits::PET_SEGMENT_PAIRS.get();
     let mut found = loop {
         rounds += 1;
         let cand = ordered_candidates(ids, trajs, 0.0, 0.0, g / 2.0)?;
@@ -79,12 +81,15 @@ pub fn top_conflicts(ids: &[i64], trajs: &[Traj<'_>], k: i64, max_pet: f64, radi
         let bound = Bound::new(k, g);
         let found: Vec<(usize, usize, super::Pet)> = cand
             .par_iter()
-            .filter_map(|&(a, b)| {
-                let p = pet_checked(trajs[a], trajs[b], bound.get())?;
-                bound.offer(p.pet);
-                Some((a, b, p))
+            .filter_map(|&(a, b)| match pet_checked(trajs[a], trajs[b], bound.get(), &super::pet::Budget::new(limit)) {
+                Ok(Some(p)) => {
+                    bound.offer(p.pet);
+                    Some(Ok((a, b, p)))
+                }
+                Ok(None) => None,
+                Err(e) => Some(Err(e)),
             })
-            .collect();
+            .collect::<Result<_, ConflictError>>()?;
         if found.len() >= k || g >= last {
             break found;
         }

@@ -89,7 +89,10 @@ impl<'a> Obs<'a> {
                 return Err(FuseError::NotFinite { index, field, value: col[index] });
             }
         }
-        if let Some(index) = self.sigma.iter().position(|&s| !(s > 0.0)) {
+        // within 1e-30..1e30: the filter's variances are products of sigma^2 with sigma^2 and
+        // q dt^3; past these they under- or overflow and 0/0 or inf - inf gave NaN from finite
+        // input (issue 37: sigma 1e-200)
+        if let Some(index) = self.sigma.iter().position(|&s| !(s >= SIGMA_RANGE.0 && s <= SIGMA_RANGE.1)) {
             return Err(FuseError::Sigma { index, value: self.sigma[index] });
         }
         if let Some(k) = self.t.windows(2).position(|w| w[1] < w[0]) {
@@ -167,14 +170,14 @@ impl FuseError {
                 index
             ),
             FuseError::Sigma { index, value } => format!(
-                "{param}[{}].sigma must be > 0 (the observation's position noise in metres, e.g. calib_cameras.sigma_m), got {value}",
+                "{param}[{}].sigma must be in [1e-30, 1e30] (the observation's position noise in metres, e.g. calib_cameras.sigma_m), got {value}",
                 index + 1
             ),
             FuseError::Param(e) => e.to_string(),
             FuseError::TooManyPoints(n) => {
                 let l = &limits::OUTPUT_POINTS;
                 format!(
-                    "would produce {n:.0} points, above the work limit {} = {}; use a longer period, or raise it with SELECT trajdb_limit('{}', {n:.0})",
+                    "would produce {n:.0} points, above the work limit {} = {}; use a longer period, or raise it with CALL trajdb_set_limit('{}', {n:.0})",
                     l.name,
                     l.get(),
                     l.name
@@ -184,7 +187,7 @@ impl FuseError {
                 let l = &limits::MEMORY_BYTES;
                 format!(
                     "needs {bytes} bytes of filter state, above the work limit {} = {} or more than could be allocated; fuse fewer observations \
-                     per call (one road user at a time), or raise it with SELECT trajdb_limit('{}', {bytes})",
+                     per call (one road user at a time), or raise it with CALL trajdb_set_limit('{}', {bytes})",
                     l.name,
                     l.get(),
                     l.name
@@ -201,12 +204,18 @@ impl fmt::Display for FuseError {
 }
 impl std::error::Error for FuseError {}
 
-/// `q` if it is >= 0 and finite (0: no process noise, a straight line at constant velocity).
+/// The observations' sigma (m) the filter takes: outside it its variances under- or overflow.
+pub const SIGMA_RANGE: (f64, f64) = (1e-30, 1e30);
+/// The largest `q` the filter takes (q dt^3 and its products stay finite; real q is below 1e3).
+pub const Q_MAX: f64 = 1e30;
+
+/// `q` if it is in [0, 1e30] (0: no process noise, a straight line at constant velocity; above
+/// 1e30 the filter's variances overflow and finite input gave NaN: issue 37, q = 1e200).
 pub(crate) fn check_q(q: f64) -> Result<f64, FuseError> {
-    if q >= 0.0 && q.is_finite() {
+    if (0.0..=Q_MAX).contains(&q) {
         Ok(q)
     } else {
-        Err(FuseError::Param(ParamError { name: "q", rule: ">= 0 and finite (the acceleration noise density, m^2/s^3)", value: q }))
+        Err(FuseError::Param(ParamError { name: "q", rule: "in [0, 1e30] (the acceleration noise density, m^2/s^3)", value: q }))
     }
 }
 

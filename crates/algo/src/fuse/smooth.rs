@@ -314,11 +314,11 @@ mod tests {
         let (t, x, y, s) = obs_of(&[(0.0, 0.0, 0.0, 0.0)]);
         let e = smooth(Obs::new(&t, &x, &y, &s), 1.0).unwrap_err();
         assert_eq!(e, FuseError::Sigma { index: 0, value: 0.0 });
-        assert!(e.describe("obs").starts_with("obs[1].sigma must be > 0"), "{}", e.describe("obs"));
+        assert!(e.describe("obs").starts_with("obs[1].sigma must be in [1e-30, 1e30]"), "{}", e.describe("obs"));
         let (t, x, y, s) = obs_of(&[(0.0, 0.0, 0.0, 0.1)]);
         for q in [-1.0, f64::NAN, f64::INFINITY] {
             let e = smooth(Obs::new(&t, &x, &y, &s), q).unwrap_err();
-            assert!(e.to_string().starts_with("q must be >= 0"), "{e}");
+            assert!(e.to_string().starts_with("q must be in [0, 1e30]"), "{e}");
         }
     }
 

@@ -65,20 +65,88 @@ pub fn overlap_with_union<'a>(merged: impl IntoIterator<Item = &'a Region>, next
 
 /// Offsets the boundary by `distance` (> 0 grows, < 0 shrinks, 0 is the identity), with
 /// round joins, like `ST_Buffer` (geo's `Buffer`, the `i_overlay` outline). `distance` must be
-/// finite. O((V + k) log V) plus the arc vertices of the round joins.
+/// finite. Rings of more than 256 vertices are first simplified (Douglas–Peucker at
+/// |distance| / 100: [`simplified`]), so the result is within |distance| / 100 of the exact
+/// offset and a dense ring costs about its simplified size: near-linear in the vertices for the
+/// view polygons of long tracks. O((V' + k) log V') plus the arc vertices of the round joins,
+/// V' the vertices after simplification.
 pub fn buffer(p: &Region, distance: f64) -> Result<MultiPolygon<f64>, ParamError> {
     let distance = finite("distance", distance)?;
     let p = p.polygons();
     if p.0.is_empty() || distance == 0.0 {
         return Ok(p.clone());
     }
-    let out = wound(p.buffer(distance));
+    let simple = simplified(p, distance.abs() * BUFFER_TOLERANCE);
+    let out = wound(simple.as_ref().unwrap_or(p).buffer(distance));
     // Far beyond the polygon's own size the offset loses the polygon to rounding (an outward
     // buffer of 1e10 m came back with area 0): refuse what cannot be computed right.
     if distance > 0.0 && !(out.unsigned_area() >= p.unsigned_area()) {
         return Err(ParamError { name: "distance", rule: "small enough to keep the polygon within floating-point precision", value: distance });
     }
     Ok(out)
+}
+
+/// Working bytes the boolean engine (i_overlay, whose allocations are not fallible) is allowed
+/// per input vertex: a generous bound of its segment, event and output tables.
+pub const OVERLAY_BYTES_PER_VERTEX: u128 = 4096;
+
+/// `Ok` when an overlay (union, intersection, buffer) of `parts` may run: their vertices times
+/// [`OVERLAY_BYTES_PER_VERTEX`] within the `memory_bytes` limit, and that many bytes allocatable
+/// now (a fallible allocation, freed at once: it reserves address space, not memory), so that
+/// an overlay that would exhaust memory is an error before it starts, never an abort inside
+/// i_overlay, whatever the limit says.
+pub fn overlay_room<'a>(parts: impl IntoIterator<Item = &'a Region>) -> Result<(), String> {
+    let v: usize = parts.into_iter().map(|r| r.polygons().0.iter().map(|p| p.exterior().0.len() + p.interiors().iter().map(|h| h.0.len()).sum::<usize>()).sum::<usize>()).sum();
+    let bytes = v as u128 * OVERLAY_BYTES_PER_VERTEX;
+    crate::limits::MEMORY_BYTES.check(bytes).map_err(|e| format!("{v} polygon vertices: {e}"))?;
+    let refuse = || format!("{v} polygon vertices need up to {bytes} bytes of working memory, which could not be allocated; pass fewer or simpler polygons per call");
+    let mut probe: Vec<u8> = Vec::new();
+    probe.try_reserve_exact(usize::try_from(bytes).map_err(|_| refuse())?).map_err(|_| refuse())?;
+    Ok(())
+}
+
+/// The Douglas–Peucker tolerance of [`buffer`], as a fraction of |distance|.
+pub const BUFFER_TOLERANCE: f64 = 0.01;
+
+/// Rings of more vertices than this are simplified before [`buffer`].
+const SIMPLIFY_ABOVE: usize = 256;
+
+/// `p` with every ring of more than [`SIMPLIFY_ABOVE`] vertices simplified by Douglas–Peucker at
+/// tolerance `eps` (a ring that would collapse below a triangle: at the largest eps / 2^k that
+/// keeps one); `None` when
+/// no ring is that long (small polygons are buffered exactly as given).
+///
+/// Why: i_overlay's outline costs far more than linear in the vertices of a dense ring (3.5 s at
+/// 100,000 vertices), and a view polygon drawn from a long track has a vertex every few
+/// centimetres, while the buffer distance is metres. Error bound: every removed vertex lies
+/// within `eps` of the simplified ring (Douglas–Peucker's guarantee), so the two boundaries are
+/// within Hausdorff distance `eps`, and so are their offsets at any distance (offsetting is
+/// 1-Lipschitz in the Hausdorff distance): the buffered boundary is within |distance| / 100 of
+/// the exact one.
+fn simplified(p: &MultiPolygon<f64>, eps: f64) -> Option<MultiPolygon<f64>> {
+    use geo::Simplify;
+    let long = |r: &LineString<f64>| r.0.len() > SIMPLIFY_ABOVE;
+    if !(eps > 0.0 && eps.is_finite()) || !p.0.iter().any(|q| long(q.exterior()) || q.interiors().iter().any(long)) {
+        return None;
+    }
+    let ring = |r: &LineString<f64>| {
+        if !long(r) {
+            return r.clone();
+        }
+        // a ring smaller than eps collapses: simplified at a finer tolerance instead (halved
+        // until it keeps a triangle; a ring of thousands of vertices offset by a distance far
+        // beyond its size made round joins without end and exhausted memory)
+        let mut e = eps;
+        for _ in 0..64 {
+            let s = r.simplify(e);
+            if s.0.len() >= 4 {
+                return s;
+            }
+            e /= 2.0;
+        }
+        r.clone()
+    };
+    Some(MultiPolygon(p.0.iter().map(|q| Polygon::new(ring(q.exterior()), q.interiors().iter().map(ring).collect())).collect()))
 }
 
 /// Area, holes subtracted: the sum of the shells' areas minus the holes' (exact for a valid
@@ -235,6 +303,43 @@ mod tests {
         assert!((a(&union_all([&pa, &pb])) / 88.35986682808716 - 1.0).abs() < 1e-8);
         // round joins are polygonised differently (GEOS: 8 segments per quadrant)
         assert!((a(&buffer(&pa, -0.5).unwrap()) - 45.2144326957364).abs() < 1e-6);
+    }
+
+    #[test]
+    fn a_dense_ring_is_simplified_within_the_tolerance_before_buffering() {
+        use geo::{Contains, Point};
+        // a circle of radius 50 with 20,000 vertices and 1 cm of wobble: buffered by 2 m
+        let n = 20_000;
+        let ring: Vec<(f64, f64)> = (0..n)
+            .map(|k| {
+                let a = k as f64 / n as f64 * std::f64::consts::TAU;
+                let r = 50.0 + 0.01 * ((k * 7919) % 13) as f64 / 13.0;
+                (r * a.cos(), r * a.sin())
+            })
+            .collect();
+        let mp = from_vertices(&ring);
+        let s = simplified(&mp, 2.0 * BUFFER_TOLERANCE).expect("a ring of 20,000 vertices is simplified");
+        let kept = s.0[0].exterior().0.len();
+        assert!(kept < n / 10, "{kept} vertices kept of {n}");
+        // every vertex of the simplified ring is a vertex of the original (Douglas-Peucker keeps a subset)
+        for d in [2.0, -2.0] {
+            let r = reg(&mp);
+            let out = buffer(&r, d).unwrap();
+            let exact = wound(mp.buffer(d));
+            // areas agree within the band the tolerance allows: perimeter x eps
+            let band = 2.0 * std::f64::consts::PI * 52.0 * (d.abs() * BUFFER_TOLERANCE);
+            assert!((out.unsigned_area() - exact.unsigned_area()).abs() <= band, "{d}: {} vs {}", out.unsigned_area(), exact.unsigned_area());
+            // points clearly inside / outside the exact offset are on the same side of the result
+            let edge = 50.0 + d;
+            for k in 0..360 {
+                let a = (k as f64).to_radians();
+                let (inside, outside) = (edge - 0.05, edge + 0.05);
+                assert!(out.contains(&Point::new(inside * a.cos(), inside * a.sin())), "{d} {k}");
+                assert!(!out.contains(&Point::new(outside * a.cos(), outside * a.sin())), "{d} {k}");
+            }
+        }
+        // a small polygon is buffered as given
+        assert!(simplified(&from_vertices(&[(0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0)]), 0.01).is_none());
     }
 
     #[test]

@@ -382,7 +382,7 @@ mod tests {
         let mut tests = 0;
         let e = with_scope(&l, || lcss_len(10, 10, band.clone(), |_, _| { tests += 1; true })).unwrap_err();
         assert!(matches!(&e, LcssError::Work(x) if x.needed == 100 && x.limit == 99), "{e}");
-        assert!(e.to_string().contains("trajdb_limit('lcss_cells', 100)"), "{e}");
+        assert!(e.to_string().contains("trajdb_set_limit('lcss_cells', 100)"), "{e}");
         assert_eq!(tests, 0, "no work before the check");
         assert!(matches!(with_scope(&l, || BandTable::build(10, 10, band.clone(), |_, _| true)), Err(LcssError::Work(_))));
         l.set("lcss_cells", 100).unwrap();

@@ -98,7 +98,7 @@ def main():
                                               [{'t': i * 1.0, 'x': i * 1.0, 'y': 0.0} FOR i IN range(150000)], 1.0, 1e9)""").fetchall()
         raise SystemExit("FAIL: a 2.25e10-cell LCSS table was not refused")
     except duckdb.InvalidInputException as e:
-        assert "lcss_similarity:" in str(e) and "trajdb_limit" in str(e), e
+        assert "lcss_similarity:" in str(e) and "trajdb_set_limit" in str(e), e
         took = time.perf_counter() - t
         assert took < 20, took  # building the 150k-point lists is most of it; the LCSS would take minutes
         print(f"ok   work limit: a 2.25e10-cell LCSS table refused in {took:.2f} s: {str(e)[:160]}")

@@ -328,7 +328,7 @@ CREATE TEMP TABLE few AS SELECT list(k ORDER BY k) AS ids, list(tr ORDER BY k) A
   FROM range(60) a(k), range(300) b(i) GROUP BY k);
 CREATE TEMP TABLE evs AS SELECT list({{'id': i, 't0': (i % 50) * 0.1, 'x0': (i % 7) * 0.1, 'y0': 0.0, 't1': (i % 50) * 0.1 + 1.0, 'x1': (i % 5) * 0.1, 'y1': 0.0, 'vx1': 1.0, 'vy1': 0.0}}) AS ev,
   list({{'id': i, 't0': (i % 50) * 0.1, 'x0': (i % 7) * 0.1, 'y0': 0.0, 't1': (i % 50) * 0.1 + 1.0, 'x1': (i % 5) * 0.1, 'y1': 0.0, 'vx1': 1.0, 'vy1': 0.0, 'vx0': 1.0, 'vy0': 0.0}}) AS lb
-  FROM range(300) r(i);
+  FROM range(50) r(i);
 CREATE TEMP TABLE prs AS SELECT list({{'a': i, 'b': j, 'distance': abs(sin(i) - sin(j))}}) AS pairs,
   list({{'a': i, 'b': j, 'w': abs(sin(i * j))}}) AS edges, list({{'a': i, 'b': j, 'score': abs(cos(i * j))}}) AS sc
   FROM range(120) a(i), range(120) b(j) WHERE i < j;

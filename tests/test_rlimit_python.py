@@ -280,10 +280,12 @@ def rlimit_cases(ext, con, scratch):
     return failures, total
 
 
-# long kernels under con.interrupt(): (name, query). Each row is a call of moderate size; the
-# query has far more rows than it could run in BOUND seconds.
+# long kernels under con.interrupt(): (name, query). Each row is a call of moderate size (DuckDB
+# checks the interrupt between chunks of up to 2048 rows, so a chunk must fit in BOUND); the
+# query has far more rows than it could run in BOUND seconds. "(one call)": a single call,
+# bounded by its work limit alone.
 LONG = {
-    "traj_pet": "SELECT count(traj_pet(a, b)) FROM zig, range(1000000) r(i)",
+    "traj_pet": "SELECT count(traj_pet(a, b)) FROM zig_small, range(1000000) r(i)",
     "traj_pet (one call)": "SELECT traj_pet(a, b) FROM (SELECT a, b FROM zig_long)",
     "traj_events": "SELECT count(traj_events(CASE WHEN i >= 0 THEN ev END, 1e6, 1e6)) FROM evs, range(1000000) r(i)",
     "traj_labels": "SELECT count(traj_labels(CASE WHEN i >= 0 THEN lb END, 1e6, 1e6)) FROM evs, range(1000000) r(i)",
@@ -313,6 +315,10 @@ CREATE TEMP TABLE zig AS SELECT
   list({{'t': i * 0.1, 'x': (i % 2) * 1.0 + (i * 7919 % 100) / 1000.0, 'y': ((i // 2) % 2) * 1.0}} ORDER BY i) AS a,
   list({{'t': i * 0.1 + 0.05, 'x': ((i + 1) % 2) * 1.0, 'y': ((i // 3) % 2) * 1.0 + (i * 104729 % 100) / 1000.0}} ORDER BY i) AS b
   FROM range(3000) r(i);
+CREATE TEMP TABLE zig_small AS SELECT
+  list({{'t': i * 0.1, 'x': (i % 2) * 1.0 + (i * 7919 % 100) / 1000.0, 'y': ((i // 2) % 2) * 1.0}} ORDER BY i) AS a,
+  list({{'t': i * 0.1 + 0.05, 'x': ((i + 1) % 2) * 1.0, 'y': ((i // 3) % 2) * 1.0 + (i * 104729 % 100) / 1000.0}} ORDER BY i) AS b
+  FROM range(300) r(i);
 CREATE TEMP TABLE zig_long AS SELECT
   list({{'t': i * 0.1, 'x': (i % 2) * 1.0 + (i * 7919 % 100) / 1000.0, 'y': ((i // 2) % 2) * 1.0}} ORDER BY i) AS a,
   list({{'t': i * 0.1 + 0.05, 'x': ((i + 1) % 2) * 1.0, 'y': ((i // 3) % 2) * 1.0 + (i * 104729 % 100) / 1000.0}} ORDER BY i) AS b
@@ -322,10 +328,10 @@ CREATE TEMP TABLE few AS SELECT list(k ORDER BY k) AS ids, list(tr ORDER BY k) A
   FROM range(60) a(k), range(300) b(i) GROUP BY k);
 CREATE TEMP TABLE evs AS SELECT list({{'id': i, 't0': (i % 50) * 0.1, 'x0': (i % 7) * 0.1, 'y0': 0.0, 't1': (i % 50) * 0.1 + 1.0, 'x1': (i % 5) * 0.1, 'y1': 0.0, 'vx1': 1.0, 'vy1': 0.0}}) AS ev,
   list({{'id': i, 't0': (i % 50) * 0.1, 'x0': (i % 7) * 0.1, 'y0': 0.0, 't1': (i % 50) * 0.1 + 1.0, 'x1': (i % 5) * 0.1, 'y1': 0.0, 'vx1': 1.0, 'vy1': 0.0, 'vx0': 1.0, 'vy0': 0.0}}) AS lb
-  FROM range(2000) r(i);
+  FROM range(50) r(i);
 CREATE TEMP TABLE prs AS SELECT list({{'a': i, 'b': j, 'distance': abs(sin(i) - sin(j))}}) AS pairs,
   list({{'a': i, 'b': j, 'w': abs(sin(i * j))}}) AS edges, list({{'a': i, 'b': j, 'score': abs(cos(i * j))}}) AS sc
-  FROM range(300) a(i), range(300) b(j) WHERE i < j;
+  FROM range(120) a(i), range(120) b(j) WHERE i < j;
 CREATE TEMP TABLE fz AS SELECT list({{'t': i * 0.01, 'x': sin(i * 0.01), 'y': cos(i * 0.01), 'sigma': 0.1}} ORDER BY i) AS obs FROM range(20000) r(i);
 CREATE TEMP TABLE poly AS SELECT '{polygon_wkt(20000)}' AS p;
 """

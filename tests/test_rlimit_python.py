@@ -289,11 +289,11 @@ LONG = {
     "traj_pet (one call)": "SELECT traj_pet(a, b) FROM (SELECT a, b FROM zig_long)",
     "traj_events": "SELECT count(traj_events(CASE WHEN i >= 0 THEN ev END, 1e6, 1e6)) FROM evs, range(1000000) r(i)",
     "traj_labels": "SELECT count(traj_labels(CASE WHEN i >= 0 THEN lb END, 1e6, 1e6)) FROM evs, range(1000000) r(i)",
-    "lcss_similarity": "SELECT sum(lcss_similarity(a, b, 1.0 + 0 * i, 1e9)) FROM zig, range(1000000) r(i)",
-    "lcss_matches": "SELECT count(lcss_matches(a, b, 1.0 + 0 * i, 1e9)) FROM zig, range(1000000) r(i)",
-    "lcss_index_similarity": "SELECT sum(lcss_index_similarity(a, b, 100000, 1.0 + 0 * i)) FROM zig, range(1000000) r(i)",
-    "lcss_s2": "SELECT count(lcss_s2(a, b, 100000, 1.0 + 0 * i)) FROM zig, range(1000000) r(i)",
-    "cpd_align": "SELECT count(cpd_align(a, b, 0.1 + 0 * i)) FROM zig, range(1000000) r(i)",
+    "lcss_similarity": "SELECT sum(lcss_similarity(a, b, 1.0 + 0 * i, 1e9)) FROM zig_small, range(1000000) r(i)",
+    "lcss_matches": "SELECT count(lcss_matches(a, b, 1.0 + 0 * i, 1e9)) FROM zig_small, range(1000000) r(i)",
+    "lcss_index_similarity": "SELECT sum(lcss_index_similarity(a, b, 100000, 1.0 + 0 * i)) FROM zig_small, range(1000000) r(i)",
+    "lcss_s2": "SELECT count(lcss_s2(a, b, 100000, 1.0 + 0 * i)) FROM zig_tiny, range(1000000) r(i)",
+    "cpd_align": "SELECT count(cpd_align(a, b, 0.1 + 0 * i)) FROM zig_small, range(1000000) r(i)",
     "traj_conflicts": "SELECT count(traj_conflicts(ids, v, 1e6 + 0 * i, 1.0, 5.0)) FROM few, range(1000000) r(i)",
     "traj_conflicts_top": "SELECT count(traj_conflicts_top(ids, v, 10, 1e6 + 0 * i, 1.0)) FROM few, range(1000000) r(i)",
     "polygon_buffer": "SELECT count(polygon_buffer(p, 2.0 + 0 * i)) FROM poly, range(1000000) r(i)",
@@ -303,10 +303,10 @@ LONG = {
     "assign_pairs": "SELECT count(assign_pairs(CASE WHEN i >= 0 THEN edges END)) FROM prs, range(1000000) r(i)",
     "hungarian_match": "SELECT count(hungarian_match(CASE WHEN i >= 0 THEN sc END)) FROM prs, range(1000000) r(i)",
     "traj_fuse": "SELECT count(traj_fuse(CASE WHEN i >= 0 THEN obs END, 1.0, 0.01)) FROM fz, range(1000000) r(i)",
-    "traj_resample": "SELECT count(traj_resample(a, 0.001 + 0 * i)) FROM zig, range(1000000) r(i)",
-    "rigid_fit_shifted": "SELECT count(rigid_fit_shifted([a], [b], 0.0, 5.0 + 0 * i, 0.05)) FROM zig, range(1000000) r(i)",
-    "view_polygon": "SELECT count(view_polygon(a, 'concave', 0.3 + 0 * i)) FROM zig, range(1000000) r(i)",
-    "trajectory_merge": "SELECT count(trajectory_merge(a, b, 1.0 + 0 * i, 1e9)) FROM zig, range(1000000) r(i)",
+    "traj_resample": "SELECT count(traj_resample(a, 0.001 + 0 * i)) FROM zig_small, range(1000000) r(i)",
+    "rigid_fit_shifted": "SELECT count(rigid_fit_shifted([a], [b], 0.0, 5.0 + 0 * i, 0.05)) FROM zig_small, range(1000000) r(i)",
+    "view_polygon": "SELECT count(view_polygon(a, 'concave', 0.3 + 0 * i)) FROM zig_small, range(1000000) r(i)",
+    "trajectory_merge": "SELECT count(trajectory_merge(a, b, 1.0 + 0 * i, 1e9)) FROM zig_small, range(1000000) r(i)",
 }
 
 INTERRUPT_SETUP = f"""
@@ -319,6 +319,10 @@ CREATE TEMP TABLE zig_small AS SELECT
   list({{'t': i * 0.1, 'x': (i % 2) * 1.0 + (i * 7919 % 100) / 1000.0, 'y': ((i // 2) % 2) * 1.0}} ORDER BY i) AS a,
   list({{'t': i * 0.1 + 0.05, 'x': ((i + 1) % 2) * 1.0, 'y': ((i // 3) % 2) * 1.0 + (i * 104729 % 100) / 1000.0}} ORDER BY i) AS b
   FROM range(300) r(i);
+CREATE TEMP TABLE zig_tiny AS SELECT
+  list({{'t': i * 0.1, 'x': (i % 2) * 1.0 + (i * 7919 % 100) / 1000.0, 'y': ((i // 2) % 2) * 1.0}} ORDER BY i) AS a,
+  list({{'t': i * 0.1 + 0.05, 'x': ((i + 1) % 2) * 1.0, 'y': ((i // 3) % 2) * 1.0 + (i * 104729 % 100) / 1000.0}} ORDER BY i) AS b
+  FROM range(40) r(i);
 CREATE TEMP TABLE zig_long AS SELECT
   list({{'t': i * 0.1, 'x': (i % 2) * 1.0 + (i * 7919 % 100) / 1000.0, 'y': ((i // 2) % 2) * 1.0}} ORDER BY i) AS a,
   list({{'t': i * 0.1 + 0.05, 'x': ((i + 1) % 2) * 1.0, 'y': ((i // 3) % 2) * 1.0 + (i * 104729 % 100) / 1000.0}} ORDER BY i) AS b

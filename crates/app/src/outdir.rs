@@ -265,10 +265,97 @@ fn fingerprint(p: &Path) -> Result<Option<Ident>, OutError> {
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
         Err(e) => return Err(io("read", p, e)),
     }
-    let mut f = fs::File::open(p).map_err(|e| io("read", p, e))?;
+    let f = fs::File::open(p).map_err(|e| io("read", p, e))?;
     if !f.metadata().map_err(|e| io("read", p, e))?.is_file() {
         return Ok(None);
     }
+    fingerprint_file(f, p).map(Some)
+}
+
+/// A staging folder opened once as a directory handle (`O_DIRECTORY | O_NOFOLLOW`): every read,
+/// move and removal inside it goes through that handle (`openat`, `renameat`, `unlinkat`, each
+/// not following a link), never through its path again. A staging folder swapped for a link to
+/// someone else's folder during a run (the hostile probe of issue 37) is then either refused
+/// (the handle is not the folder this claim made) or never reached: nothing is read, moved or
+/// removed through the link.
+struct Staged {
+    dir: fs::File,
+}
+
+impl Staged {
+    fn open(p: &Path) -> std::io::Result<Staged> {
+        use std::os::unix::ffi::OsStrExt;
+        use std::os::unix::io::FromRawFd;
+        let c = std::ffi::CString::new(p.as_os_str().as_bytes()).map_err(|_| std::io::Error::from(std::io::ErrorKind::InvalidInput))?;
+        // SAFETY: a NUL-terminated path; the returned descriptor is owned by the File below
+        let fd = unsafe { libc::open(c.as_ptr(), libc::O_RDONLY | libc::O_DIRECTORY | libc::O_NOFOLLOW | libc::O_CLOEXEC) };
+        if fd < 0 {
+            return Err(std::io::Error::last_os_error());
+        }
+        Ok(Staged { dir: unsafe { fs::File::from_raw_fd(fd) } })
+    }
+
+    /// (device, inode) of the folder the handle holds.
+    fn id(&self) -> std::io::Result<(u64, u64)> {
+        use std::os::unix::fs::MetadataExt;
+        let m = self.dir.metadata()?;
+        Ok((m.dev(), m.ino()))
+    }
+
+    fn fd(&self) -> libc::c_int {
+        use std::os::unix::io::AsRawFd;
+        self.dir.as_raw_fd()
+    }
+
+    fn cname(name: &str) -> std::io::Result<std::ffi::CString> {
+        std::ffi::CString::new(name).map_err(|_| std::io::Error::from(std::io::ErrorKind::InvalidInput))
+    }
+
+    /// `name` inside, opened for reading when it is a plain file (a link is not followed:
+    /// `None`, as for a missing name or a folder).
+    fn open_file(&self, name: &str) -> std::io::Result<Option<fs::File>> {
+        use std::os::unix::io::FromRawFd;
+        let c = Self::cname(name)?;
+        // SAFETY: a NUL-terminated name relative to our open directory descriptor
+        let fd = unsafe { libc::openat(self.fd(), c.as_ptr(), libc::O_RDONLY | libc::O_NOFOLLOW | libc::O_CLOEXEC | libc::O_NONBLOCK) };
+        if fd < 0 {
+            let e = std::io::Error::last_os_error();
+            return match e.raw_os_error() {
+                Some(libc::ENOENT) | Some(libc::ELOOP) | Some(libc::ENOTDIR) => Ok(None),
+                _ => Err(e),
+            };
+        }
+        let f = unsafe { fs::File::from_raw_fd(fd) };
+        Ok(if f.metadata()?.is_file() { Some(f) } else { None })
+    }
+
+    /// Moves `name` out of the folder to `target` (renameat: the link itself, never its target).
+    fn rename_to(&self, name: &str, target: &Path) -> std::io::Result<()> {
+        use std::os::unix::ffi::OsStrExt;
+        let (c, t) = (Self::cname(name)?, std::ffi::CString::new(target.as_os_str().as_bytes()).map_err(|_| std::io::Error::from(std::io::ErrorKind::InvalidInput))?);
+        // SAFETY: NUL-terminated names; the source is relative to our directory descriptor
+        if unsafe { libc::renameat(self.fd(), c.as_ptr(), libc::AT_FDCWD, t.as_ptr()) } != 0 {
+            return Err(std::io::Error::last_os_error());
+        }
+        Ok(())
+    }
+
+    /// Removes the plain file `name` inside (a link or folder under the name stays).
+    fn remove_file(&self, name: &str) -> std::io::Result<()> {
+        if self.open_file(name)?.is_none() {
+            return Ok(());
+        }
+        let c = Self::cname(name)?;
+        // SAFETY: a NUL-terminated name relative to our directory descriptor
+        if unsafe { libc::unlinkat(self.fd(), c.as_ptr(), 0) } != 0 {
+            return Err(std::io::Error::last_os_error());
+        }
+        Ok(())
+    }
+}
+
+/// The fingerprint of an open file (see [`fingerprint`]).
+fn fingerprint_file(mut f: fs::File, p: &Path) -> Result<Ident, OutError> {
     let mut h = Hash64::new();
     let mut buf = vec![0u8; 1 << 20];
     loop {
@@ -280,7 +367,7 @@ fn fingerprint(p: &Path) -> Result<Option<Ident>, OutError> {
         }
     }
     let size = h.len;
-    Ok(Some(Ident { size, hash: h.finish() }))
+    Ok(Ident { size, hash: h.finish() })
 }
 
 /// A folder's manifest as trajdb wrote it.
@@ -457,6 +544,9 @@ pub struct Claim {
     fresh: bool,
     manifest_written: bool,
     partial_made: bool,
+    /// (device, inode) of the staging folder this claim created: the commit and the abort act
+    /// only on that folder, through a handle ([`Staged`]).
+    partial_id: Option<(u64, u64)>,
     lock: Option<fs::File>,
     done: bool,
 }
@@ -514,6 +604,7 @@ pub fn claim_checked(out: &str, inputs: &[&str], catalog: Catalog<'_>, kind: Kin
         fresh: false,
         manifest_written: false,
         partial_made: false,
+        partial_id: None,
         lock: None,
         done: false,
     };
@@ -546,7 +637,7 @@ pub fn claim_checked(out: &str, inputs: &[&str], catalog: Catalog<'_>, kind: Kin
     // proven ours; one holding anything else stays, listed
     let stale = std::mem::take(&mut c.manifest.staging);
     for s in stale {
-        if !remove_partial(&dir, &dir.join(&s))? {
+        if !remove_partial(&dir, &dir.join(&s), None)? {
             c.manifest.staging.push(s);
         }
     }
@@ -561,6 +652,7 @@ pub fn claim_checked(out: &str, inputs: &[&str], catalog: Catalog<'_>, kind: Kin
     }
     fs::create_dir(&c.partial).map_err(|e| io("create", &c.partial, e))?;
     c.partial_made = true;
+    c.partial_id = Some(Staged::open(&c.partial).and_then(|d| d.id()).map_err(|e| io("open", &c.partial, e))?);
     Ok(c)
 }
 
@@ -613,7 +705,7 @@ fn lock_dir(dir: &Path, out: &str) -> Result<fs::File, OutError> {
 /// Removes a staging folder of ours (named in the manifest, directly in `dir`, trajdb's
 /// prefix): the files in it under names trajdb writes, then the folder if it is empty.
 /// Returns whether it is gone (`false`: it holds something else and stays).
-fn remove_partial(dir: &Path, partial: &Path) -> Result<bool, OutError> {
+fn remove_partial(dir: &Path, partial: &Path, expect: Option<(u64, u64)>) -> Result<bool, OutError> {
     let ours = partial.parent() == Some(dir) && partial.file_name().is_some_and(|n| staging_name(&n.to_string_lossy()));
     if !ours {
         return err(format!("results folder: refusing to remove {}: not a staging folder of trajdb", partial.display()));
@@ -625,13 +717,13 @@ fn remove_partial(dir: &Path, partial: &Path) -> Result<bool, OutError> {
         Ok(m) if !m.is_dir() => return Ok(true),
         Ok(_) => {}
     }
-    if let Ok(entries) = fs::read_dir(partial) {
-        for e in entries.flatten() {
-            let n = e.file_name().to_string_lossy().into_owned();
-            if e.file_type().is_ok_and(|t| t.is_file()) && (WRITTEN_NAMES.contains(&n.as_str()) || n == MANIFEST) {
-                let _ = fs::remove_file(e.path());
-            }
-        }
+    // through one handle that never follows a link (a link swapped in meanwhile fails to open)
+    let Ok(d) = Staged::open(partial) else { return Ok(false) };
+    if expect.is_some_and(|want| d.id().ok() != Some(want)) {
+        return Ok(false); // another folder under the name now: not ours, left alone
+    }
+    for n in WRITTEN_NAMES.iter().copied().chain([MANIFEST]) {
+        let _ = d.remove_file(n);
     }
     // remove_dir, not remove_dir_all: anything else in there stops it
     Ok(fs::remove_dir(partial).is_ok())
@@ -697,15 +789,32 @@ impl Claim {
     /// Moves this run's files into place, removes the earlier run's files that this run did not
     /// write, writes the manifest, drops the staging folder and the lock. Returns the file names.
     pub fn commit(mut self) -> Result<Vec<String>, OutError> {
+        // the staging folder through one handle, and only if it is the folder this claim made
+        // (a link or another folder swapped in under its name is refused: [`Staged`])
+        let staged = Staged::open(&self.partial).map_err(|e| io("open the staging folder", &self.partial, e))?;
+        if self.partial_id.is_none() || staged.id().ok() != self.partial_id {
+            return err(format!(
+                "results folder {}: its staging folder {} was replaced during the run; nothing was replaced (run again)",
+                self.out.display(),
+                self.partial.display()
+            ));
+        }
+        // only the names trajdb writes, each a plain file (never a link) inside that folder
         let mut names = Vec::new();
-        for e in fs::read_dir(&self.partial).map_err(|e| io("list", &self.partial, e))? {
-            let e = e.map_err(|e| io("list", &self.partial, e))?;
-            let name = e.file_name().to_string_lossy().into_owned();
-            if e.file_type().is_ok_and(|t| t.is_file()) && plain_name(&name) {
-                names.push(name);
+        let mut new = Vec::new();
+        for n in WRITTEN_NAMES {
+            if let Some(f) = staged.open_file(n).map_err(|e| io("read", &self.partial.join(n), e))? {
+                new.push((n.to_string(), fingerprint_file(f, &self.partial.join(n))?));
+                names.push(n.to_string());
             }
         }
-        names.sort();
+        let order: Vec<usize> = {
+            let mut k: Vec<usize> = (0..names.len()).collect();
+            k.sort_by(|&a, &b| names[a].cmp(&names[b]));
+            k
+        };
+        let names: Vec<String> = order.iter().map(|&k| names[k].clone()).collect();
+        let new: Vec<(String, Ident)> = order.iter().map(|&k| new[k].clone()).collect();
         // every target must be replaceable (absent, or a file trajdb wrote whose bytes are
         // unchanged): checked for all before the first is moved, so that a refusal never leaves
         // a mixed set
@@ -736,12 +845,6 @@ impl Claim {
                 },
             }
         }
-        let mut new = Vec::new();
-        for n in &names {
-            let p = self.partial.join(n);
-            let id = fingerprint(&p)?.ok_or_else(|| OutError(format!("results folder: {} is not a plain file", p.display())))?;
-            new.push((n.clone(), id));
-        }
         // the manifest lists old and new identities while files move, so that a run killed in
         // between leaves every file listed (and removable by the next run)
         let previous = self.manifest.names();
@@ -750,13 +853,13 @@ impl Claim {
         write_manifest(&self.out, &during, false)?;
         self.manifest = during;
         for n in &names {
-            let (from, to) = (self.partial.join(n), self.out.join(n));
-            fs::rename(&from, &to).map_err(|e| io("move a result file into", &to, e))?;
+            let to = self.out.join(n);
+            staged.rename_to(n, &to).map_err(|e| io("move a result file into", &to, e))?;
         }
         for old in previous.iter().filter(|o| !names.contains(o)) {
             remove_own_file(&self.out, old, &self.manifest)?;
         }
-        let staging_gone = remove_partial(&self.out, &self.partial)?;
+        let staging_gone = remove_partial(&self.out, &self.partial, self.partial_id)?;
         self.partial_made = !staging_gone;
         let mut fin = Manifest { kind: self.manifest.kind, files: new, staging: self.manifest.staging.clone() };
         if staging_gone {
@@ -785,7 +888,7 @@ impl Claim {
         // while the lock is still held: the staging folder, then the manifest's line for it (or
         // the whole manifest, where this claim wrote the first one and the folder holds nothing
         // else)
-        let gone = !self.partial_made || remove_partial(&self.out, &self.partial).unwrap_or(false);
+        let gone = !self.partial_made || remove_partial(&self.out, &self.partial, self.partial_id).unwrap_or(false);
         if self.manifest_written && gone {
             let ours = self.partial.file_name().map(|n| n.to_string_lossy().into_owned());
             self.manifest.staging.retain(|s| Some(s) != ours.as_ref());
@@ -1122,19 +1225,55 @@ mod tests {
         assert!(claim(f.to_str().unwrap(), &[], Kind::Results).unwrap_err().to_string().contains("is a file"));
     }
 
+    /// The hostile probe of issue 37: the staging folder swapped for a link to someone else's
+    /// folder during the run. The commit refuses (the handle is not the folder the claim made),
+    /// the abort removes nothing through the link, and the other folder is untouched.
+    #[cfg(unix)]
+    #[test]
+    fn a_staging_folder_swapped_for_a_link_moves_and_removes_nothing() {
+        let d = tmp("swap");
+        let out = d.join("results");
+        run(&out, &["matches.csv"]).unwrap();
+        let victim = d.join("victim");
+        fs::create_dir(&victim).unwrap();
+        for n in ["report.html", "points.csv", "notes.txt"] {
+            fs::write(victim.join(n), format!("the user's {n}")).unwrap();
+        }
+        for commit in [true, false] {
+            let c = claim(out.to_str().unwrap(), &[], Kind::Results).unwrap();
+            fs::write(c.partial.join("report.html"), "ours").unwrap();
+            let aside = d.join(format!("aside-{commit}"));
+            fs::rename(&c.partial, &aside).unwrap();
+            std::os::unix::fs::symlink(&victim, &c.partial).unwrap();
+            if commit {
+                let e = c.commit().unwrap_err().to_string();
+                assert!(e.contains("staging folder"), "{e}");
+            } else {
+                c.abort();
+            }
+            for n in ["report.html", "points.csv", "notes.txt"] {
+                assert_eq!(fs::read_to_string(victim.join(n)).unwrap(), format!("the user's {n}"), "{n} (commit {commit})");
+            }
+            assert!(!out.join("report.html").exists() && !out.join("notes.txt").exists());
+            assert_eq!(fs::read_to_string(out.join("matches.csv")).unwrap(), "matches.csv");
+            let link = fs::read_dir(&out).unwrap().flatten().find(|e| e.file_type().unwrap().is_symlink()).unwrap();
+            fs::remove_file(link.path()).unwrap();
+        }
+    }
+
     #[test]
     fn reruns_replace_only_their_own_files() {
         let d = tmp("rerun");
         let out = d.join("results");
-        assert_eq!(run(&out, &["a.csv", "b.csv"]).unwrap(), ["a.csv", "b.csv"]);
+        assert_eq!(run(&out, &["matches.csv", "links.csv"]).unwrap(), ["links.csv", "matches.csv"]);
         assert!(out.join(MANIFEST).exists());
-        // the second run writes a.csv and c.csv: b.csv (ours) goes, a user's file added later
+        // the second run writes matches.csv and clusters.csv: links.csv (ours) goes, a user's file added later
         // under another name stays
         fs::write(out.join("mine.txt"), "mine").unwrap();
-        assert_eq!(run(&out, &["a.csv", "c.csv"]).unwrap(), ["a.csv", "c.csv"]);
-        assert!(!out.join("b.csv").exists());
+        assert_eq!(run(&out, &["matches.csv", "clusters.csv"]).unwrap(), ["clusters.csv", "matches.csv"]);
+        assert!(!out.join("links.csv").exists());
         assert_eq!(fs::read_to_string(out.join("mine.txt")).unwrap(), "mine");
-        assert_eq!(fs::read_to_string(out.join("a.csv")).unwrap(), "a.csv");
+        assert_eq!(fs::read_to_string(out.join("matches.csv")).unwrap(), "matches.csv");
         let left: Vec<String> = fs::read_dir(&out).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
         assert!(!left.iter().any(|n| n.starts_with(PARTIAL_PREFIX)), "{left:?}");
         claim(out.to_str().unwrap(), &[], Kind::Results).unwrap().abort(); // the lock was released
@@ -1144,7 +1283,7 @@ mod tests {
     fn a_failed_run_keeps_the_previous_results_and_its_staging_goes() {
         let d = tmp("fail");
         let out = d.join("r");
-        run(&out, &["a.csv"]).unwrap();
+        run(&out, &["matches.csv"]).unwrap();
         let c = claim(out.to_str().unwrap(), &[], Kind::Results).unwrap();
         fs::write(c.partial.join("matches.csv"), "half").unwrap();
         let partial = c.partial.clone();
@@ -1160,13 +1299,13 @@ mod tests {
         assert!(!d.join("new").exists());
         // a folder in place of a result file: refused before anything moves
         let c = claim(out.to_str().unwrap(), &[], Kind::Results).unwrap();
-        fs::write(c.partial.join("a.csv"), "new").unwrap();
-        fs::write(c.partial.join("b.csv"), "new").unwrap();
-        fs::create_dir(out.join("b.csv")).unwrap();
+        fs::write(c.partial.join("matches.csv"), "new").unwrap();
+        fs::write(c.partial.join("links.csv"), "new").unwrap();
+        fs::create_dir(out.join("links.csv")).unwrap();
         assert!(c.commit().unwrap_err().to_string().contains("folder or a link"));
-        assert_eq!(fs::read_to_string(out.join("a.csv")).unwrap(), "a.csv");
-        fs::remove_dir(out.join("b.csv")).unwrap();
-        assert_eq!(fs::read_to_string(out.join("a.csv")).unwrap(), "a.csv");
+        assert_eq!(fs::read_to_string(out.join("matches.csv")).unwrap(), "matches.csv");
+        fs::remove_dir(out.join("links.csv")).unwrap();
+        assert_eq!(fs::read_to_string(out.join("matches.csv")).unwrap(), "matches.csv");
         claim(out.to_str().unwrap(), &[], Kind::Results).unwrap().abort(); // the lock was released
     }
 
@@ -1174,7 +1313,7 @@ mod tests {
     fn a_second_run_on_the_same_folder_fails_clearly_and_a_dead_lock_is_taken_over() {
         let d = tmp("lock");
         let out = d.join("r");
-        run(&out, &["a.csv"]).unwrap();
+        run(&out, &["matches.csv"]).unwrap();
         let first = claim(out.to_str().unwrap(), &[], Kind::Results).unwrap();
         let e = claim(out.to_str().unwrap(), &[], Kind::Results).unwrap_err().to_string();
         assert!(e.contains("another trajdb run is writing"), "{e}");
@@ -1188,7 +1327,7 @@ mod tests {
         killed.lock = None;
         drop(killed);
         assert!(stale.exists() && fs::read_to_string(out.join(MANIFEST)).unwrap().contains("staging\t"));
-        run(&out, &["a.csv"]).unwrap();
+        run(&out, &["matches.csv"]).unwrap();
         assert!(!stale.exists());
         assert!(!fs::read_to_string(out.join(MANIFEST)).unwrap().contains("staging\t"));
     }
@@ -1219,7 +1358,7 @@ mod tests {
         use std::os::unix::fs::PermissionsExt;
         let d = tmp("perm");
         let out = d.join("r");
-        run(&out, &["a.csv"]).unwrap();
+        run(&out, &["matches.csv"]).unwrap();
         let mode = fs::metadata(&out).unwrap().permissions().mode() & 0o777;
         assert_ne!(mode, 0o700, "{mode:o}");
         assert_eq!(mode & 0o055, fs::metadata(&d).unwrap().permissions().mode() & 0o055);
@@ -1304,10 +1443,10 @@ mod issue37 {
     fn a_lock_name_linked_to_a_users_file_is_never_written() {
         let d = tmp("hardlink");
         let out = d.join("r");
-        run(&out, Kind::Results, &[("a.csv", "a")]).unwrap();
+        run(&out, Kind::Results, &[("matches.csv", "a")]).unwrap();
         fs::write(d.join("thesis.txt"), "my thesis").unwrap();
         fs::hard_link(d.join("thesis.txt"), out.join(LOCK)).unwrap();
-        run(&out, Kind::Results, &[("a.csv", "b")]).unwrap();
+        run(&out, Kind::Results, &[("matches.csv", "b")]).unwrap();
         let first = claim(out.to_str().unwrap(), &[], Kind::Results).unwrap();
         assert!(claim(out.to_str().unwrap(), &[], Kind::Results).unwrap_err().to_string().contains("another trajdb run"));
         first.abort();
@@ -1419,7 +1558,7 @@ mod issue37 {
     fn staging_folders_go_only_when_listed_and_only_trajdbs_files_in_them() {
         let d = tmp("staging");
         let out = d.join("r");
-        run(&out, Kind::Results, &[("a.csv", "a")]).unwrap();
+        run(&out, Kind::Results, &[("matches.csv", "a")]).unwrap();
         // a lookalike folder the manifest does not name: the user's, beside the results
         fs::create_dir(out.join(".trajdb-partial-mine")).unwrap();
         fs::write(out.join(".trajdb-partial-mine").join("points.csv"), "mine").unwrap();
@@ -1431,7 +1570,7 @@ mod issue37 {
         killed.done = true;
         killed.lock = None;
         drop(killed);
-        run(&out, Kind::Results, &[("a.csv", "b")]).unwrap();
+        run(&out, Kind::Results, &[("matches.csv", "b")]).unwrap();
         assert_eq!(fs::read_to_string(out.join(".trajdb-partial-mine").join("points.csv")).unwrap(), "mine");
         assert_eq!(fs::read_to_string(stale.join("notes.txt")).unwrap(), "mine");
         assert!(!stale.join("merged.parquet").exists());
@@ -1454,7 +1593,7 @@ mod issue37 {
             assert_eq!(fs::read_dir(&empty).unwrap().count(), 0);
             FAIL.with(|f| f.set(0));
             let out = d.join(format!("r{fail}"));
-            run(&out, Kind::Results, &[("a.csv", "a")]).unwrap();
+            run(&out, Kind::Results, &[("matches.csv", "a")]).unwrap();
             let before = listing(&out);
             FAIL.with(|f| f.set(fail));
             assert!(claim(out.to_str().unwrap(), &[], Kind::Results).is_err());

@@ -70,18 +70,20 @@ pub fn overlap_with_union<'a>(merged: impl IntoIterator<Item = &'a Region>, next
 /// offset and a dense ring costs about its simplified size: near-linear in the vertices for the
 /// view polygons of long tracks. O((V' + k) log V') plus the arc vertices of the round joins,
 /// V' the vertices after simplification.
-pub fn buffer(p: &Region, distance: f64) -> Result<MultiPolygon<f64>, ParamError> {
+pub fn buffer(p: &Region, distance: f64) -> Result<MultiPolygon<f64>, Box<dyn std::error::Error + Send + Sync>> {
     let distance = finite("distance", distance)?;
     let p = p.polygons();
     if p.0.is_empty() || distance == 0.0 {
         return Ok(p.clone());
     }
     let simple = simplified(p, distance.abs() * BUFFER_TOLERANCE);
-    let out = wound(simple.as_ref().unwrap_or(p).buffer(distance));
+    let ring = simple.as_ref().unwrap_or(p);
+    room(vertices(ring), BUFFER_BYTES_PER_VERTEX)?;
+    let out = wound(ring.buffer(distance));
     // Far beyond the polygon's own size the offset loses the polygon to rounding (an outward
     // buffer of 1e10 m came back with area 0): refuse what cannot be computed right.
     if distance > 0.0 && !(out.unsigned_area() >= p.unsigned_area()) {
-        return Err(ParamError { name: "distance", rule: "small enough to keep the polygon within floating-point precision", value: distance });
+        return Err(Box::new(ParamError { name: "distance", rule: "small enough to keep the polygon within floating-point precision", value: distance }));
     }
     Ok(out)
 }
@@ -96,8 +98,25 @@ pub const OVERLAY_BYTES_PER_VERTEX: u128 = 4096;
 /// an overlay that would exhaust memory is an error before it starts, never an abort inside
 /// i_overlay, whatever the limit says.
 pub fn overlay_room<'a>(parts: impl IntoIterator<Item = &'a Region>) -> Result<(), String> {
-    let v: usize = parts.into_iter().map(|r| r.polygons().0.iter().map(|p| p.exterior().0.len() + p.interiors().iter().map(|h| h.0.len()).sum::<usize>()).sum::<usize>()).sum();
-    let bytes = v as u128 * OVERLAY_BYTES_PER_VERTEX;
+    room(parts.into_iter().map(|r| vertices(r.polygons())).sum(), OVERLAY_BYTES_PER_VERTEX)
+}
+
+/// Working bytes [`buffer`] is allowed per vertex of the (simplified) rings it offsets: every
+/// vertex of a jagged ring makes a round join of many segments, and i_overlay's outline of a
+/// 100,000-vertex zig-zag ring asked for 1.4 GB in one allocation (about 14 KiB per vertex;
+/// the hostile probe of issue 37). Four times that, so that the trial allocation of [`room`]
+/// fails first.
+pub const BUFFER_BYTES_PER_VERTEX: u128 = 64 * 1024;
+
+/// The vertices of every ring of `p`.
+fn vertices(p: &MultiPolygon<f64>) -> usize {
+    p.0.iter().map(|p| p.exterior().0.len() + p.interiors().iter().map(|h| h.0.len()).sum::<usize>()).sum()
+}
+
+/// `Ok` when `v` vertices at `per_vertex` bytes fit the `memory_bytes` limit and that many bytes
+/// can be allocated now (see [`overlay_room`]).
+fn room(v: usize, per_vertex: u128) -> Result<(), String> {
+    let bytes = v as u128 * per_vertex;
     crate::limits::MEMORY_BYTES.check(bytes).map_err(|e| format!("{v} polygon vertices: {e}"))?;
     let refuse = || format!("{v} polygon vertices need up to {bytes} bytes of working memory, which could not be allocated; pass fewer or simpler polygons per call");
     let mut probe: Vec<u8> = Vec::new();

@@ -899,14 +899,18 @@ impl Claim {
                 let _ = write_manifest(&self.out, &self.manifest, false);
             }
         }
-        self.lock = None;
         // the folders this run created, while they are empty (remove_dir only removes an
-        // empty folder)
-        for d in &self.created {
-            if fs::remove_dir(d).is_err() {
-                break;
+        // empty folder), and only while this claim holds the lock: a claim that lost the race
+        // for it does not own the folder it happened to create first (the winner, holding the
+        // lock on that folder, is about to write its manifest there)
+        if self.lock.is_some() {
+            for d in &self.created {
+                if fs::remove_dir(d).is_err() {
+                    break;
+                }
             }
         }
+        self.lock = None;
     }
 }
 

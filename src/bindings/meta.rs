@@ -71,7 +71,7 @@ const TRAJDB_SET_LIMIT: Function = Function {
          DuckDB's C API lets no extension see Ctrl-C inside a call: the limits keep every call short instead. Whatever a limit says, an \
          allocation that does not fit is an error, never an abort."
     ),
-    example: "CALL trajdb_set_limit('lcss_cells', 20000000000);",
+    example: "SELECT value FROM trajdb_set_limit('lcss_cells', 20000000000); -- 20000000000",
     maths: "crates/algo/src/limits.rs",
     binding: file!(),
     signatures: &[],

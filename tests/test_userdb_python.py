@@ -215,6 +215,11 @@ def load_only(con, input):
 
 def check_unit_check(tmp):
     con = trajdb.connect()
+    if duckdb.__version__.startswith("1."):
+        # DuckDB 1.5.5 once raised "INTERNAL Error: Attempted to access index 0 within vector of
+        # size 0" in its parallel window operator (WindowLocalSourceState::Finalize) on the t-in-ms
+        # view here; an upstream bug, not trajdb's: one thread there
+        con.execute("SET threads = 1")
     # the real scene, and three parked cars tracked for 30 hours at 10 Hz (1.08 M points each,
     # 1 mm of jitter): 30 times the scene's points
     con.execute("CREATE TEMP TABLE scene AS SELECT camera, track_id, class, t, x, y, estimated FROM read_parquet(?)", [SCENE])

@@ -309,24 +309,16 @@ LONG = {
     "trajectory_merge": "SELECT count(trajectory_merge(a, b, 1.0 + 0 * i, 1e9)) FROM zig_tiny, range(1000000) r(i)",
 }
 
-INTERRUPT_SETUP = f"""
-SET threads = 2;
-CREATE TEMP TABLE zig AS SELECT
+def zig_table(name, n):
+    """Two zig-zag tracks of n points each, 0.05 s apart (the interrupt cases' per-row input)."""
+    return f"""CREATE TEMP TABLE {name} AS SELECT
   list({{'t': i * 0.1, 'x': (i % 2) * 1.0 + (i * 7919 % 100) / 1000.0, 'y': ((i // 2) % 2) * 1.0}} ORDER BY i) AS a,
   list({{'t': i * 0.1 + 0.05, 'x': ((i + 1) % 2) * 1.0, 'y': ((i // 3) % 2) * 1.0 + (i * 104729 % 100) / 1000.0}} ORDER BY i) AS b
-  FROM range(3000) r(i);
-CREATE TEMP TABLE zig_small AS SELECT
-  list({{'t': i * 0.1, 'x': (i % 2) * 1.0 + (i * 7919 % 100) / 1000.0, 'y': ((i // 2) % 2) * 1.0}} ORDER BY i) AS a,
-  list({{'t': i * 0.1 + 0.05, 'x': ((i + 1) % 2) * 1.0, 'y': ((i // 3) % 2) * 1.0 + (i * 104729 % 100) / 1000.0}} ORDER BY i) AS b
-  FROM range(300) r(i);
-CREATE TEMP TABLE zig_tiny AS SELECT
-  list({{'t': i * 0.1, 'x': (i % 2) * 1.0 + (i * 7919 % 100) / 1000.0, 'y': ((i // 2) % 2) * 1.0}} ORDER BY i) AS a,
-  list({{'t': i * 0.1 + 0.05, 'x': ((i + 1) % 2) * 1.0, 'y': ((i // 3) % 2) * 1.0 + (i * 104729 % 100) / 1000.0}} ORDER BY i) AS b
-  FROM range(40) r(i);
-CREATE TEMP TABLE zig_long AS SELECT
-  list({{'t': i * 0.1, 'x': (i % 2) * 1.0 + (i * 7919 % 100) / 1000.0, 'y': ((i // 2) % 2) * 1.0}} ORDER BY i) AS a,
-  list({{'t': i * 0.1 + 0.05, 'x': ((i + 1) % 2) * 1.0, 'y': ((i // 3) % 2) * 1.0 + (i * 104729 % 100) / 1000.0}} ORDER BY i) AS b
-  FROM range(200000) r(i);
+  FROM range({n}) r(i);
+"""
+
+
+INTERRUPT_SETUP = "SET threads = 2;\n" + "".join(zig_table(t, n) for t, n in [("zig", 3000), ("zig_small", 300), ("zig_tiny", 40), ("zig_long", 200000)]) + f"""
 CREATE TEMP TABLE few AS SELECT list(k ORDER BY k) AS ids, list(tr ORDER BY k) AS v FROM (
   SELECT k, list({{'t': i * 0.1, 'x': (k % 10) * 1.0 + sin(i * 0.3 + k), 'y': (k // 10) * 1.0 + cos(i * 0.2 + k)}} ORDER BY i) AS tr
   FROM range(60) a(k), range(300) b(i) GROUP BY k);

@@ -170,6 +170,14 @@ SIM_OPTIONS = [
     ("--world-rate-hz", float, "world_rate_hz", "10", "sampling rate of world.csv (Hz); 0 skips it"),
     ("--waiting-groups", float, "waiting_groups", "0",
      "groups of 2-8 pedestrians and cyclists waiting 10-60 s at a crossing's kerb, 0.6-2 m apart, per minute (docs/simulate.md)"),
+    ("--viewpoint-bias", str, None, "0",
+     "largest offset (m) along each camera's line of sight between its reported point and a road user's centre: "
+     "VEHICLES[,VRU] (VRU: pedestrians and cyclists; default VEHICLES/5), e.g. 1.2,0.2"),
+    ("--ground-plane-error", str, None, "0",
+     "ground-plane calibration error per camera: SCALE[,PERSPECTIVE] as fractions (scale in +-SCALE; perspective "
+     "error PERSPECTIVE at 50 m from the camera; default PERSPECTIVE = SCALE), e.g. 0.015"),
+    ("--occlusion", float, "occlusion", "0",
+     "tracks cut mid-view in crowds: cuts per second and per road user within 2 m (e.g. 0.05)"),
 ]
 
 
@@ -203,6 +211,14 @@ def sim_params(a):
             params["noise_sigma_min"] = _number(opt, lo)
             if sep:
                 params["noise_sigma_max"] = _number(opt, hi)
+        elif opt == "--viewpoint-bias":
+            veh, sep, vru = v.partition(",")
+            params["viewpoint_bias_vehicle"] = _number(opt, veh)
+            params["viewpoint_bias_vru"] = _number(opt, vru) if sep else params["viewpoint_bias_vehicle"] / 5
+        elif opt == "--ground-plane-error":
+            sc, sep, pe = v.partition(",")
+            params["ground_plane_scale"] = _number(opt, sc)
+            params["ground_plane_perspective"] = _number(opt, pe) if sep else params["ground_plane_scale"]
         else:
             params[name] = v
     return params

@@ -28,6 +28,11 @@ const NAMED: &[Param] = &[
     p("clock_epoch", Ty::Double),
     p("time_jitter_s", Ty::Double),
     p("origin", Ty::Varchar),
+    p("viewpoint_bias_vehicle", Ty::Double),
+    p("viewpoint_bias_vru", Ty::Double),
+    p("ground_plane_scale", Ty::Double),
+    p("ground_plane_perspective", Ty::Double),
+    p("occlusion", Ty::Double),
 ];
 
 const TABLE: Table = Table { params: &[p("dir", Ty::Varchar)], named: NAMED, columns: COLUMNS, register: table::register::<SimulateTable> };
@@ -48,6 +53,11 @@ pub static FUNCTIONS: &[Function] = &[Function {
                   time_jitter_s (0: each time stamp off the capture time by N(0, this), clipped to 0.45 frame periods), \
                   origin ('none'; 'utm': each camera's local coordinates near x 4.5e5-5e5, y 5.7e6 m; 'X,Y': added to every local \
                   coordinate; cameras.csv tx, ty follow); \
+                  viewpoint_bias_vehicle / viewpoint_bias_vru (0 / 0 m: the largest offset along the camera's line of sight between \
+                  a camera's reported point and a road user's centre, per camera and road user, for cars and heavy vehicles / \
+                  pedestrians and cyclists), ground_plane_scale (0: each camera's ground plane scaled by 1 + a draw in +-this), \
+                  ground_plane_perspective (0: a homography term whose relative error reaches this at 50 m from the camera), \
+                  occlusion (0: tracks cut mid-view at this rate per second and per road user within 2 m); \
                   docs/simulate.md.",
     example: "SELECT objects > 0 FROM trajdb_simulate('/tmp/trajdb-sim-example', cameras := 2, minutes := 1, seed := 3); -- true",
     maths: "crates/app/src/simulate.rs",
@@ -104,6 +114,11 @@ impl TableFn for SimulateTable {
             ("clock_drift_ppm", &mut p.clock_drift_ppm),
             ("clock_epoch", &mut p.clock_epoch),
             ("time_jitter_s", &mut p.time_jitter_s),
+            ("viewpoint_bias_vehicle", &mut p.viewpoint_bias.0),
+            ("viewpoint_bias_vru", &mut p.viewpoint_bias.1),
+            ("ground_plane_scale", &mut p.ground_plane_scale),
+            ("ground_plane_perspective", &mut p.ground_plane_perspective),
+            ("occlusion", &mut p.occlusion),
         ] {
             if let Some(v) = args.named_double(name)? {
                 *slot = v;

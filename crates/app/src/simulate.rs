@@ -88,6 +88,20 @@ pub struct SimParams {
     pub time_jitter_s: f64,
     /// Where the cameras' local frames lie ([`Origin`]).
     pub origin: Origin,
+    /// Viewpoint bias (m): the largest offset, along the camera's line of sight, between the
+    /// point a camera reports for a road user and its true centre, for (vehicles, pedestrians
+    /// and cyclists); drawn per (camera, road user) and constant while the camera sees it
+    /// ([`viewpoint_bias`]). (0, 0): none.
+    pub viewpoint_bias: (f64, f64),
+    /// Ground-plane calibration error ([`GroundPlane`]): each camera's scale is off by a
+    /// uniform draw in ±this (a fraction: 0.015 is 1.5 %). 0: none.
+    pub ground_plane_scale: f64,
+    /// Ground-plane calibration error: a perspective (homography) term whose relative error is
+    /// at most this at [`PERSPECTIVE_RANGE_M`] from the camera, growing with range. 0: none.
+    pub ground_plane_perspective: f64,
+    /// Occlusion in crowds ([`occlude`]): a track is cut mid-view at this rate per second and
+    /// per other road user within [`OCCLUSION_RADIUS_M`]. 0: none.
+    pub occlusion: f64,
 }
 
 /// Where each camera's local frame lies: every local coordinate gets an offset O (p_local' =
@@ -148,6 +162,10 @@ impl Default for SimParams {
             clock_epoch: 0.0,
             time_jitter_s: 0.0,
             origin: Origin::Near,
+            viewpoint_bias: (0.0, 0.0),
+            ground_plane_scale: 0.0,
+            ground_plane_perspective: 0.0,
+            occlusion: 0.0,
         }
     }
 }
@@ -254,6 +272,23 @@ impl SimParams {
         if !(self.world_rate_hz.is_finite() && self.world_rate_hz >= 0.0) {
             return bad(format!("world_rate_hz must be >= 0, got {}", self.world_rate_hz));
         }
+        let (bv, bp) = self.viewpoint_bias;
+        if !(bv.is_finite() && (0.0..=MAX_VIEWPOINT_BIAS_M).contains(&bv) && bp.is_finite() && (0.0..=MAX_VIEWPOINT_BIAS_M).contains(&bp)) {
+            return bad(format!(
+                "viewpoint_bias must be in [0, {MAX_VIEWPOINT_BIAS_M}] m for vehicles and for pedestrians and cyclists, got {bv},{bp}; give e.g. 1.2,0.2"
+            ));
+        }
+        for (n, v) in [("ground_plane_scale", self.ground_plane_scale), ("ground_plane_perspective", self.ground_plane_perspective)] {
+            if !(v.is_finite() && (0.0..=MAX_GROUND_PLANE_ERROR).contains(&v)) {
+                return bad(format!("{n} must be in [0, {MAX_GROUND_PLANE_ERROR}] (a fraction: 0.015 is 1.5 %), got {v}; give e.g. 0.015"));
+            }
+        }
+        if !(self.occlusion.is_finite() && (0.0..=MAX_OCCLUSION).contains(&self.occlusion)) {
+            return bad(format!(
+                "occlusion must be in [0, {MAX_OCCLUSION}] cuts per second and per neighbour within {OCCLUSION_RADIUS_M} m, got {}; give e.g. 0.05",
+                self.occlusion
+            ));
+        }
         if !(self.waiting_groups.is_finite() && (0.0..=MAX_WAITING_GROUPS).contains(&self.waiting_groups)) {
             return bad(format!(
                 "waiting_groups must be in [0, {MAX_WAITING_GROUPS}] groups per minute, got {}; give e.g. 2 (0 = no waiting groups)",
@@ -263,6 +298,13 @@ impl SimParams {
         Ok(())
     }
 }
+
+/// The largest viewpoint bias of either class (m): half a long bus.
+pub const MAX_VIEWPOINT_BIAS_M: f64 = 6.0;
+/// The largest ground-plane scale or perspective error (a fraction: 10 %).
+pub const MAX_GROUND_PLANE_ERROR: f64 = 0.1;
+/// The largest occlusion rate (cuts per second and neighbour).
+pub const MAX_OCCLUSION: f64 = 10.0;
 
 /// The largest |x|, |y| of `origin` (m).
 pub const MAX_ORIGIN: f64 = 1e7;
@@ -315,9 +357,48 @@ pub struct Camera {
     pub sigma: f64,
     pub rate_hz: f64,
     pub phase: f64,
+    /// The camera's ground-plane calibration error (exact unless `ground_plane_*`).
+    pub ground: GroundPlane,
+}
+
+/// A camera's ground-plane calibration error: the world point it reports for a true world point
+/// p is `c + s·q / (1 + h·q)`, `q = p − c`, c the camera's position ([`Camera::position`]): a
+/// homography that keeps the camera's foot point, with a scale error `s − 1` (the same share of
+/// every distance: 1 m at 100 m for 1 %) and a perspective term h whose relative error `h·q`
+/// grows with range along h (a tilt error of the estimated ground plane). No rigid transform
+/// undoes it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GroundPlane {
+    pub scale: f64,
+    /// The perspective row (1/m).
+    pub h: [f64; 2],
+}
+
+impl GroundPlane {
+    /// No error.
+    pub const EXACT: GroundPlane = GroundPlane { scale: 1.0, h: [0.0, 0.0] };
+    /// The reported point of true world point `p` for a camera standing at `c`.
+    pub fn apply(&self, c: [f64; 2], p: [f64; 2]) -> [f64; 2] {
+        if *self == Self::EXACT {
+            return p;
+        }
+        let q = [p[0] - c[0], p[1] - c[1]];
+        // |h·q| <= 0.1 / 50 m * 100 m = 0.2 within any view; the floor keeps a wild point finite
+        let w = (1.0 + self.h[0] * q[0] + self.h[1] * q[1]).max(0.5);
+        [c[0] + self.scale * q[0] / w, c[1] + self.scale * q[1] / w]
+    }
 }
 
 impl Camera {
+    /// Where the camera stands (world): [`CAMERA_SETBACK_M`] beyond the middle of its view's far
+    /// short side, looking along the view's long axis at the junction (a pole at the roadside).
+    pub fn position(&self) -> [f64; 2] {
+        let v = &self.view_world;
+        let far = [(v[1][0] + v[2][0]) / 2.0, (v[1][1] + v[2][1]) / 2.0];
+        let near = [(v[0][0] + v[3][0]) / 2.0, (v[0][1] + v[3][1]) / 2.0];
+        let l = dist(far, near).max(1e-12);
+        add(far, [(far[0] - near[0]) / l, (far[1] - near[1]) / l], CAMERA_SETBACK_M)
+    }
     /// The camera's clock at world time `t`: (1 + drift·1e-6) · t + offset (exactly t + offset
     /// without drift).
     pub fn clock(&self, t: f64) -> f64 {
@@ -723,6 +804,139 @@ const STREAM_GROUPS: u64 = 1;
 const STREAM_DRIFT: u64 = 2;
 const STREAM_JITTER: u64 = 3;
 const STREAM_ORIGIN: u64 = 4;
+const STREAM_BIAS: u64 = 5;
+const STREAM_GROUND: u64 = 6;
+const STREAM_OCCLUSION: u64 = 7;
+
+/// A camera stands this far beyond its view's far short side (m; [`Camera::position`]).
+pub const CAMERA_SETBACK_M: f64 = 5.0;
+/// A perspective error of `ground_plane_perspective` is its relative error at this range (m).
+pub const PERSPECTIVE_RANGE_M: f64 = 50.0;
+/// A viewpoint bias is drawn uniformly in [this, 1] times its class's largest (a detector's
+/// ground point is never the centre: at least the half width of the road user).
+pub const VIEWPOINT_BIAS_MIN_SHARE: f64 = 0.3;
+/// Road users closer than this (m, centre to centre) occlude each other ([`occlude`]).
+pub const OCCLUSION_RADIUS_M: f64 = 2.0;
+/// An occlusion hides its road user for a uniform draw in this range (s).
+pub const OCCLUSION_GAP_S: (f64, f64) = (0.3, 3.0);
+/// Of the occlusions, these shares end the track for the rest of the view (the tracker lost it)
+/// and drop the track so far (it was only picked up after the occlusion); the rest hide the
+/// road user for a gap, after which it is a new track.
+pub const OCCLUSION_LOST_SHARE: f64 = 0.2;
+pub const OCCLUSION_LATE_SHARE: f64 = 0.2;
+/// The crowd is counted every this many seconds.
+const OCCLUSION_BIN_S: f64 = 0.5;
+
+/// Viewpoint bias (issue 38): a detector reports the bottom of a road user's box, the point of
+/// it nearest the camera, not its centre: seen from the front, back or side, a car's reported
+/// point is 0.5–2 m from its centre (CAROM, arXiv 2104.00893: 0.8 m mean within 50 m of the
+/// camera), a pedestrian's or cyclist's 0.1–0.3 m. The offset lies along the camera's line of
+/// sight, towards the camera, and stays while the camera sees the road user. Per (camera, road
+/// user): magnitude uniform in [[`VIEWPOINT_BIAS_MIN_SHARE`], 1] × the class's largest
+/// (`viewpoint_bias`: vehicles, then pedestrians and cyclists), direction from the road user's
+/// position in the middle of its first run in the view towards the camera. Returns the
+/// magnitudes, one per object (drawn for every object, seen or not, from a stream of its own).
+fn viewpoint_bias_magnitudes(p: &SimParams, rng: &mut ChaCha8Rng, objects: &[Object]) -> Vec<f64> {
+    if p.viewpoint_bias == (0.0, 0.0) {
+        return vec![0.0; objects.len()];
+    }
+    objects
+        .iter()
+        .map(|o| {
+            let max = if matches!(o.class, "car" | "heavy_vehicle") { p.viewpoint_bias.0 } else { p.viewpoint_bias.1 };
+            max * uniform(rng, VIEWPOINT_BIAS_MIN_SHARE, 1.0)
+        })
+        .collect()
+}
+
+/// Where road users are every [`OCCLUSION_BIN_S`] seconds, on a grid of [`OCCLUSION_RADIUS_M`]
+/// cells: `(time bin, cell x, cell y) → (object, x, y)`.
+struct Crowd {
+    cells: std::collections::HashMap<(i64, i64, i64), Vec<(usize, f64, f64)>>,
+}
+
+impl Crowd {
+    fn new(objects: &[Object], budget: &mut Budget) -> Result<Crowd, SimError> {
+        let mut cells: std::collections::HashMap<(i64, i64, i64), Vec<(usize, f64, f64)>> = std::collections::HashMap::new();
+        for (i, o) in objects.iter().enumerate() {
+            let (t0, t1) = (o.samples[0][0], o.samples[o.samples.len() - 1][0]);
+            let mut k = (t0 / OCCLUSION_BIN_S).ceil() as i64;
+            while k as f64 * OCCLUSION_BIN_S <= t1 {
+                if let Some((x, y)) = at(o, k as f64 * OCCLUSION_BIN_S) {
+                    budget.charge(1, 48)?;
+                    let key = (k, (x / OCCLUSION_RADIUS_M).floor() as i64, (y / OCCLUSION_RADIUS_M).floor() as i64);
+                    let v = cells.entry(key).or_default();
+                    budget.push(v, (i, x, y))?;
+                }
+                k += 1;
+            }
+        }
+        Ok(Crowd { cells })
+    }
+
+    /// Other road users within [`OCCLUSION_RADIUS_M`] of object `o` (at `x`, `y`) in time bin `k`.
+    fn near(&self, k: i64, o: usize, x: f64, y: f64) -> usize {
+        let (cx, cy) = ((x / OCCLUSION_RADIUS_M).floor() as i64, (y / OCCLUSION_RADIUS_M).floor() as i64);
+        let mut n = 0;
+        for dx in -1..=1 {
+            for dy in -1..=1 {
+                if let Some(v) = self.cells.get(&(k, cx + dx, cy + dy)) {
+                    n += v.iter().filter(|q| q.0 != o && (q.1 - x).hypot(q.2 - y) < OCCLUSION_RADIUS_M).count();
+                }
+            }
+        }
+        n
+    }
+}
+
+/// Occlusion in crowds (issue 38): at a real crossing, pedestrians appear and vanish in the
+/// middle of a camera's view all the time (hidden by the people around them, detection gaps).
+/// Every [`OCCLUSION_BIN_S`] s of a visible run, a cut happens with probability
+/// `1 − exp(−occlusion · n · bin)`, n the other road users within [`OCCLUSION_RADIUS_M`]. A cut
+/// hides the road user for a gap drawn in [`OCCLUSION_GAP_S`] (it reappears as a new track), or
+/// ([`OCCLUSION_LOST_SHARE`]) ends the track for the rest of the view, or
+/// ([`OCCLUSION_LATE_SHARE`]) drops the track so far (it is picked up only after the cut): tracks
+/// that start or end mid-view with no partner. Returns the run's pieces.
+fn occlude(run: Vec<(f64, f64, f64, bool)>, o: usize, crowd: &Crowd, rate: f64, rng: &mut ChaCha8Rng) -> Vec<Vec<(f64, f64, f64, bool)>> {
+    let mut pieces = Vec::new();
+    let mut cur = Vec::new();
+    let mut hidden_until = f64::NEG_INFINITY;
+    let mut lost = false;
+    let mut bin = i64::MIN;
+    for q in run {
+        if lost {
+            break;
+        }
+        if q.0 <= hidden_until {
+            continue;
+        }
+        let k = (q.0 / OCCLUSION_BIN_S).round() as i64;
+        if k != bin {
+            bin = k;
+            let n = crowd.near(k, o, q.1, q.2);
+            if n > 0 && rng.gen_bool(1.0 - (-rate * n as f64 * OCCLUSION_BIN_S).exp()) {
+                let u: f64 = rng.gen();
+                if u < OCCLUSION_LOST_SHARE {
+                    lost = true;
+                    continue;
+                } else if u < OCCLUSION_LOST_SHARE + OCCLUSION_LATE_SHARE {
+                    cur.clear();
+                } else {
+                    hidden_until = q.0 + uniform(rng, OCCLUSION_GAP_S.0, OCCLUSION_GAP_S.1);
+                    if !cur.is_empty() {
+                        pieces.push(std::mem::take(&mut cur));
+                    }
+                    continue;
+                }
+            }
+        }
+        cur.push(q);
+    }
+    if !cur.is_empty() {
+        pieces.push(cur);
+    }
+    pieces
+}
 /// Time-stamp jitter is clipped to this many frame periods (so a track's times stay increasing).
 pub const JITTER_CLIP: f64 = 0.45;
 
@@ -891,6 +1105,15 @@ fn place_cameras(p: &SimParams, rng: &mut ChaCha8Rng) -> Vec<Camera> {
             c.clock_offset += p.clock_epoch;
         }
     }
+    // the ground-plane calibration errors, from a stream of their own
+    if p.ground_plane_scale > 0.0 || p.ground_plane_perspective > 0.0 {
+        let rng = &mut stream(p.seed, STREAM_GROUND);
+        for c in &mut cams {
+            let scale = 1.0 + uniform(rng, -p.ground_plane_scale, p.ground_plane_scale);
+            let (m, phi) = (uniform(rng, 0.0, p.ground_plane_perspective) / PERSPECTIVE_RANGE_M, uniform(rng, 0.0, std::f64::consts::TAU));
+            c.ground = GroundPlane { scale, h: [m * phi.cos(), m * phi.sin()] };
+        }
+    }
     // frames far from the origin: p_local' = p_local + O, so t' = t − R(θ)·O
     if p.origin != Origin::Near {
         let rng = &mut stream(p.seed, STREAM_ORIGIN);
@@ -930,6 +1153,7 @@ fn place_cameras_rigid(p: &SimParams, rng: &mut ChaCha8Rng) -> Vec<Camera> {
                 sigma: uniform(rng, p.noise_sigma.0, p.noise_sigma.1),
                 rate_hz: p.rate_hz[k % p.rate_hz.len()],
                 phase: uniform(rng, 0.0, 1.0 / p.rate_hz[k % p.rate_hz.len()]),
+                ground: GroundPlane::EXACT,
             }
         })
         .collect()
@@ -971,7 +1195,16 @@ pub fn simulate(p: &SimParams) -> Result<Scenario, SimError> {
     const SEEN: usize = std::mem::size_of::<(f64, f64, f64, bool)>();
     // time-stamp jitter, from a stream of its own (none drawn without it)
     let mut jitter = (p.time_jitter_s > 0.0).then(|| (stream(p.seed, STREAM_JITTER), Normal::new(0.0, p.time_jitter_s).unwrap()));
+    // occlusion in crowds, from a stream of its own (nothing built or drawn without it)
+    let crowd = if p.occlusion > 0.0 { Some(Crowd::new(&objects, &mut budget)?) } else { None };
+    let mut occ_rng = stream(p.seed, STREAM_OCCLUSION);
+    // viewpoint bias, from a stream of its own (camera by camera, object by object)
+    let mut bias_rng = stream(p.seed, STREAM_BIAS);
     for cam in &cameras {
+        let cam_pos = cam.position();
+        let bias_m = viewpoint_bias_magnitudes(p, &mut bias_rng, &objects);
+        // per object: its viewpoint bias in this camera (world vector; set at its first run)
+        let mut bias: Vec<Option<[f64; 2]>> = vec![None; objects.len()];
         let mut seen = 0usize;
         // the frames are 1/rate_hz apart on the camera's clock: dt in world time
         let dt = cam.world_period();
@@ -1003,6 +1236,16 @@ pub fn simulate(p: &SimParams) -> Result<Scenario, SimError> {
             }
             if !run.is_empty() {
                 runs.push(run);
+            }
+            if let (Some(first), true) = (runs.first(), bias_m[o.id as usize] > 0.0) {
+                let mid = first[first.len() / 2];
+                let (dx, dy) = (cam_pos[0] - mid.1, cam_pos[1] - mid.2);
+                let l = dx.hypot(dy).max(1e-9);
+                let m = bias_m[o.id as usize];
+                bias[o.id as usize] = Some([m * dx / l, m * dy / l]);
+            }
+            if let Some(crowd) = &crowd {
+                runs = runs.into_iter().flat_map(|r| occlude(r, o.id as usize, crowd, p.occlusion, &mut occ_rng)).collect();
             }
             for r in runs.into_iter().filter(|r| r.len() >= 3) {
                 // a break: a gap of 0.5–2 s, both parts >= 1 s (so the run must last > 1 + 2 + 1 s)
@@ -1061,9 +1304,13 @@ pub fn simulate(p: &SimParams) -> Result<Scenario, SimError> {
             budget.charge(1 + tr.len(), std::mem::size_of::<PointRow>())?;
             budget.reserve(&mut points, tr.len())?;
             budget.push(&mut truth, (cam.id, id, obj, obj < 0))?;
+            let b = if obj >= 0 { bias[obj as usize].unwrap_or([0.0, 0.0]) } else { [0.0, 0.0] };
             let local: Vec<(f64, f64, f64, bool)> = tr
                 .iter()
                 .map(|&(t, x, y, e)| {
+                    // the reported point: viewpoint bias, then the ground-plane error, then noise
+                    let (x, y) = if b == [0.0, 0.0] { (x, y) } else { (x + b[0], y + b[1]) };
+                    let [x, y] = cam.ground.apply(cam_pos, [x, y]);
                     let (lx, ly) = cam.to_local(x + noise.sample(&mut rng), y + noise.sample(&mut rng));
                     let off = jitter.as_mut().map_or(0.0, |(r, n)| n.sample(r).clamp(-JITTER_CLIP / cam.rate_hz, JITTER_CLIP / cam.rate_hz));
                     (cam.clock(t) + off, lx, ly, e)
@@ -1158,13 +1405,20 @@ impl Scenario {
         }
         f.flush()?;
         let mut f = file("cameras.csv")?;
-        writeln!(f, "camera,theta_rad,tx,ty,view_wkt_world,view_wkt_local,clock_offset_s,noise_sigma_m,rate_hz,phase_s,clock_drift_ppm")?;
+        // the camera's position and ground-plane error only when the scene has them (older
+        // scenes stay byte for byte the same)
+        let seen_from = self.params.viewpoint_bias != (0.0, 0.0) || self.params.ground_plane_scale > 0.0 || self.params.ground_plane_perspective > 0.0;
+        writeln!(
+            f,
+            "camera,theta_rad,tx,ty,view_wkt_world,view_wkt_local,clock_offset_s,noise_sigma_m,rate_hz,phase_s,clock_drift_ppm{}",
+            if seen_from { ",camera_x,camera_y,ground_scale,ground_hx,ground_hy" } else { "" }
+        )?;
         for c in &self.cameras {
             let local = c.view_world.map(|q| {
                 let (x, y) = c.to_local(q[0], q[1]);
                 [x, y]
             });
-            writeln!(
+            write!(
                 f,
                 "{},{},{},{},\"{}\",\"{}\",{},{},{},{},{}",
                 c.id,
@@ -1179,6 +1433,11 @@ impl Scenario {
                 c.phase,
                 c.clock_drift_ppm
             )?;
+            if seen_from {
+                let q = c.position();
+                write!(f, ",{},{},{},{},{}", q[0], q[1], c.ground.scale, c.ground.h[0], c.ground.h[1])?;
+            }
+            writeln!(f)?;
         }
         f.flush()?;
         let mut f = file("truth.csv")?;
@@ -1282,6 +1541,107 @@ mod tests {
             let (ex, ey) = at(o, p.t).unwrap();
             assert!((wx - ex).abs() < 1e-6 && (wy - ey).abs() < 1e-6);
             assert!(cam.sees(wx, wy));
+        }
+    }
+
+    /// World position of a point (the camera's rigid frame undone).
+    fn world_of(cam: &Camera, p: &PointRow) -> [f64; 2] {
+        let (c, sn) = (cam.theta.cos(), cam.theta.sin());
+        [c * p.x - sn * p.y + cam.tx, sn * p.x + c * p.y + cam.ty]
+    }
+
+    #[test]
+    fn viewpoint_bias_is_constant_along_the_line_of_sight_per_camera_and_road_user() {
+        let base = SimParams { noise_sigma: (0.0, 0.0), p_est: 0.0, noise_tracks_per_min: 0.0, ..small() };
+        let s = simulate(&SimParams { viewpoint_bias: (1.2, 0.2), ..base.clone() }).unwrap();
+        // the other draws are untouched: the same tracks, points and times
+        let plain = simulate(&base).unwrap();
+        assert_eq!(s.points.len(), plain.points.len());
+        assert!(s.points.iter().zip(&plain.points).all(|(a, b)| a.t == b.t && a.track_id == b.track_id));
+        let truth: std::collections::HashMap<(i64, i64), i64> = s.truth.iter().map(|t| ((t.0, t.1), t.2)).collect();
+        let mut per: std::collections::HashMap<(i64, i64), Vec<[f64; 2]>> = std::collections::HashMap::new();
+        for p in &s.points {
+            let cam = &s.cameras[p.camera as usize];
+            let w = world_of(cam, p);
+            let o = &s.objects[truth[&(p.camera, p.track_id)] as usize];
+            let (ex, ey) = at(o, p.t).unwrap();
+            per.entry((p.camera, o.id)).or_default().push([w[0] - ex, w[1] - ey]);
+        }
+        let mut seen = [0usize; 2];
+        for ((c, o), d) in &per {
+            // constant while the camera sees the road user
+            assert!(d.iter().all(|q| (q[0] - d[0][0]).abs() < 1e-6 && (q[1] - d[0][1]).abs() < 1e-6), "{c} {o}");
+            let m = d[0][0].hypot(d[0][1]);
+            let vehicle = matches!(s.objects[*o as usize].class, "car" | "heavy_vehicle");
+            let max = if vehicle { 1.2 } else { 0.2 };
+            assert!(m >= VIEWPOINT_BIAS_MIN_SHARE * max - 1e-9 && m <= max + 1e-9, "{m} {max}");
+            seen[usize::from(vehicle)] += 1;
+            // towards the camera: the offset points from the road user to where the camera stands
+            let cam = &s.cameras[*c as usize];
+            let q = cam.position();
+            let (x, y) = at(&s.objects[*o as usize], s.points.iter().find(|p| p.camera == *c && truth[&(p.camera, p.track_id)] == *o).unwrap().t).unwrap();
+            assert!(d[0][0] * (q[0] - x) + d[0][1] * (q[1] - y) > 0.0);
+        }
+        assert!(seen[0] > 5 && seen[1] > 5, "{seen:?}");
+        // the cameras stand outside their views
+        assert!(s.cameras.iter().all(|c| !c.sees(c.position()[0], c.position()[1])));
+    }
+
+    #[test]
+    fn ground_plane_error_scales_about_the_camera() {
+        let base = SimParams { noise_sigma: (0.0, 0.0), p_est: 0.0, noise_tracks_per_min: 0.0, ..small() };
+        let s = simulate(&SimParams { ground_plane_scale: 0.02, ground_plane_perspective: 0.0, ..base.clone() }).unwrap();
+        let plain = simulate(&base).unwrap();
+        assert!(s.cameras.iter().all(|c| c.ground.h == [0.0, 0.0] && (c.ground.scale - 1.0).abs() <= 0.02 && c.ground.scale != 1.0));
+        for (p, q) in s.points.iter().zip(&plain.points).step_by(53) {
+            let cam = &s.cameras[p.camera as usize];
+            let (w, v, c) = (world_of(cam, p), world_of(cam, q), cam.position());
+            // w − c = s (v − c)
+            assert!((w[0] - c[0] - cam.ground.scale * (v[0] - c[0])).abs() < 1e-6 && (w[1] - c[1] - cam.ground.scale * (v[1] - c[1])).abs() < 1e-6);
+        }
+        // a perspective term: the relative error at 50 m is at most the parameter
+        let s = simulate(&SimParams { ground_plane_scale: 0.0, ground_plane_perspective: 0.03, ..base }).unwrap();
+        for c in &s.cameras {
+            let m = c.ground.h[0].hypot(c.ground.h[1]) * PERSPECTIVE_RANGE_M;
+            assert!(m > 0.0 && m <= 0.03 && c.ground.scale == 1.0);
+        }
+        assert_eq!(GroundPlane::EXACT.apply([1.0, 2.0], [3.0, 4.0]), [3.0, 4.0]);
+    }
+
+    #[test]
+    fn occlusion_cuts_tracks_in_crowds_mid_view() {
+        let base = SimParams { waiting_groups: 4.0, pedestrians: 3.0, p_break: 0.0, p_est: 0.0, noise_tracks_per_min: 0.0, ..small() };
+        let plain = simulate(&base).unwrap();
+        let s = simulate(&SimParams { occlusion: 0.1, ..base.clone() }).unwrap();
+        let (n0, n1) = (plain.truth.len(), s.truth.len());
+        assert!(n1 > n0 + 20, "{n0} -> {n1}");
+        // vehicles alone on their lanes are rarely within 2 m of another road user: far fewer cuts
+        let cars = |sc: &Scenario| sc.truth.iter().filter(|t| sc.objects[t.2 as usize].class == "car").count();
+        assert!(cars(&s) <= cars(&plain) + cars(&plain) / 5, "{} {}", cars(&plain), cars(&s));
+        // a track that starts mid-view: its first point is far inside the view
+        let inside = s.points.iter().filter(|p| {
+            let cam = &s.cameras[p.camera as usize];
+            let w = world_of(cam, p);
+            let first = s.points.iter().find(|q| q.camera == p.camera && q.track_id == p.track_id).unwrap();
+            std::ptr::eq(first, *p) && cam.sees(w[0] + 3.0, w[1]) && cam.sees(w[0] - 3.0, w[1]) && cam.sees(w[0], w[1] + 3.0) && cam.sees(w[0], w[1] - 3.0)
+        });
+        assert!(inside.count() > 20);
+        // nothing is drawn without it: the same scenario as before
+        let again = simulate(&SimParams { occlusion: 0.0, ..base }).unwrap();
+        assert_eq!(again.points.len(), plain.points.len());
+    }
+
+    #[test]
+    fn new_degradations_validate() {
+        for (p, want) in [
+            (SimParams { viewpoint_bias: (-1.0, 0.0), ..small() }, "viewpoint_bias must be in [0, 6] m"),
+            (SimParams { viewpoint_bias: (1.0, f64::NAN), ..small() }, "viewpoint_bias must be in [0, 6] m"),
+            (SimParams { ground_plane_scale: 0.2, ..small() }, "ground_plane_scale must be in [0, 0.1]"),
+            (SimParams { ground_plane_perspective: -0.01, ..small() }, "ground_plane_perspective must be in [0, 0.1]"),
+            (SimParams { occlusion: 11.0, ..small() }, "occlusion must be in [0, 10]"),
+        ] {
+            let e = simulate(&p).unwrap_err().to_string();
+            assert!(e.contains(want), "{e}");
         }
     }
 

@@ -1404,16 +1404,34 @@ DELETE FROM align_pairs WHERE fit IS NULL;
 -- points fall within eps. Pairs of cameras without a direct fit use sqrt(sigma_a^2 + sigma_b^2).
 CREATE OR REPLACE TEMP TABLE calib_match AS
 WITH r AS (
-    SELECT s.cam_fixed, s.cam_moving, a.fit, unnest(traj_correspond(s.traj_fixed, s.traj_moving, 0.5, a.fit.dt)) AS c
+    SELECT s.cam_fixed, s.cam_moving, s.track_fixed, s.track_moving, a.fit,
+           unnest(traj_correspond(s.traj_fixed, s.traj_moving, 0.5, a.fit.dt)) AS c
     FROM align_support s JOIN align_pairs a USING (cam_fixed, cam_moving)
+),
+e AS (
+    SELECT cam_fixed, cam_moving, track_fixed, track_moving, c.fx - q.x AS ex, c.fy - q.y AS ey
+    FROM (SELECT *, transform_point({'theta': fit.theta, 'tx': fit.tx, 'ty': fit.ty, 'scale': fit.scale}, c.mx, c.my) AS q FROM r)
+),
+-- each track pair's own constant offset (issue 38: two cameras see different points of a road
+-- user, a viewpoint bias that stays while both see it): sigma_res is the noise about it
+b AS (
+    SELECT cam_fixed, cam_moving, track_fixed, track_moving, avg(ex) AS bx, avg(ey) AS by, count(*) AS n
+    FROM e GROUP BY ALL
 ),
 d AS (
     SELECT cam_fixed, cam_moving,
-           median(sqrt((c.fx - q.x) ** 2 + (c.fy - q.y) ** 2)) / sqrt(2 * ln(2)) AS sigma_d, count(*) AS n_pairs
-    FROM (SELECT *, transform_point({'theta': fit.theta, 'tx': fit.tx, 'ty': fit.ty, 'scale': fit.scale}, c.mx, c.my) AS q FROM r)
+           median(sqrt(e.ex ** 2 + e.ey ** 2)) / sqrt(2 * ln(2)) AS sigma_d,
+           -- (n / (n - 1): the variance about a mean estimated from the same n points)
+           median(sqrt(((e.ex - b.bx) ** 2 + (e.ey - b.by) ** 2) * b.n / (b.n - 1))) FILTER (WHERE b.n > 1) / sqrt(2 * ln(2)) AS sigma_res,
+           count(*) AS n_pairs
+    FROM e JOIN b USING (cam_fixed, cam_moving, track_fixed, track_moving)
     GROUP BY cam_fixed, cam_moving
 )
-SELECT p.cam_a, p.cam_b, coalesce(d.sigma_d, p.sigma_pair_m) AS sigma_d_m, coalesce(d.n_pairs, 0) AS n_pairs,
+SELECT p.cam_a, p.cam_b, coalesce(d.sigma_d, p.sigma_pair_m) AS sigma_d_m,
+       -- the noise about each pair's own offset (at most sigma_d): what the association's
+       -- residual test weighs (crates/algo/src/associate/pair.rs)
+       least(coalesce(d.sigma_res, d.sigma_d, p.sigma_pair_m), coalesce(d.sigma_d, p.sigma_pair_m)) AS sigma_res_m,
+       coalesce(d.n_pairs, 0) AS n_pairs,
        CASE WHEN d.sigma_d IS NULL THEN 'camera noise' ELSE 'matched residuals' END AS source
 FROM calib_pairs p LEFT JOIN d ON least(d.cam_fixed, d.cam_moving) = p.cam_a AND greatest(d.cam_fixed, d.cam_moving) = p.cam_b;
 
@@ -1675,9 +1693,9 @@ ORDER BY class, cam_a, cam_b;
 -- stage: merge
 -- reads: points, load_ids, calib_camera_order, calib_cameras, calibrated(), calibrated_values(), quality_endpoints, quality_links,
 --        quality_reach_links, align_frames, align_origin, calib_match, view_overlaps, view_merge_order
--- makes: merge_tracks, merge_scores, merge_links, merge_groups, merged, merge_chains, merge_road_users(),
+-- makes: merge_tracks, merge_scores, merge_bias, merge_links, merge_groups, merged, merge_chains, merge_road_users(),
 --        result_matches(), result_road_users(), result_links()
--- work: merge_periods, merge_r_gate()
+-- work: merge_periods
 -- changes: -
 -- parameters: input_t_type, merge_eta, merge_resample_max_gap, merge_resample_s, merge_time_window
 --
@@ -1774,14 +1792,12 @@ SELECT a.camera AS cam_a, b.camera AS cam_b,
        CASE WHEN getvariable('merge_resample_s') > 0 THEN getvariable('merge_resample_s') ELSE greatest(coalesce(a.period_s, 0), 1e-3) END AS step_s
 FROM calib_cameras a JOIN calib_cameras b ON a.camera < b.camera;
 
--- the gate on r = mean squared distance / (2 sigma_d^2) of n_eff independent samples (see above)
-CREATE OR REPLACE TEMP MACRO merge_r_gate(n_eff) AS
-    (1 - 2 / (9 * 2 * n_eff) + 3.09 * sqrt(2 / (9 * 2 * n_eff))) ** 3 + 0.25;
-
 CREATE OR REPLACE TEMP TABLE merge_scores AS
--- The pairs of tracks of one class in two cameras that come within the camera pair's epsilon of
--- each other, inside their view overlap, within merge_time_window seconds: every pair with
--- eta > 0 (a pair not listed has eta = 0). lcss_similarity_pairs scores a whole camera pair's
+-- The pairs of tracks of one class in two cameras that come within the camera pair's epsilon
+-- plus the class's bias reach (bias_search_m: two cameras may see points of one road user up to
+-- its length apart, issue 38) of each other, inside their view overlap, within merge_time_window
+-- seconds: every pair with eta > 0 at that search radius (a pair not listed has eta = 0).
+-- lcss_similarity_pairs scores a whole camera pair's
 -- class in one call, its candidates from a space-time grid (crates/algo/src/lcss/sparse.rs):
 -- only road users near each other are compared, so the cost grows with the road users per
 -- window and not with their square. (It was a join of every pair of a class that overlapped in
@@ -1789,7 +1805,7 @@ CREATE OR REPLACE TEMP TABLE merge_scores AS
 -- 16 times the pairs, the stage grew as n^1.6 in density; benches/scale_series.py.)
 WITH cfg AS (
     -- what a camera pair's class needs (a few rows)
-    SELECT o.class, o.cam_a, o.cam_b, o.polygon, e.value AS epsilon, c.sigma_d_m, m.period_max, m.step_s
+    SELECT o.class, o.cam_a, o.cam_b, o.polygon, e.value + bias_search_m(o.class) AS search_m, c.sigma_d_m, c.sigma_res_m, m.period_max, m.step_s
     FROM view_overlaps o
     JOIN calib_match c ON c.cam_a = o.cam_a AND c.cam_b = o.cam_b
     JOIN calibrated_values('merge_epsilon') e ON e.cam_a = o.cam_a AND e.cam_b = o.cam_b
@@ -1803,16 +1819,16 @@ sides AS MATERIALIZED (
 -- (the lists are read where they are stored: a copy of them per camera pair in a materialised
 -- table, or per candidate pair in a join, was the stage's peak memory)
 s AS MATERIALIZED (
-    SELECT f.class, f.cam_a, f.cam_b, f.sigma_d_m, f.period_max, f.step_s,
-           lcss_similarity_pairs(a.ids, a.trajs, b.ids, b.trajs, f.epsilon, getvariable('merge_time_window'),
+    SELECT f.class, f.cam_a, f.cam_b, f.sigma_d_m, f.sigma_res_m, f.period_max, f.step_s,
+           lcss_similarity_pairs(a.ids, a.trajs, b.ids, b.trajs, f.search_m, getvariable('merge_time_window'),
                                  calibrated('merge_min_points')::BIGINT, f.polygon) AS q
     FROM cfg f
     JOIN sides a ON a.class = f.class AND a.camera = f.cam_a
     JOIN sides b ON b.class = f.class AND b.camera = f.cam_b
 ),
--- the whole common time of the candidates (LCSS eta >= merge_eta): the mean squared distance at
--- every common time step, wherever the two tracks are, inside the overlap polygon or not
--- (traj_msd_pairs: list_avg of traj_correspond's squared distances, the tracks read in place)
+-- the whole common time of the candidates (LCSS eta >= merge_eta): the mean squared distance
+-- and the mean offset (dx, dy) = mean of a - b at every common time step, wherever the two
+-- tracks are, inside the overlap polygon or not (traj_msd_pairs, the tracks read in place)
 m AS (
     SELECT unnest(traj_msd_pairs(a.ids, a.trajs, b.ids, b.trajs, [{'a': p.a, 'b': p.b} FOR p IN s.q IF p.eta >= getvariable('merge_eta')],
                                  greatest(getvariable('merge_resample_max_gap'), 1.5 * s.period_max))) AS c
@@ -1820,25 +1836,56 @@ m AS (
     JOIN sides a ON a.class = s.class AND a.camera = s.cam_a
     JOIN sides b ON b.class = s.class AND b.camera = s.cam_b
 ),
-e AS (SELECT cam_a, cam_b, sigma_d_m, period_max, step_s, unnest(q) AS q FROM s),
-r AS (
-    SELECT e.q.a AS uid_a, e.q.b AS uid_b, e.cam_a AS camera_a, e.cam_b AS camera_b, ta.t0 AS t0_a, ta.t1 AS t1_a, tb.t0 AS t0_b, tb.t1 AS t1_b,
-           e.q.eta AS eta, e.sigma_d_m, e.period_max, e.step_s, m.c.n_common, m.c.msd,
-           -- independent samples: one per sampling period of the slower camera
-           greatest(m.c.n_common * least(e.step_s / e.period_max, 1.0), 1.0) AS n_eff,
-           m.c.msd / greatest(2 * e.sigma_d_m ** 2, 1e-12) AS r
-    FROM e
-    JOIN (SELECT uid, t0, t1 FROM merge_tracks) ta ON ta.uid = e.q.a
-    JOIN (SELECT uid, t0, t1 FROM merge_tracks) tb ON tb.uid = e.q.b
-    LEFT JOIN m ON m.c.a = e.q.a AND m.c.b = e.q.b
+e AS (SELECT class, cam_a, cam_b, sigma_d_m, sigma_res_m, period_max, step_s, unnest(q) AS q FROM s)
+SELECT e.q.a AS uid_a, e.q.b AS uid_b, e.cam_a AS camera_a, e.cam_b AS camera_b, e.class, ta.t0 AS t0_a, ta.t1 AS t1_a, tb.t0 AS t0_b, tb.t1 AS t1_b,
+       e.q.eta AS eta, e.sigma_d_m, e.sigma_res_m, e.period_max, e.step_s, m.c.n_common, m.c.msd, m.c.dx, m.c.dy,
+       -- independent samples: one per sampling period of the slower camera
+       greatest(m.c.n_common * least(e.step_s / e.period_max, 1.0), 1.0) AS n_eff
+FROM e
+JOIN (SELECT uid, t0, t1 FROM merge_tracks) ta ON ta.uid = e.q.a
+JOIN (SELECT uid, t0, t1 FROM merge_tracks) tb ON tb.uid = e.q.b
+LEFT JOIN m ON m.c.a = e.q.a AND m.c.b = e.q.b;
+
+-- Each camera pair's bias state per class (issue 38; crates/algo/src/associate/bias.rs): the
+-- distribution of the constant offsets between the two cameras' views of one road user, from
+-- its unambiguous matches: candidates whose residual about their own offset is noise
+-- (pair_evidence with no bias prior) and that are the only such candidate of both their tracks
+-- in the camera pair. The class's own state when it has 5 such matches, else the camera pair's
+-- over every class, else 'no bias' (sigma_d^2 I: the tolerance before issue 38).
+CREATE OR REPLACE TEMP TABLE merge_bias AS
+WITH r AS (
+    SELECT *, pair_evidence(msd, dx, dy, sigma_res_m, n_eff, bias_state_none(1e3)) AS e0
+    FROM merge_scores WHERE eta >= getvariable('merge_eta') AND n_common > 0
+),
+ok AS (SELECT * FROM r WHERE e0.r_res <= e0.r_gate),
+anchors AS (
+    SELECT o.* FROM ok o
+    WHERE (SELECT count(*) FROM ok x WHERE x.uid_a = o.uid_a AND x.camera_b = o.camera_b) = 1
+      AND (SELECT count(*) FROM ok x WHERE x.uid_b = o.uid_b AND x.camera_a = o.camera_a) = 1
+),
+pairs AS (SELECT DISTINCT camera_a, camera_b, class, sigma_res_m FROM merge_scores),
+by_class AS (
+    SELECT camera_a, camera_b, class, bias_state(list({'dx': dx, 'dy': dy, 'se2': sigma_res_m ** 2 / n_eff})) AS state
+    FROM anchors GROUP BY ALL
+),
+pooled AS (
+    SELECT camera_a, camera_b, bias_state(list({'dx': dx, 'dy': dy, 'se2': sigma_res_m ** 2 / n_eff})) AS state
+    FROM anchors GROUP BY ALL
 )
-SELECT r.*,
-       -- the gate: chi2(2 n_eff) / (2 n_eff) at 0.999 (Wilson-Hilferty), at least merge_gate_floor
-       merge_r_gate(n_eff) AS r_gate,
-       n_eff * (merge_r_gate(n_eff) - r) AS score,
-       eta >= getvariable('merge_eta') AND n_common > 0
-         AND r <= merge_r_gate(n_eff) AS candidate
-FROM r;
+SELECT p.camera_a, p.camera_b, p.class,
+       coalesce(c.state, o.state, bias_state_none(p.sigma_res_m)) AS state,
+       CASE WHEN c.state IS NOT NULL THEN 'class' WHEN o.state IS NOT NULL THEN 'camera pair' ELSE 'none' END AS source
+FROM pairs p
+LEFT JOIN by_class c USING (camera_a, camera_b, class)
+LEFT JOIN pooled o USING (camera_a, camera_b);
+
+-- the evidence of every candidate against its camera pair's bias state (pair_evidence)
+CREATE OR REPLACE TEMP TABLE merge_scores AS
+SELECT s.*, e.r_res, e.r_gate, e.d2, e.nll, e.nll / s.n_eff AS cost, e.score,
+       coalesce(s.eta >= getvariable('merge_eta') AND s.n_common > 0 AND e.candidate, false) AS candidate
+FROM merge_scores s
+JOIN merge_bias b ON b.camera_a = s.camera_a AND b.camera_b = s.camera_b AND b.class IS NOT DISTINCT FROM s.class,
+LATERAL (SELECT pair_evidence(s.msd, s.dx, s.dy, s.sigma_res_m, s.n_eff, b.state) AS e);
 
 CREATE OR REPLACE TEMP TABLE merge_links AS
 WITH h AS (
@@ -1854,10 +1901,10 @@ s AS (
       -- (two anti-joins on one key each: an OR of keys would be a nested loop)
       AND NOT EXISTS (SELECT 1 FROM merge_scores o
                       WHERE o.candidate AND o.uid_a = s.uid_a AND o.uid_b <> s.uid_b AND o.camera_b = s.camera_b
-                        AND o.r <= s.r AND o.t0_b <= s.t1_b AND s.t0_b <= o.t1_b)
+                        AND o.cost <= s.cost AND o.t0_b <= s.t1_b AND s.t0_b <= o.t1_b)
       AND NOT EXISTS (SELECT 1 FROM merge_scores o
                       WHERE o.candidate AND o.uid_b = s.uid_b AND o.uid_a <> s.uid_a AND o.camera_a = s.camera_a
-                        AND o.r <= s.r AND o.t0_a <= s.t1_a AND s.t0_a <= o.t1_a)
+                        AND o.cost <= s.cost AND o.t0_a <= s.t1_a AND s.t0_a <= o.t1_a)
 ),
 -- the ratio test: a match is kept only when it is 10 times likelier than every other candidate
 -- of either track in this camera pair at that time (log-likelihoods n_eff r apart by ln 10, n_eff
@@ -1865,19 +1912,19 @@ s AS (
 -- not told apart by noise; the other cameras, or their longer tracks, decide (ln 100 lost true
 -- pairs in waiting crowds at sigma 0.3 m: exact 0.979 against 1.000)
 clear AS (
-    SELECT k.* FROM (SELECT m.a AS uid_a, m.b AS uid_b, s.eta, m.score, 'hungarian' AS kind, s.r, s.n_eff, s.t0_a, s.t1_a, s.t0_b, s.t1_b,
+    SELECT k.* FROM (SELECT m.a AS uid_a, m.b AS uid_b, s.eta, m.score, 'hungarian' AS kind, s.r_res, s.d2, s.n_eff, s.t0_a, s.t1_a, s.t0_b, s.t1_b,
                             s.camera_a, s.camera_b
                      FROM h JOIN merge_scores s ON s.uid_a = h.m.a AND s.uid_b = h.m.b
                      UNION ALL
-                     SELECT uid_a, uid_b, eta, score, 'split', r, n_eff, t0_a, t1_a, t0_b, t1_b, camera_a, camera_b FROM s) k
+                     SELECT uid_a, uid_b, eta, score, 'split', r_res, d2, n_eff, t0_a, t1_a, t0_b, t1_b, camera_a, camera_b FROM s) k
     WHERE NOT EXISTS (SELECT 1 FROM merge_scores o
                       WHERE o.candidate AND o.uid_a = k.uid_a AND o.uid_b <> k.uid_b AND o.camera_b = k.camera_b
                         AND o.t0_b <= k.t1_b AND k.t0_b <= o.t1_b
-                        AND (o.r - k.r) * least(o.n_eff, k.n_eff) < ln(10))
+                        AND NOT pair_clear_of(k.r_res, k.d2, k.n_eff, o.r_res, o.d2, o.n_eff))
       AND NOT EXISTS (SELECT 1 FROM merge_scores o
                       WHERE o.candidate AND o.uid_b = k.uid_b AND o.uid_a <> k.uid_a AND o.camera_a = k.camera_a
                         AND o.t0_a <= k.t1_a AND k.t0_a <= o.t1_a
-                        AND (o.r - k.r) * least(o.n_eff, k.n_eff) < ln(10))
+                        AND NOT pair_clear_of(k.r_res, k.d2, k.n_eff, o.r_res, o.d2, o.n_eff))
 ),
 x AS (SELECT uid_a, uid_b, eta, score, kind FROM clear),
 -- within-camera links quality.sql leaves to the other cameras ('reach'), offered last: refused when
@@ -1902,12 +1949,17 @@ contradicted AS (
     FROM checks c
     JOIN merge_tracks t ON t.uid = c.piece JOIN merge_tracks o ON o.uid = c.partner
     JOIN calib_match cm ON cm.cam_a = least(t.camera, o.camera) AND cm.cam_b = greatest(t.camera, o.camera)
-    JOIN merge_periods mp ON mp.cam_a = cm.cam_a AND mp.cam_b = cm.cam_b,
-    LATERAL (SELECT [(q.fx - q.mx) ** 2 + (q.fy - q.my) ** 2
-                     FOR q IN traj_correspond(t.traj, o.traj, greatest(getvariable('merge_resample_max_gap'), 1.5 * mp.period_max))] AS d2) d,
-    LATERAL (SELECT greatest(len(d.d2) * least(mp.step_s / mp.period_max, 1.0), 1.0) AS n_eff) n
-    WHERE t.t0 <= o.t1 AND o.t0 <= t.t1 AND len(d.d2) > 0
-      AND list_avg(d.d2) / greatest(2 * cm.sigma_d_m ** 2, 1e-12) > merge_r_gate(n.n_eff)
+    JOIN merge_periods mp ON mp.cam_a = cm.cam_a AND mp.cam_b = cm.cam_b
+    JOIN merge_bias mb ON mb.camera_a = cm.cam_a AND mb.camera_b = cm.cam_b AND mb.class IS NOT DISTINCT FROM t.class,
+    -- the offset as the bias state measures it: the lower camera's track minus the other's
+    LATERAL (SELECT traj_correspond(CASE WHEN t.camera < o.camera THEN t.traj ELSE o.traj END,
+                                    CASE WHEN t.camera < o.camera THEN o.traj ELSE t.traj END,
+                                    greatest(getvariable('merge_resample_max_gap'), 1.5 * mp.period_max)) AS cs) d,
+    LATERAL (SELECT greatest(len(d.cs) * least(mp.step_s / mp.period_max, 1.0), 1.0) AS n_eff,
+                    list_avg([(q.fx - q.mx) ** 2 + (q.fy - q.my) ** 2 FOR q IN d.cs]) AS msd,
+                    list_avg([q.fx - q.mx FOR q IN d.cs]) AS dx, list_avg([q.fy - q.my FOR q IN d.cs]) AS dy) n
+    WHERE t.t0 <= o.t1 AND o.t0 <= t.t1 AND len(d.cs) > 0
+      AND NOT pair_evidence(n.msd, n.dx, n.dy, cm.sigma_res_m, n.n_eff, mb.state).candidate
 )
 SELECT * FROM x
 UNION ALL

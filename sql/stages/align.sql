@@ -489,16 +489,34 @@ DELETE FROM align_pairs WHERE fit IS NULL;
 -- points fall within eps. Pairs of cameras without a direct fit use sqrt(sigma_a^2 + sigma_b^2).
 CREATE OR REPLACE TEMP TABLE calib_match AS
 WITH r AS (
-    SELECT s.cam_fixed, s.cam_moving, a.fit, unnest(traj_correspond(s.traj_fixed, s.traj_moving, 0.5, a.fit.dt)) AS c
+    SELECT s.cam_fixed, s.cam_moving, s.track_fixed, s.track_moving, a.fit,
+           unnest(traj_correspond(s.traj_fixed, s.traj_moving, 0.5, a.fit.dt)) AS c
     FROM align_support s JOIN align_pairs a USING (cam_fixed, cam_moving)
+),
+e AS (
+    SELECT cam_fixed, cam_moving, track_fixed, track_moving, c.fx - q.x AS ex, c.fy - q.y AS ey
+    FROM (SELECT *, transform_point({'theta': fit.theta, 'tx': fit.tx, 'ty': fit.ty, 'scale': fit.scale}, c.mx, c.my) AS q FROM r)
+),
+-- each track pair's own constant offset (issue 38: two cameras see different points of a road
+-- user, a viewpoint bias that stays while both see it): sigma_res is the noise about it
+b AS (
+    SELECT cam_fixed, cam_moving, track_fixed, track_moving, avg(ex) AS bx, avg(ey) AS by, count(*) AS n
+    FROM e GROUP BY ALL
 ),
 d AS (
     SELECT cam_fixed, cam_moving,
-           median(sqrt((c.fx - q.x) ** 2 + (c.fy - q.y) ** 2)) / sqrt(2 * ln(2)) AS sigma_d, count(*) AS n_pairs
-    FROM (SELECT *, transform_point({'theta': fit.theta, 'tx': fit.tx, 'ty': fit.ty, 'scale': fit.scale}, c.mx, c.my) AS q FROM r)
+           median(sqrt(e.ex ** 2 + e.ey ** 2)) / sqrt(2 * ln(2)) AS sigma_d,
+           -- (n / (n - 1): the variance about a mean estimated from the same n points)
+           median(sqrt(((e.ex - b.bx) ** 2 + (e.ey - b.by) ** 2) * b.n / (b.n - 1))) FILTER (WHERE b.n > 1) / sqrt(2 * ln(2)) AS sigma_res,
+           count(*) AS n_pairs
+    FROM e JOIN b USING (cam_fixed, cam_moving, track_fixed, track_moving)
     GROUP BY cam_fixed, cam_moving
 )
-SELECT p.cam_a, p.cam_b, coalesce(d.sigma_d, p.sigma_pair_m) AS sigma_d_m, coalesce(d.n_pairs, 0) AS n_pairs,
+SELECT p.cam_a, p.cam_b, coalesce(d.sigma_d, p.sigma_pair_m) AS sigma_d_m,
+       -- the noise about each pair's own offset (at most sigma_d): what the association's
+       -- residual test weighs (crates/algo/src/associate/pair.rs)
+       least(coalesce(d.sigma_res, d.sigma_d, p.sigma_pair_m), coalesce(d.sigma_d, p.sigma_pair_m)) AS sigma_res_m,
+       coalesce(d.n_pairs, 0) AS n_pairs,
        CASE WHEN d.sigma_d IS NULL THEN 'camera noise' ELSE 'matched residuals' END AS source
 FROM calib_pairs p LEFT JOIN d ON least(d.cam_fixed, d.cam_moving) = p.cam_a AND greatest(d.cam_fixed, d.cam_moving) = p.cam_b;
 

@@ -158,17 +158,25 @@ pub static FUNCTIONS: &[Function] = &[
         description: "Mean squared distance of many track pairs over their common time, in one call: for each (a, b) of pairs (ids from ids_a \
                       and ids_b), n_common = the point pairs of traj_correspond(trajs_a[a], trajs_b[b], max_gap) and msd = the mean of their \
                       squared distances (m², NULL when n_common = 0), bit for bit list_avg([(c.fx - c.mx) ** 2 + (c.fy - c.my) ** 2 FOR c \
-                      IN traj_correspond(...)]) without building the list. One element per pair, in the order of pairs. The tracks are \
+                      IN traj_correspond(...)]) without building the list, and the mean offset (dx, dy) = the mean of (fx - mx, fy - my) \
+                      (m; NULL when n_common = 0: the constant offset of two cameras' views of one road user). One element per pair, in the order of pairs. The tracks are \
                       read in place and the pairs run in parallel: no trajectory is copied per pair (sql/stages/merge.sql weighs its \
                       candidates with it). O(n + m) a pair. Errors: ids and trajs lists of different lengths, duplicate ids on one \
                       side, a pair naming an id not in its side, max_gap <= 0.",
-        example: "SELECT traj_msd_pairs([1], [[{'t':0,'x':0,'y':0},{'t':1,'x':1,'y':0}]], [2], [[{'t':0,'x':0,'y':1},{'t':1,'x':1,'y':1}]], [{'a': 1, 'b': 2}], 0.5); -- [{'a': 1, 'b': 2, 'n_common': 2, 'msd': 1.0}]",
+        example: "SELECT traj_msd_pairs([1], [[{'t':0,'x':0,'y':0},{'t':1,'x':1,'y':0}]], [2], [[{'t':0,'x':0,'y':1},{'t':1,'x':1,'y':1}]], [{'a': 1, 'b': 2}], 0.5); -- [{'a': 1, 'b': 2, 'n_common': 2, 'msd': 1.0, 'dx': 0.0, 'dy': -1.0}]",
         maths: "crates/algo/src/align/msd.rs",
         binding: file!(),
         signatures: &[Signature {
             params: two_sets_params!(p("pairs", Ty::List(&Ty::Struct(&[("a", Ty::Bigint), ("b", Ty::Bigint)]))), p("max_gap", Ty::Double)),
             arities: &[],
-            returns: Ty::List(&Ty::Struct(&[("a", Ty::Bigint), ("b", Ty::Bigint), ("n_common", Ty::Bigint), ("msd", Ty::Double)])),
+            returns: Ty::List(&Ty::Struct(&[
+                ("a", Ty::Bigint),
+                ("b", Ty::Bigint),
+                ("n_common", Ty::Bigint),
+                ("msd", Ty::Double),
+                ("dx", Ty::Double),
+                ("dy", Ty::Double),
+            ])),
             kernel: traj_msd_pairs,
         }],
         table: None,
@@ -676,12 +684,18 @@ fn traj_msd_pairs(a: &Args<'_>, out: &mut Out<'_>) -> R {
             at.push((p, q));
         }
         let m = crate::algo::align::msd::msd_pairs(&ta, &tb, &at, gap)?;
-        let n: Vec<i64> = m.iter().map(|v| v.0 as i64).collect();
-        let msd: Vec<Option<f64>> = m.iter().map(|v| v.1).collect();
-        Ok(Some((ka.to_vec(), kb.to_vec(), n, msd)))
+        let n: Vec<i64> = m.iter().map(|v| v.n as i64).collect();
+        let msd: Vec<Option<f64>> = m.iter().map(|v| v.msd).collect();
+        let dx: Vec<Option<f64>> = m.iter().map(|v| v.dx).collect();
+        let dy: Vec<Option<f64>> = m.iter().map(|v| v.dy).collect();
+        Ok(Some((ka.to_vec(), kb.to_vec(), n, msd, dx, dy)))
     })?;
-    let cols: Vec<_> =
-        vals.iter().map(|v| v.as_ref().map(|(x, y, n, m)| vec![Column::I64(x), Column::I64(y), Column::I64(n), Column::OptF64(m)])).collect();
+    let cols: Vec<_> = vals
+        .iter()
+        .map(|v| {
+            v.as_ref().map(|(x, y, n, m, dx, dy)| vec![Column::I64(x), Column::I64(y), Column::I64(n), Column::OptF64(m), Column::OptF64(dx), Column::OptF64(dy)])
+        })
+        .collect();
     out.struct_lists(&cols)?;
     Ok(())
 }

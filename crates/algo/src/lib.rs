@@ -26,6 +26,7 @@
 use std::fmt;
 
 pub mod align;
+pub mod associate;
 pub mod cluster;
 pub mod conflict;
 pub mod events;

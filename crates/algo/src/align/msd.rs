@@ -26,23 +26,38 @@ use rayon::prelude::*;
 /// `(n, msd)` of `fixed` against `moving` (see the module docs); `max_gap` > 0 or `+inf`.
 pub fn msd(fixed: Traj<'_>, moving: Traj<'_>, max_gap: f64) -> Result<(usize, Option<f64>), ParamError> {
     let max_gap = positive_or_inf("max_gap", max_gap)?;
-    Ok(msd_checked(fixed, moving, max_gap))
+    let c = common(fixed, moving, max_gap);
+    Ok((c.n, c.msd))
 }
 
-fn msd_checked(fixed: Traj<'_>, moving: Traj<'_>, max_gap: f64) -> (usize, Option<f64>) {
-    let (mut n, mut sum) = (0usize, 0.0f64);
+/// Two tracks over their common time: `n` correspondences, `msd`, and the mean offset
+/// `(dx, dy)` = mean of `fixed − moving` (issue 38: the constant offset of two cameras' views of
+/// one road user; [`crate::associate::pair`]). None when `n = 0`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Common {
+    pub n: usize,
+    pub msd: Option<f64>,
+    pub dx: Option<f64>,
+    pub dy: Option<f64>,
+}
+
+fn common(fixed: Traj<'_>, moving: Traj<'_>, max_gap: f64) -> Common {
+    let (mut n, mut sum, mut sx, mut sy) = (0usize, 0.0f64, 0.0f64, 0.0f64);
     each_pair(fixed, moving, 0.0, max_gap, |_, _, fx, fy, mx, my| {
         let (dx, dy) = (fx - mx, fy - my);
         sum += dx * dx + dy * dy;
+        sx += dx;
+        sy += dy;
         n += 1;
     });
-    (n, (n > 0).then(|| sum / n as f64))
+    let mean = |v: f64| (n > 0).then(|| v / n as f64);
+    Common { n, msd: mean(sum), dx: mean(sx), dy: mean(sy) }
 }
 
-/// [`msd`] of `a[p]` against `b[q]` for every `(p, q)` of `pairs` (positions), in order.
-pub fn msd_pairs(a: &[Traj<'_>], b: &[Traj<'_>], pairs: &[(usize, usize)], max_gap: f64) -> Result<Vec<(usize, Option<f64>)>, ParamError> {
+/// [`Common`] of `a[p]` against `b[q]` for every `(p, q)` of `pairs` (positions), in order.
+pub fn msd_pairs(a: &[Traj<'_>], b: &[Traj<'_>], pairs: &[(usize, usize)], max_gap: f64) -> Result<Vec<Common>, ParamError> {
     let max_gap = positive_or_inf("max_gap", max_gap)?;
-    Ok(pairs.par_iter().map(|&(p, q)| msd_checked(a[p], b[q], max_gap)).collect())
+    Ok(pairs.par_iter().map(|&(p, q)| common(a[p], b[q], max_gap)).collect())
 }
 
 #[cfg(test)]
@@ -79,7 +94,17 @@ mod tests {
             }
             let want = (c.fx.len(), (!c.fx.is_empty()).then(|| sum / c.fx.len() as f64));
             prop_assert_eq!(msd(a.view(), b.view(), gap).unwrap(), want);
-            prop_assert_eq!(msd_pairs(&[a.view()], &[b.view()], &[(0, 0)], gap).unwrap(), vec![want]);
+            let got = msd_pairs(&[a.view()], &[b.view()], &[(0, 0)], gap).unwrap()[0];
+            prop_assert_eq!((got.n, got.msd), want);
+            // the mean offset: the mean of fixed - moving over the same correspondences
+            let n = c.fx.len() as f64;
+            if !c.fx.is_empty() {
+                let mx = c.fx.iter().zip(&c.mx).map(|(f, m)| f - m).sum::<f64>() / n;
+                let my = c.fy.iter().zip(&c.my).map(|(f, m)| f - m).sum::<f64>() / n;
+                prop_assert!((got.dx.unwrap() - mx).abs() <= 1e-9 * (1.0 + mx.abs()) && (got.dy.unwrap() - my).abs() <= 1e-9 * (1.0 + my.abs()));
+            } else {
+                prop_assert!(got.dx.is_none() && got.dy.is_none());
+            }
         }
     }
 

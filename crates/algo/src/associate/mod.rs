@@ -1,0 +1,68 @@
+//! The decisions of cross-camera association (docs/association.md), each a named function with
+//! its constants, so that SQL (sql/stages/merge.sql) only joins.
+//!
+//! Two tracks of one road user in two cameras differ by noise plus a constant offset `b` (a
+//! detector's ground point seen from two sides, a ground-plane calibration error: issue 38);
+//! two neighbours walking side by side also differ by a nearly constant offset. What tells them
+//! apart is measured: the residual after removing `b` against the noise ([`pair`]), and `b`
+//! itself against the offsets of the camera pair's unambiguous matches of that class
+//! ([`bias`]: a bias state, mean and covariance, estimated robustly).
+//!
+//! | file | SQL | what |
+//! |---|---|---|
+//! | [`pair`] | `pair_evidence` | a candidate's offset, residual, gates and negative log-likelihood |
+//! | [`bias`] | `bias_state` | a camera pair's (and class's) offset distribution, robustly |
+
+pub mod bias;
+pub mod pair;
+
+/// The 0.999 quantile of chi-square with 2 degrees of freedom, `−2 ln 0.001`: the gate of an
+/// offset's squared Mahalanobis distance from its bias state (one wrong refusal in a thousand
+/// true pairs).
+pub const BIAS_GATE_D2: f64 = 13.815510557964274;
+
+/// The standard normal 0.999 quantile (the residual gate's one-sided level).
+pub const Z_999: f64 = 3.090232306167813;
+
+/// The ground-plane error the candidate search allows for (m): 2 % at 50 m from a camera.
+pub const SEARCH_GROUND_PLANE_M: f64 = 1.0;
+
+/// How far apart two cameras' reported points of one road user of `class` can lie (m), for the
+/// candidate search only (LCSS proposes pairs within the camera pair's epsilon plus this; the
+/// tests of [`pair`] decide). A detector's ground point lies on the road user's outline, so two
+/// views differ by at most its length: a car 5 m, a bus or truck 12 m, a two-wheeler 2 m, a
+/// pedestrian 1 m; plus [`SEARCH_GROUND_PLANE_M`]. A class named otherwise is searched as a car
+/// (the class names of the input are the analyst's: `pedestrian`, `person`, `bicycle`, `truck`,
+/// ... are recognised by their words).
+pub fn search_reach_m(class: &str) -> f64 {
+    let c = class.to_ascii_lowercase();
+    let has = |words: &[&str]| words.iter().any(|w| c.contains(w));
+    let length = if has(&["ped", "person", "walk", "people", "human"]) {
+        1.0
+    } else if has(&["cycl", "bike", "bicycl", "motor", "scooter", "two_wheel", "two-wheel"]) {
+        2.0
+    } else if has(&["heavy", "truck", "bus", "lorry", "trailer", "tram", "coach"]) {
+        12.0
+    } else {
+        5.0
+    };
+    length + SEARCH_GROUND_PLANE_M
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn search_reach_by_class_words() {
+        assert_eq!(search_reach_m("pedestrian"), 2.0);
+        assert_eq!(search_reach_m("Person"), 2.0);
+        assert_eq!(search_reach_m("cyclist"), 3.0);
+        assert_eq!(search_reach_m("motorcycle"), 3.0);
+        assert_eq!(search_reach_m("heavy_vehicle"), 13.0);
+        assert_eq!(search_reach_m("BUS"), 13.0);
+        assert_eq!(search_reach_m("car"), 6.0);
+        assert_eq!(search_reach_m("kart"), 6.0);
+        assert_eq!(search_reach_m(""), 6.0);
+    }
+}

@@ -1,0 +1,168 @@
+//! SQL: the decisions of cross-camera association (issue 38). Maths:
+//! `crates/algo/src/associate/` (pair.rs: a candidate's evidence; bias.rs: a camera pair's bias
+//! state).
+
+use super::registry::{p, Function, Signature, Ty};
+use super::vector::{Args, Out, Value};
+use crate::algo::associate::bias::{self, BiasState, Offset};
+use crate::algo::associate::pair;
+use std::error::Error;
+
+type R = Result<(), Box<dyn Error>>;
+
+const STATE: Ty =
+    Ty::Struct(&[("mx", Ty::Double), ("my", Ty::Double), ("sxx", Ty::Double), ("sxy", Ty::Double), ("syy", Ty::Double), ("n", Ty::Bigint)]);
+const OFFSETS: Ty = Ty::List(&Ty::Struct(&[("dx", Ty::Double), ("dy", Ty::Double), ("se2", Ty::Double)]));
+
+pub static FUNCTIONS: &[Function] = &[
+    Function {
+        name: "bias_state",
+        description: "A camera pair's bias state for one class (issue 38; docs/association.md): the mean (mx, my, m) and covariance (sxx, sxy, \
+                      syy, m²) of the constant offsets between two cameras' views of one road user, estimated robustly from the offsets \
+                      (dx, dy) of unambiguous matches, each measured with variance se2 per axis (σ_d² / n_eff): coordinate-wise median and MAD, \
+                      then concentration steps on the offsets within chi2(2) at 0.99 with the truncation corrected; the mean se2 is taken \
+                      out of the diagonal (at least 1 cm² stays). n = the offsets kept. NULL with fewer than 5 finite offsets (the caller \
+                      falls back: the camera pair's offsets of every class, then bias_state_none). O(n log n).",
+        example: "SELECT round(bias_state([{'dx': 1.0, 'dy': 0.0, 'se2': 0.0}, {'dx': 1.1, 'dy': 0.1, 'se2': 0.0}, {'dx': 0.9, 'dy': -0.1, 'se2': 0.0}, {'dx': 1.0, 'dy': 0.05, 'se2': 0.0}, {'dx': 1.05, 'dy': -0.05, 'se2': 0.0}]).mx, 2); -- 1.01",
+        maths: "crates/algo/src/associate/bias.rs",
+        binding: file!(),
+        signatures: &[Signature { params: &[p("offsets", OFFSETS)], arities: &[], returns: STATE, kernel: bias_state }],
+        table: None,
+    },
+    Function {
+        name: "bias_state_none",
+        description: "The bias state of 'no bias': mean 0 and covariance sigma_d² I (at least 1 cm²), the tolerance of a constant offset \
+                      the association had before issue 38; for a camera pair without 5 unambiguous matches.",
+        example: "SELECT bias_state_none(0.2).sxx; -- 0.04000000000000001",
+        maths: "crates/algo/src/associate/bias.rs",
+        binding: file!(),
+        signatures: &[Signature { params: &[p("sigma_d", Ty::Double)], arities: &[], returns: STATE, kernel: bias_state_none }],
+        table: None,
+    },
+    Function {
+        name: "bias_search_m",
+        description: "How far apart two cameras' reported points of one road user of this class can lie (m), for the candidate search only \
+                      (merge.sql's LCSS proposes pairs within the camera pair's epsilon plus this; pair_evidence decides): the road user's \
+                      length, since a detector's ground point lies on its outline (a pedestrian 1 m, a two-wheeler 2 m, a car 5 m, a bus or \
+                      truck 12 m; classes are recognised by their words, any other class is searched as a car), plus 1 m of ground-plane \
+                      error (2 % at 50 m). NULL for NULL.",
+        example: "SELECT bias_search_m('car'); -- 6.0",
+        maths: "crates/algo/src/associate/mod.rs",
+        binding: file!(),
+        signatures: &[Signature { params: &[p("class", Ty::Varchar)], arities: &[], returns: Ty::Double, kernel: bias_search_m }],
+        table: None,
+    },
+    Function {
+        name: "pair_evidence",
+        description: "The evidence of one candidate pair of tracks over their whole common time (docs/association.md, issue 38): from \
+                      traj_msd_pairs's msd and mean offset (dx, dy), the camera pair's noise sigma_d (m, per axis), the independent samples \
+                      n_eff and the bias state: r_res = (msd - dx² - dy²) / (2 sigma_d²) (the residual after removing the constant offset), \
+                      r_gate = chi2(2 n_eff - 2) at 0.999 / (2 n_eff) + 0.25, d2 = the offset's squared Mahalanobis distance from the bias \
+                      state with the offset's own variance sigma_d² / n_eff added, nll = n_eff r_res + d2 / 2, score = n_eff (r_gate - \
+                      r_res) + (13.82 - d2) / 2 (Hungarian's weight) and candidate = r_res <= r_gate AND d2 <= 13.82 (chi2(2) at 0.999). \
+                      NULL when an argument is NULL.",
+        example: "SELECT pair_evidence(1.12, 1.0, 0.0, 0.1, 100, bias_state_none(0.5)).candidate; -- true",
+        maths: "crates/algo/src/associate/pair.rs",
+        binding: file!(),
+        signatures: &[Signature {
+            params: &[p("msd", Ty::Double), p("dx", Ty::Double), p("dy", Ty::Double), p("sigma_d", Ty::Double), p("n_eff", Ty::Double), p("state", STATE)],
+            arities: &[],
+            returns: Ty::Struct(&[
+                ("r_res", Ty::Double),
+                ("r_gate", Ty::Double),
+                ("d2", Ty::Double),
+                ("nll", Ty::Double),
+                ("score", Ty::Double),
+                ("candidate", Ty::Boolean),
+            ]),
+            kernel: pair_evidence,
+        }],
+        table: None,
+    },
+    Function {
+        name: "pair_clear_of",
+        description: "The ratio test of a match against a rival candidate of either of its tracks (docs/association.md): true when the match \
+                      (r_res, d2, n_eff of pair_evidence) is 10 times likelier than the rival (r_rival, d2_rival, n_rival): \
+                      (r_rival - r_res) min(n_eff, n_rival) + (d2_rival - d2) / 2 >= ln 10. NULL when an argument is NULL.",
+        example: "SELECT pair_clear_of(1.0, 1.0, 100, 1.1, 2.0, 100); -- true",
+        maths: "crates/algo/src/associate/pair.rs",
+        binding: file!(),
+        signatures: &[Signature {
+            params: &[
+                p("r_res", Ty::Double),
+                p("d2", Ty::Double),
+                p("n_eff", Ty::Double),
+                p("r_rival", Ty::Double),
+                p("d2_rival", Ty::Double),
+                p("n_rival", Ty::Double),
+            ],
+            arities: &[],
+            returns: Ty::Boolean,
+            kernel: pair_clear_of,
+        }],
+        table: None,
+    },
+];
+
+fn state_values(s: &BiasState) -> Vec<Value> {
+    vec![Value::F64(s.mx), Value::F64(s.my), Value::F64(s.sxx), Value::F64(s.sxy), Value::F64(s.syy), Value::I64(s.n as i64)]
+}
+
+fn bias_state(a: &Args<'_>, out: &mut Out<'_>) -> R {
+    let offs = a.struct_list(0);
+    let vals = a.map(|r| {
+        let Some(c) = offs.get(r)? else { return Ok(None) };
+        let (dx, dy, se2) = (c.f64(0), c.f64(1), c.f64(2));
+        let v: Vec<Offset> = (0..c.len()).map(|k| Offset { dx: dx[k], dy: dy[k], se2: se2[k] }).collect();
+        Ok(bias::bias_state(&v).map(|s| state_values(&s)))
+    })?;
+    out.structs(&vals);
+    Ok(())
+}
+
+fn bias_state_none(a: &Args<'_>, out: &mut Out<'_>) -> R {
+    let sd = a.double(0);
+    let vals = a.map(|r| {
+        let Some(sd) = sd.get(r) else { return Ok(None) };
+        if !(sd.is_finite() && sd >= 0.0) {
+            return Err(format!("sigma_d must be >= 0 and finite (m), got {sd}").into());
+        }
+        Ok(Some(state_values(&BiasState::none(sd))))
+    })?;
+    out.structs(&vals);
+    Ok(())
+}
+
+fn pair_evidence(a: &Args<'_>, out: &mut Out<'_>) -> R {
+    let (msd, dx, dy, sd, n, st) = (a.double(0), a.double(1), a.double(2), a.double(3), a.double(4), a.structure(5));
+    let vals = a.map(|r| {
+        let (Some(msd), Some(dx), Some(dy), Some(sd), Some(n), Some(s)) = (msd.get(r), dx.get(r), dy.get(r), sd.get(r), n.get(r), st.get(r)?) else {
+            return Ok(None);
+        };
+        if !(sd.is_finite() && sd >= 0.0) {
+            return Err(format!("sigma_d must be >= 0 and finite (m), got {sd}").into());
+        }
+        let state = BiasState { mx: s[0], my: s[1], sxx: s[2], sxy: s[3], syy: s[4], n: s[5].max(0.0) as usize };
+        let e = pair::pair_evidence(msd, dx, dy, sd, n, &state);
+        Ok(Some(vec![Value::F64(e.r_res), Value::F64(e.r_gate), Value::F64(e.d2), Value::F64(e.nll), Value::F64(e.score), Value::Bool(e.candidate)]))
+    })?;
+    out.structs(&vals);
+    Ok(())
+}
+
+fn pair_clear_of(a: &Args<'_>, out: &mut Out<'_>) -> R {
+    let c: Vec<_> = (0..6).map(|k| a.double(k)).collect();
+    let vals = a.map(|r| {
+        let v: Option<Vec<f64>> = c.iter().map(|col| col.get(r)).collect();
+        Ok(v.map(|v| pair::clear_of(v[0], v[1], v[2], v[3], v[4], v[5])))
+    })?;
+    out.flat(&vals);
+    Ok(())
+}
+
+fn bias_search_m(a: &Args<'_>, out: &mut Out<'_>) -> R {
+    let c = a.text(0);
+    let vals = a.map(|r| Ok(c.get(r).map(|c| crate::algo::associate::search_reach_m(&c))))?;
+    out.flat(&vals);
+    Ok(())
+}

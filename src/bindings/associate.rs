@@ -61,7 +61,7 @@ pub static FUNCTIONS: &[Function] = &[
                       state with the offset's own variance sigma_d² / n_eff added, nll = n_eff r_res + d2 / 2, score = n_eff (r_gate - \
                       r_res) + (13.82 - d2) / 2 (Hungarian's weight) and candidate = r_res <= r_gate AND d2 <= 13.82 (chi2(2) at 0.999). \
                       NULL when an argument is NULL.",
-        example: "SELECT pair_evidence(1.12, 1.0, 0.0, 0.1, 100, bias_state_none(0.5)).candidate; -- true",
+        example: "SELECT pair_evidence(1.02, 1.0, 0.0, 0.1, 100, bias_state_none(0.5)).candidate; -- true",
         maths: "crates/algo/src/associate/pair.rs",
         binding: file!(),
         signatures: &[Signature {

@@ -18,13 +18,14 @@ FROM (FROM read_csv(getvariable('score_scenario') || '/cameras.csv')
       UNION ALL BY NAME (SELECT NULL::DOUBLE AS clock_offset_s, NULL::DOUBLE AS clock_drift_ppm WHERE false));
 CREATE OR REPLACE TEMP TABLE s_truth AS SELECT * FROM read_csv(getvariable('score_scenario') || '/truth.csv');
 -- read as text and typed here: a run that placed no camera pair writes empty transform columns, and
--- results older than the clock drift lack clock_drift_ppm (drift 0). transforms.csv's clock model:
+-- results older than the clock drift lack clock_drift_ppm (drift 0), older than issue 38 scale (1). transforms.csv's clock model:
 -- t_from = (1 + clock_drift_ppm 1e-6) t_to + clock_offset_s.
 CREATE OR REPLACE TEMP TABLE s_tf AS
 SELECT cam_from::INTEGER AS cam_from, cam_to::INTEGER AS cam_to, theta_rad::DOUBLE AS theta_rad, tx::DOUBLE AS tx, ty::DOUBLE AS ty,
-       clock_offset_s::DOUBLE AS clock_offset_s, coalesce(clock_drift_ppm::DOUBLE, 0.0) AS clock_drift_ppm
+       clock_offset_s::DOUBLE AS clock_offset_s, coalesce(clock_drift_ppm::DOUBLE, 0.0) AS clock_drift_ppm,
+       coalesce(scale::DOUBLE, 1.0) AS scale
 FROM (FROM read_csv(getvariable('score_results') || '/transforms.csv', header = true, all_varchar = true)
-      UNION ALL BY NAME (SELECT NULL::VARCHAR AS clock_drift_ppm WHERE false));
+      UNION ALL BY NAME (SELECT NULL::VARCHAR AS clock_drift_ppm, NULL::VARCHAR AS scale WHERE false));
 CREATE OR REPLACE TEMP TABLE s_matches AS SELECT * FROM read_csv(getvariable('score_results') || '/matches.csv');
 CREATE OR REPLACE TEMP TABLE s_links AS SELECT * FROM read_csv(getvariable('score_results') || '/links.csv');
 
@@ -52,7 +53,7 @@ WITH c AS (SELECT camera, avg(x) AS mx, avg(y) AS my FROM s_points GROUP BY came
                   coalesce((s.t1 - b.clock_offset_s) / (1.0 + b.clock_drift_ppm * 1e-6), 0.0) AS w1,
                   -- a pair written without a transform (empty fields) is not placed: NULL errors, not an error
                   CASE WHEN e.theta_rad IS NOT NULL AND e.tx IS NOT NULL AND e.ty IS NOT NULL
-                       THEN transform_point({'theta': e.theta_rad, 'tx': e.tx, 'ty': e.ty, 'scale': 1.0}, c.mx, c.my) END AS est,
+                       THEN transform_point({'theta': e.theta_rad, 'tx': e.tx, 'ty': e.ty, 'scale': e.scale}, c.mx, c.my) END AS est,
                   transform_point(tt, c.mx, c.my) AS tru, tt.theta AS true_theta
            FROM s_tf e
            JOIN s_cameras a ON a.camera = e.cam_from JOIN s_cameras b ON b.camera = e.cam_to

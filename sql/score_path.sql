@@ -31,13 +31,13 @@ JOIN s_true t USING (camera) JOIN s_cam_clock c USING (camera);
 
 -- the pipeline's camera -> reference transforms and clocks: t_cam = (1 + d) t_ref + off
 CREATE OR REPLACE TEMP TABLE s_to_ref AS
-SELECT cam_from AS camera, {'theta': theta_rad, 'tx': tx, 'ty': ty, 'scale': 1.0} AS tf,
+SELECT cam_from AS camera, {'theta': theta_rad, 'tx': tx, 'ty': ty, 'scale': coalesce(TRY_CAST(scale AS DOUBLE), 1.0)} AS tf,
        coalesce(clock_offset_s, 0.0) AS off,
        -- an empty transforms.csv (no camera pair placed) sniffs the column as VARCHAR
        coalesce(TRY_CAST(clock_drift_ppm AS DOUBLE), 0.0) * 1e-6 AS drift
 FROM (SELECT * FROM read_csv(getvariable('score_results') || '/transforms.csv', header = true,
                              types = {'cam_from': 'INTEGER', 'cam_to': 'INTEGER', 'theta_rad': 'DOUBLE', 'tx': 'DOUBLE', 'ty': 'DOUBLE', 'clock_offset_s': 'DOUBLE'})
-      UNION ALL BY NAME SELECT NULL::DOUBLE AS clock_drift_ppm WHERE false)
+      UNION ALL BY NAME SELECT NULL::DOUBLE AS clock_drift_ppm, NULL::DOUBLE AS scale WHERE false)
 WHERE cam_to = (SELECT camera FROM s_ref) AND theta_rad IS NOT NULL
 UNION ALL
 SELECT camera, {'theta': 0.0, 'tx': 0.0, 'ty': 0.0, 'scale': 1.0}, 0.0, 0.0 FROM s_ref;

@@ -6,7 +6,7 @@
 --       align_hypotheses(), align_vote(), align_scan_pass, align_hyp, align_best, align_widen(), align_retry,
 --       align_speed_scan, align_speed_votes, align_speed, align_hyp_wide, align_best_wide, align_support,
 --       align_refit(), align_drift_pairs, align_wls(), align_drift_obs, align_drift_fit1, align_drift_kept,
---       align_drift, align_edges
+--       align_drift, align_support_voted, align_register, align_edges
 -- changes: points, calibration
 -- parameters: align_agree_deg, align_agree_m, align_bin_deg, align_bin_m, align_bin_s, align_clock_step_s,
 --             align_max_clock_offset_s, align_max_hypotheses, align_min_overlap_s, align_min_pairs,
@@ -466,6 +466,10 @@ WHERE d.cam_fixed = b.cam_fixed AND d.cam_moving = b.cam_moving AND d.drift <> 0
 
 CREATE OR REPLACE TEMP TABLE align_pairs AS FROM align_refit();
 
+--    (the voted pairs, kept for register_pair below: it expects each pair's own constant offset,
+--    which the second pass's RMS gate counts against a pair)
+CREATE OR REPLACE TEMP TABLE align_support_voted AS FROM align_support;
+
 --    second pass: keep the track pairs whose own points sit within align_refine_rms_m RMS of that fit
 --    (road users walking side by side agree with the vote to within a metre or two, but not
 --    to 0.3 m), and refit on those: this is the final pre-match, transform and clock offset.
@@ -480,6 +484,36 @@ WHERE a.fit IS NOT NULL
 CREATE OR REPLACE TEMP TABLE align_pairs AS FROM align_refit();
 
 DELETE FROM align_pairs WHERE fit IS NULL;
+
+--    3c. the final registration when the cameras do not see the same point of a road user (issue
+--    38; register_pair, crates/algo/src/align/register.rs, docs/alignment.md): the pooled fit
+--    above treats a car seen from its front by one camera and from its back by the other as
+--    noise, and its rotation and translation lean towards the class with the largest offsets.
+--    register_pair takes rotation (and scale, only where the jackknife shows it at 5 standard
+--    errors; Deming's fit with the cameras' noise ratio) from each track pair's points about the
+--    pair's own means, over the voted pairs (before the second pass's gate), and the translation from
+--    the pairs' offsets weighted by how much each class's offsets scatter. The clock offset
+--    stays the pooled fit's (a per-pair offset absorbs a time shift along a straight road). The
+--    pooled fit is kept in align_pairs.pooled (calibration.csv compares them).
+CREATE OR REPLACE TEMP TABLE align_register AS
+SELECT s.cam_fixed, s.cam_moving,
+       register_pair(list(s.traj_fixed ORDER BY s.traj_fixed[1].t, s.traj_moving[1].t, s.track_fixed, s.track_moving),
+                     list(s.traj_moving ORDER BY s.traj_fixed[1].t, s.traj_moving[1].t, s.track_fixed, s.track_moving),
+                     list(c.code ORDER BY s.traj_fixed[1].t, s.traj_moving[1].t, s.track_fixed, s.track_moving),
+                     any_value(a.fit.dt), 0.5, getvariable('align_trim'), any_value(cf.sigma_m), any_value(cm.sigma_m)) AS reg
+FROM align_support_voted s JOIN align_pairs a USING (cam_fixed, cam_moving)
+JOIN calib_cameras cf ON cf.camera = s.cam_fixed JOIN calib_cameras cm ON cm.camera = s.cam_moving
+JOIN align_tracks t ON t.camera = s.cam_fixed AND t.track_id = s.track_fixed
+JOIN (SELECT class, row_number() OVER (ORDER BY class) AS code FROM (SELECT DISTINCT class FROM align_tracks)) c
+  ON c.class IS NOT DISTINCT FROM t.class
+GROUP BY s.cam_fixed, s.cam_moving;
+
+CREATE OR REPLACE TEMP TABLE align_pairs AS
+SELECT p.* REPLACE (CASE WHEN r.reg IS NULL THEN p.fit
+                         ELSE {'dt': p.fit.dt, 'theta': r.reg.theta, 'tx': r.reg.tx, 'ty': r.reg.ty, 'scale': r.reg.scale,
+                               'rms': p.fit.rms, 'n': p.fit.n} END AS fit),
+       p.fit AS pooled, r.reg
+FROM align_pairs p LEFT JOIN align_register r USING (cam_fixed, cam_moving);
 
 -- Calibration from the matched tracks themselves: the residuals of the pre-matched track pairs
 -- under their camera pair's final fit and clock offset. For a true pair they are the two
@@ -605,6 +639,21 @@ FROM calib_cameras c LEFT JOIN align_frames f USING (camera),
                      ('clock drift', f.clock_drift * 1e6, 'ppm', 'D in t_camera = (1 + D) t_reference + O: the slope of per-pair offsets over the recording; 0 when not shown (|D| <= 5 se or under 8 pairs)'),
                      ('clock drift se', f.clock_drift_se * 1e6, 'ppm', 'standard error of the clock drift (0 when the drift is 0)')) q(quantity, value, unit, how)
 UNION ALL
+-- the registration of each directly fitted camera pair (register_pair; the moving camera is
+-- mapped onto the fixed one): every parameter with its jackknife standard error
+SELECT 'cameras ' || least(p.cam_fixed, p.cam_moving) || '-' || greatest(p.cam_fixed, p.cam_moving), q.quantity, q.value, q.unit, q.how
+FROM align_pairs p,
+     LATERAL (VALUES ('scale', p.reg.scale, '',
+                      'camera ' || p.cam_moving || ' into camera ' || p.cam_fixed || ': ' ||
+                      CASE WHEN p.reg.scale_significant THEN 'measured within track pairs, used (|ln s| > 5 se)'
+                           ELSE 'rigid: the scale measured within track pairs, ' || round(p.reg.scale_fit, 5) || ', is within 5 se' END),
+                     ('scale se', p.reg.se_scale, '', 'jackknife over 16 blocks of track pairs (inf: too few pairs)'),
+                     ('rotation se', degrees(p.reg.se_theta), 'deg', 'jackknife over 16 blocks of track pairs'),
+                     ('translation se', greatest(p.reg.se_tx, p.reg.se_ty), 'm', 'the larger axis: jackknife, or 1/sqrt(sum of weights) when larger'),
+                     ('offset spread', p.reg.tau_max, 'm', 'per axis, the largest class''s spread of constant offsets between the two views of a road user (viewpoint bias)'),
+                     ('registration pairs', p.reg.pairs_used, '', 'track pairs in the translation (of ' || p.reg.pairs || ')')) q(quantity, value, unit, how)
+WHERE p.reg IS NOT NULL
+UNION ALL
 SELECT 'cameras ' || m.cam_a || '-' || m.cam_b, q.quantity, q.value, q.unit, q.how
 FROM calib_match m,
      LATERAL (VALUES ('residual sigma', m.sigma_d_m, 'm', 'per axis, from ' || m.source)) q(quantity, value, unit, how)
@@ -651,7 +700,8 @@ FROM align_frames ORDER BY camera;
 -- Table macros: they read the tables when called. Unordered: the caller orders. Camera and
 -- track ids are the input's own (load_ids maps the stages' numbers back: text stays text).
 
--- transforms: cam_from-local into cam_to-local, every ordered pair of aligned cameras, and the
+-- transforms: cam_from-local into cam_to-local (p_to = scale R(theta) p_from + (tx, ty); scale 1
+-- unless register_pair found one at 5 standard errors), every ordered pair of aligned cameras, and the
 -- clocks: t_from = (1 + clock_drift_ppm 1e-6) t_to + clock_offset_s (a road user seen by cam_to
 -- at t is seen by cam_from at that time on its clock; without drift, t + clock_offset_s)
 CREATE OR REPLACE TEMP MACRO result_transforms() AS TABLE
@@ -659,7 +709,8 @@ SELECT ia.camera_in AS cam_from, ib.camera_in AS cam_to, tf.theta AS theta_rad, 
        CASE WHEN a.clock_drift = 0 AND b.clock_drift = 0 THEN a.clock_offset_s - b.clock_offset_s
             ELSE a.clock_offset_s - (1 + a.clock_drift) / (1 + b.clock_drift) * b.clock_offset_s END AS clock_offset_s,
        CASE WHEN a.clock_drift = 0 AND b.clock_drift = 0 THEN 0.0
-            ELSE ((1 + a.clock_drift) / (1 + b.clock_drift) - 1) * 1e6 END AS clock_drift_ppm
+            ELSE ((1 + a.clock_drift) / (1 + b.clock_drift) - 1) * 1e6 END AS clock_drift_ppm,
+       tf.scale
 FROM align_frames a, align_frames b,
      LATERAL (SELECT transform_compose(transform_invert(b.to_reference), a.to_reference) AS tf),
      (SELECT DISTINCT camera, camera_in FROM load_ids) ia, (SELECT DISTINCT camera, camera_in FROM load_ids) ib
@@ -688,3 +739,4 @@ LEFT JOIN cams cv ON s.scope = 'pipeline' AND s.quantity IN ('reference camera',
 -- when the temporary one is absent.
 DROP TABLE IF EXISTS temp.main.align_tracks;
 DROP TABLE IF EXISTS temp.main.align_keys;
+DROP TABLE IF EXISTS temp.main.align_support_voted;

@@ -267,6 +267,54 @@ pub static FUNCTIONS: &[Function] = &[
         table: None,
     },
     Function {
+        name: "register_pair",
+        description: "The final registration of one camera pair when the cameras see different points of a road user (docs/alignment.md, \
+                      issue 38): model fixed = s R moving + T + b_k + noise, b_k a constant offset per track pair k (a viewpoint bias) drawn \
+                      per class. Rotation and scale come from each pair's points centred on the pair's own means (least trimmed squares, \
+                      trim), so a constant offset drops out; the scale is used only when |ln s| > 5 jackknife standard errors (16 \
+                      consecutive blocks of pairs), else scale = 1. The translation is the mean of the pairs' offsets weighted by \
+                      1 / (tau_c² + the variance of the pair's mean), tau_c the robust spread of class c's offsets, refitted without \
+                      the pairs beyond chi2(2) at 0.999. class_codes: one integer per pair (its class; only equality counts). Every \
+                      parameter has a standard error (se_*). The clock offset dt is given (rigid_fit_shifted's). NULL when fewer than \
+                      2 pairs have 3 point pairs. sigma_fixed, sigma_moving: the cameras' position noise (m), whose ratio Deming's scale needs (the \
+                      least-squares scale is diluted by the moving view's noise); default 0 and 0: the symmetric fit. Aggregate with list(), \
+                      in the order of the recording.",
+        example: "SELECT round(register_pair([[{'t':0,'x':0,'y':0},{'t':1,'x':1,'y':0},{'t':2,'x':2,'y':1}], [{'t':0,'x':5,'y':5},{'t':1,'x':5,'y':6},{'t':2,'x':6,'y':8}]], [[{'t':0,'x':1,'y':0},{'t':1,'x':2,'y':0},{'t':2,'x':3,'y':1}], [{'t':0,'x':6,'y':5},{'t':1,'x':6,'y':6},{'t':2,'x':7,'y':8}]], [1, 1], 0.0).tx, 6); -- -1.0",
+        maths: "crates/algo/src/align/register.rs",
+        binding: file!(),
+        signatures: &[Signature {
+            params: &[
+                p("fixed", Ty::List(&TRAJ)),
+                p("moving", Ty::List(&TRAJ)),
+                p("class_codes", Ty::List(&Ty::Bigint)),
+                p("dt", Ty::Double),
+                p("max_gap", Ty::Double),
+                p("trim", Ty::Double),
+                p("sigma_fixed", Ty::Double),
+                p("sigma_moving", Ty::Double),
+            ],
+            arities: &[4, 5, 6, 8],
+            returns: Ty::Struct(&[
+                ("theta", Ty::Double),
+                ("tx", Ty::Double),
+                ("ty", Ty::Double),
+                ("scale", Ty::Double),
+                ("scale_fit", Ty::Double),
+                ("se_theta", Ty::Double),
+                ("se_tx", Ty::Double),
+                ("se_ty", Ty::Double),
+                ("se_scale", Ty::Double),
+                ("scale_significant", Ty::Boolean),
+                ("pairs_used", Ty::Bigint),
+                ("pairs", Ty::Bigint),
+                ("rms", Ty::Double),
+                ("tau_max", Ty::Double),
+            ]),
+            kernel: register_pair,
+        }],
+        table: None,
+    },
+    Function {
         name: "rigid_shift_under",
         description: "The clock offset of ONE track pair under a KNOWN transform tf (moving frame into fixed frame): the dt (moving clock minus \
                       fixed clock) on the grid centre + k step, |k step| <= half_width, that minimises the mean squared distance between the \
@@ -576,6 +624,36 @@ fn activity_lag(a: &Args<'_>, out: &mut Out<'_>) -> R {
     let vals = a.par_map(|r| {
         let (Some(x), Some(y), Some(bin)) = (sa.get(r)?, sb.get(r)?, bin.get(r)) else { return Ok(None) };
         Ok(xcorr::activity_lag(x, y, bin)?.map(|l| [l.dt, l.score, l.runner_up, l.half_width_s].map(Value::F64).to_vec()))
+    })?;
+    out.structs(&vals);
+    Ok(())
+}
+
+fn register_pair(a: &Args<'_>, out: &mut Out<'_>) -> R {
+    use crate::algo::align::register;
+    let (fixed, moving, codes, dt, gap, trim) = (a.traj_list(0), a.traj_list(1), a.i64_list(2), a.double(3), a.opt_double(4), a.opt_double(5));
+    let (sf, sm) = (a.opt_double(6), a.opt_double(7));
+    let vals = a.par_map(|r| {
+        let (Some(f), Some(m), Some(c), Some(dt)) = (fixed.get(r)?, moving.get(r)?, codes.get(r)?, dt.get(r)) else { return Ok(None) };
+        let (Some(g), Some(trim), Some(sf), Some(sm)) = (gap.or(r, 0.5), trim.or(r, 0.1), sf.or(r, 0.0), sm.or(r, 0.0)) else { return Ok(None) };
+        // class codes -> dense indices (only equality counts)
+        let mut uniq: Vec<i64> = c.to_vec();
+        uniq.sort_unstable();
+        uniq.dedup();
+        let cls: Vec<u32> = c.iter().map(|v| uniq.binary_search(v).unwrap_or(0) as u32).collect();
+        let pairs = shift::zip_tracks(&f, &m)?;
+        if pairs.len() != cls.len() {
+            return Err(format!("class_codes must list one code per track pair, got {} codes for {} pairs", cls.len(), pairs.len()).into());
+        }
+        let Some(g) = register::register(&pairs, &cls, dt, g, trim, shift::Noise::new(sf, sm)?)? else { return Ok(None) };
+        let t = g.transform;
+        let mut v: Vec<Value> = [t.theta, t.tx, t.ty, t.scale, g.scale_fit, g.se_theta, g.se_tx, g.se_ty, g.se_scale].map(Value::F64).to_vec();
+        v.push(Value::Bool(g.scale_significant));
+        v.push(Value::I64(g.pairs_used as i64));
+        v.push(Value::I64(g.pairs as i64));
+        v.push(Value::F64(g.rms));
+        v.push(Value::F64(g.tau_max));
+        Ok(Some(v))
     })?;
     out.structs(&vals);
     Ok(())

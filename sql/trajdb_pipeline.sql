@@ -1416,7 +1416,7 @@ SELECT s.cam_fixed, s.cam_moving,
                      list(s.traj_moving ORDER BY s.traj_fixed[1].t, s.traj_moving[1].t, s.track_fixed, s.track_moving),
                      list(c.code ORDER BY s.traj_fixed[1].t, s.traj_moving[1].t, s.track_fixed, s.track_moving),
                      any_value(a.fit.dt), 0.5, getvariable('align_trim'), any_value(cf.sigma_m), any_value(cm.sigma_m)) AS reg
-FROM align_support_voted s JOIN align_pairs a USING (cam_fixed, cam_moving)
+FROM align_support s JOIN align_pairs a USING (cam_fixed, cam_moving)
 JOIN calib_cameras cf ON cf.camera = s.cam_fixed JOIN calib_cameras cm ON cm.camera = s.cam_moving
 JOIN align_tracks t ON t.camera = s.cam_fixed AND t.track_id = s.track_fixed
 JOIN (SELECT class, row_number() OVER (ORDER BY class) AS code FROM (SELECT DISTINCT class FROM align_tracks)) c

@@ -62,6 +62,8 @@ pub const SCALE_Z: f64 = 5.0;
 /// χ²₂ at 0.999: a track pair whose offset is this far from the translation (in its own
 /// standard deviations, squared) is left out of the translation's second fit.
 pub const OUTLIER_D2: f64 = 13.815510557964274;
+/// Rounds of the random-effects fit after the pooled start (each: offsets, τ², weights, fit).
+pub const GLS_ROUNDS: usize = 3;
 /// Point pairs farther than this many noise sigmas (per axis; the residuals' median / sqrt(2 ln 2))
 /// from the trimmed fit are left out: 0.03 % of Gaussian noise, every gross error.
 pub const KEEP_SIGMAS: f64 = 4.0;
@@ -146,14 +148,19 @@ fn build(tracks: &[(Traj<'_>, Traj<'_>)], classes: &[u32], dt: f64, max_gap: f64
 /// of noise: measured on `trajdb simulate`, 0.9905 for a true 1.0073). With `s0 R` the truth,
 /// Deming's estimate is exact without noise and unbiased under it when `lambda` is right.
 /// `None` when the points do not fix a rotation.
-fn fit_masked(p: &Pairs, keep: &[bool], with_scale: bool, lambda: f64) -> Option<(f64, f64)> {
+///
+/// `between`: the pairs' own means, centred on their weighted mean, with their weights (in
+/// units of one point pair's): the part of the random-effects fit that the offsets `b_k` blur
+/// ([`between_part`]).
+fn fit_masked(p: &Pairs, keep: &[bool], with_scale: bool, lambda: f64, between: &[([f64; 2], [f64; 2], f64)]) -> Option<(f64, f64)> {
     let (mut sff, mut smm, mut re, mut im) = (0.0, 0.0, 0.0, 0.0);
-    for i in (0..p.fx.len()).filter(|&i| keep[i]) {
-        let (fx, fy, mx, my) = (p.fx[i], p.fy[i], p.mx[i], p.my[i]);
-        sff += fx * fx + fy * fy;
-        smm += mx * mx + my * my;
-        re += fx * mx + fy * my;
-        im += fy * mx - fx * my;
+    let points = (0..p.fx.len()).filter(|&i| keep[i]).map(|i| (p.fx[i], p.fy[i], p.mx[i], p.my[i], 1.0));
+    let means = between.iter().map(|(f, m, w)| (f[0], f[1], m[0], m[1], *w));
+    for (fx, fy, mx, my, w) in points.chain(means) {
+        sff += w * (fx * fx + fy * fy);
+        smm += w * (mx * mx + my * my);
+        re += w * (fx * mx + fy * my);
+        im += w * (fy * mx - fx * my);
     }
     let sfm = re.hypot(im);
     if !(sfm > 0.0 && smm > 0.0) || !sfm.is_finite() {
@@ -231,13 +238,17 @@ struct Offset {
     v: f64,
     cls: u32,
     block: usize,
+    /// the pair's means over its kept points, and their number
+    f: [f64; 2],
+    m: [f64; 2],
+    n: f64,
 }
 
 fn offsets(pp: &PairPoints, keep: &[bool], theta: f64, s: f64) -> Vec<Offset> {
     let kk = pp.means.len();
     let rot = Transform2::new(theta, 0.0, 0.0, s);
     // per pair: kept points' sums of centred values and squared residuals
-    let mut acc = vec![[0.0f64; 6]; kk];
+    let mut acc = vec![[0.0f64; 8]; kk];
     for i in 0..pp.c.fx.len() {
         if !keep[i] {
             continue;
@@ -249,6 +260,10 @@ fn offsets(pp: &PairPoints, keep: &[bool], theta: f64, s: f64) -> Vec<Offset> {
         a[1] += rx;
         a[2] += ry;
         a[3] += rx * rx + ry * ry;
+        a[4] += pp.c.fx[i];
+        a[5] += pp.c.fy[i];
+        a[6] += pp.c.mx[i];
+        a[7] += pp.c.my[i];
     }
     let mut out = Vec::with_capacity(kk);
     for (id, (mu, cls)) in pp.means.iter().enumerate() {
@@ -263,7 +278,9 @@ fn offsets(pp: &PairPoints, keep: &[bool], theta: f64, s: f64) -> Vec<Offset> {
         let (ex, ey) = (a[1] / n, a[2] / n);
         let d = [mu[0] - qx + ex, mu[1] - qy + ey];
         let var_axis = ((a[3] / n - ex * ex - ey * ey) / 2.0).max(0.0) * n / (n - 1.0);
-        out.push(Offset { d, v: (var_axis / n).max(MIN_VAR_M2), cls: *cls, block: pp.block[id] });
+        let f = [mu[0] + a[4] / n, mu[1] + a[5] / n];
+        let m = [mu[2] + a[6] / n, mu[3] + a[7] / n];
+        out.push(Offset { d, v: (var_axis / n).max(MIN_VAR_M2), cls: *cls, block: pp.block[id], f, m, n });
     }
     out
 }
@@ -291,6 +308,54 @@ fn class_tau2(off: &[Offset]) -> Vec<f64> {
     }
     let fill = tau.iter().copied().filter(|v| v.is_finite()).fold(0.0, f64::max);
     tau.iter().map(|v| if v.is_finite() { *v } else { fill }).collect()
+}
+
+/// The random-effects weight of each pair's mean, in units of one point pair's (noise σ² per
+/// axis pooled over the pairs): `σ² / (τ²_c + v_k)`, which is `n_k` (the pooled fit) when the
+/// class's offsets do not scatter and → 0 when they scatter much more than the noise.
+fn pair_weights(off: &[Offset], tau2: &[f64]) -> Vec<f64> {
+    let (mut s, mut d) = (0.0, 0.0);
+    for o in off {
+        s += o.v * o.n * (o.n - 1.0);
+        d += o.n - 1.0;
+    }
+    let sigma2 = if d > 0.0 { (s / d).max(MIN_VAR_M2) } else { MIN_VAR_M2 };
+    off.iter().map(|o| sigma2 / (tau2[o.cls as usize] + o.v)).collect()
+}
+
+/// The between-pairs part of the fit ([`fit_masked`]): every pair's kept means, without the
+/// block `skip` and without the pairs whose offset lies beyond [`OUTLIER_D2`] of the weighted
+/// mean offset (in the pair's own spread), centred on their weighted means.
+fn between_part(off: &[Offset], w: &[f64], tau2: &[f64], skip: Option<usize>) -> Vec<([f64; 2], [f64; 2], f64)> {
+    let mean_d = {
+        let (mut s, mut x, mut y) = (0.0, 0.0, 0.0);
+        for (o, &q) in off.iter().zip(w).filter(|(o, _)| Some(o.block) != skip) {
+            s += q;
+            x += q * o.d[0];
+            y += q * o.d[1];
+        }
+        if s > 0.0 { [x / s, y / s] } else { [0.0, 0.0] }
+    };
+    let ok = |o: &Offset| {
+        let spread = tau2.get(o.cls as usize).copied().unwrap_or(0.0) + o.v;
+        Some(o.block) != skip && ((o.d[0] - mean_d[0]).powi(2) + (o.d[1] - mean_d[1]).powi(2)) / spread <= OUTLIER_D2
+    };
+    let (mut s, mut fc, mut mc) = (0.0, [0.0; 2], [0.0; 2]);
+    for (o, &q) in off.iter().zip(w).filter(|(o, _)| ok(o)) {
+        s += q;
+        for ax in 0..2 {
+            fc[ax] += q * o.f[ax];
+            mc[ax] += q * o.m[ax];
+        }
+    }
+    if !(s > 0.0) {
+        return Vec::new();
+    }
+    off.iter()
+        .zip(w)
+        .filter(|(o, _)| ok(o))
+        .map(|(o, &q)| ([o.f[0] - fc[0] / s, o.f[1] - fc[1] / s], [o.m[0] - mc[0] / s, o.m[1] - mc[1] / s], q))
+        .collect()
 }
 
 /// The weighted mean of the offsets, refitted once without the outliers; `None` when no pair.
@@ -354,9 +419,25 @@ pub fn register(tracks: &[(Traj<'_>, Traj<'_>)], classes: &[u32], dt: f64, max_g
         r.iter().map(|&v| v <= KEEP_SIGMAS * sigma).collect::<Vec<bool>>()
     };
     let lambda = noise_ratio(c, &keep, noise);
-    let Some((theta_s, s)) = fit_masked(c, &keep, true, lambda) else { return Ok(None) };
-    let Some((theta_r, _)) = fit_masked(c, &keep, false, lambda) else { return Ok(None) };
-    // the jackknife: every block left out in turn
+    // Random effects by iteration: start from the pooled fit (every pair's mean weighs its n_k
+    // points: the offsets' spread τ = 0), measure each class's τ² from the offsets under that fit,
+    // refit with the pairs' means weighted by σ² / (τ²_c + v_k), GLS_ROUNDS times. Without
+    // offsets (a drone's view, the shared scenes) this stays the pooled fit, whose rotation the
+    // whole view's extent fixes; with them the means weigh less and the rotation comes from
+    // within the pairs.
+    let mut off = offsets(&pp, &keep, 0.0, 1.0);
+    let mut tau2 = vec![0.0; off.iter().map(|o| o.cls as usize + 1).max().unwrap_or(0)];
+    let mut w: Vec<f64> = off.iter().map(|o| o.n).collect();
+    let Some((mut theta_s, mut s)) = fit_masked(c, &keep, true, lambda, &between_part(&off, &w, &tau2, None)) else { return Ok(None) };
+    for _ in 0..GLS_ROUNDS {
+        off = offsets(&pp, &keep, theta_s, s);
+        tau2 = class_tau2(&off);
+        w = pair_weights(&off, &tau2);
+        let Some(f) = fit_masked(c, &keep, true, lambda, &between_part(&off, &w, &tau2, None)) else { return Ok(None) };
+        (theta_s, s) = f;
+    }
+    let Some((theta_r, _)) = fit_masked(c, &keep, false, lambda, &between_part(&off, &w, &tau2, None)) else { return Ok(None) };
+    // the jackknife: every block left out in turn (the weights stay)
     let mut jk_theta_s = Vec::new();
     let mut jk_theta_r = Vec::new();
     let mut jk_lns = Vec::new();
@@ -365,7 +446,8 @@ pub fn register(tracks: &[(Traj<'_>, Traj<'_>)], classes: &[u32], dt: f64, max_g
         if mask.iter().filter(|&&m| m).count() == keep.iter().filter(|&&m| m).count() {
             continue; // an empty block
         }
-        if let (Some((ts, sb)), Some((tr, _))) = (fit_masked(c, &mask, true, lambda), fit_masked(c, &mask, false, lambda)) {
+        let bp = between_part(&off, &w, &tau2, Some(b));
+        if let (Some((ts, sb)), Some((tr, _))) = (fit_masked(c, &mask, true, lambda, &bp), fit_masked(c, &mask, false, lambda, &bp)) {
             jk_theta_s.push(wrap_angle(ts - theta_s));
             jk_theta_r.push(wrap_angle(tr - theta_r));
             jk_lns.push(sb.ln());
@@ -492,7 +574,7 @@ mod tests {
         let keep = vec![true; 4];
         let p = Pairs { t: vec![0.0; 4], u: vec![0.0; 4], fx: vec![1.0, -1.0, 0.0, 0.0], fy: vec![0.0, 0.0, 1.0, -1.0], mx: vec![0.5, -0.5, 0.0, 0.0], my: vec![0.0, 0.0, 0.5, -0.5] };
         for lambda in [0.0, 1.0, 1e6, f64::INFINITY] {
-            let (th, s) = fit_masked(&p, &keep, true, lambda).unwrap();
+            let (th, s) = fit_masked(&p, &keep, true, lambda, &[]).unwrap();
             assert!(th.abs() < 1e-12 && (s - 2.0).abs() < 1e-9, "{lambda} {s}");
         }
     }
@@ -529,9 +611,10 @@ mod tests {
     }
 
     #[test]
-    fn constant_offsets_per_pair_change_nothing_but_the_translation() {
+    fn a_constant_offset_of_one_pair_barely_moves_the_rotation() {
         // metamorphic: adding a constant to every moving point of one pair changes that pair's
-        // offset only; rotation and scale stay to the last bits
+        // offset; it leaves the between-pairs part (an outlier there) and the rotation and scale
+        // move by less than 1e-4
         let tf = Transform2::new(0.3, 1.0, 2.0, 1.0);
         let (fs, mut ms, cs) = scene(40, &tf, [0.0, 0.0], 0.05, 4);
         let a = run(&fs, &ms, &cs);
@@ -539,7 +622,7 @@ mod tests {
             *x += 0.7;
         }
         let b = run(&fs, &ms, &cs);
-        assert!((a.transform.theta - b.transform.theta).abs() < 1e-9 && a.transform.scale == b.transform.scale);
+        assert!((a.transform.theta - b.transform.theta).abs() < 1e-4 && (a.scale_fit - b.scale_fit).abs() < 1e-4, "{a:?} {b:?}");
     }
 
     #[test]

@@ -583,6 +583,10 @@ fn sample_world(path: &[[f64; 2]], times: &[f64], lateral: f64, budget: &mut Bud
     Ok(out)
 }
 
+/// Memory that must stay free after every reservation of the simulation (64 MiB): room for the
+/// small allocations no one can make fallible.
+const HEADROOM_BYTES: usize = 64 << 20;
+
 /// The memory one simulation holds, counted against the limit `memory_bytes` before it is
 /// allocated (and every large allocation fallible), so that a scenario too large is an error
 /// that says what to reduce, never an abort of the host process.
@@ -619,9 +623,15 @@ impl Budget {
         self.used = self.used.saturating_sub(n as u128 * each as u128);
     }
 
-    /// Room for `n` more items, or the error.
+    /// Room for `n` more items, or the error. After the reservation, [`HEADROOM_BYTES`] more
+    /// must still be available (a trial allocation, freed at once): with `memory_bytes` lifted,
+    /// the fallible buffers could otherwise fill the address space to the last page, and the
+    /// next small infallible allocation (a route name, DuckDB's own) would abort the host (the
+    /// harness saw "memory allocation of 8192 bytes failed" under a 3.5 GB cap).
     fn reserve<T>(&self, v: &mut Vec<T>, n: usize) -> Result<(), SimError> {
-        v.try_reserve(n).map_err(|_| self.too_large())
+        v.try_reserve(n).map_err(|_| self.too_large())?;
+        let mut probe: Vec<u8> = Vec::new();
+        probe.try_reserve_exact(HEADROOM_BYTES).map_err(|_| self.too_large())
     }
 
     /// A push that cannot abort the process.
@@ -1397,6 +1407,11 @@ impl Scenario {
 
     /// Writes the files into `dir`, an existing folder of our own (the staging folder).
     fn write_files(&self, dir: &Path, command: &str) -> Result<(), SimError> {
+        // the writers' buffers and lines are small infallible allocations: refuse, not abort,
+        // when the simulation left no room for them (limits lifted, the address space full)
+        let mut probe: Vec<u8> = Vec::new();
+        probe.try_reserve_exact(HEADROOM_BYTES).map_err(|_| Budget::new().too_large())?;
+        drop(probe);
         let file = |n: &str| -> Result<BufWriter<std::fs::File>, SimError> { Ok(BufWriter::new(std::fs::File::create(dir.join(n))?)) };
         let mut f = file("points.csv")?;
         writeln!(f, "camera,track_id,class,t,x,y,speed,estimated")?;

@@ -915,7 +915,7 @@ SELECT label, count(*) AS tracks FROM quality_labels GROUP BY label ORDER BY lab
 ;
 -- stage: align
 -- reads: points, load_ids, calib_camera_order, calib_cameras, calib_pairs, calibration, calibrated_values()
--- makes: align_frames, align_origin, align_pairs, align_clock, calib_match, calibration_summary,
+-- makes: align_frames, align_origin, align_pairs, align_clock, align_offset_se, calib_match, calibration_summary,
 --        result_transforms(), result_calibration()
 -- work: align_centroids, align_tracks, align_activity, align_coarse, align_scan, align_keys, align_sample(),
 --       align_hypotheses(), align_vote(), align_scan_pass, align_hyp, align_best, align_widen(), align_retry,
@@ -1362,6 +1362,30 @@ SELECT cam_fixed, cam_moving, n, x_span, slope AS drift_fit, intercept, drift_se
 FROM se
 WHERE slope IS NOT NULL;
 
+--    The clock offset's standard error (issue 38: a time shift along the main flow looks like a
+--    translation, and a camera pair whose road users mostly walk or drive one way cannot pin
+--    it): every candidate pair's own offset (align_drift_kept, with the drift line's slope
+--    removed) is a measurement of it; the standard error is the larger of the weighted mean's
+--    (1 / sqrt(sum of weights)) and the jackknife's over 8 blocks of the recording (road users
+--    seen close in time share their errors). NULL with fewer than 4 blocks. calibration.csv
+--    reports it; sql/warnings.sql warns when it exceeds half the common clock step.
+CREATE OR REPLACE TEMP TABLE align_offset_se AS
+WITH k AS (
+    SELECT k.cam_fixed, k.cam_moving, k.y - coalesce(d.drift, 0.0) * k.x AS y, k.w,
+           ntile(8) OVER (PARTITION BY k.cam_fixed, k.cam_moving ORDER BY k.x, k.y) AS b
+    FROM align_drift_kept k LEFT JOIN align_drift d USING (cam_fixed, cam_moving)
+),
+blk AS (SELECT cam_fixed, cam_moving, b, sum(w) AS sw, sum(w * y) AS swy FROM k GROUP BY ALL),
+tot AS (SELECT cam_fixed, cam_moving, count(*) AS nb, sum(sw) AS sw, sum(swy) AS swy FROM blk GROUP BY ALL),
+jk AS (
+    SELECT t.cam_fixed, t.cam_moving, t.nb, t.sw AS sw_all, (t.swy - b.swy) / (t.sw - b.sw) AS m_k
+    FROM tot t JOIN blk b USING (cam_fixed, cam_moving) WHERE t.sw > b.sw
+)
+SELECT cam_fixed, cam_moving, any_value(nb) AS blocks,
+       CASE WHEN count(*) >= 4 THEN greatest(sqrt((any_value(nb) - 1) / any_value(nb) * sum((m_k - avg_m) ** 2)), 1 / sqrt(any_value(sw_all))) END AS offset_se
+FROM (SELECT *, avg(m_k) OVER (PARTITION BY cam_fixed, cam_moving) AS avg_m FROM jk)
+GROUP BY cam_fixed, cam_moving;
+
 --    a pair with drift: on the relative clocks the fit says y = (1 + D) x + a (x, y: fixed and
 --    moving times). Its support becomes the kept drift pairs, the moving tracks' times warped
 --    onto the fixed camera's rate, u = y / (1 + D) = x + c, and the refit finds c (near
@@ -1598,6 +1622,10 @@ FROM align_pairs p,
                      ('offset spread', p.reg.tau_max, 'm', 'per axis, the largest class''s spread of constant offsets between the two views of a road user (viewpoint bias)'),
                      ('registration pairs', p.reg.pairs_used, '', 'track pairs in the translation (of ' || p.reg.pairs || ')')) q(quantity, value, unit, how)
 WHERE p.reg IS NOT NULL
+UNION ALL
+SELECT 'cameras ' || least(p.cam_fixed, p.cam_moving) || '-' || greatest(p.cam_fixed, p.cam_moving), 'clock offset se', o.offset_se, 's',
+       'jackknife over 8 blocks of the track pairs'' own offsets (rigid_shift_under), or 1/sqrt(sum of weights) when larger; NULL: too few pairs to tell'
+FROM align_pairs p LEFT JOIN align_offset_se o USING (cam_fixed, cam_moving)
 UNION ALL
 SELECT 'cameras ' || m.cam_a || '-' || m.cam_b, q.quantity, q.value, q.unit, q.how
 FROM calib_match m,
@@ -2409,7 +2437,7 @@ FROM cluster_assign a JOIN load_ids i ON i.camera = calibrated('cluster_camera')
 -- trajdb: what a finished pipeline run should tell its user, one row each, in table
 -- pipeline_warnings (k, message). Every runner (trajdb pipeline, trajdb.pipeline in Python, the
 -- DuckDB CLI after `.read sql/pipeline.sql`) reads this one table.
--- reads: points, align_frames, load_class_flicker, load_duplicates, load_ids, load_twins, load_unit_outliers; parameters: cluster_classes,
+-- reads: points, align_frames, calibration_summary, load_class_flicker, load_duplicates, load_ids, load_twins, load_unit_outliers; parameters: cluster_classes,
 -- load_no_class (set by the load)   makes: pipeline_warnings
 CREATE OR REPLACE TEMP TABLE pipeline_warnings AS
 WITH c AS (SELECT (SELECT count(DISTINCT camera) FROM points) AS cams, (SELECT count(*) FROM align_frames) AS aligned,
@@ -2456,7 +2484,17 @@ SELECT 8, format('{} tracks have a sampling period or speed far outside a road u
                  CASE WHEN count(*) > 10 THEN '; ...' ELSE '' END)
 FROM (SELECT *, row_number() OVER (ORDER BY camera, track_id) AS rank FROM load_unit_outliers) o
 LEFT JOIN load_ids i ON i.camera = o.camera AND i.track_id = o.track_id
-HAVING count(*) > 0;
+HAVING count(*) > 0
+UNION ALL
+-- issue 38: a camera pair whose clock offset the tracks cannot pin (align.sql, align_offset_se)
+SELECT 9, format('cameras {} and {}: their clock offset is uncertain by {} s, more than half the common clock step (merge_resample_s = {} s): '
+                 || 'the track pairs'' own offsets disagree (road users moving mostly one way, whose time shift looks like a translation), '
+                 || 'so matches between them may be missed and their paths misplaced along the road; check the two clocks '
+                 || '(calibration.csv, ''clock offset se'')', a.camera_in, b.camera_in, round(c.value, 3), getvariable('merge_resample_s'))
+FROM calibration_summary c
+JOIN (SELECT DISTINCT camera, camera_in FROM load_ids) a ON a.camera = try_cast(regexp_extract(c.scope, '^cameras (-?[0-9]+)-', 1) AS INTEGER)
+JOIN (SELECT DISTINCT camera, camera_in FROM load_ids) b ON b.camera = try_cast(regexp_extract(c.scope, '^cameras -?[0-9]+-(-?[0-9]+)$', 1) AS INTEGER)
+WHERE c.quantity = 'clock offset se' AND c.value > getvariable('merge_resample_s') / 2;
 ;
 -- trajdb: the analyst's questions as SQL macros (issue 29 §4; docs/analysis.md).
 --

@@ -915,13 +915,13 @@ SELECT label, count(*) AS tracks FROM quality_labels GROUP BY label ORDER BY lab
 ;
 -- stage: align
 -- reads: points, load_ids, calib_camera_order, calib_cameras, calib_pairs, calibration, calibrated_values()
--- makes: align_frames, align_origin, align_pairs, align_clock, calib_match, calibration_summary,
+-- makes: align_frames, align_origin, align_pairs, align_clock, align_offset_se, calib_match, calibration_summary,
 --        result_transforms(), result_calibration()
 -- work: align_centroids, align_tracks, align_activity, align_coarse, align_scan, align_keys, align_sample(),
 --       align_hypotheses(), align_vote(), align_scan_pass, align_hyp, align_best, align_widen(), align_retry,
 --       align_speed_scan, align_speed_votes, align_speed, align_hyp_wide, align_best_wide, align_support,
 --       align_refit(), align_drift_pairs, align_wls(), align_drift_obs, align_drift_fit1, align_drift_kept,
---       align_drift, align_support_voted, align_register, align_edges
+--       align_drift, align_support_voted, align_register_pairs, align_register, align_edges
 -- changes: points, calibration
 -- parameters: align_agree_deg, align_agree_m, align_bin_deg, align_bin_m, align_bin_s, align_clock_step_s,
 --             align_max_clock_offset_s, align_max_hypotheses, align_min_overlap_s, align_min_pairs,
@@ -1362,6 +1362,30 @@ SELECT cam_fixed, cam_moving, n, x_span, slope AS drift_fit, intercept, drift_se
 FROM se
 WHERE slope IS NOT NULL;
 
+--    The clock offset's standard error (issue 38: a time shift along the main flow looks like a
+--    translation, and a camera pair whose road users mostly walk or drive one way cannot pin
+--    it): every candidate pair's own offset (align_drift_kept, with the drift line's slope
+--    removed) is a measurement of it; the standard error is the larger of the weighted mean's
+--    (1 / sqrt(sum of weights)) and the jackknife's over 8 blocks of the recording (road users
+--    seen close in time share their errors). NULL with fewer than 4 blocks. calibration.csv
+--    reports it; sql/warnings.sql warns when it exceeds half the common clock step.
+CREATE OR REPLACE TEMP TABLE align_offset_se AS
+WITH k AS (
+    SELECT k.cam_fixed, k.cam_moving, k.y - coalesce(d.drift, 0.0) * k.x AS y, k.w,
+           ntile(8) OVER (PARTITION BY k.cam_fixed, k.cam_moving ORDER BY k.x, k.y) AS b
+    FROM align_drift_kept k LEFT JOIN align_drift d USING (cam_fixed, cam_moving)
+),
+blk AS (SELECT cam_fixed, cam_moving, b, sum(w) AS sw, sum(w * y) AS swy FROM k GROUP BY ALL),
+tot AS (SELECT cam_fixed, cam_moving, count(*) AS nb, sum(sw) AS sw, sum(swy) AS swy FROM blk GROUP BY ALL),
+jk AS (
+    SELECT t.cam_fixed, t.cam_moving, t.nb, t.sw AS sw_all, (t.swy - b.swy) / (t.sw - b.sw) AS m_k
+    FROM tot t JOIN blk b USING (cam_fixed, cam_moving) WHERE t.sw > b.sw
+)
+SELECT cam_fixed, cam_moving, any_value(nb) AS blocks,
+       CASE WHEN count(*) >= 4 THEN greatest(sqrt((any_value(nb) - 1) / any_value(nb) * sum((m_k - avg_m) ** 2)), 1 / sqrt(any_value(sw_all))) END AS offset_se
+FROM (SELECT *, avg(m_k) OVER (PARTITION BY cam_fixed, cam_moving) AS avg_m FROM jk)
+GROUP BY cam_fixed, cam_moving;
+
 --    a pair with drift: on the relative clocks the fit says y = (1 + D) x + a (x, y: fixed and
 --    moving times). Its support becomes the kept drift pairs, the moving tracks' times warped
 --    onto the fixed camera's rate, u = y / (1 + D) = x + c, and the refit finds c (near
@@ -1410,13 +1434,43 @@ DELETE FROM align_pairs WHERE fit IS NULL;
 --    the pairs' offsets weighted by how much each class's offsets scatter. The clock offset
 --    stays the pooled fit's (a per-pair offset absorbs a time shift along a straight road). The
 --    pooled fit is kept in align_pairs.pooled (calibration.csv compares them).
+--    The pairs: the voted ones (align_support_voted, before the second pass, whose RMS gate
+--    about the pooled fit counts a pair's constant offset against it and so drops the biased
+--    pairs: 5-10 pairs were left per camera pair on a scene with 1.5 m of car bias), cleaned the
+--    same way about each pair's OWN offset: the RMS of its residuals about their mean under the
+--    pooled fit within align_refine_rms_m, and one to one: a pair is kept only when it has the
+--    smallest such residual of every voted pair of its fixed track and of its moving track
+--    (neighbours walking side by side also move in parallel; the true pair is the closer). On
+--    the crowded shared intersection the voted pairs uncleaned read an offset spread of 0.4-0.6 m
+--    (wrong pairs) and moved the rotation by 0.36 deg.
+CREATE OR REPLACE TEMP TABLE align_register_pairs AS
+WITH c AS (
+    SELECT s.cam_fixed, s.cam_moving, s.track_fixed, s.track_moving, a.fit,
+           unnest(traj_correspond(s.traj_fixed, s.traj_moving, 0.5, a.fit.dt)) AS c
+    FROM align_support_voted s JOIN align_pairs a USING (cam_fixed, cam_moving)
+),
+e AS (
+    SELECT cam_fixed, cam_moving, track_fixed, track_moving, c.fx - q.x AS ex, c.fy - q.y AS ey
+    FROM (SELECT *, transform_point({'theta': fit.theta, 'tx': fit.tx, 'ty': fit.ty, 'scale': fit.scale}, c.mx, c.my) AS q FROM c)
+),
+r AS (
+    SELECT cam_fixed, cam_moving, track_fixed, track_moving, sqrt(var_pop(ex) + var_pop(ey)) AS rms_own, count(*) AS n
+    FROM e GROUP BY ALL HAVING count(*) >= 3
+)
+SELECT r.cam_fixed, r.cam_moving, r.track_fixed, r.track_moving
+FROM r JOIN calibrated_values('align_refine_rms_m') g ON g.cam_a = least(r.cam_fixed, r.cam_moving) AND g.cam_b = greatest(r.cam_fixed, r.cam_moving)
+WHERE r.rms_own < g.value
+QUALIFY rms_own = min(rms_own) OVER (PARTITION BY r.cam_fixed, r.cam_moving, r.track_fixed)
+    AND rms_own = min(rms_own) OVER (PARTITION BY r.cam_fixed, r.cam_moving, r.track_moving);
+
 CREATE OR REPLACE TEMP TABLE align_register AS
 SELECT s.cam_fixed, s.cam_moving,
        register_pair(list(s.traj_fixed ORDER BY s.traj_fixed[1].t, s.traj_moving[1].t, s.track_fixed, s.track_moving),
                      list(s.traj_moving ORDER BY s.traj_fixed[1].t, s.traj_moving[1].t, s.track_fixed, s.track_moving),
                      list(c.code ORDER BY s.traj_fixed[1].t, s.traj_moving[1].t, s.track_fixed, s.track_moving),
                      any_value(a.fit.dt), 0.5, getvariable('align_trim'), any_value(cf.sigma_m), any_value(cm.sigma_m)) AS reg
-FROM align_support s JOIN align_pairs a USING (cam_fixed, cam_moving)
+FROM align_support_voted s JOIN align_register_pairs USING (cam_fixed, cam_moving, track_fixed, track_moving)
+JOIN align_pairs a USING (cam_fixed, cam_moving)
 JOIN calib_cameras cf ON cf.camera = s.cam_fixed JOIN calib_cameras cm ON cm.camera = s.cam_moving
 JOIN align_tracks t ON t.camera = s.cam_fixed AND t.track_id = s.track_fixed
 JOIN (SELECT class, row_number() OVER (ORDER BY class) AS code FROM (SELECT DISTINCT class FROM align_tracks)) c
@@ -1569,6 +1623,10 @@ FROM align_pairs p,
                      ('registration pairs', p.reg.pairs_used, '', 'track pairs in the translation (of ' || p.reg.pairs || ')')) q(quantity, value, unit, how)
 WHERE p.reg IS NOT NULL
 UNION ALL
+SELECT 'cameras ' || least(p.cam_fixed, p.cam_moving) || '-' || greatest(p.cam_fixed, p.cam_moving), 'clock offset se', o.offset_se, 's',
+       'jackknife over 8 blocks of the track pairs'' own offsets (rigid_shift_under), or 1/sqrt(sum of weights) when larger; NULL: too few pairs to tell'
+FROM align_pairs p LEFT JOIN align_offset_se o USING (cam_fixed, cam_moving)
+UNION ALL
 SELECT 'cameras ' || m.cam_a || '-' || m.cam_b, q.quantity, q.value, q.unit, q.how
 FROM calib_match m,
      LATERAL (VALUES ('residual sigma', m.sigma_d_m, 'm', 'per axis, from ' || m.source)) q(quantity, value, unit, how)
@@ -1655,6 +1713,7 @@ LEFT JOIN cams cv ON s.scope = 'pipeline' AND s.quantity IN ('reference camera',
 DROP TABLE IF EXISTS temp.main.align_tracks;
 DROP TABLE IF EXISTS temp.main.align_keys;
 DROP TABLE IF EXISTS temp.main.align_support_voted;
+DROP TABLE IF EXISTS temp.main.align_register_pairs;
 ;
 -- stage: overlap
 -- reads: points, calib_camera_order, calib_cameras, align_frames
@@ -2112,9 +2171,9 @@ JOIN load_ids i ON i.camera = c.camera AND i.track_id = c.track_id
 JOIN load_ids j ON j.camera = c.camera AND j.track_id = c.linked_id;
 ;
 -- stage: fuse
--- reads: points, calib_cameras, calib_classes, align_frames, align_origin, merge_tracks, merge_groups,
+-- reads: points, load_ids, calib_cameras, calib_classes, align_frames, align_origin, merge_tracks, merge_groups,
 --        merged, merge_road_users()
--- makes: fuse_q, fuse_paths
+-- makes: fuse_q, fuse_offsets, fuse_paths
 -- work: -
 -- changes: merged, result_road_users()
 -- parameters: merge_resample_max_gap, merge_resample_s
@@ -2135,10 +2194,11 @@ JOIN load_ids j ON j.camera = c.camera AND j.track_id = c.linked_id;
 --   (per class).
 -- Makes:
 --   fuse_q(class, accel_p95, q)                    the acceleration noise density per class (m^2/s^3)
+--   fuse_offsets(road_user, camera, track_id, dx, dy, n_common)   each source's constant offset (below)
 --   fuse_paths(road_user, n_cameras, q, traj, sigma)   the fused path and its per-point sigma (m)
 --   merged                                          replaced: traj = the fused path, plus sigma_m
 --                                                   (median per-point sigma) and sigma (per point)
---   result_road_users()                             redefined: merged.parquet gets sigma_m and sigma
+--   result_road_users()                             redefined: merged.parquet gets sigma_m, sigma and offsets
 -- Parameters: merge_resample_s, merge_resample_max_gap (the common clock merge.sql uses: the
 --   fused path is sampled at t = k * merge_resample_s and not across gaps longer than
 --   merge_resample_max_gap between observations; 0 = one point per distinct observation time).
@@ -2172,6 +2232,38 @@ SELECT class, accel_p95,
                       0.1 * (accel_p95 / sqrt(2 * ln(20))) ** 2) AS q
 FROM calib_classes WHERE isfinite(accel_p95);
 
+-- Sources that see different points of the road user (issue 38; docs/fusion.md): every source
+-- track (one camera's linked track of the road user) gets a constant offset such that all its
+-- sources are views of one point, the mean of the sources' points (traj_source_offsets,
+-- crates/algo/src/fuse/offsets.rs: least squares over the sources' mean differences in common
+-- time). The observations are fused with their source's offset removed: the path follows one
+-- point of the road user and does not jump where a camera's view begins or ends.
+CREATE OR REPLACE TEMP TABLE fuse_offsets AS
+WITH cam AS (
+    SELECT c.camera, coalesce(a.to_reference, {'theta': 0.0::DOUBLE, 'tx': 0.0::DOUBLE, 'ty': 0.0::DOUBLE, 'scale': 1.0::DOUBLE}) AS to_reference
+    FROM (SELECT DISTINCT camera FROM points) c LEFT JOIN align_frames a USING (camera)
+),
+src AS (
+    SELECT g.road_user, p.camera, p.track_id,
+           list({'t': p.t - o.clock_origin, 'x': w.x, 'y': w.y} ORDER BY p.t, p.x, p.y) AS traj
+    FROM points p
+    CROSS JOIN align_origin o
+    JOIN merge_tracks t ON t.camera = p.camera AND t.track_id = p.track_id AND t.class IS NOT DISTINCT FROM p.class
+    JOIN merge_groups g USING (uid)
+    JOIN cam c ON c.camera = p.camera,
+    LATERAL (SELECT transform_point(c.to_reference, p.x, p.y) AS w)
+    WHERE p.estimated = 0
+    GROUP BY g.road_user, p.camera, p.track_id
+),
+o AS (
+    SELECT road_user, list(camera ORDER BY camera, track_id) AS cams, list(track_id ORDER BY camera, track_id) AS tids,
+           traj_source_offsets(list(traj ORDER BY camera, track_id),
+                               CASE WHEN getvariable('merge_resample_max_gap') > 0 THEN getvariable('merge_resample_max_gap') ELSE 'inf'::DOUBLE END) AS off
+    FROM src GROUP BY road_user HAVING count(*) >= 2
+)
+SELECT road_user, u.camera, u.track_id, u.o.dx, u.o.dy, u.o.n_common
+FROM o, LATERAL (SELECT unnest(cams) AS camera, unnest(tids) AS track_id, unnest(off) AS o) u;
+
 CREATE OR REPLACE TEMP TABLE fuse_paths AS
 WITH cam AS (
     SELECT c.camera, coalesce(a.to_reference, {'theta': 0.0::DOUBLE, 'tx': 0.0::DOUBLE, 'ty': 0.0::DOUBLE, 'scale': 1.0::DOUBLE}) AS to_reference,
@@ -2183,12 +2275,14 @@ obs AS (
     SELECT g.road_user, any_value(t.class) AS class, count(DISTINCT p.camera) AS n_cameras,
            -- ties in t broken by camera, track and position: the same list in every run and window
            -- times relative to align_origin.clock_origin (align.sql): the clock grid t = clock_origin + k step
-           list({'t': p.t - o.clock_origin, 'x': w.x, 'y': w.y, 'sigma': c.sigma} ORDER BY p.t, p.camera, p.track_id, p.x, p.y) AS obs
+           list({'t': p.t - o.clock_origin, 'x': w.x - coalesce(f.dx, 0.0), 'y': w.y - coalesce(f.dy, 0.0), 'sigma': c.sigma}
+                ORDER BY p.t, p.camera, p.track_id, p.x, p.y) AS obs
     FROM points p
     CROSS JOIN align_origin o
     JOIN merge_tracks t ON t.camera = p.camera AND t.track_id = p.track_id AND t.class IS NOT DISTINCT FROM p.class
     JOIN merge_groups g USING (uid)
-    JOIN cam c ON c.camera = p.camera,
+    JOIN cam c ON c.camera = p.camera
+    LEFT JOIN fuse_offsets f ON f.road_user = g.road_user AND f.camera = p.camera AND f.track_id = p.track_id,
     LATERAL (SELECT transform_point(c.to_reference, p.x, p.y) AS w)
     WHERE p.estimated = 0
     GROUP BY g.road_user
@@ -2225,8 +2319,14 @@ FROM fuse_paths GROUP BY n_cameras ORDER BY n_cameras;
 -- road users (merged.parquet): merge.sql's definition (merge_road_users, which reads the fused
 -- traj from merged), plus sigma_m (the median of the per-point 1-sigma position error per
 -- axis, m) and sigma (one per point of traj, m).
+-- offsets: each source's offset (fuse_offsets), named by the input's camera and the chain's
+-- linked id (links.csv linked_id), ordered by camera and track; NULL for a road user of one track.
 CREATE OR REPLACE TEMP MACRO result_road_users() AS TABLE
-SELECT r.*, m.sigma_m, m.sigma FROM merge_road_users() r JOIN merged m USING (road_user);
+SELECT r.*, m.sigma_m, m.sigma, o.offsets
+FROM merge_road_users() r JOIN merged m USING (road_user)
+LEFT JOIN (SELECT f.road_user, list({'camera': i.camera_in, 'track_id': i.track_in, 'dx': f.dx, 'dy': f.dy} ORDER BY f.camera, f.track_id) AS offsets
+           FROM fuse_offsets f JOIN load_ids i ON i.camera = f.camera AND i.track_id = f.track_id
+           GROUP BY f.road_user) o USING (road_user);
 ;
 -- stage: cluster
 -- reads: points, load_ids, calibrated()
@@ -2337,7 +2437,7 @@ FROM cluster_assign a JOIN load_ids i ON i.camera = calibrated('cluster_camera')
 -- trajdb: what a finished pipeline run should tell its user, one row each, in table
 -- pipeline_warnings (k, message). Every runner (trajdb pipeline, trajdb.pipeline in Python, the
 -- DuckDB CLI after `.read sql/pipeline.sql`) reads this one table.
--- reads: points, align_frames, load_class_flicker, load_duplicates, load_ids, load_twins, load_unit_outliers; parameters: cluster_classes,
+-- reads: points, align_frames, calibration_summary, load_class_flicker, load_duplicates, load_ids, load_twins, load_unit_outliers; parameters: cluster_classes,
 -- load_no_class (set by the load)   makes: pipeline_warnings
 CREATE OR REPLACE TEMP TABLE pipeline_warnings AS
 WITH c AS (SELECT (SELECT count(DISTINCT camera) FROM points) AS cams, (SELECT count(*) FROM align_frames) AS aligned,
@@ -2384,7 +2484,17 @@ SELECT 8, format('{} tracks have a sampling period or speed far outside a road u
                  CASE WHEN count(*) > 10 THEN '; ...' ELSE '' END)
 FROM (SELECT *, row_number() OVER (ORDER BY camera, track_id) AS rank FROM load_unit_outliers) o
 LEFT JOIN load_ids i ON i.camera = o.camera AND i.track_id = o.track_id
-HAVING count(*) > 0;
+HAVING count(*) > 0
+UNION ALL
+-- issue 38: a camera pair whose clock offset the tracks cannot pin (align.sql, align_offset_se)
+SELECT 9, format('cameras {} and {}: their clock offset is uncertain by {} s, more than half the common clock step (merge_resample_s = {} s): '
+                 || 'the track pairs'' own offsets disagree (road users moving mostly one way, whose time shift looks like a translation), '
+                 || 'so matches between them may be missed and their paths misplaced along the road; check the two clocks '
+                 || '(calibration.csv, ''clock offset se'')', a.camera_in, b.camera_in, round(c.value, 3), getvariable('merge_resample_s'))
+FROM calibration_summary c
+JOIN (SELECT DISTINCT camera, camera_in FROM load_ids) a ON a.camera = try_cast(regexp_extract(c.scope, '^cameras (-?[0-9]+)-', 1) AS INTEGER)
+JOIN (SELECT DISTINCT camera, camera_in FROM load_ids) b ON b.camera = try_cast(regexp_extract(c.scope, '^cameras -?[0-9]+-(-?[0-9]+)$', 1) AS INTEGER)
+WHERE c.quantity = 'clock offset se' AND c.value > getvariable('merge_resample_s') / 2;
 ;
 -- trajdb: the analyst's questions as SQL macros (issue 29 §4; docs/analysis.md).
 --

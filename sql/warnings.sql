@@ -1,7 +1,7 @@
 -- trajdb: what a finished pipeline run should tell its user, one row each, in table
 -- pipeline_warnings (k, message). Every runner (trajdb pipeline, trajdb.pipeline in Python, the
 -- DuckDB CLI after `.read sql/pipeline.sql`) reads this one table.
--- reads: points, align_frames, load_class_flicker, load_duplicates, load_ids, load_twins, load_unit_outliers; parameters: cluster_classes,
+-- reads: points, align_frames, calibration_summary, load_class_flicker, load_duplicates, load_ids, load_twins, load_unit_outliers; parameters: cluster_classes,
 -- load_no_class (set by the load)   makes: pipeline_warnings
 CREATE OR REPLACE TEMP TABLE pipeline_warnings AS
 WITH c AS (SELECT (SELECT count(DISTINCT camera) FROM points) AS cams, (SELECT count(*) FROM align_frames) AS aligned,
@@ -48,4 +48,14 @@ SELECT 8, format('{} tracks have a sampling period or speed far outside a road u
                  CASE WHEN count(*) > 10 THEN '; ...' ELSE '' END)
 FROM (SELECT *, row_number() OVER (ORDER BY camera, track_id) AS rank FROM load_unit_outliers) o
 LEFT JOIN load_ids i ON i.camera = o.camera AND i.track_id = o.track_id
-HAVING count(*) > 0;
+HAVING count(*) > 0
+UNION ALL
+-- issue 38: a camera pair whose clock offset the tracks cannot pin (align.sql, align_offset_se)
+SELECT 9, format('cameras {} and {}: their clock offset is uncertain by {} s, more than half the common clock step (merge_resample_s = {} s): '
+                 || 'the track pairs'' own offsets disagree (road users moving mostly one way, whose time shift looks like a translation), '
+                 || 'so matches between them may be missed and their paths misplaced along the road; check the two clocks '
+                 || '(calibration.csv, ''clock offset se'')', a.camera_in, b.camera_in, round(c.value, 3), getvariable('merge_resample_s'))
+FROM calibration_summary c
+JOIN (SELECT DISTINCT camera, camera_in FROM load_ids) a ON a.camera = try_cast(regexp_extract(c.scope, '^cameras (-?[0-9]+)-', 1) AS INTEGER)
+JOIN (SELECT DISTINCT camera, camera_in FROM load_ids) b ON b.camera = try_cast(regexp_extract(c.scope, '^cameras -?[0-9]+-(-?[0-9]+)$', 1) AS INTEGER)
+WHERE c.quantity = 'clock offset se' AND c.value > getvariable('merge_resample_s') / 2;

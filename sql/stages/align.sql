@@ -1,12 +1,12 @@
 -- stage: align
 -- reads: points, load_ids, calib_camera_order, calib_cameras, calib_pairs, calibration, calibrated_values()
--- makes: align_frames, align_origin, align_pairs, align_clock, calib_match, calibration_summary,
+-- makes: align_frames, align_origin, align_pairs, align_clock, align_offset_se, calib_match, calibration_summary,
 --        result_transforms(), result_calibration()
 -- work: align_centroids, align_tracks, align_activity, align_coarse, align_scan, align_keys, align_sample(),
 --       align_hypotheses(), align_vote(), align_scan_pass, align_hyp, align_best, align_widen(), align_retry,
 --       align_speed_scan, align_speed_votes, align_speed, align_hyp_wide, align_best_wide, align_support,
 --       align_refit(), align_drift_pairs, align_wls(), align_drift_obs, align_drift_fit1, align_drift_kept,
---       align_drift, align_support_voted, align_register, align_edges
+--       align_drift, align_support_voted, align_register_pairs, align_register, align_edges
 -- changes: points, calibration
 -- parameters: align_agree_deg, align_agree_m, align_bin_deg, align_bin_m, align_bin_s, align_clock_step_s,
 --             align_max_clock_offset_s, align_max_hypotheses, align_min_overlap_s, align_min_pairs,
@@ -447,6 +447,30 @@ SELECT cam_fixed, cam_moving, n, x_span, slope AS drift_fit, intercept, drift_se
 FROM se
 WHERE slope IS NOT NULL;
 
+--    The clock offset's standard error (issue 38: a time shift along the main flow looks like a
+--    translation, and a camera pair whose road users mostly walk or drive one way cannot pin
+--    it): every candidate pair's own offset (align_drift_kept, with the drift line's slope
+--    removed) is a measurement of it; the standard error is the larger of the weighted mean's
+--    (1 / sqrt(sum of weights)) and the jackknife's over 8 blocks of the recording (road users
+--    seen close in time share their errors). NULL with fewer than 4 blocks. calibration.csv
+--    reports it; sql/warnings.sql warns when it exceeds half the common clock step.
+CREATE OR REPLACE TEMP TABLE align_offset_se AS
+WITH k AS (
+    SELECT k.cam_fixed, k.cam_moving, k.y - coalesce(d.drift, 0.0) * k.x AS y, k.w,
+           ntile(8) OVER (PARTITION BY k.cam_fixed, k.cam_moving ORDER BY k.x, k.y) AS b
+    FROM align_drift_kept k LEFT JOIN align_drift d USING (cam_fixed, cam_moving)
+),
+blk AS (SELECT cam_fixed, cam_moving, b, sum(w) AS sw, sum(w * y) AS swy FROM k GROUP BY ALL),
+tot AS (SELECT cam_fixed, cam_moving, count(*) AS nb, sum(sw) AS sw, sum(swy) AS swy FROM blk GROUP BY ALL),
+jk AS (
+    SELECT t.cam_fixed, t.cam_moving, t.nb, t.sw AS sw_all, (t.swy - b.swy) / (t.sw - b.sw) AS m_k
+    FROM tot t JOIN blk b USING (cam_fixed, cam_moving) WHERE t.sw > b.sw
+)
+SELECT cam_fixed, cam_moving, any_value(nb) AS blocks,
+       CASE WHEN count(*) >= 4 THEN greatest(sqrt((any_value(nb) - 1) / any_value(nb) * sum((m_k - avg_m) ** 2)), 1 / sqrt(any_value(sw_all))) END AS offset_se
+FROM (SELECT *, avg(m_k) OVER (PARTITION BY cam_fixed, cam_moving) AS avg_m FROM jk)
+GROUP BY cam_fixed, cam_moving;
+
 --    a pair with drift: on the relative clocks the fit says y = (1 + D) x + a (x, y: fixed and
 --    moving times). Its support becomes the kept drift pairs, the moving tracks' times warped
 --    onto the fixed camera's rate, u = y / (1 + D) = x + c, and the refit finds c (near
@@ -495,13 +519,43 @@ DELETE FROM align_pairs WHERE fit IS NULL;
 --    the pairs' offsets weighted by how much each class's offsets scatter. The clock offset
 --    stays the pooled fit's (a per-pair offset absorbs a time shift along a straight road). The
 --    pooled fit is kept in align_pairs.pooled (calibration.csv compares them).
+--    The pairs: the voted ones (align_support_voted, before the second pass, whose RMS gate
+--    about the pooled fit counts a pair's constant offset against it and so drops the biased
+--    pairs: 5-10 pairs were left per camera pair on a scene with 1.5 m of car bias), cleaned the
+--    same way about each pair's OWN offset: the RMS of its residuals about their mean under the
+--    pooled fit within align_refine_rms_m, and one to one: a pair is kept only when it has the
+--    smallest such residual of every voted pair of its fixed track and of its moving track
+--    (neighbours walking side by side also move in parallel; the true pair is the closer). On
+--    the crowded shared intersection the voted pairs uncleaned read an offset spread of 0.4-0.6 m
+--    (wrong pairs) and moved the rotation by 0.36 deg.
+CREATE OR REPLACE TEMP TABLE align_register_pairs AS
+WITH c AS (
+    SELECT s.cam_fixed, s.cam_moving, s.track_fixed, s.track_moving, a.fit,
+           unnest(traj_correspond(s.traj_fixed, s.traj_moving, 0.5, a.fit.dt)) AS c
+    FROM align_support_voted s JOIN align_pairs a USING (cam_fixed, cam_moving)
+),
+e AS (
+    SELECT cam_fixed, cam_moving, track_fixed, track_moving, c.fx - q.x AS ex, c.fy - q.y AS ey
+    FROM (SELECT *, transform_point({'theta': fit.theta, 'tx': fit.tx, 'ty': fit.ty, 'scale': fit.scale}, c.mx, c.my) AS q FROM c)
+),
+r AS (
+    SELECT cam_fixed, cam_moving, track_fixed, track_moving, sqrt(var_pop(ex) + var_pop(ey)) AS rms_own, count(*) AS n
+    FROM e GROUP BY ALL HAVING count(*) >= 3
+)
+SELECT r.cam_fixed, r.cam_moving, r.track_fixed, r.track_moving
+FROM r JOIN calibrated_values('align_refine_rms_m') g ON g.cam_a = least(r.cam_fixed, r.cam_moving) AND g.cam_b = greatest(r.cam_fixed, r.cam_moving)
+WHERE r.rms_own < g.value
+QUALIFY rms_own = min(rms_own) OVER (PARTITION BY r.cam_fixed, r.cam_moving, r.track_fixed)
+    AND rms_own = min(rms_own) OVER (PARTITION BY r.cam_fixed, r.cam_moving, r.track_moving);
+
 CREATE OR REPLACE TEMP TABLE align_register AS
 SELECT s.cam_fixed, s.cam_moving,
        register_pair(list(s.traj_fixed ORDER BY s.traj_fixed[1].t, s.traj_moving[1].t, s.track_fixed, s.track_moving),
                      list(s.traj_moving ORDER BY s.traj_fixed[1].t, s.traj_moving[1].t, s.track_fixed, s.track_moving),
                      list(c.code ORDER BY s.traj_fixed[1].t, s.traj_moving[1].t, s.track_fixed, s.track_moving),
                      any_value(a.fit.dt), 0.5, getvariable('align_trim'), any_value(cf.sigma_m), any_value(cm.sigma_m)) AS reg
-FROM align_support s JOIN align_pairs a USING (cam_fixed, cam_moving)
+FROM align_support_voted s JOIN align_register_pairs USING (cam_fixed, cam_moving, track_fixed, track_moving)
+JOIN align_pairs a USING (cam_fixed, cam_moving)
 JOIN calib_cameras cf ON cf.camera = s.cam_fixed JOIN calib_cameras cm ON cm.camera = s.cam_moving
 JOIN align_tracks t ON t.camera = s.cam_fixed AND t.track_id = s.track_fixed
 JOIN (SELECT class, row_number() OVER (ORDER BY class) AS code FROM (SELECT DISTINCT class FROM align_tracks)) c
@@ -654,6 +708,10 @@ FROM align_pairs p,
                      ('registration pairs', p.reg.pairs_used, '', 'track pairs in the translation (of ' || p.reg.pairs || ')')) q(quantity, value, unit, how)
 WHERE p.reg IS NOT NULL
 UNION ALL
+SELECT 'cameras ' || least(p.cam_fixed, p.cam_moving) || '-' || greatest(p.cam_fixed, p.cam_moving), 'clock offset se', o.offset_se, 's',
+       'jackknife over 8 blocks of the track pairs'' own offsets (rigid_shift_under), or 1/sqrt(sum of weights) when larger; NULL: too few pairs to tell'
+FROM align_pairs p LEFT JOIN align_offset_se o USING (cam_fixed, cam_moving)
+UNION ALL
 SELECT 'cameras ' || m.cam_a || '-' || m.cam_b, q.quantity, q.value, q.unit, q.how
 FROM calib_match m,
      LATERAL (VALUES ('residual sigma', m.sigma_d_m, 'm', 'per axis, from ' || m.source)) q(quantity, value, unit, how)
@@ -740,3 +798,4 @@ LEFT JOIN cams cv ON s.scope = 'pipeline' AND s.quantity IN ('reference camera',
 DROP TABLE IF EXISTS temp.main.align_tracks;
 DROP TABLE IF EXISTS temp.main.align_keys;
 DROP TABLE IF EXISTS temp.main.align_support_voted;
+DROP TABLE IF EXISTS temp.main.align_register_pairs;

@@ -1,7 +1,7 @@
 -- stage: fuse
--- reads: points, calib_cameras, calib_classes, align_frames, align_origin, merge_tracks, merge_groups,
+-- reads: points, load_ids, calib_cameras, calib_classes, align_frames, align_origin, merge_tracks, merge_groups,
 --        merged, merge_road_users()
--- makes: fuse_q, fuse_paths
+-- makes: fuse_q, fuse_offsets, fuse_paths
 -- work: -
 -- changes: merged, result_road_users()
 -- parameters: merge_resample_max_gap, merge_resample_s
@@ -22,10 +22,11 @@
 --   (per class).
 -- Makes:
 --   fuse_q(class, accel_p95, q)                    the acceleration noise density per class (m^2/s^3)
+--   fuse_offsets(road_user, camera, track_id, dx, dy, n_common)   each source's constant offset (below)
 --   fuse_paths(road_user, n_cameras, q, traj, sigma)   the fused path and its per-point sigma (m)
 --   merged                                          replaced: traj = the fused path, plus sigma_m
 --                                                   (median per-point sigma) and sigma (per point)
---   result_road_users()                             redefined: merged.parquet gets sigma_m and sigma
+--   result_road_users()                             redefined: merged.parquet gets sigma_m, sigma and offsets
 -- Parameters: merge_resample_s, merge_resample_max_gap (the common clock merge.sql uses: the
 --   fused path is sampled at t = k * merge_resample_s and not across gaps longer than
 --   merge_resample_max_gap between observations; 0 = one point per distinct observation time).
@@ -59,6 +60,38 @@ SELECT class, accel_p95,
                       0.1 * (accel_p95 / sqrt(2 * ln(20))) ** 2) AS q
 FROM calib_classes WHERE isfinite(accel_p95);
 
+-- Sources that see different points of the road user (issue 38; docs/fusion.md): every source
+-- track (one camera's linked track of the road user) gets a constant offset such that all its
+-- sources are views of one point, the mean of the sources' points (traj_source_offsets,
+-- crates/algo/src/fuse/offsets.rs: least squares over the sources' mean differences in common
+-- time). The observations are fused with their source's offset removed: the path follows one
+-- point of the road user and does not jump where a camera's view begins or ends.
+CREATE OR REPLACE TEMP TABLE fuse_offsets AS
+WITH cam AS (
+    SELECT c.camera, coalesce(a.to_reference, {'theta': 0.0::DOUBLE, 'tx': 0.0::DOUBLE, 'ty': 0.0::DOUBLE, 'scale': 1.0::DOUBLE}) AS to_reference
+    FROM (SELECT DISTINCT camera FROM points) c LEFT JOIN align_frames a USING (camera)
+),
+src AS (
+    SELECT g.road_user, p.camera, p.track_id,
+           list({'t': p.t - o.clock_origin, 'x': w.x, 'y': w.y} ORDER BY p.t, p.x, p.y) AS traj
+    FROM points p
+    CROSS JOIN align_origin o
+    JOIN merge_tracks t ON t.camera = p.camera AND t.track_id = p.track_id AND t.class IS NOT DISTINCT FROM p.class
+    JOIN merge_groups g USING (uid)
+    JOIN cam c ON c.camera = p.camera,
+    LATERAL (SELECT transform_point(c.to_reference, p.x, p.y) AS w)
+    WHERE p.estimated = 0
+    GROUP BY g.road_user, p.camera, p.track_id
+),
+o AS (
+    SELECT road_user, list(camera ORDER BY camera, track_id) AS cams, list(track_id ORDER BY camera, track_id) AS tids,
+           traj_source_offsets(list(traj ORDER BY camera, track_id),
+                               CASE WHEN getvariable('merge_resample_max_gap') > 0 THEN getvariable('merge_resample_max_gap') ELSE 'inf'::DOUBLE END) AS off
+    FROM src GROUP BY road_user HAVING count(*) >= 2
+)
+SELECT road_user, u.camera, u.track_id, u.o.dx, u.o.dy, u.o.n_common
+FROM o, LATERAL (SELECT unnest(cams) AS camera, unnest(tids) AS track_id, unnest(off) AS o) u;
+
 CREATE OR REPLACE TEMP TABLE fuse_paths AS
 WITH cam AS (
     SELECT c.camera, coalesce(a.to_reference, {'theta': 0.0::DOUBLE, 'tx': 0.0::DOUBLE, 'ty': 0.0::DOUBLE, 'scale': 1.0::DOUBLE}) AS to_reference,
@@ -70,12 +103,14 @@ obs AS (
     SELECT g.road_user, any_value(t.class) AS class, count(DISTINCT p.camera) AS n_cameras,
            -- ties in t broken by camera, track and position: the same list in every run and window
            -- times relative to align_origin.clock_origin (align.sql): the clock grid t = clock_origin + k step
-           list({'t': p.t - o.clock_origin, 'x': w.x, 'y': w.y, 'sigma': c.sigma} ORDER BY p.t, p.camera, p.track_id, p.x, p.y) AS obs
+           list({'t': p.t - o.clock_origin, 'x': w.x - coalesce(f.dx, 0.0), 'y': w.y - coalesce(f.dy, 0.0), 'sigma': c.sigma}
+                ORDER BY p.t, p.camera, p.track_id, p.x, p.y) AS obs
     FROM points p
     CROSS JOIN align_origin o
     JOIN merge_tracks t ON t.camera = p.camera AND t.track_id = p.track_id AND t.class IS NOT DISTINCT FROM p.class
     JOIN merge_groups g USING (uid)
-    JOIN cam c ON c.camera = p.camera,
+    JOIN cam c ON c.camera = p.camera
+    LEFT JOIN fuse_offsets f ON f.road_user = g.road_user AND f.camera = p.camera AND f.track_id = p.track_id,
     LATERAL (SELECT transform_point(c.to_reference, p.x, p.y) AS w)
     WHERE p.estimated = 0
     GROUP BY g.road_user
@@ -112,5 +147,11 @@ FROM fuse_paths GROUP BY n_cameras ORDER BY n_cameras;
 -- road users (merged.parquet): merge.sql's definition (merge_road_users, which reads the fused
 -- traj from merged), plus sigma_m (the median of the per-point 1-sigma position error per
 -- axis, m) and sigma (one per point of traj, m).
+-- offsets: each source's offset (fuse_offsets), named by the input's camera and the chain's
+-- linked id (links.csv linked_id), ordered by camera and track; NULL for a road user of one track.
 CREATE OR REPLACE TEMP MACRO result_road_users() AS TABLE
-SELECT r.*, m.sigma_m, m.sigma FROM merge_road_users() r JOIN merged m USING (road_user);
+SELECT r.*, m.sigma_m, m.sigma, o.offsets
+FROM merge_road_users() r JOIN merged m USING (road_user)
+LEFT JOIN (SELECT f.road_user, list({'camera': i.camera_in, 'track_id': i.track_in, 'dx': f.dx, 'dy': f.dy} ORDER BY f.camera, f.track_id) AS offsets
+           FROM fuse_offsets f JOIN load_ids i ON i.camera = f.camera AND i.track_id = f.track_id
+           GROUP BY f.road_user) o USING (road_user);

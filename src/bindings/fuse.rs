@@ -59,6 +59,26 @@ pub static FUNCTIONS: &[Function] = &[
         }],
         table: None,
     },
+    Function {
+        name: "traj_source_offsets",
+        description: "Each source track's constant offset within one road user (issue 38; docs/fusion.md): sources are one road user's \
+                      tracks from every camera in one frame and clock (list(traj)); for every two that share time, d = the mean of a - b \
+                      over it (each interpolated at the other's times, not across gaps longer than max_gap s, both ways); the offsets \
+                      minimise the sum of n_common |o_a - o_b - d|² with the offsets of each group of sources linked by common time \
+                      summing to 0 (the reference point: the mean of the sources' points). source - (dx, dy) are then views of one point \
+                      of the road user. A source that shares no time with another keeps 0 (n_common 0), as do groups of more than 64 \
+                      sources. One element per source, in their order. O(n) per pair of sources that overlap in time.",
+        example: "SELECT [round(o.dx, 6) FOR o IN traj_source_offsets([[{'t':0,'x':1,'y':0},{'t':1,'x':2,'y':0},{'t':2,'x':3,'y':0}], [{'t':0,'x':0,'y':0},{'t':1,'x':1,'y':0},{'t':2,'x':2,'y':0}]], 0.5)]; -- [0.5, -0.5]",
+        maths: "crates/algo/src/fuse/offsets.rs",
+        binding: file!(),
+        signatures: &[Signature {
+            params: &[p("sources", Ty::List(&TRAJ)), p("max_gap", Ty::Double)],
+            arities: &[],
+            returns: Ty::List(&Ty::Struct(&[("dx", Ty::Double), ("dy", Ty::Double), ("n_common", Ty::Bigint)])),
+            kernel: source_offsets,
+        }],
+        table: None,
+    },
 ];
 
 /// The fused path of every row (`None`: a NULL argument).
@@ -98,6 +118,21 @@ fn fuse_with_sigma(a: &Args<'_>, out: &mut Out<'_>) -> R {
     let vals = fused(a)?;
     let cols: Vec<_> =
         vals.iter().map(|v| v.as_ref().map(|f| vec![Column::F64(&f.t), Column::F64(&f.x), Column::F64(&f.y), Column::F64(&f.sigma)])).collect();
+    out.struct_lists(&cols)?;
+    Ok(())
+}
+
+fn source_offsets(a: &Args<'_>, out: &mut Out<'_>) -> R {
+    let (src, gap) = (a.traj_list(0), a.double(1));
+    let vals = a.par_map(|r| {
+        let (Some(src), Some(gap)) = (src.get(r)?, gap.get(r)) else { return Ok(None) };
+        let o = fuse::offsets::source_offsets(&src, gap)?;
+        let dx: Vec<f64> = o.iter().map(|v| v.dx).collect();
+        let dy: Vec<f64> = o.iter().map(|v| v.dy).collect();
+        let n: Vec<i64> = o.iter().map(|v| v.n_common as i64).collect();
+        Ok(Some((dx, dy, n)))
+    })?;
+    let cols: Vec<_> = vals.iter().map(|v| v.as_ref().map(|(x, y, n)| vec![Column::F64(x), Column::F64(y), Column::I64(n)])).collect();
     out.struct_lists(&cols)?;
     Ok(())
 }

@@ -242,6 +242,8 @@ struct Offset {
     f: [f64; 2],
     m: [f64; 2],
     n: f64,
+    /// the track pair (index into `PairPoints::means`)
+    id: usize,
 }
 
 fn offsets(pp: &PairPoints, keep: &[bool], theta: f64, s: f64) -> Vec<Offset> {
@@ -280,7 +282,7 @@ fn offsets(pp: &PairPoints, keep: &[bool], theta: f64, s: f64) -> Vec<Offset> {
         let var_axis = ((a[3] / n - ex * ex - ey * ey) / 2.0).max(0.0) * n / (n - 1.0);
         let f = [mu[0] + a[4] / n, mu[1] + a[5] / n];
         let m = [mu[2] + a[6] / n, mu[3] + a[7] / n];
-        out.push(Offset { d, v: (var_axis / n).max(MIN_VAR_M2), cls: *cls, block: pp.block[id], f, m, n });
+        out.push(Offset { d, v: (var_axis / n).max(MIN_VAR_M2), cls: *cls, block: pp.block[id], f, m, n, id });
     }
     out
 }
@@ -321,6 +323,28 @@ fn pair_weights(off: &[Offset], tau2: &[f64]) -> Vec<f64> {
     }
     let sigma2 = if d > 0.0 { (s / d).max(MIN_VAR_M2) } else { MIN_VAR_M2 };
     off.iter().map(|o| sigma2 / (tau2[o.cls as usize] + o.v)).collect()
+}
+
+/// The points of the fit: `keep`, without the pairs whose offset lies beyond [`OUTLIER_D2`] of
+/// the weighted mean offset in their own spread (`τ²_c + v_k`): a pair offset that much more
+/// than its class's pairs is two road users (neighbours walking side by side), not two views of
+/// one, and its points would bend the rotation (0.11 deg on the shared intersection).
+fn without_outliers(pp: &PairPoints, keep: &[bool], off: &[Offset], w: &[f64], tau2: &[f64]) -> Vec<bool> {
+    let (mut s, mut x, mut y) = (0.0, 0.0, 0.0);
+    for (o, &q) in off.iter().zip(w) {
+        s += q;
+        x += q * o.d[0];
+        y += q * o.d[1];
+    }
+    if !(s > 0.0) {
+        return keep.to_vec();
+    }
+    let mut bad = vec![false; pp.means.len()];
+    for o in off {
+        let spread = tau2.get(o.cls as usize).copied().unwrap_or(0.0) + o.v;
+        bad[o.id] = ((o.d[0] - x / s).powi(2) + (o.d[1] - y / s).powi(2)) / spread > OUTLIER_D2;
+    }
+    keep.iter().zip(&pp.k).map(|(&k, &id)| k && !bad[id]).collect()
 }
 
 /// The between-pairs part of the fit ([`fit_masked`]): every pair's kept means, without the
@@ -429,13 +453,16 @@ pub fn register(tracks: &[(Traj<'_>, Traj<'_>)], classes: &[u32], dt: f64, max_g
     let mut tau2 = vec![0.0; off.iter().map(|o| o.cls as usize + 1).max().unwrap_or(0)];
     let mut w: Vec<f64> = off.iter().map(|o| o.n).collect();
     let Some((mut theta_s, mut s)) = fit_masked(c, &keep, true, lambda, &between_part(&off, &w, &tau2, None)) else { return Ok(None) };
+    let mut fit_keep = keep.clone();
     for _ in 0..GLS_ROUNDS {
         off = offsets(&pp, &keep, theta_s, s);
         tau2 = class_tau2(&off);
         w = pair_weights(&off, &tau2);
-        let Some(f) = fit_masked(c, &keep, true, lambda, &between_part(&off, &w, &tau2, None)) else { return Ok(None) };
+        fit_keep = without_outliers(&pp, &keep, &off, &w, &tau2);
+        let Some(f) = fit_masked(c, &fit_keep, true, lambda, &between_part(&off, &w, &tau2, None)) else { return Ok(None) };
         (theta_s, s) = f;
     }
+    let keep = fit_keep;
     let Some((theta_r, _)) = fit_masked(c, &keep, false, lambda, &between_part(&off, &w, &tau2, None)) else { return Ok(None) };
     // the jackknife: every block left out in turn (the weights stay)
     let mut jk_theta_s = Vec::new();

@@ -5,6 +5,7 @@
 //! | file | SQL | what |
 //! |---|---|---|
 //! | [`smooth`] | `traj_fuse`, `traj_fuse_sigma` | constant-velocity Kalman filter + RTS smoother over the observations, exact diffuse start |
+//! | [`offsets`] | `traj_source_offsets` | each source track's constant offset within one road user (another point of it seen): least squares over the sources' differences in common time, about their mean |
 //! | [`sample`] | `traj_fuse`, `traj_fuse_sigma` (with `period`) | the smoothed path at t = k · period: the Gaussian bridge between two smoothed states |
 //!
 //! # Model (per axis; x and y are independent and share every covariance)
@@ -44,6 +45,7 @@ use super::limits;
 use super::ParamError;
 use std::fmt;
 
+pub mod offsets;
 pub mod sample;
 pub mod smooth;
 #[cfg(test)]

@@ -61,6 +61,7 @@ _ROAD_USER = pa.struct([
     ("n_tracks", pa.int64()), ("sources", pa.list_(pa.struct([("camera", pa.int32()), ("track_id", pa.int64())]))),
     ("t_start", pa.float64()), ("t_end", pa.float64()), ("duration_s", pa.float64()), ("length_m", pa.float64()),
     ("geometry", pa.binary()), ("traj", pa.list_(_POINT)), ("sigma_m", pa.float64()), ("sigma", pa.list_(pa.float64())),
+    ("offsets", pa.list_(pa.struct([("camera", pa.int32()), ("track_id", pa.int64()), ("dx", pa.float64()), ("dy", pa.float64())]))),
 ])
 _MATCH = pa.struct([
     ("road_user", pa.string()), ("date", pa.string()), ("camera_a", pa.int32()), ("track_a", pa.int64()),

@@ -291,13 +291,7 @@ fn offsets(pp: &PairPoints, keep: &[bool], theta: f64, s: f64) -> Vec<Offset> {
 /// mean variance of a pair's mean; a class with fewer than 3 pairs takes the largest of the
 /// others (0 when none has 3).
 fn class_tau2(off: &[Offset]) -> Vec<f64> {
-    let ncls = off.iter().map(|o| o.cls as usize + 1).max().unwrap_or(0);
-    let mut tau = vec![f64::NAN; ncls];
-    for (c, slot) in tau.iter_mut().enumerate() {
-        let mine: Vec<&Offset> = off.iter().filter(|o| o.cls as usize == c).collect();
-        if mine.len() < 3 {
-            continue;
-        }
+    let spread = |mine: &[&Offset]| {
         let mut mad2 = 0.0;
         for ax in 0..2 {
             let mut v: Vec<f64> = mine.iter().map(|o| o.d[ax]).collect();
@@ -306,9 +300,22 @@ fn class_tau2(off: &[Offset]) -> Vec<f64> {
             mad2 += (1.4826 * median(&mut dev)).powi(2) / 2.0;
         }
         let noise = mine.iter().map(|o| o.v).sum::<f64>() / mine.len() as f64;
-        *slot = (mad2 - noise).max(0.0);
+        (mad2 - noise).max(0.0)
+    };
+    let ncls = off.iter().map(|o| o.cls as usize + 1).max().unwrap_or(0);
+    let mut tau = vec![f64::NAN; ncls];
+    for (c, slot) in tau.iter_mut().enumerate() {
+        let mine: Vec<&Offset> = off.iter().filter(|o| o.cls as usize == c).collect();
+        if mine.len() >= 3 {
+            *slot = spread(&mine);
+        }
     }
-    let fill = tau.iter().copied().filter(|v| v.is_finite()).fold(0.0, f64::max);
+    // a class with fewer than 3 pairs: the largest of the measured classes and of all pairs
+    // together (the hostile probe: 40 pairs of 40 classes had τ = 0 each, every pair was an
+    // outlier and the call returned NULL)
+    let all: Vec<&Offset> = off.iter().collect();
+    let pooled = if all.len() >= 2 { spread(&all) } else { 0.0 };
+    let fill = tau.iter().copied().filter(|v| v.is_finite()).fold(pooled, f64::max);
     tau.iter().map(|v| if v.is_finite() { *v } else { fill }).collect()
 }
 
@@ -396,9 +403,11 @@ fn translation(off: &[Offset], tau2: &[f64], skip_block: Option<usize>) -> Optio
         }
         (s > 0.0).then(|| ([sx / s, sy / s], s, n))
     };
-    let (t0, _, _) = mean(&|_| true)?;
+    let all = mean(&|_| true)?;
+    let t0 = all.0;
     let inlier = |o: &Offset| w(o) * ((o.d[0] - t0[0]).powi(2) + (o.d[1] - t0[1]).powi(2)) <= OUTLIER_D2;
-    mean(&inlier).or(Some((t0, 0.0, 0)))
+    // every pair an outlier (their offsets scatter far beyond the spread measured): all of them
+    mean(&inlier).or(Some(all))
 }
 
 /// See the module docs. `tracks[k]` is a (fixed, moving) track pair of class `classes[k]` (any
@@ -416,7 +425,7 @@ pub fn register(tracks: &[(Traj<'_>, Traj<'_>)], classes: &[u32], dt: f64, max_g
         return Err(rigid::RigidError::Trim(trim).into());
     }
     let points: u128 = tracks.iter().map(|(f, m)| (f.len() + m.len()) as u128).sum();
-    limits::SHIFT_PAIR_FITS.check((BLOCKS as u128 + 2) * points).map_err(ShiftError::Work)?;
+    limits::SHIFT_PAIR_FITS.check((BLOCKS as u128 + 2) * points).map_err(ShiftError::RegisterWork)?;
     let pp = build(tracks, classes, dt, max_gap);
     if pp.means.len() < 2 {
         return Ok(None);
@@ -604,6 +613,17 @@ mod tests {
             let (th, s) = fit_masked(&p, &keep, true, lambda, &[]).unwrap();
             assert!(th.abs() < 1e-12 && (s - 2.0).abs() < 1e-9, "{lambda} {s}");
         }
+    }
+
+    #[test]
+    fn pairs_of_many_classes_still_register() {
+        // every pair its own class (the probe: each class had tau = 0 and every pair was an outlier)
+        let tf = Transform2::new(0.5, 10.0, -5.0, 1.0);
+        let (fs, ms, _) = scene(40, &tf, [0.5, 0.5], 0.05, 8);
+        let cs: Vec<u32> = (0..40).collect();
+        let r = run(&fs, &ms, &cs);
+        assert!(r.pairs_used > 30, "{r:?}");
+        assert!((r.transform.tx - tf.tx).abs() < 0.3 && (r.transform.ty - tf.ty).abs() < 0.3, "{r:?}");
     }
 
     #[test]

@@ -44,6 +44,8 @@ pub enum ShiftError {
     Lengths { fixed: usize, moving: usize },
     /// `joint` would fit more point pairs than the work limit `shift_pair_fits`.
     Work(limits::Exceeded),
+    /// `register::register` would fit more point pairs than the work limit `shift_pair_fits`.
+    RegisterWork(limits::Exceeded),
 }
 
 impl fmt::Display for ShiftError {
@@ -56,6 +58,7 @@ impl fmt::Display for ShiftError {
             }
             ShiftError::Lengths { fixed, moving } => write!(f, "fixed and moving must list as many tracks, got {fixed} and {moving}"),
             ShiftError::Work(e) => write!(f, "{e}, or search fewer shifts (a larger step or a smaller half_width) or fewer points"),
+            ShiftError::RegisterWork(e) => write!(f, "{e}, or register fewer track pairs or shorter tracks"),
         }
     }
 }

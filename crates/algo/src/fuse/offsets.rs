@@ -13,8 +13,8 @@
 //!   linked by common time: the least-squares solution of the differences (any `o + c` fits them
 //!   as well; the constraint picks the one whose **reference point is the mean of the sources'
 //!   points**: with cameras on several sides of a car, near its centre);
-//! * a source that shares no time with another (or a group larger than [`MAX_SOURCES`]) keeps
-//!   offset 0.
+//! * a source that shares no time with another keeps offset 0, and so does every source of a
+//!   road user of more than [`MAX_SOURCES`] sources (`n_common` then 0 too).
 //!
 //! The fused path of the de-biased observations then follows one point of the road user
 //! throughout: no jump where a camera's view begins or ends.
@@ -28,7 +28,7 @@ use crate::align::correspond::correspond;
 use crate::traj::Traj;
 use crate::{positive_or_inf, ParamError};
 
-/// The largest group of sources solved (a road user seen by more tracks keeps its offsets 0):
+/// The most sources solved (a road user seen by more tracks keeps its offsets 0):
 /// 64 sources is 64³ = 262k operations, far beyond any road user (2–6 sources in practice).
 pub const MAX_SOURCES: usize = 64;
 /// Two sources need this many point pairs in common for their difference to count.
@@ -98,6 +98,11 @@ pub fn source_offsets(sources: &[Traj<'_>], max_gap: f64) -> Result<Vec<SourceOf
     let max_gap = positive_or_inf("max_gap", max_gap)?;
     let k = sources.len();
     let mut out = vec![SourceOffset { dx: 0.0, dy: 0.0, n_common: 0 }; k];
+    // more sources than can be solved: offsets 0 at once (the hostile probe's 20,000 sources made
+    // k² pairs, 2.7 GB, before the group size was looked at)
+    if k > MAX_SOURCES {
+        return Ok(out);
+    }
     // pairs that overlap in time: a sweep over the spans, sorted by start
     let span = |s: &Traj<'_>| if s.is_empty() { None } else { Some((s.t[0], s.t[s.len() - 1])) };
     let mut order: Vec<(f64, f64, usize)> = sources.iter().enumerate().filter_map(|(i, s)| span(s).map(|(a, b)| (a, b, i))).collect();
@@ -115,6 +120,10 @@ pub fn source_offsets(sources: &[Traj<'_>], max_gap: f64) -> Result<Vec<SourceOf
                 continue;
             }
             let d = [(sab[0] - sba[0]) / n as f64, (sab[1] - sba[1]) / n as f64];
+            if let Some(&v) = d.iter().find(|v| !v.is_finite()) {
+                // coordinates near ±1.8e308 whose differences overflow
+                return Err(ParamError { name: "sources", rule: "made of coordinates whose differences are finite (within ±1e300)", value: v });
+            }
             let (lo, hi, d) = if a < b { (a, b, d) } else { (b, a, [-d[0], -d[1]]) };
             edges.push((lo, hi, d, n as f64));
             out[a].n_common += n;
@@ -141,7 +150,7 @@ pub fn source_offsets(sources: &[Traj<'_>], max_gap: f64) -> Result<Vec<SourceOf
     for (i, &r) in roots.iter().enumerate() {
         groups.entry(r).or_default().push(i);
     }
-    for members in groups.values().filter(|g| g.len() >= 2 && g.len() <= MAX_SOURCES) {
+    for members in groups.values().filter(|g| g.len() >= 2) {
         let m = members.len();
         let pos = |i: usize| members.binary_search(&i).ok();
         // normal equations L o = Σ w d, plus c·11ᵀ (c: the mean weight) for Σ o = 0
@@ -216,6 +225,16 @@ mod tests {
         assert!(source_offsets(&[a.view()], 0.0).is_err());
         let e = OwnedTraj { t: vec![], x: vec![], y: vec![] };
         assert_eq!(source_offsets(&[e.view(), a.view()], 0.5).unwrap().len(), 2);
+    }
+
+    #[test]
+    fn too_many_sources_or_overflowing_coordinates() {
+        let many: Vec<OwnedTraj> = (0..MAX_SOURCES + 1).map(|k| line(0.0, 1.0, 10.0, [k as f64, 0.0])).collect();
+        let views: Vec<_> = many.iter().map(|t| t.view()).collect();
+        assert!(source_offsets(&views, 0.5).unwrap().iter().all(|o| o.dx == 0.0 && o.n_common == 0));
+        let a = OwnedTraj { t: vec![0.0, 1.0, 2.0], x: vec![1.7e308; 3], y: vec![0.0; 3] };
+        let b = OwnedTraj { t: vec![0.0, 1.0, 2.0], x: vec![-1.7e308; 3], y: vec![0.0; 3] };
+        assert_eq!(source_offsets(&[a.view(), b.view()], 0.5).unwrap_err().name, "sources");
     }
 
     proptest::proptest! {

@@ -456,20 +456,30 @@ WHERE slope IS NOT NULL;
 --    reports it; sql/warnings.sql warns when it exceeds half the common clock step.
 CREATE OR REPLACE TEMP TABLE align_offset_se AS
 WITH k AS (
-    SELECT k.cam_fixed, k.cam_moving, k.y - coalesce(d.drift, 0.0) * k.x AS y, k.w,
+    SELECT k.cam_fixed, k.cam_moving, k.x, k.y - coalesce(d.drift, 0.0) * k.x AS y, k.w,
            ntile(8) OVER (PARTITION BY k.cam_fixed, k.cam_moving ORDER BY k.x, k.y) AS b
     FROM align_drift_kept k LEFT JOIN align_drift d USING (cam_fixed, cam_moving)
 ),
-blk AS (SELECT cam_fixed, cam_moving, b, sum(w) AS sw, sum(w * y) AS swy FROM k GROUP BY ALL),
-tot AS (SELECT cam_fixed, cam_moving, count(*) AS nb, sum(sw) AS sw, sum(swy) AS swy FROM blk GROUP BY ALL),
+-- sums over ordered lists (list_sum), not sum(): a parallel sum adds in another order per
+-- thread count and moved the last digits (tests/test_determinism_python.py)
+blk AS (
+    SELECT cam_fixed, cam_moving, b, list_sum(list(w ORDER BY x, y, w)) AS sw, list_sum(list(w * y ORDER BY x, y, w)) AS swy
+    FROM k GROUP BY ALL
+),
+tot AS (
+    SELECT cam_fixed, cam_moving, count(*) AS nb, list_sum(list(sw ORDER BY b)) AS sw, list_sum(list(swy ORDER BY b)) AS swy
+    FROM blk GROUP BY ALL
+),
 jk AS (
-    SELECT t.cam_fixed, t.cam_moving, t.nb, t.sw AS sw_all, (t.swy - b.swy) / (t.sw - b.sw) AS m_k
+    SELECT cam_fixed, cam_moving, any_value(t.nb) AS nb, any_value(t.sw) AS sw_all,
+           list((t.swy - b.swy) / (t.sw - b.sw) ORDER BY b.b) AS ms
     FROM tot t JOIN blk b USING (cam_fixed, cam_moving) WHERE t.sw > b.sw
+    GROUP BY cam_fixed, cam_moving
 )
-SELECT cam_fixed, cam_moving, any_value(nb) AS blocks,
-       CASE WHEN count(*) >= 4 THEN greatest(sqrt((any_value(nb) - 1) / any_value(nb) * sum((m_k - avg_m) ** 2)), 1 / sqrt(any_value(sw_all))) END AS offset_se
-FROM (SELECT *, avg(m_k) OVER (PARTITION BY cam_fixed, cam_moving) AS avg_m FROM jk)
-GROUP BY cam_fixed, cam_moving;
+SELECT cam_fixed, cam_moving, nb AS blocks,
+       CASE WHEN len(ms) >= 4
+            THEN greatest(sqrt((nb - 1) / nb * list_sum([(m - list_sum(ms) / len(ms)) ** 2 FOR m IN ms])), 1 / sqrt(sw_all)) END AS offset_se
+FROM jk;
 
 --    a pair with drift: on the relative clocks the fit says y = (1 + D) x + a (x, y: fixed and
 --    moving times). Its support becomes the kept drift pairs, the moving tracks' times warped

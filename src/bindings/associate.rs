@@ -59,7 +59,9 @@ pub static FUNCTIONS: &[Function] = &[
                       n_eff and the bias state: r_res = (msd - dx² - dy²) / (2 sigma_d²) (the residual after removing the constant offset), \
                       r_gate = chi2(2 n_eff - 2) at 0.999 / (2 n_eff) + 0.25, d2 = the offset's squared Mahalanobis distance from the bias \
                       state with the offset's own variance sigma_d² / n_eff added, nll = n_eff r_res + d2 / 2, score = n_eff (r_gate - \
-                      r_res) + (13.82 - d2) / 2 (Hungarian's weight) and candidate = r_res <= r_gate AND d2 <= 13.82 (chi2(2) at 0.999). \
+                      r_res) + (gate - d2) / 2 (Hungarian's weight) and candidate = r_res <= r_gate AND d2 <= gate, gate = 13.82 (chi2(2) at \
+                      0.999) for bias_state_none and, for a state estimated from n anchors, Hotelling's predictive bound (n + 1) / n \
+                      2 (n - 1) / (n - 2) F(2, n - 2) at 0.999 (70.9 for 8 anchors, 17.0 for 100: the state's own uncertainty). \
                       NULL when an argument is NULL.",
         example: "SELECT pair_evidence(1.02, 1.0, 0.0, 0.1, 100, bias_state_none(0.5)).candidate; -- true",
         maths: "crates/algo/src/associate/pair.rs",

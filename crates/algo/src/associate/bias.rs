@@ -71,15 +71,41 @@ impl BiasState {
         (d * ex * ex - 2.0 * b * ex * ey + a * ey * ey) / det
     }
 
+    /// The 0.999 gate of [`d2`](Self::d2) for a new pair under this state. For [`none`](Self::none)
+    /// (`n = 0`, Σ given, not estimated) `χ²₂(0.999)` ([`super::BIAS_GATE_D2`]). For a state
+    /// estimated from `n` anchors the mean and Σ are themselves uncertain, and a new offset's
+    /// distance follows the predictive Hotelling law:
+    /// `d² · n/(n+1) ~ T²(2, n−1) = 2(n−1)/(n−2) · F(2, n−2)`, with `F(2, ν)` at q in closed form,
+    /// `(ν/2)((1−q)^(−2/ν) − 1)`. So the gate is `(n+1)/n · 2(n−1)/(n−2) · F(2, n−2; 0.999)`:
+    /// 70.9 for 8 anchors, 17.0 for 100, → 13.8. With the χ² gate, 8 pedestrian anchors whose
+    /// offsets spread 1.3 cm refused two true pairs 0.16 m from their mean (d² 23 and 50;
+    /// `trajdb simulate --viewpoint-bias 0.5,0.1`, seed 1). Fewer than 3 anchors: no gate
+    /// (infinite).
+    pub fn gate(&self) -> f64 {
+        if self.n == 0 {
+            return super::BIAS_GATE_D2;
+        }
+        if self.n < 3 {
+            return f64::INFINITY;
+        }
+        let n = self.n as f64;
+        let nu = n - 2.0;
+        let f = nu / 2.0 * ((1.0 - GATE_Q).powf(-2.0 / nu) - 1.0);
+        (n + 1.0) / n * 2.0 * (n - 1.0) / nu * f
+    }
+
     /// The 0.999 bound of `|b|` under this state (m): how far the search for candidates
-    /// must reach, `|μ| + sqrt(χ²₂(0.999) λ_max)`.
+    /// must reach, `|μ| + sqrt(gate · λ_max)`.
     pub fn reach(&self) -> f64 {
         let tr = self.sxx + self.syy;
         let det = self.sxx * self.syy - self.sxy * self.sxy;
         let lmax = tr / 2.0 + ((tr * tr / 4.0 - det).max(0.0)).sqrt();
-        self.mx.hypot(self.my) + (super::BIAS_GATE_D2 * lmax).sqrt()
+        self.mx.hypot(self.my) + (self.gate() * lmax).sqrt()
     }
 }
+
+/// The level of [`BiasState::gate`] (one wrong refusal in a thousand true pairs).
+pub const GATE_Q: f64 = 0.999;
 
 fn median(v: &mut [f64]) -> f64 {
     v.sort_by(f64::total_cmp);
@@ -212,4 +238,21 @@ mod tests {
         assert!((none.reach() - (BIAS_GATE_D2_TEST * 0.04f64).sqrt()).abs() < 1e-9);
     }
     const BIAS_GATE_D2_TEST: f64 = super::super::BIAS_GATE_D2;
+
+    #[test]
+    fn the_gate_widens_for_few_anchors_and_tends_to_chi2() {
+        let st = |n| BiasState { mx: 0.0, my: 0.0, sxx: 1e-2, sxy: 0.0, syy: 1e-2, n };
+        assert_eq!(BiasState::none(0.1).gate(), BIAS_GATE_D2_TEST);
+        // n = 8: F(2, 6; 0.999) = 3 (0.001^(-1/3) - 1) = 27; 9/8 * 14/6 * 27 = 70.875
+        assert!((st(8).gate() - 70.875).abs() < 1e-9, "{}", st(8).gate());
+        assert!(st(2).gate().is_infinite());
+        assert!((st(1_000_000).gate() - BIAS_GATE_D2_TEST).abs() < 1e-3);
+        let mut prev = f64::INFINITY;
+        for n in 3..500 {
+            let g = st(n).gate();
+            assert!(g < prev && g > BIAS_GATE_D2_TEST);
+            prev = g;
+        }
+    }
+
 }

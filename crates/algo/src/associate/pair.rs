@@ -19,8 +19,10 @@
 //!                                                 for every candidate of a camera pair and class)
 //! ```
 //!
-//! A pair is a **candidate** when `r_res ≤ r_gate` and `d² ≤ χ²₂(0.999)` ([`super::BIAS_GATE_D2`]).
-//! Hungarian maximises `score = n_eff (r_gate − r_res) + (χ²₂(0.999) − d²) / 2` (both margins, in
+//! A pair is a **candidate** when `r_res ≤ r_gate` and `d² ≤` the state's gate
+//! ([`BiasState::gate`]: `χ²₂(0.999)` for a state given, Hotelling's predictive bound for one
+//! estimated from few anchors).
+//! Hungarian maximises `score = n_eff (r_gate − r_res) + (gate − d²) / 2` (both margins, in
 //! log-likelihood units). A match is **clear** of a rival candidate of either track when it is
 //! [`RATIO`] times likelier ([`clear_of`]).
 //!
@@ -34,7 +36,7 @@
 //! O(1) per pair.
 
 use super::bias::BiasState;
-use super::{BIAS_GATE_D2, Z_999};
+use super::Z_999;
 
 /// The residual gate's allowance: an offset that varies along the common time (a car turning
 /// before two cameras, a ground-plane error left by the registration) by up to 0.71 σ_d RMS.
@@ -75,9 +77,12 @@ pub fn pair_evidence(msd: f64, dx: f64, dy: f64, sigma_d: f64, n_eff: f64, state
     let r_res = ((msd - dx * dx - dy * dy).max(0.0)) / (2.0 * s2);
     let r_gate = residual_gate(n);
     let d2 = state.d2(dx, dy, s2 / n);
+    let gate = state.gate();
     let nll = n * r_res + d2 / 2.0;
-    let score = n * (r_gate - r_res) + (BIAS_GATE_D2 - d2) / 2.0;
-    let candidate = r_res.is_finite() && r_res <= r_gate && d2 <= BIAS_GATE_D2;
+    // both margins in log-likelihood units (the offset's against the state's gate: every pair
+    // of a camera pair and class shares the state, so the gate moves their weights alike)
+    let score = n * (r_gate - r_res) + (gate - d2) / 2.0;
+    let candidate = r_res.is_finite() && r_res <= r_gate && d2 <= gate;
     PairEvidence { r_res, r_gate, d2, nll, score, candidate }
 }
 

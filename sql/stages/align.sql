@@ -6,7 +6,7 @@
 --       align_hypotheses(), align_vote(), align_scan_pass, align_hyp, align_best, align_widen(), align_retry,
 --       align_speed_scan, align_speed_votes, align_speed, align_hyp_wide, align_best_wide, align_support,
 --       align_refit(), align_drift_pairs, align_wls(), align_drift_obs, align_drift_fit1, align_drift_kept,
---       align_drift, align_support_voted, align_register_pairs, align_register, align_edges
+--       align_drift, align_support_voted, align_residuals(), align_register_pairs, align_register, align_edges
 -- changes: points, calibration
 -- parameters: align_agree_deg, align_agree_m, align_bin_deg, align_bin_m, align_bin_s, align_clock_step_s,
 --             align_max_clock_offset_s, align_max_hypotheses, align_min_overlap_s, align_min_pairs,
@@ -538,19 +538,22 @@ DELETE FROM align_pairs WHERE fit IS NULL;
 --    (neighbours walking side by side also move in parallel; the true pair is the closer). On
 --    the crowded shared intersection the voted pairs uncleaned read an offset spread of 0.4-0.6 m
 --    (wrong pairs) and moved the rotation by 0.36 deg.
-CREATE OR REPLACE TEMP TABLE align_register_pairs AS
+--    The residuals of a table of track pairs (cam_fixed, cam_moving, track_fixed, track_moving,
+--    traj_fixed, traj_moving) under their camera pair's fit in align_pairs when called: one row
+--    per point pair (ex, ey = fixed - transformed moving). calib_match below reads it too.
+CREATE OR REPLACE TEMP MACRO align_residuals(src) AS TABLE
 WITH c AS (
     SELECT s.cam_fixed, s.cam_moving, s.track_fixed, s.track_moving, a.fit,
            unnest(traj_correspond(s.traj_fixed, s.traj_moving, 0.5, a.fit.dt)) AS c
-    FROM align_support_voted s JOIN align_pairs a USING (cam_fixed, cam_moving)
-),
-e AS (
-    SELECT cam_fixed, cam_moving, track_fixed, track_moving, c.fx - q.x AS ex, c.fy - q.y AS ey
-    FROM (SELECT *, transform_point({'theta': fit.theta, 'tx': fit.tx, 'ty': fit.ty, 'scale': fit.scale}, c.mx, c.my) AS q FROM c)
-),
-r AS (
+    FROM query_table(src) s JOIN align_pairs a USING (cam_fixed, cam_moving)
+)
+SELECT cam_fixed, cam_moving, track_fixed, track_moving, c.fx - q.x AS ex, c.fy - q.y AS ey
+FROM (SELECT *, transform_point({'theta': fit.theta, 'tx': fit.tx, 'ty': fit.ty, 'scale': fit.scale}, c.mx, c.my) AS q FROM c);
+
+CREATE OR REPLACE TEMP TABLE align_register_pairs AS
+WITH r AS (
     SELECT cam_fixed, cam_moving, track_fixed, track_moving, sqrt(var_pop(ex) + var_pop(ey)) AS rms_own, count(*) AS n
-    FROM e GROUP BY ALL HAVING count(*) >= 3
+    FROM align_residuals('align_support_voted') GROUP BY ALL HAVING count(*) >= 3
 )
 SELECT r.cam_fixed, r.cam_moving, r.track_fixed, r.track_moving
 FROM r JOIN calibrated_values('align_refine_rms_m') g ON g.cam_a = least(r.cam_fixed, r.cam_moving) AND g.cam_b = greatest(r.cam_fixed, r.cam_moving)
@@ -586,15 +589,7 @@ FROM align_pairs p LEFT JOIN align_register r USING (cam_fixed, cam_moving);
 -- wrong pairs), and merge_epsilon = sigma_d sqrt(2 ln 100) = 3.03 sigma_d: 99% of a true pair's
 -- points fall within eps. Pairs of cameras without a direct fit use sqrt(sigma_a^2 + sigma_b^2).
 CREATE OR REPLACE TEMP TABLE calib_match AS
-WITH r AS (
-    SELECT s.cam_fixed, s.cam_moving, s.track_fixed, s.track_moving, a.fit,
-           unnest(traj_correspond(s.traj_fixed, s.traj_moving, 0.5, a.fit.dt)) AS c
-    FROM align_support s JOIN align_pairs a USING (cam_fixed, cam_moving)
-),
-e AS (
-    SELECT cam_fixed, cam_moving, track_fixed, track_moving, c.fx - q.x AS ex, c.fy - q.y AS ey
-    FROM (SELECT *, transform_point({'theta': fit.theta, 'tx': fit.tx, 'ty': fit.ty, 'scale': fit.scale}, c.mx, c.my) AS q FROM r)
-),
+WITH e AS (FROM align_residuals('align_support')),
 -- each track pair's own constant offset (issue 38: two cameras see different points of a road
 -- user, a viewpoint bias that stays while both see it): sigma_res is the noise about it
 b AS (

@@ -921,7 +921,7 @@ SELECT label, count(*) AS tracks FROM quality_labels GROUP BY label ORDER BY lab
 --       align_hypotheses(), align_vote(), align_scan_pass, align_hyp, align_best, align_widen(), align_retry,
 --       align_speed_scan, align_speed_votes, align_speed, align_hyp_wide, align_best_wide, align_support,
 --       align_refit(), align_drift_pairs, align_wls(), align_drift_obs, align_drift_fit1, align_drift_kept,
---       align_drift, align_support_voted, align_residuals(), align_register_pairs, align_register, align_edges
+--       align_drift, align_support_voted, align_residuals(), align_clean(), align_register_pairs, align_register, align_edges
 -- changes: points, calibration
 -- parameters: align_agree_deg, align_agree_m, align_bin_deg, align_bin_m, align_bin_s, align_clock_step_s,
 --             align_max_clock_offset_s, align_max_hypotheses, align_min_overlap_s, align_min_pairs,
@@ -1415,44 +1415,9 @@ WHERE d.cam_fixed = b.cam_fixed AND d.cam_moving = b.cam_moving AND d.drift <> 0
 
 CREATE OR REPLACE TEMP TABLE align_pairs AS FROM align_refit();
 
---    (the voted pairs, kept for register_pair below: it expects each pair's own constant offset,
---    which the second pass's RMS gate counts against a pair)
+--    (the voted pairs, kept for register_pair below: cleaned again under the second fit)
 CREATE OR REPLACE TEMP TABLE align_support_voted AS FROM align_support;
 
---    second pass: keep the track pairs whose own points sit within align_refine_rms_m RMS of that fit
---    (road users walking side by side agree with the vote to within a metre or two, but not
---    to 0.3 m), and refit on those: this is the final pre-match, transform and clock offset.
-CREATE OR REPLACE TEMP TABLE align_support AS
-SELECT s.*
-FROM align_support s JOIN align_pairs a USING (cam_fixed, cam_moving)
-JOIN calibrated_values('align_refine_rms_m') c ON c.cam_a = least(s.cam_fixed, s.cam_moving) AND c.cam_b = greatest(s.cam_fixed, s.cam_moving)
-WHERE a.fit IS NOT NULL
-  AND rigid_rms(traj_correspond(s.traj_fixed, s.traj_moving, 0.5, a.fit.dt),
-                {'theta': a.fit.theta, 'tx': a.fit.tx, 'ty': a.fit.ty, 'scale': a.fit.scale}) < c.value;
-
-CREATE OR REPLACE TEMP TABLE align_pairs AS FROM align_refit();
-
-DELETE FROM align_pairs WHERE fit IS NULL;
-
---    3c. the final registration when the cameras do not see the same point of a road user (issue
---    38; register_pair, crates/algo/src/align/register.rs, docs/alignment.md): the pooled fit
---    above treats a car seen from its front by one camera and from its back by the other as
---    noise, and its rotation and translation lean towards the class with the largest offsets.
---    register_pair takes rotation (and scale, only where the jackknife shows it at 5 standard
---    errors; Deming's fit with the cameras' noise ratio) from each track pair's points about the
---    pair's own means, over the voted pairs (before the second pass's gate), and the translation from
---    the pairs' offsets weighted by how much each class's offsets scatter. The clock offset
---    stays the pooled fit's (a per-pair offset absorbs a time shift along a straight road). The
---    pooled fit is kept in align_pairs.pooled (calibration.csv compares them).
---    The pairs: the voted ones (align_support_voted, before the second pass, whose RMS gate
---    about the pooled fit counts a pair's constant offset against it and so drops the biased
---    pairs: 5-10 pairs were left per camera pair on a scene with 1.5 m of car bias), cleaned the
---    same way about each pair's OWN offset: the RMS of its residuals about their mean under the
---    pooled fit within align_refine_rms_m, and one to one: a pair is kept only when it has the
---    smallest such residual of every voted pair of its fixed track and of its moving track
---    (neighbours walking side by side also move in parallel; the true pair is the closer). On
---    the crowded shared intersection the voted pairs uncleaned read an offset spread of 0.4-0.6 m
---    (wrong pairs) and moved the rotation by 0.36 deg.
 --    The residuals of a table of track pairs (cam_fixed, cam_moving, track_fixed, track_moving,
 --    traj_fixed, traj_moving) under their camera pair's fit in align_pairs when called: one row
 --    per point pair (ex, ey = fixed - transformed moving). calib_match below reads it too.
@@ -1465,10 +1430,17 @@ WITH c AS (
 SELECT cam_fixed, cam_moving, track_fixed, track_moving, c.fx - q.x AS ex, c.fy - q.y AS ey
 FROM (SELECT *, transform_point({'theta': fit.theta, 'tx': fit.tx, 'ty': fit.ty, 'scale': fit.scale}, c.mx, c.my) AS q FROM c);
 
-CREATE OR REPLACE TEMP TABLE align_register_pairs AS
+--    The voted pairs of src that are kept for a fit: each pair's residuals under its camera pair's
+--    current fit, taken about the pair's OWN mean (issue 38: two cameras see different points of
+--    a road user, a constant offset per track pair, 0.5-2 m for a car seen from its front and its
+--    back), within align_refine_rms_m RMS, and one to one: a pair is kept only when it has the
+--    smallest such residual of every voted pair of its fixed track and of its moving track
+--    (neighbours walking side by side also move in parallel, at a constant offset; the true pair
+--    is the closer). Pairs with fewer than 3 point pairs say nothing about their spread.
+CREATE OR REPLACE TEMP MACRO align_clean(src) AS TABLE
 WITH r AS (
-    SELECT cam_fixed, cam_moving, track_fixed, track_moving, sqrt(var_pop(ex) + var_pop(ey)) AS rms_own, count(*) AS n
-    FROM align_residuals('align_support_voted') GROUP BY ALL HAVING count(*) >= 3
+    SELECT cam_fixed, cam_moving, track_fixed, track_moving, sqrt(var_pop(ex) + var_pop(ey)) AS rms_own
+    FROM align_residuals(src) GROUP BY ALL HAVING count(*) >= 3
 )
 SELECT r.cam_fixed, r.cam_moving, r.track_fixed, r.track_moving
 FROM r JOIN calibrated_values('align_refine_rms_m') g ON g.cam_a = least(r.cam_fixed, r.cam_moving) AND g.cam_b = greatest(r.cam_fixed, r.cam_moving)
@@ -1476,12 +1448,65 @@ WHERE r.rms_own < g.value
 QUALIFY rms_own = min(rms_own) OVER (PARTITION BY r.cam_fixed, r.cam_moving, r.track_fixed)
     AND rms_own = min(rms_own) OVER (PARTITION BY r.cam_fixed, r.cam_moving, r.track_moving);
 
+--    second pass: keep the cleaned pairs (align_clean) and refit on those: this is the final
+--    pre-match and clock offset. It was an RMS gate about the first fit itself, which counts a
+--    pair's constant offset against it: with every car of one camera seen 1 m off (the camera
+--    sees all of them from behind) the first fit sat between the cars and the pedestrians, the
+--    gate kept 2 of 91 voted pairs, and the camera was left out of the common frame.
+--    And each kept pair's own offset must fit its class's (bias_fits against the bias_state of
+--    the class's cleaned pairs in this camera pair; a class of fewer than 5 pairs is not
+--    tested): on the shared intersection, pedestrians walking in twos passed the clean (each the
+--    other's closest) and, offset by their spacing, pulled the pooled clock 35-40 ms off (9-14
+--    ms with the old gate).
+CREATE OR REPLACE TEMP TABLE align_support AS
+WITH k AS (FROM align_clean('align_support')),
+o AS (
+    SELECT e.cam_fixed, e.cam_moving, e.track_fixed, e.track_moving, any_value(t.class) AS class,
+           avg(e.ex) AS dx, avg(e.ey) AS dy, (var_pop(e.ex) + var_pop(e.ey)) / 2 / count(*) AS se2
+    FROM align_residuals('align_support') e SEMI JOIN k USING (cam_fixed, cam_moving, track_fixed, track_moving)
+    JOIN align_tracks t ON t.camera = e.cam_fixed AND t.track_id = e.track_fixed
+    GROUP BY ALL
+),
+st AS (
+    SELECT cam_fixed, cam_moving, class, bias_state(list({'dx': dx, 'dy': dy, 'se2': se2} ORDER BY track_fixed, track_moving)) AS state
+    FROM o GROUP BY ALL
+)
+SELECT s.* FROM align_support s
+SEMI JOIN (SELECT o.* FROM o LEFT JOIN st ON st.cam_fixed = o.cam_fixed AND st.cam_moving = o.cam_moving AND st.class IS NOT DISTINCT FROM o.class
+           WHERE st.state IS NULL OR bias_fits(st.state, o.dx, o.dy, o.se2)) k
+  USING (cam_fixed, cam_moving, track_fixed, track_moving);
+
+CREATE OR REPLACE TEMP TABLE align_pairs AS FROM align_refit();
+
+DELETE FROM align_pairs WHERE fit IS NULL;
+
+--    3c. the final registration when the cameras do not see the same point of a road user (issue
+--    38; register_pair, crates/algo/src/align/register.rs, docs/alignment.md): the pooled fit
+--    above treats a car seen from its front by one camera and from its back by the other as
+--    noise, and its rotation and translation lean towards the class with the largest offsets.
+--    register_pair takes rotation (and scale, only where the jackknife shows it at 5 standard
+--    errors; Deming's fit with the cameras' noise ratio) from each track pair's points about the
+--    pair's own means, over the voted pairs cleaned under the second fit, and the translation from
+--    the pairs' offsets: each class its own mean offset (a camera that sees every car from
+--    behind), the classes' means combined as a random-effects meta-analysis. The clock offset is
+--    the same model's (register_clock.rs), searched within four vote bins of the pooled fit's: a
+--    time shift shows within pairs that turn or change speed and in the classes whose offsets
+--    scatter little, and no class's own offset moves it (the pooled fit was 61 ms off on a scene
+--    whose camera 1 saw every car 1 m off; this 0.x ms). Where its minimum lies on the search's
+--    edge the pooled offset stands. The pooled fit is kept in align_pairs.pooled (calibration.csv
+--    compares them).
+--    The pairs: the voted ones (align_support_voted), cleaned again (align_clean) under the
+--    second fit. On the crowded shared intersection the voted pairs uncleaned read an offset
+--    spread of 0.4-0.6 m (wrong pairs) and moved the rotation by 0.36 deg.
+CREATE OR REPLACE TEMP TABLE align_register_pairs AS FROM align_clean('align_support_voted');
+
 CREATE OR REPLACE TEMP TABLE align_register AS
 SELECT s.cam_fixed, s.cam_moving,
        register_pair(list(s.traj_fixed ORDER BY s.traj_fixed[1].t, s.traj_moving[1].t, s.track_fixed, s.track_moving),
                      list(s.traj_moving ORDER BY s.traj_fixed[1].t, s.traj_moving[1].t, s.track_fixed, s.track_moving),
                      list(c.code ORDER BY s.traj_fixed[1].t, s.traj_moving[1].t, s.track_fixed, s.track_moving),
-                     any_value(a.fit.dt), 0.5, getvariable('align_trim'), any_value(cf.sigma_m), any_value(cm.sigma_m)) AS reg
+                     any_value(a.fit.dt), 0.5, getvariable('align_trim'), any_value(cf.sigma_m), any_value(cm.sigma_m),
+                     4 * getvariable('align_bin_s'), getvariable('align_clock_step_s')) AS reg
 FROM align_support_voted s JOIN align_register_pairs USING (cam_fixed, cam_moving, track_fixed, track_moving)
 JOIN align_pairs a USING (cam_fixed, cam_moving)
 JOIN calib_cameras cf ON cf.camera = s.cam_fixed JOIN calib_cameras cm ON cm.camera = s.cam_moving
@@ -1492,7 +1517,7 @@ GROUP BY s.cam_fixed, s.cam_moving;
 
 CREATE OR REPLACE TEMP TABLE align_pairs AS
 SELECT p.* REPLACE (CASE WHEN r.reg IS NULL THEN p.fit
-                         ELSE {'dt': p.fit.dt, 'theta': r.reg.theta, 'tx': r.reg.tx, 'ty': r.reg.ty, 'scale': r.reg.scale,
+                         ELSE {'dt': r.reg.dt, 'theta': r.reg.theta, 'tx': r.reg.tx, 'ty': r.reg.ty, 'scale': r.reg.scale,
                                'rms': p.fit.rms, 'n': p.fit.n} END AS fit),
        p.fit AS pooled, r.reg
 FROM align_pairs p LEFT JOIN align_register r USING (cam_fixed, cam_moving);
@@ -1628,8 +1653,11 @@ FROM align_pairs p,
                      ('registration pairs', p.reg.pairs_used, '', 'track pairs in the translation (of ' || p.reg.pairs || ')')) q(quantity, value, unit, how)
 WHERE p.reg IS NOT NULL
 UNION ALL
-SELECT 'cameras ' || least(p.cam_fixed, p.cam_moving) || '-' || greatest(p.cam_fixed, p.cam_moving), 'clock offset se', o.offset_se, 's',
-       'jackknife over 8 blocks of the track pairs'' own offsets (rigid_shift_under), or 1/sqrt(sum of weights) when larger; NULL: too few pairs to tell'
+SELECT 'cameras ' || least(p.cam_fixed, p.cam_moving) || '-' || greatest(p.cam_fixed, p.cam_moving), 'clock offset se',
+       CASE WHEN p.reg.dt_moved THEN greatest(o.offset_se, p.reg.se_dt) ELSE o.offset_se END, 's',
+       'the jackknife over 8 blocks of the track pairs'' own offsets (rigid_shift_under), or 1/sqrt(sum of weights) when larger; '
+       || 'where the registration moved the offset (one class seen off by one camera): the larger of that and the registration''s '
+       || 'jackknife over 16 blocks (register_pair); NULL: too few pairs to tell'
 FROM align_pairs p LEFT JOIN align_offset_se o USING (cam_fixed, cam_moving)
 UNION ALL
 SELECT 'cameras ' || m.cam_a || '-' || m.cam_b, q.quantity, q.value, q.unit, q.how
@@ -1966,8 +1994,12 @@ LEFT JOIN m ON m.c.a = e.q.a AND m.c.b = e.q.b;
 -- distribution of the constant offsets between the two cameras' views of one road user, from
 -- its unambiguous matches: candidates whose residual about their own offset is noise
 -- (pair_evidence with no bias prior) and that are the only such candidate of both their tracks
--- in the camera pair. The class's own state when it has 5 such matches, else the camera pair's
--- over every class, else 'no bias' (sigma_d^2 I: the tolerance before issue 38).
+-- in the camera pair. The class's own state when it has 5 such matches; else the states of the
+-- camera pair's other classes combined (bias_state_between: as wide as the classes differ; the
+-- robust state of every class's anchors pooled is the largest class's mode, and three heavy
+-- vehicles took the cars' state when one camera saw every car 1 m off); else the camera pair's
+-- anchors of every class (one class with a state); else 'no bias' (sigma_d^2 I: the tolerance
+-- before issue 38).
 CREATE OR REPLACE TEMP TABLE merge_bias AS
 WITH r AS (
     SELECT *, pair_evidence(msd, dx, dy, sigma_res_m, n_eff, bias_state_none(1e3)) AS e0
@@ -1987,12 +2019,18 @@ by_class AS (
 pooled AS (
     SELECT camera_a, camera_b, bias_state(list({'dx': dx, 'dy': dy, 'se2': sigma_res_m ** 2 / n_eff})) AS state
     FROM anchors GROUP BY ALL
+),
+between AS (
+    SELECT camera_a, camera_b, bias_state_between(list(state ORDER BY class)) AS state
+    FROM by_class WHERE state IS NOT NULL GROUP BY ALL
 )
 SELECT p.camera_a, p.camera_b, p.class,
-       coalesce(c.state, o.state, bias_state_none(p.sigma_res_m)) AS state,
-       CASE WHEN c.state IS NOT NULL THEN 'class' WHEN o.state IS NOT NULL THEN 'camera pair' ELSE 'none' END AS source
+       coalesce(c.state, w.state, o.state, bias_state_none(p.sigma_res_m)) AS state,
+       CASE WHEN c.state IS NOT NULL THEN 'class' WHEN w.state IS NOT NULL THEN 'classes'
+            WHEN o.state IS NOT NULL THEN 'camera pair' ELSE 'none' END AS source
 FROM pairs p
 LEFT JOIN by_class c USING (camera_a, camera_b, class)
+LEFT JOIN between w USING (camera_a, camera_b)
 LEFT JOIN pooled o USING (camera_a, camera_b);
 
 -- the evidence of every candidate against its camera pair's bias state (pair_evidence)

@@ -79,6 +79,11 @@ VIEWS = [
      "SELECT * REPLACE (CASE WHEN camera = (SELECT max(camera) FROM base) THEN c.cx + 1.01 * (x - c.cx) ELSE x END AS x, "
      "CASE WHEN camera = (SELECT max(camera) FROM base) THEN c.cy + 1.01 * (y - c.cy) ELSE y END AS y) "
      "FROM base, (SELECT avg(x) AS cx, avg(y) AS cy FROM base WHERE camera = (SELECT max(camera) FROM base)) c"),
+    # every car of one camera 1 m off along its x axis (that camera sees every car from behind):
+    # the second pass's RMS gate about the pooled fit dropped 89 of 91 voted pairs and the camera
+    # was left out of the common frame (2.4 % of road users the same, issue 38's session 3)
+    ("every car of one camera seen 1 m off along its x axis",
+     "SELECT * REPLACE (CASE WHEN camera = (SELECT max(camera) FROM base) AND class = 'car' THEN x + 1.0 ELSE x END AS x) FROM base"),
 ]
 # measured, not asserted (docs/association.md, issue 38's note): an offset in a random direction
 # per track, which makes two views of one pedestrian differ by up to 0.6 m in any direction

@@ -158,8 +158,12 @@ LEFT JOIN m ON m.c.a = e.q.a AND m.c.b = e.q.b;
 -- distribution of the constant offsets between the two cameras' views of one road user, from
 -- its unambiguous matches: candidates whose residual about their own offset is noise
 -- (pair_evidence with no bias prior) and that are the only such candidate of both their tracks
--- in the camera pair. The class's own state when it has 5 such matches, else the camera pair's
--- over every class, else 'no bias' (sigma_d^2 I: the tolerance before issue 38).
+-- in the camera pair. The class's own state when it has 5 such matches; else the states of the
+-- camera pair's other classes combined (bias_state_between: as wide as the classes differ; the
+-- robust state of every class's anchors pooled is the largest class's mode, and three heavy
+-- vehicles took the cars' state when one camera saw every car 1 m off); else the camera pair's
+-- anchors of every class (one class with a state); else 'no bias' (sigma_d^2 I: the tolerance
+-- before issue 38).
 CREATE OR REPLACE TEMP TABLE merge_bias AS
 WITH r AS (
     SELECT *, pair_evidence(msd, dx, dy, sigma_res_m, n_eff, bias_state_none(1e3)) AS e0
@@ -179,12 +183,18 @@ by_class AS (
 pooled AS (
     SELECT camera_a, camera_b, bias_state(list({'dx': dx, 'dy': dy, 'se2': sigma_res_m ** 2 / n_eff})) AS state
     FROM anchors GROUP BY ALL
+),
+between AS (
+    SELECT camera_a, camera_b, bias_state_between(list(state ORDER BY class)) AS state
+    FROM by_class WHERE state IS NOT NULL GROUP BY ALL
 )
 SELECT p.camera_a, p.camera_b, p.class,
-       coalesce(c.state, o.state, bias_state_none(p.sigma_res_m)) AS state,
-       CASE WHEN c.state IS NOT NULL THEN 'class' WHEN o.state IS NOT NULL THEN 'camera pair' ELSE 'none' END AS source
+       coalesce(c.state, w.state, o.state, bias_state_none(p.sigma_res_m)) AS state,
+       CASE WHEN c.state IS NOT NULL THEN 'class' WHEN w.state IS NOT NULL THEN 'classes'
+            WHEN o.state IS NOT NULL THEN 'camera pair' ELSE 'none' END AS source
 FROM pairs p
 LEFT JOIN by_class c USING (camera_a, camera_b, class)
+LEFT JOIN between w USING (camera_a, camera_b)
 LEFT JOIN pooled o USING (camera_a, camera_b);
 
 -- the evidence of every candidate against its camera pair's bias state (pair_evidence)

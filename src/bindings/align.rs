@@ -275,8 +275,12 @@ pub static FUNCTIONS: &[Function] = &[
                       consecutive blocks of pairs), else scale = 1. The translation is the mean of the pairs' offsets weighted by \
                       1 / (tau_c² + the variance of the pair's mean), tau_c the robust spread of class c's offsets, refitted without \
                       the pairs beyond chi2(2) at 0.999. class_codes: one integer per pair (its class; only equality counts). Every \
-                      parameter has a standard error (se_*). The clock offset dt is given (rigid_fit_shifted's). NULL when fewer than \
-                      2 pairs have 3 point pairs. sigma_fixed, sigma_moving: the cameras' position noise (m), whose ratio Deming's scale needs (the \
+                      parameter has a standard error (se_*). The clock offset: dt as given (rigid_fit_shifted's; se_dt NULL) or, with \
+                      max_shift and step, the minimum over dt ± max_shift (grid of step) of the same model's objective with each class \
+                      its own mean offset (crates/algo/src/align/register_clock.rs: a time shift is seen within pairs that turn or change \
+                      speed and in the classes whose offsets scatter little, and one class seen off by one camera does not move it), its \
+                      jackknife se_dt, and dt_at_edge when the minimum is on the grid's edge; the given dt stands unless the model's differs \
+                      by more than 3 se_dt (Hausman's rule; dt_moved says which). NULL when fewer than 2 pairs have 3 point pairs. sigma_fixed, sigma_moving: the cameras' position noise (m), whose ratio Deming's scale needs (the \
                       least-squares scale is diluted by the moving view's noise); default 0 and 0: the symmetric fit. Aggregate with list(), \
                       in the order of the recording.",
         example: "SELECT round(register_pair([[{'t':0,'x':0,'y':0},{'t':1,'x':1,'y':0},{'t':2,'x':2,'y':1}], [{'t':0,'x':5,'y':5},{'t':1,'x':5,'y':6},{'t':2,'x':6,'y':8}]], [[{'t':0,'x':1,'y':0},{'t':1,'x':2,'y':0},{'t':2,'x':3,'y':1}], [{'t':0,'x':6,'y':5},{'t':1,'x':6,'y':6},{'t':2,'x':7,'y':8}]], [1, 1], 0.0).tx, 6); -- -1.0",
@@ -292,9 +296,15 @@ pub static FUNCTIONS: &[Function] = &[
                 p("trim", Ty::Double),
                 p("sigma_fixed", Ty::Double),
                 p("sigma_moving", Ty::Double),
+                p("max_shift", Ty::Double),
+                p("step", Ty::Double),
             ],
-            arities: &[4, 5, 6, 8],
+            arities: &[4, 5, 6, 8, 10],
             returns: Ty::Struct(&[
+                ("dt", Ty::Double),
+                ("se_dt", Ty::Double),
+                ("dt_at_edge", Ty::Boolean),
+                ("dt_moved", Ty::Boolean),
                 ("theta", Ty::Double),
                 ("tx", Ty::Double),
                 ("ty", Ty::Double),
@@ -632,10 +642,16 @@ fn activity_lag(a: &Args<'_>, out: &mut Out<'_>) -> R {
 fn register_pair(a: &Args<'_>, out: &mut Out<'_>) -> R {
     use crate::algo::align::register;
     let (fixed, moving, codes, dt, gap, trim) = (a.traj_list(0), a.traj_list(1), a.i64_list(2), a.double(3), a.opt_double(4), a.opt_double(5));
-    let (sf, sm) = (a.opt_double(6), a.opt_double(7));
+    let (sf, sm, max_shift, step) = (a.opt_double(6), a.opt_double(7), a.opt_double(8), a.opt_double(9));
+    let scanning = a.given(8);
     let vals = a.par_map(|r| {
         let (Some(f), Some(m), Some(c), Some(dt)) = (fixed.get(r)?, moving.get(r)?, codes.get(r)?, dt.get(r)) else { return Ok(None) };
         let (Some(g), Some(trim), Some(sf), Some(sm)) = (gap.or(r, 0.5), trim.or(r, 0.1), sf.or(r, 0.0), sm.or(r, 0.0)) else { return Ok(None) };
+        // max_shift and step: both or neither (arity 10 gives both; a NULL in either: NULL)
+        let scan = match (max_shift.or(r, 0.0), step.or(r, 1.0)) {
+            (Some(h), Some(s)) => scanning.then(|| shift::ShiftGrid::new(dt, h, s)).transpose()?,
+            _ => return Ok(None),
+        };
         // class codes -> dense indices (only equality counts)
         let mut uniq: Vec<i64> = c.to_vec();
         uniq.sort_unstable();
@@ -645,9 +661,20 @@ fn register_pair(a: &Args<'_>, out: &mut Out<'_>) -> R {
         if pairs.len() != cls.len() {
             return Err(format!("class_codes must list one code per track pair, got {} codes for {} pairs", cls.len(), pairs.len()).into());
         }
-        let Some(g) = register::register(&pairs, &cls, dt, g, trim, shift::Noise::new(sf, sm)?)? else { return Ok(None) };
+        let noise = shift::Noise::new(sf, sm)?;
+        let (g, dt, se_dt, edge, moved) = match scan {
+            None => match register::register(&pairs, &cls, dt, g, trim, noise)? {
+                Some(reg) => (reg, dt, None, false, false),
+                None => return Ok(None),
+            },
+            Some(grid) => match crate::algo::align::register_clock::register_clock(&pairs, &cls, &grid, g, trim, noise)? {
+                Some(c) => (c.registration, c.dt, Some(c.se_dt), c.at_edge, c.moved),
+                None => return Ok(None),
+            },
+        };
         let t = g.transform;
-        let mut v: Vec<Value> = [t.theta, t.tx, t.ty, t.scale, g.scale_fit, g.se_theta, g.se_tx, g.se_ty, g.se_scale].map(Value::F64).to_vec();
+        let mut v: Vec<Value> = vec![Value::F64(dt), se_dt.map_or(Value::Null, Value::F64), Value::Bool(edge), Value::Bool(moved)];
+        v.extend([t.theta, t.tx, t.ty, t.scale, g.scale_fit, g.se_theta, g.se_tx, g.se_ty, g.se_scale].map(Value::F64));
         v.push(Value::Bool(g.scale_significant));
         v.push(Value::I64(g.pairs_used as i64));
         v.push(Value::I64(g.pairs as i64));

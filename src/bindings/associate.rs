@@ -30,6 +30,36 @@ pub static FUNCTIONS: &[Function] = &[
         table: None,
     },
     Function {
+        name: "bias_state_between",
+        description: "The bias state of a class with too few unambiguous matches for its own (docs/association.md, issue 38), from the \
+                      states of the camera pair's other classes: the mean of their means, and the mean of their covariances plus the \
+                      sample covariance of their means (classes that differ, such as cars seen from behind and pedestrians, widen it to \
+                      cover them all); n = their anchors together. NULL with fewer than 2 finite states (the caller falls back). O(C).",
+        example: "SELECT bias_state_between([{'mx': 1.0, 'my': 0.0, 'sxx': 0.01, 'sxy': 0.0, 'syy': 0.01, 'n': 40}, {'mx': 0.0, 'my': 0.0, 'sxx': 0.01, 'sxy': 0.0, 'syy': 0.01, 'n': 15}]).sxx; -- 0.51",
+        maths: "crates/algo/src/associate/bias_between.rs",
+        binding: file!(),
+        signatures: &[Signature { params: &[p("states", Ty::List(&STATE))], arities: &[], returns: STATE, kernel: bias_state_between }],
+        table: None,
+    },
+    Function {
+        name: "bias_fits",
+        description: "Whether an offset (dx, dy; m) measured with variance se2 per axis (m²) belongs to a bias state: its squared \
+                      Mahalanobis distance (b - mean)ᵀ (Σ + se2 I)⁻¹ (b - mean) is within the state's gate (chi2(2) at 0.999 for \
+                      bias_state_none, Hotelling's predictive bound for a state of n anchors; docs/association.md). align.sql's second \
+                      pass keeps the track pairs whose offset fits their class's state (two road users side by side do not). \
+                      NULL for NULL; a negative or non-finite se2 counts as 0.",
+        example: "SELECT bias_fits(bias_state_none(0.2), 0.3, 0.0, 0.0); -- true",
+        maths: "crates/algo/src/associate/bias.rs",
+        binding: file!(),
+        signatures: &[Signature {
+            params: &[p("state", STATE), p("dx", Ty::Double), p("dy", Ty::Double), p("se2", Ty::Double)],
+            arities: &[],
+            returns: Ty::Boolean,
+            kernel: bias_fits,
+        }],
+        table: None,
+    },
+    Function {
         name: "bias_state_none",
         description: "The bias state of 'no bias': mean 0 and covariance sigma_d² I (at least 1 cm²), the tolerance of a constant offset \
                       the association had before issue 38; for a camera pair without 5 unambiguous matches.",
@@ -119,6 +149,29 @@ fn bias_state(a: &Args<'_>, out: &mut Out<'_>) -> R {
         Ok(bias::bias_state(&v).map(|s| state_values(&s)))
     })?;
     out.structs(&vals);
+    Ok(())
+}
+
+fn bias_state_between(a: &Args<'_>, out: &mut Out<'_>) -> R {
+    let states = a.struct_list(0);
+    let vals = a.map(|r| {
+        let Some(c) = states.get(r)? else { return Ok(None) };
+        let (mx, my, sxx, sxy, syy, n) = (c.f64(0), c.f64(1), c.f64(2), c.f64(3), c.f64(4), c.i64(5));
+        let v: Vec<BiasState> = (0..c.len()).map(|k| BiasState { mx: mx[k], my: my[k], sxx: sxx[k], sxy: sxy[k], syy: syy[k], n: n[k].max(0) as usize }).collect();
+        Ok(crate::algo::associate::bias_between::bias_state_between(&v).map(|s| state_values(&s)))
+    })?;
+    out.structs(&vals);
+    Ok(())
+}
+
+fn bias_fits(a: &Args<'_>, out: &mut Out<'_>) -> R {
+    let (st, dx, dy, se2) = (a.structure(0), a.double(1), a.double(2), a.double(3));
+    let vals = a.map(|r| {
+        let (Some(s), Some(dx), Some(dy), Some(se2)) = (st.get(r)?, dx.get(r), dy.get(r), se2.get(r)) else { return Ok(None) };
+        let state = BiasState { mx: s[0], my: s[1], sxx: s[2], sxy: s[3], syy: s[4], n: s[5].max(0.0) as usize };
+        Ok(Some(state.d2(dx, dy, se2) <= state.gate()))
+    })?;
+    out.flat(&vals);
     Ok(())
 }
 

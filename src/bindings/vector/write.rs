@@ -10,6 +10,8 @@ pub enum Value {
     F64(f64),
     I64(i64),
     Bool(bool),
+    /// a NULL field of a non-NULL row
+    Null,
 }
 
 /// One field of a `LIST(STRUCT)` result row: the field's values for every element of the list.
@@ -112,6 +114,7 @@ impl<'a> Out<'a> {
                         Value::F64(x) => c.as_mut_slice_with_len::<f64>(n)[row] = x,
                         Value::I64(x) => c.as_mut_slice_with_len::<i64>(n)[row] = x,
                         Value::Bool(x) => c.as_mut_slice_with_len::<bool>(n)[row] = x,
+                        Value::Null => c.set_null(row),
                     }
                 }
             }

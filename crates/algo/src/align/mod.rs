@@ -8,6 +8,7 @@
 //! | [`shift`] | `rigid_fit_scan`, `rigid_fit_shifted` | clock offsets: the fit of a track pair at every time shift (a Hough line), and the joint fit of many pairs with the best shift |
 //! | [`xcorr`] | `activity_lag` | the coarse clock offset of two cameras over every lag: cross-correlation of their activity (FFT, [`fft`]) |
 //! | [`register`] | `register_pair` | the final registration when cameras see different points of a road user: rotation and scale within each track pair, translation weighted by each class's offset spread, standard errors by the jackknife |
+//! | [`register_clock`] | `register_pair` (with `max_shift`) | the clock offset under that model: each class its own mean offset, a time shift seen within pairs (turns, speed changes) and in the classes whose offsets scatter little |
 //! | [`shift_under`] | `rigid_shift_under` | the clock offset of one track pair under a known transform (align.sql's drift measurement) |
 //! | [`speed_lag`] | `speed_lag` | the clock offset of one track pair from their speed profiles (frame-free): align.sql's second coarse offset where the activity peak was too far off |
 //! | [`twin`] | `camera_twin` | is one camera the other exported twice (the load's twin check, sql/pipeline.sql) |
@@ -17,6 +18,7 @@
 pub mod correspond;
 pub mod msd;
 pub mod register;
+pub mod register_clock;
 pub mod cpd;
 pub mod fft;
 pub mod cpd3;

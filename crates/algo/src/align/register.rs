@@ -91,6 +91,8 @@ pub struct Registration {
     pub rms: f64,
     /// The largest spread of a class's offsets, τ (m, per axis).
     pub tau_max: f64,
+    /// τ² per class (m², per axis; index = the class label's rank among the labels given).
+    pub tau2: Vec<f64>,
 }
 
 struct PairPoints {
@@ -332,82 +334,106 @@ fn pair_weights(off: &[Offset], tau2: &[f64]) -> Vec<f64> {
     off.iter().map(|o| sigma2 / (tau2[o.cls as usize] + o.v)).collect()
 }
 
+/// Each class's mean offset `μ_c` (index = class; `None` for a class without pairs), over the
+/// pairs not in block `skip`: weighted by `w`, then again without the pairs beyond
+/// [`OUTLIER_D2`] of the first mean in their own spread (`τ²_c + v_k`). A class of road users
+/// that one camera sees all from one side (every car from behind on a one-way road) has its own
+/// mean; judged against one mean of all classes, every pair of it was an outlier (or, when it
+/// weighed most, every pedestrian was) and the fit was left with no pairs.
+fn class_means(off: &[Offset], w: &[f64], tau2: &[f64], skip: Option<usize>) -> Vec<Option<[f64; 2]>> {
+    let ncls = off.iter().map(|o| o.cls as usize + 1).max().unwrap_or(0);
+    let means = |keep: &dyn Fn(&Offset) -> bool| {
+        let mut acc = vec![[0.0f64; 3]; ncls];
+        for (o, &q) in off.iter().zip(w).filter(|(o, _)| Some(o.block) != skip && keep(o)) {
+            let a = &mut acc[o.cls as usize];
+            a[0] += q;
+            a[1] += q * o.d[0];
+            a[2] += q * o.d[1];
+        }
+        acc.iter().map(|a| (a[0] > 0.0).then(|| [a[1] / a[0], a[2] / a[0]])).collect::<Vec<_>>()
+    };
+    let first = means(&|_| true);
+    let second = means(&|o| d2_class(o, &first, tau2) <= OUTLIER_D2);
+    second.iter().zip(&first).map(|(a, b)| a.or(*b)).collect()
+}
+
+/// A pair's squared distance from its class's mean offset, in its own spread `τ²_c + v_k`.
+fn d2_class(o: &Offset, mu: &[Option<[f64; 2]>], tau2: &[f64]) -> f64 {
+    let spread = tau2.get(o.cls as usize).copied().unwrap_or(0.0) + o.v;
+    mu.get(o.cls as usize).copied().flatten().map_or(0.0, |m| ((o.d[0] - m[0]).powi(2) + (o.d[1] - m[1]).powi(2)) / spread)
+}
+
 /// The points of the fit: `keep`, without the pairs whose offset lies beyond [`OUTLIER_D2`] of
-/// the weighted mean offset in their own spread (`τ²_c + v_k`): a pair offset that much more
+/// their class's mean offset in their own spread (`τ²_c + v_k`): a pair offset that much more
 /// than its class's pairs is two road users (neighbours walking side by side), not two views of
 /// one, and its points would bend the rotation (0.11 deg on the shared intersection).
 fn without_outliers(pp: &PairPoints, keep: &[bool], off: &[Offset], w: &[f64], tau2: &[f64]) -> Vec<bool> {
-    let (mut s, mut x, mut y) = (0.0, 0.0, 0.0);
-    for (o, &q) in off.iter().zip(w) {
-        s += q;
-        x += q * o.d[0];
-        y += q * o.d[1];
-    }
-    if !(s > 0.0) {
-        return keep.to_vec();
-    }
+    let mu = class_means(off, w, tau2, None);
     let mut bad = vec![false; pp.means.len()];
     for o in off {
-        let spread = tau2.get(o.cls as usize).copied().unwrap_or(0.0) + o.v;
-        bad[o.id] = ((o.d[0] - x / s).powi(2) + (o.d[1] - y / s).powi(2)) / spread > OUTLIER_D2;
+        bad[o.id] = d2_class(o, &mu, tau2) > OUTLIER_D2;
     }
     keep.iter().zip(&pp.k).map(|(&k, &id)| k && !bad[id]).collect()
 }
 
 /// The between-pairs part of the fit ([`fit_masked`]): every pair's kept means, without the
-/// block `skip` and without the pairs whose offset lies beyond [`OUTLIER_D2`] of the weighted
-/// mean offset (in the pair's own spread), centred on their weighted means.
+/// block `skip` and without the pairs beyond [`OUTLIER_D2`] of their class's mean offset (in
+/// the pair's own spread), centred on their class's weighted means (each class its own
+/// offset, [`class_means`]; the spatial spread of a class's pairs is what pins the rotation).
 fn between_part(off: &[Offset], w: &[f64], tau2: &[f64], skip: Option<usize>) -> Vec<([f64; 2], [f64; 2], f64)> {
-    let mean_d = {
-        let (mut s, mut x, mut y) = (0.0, 0.0, 0.0);
-        for (o, &q) in off.iter().zip(w).filter(|(o, _)| Some(o.block) != skip) {
-            s += q;
-            x += q * o.d[0];
-            y += q * o.d[1];
-        }
-        if s > 0.0 { [x / s, y / s] } else { [0.0, 0.0] }
-    };
-    let ok = |o: &Offset| {
-        let spread = tau2.get(o.cls as usize).copied().unwrap_or(0.0) + o.v;
-        Some(o.block) != skip && ((o.d[0] - mean_d[0]).powi(2) + (o.d[1] - mean_d[1]).powi(2)) / spread <= OUTLIER_D2
-    };
-    let (mut s, mut fc, mut mc) = (0.0, [0.0; 2], [0.0; 2]);
+    let mu = class_means(off, w, tau2, skip);
+    let ok = |o: &Offset| Some(o.block) != skip && d2_class(o, &mu, tau2) <= OUTLIER_D2;
+    let ncls = mu.len();
+    let mut acc = vec![[0.0f64; 5]; ncls];
     for (o, &q) in off.iter().zip(w).filter(|(o, _)| ok(o)) {
-        s += q;
-        for ax in 0..2 {
-            fc[ax] += q * o.f[ax];
-            mc[ax] += q * o.m[ax];
-        }
-    }
-    if !(s > 0.0) {
-        return Vec::new();
+        let a = &mut acc[o.cls as usize];
+        a[0] += q;
+        a[1] += q * o.f[0];
+        a[2] += q * o.f[1];
+        a[3] += q * o.m[0];
+        a[4] += q * o.m[1];
     }
     off.iter()
         .zip(w)
-        .filter(|(o, _)| ok(o))
-        .map(|(o, &q)| ([o.f[0] - fc[0] / s, o.f[1] - fc[1] / s], [o.m[0] - mc[0] / s, o.m[1] - mc[1] / s], q))
+        .filter(|(o, _)| ok(o) && acc[o.cls as usize][0] > 0.0)
+        .map(|(o, &q)| {
+            let a = acc[o.cls as usize];
+            ([o.f[0] - a[1] / a[0], o.f[1] - a[2] / a[0]], [o.m[0] - a[3] / a[0], o.m[1] - a[4] / a[0]], q)
+        })
         .collect()
 }
 
-/// The weighted mean of the offsets, refitted once without the outliers; `None` when no pair.
+/// The translation: each class's mean offset `μ_c` ([`class_means`], weights `1 / (τ²_c + v_k)`,
+/// variance `V_c = 1 / Σ w` per axis), combined as a random-effects meta-analysis
+/// (DerSimonian–Laird): the classes' means scatter about `T` with a variance κ² (where each
+/// camera sees a car against where it sees a pedestrian), estimated from Cochran's
+/// `Q = Σ |μ_c − μ̄|² / V_c` over both axes as `max(0, (Q − 2(C − 1)) / (2(Σ W − Σ W² / Σ W)))`,
+/// and `T = Σ μ_c / (V_c + κ²) / Σ 1 / (V_c + κ²)`. Classes that agree (a drone's view) weigh by
+/// their precision, as one pooled mean; classes that do not weigh alike, so that no class's
+/// systematic offset (every car of one camera seen from behind, all offsets equal, τ ≈ 0) takes
+/// the whole translation. Returns `T`, `Σ 1 / (V_c + κ²)` and the pairs used; `None` when no pair.
 fn translation(off: &[Offset], tau2: &[f64], skip_block: Option<usize>) -> Option<([f64; 2], f64, usize)> {
-    let w = |o: &Offset| 1.0 / (tau2[o.cls as usize] + o.v);
-    let mean = |keep: &dyn Fn(&Offset) -> bool| {
-        let (mut s, mut sx, mut sy, mut n) = (0.0, 0.0, 0.0, 0usize);
-        for o in off.iter().filter(|o| Some(o.block) != skip_block && keep(o)) {
-            let q = w(o);
-            s += q;
-            sx += q * o.d[0];
-            sy += q * o.d[1];
-            n += 1;
-        }
-        (s > 0.0).then(|| ([sx / s, sy / s], s, n))
-    };
-    let all = mean(&|_| true)?;
-    let t0 = all.0;
-    let inlier = |o: &Offset| w(o) * ((o.d[0] - t0[0]).powi(2) + (o.d[1] - t0[1]).powi(2)) <= OUTLIER_D2;
-    // every pair an outlier (their offsets scatter far beyond the spread measured): all of them
-    mean(&inlier).or(Some(all))
+    let w: Vec<f64> = off.iter().map(|o| 1.0 / (tau2[o.cls as usize] + o.v)).collect();
+    let mu = class_means(off, &w, tau2, skip_block);
+    let mut per = vec![(0.0f64, 0usize); mu.len()];
+    for (o, &q) in off.iter().zip(&w).filter(|(o, _)| Some(o.block) != skip_block && d2_class(o, &mu, tau2) <= OUTLIER_D2) {
+        per[o.cls as usize].0 += q;
+        per[o.cls as usize].1 += 1;
+    }
+    let classes: Vec<([f64; 2], f64, usize)> = mu.iter().zip(&per).filter_map(|(m, &(sw, n))| m.filter(|_| sw > 0.0).map(|m| (m, 1.0 / sw, n))).collect();
+    if classes.is_empty() {
+        return None;
+    }
+    let sw: f64 = classes.iter().map(|c| 1.0 / c.1).sum();
+    let sw2: f64 = classes.iter().map(|c| 1.0 / (c.1 * c.1)).sum();
+    let fixed = [0, 1].map(|ax| classes.iter().map(|c| c.0[ax] / c.1).sum::<f64>() / sw);
+    let q: f64 = classes.iter().map(|c| ((c.0[0] - fixed[0]).powi(2) + (c.0[1] - fixed[1]).powi(2)) / c.1).sum();
+    let df = 2.0 * (classes.len() as f64 - 1.0);
+    let den = 2.0 * (sw - sw2 / sw);
+    let kappa2 = if den > 0.0 { ((q - df) / den).max(0.0) } else { 0.0 };
+    let sw_re: f64 = classes.iter().map(|c| 1.0 / (c.1 + kappa2)).sum();
+    let t = [0, 1].map(|ax| classes.iter().map(|c| c.0[ax] / (c.1 + kappa2)).sum::<f64>() / sw_re);
+    Some((t, sw_re, classes.iter().map(|c| c.2).sum()))
 }
 
 /// See the module docs. `tracks[k]` is a (fixed, moving) track pair of class `classes[k]` (any
@@ -528,6 +554,7 @@ pub fn register(tracks: &[(Traj<'_>, Traj<'_>)], classes: &[u32], dt: f64, max_g
         pairs: pp.means.len(),
         rms: if n > 0 { (ss / n as f64).sqrt() } else { f64::NAN },
         tau_max: tau2.iter().copied().fold(0.0, f64::max).sqrt(),
+        tau2,
     }))
 }
 

@@ -12,8 +12,10 @@
 //! |---|---|---|
 //! | [`pair`] | `pair_evidence` | a candidate's offset, residual, gates and negative log-likelihood |
 //! | [`bias`] | `bias_state` | a camera pair's (and class's) offset distribution, robustly |
+//! | [`bias_between`] | `bias_state_between` | the state of a class without enough anchors, from the other classes' states |
 
 pub mod bias;
+pub mod bias_between;
 pub mod pair;
 
 /// The 0.999 quantile of chi-square with 2 degrees of freedom, `−2 ln 0.001`: the gate of an

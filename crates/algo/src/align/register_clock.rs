@@ -90,8 +90,10 @@ struct Cell {
 }
 
 /// See the module docs. Arguments as [`register::register`], with the grid of shifts in place
-/// of one `dt`; `None` when `register` gives none at the grid's centre or no pair has point
-/// pairs at every shift.
+/// of one `dt`; `None` when `register` gives none at the grid's centre; when no pair has point
+/// pairs at every shift, the centre's registration with an infinite `se_dt`. When the minimum
+/// lies on the grid's edge, `dt` is the grid's centre and the registration is at it (`at_edge`
+/// says so).
 pub fn register_clock(tracks: &[(Traj<'_>, Traj<'_>)], classes: &[u32], grid: &ShiftGrid, max_gap: f64, trim: f64, noise: Noise) -> Result<Option<ClockRegistration>, ShiftError> {
     let max_gap = positive_or_inf("max_gap", max_gap)?;
     let points: u128 = tracks.iter().map(|(f, m)| (f.len() + m.len()) as u128).sum();

@@ -28,6 +28,15 @@ pub struct Pairs {
     pub my: Vec<f64>,
 }
 
+impl Pairs {
+    /// Empties every column, keeping the allocations (a buffer reused per track pair).
+    pub fn clear(&mut self) {
+        for v in [&mut self.t, &mut self.u, &mut self.fx, &mut self.fy, &mut self.mx, &mut self.my] {
+            v.clear();
+        }
+    }
+}
+
 /// See the module docs. Both tracks must satisfy [`Traj::validate`]; `max_gap` must be > 0
 /// (`+inf`: interpolate across any gap).
 pub fn correspond(fixed: Traj<'_>, moving: Traj<'_>, max_gap: f64) -> Result<Pairs, ParamError> {

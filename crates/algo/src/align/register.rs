@@ -112,12 +112,7 @@ fn build(tracks: &[(Traj<'_>, Traj<'_>)], classes: &[u32], dt: f64, max_gap: f64
     let mut means = Vec::new();
     let mut tmp = Pairs::default();
     for (&(f, m), &cls) in tracks.iter().zip(classes) {
-        tmp.t.clear();
-        tmp.u.clear();
-        tmp.fx.clear();
-        tmp.fy.clear();
-        tmp.mx.clear();
-        tmp.my.clear();
+        tmp.clear();
         correspond_into(f, m, dt, max_gap, &mut tmp);
         let n = tmp.fx.len();
         if n < MIN_PAIR_POINTS {
@@ -211,7 +206,7 @@ fn noise_ratio(p: &Pairs, keep: &[bool], noise: Noise) -> f64 {
 }
 
 /// The jackknife standard error of values `v_b` (one per left-out block).
-fn jackknife(v: &[f64]) -> f64 {
+pub(super) fn jackknife(v: &[f64]) -> f64 {
     let b = v.len();
     if b < MIN_BLOCKS {
         return f64::INFINITY;

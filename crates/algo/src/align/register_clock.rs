@@ -162,7 +162,7 @@ fn scan(tracks: &[(Traj<'_>, Traj<'_>)], classes: &[u32], shifts: &[f64], reg: &
     let n0: Vec<f64> = cells
         .iter()
         .map(|(k, _)| {
-            clear(&mut tmp);
+            tmp.clear();
             correspond_into(tracks[*k].0, tracks[*k].1, at, max_gap, &mut tmp);
             tmp.fx.len().max(MIN_PAIR_POINTS) as f64
         })
@@ -215,7 +215,7 @@ fn scan(tracks: &[(Traj<'_>, Traj<'_>)], classes: &[u32], shifts: &[f64], reg: &
         let rest: Vec<f64> = (0..g).map(|j| total[j] - jb[b][j]).collect();
         jk.push(minimum(&shifts, &rest).0);
     }
-    Some(ClockRegistration { dt, se_dt: jackknife(&jk), at_edge, pairs: kk, moved: false, registration: reg.clone() })
+    Some(ClockRegistration { dt, se_dt: register::jackknife(&jk), at_edge, pairs: kk, moved: false, registration: reg.clone() })
 }
 
 /// Every track pair's cells at every shift, for the pairs with [`MIN_PAIR_POINTS`] point pairs
@@ -228,7 +228,7 @@ fn profile(tracks: &[(Traj<'_>, Traj<'_>)], shifts: &[f64], theta: f64, s: f64, 
     'pairs: for (k, &(f, m)) in tracks.iter().enumerate() {
         let mut cells = Vec::with_capacity(shifts.len());
         for &dt in shifts {
-            clear(&mut tmp);
+            tmp.clear();
             correspond_into(f, m, dt, max_gap, &mut tmp);
             let n = tmp.fx.len();
             if n < MIN_PAIR_POINTS {
@@ -253,12 +253,6 @@ fn profile(tracks: &[(Traj<'_>, Traj<'_>)], shifts: &[f64], theta: f64, s: f64, 
     (!out.is_empty()).then_some(out)
 }
 
-fn clear(p: &mut Pairs) {
-    for v in [&mut p.t, &mut p.u, &mut p.fx, &mut p.fy, &mut p.mx, &mut p.my] {
-        v.clear();
-    }
-}
-
 /// The shift of the smallest value, refined by the parabola through its neighbours (within half
 /// a step); whether it lies on the grid's first or last shift.
 fn minimum(shifts: &[f64], v: &[f64]) -> (f64, bool) {
@@ -279,14 +273,6 @@ fn minimum(shifts: &[f64], v: &[f64]) -> (f64, bool) {
     (shifts[best] + off * step, false)
 }
 
-fn jackknife(v: &[f64]) -> f64 {
-    let b = v.len();
-    if b < register::MIN_BLOCKS {
-        return f64::INFINITY;
-    }
-    let m = v.iter().sum::<f64>() / b as f64;
-    ((b - 1) as f64 / b as f64 * v.iter().map(|x| (x - m).powi(2)).sum::<f64>()).sqrt()
-}
 
 #[cfg(test)]
 mod tests {

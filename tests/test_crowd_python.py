@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """Crowds of slow road users (issue 26, part 3): pedestrians and cyclists waiting at a crossing's
 kerb 0.6-2 m apart for 10-60 s, then crossing together (trajdb_simulate's waiting_groups), seen by
-three cameras with position noise up to 0.3 m. The pipeline runs with its defaults (no per-scene
+three cameras with position noise up to 0.3 m; and (issue 38) a busy crossing whose tracks are cut
+mid-view by occlusion. The pipeline runs with its defaults (no per-scene
 parameter), and the test scores it against the simulator's truth here:
 - cross-camera match precision (pairs of matches.csv whose two tracks are one object) >= 0.99;
 - within-camera link precision (consecutive pieces of one chain of links.csv that are one
@@ -28,7 +29,17 @@ SCENES = [
      dict(cameras=3, minutes=2.0, seed=11, rate_hz=10.0, waiting_groups=4.0, noise_sigma_min=0.15, noise_sigma_max=0.3)),
     ("3 cameras, 10 Hz, sigma 0.15-0.3 m, 6 waiting groups a minute, seed 13",
      dict(cameras=3, minutes=1.5, seed=13, rate_hz=10.0, waiting_groups=6.0, noise_sigma_min=0.15, noise_sigma_max=0.3)),
+    # a busy crossing whose pedestrians are cut into pieces mid-view (occlusion): 6940 pedestrian
+    # track pairs against 480 car pairs per camera pair; a uniform sample of align_max_hypotheses
+    # pairs left two of three camera pairs 1.7-2 s off (match precision 0.34): the sample now
+    # takes the classes in turn (align.sql, align_sample)
+    ("3 cameras, 10 Hz, 10x pedestrians cut mid-view (occlusion 0.05), seed 1",
+     dict(cameras=3, minutes=5.0, seed=1, rate_hz=10.0, pedestrians=10.0, occlusion=0.05)),
 ]
+# the least share of objects that are exactly one road user, per scene (by name prefix): with two
+# camera pairs 2 s off the occluded scene had 0.199 (0.736 aligned: its breaks longer than
+# quality_max_gap that no other camera bridges stay split, issue 38 item 5)
+MIN_EXACT = {"3 cameras, 10 Hz, 10x pedestrians": 0.6}
 
 MIN_MATCH_PRECISION = 0.99
 MIN_LINK_PRECISION = 0.98
@@ -77,10 +88,13 @@ def main():
         mp, nm, lp, nl, exact = score(con, scenario)
         print(f"{name}: {groups} people in waiting groups; match precision {mp:.4f} ({nm} pairs), "
               f"link precision {lp:.4f} ({nl} links), exact {exact:.4f}")
-        if groups == 0:
+        if groups == 0 and not params.get("occlusion"):
             failed.append(f"{name}: the scene has no waiting group (the test tests nothing)")
         if nm == 0 or mp < MIN_MATCH_PRECISION:
             failed.append(f"{name}: match precision {mp:.4f} < {MIN_MATCH_PRECISION} ({nm} pairs)")
+        floor = next((v for k, v in MIN_EXACT.items() if name.startswith(k)), 0.0)
+        if exact < floor:
+            failed.append(f"{name}: exact {exact:.4f} < {floor}")
         if lp < MIN_LINK_PRECISION:
             failed.append(f"{name}: link precision {lp:.4f} < {MIN_LINK_PRECISION} ({nl} links)")
     if failed:

@@ -832,15 +832,30 @@ pairs AS (
       AND b.t0 >= a.t1 AND b.t0 - a.t1 <= getvariable('quality_max_gap')
       AND a.sxx1 > 0 AND b.sxx0 > 0
 ),
+-- every pair within the acceleration model's gate (break_evidence with pi = 1/2: z2 and z2_cv do
+-- not depend on pi; crates/algo/src/break_link.rs)
 z AS (
-    SELECT *, (dx * dx + dy * dy) / var_cv + (dvx * dvx + dvy * dvy) / varv_cv AS z2_cv,
-           (dx * dx + dy * dy) / (var_cv + var_acc) + (dvx * dvx + dvy * dvy) / (varv_cv + varv_acc) AS z2,
-           -((dx * dx + dy * dy) / (var_cv + var_acc) + (dvx * dvx + dvy * dvy) / (varv_cv + varv_acc)) / 2
-             - ln(var_cv + var_acc) - ln(varv_cv + varv_acc) AS ll,
-           -- the position's likelihood against an unrelated start anywhere in the gate's time window
-           -(dx * dx + dy * dy) / (var_cv + var_acc) / 2 - ln(2 * pi() * (var_cv + var_acc))
-             - ln(bg.starts_per_m2_s * getvariable('quality_max_gap')) AS ll_bg
-    FROM pairs JOIN quality_start_density bg USING (camera, class)
+    SELECT *, break_evidence(dx, dy, dvx, dvy, var_cv, var_acc, varv_cv, varv_acc, 0.5, 1.0) AS e0
+    FROM pairs
+),
+g AS (
+    SELECT z.*, count(*) OVER (PARTITION BY camera, from_id) AS n_end, count(*) OVER (PARTITION BY camera, to_id) AS n_start
+    FROM z WHERE e0.z2 <= 13.28
+),
+-- pi: the share of continuations that kept their velocity through the gap (z2_cv within the
+-- gate), measured per camera and class on the unambiguous candidates (the only candidate of their
+-- end and of their start), with Laplace's rule ((k + 1) / (n + 2): never 0 or 1)
+pi AS (
+    SELECT camera, class, (count(*) FILTER (WHERE e0.z2_cv <= 13.28) + 1.0) / (count(*) + 2.0) AS pi
+    FROM g WHERE n_end = 1 AND n_start = 1 GROUP BY ALL
+),
+w AS (
+    -- the mixture's evidence (break_evidence): ll ranks the candidates, ll_bg weighs the position
+    -- against an unrelated start anywhere in the gate's time window
+    SELECT g.*, e.z2_cv, e.z2, e.ll, e.ll_bg
+    FROM g LEFT JOIN pi p USING (camera, class) JOIN quality_start_density bg USING (camera, class),
+    LATERAL (SELECT break_evidence(dx, dy, dvx, dvy, var_cv, var_acc, varv_cv, varv_acc, coalesce(p.pi, 0.5),
+                                   bg.starts_per_m2_s * getvariable('quality_max_gap')) AS e) x(e)
 )
 SELECT camera, class, from_id, to_id, gap, sqrt(dx * dx + dy * dy) AS distance, z2_cv, z2, ll, ll_bg,
        -- the best other candidate of the end, and of the start
@@ -848,7 +863,7 @@ SELECT camera, class, from_id, to_id, gap, sqrt(dx * dx + dy * dy) AS distance, 
        max(ll) OVER (PARTITION BY camera, to_id ORDER BY ll DESC ROWS BETWEEN 1 FOLLOWING AND UNBOUNDED FOLLOWING) AS ll_next_start,
        row_number() OVER (PARTITION BY camera, from_id ORDER BY ll DESC, to_id) = 1
          AND row_number() OVER (PARTITION BY camera, to_id ORDER BY ll DESC, from_id) = 1 AS mutual_best
-FROM z WHERE z2 <= 13.28;
+FROM w;
 
 CREATE OR REPLACE TEMP TABLE quality_breaks AS
 SELECT *, CASE WHEN z2_cv <= 13.28 AND ll_bg >= ln(100) THEN 'broken' ELSE 'reach' END AS kind
@@ -858,7 +873,7 @@ WHERE mutual_best AND coalesce(ll - ll_next_end, 1e300) >= ln(100) AND coalesce(
 -- the 'reach' links (quality_reach keeps the shape of the events)
 CREATE OR REPLACE TEMP TABLE quality_reach AS
 SELECT camera, class, {'kind': 'broken', 'from_id': from_id, 'to_id': to_id, 'gap': gap, 'distance': distance} AS ev
-FROM quality_breaks WHERE kind = 'reach';
+FROM quality_breaks WHERE kind = 'reach' AND ll_bg >= 0;
 
 -- every event: traj_events' splits and merges (the paper's rules, for quality_flags), the links,
 -- and the other candidates (kind 'candidate': sql/window.sql follows them as edges)

@@ -3,7 +3,8 @@
 
 use super::try_map;
 use super::registry::{p, Function, Param, Signature, Ty, GEOMETRY};
-use super::vector::{Args, Column, Out, Rows};
+use super::vector::{Args, Column, Out, Rows, Value};
+use crate::algo::break_link::{self, BreakModel};
 use crate::algo::events::{self, Endpoints, EventParams, LabelParams};
 use crate::algo::geometry::region::Region;
 use std::error::Error;
@@ -85,6 +86,39 @@ pub static FUNCTIONS: &[Function] = &[
             arities: &[3, 4, 9],
             returns: Ty::List(&Ty::Struct(&[("id", Ty::Bigint), ("label", Ty::Varchar), ("coherence", Ty::Double)])),
             kernel: traj_labels,
+        }],
+        table: None,
+    },
+    Function {
+        name: "break_evidence",
+        description: "The evidence that a track's start continues an earlier track's end in one camera (sql/stages/quality.sql; \
+                      docs/association.md): d = (dx, dy), the difference of the two ends' positions extrapolated to the middle of the gap \
+                      (m), and dv = (dvx, dvy) of their velocities (m/s), under a mixture of two models: the road user kept its velocity \
+                      (share pi; variances var_cv per axis of d and varv_cv of dv) or accelerated as its class may (var_cv + var_acc, \
+                      varv_cv + varv_acc). Returns z2_cv and z2 (the chi2(4) statistics of each model; quality.sql's candidate gate is \
+                      z2 <= 13.28), ll (the mixture's log-density: ranks the candidates of an end and of a start) and ll_bg (the \
+                      mixture's log position density over start_density, the density of unrelated starts per m² in the gap's time \
+                      window). NULL for NULL; a variance <= 0 (var_acc, varv_acc: < 0), pi outside (0, 1) or a start_density <= 0 is an \
+                      error naming it. O(1).",
+        example: "SELECT round(break_evidence(0.1, 0.0, 0.0, 0.0, 0.01, 1.0, 0.05, 0.5, 0.5, 0.001).ll_bg, 3); -- 8.498",
+        maths: "crates/algo/src/break_link.rs",
+        binding: file!(),
+        signatures: &[Signature {
+            params: &[
+                p("dx", Ty::Double),
+                p("dy", Ty::Double),
+                p("dvx", Ty::Double),
+                p("dvy", Ty::Double),
+                p("var_cv", Ty::Double),
+                p("var_acc", Ty::Double),
+                p("varv_cv", Ty::Double),
+                p("varv_acc", Ty::Double),
+                p("pi", Ty::Double),
+                p("start_density", Ty::Double),
+            ],
+            arities: &[],
+            returns: Ty::Struct(&[("z2_cv", Ty::Double), ("z2", Ty::Double), ("ll", Ty::Double), ("ll_bg", Ty::Double)]),
+            kernel: break_evidence,
         }],
         table: None,
     },
@@ -178,5 +212,21 @@ fn traj_labels(a: &Args<'_>, out: &mut Out<'_>) -> R {
         .collect::<Result<_, String>>()?;
     let cols: Vec<_> = split.iter().map(|v| v.as_ref().map(|(i, l, c)| vec![Column::I64(i), Column::Text(l), Column::F64(c)])).collect();
     out.struct_lists(&cols)?;
+    Ok(())
+}
+
+fn break_evidence(a: &Args<'_>, out: &mut Out<'_>) -> R {
+    let cols: Vec<_> = (0..10).map(|i| a.double(i)).collect();
+    let vals = a.map(|r| {
+        let mut v = [0.0; 10];
+        for (k, c) in cols.iter().enumerate() {
+            let Some(x) = c.get(r) else { return Ok(None) };
+            v[k] = x;
+        }
+        let m = BreakModel::new(v[4], v[5], v[6], v[7], v[8])?;
+        let e = break_link::evidence(v[0] * v[0] + v[1] * v[1], v[2] * v[2] + v[3] * v[3], &m, v[9])?;
+        Ok(Some([e.z2_cv, e.z2, e.ll, e.ll_bg].map(Value::F64).to_vec()))
+    })?;
+    out.structs(&vals);
     Ok(())
 }

@@ -17,6 +17,7 @@
 //! | [`merge`] | Θ(A, B) of eq. 2.11 for N cameras, and consistent road-user groups |
 //! | [`fuse`] | fused paths: constant-velocity Kalman filter + RTS smoother over every camera's observations of one road user (seed 003 §3.8) |
 //! | [`events`] | broken / split / merge events within one camera, object / fragment / group labels |
+//! | [`break_link`] | the evidence that a start continues an end in one camera (a mixture of constant velocity and acceleration) |
 //! | [`graph`] | union–find and the connected components of a bipartite edge list (shared) |
 //! | [`limits`] | work limits per call (LCSS cells, CPD pair visits, output points), raised with `CALL trajdb_set_limit` (refused under `lock_configuration`) |
 
@@ -27,6 +28,7 @@ use std::fmt;
 
 pub mod align;
 pub mod associate;
+pub mod break_link;
 pub mod cluster;
 pub mod conflict;
 pub mod events;

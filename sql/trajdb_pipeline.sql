@@ -659,7 +659,7 @@ SELECT reason, count(*) AS tracks_dropped FROM clean_dropped GROUP BY reason ORD
 ;
 -- stage: quality
 -- reads: points, calib_cameras, calib_fit_window, calibrated(), calibrated_values()
--- makes: quality_endpoints, quality_views, quality_start_density, quality_candidates, quality_breaks,
+-- makes: quality_endpoints, quality_views, quality_start_density, quality_starts, quality_candidates, quality_breaks,
 --        quality_events, quality_labels, quality_links, quality_reach_links, quality_flags
 -- work: quality_fit, quality_events_cv, quality_reach
 -- changes: points
@@ -673,7 +673,9 @@ SELECT reason, count(*) AS tracks_dropped FROM clean_dropped GROUP BY reason ORD
 -- Output:
 --   quality_endpoints(camera, track_id, class, e)     first/last point and final velocity
 --   quality_views(camera, interior)                   the camera's convex view shrunk by the inset
---   quality_start_density(camera, class, starts_per_m2_s)  starts inside the view per m^2 and s (site-wide)
+--   quality_start_density(camera, class, starts_per_m2_s, span_s, local_radius_m)  starts inside the view per m^2
+--                                                     and s (site-wide), the recording's span, the radius of the local density
+--   quality_starts(camera, class, x, y, kx, ky)       every start inside the view (the local density's points)
 --   quality_fit(camera, track_id, ...)                least-squares lines over a track's first and last
 --                                                     calib_fit_window seconds (calibrate.sql)
 --   quality_candidates(camera, class, from_id, to_id, every end -> start pair inside the gates, with its
@@ -789,14 +791,30 @@ SELECT camera, track_id,
 FROM p GROUP BY camera, track_id;
 
 -- the density of starts inside the view (per m^2 and s, per camera and class): how likely an
--- unrelated road user appears where a broken one was expected. A measurement of the site (like
--- quality_views): python/trajdb/windows.py ships it to every window.
+-- unrelated road user appears where a broken one was expected; and where starts crowd (a waiting
+-- area, a bus stop, a door, a place where people hide each other), the density about a start
+-- (quality_starts: the starts themselves, counted within local_radius_m of a candidate's start).
+-- local_radius_m: the 95 % radius (chi2(2) 5.99) of where a road user of the class reappears
+-- after half the largest gap, from the camera's noise and the class's acceleration allowance
+-- (at least 1 m). Measurements of the site (like quality_views): python/trajdb/windows.py ships
+-- them to every window.
 CREATE OR REPLACE TEMP TABLE quality_start_density AS
 SELECT q.camera, q.class,
        greatest(count(*) FILTER (WHERE polygon_contains(v.interior, q.e.x0, q.e.y0)), 1)
-         / greatest(any_value(polygon_area(v.interior)), 1.0) / greatest(max(q.e.t1) - min(q.e.t0), 1.0) AS starts_per_m2_s
+         / greatest(any_value(polygon_area(v.interior)), 1.0) / greatest(max(q.e.t1) - min(q.e.t0), 1.0) AS starts_per_m2_s,
+       greatest(max(q.e.t1) - min(q.e.t0), 1.0) AS span_s,
+       greatest(sqrt(5.99 * (greatest(coalesce(any_value(c.sigma_m), 0), 1e-3) ** 2
+                             + (coalesce(any_value(k.value), calibrated('quality_max_accel')) / 2.45) ** 2
+                               * ((getvariable('quality_max_gap') / 2) ** 2 / 2) ** 2)), 1.0) AS local_radius_m
 FROM quality_endpoints q JOIN quality_views v USING (camera)
+LEFT JOIN calib_cameras c USING (camera) LEFT JOIN calibrated_values('quality_max_accel') k ON k.class = q.class
 GROUP BY q.camera, q.class;
+
+CREATE OR REPLACE TEMP TABLE quality_starts AS
+SELECT q.camera, q.class, q.e.x0 AS x, q.e.y0 AS y,
+       floor(q.e.x0 / d.local_radius_m)::BIGINT AS kx, floor(q.e.y0 / d.local_radius_m)::BIGINT AS ky
+FROM quality_endpoints q JOIN quality_views v USING (camera) JOIN quality_start_density d USING (camera, class)
+WHERE polygon_contains(v.interior, q.e.x0, q.e.y0);
 
 CREATE OR REPLACE TEMP TABLE quality_candidates AS
 WITH e AS (
@@ -849,13 +867,28 @@ pi AS (
     SELECT camera, class, (count(*) FILTER (WHERE e0.z2_cv <= 13.28) + 1.0) / (count(*) + 2.0) AS pi
     FROM g WHERE n_end = 1 AND n_start = 1 GROUP BY ALL
 ),
+-- the density of starts about each candidate's start: the other starts of its camera and class
+-- within local_radius_m over the recording (quality_starts, on a grid of that radius for the
+-- join only), never below the site-wide density
+loc AS (
+    SELECT b.camera, b.to_id, greatest(any_value(d.starts_per_m2_s),
+                                       (count(o.x) FILTER (WHERE (o.x - b.x) ** 2 + (o.y - b.y) ** 2 < d.local_radius_m ** 2) - 1)
+                                         / (pi() * any_value(d.local_radius_m) ** 2 * any_value(d.span_s))) AS starts_per_m2_s
+    FROM (SELECT DISTINCT g.camera, g.class, g.to_id, q.e.x0 AS x, q.e.y0 AS y
+          FROM g JOIN quality_endpoints q ON q.camera = g.camera AND q.track_id = g.to_id) b
+    JOIN quality_start_density d USING (camera, class)
+    CROSS JOIN unnest([-1, 0, 1]) i(di) CROSS JOIN unnest([-1, 0, 1]) j(dj)
+    LEFT JOIN quality_starts o ON o.camera = b.camera AND o.class = b.class
+                              AND o.kx = floor(b.x / d.local_radius_m)::BIGINT + i.di AND o.ky = floor(b.y / d.local_radius_m)::BIGINT + j.dj
+    GROUP BY b.camera, b.to_id
+),
 w AS (
     -- the mixture's evidence (break_evidence): ll ranks the candidates, ll_bg weighs the position
-    -- against an unrelated start anywhere in the gate's time window
+    -- against an unrelated start about that place in the gate's time window
     SELECT g.*, e.z2_cv, e.z2, e.ll, e.ll_bg
-    FROM g LEFT JOIN pi p USING (camera, class) JOIN quality_start_density bg USING (camera, class),
+    FROM g LEFT JOIN pi p USING (camera, class) JOIN loc l USING (camera, to_id),
     LATERAL (SELECT break_evidence(dx, dy, dvx, dvy, var_cv, var_acc, varv_cv, varv_acc, coalesce(p.pi, 0.5),
-                                   bg.starts_per_m2_s * getvariable('quality_max_gap')) AS e) x(e)
+                                   l.starts_per_m2_s * getvariable('quality_max_gap')) AS e) x(e)
 )
 SELECT camera, class, from_id, to_id, gap, sqrt(dx * dx + dy * dy) AS distance, z2_cv, z2, ll, ll_bg,
        -- the best other candidate of the end, and of the start

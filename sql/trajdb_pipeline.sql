@@ -696,12 +696,16 @@ SELECT reason, count(*) AS tracks_dropped FROM clean_dropped GROUP BY reason ORD
 -- quality_inset = 1 m from its edge: entries and exits are not events) is a pair; both ends are
 -- extrapolated to the middle of the gap by least-squares lines, and the pair is a candidate when
 -- the chi2 statistic of position and velocity (4 degrees of freedom) is under 13.28 (0.99) with an
--- acceleration allowance from the class's measured accel_p95. A link is taken only when it is the
--- mutual best of its end and start and at least 100 times likelier than every other candidate of
--- either (the ratio test). It is applied here ('broken') when it also passes without the
--- acceleration allowance and is 100 times likelier than an unrelated start at that place (the
--- measured density of starts inside the view); otherwise it is a 'reach' link that merge.sql
--- offers after every cross-camera link, so other cameras can refuse it. traj_events (the paper's
+-- acceleration allowance from the class's measured accel_p95. Candidates are scored under a
+-- mixture (break_evidence): the road user kept its velocity (share pi, measured on the
+-- unambiguous candidates) or accelerated. A link is taken only when it is the mutual best of its
+-- end and start and at least 100 times likelier than every other candidate of either (the ratio
+-- test). It is applied here ('broken') when it also passes without the acceleration allowance and
+-- is 100 times likelier than an unrelated start at that place (the density of starts about the
+-- candidate's start, never below the view's average); a winner that is likelier than an unrelated
+-- start, but less so or only with the acceleration allowance, is a 'reach' link that merge.sql
+-- offers after every cross-camera link, so other cameras can refuse it; any other winner is not
+-- linked. traj_events (the paper's
 -- three rules with quality_max_dist = 2 m) still flags splits and merges, and traj_labels labels
 -- tracks; neither links.
 -- Measured (trajdb pipeline + trajdb score; docs/association.md): dut_intersection_3cam break recall
@@ -759,14 +763,15 @@ GROUP BY q.camera, q.class;
 --   var     = var_cv + (sigma_acc gap^2 / 2)^2,  varv = varv_cv + (sigma_acc gap)^2
 -- with sigma_acc = accel_p95 / 2.45 (Rayleigh: p95 = 2.45 sigma), and z^2 = |d|^2 / var + |dv|^2 / varv
 -- is chi2(4) for the true continuation. A pair is a candidate when z^2 <= 13.28 (chi2(4) at 0.99).
--- Its log-likelihood l = -z^2/2 - ln(var) - ln(varv) ranks the candidates, and a link is taken only
--- when it is the mutual best of its end and its start and beats every other candidate of either by
--- l_best - l_other >= ln(100): the likelihood ratio test, 1 wrong link in 100 at most when two
--- people could both have made the gap (a crowd waiting 0.6-2 m apart). A winner that also passes
--- without the acceleration allowance (z_cv^2 <= 13.28) and whose position is 100 times likelier
--- than an unrelated start there (ll_bg: the Gaussian density of d against the measured density of
--- starts inside the view, per m^2 and quality_max_gap seconds) is linked here ('broken'); any
--- other winner is a 'reach' link, offered to merge_groups() after every cross-camera link
+-- Its log-likelihood under the mixture of the two models (break_evidence: kept its velocity, share
+-- pi, or accelerated) ranks the candidates, and a link is taken only when it is the mutual best of
+-- its end and its start and beats every other candidate of either by ll_best - ll_other >= ln(100):
+-- the likelihood ratio test, 1 wrong link in 100 at most when two people could both have made the
+-- gap (a crowd waiting 0.6-2 m apart). A winner that also passes without the acceleration
+-- allowance (z_cv^2 <= 13.28) and whose position is 100 times likelier than an unrelated start
+-- there (ll_bg: the mixture's position density against the density of starts about the
+-- candidate's start, per m^2 and quality_max_gap seconds) is linked here ('broken'); a winner with
+-- 0 <= ll_bg is a 'reach' link, offered to merge_groups() after every cross-camera link
 -- (merge.sql), so other cameras can refuse it (a short fragment's prediction is too vague to be
 -- taken on its own). Ambiguous gaps are not linked: if another camera sees the road user through
 -- the gap, its matches join the pieces (merge.sql, 'split' links, exported as links).
@@ -901,12 +906,14 @@ FROM w;
 CREATE OR REPLACE TEMP TABLE quality_breaks AS
 SELECT *, CASE WHEN z2_cv <= 13.28 AND ll_bg >= ln(100) THEN 'broken' ELSE 'reach' END AS kind
 FROM quality_candidates
-WHERE mutual_best AND coalesce(ll - ll_next_end, 1e300) >= ln(100) AND coalesce(ll - ll_next_start, 1e300) >= ln(100);
+WHERE mutual_best AND coalesce(ll - ll_next_end, 1e300) >= ln(100) AND coalesce(ll - ll_next_start, 1e300) >= ln(100)
+  -- likelier than an unrelated start about that place (else not a link: 'candidate' in quality_events)
+  AND ll_bg >= 0;
 
 -- the 'reach' links (quality_reach keeps the shape of the events)
 CREATE OR REPLACE TEMP TABLE quality_reach AS
 SELECT camera, class, {'kind': 'broken', 'from_id': from_id, 'to_id': to_id, 'gap': gap, 'distance': distance} AS ev
-FROM quality_breaks WHERE kind = 'reach' AND ll_bg >= 0;
+FROM quality_breaks WHERE kind = 'reach';
 
 -- every event: traj_events' splits and merges (the paper's rules, for quality_flags), the links,
 -- and the other candidates (kind 'candidate': sql/window.sql follows them as edges)
@@ -1416,10 +1423,35 @@ se AS (
     SELECT f.*, greatest(sqrt(f.slope_var0 * greatest(chi.chi2 / greatest(f.n - 2, 1), 1e-12)), coalesce(jse.se_jk, 'inf'::DOUBLE)) AS drift_se
     FROM f JOIN chi USING (cam_fixed, cam_moving) LEFT JOIN jse USING (cam_fixed, cam_moving)
 )
-SELECT cam_fixed, cam_moving, n, x_span, slope AS drift_fit, intercept, drift_se,
-       CASE WHEN n >= 8 AND abs(slope) > 5 * drift_se THEN slope ELSE 0.0 END AS drift
+SELECT cam_fixed, cam_moving, n, x_span, slope AS drift_fit, intercept, drift_se, sw, swx, swy
 FROM se
 WHERE slope IS NOT NULL;
+
+--    One drift per camera (clock_network, crates/algo/src/align/clock_network.rs): every camera
+--    pair with at least 8 pairs measures the difference of its two cameras' drifts; the cameras'
+--    drifts are their weighted least-squares solution (the reference camera, as step 4 chooses it,
+--    at 0), used when the recording shows drift at all (the cameras' drifts against 0 beyond the
+--    5-sigma level, one test for all: a single pair's rule was |D| > 5 se). A pair's drift is then
+--    the difference of its cameras', and its intercept the weighted mean of its pairs' offsets
+--    about that slope. (Each pair on its own, with the tree of step 4 composing them, left a 4-camera
+--    recording with 200 ppm clocks at 0 ppm everywhere, 76 ms off at its end: two of six pairs
+--    passed |D| > 5 se, neither on the tree.)
+CREATE OR REPLACE TEMP TABLE align_drift AS
+WITH ref AS (
+    SELECT camera FROM (SELECT cam_moving AS camera, support FROM align_pairs UNION ALL SELECT cam_fixed, support FROM align_pairs) e
+    JOIN calib_camera_order o USING (camera)
+    GROUP BY camera ORDER BY sum(support) DESC, any_value(o.data_rank) LIMIT 1
+),
+net AS (
+    SELECT unnest(clock_network(list({'fixed': cam_fixed, 'moving': cam_moving, 'value': drift_fit, 'se': drift_se} ORDER BY cam_fixed, cam_moving),
+                                (SELECT camera FROM ref))) AS c
+    FROM align_drift WHERE n >= 8 AND isfinite(drift_se) AND drift_se > 0 AND isfinite(drift_fit)
+),
+cam AS (SELECT c.camera, CASE WHEN c.shown THEN c.value ELSE 0.0 END AS d FROM net)
+SELECT d.cam_fixed, d.cam_moving, d.n, d.x_span, d.drift_fit, d.drift_se,
+       coalesce(m.d, 0.0) - coalesce(f.d, 0.0) AS drift,
+       (d.swy - (coalesce(m.d, 0.0) - coalesce(f.d, 0.0)) * d.swx) / d.sw AS intercept
+FROM align_drift d LEFT JOIN cam m ON m.camera = d.cam_moving LEFT JOIN cam f ON f.camera = d.cam_fixed;
 
 --    The clock offset's standard error (issue 38: a time shift along the main flow looks like a
 --    translation, and a camera pair whose road users mostly walk or drive one way cannot pin
@@ -1694,7 +1726,7 @@ FROM calib_cameras c LEFT JOIN align_frames f USING (camera),
                      ('sampling jitter', c.jitter_s, 's', 'median absolute deviation of the intervals'),
                      ('position noise sigma', c.sigma_m, 'm', 'median second difference of evenly sampled points'),
                      ('clock offset', f.clock_offset_s, 's', 'O in t_camera = (1 + D) t_reference + O, fitted with the transform'),
-                     ('clock drift', f.clock_drift * 1e6, 'ppm', 'D in t_camera = (1 + D) t_reference + O: the slope of per-pair offsets over the recording; 0 when not shown (|D| <= 5 se or under 8 pairs)'),
+                     ('clock drift', f.clock_drift * 1e6, 'ppm', 'D in t_camera = (1 + D) t_reference + O: the slope of per-pair offsets over the recording, one per camera from every camera pair''s (clock_network); 0 when the recording does not show drift (all cameras at once within the 5-sigma bound, or under 8 pairs)'),
                      ('clock drift se', f.clock_drift_se * 1e6, 'ppm', 'standard error of the clock drift (0 when the drift is 0)')) q(quantity, value, unit, how)
 UNION ALL
 -- the registration of each directly fitted camera pair (register_pair; the moving camera is

@@ -37,12 +37,16 @@
 -- quality_inset = 1 m from its edge: entries and exits are not events) is a pair; both ends are
 -- extrapolated to the middle of the gap by least-squares lines, and the pair is a candidate when
 -- the chi2 statistic of position and velocity (4 degrees of freedom) is under 13.28 (0.99) with an
--- acceleration allowance from the class's measured accel_p95. A link is taken only when it is the
--- mutual best of its end and start and at least 100 times likelier than every other candidate of
--- either (the ratio test). It is applied here ('broken') when it also passes without the
--- acceleration allowance and is 100 times likelier than an unrelated start at that place (the
--- measured density of starts inside the view); otherwise it is a 'reach' link that merge.sql
--- offers after every cross-camera link, so other cameras can refuse it. traj_events (the paper's
+-- acceleration allowance from the class's measured accel_p95. Candidates are scored under a
+-- mixture (break_evidence): the road user kept its velocity (share pi, measured on the
+-- unambiguous candidates) or accelerated. A link is taken only when it is the mutual best of its
+-- end and start and at least 100 times likelier than every other candidate of either (the ratio
+-- test). It is applied here ('broken') when it also passes without the acceleration allowance and
+-- is 100 times likelier than an unrelated start at that place (the density of starts about the
+-- candidate's start, never below the view's average); a winner that is likelier than an unrelated
+-- start, but less so or only with the acceleration allowance, is a 'reach' link that merge.sql
+-- offers after every cross-camera link, so other cameras can refuse it; any other winner is not
+-- linked. traj_events (the paper's
 -- three rules with quality_max_dist = 2 m) still flags splits and merges, and traj_labels labels
 -- tracks; neither links.
 -- Measured (trajdb pipeline + trajdb score; docs/association.md): dut_intersection_3cam break recall
@@ -100,14 +104,15 @@ GROUP BY q.camera, q.class;
 --   var     = var_cv + (sigma_acc gap^2 / 2)^2,  varv = varv_cv + (sigma_acc gap)^2
 -- with sigma_acc = accel_p95 / 2.45 (Rayleigh: p95 = 2.45 sigma), and z^2 = |d|^2 / var + |dv|^2 / varv
 -- is chi2(4) for the true continuation. A pair is a candidate when z^2 <= 13.28 (chi2(4) at 0.99).
--- Its log-likelihood l = -z^2/2 - ln(var) - ln(varv) ranks the candidates, and a link is taken only
--- when it is the mutual best of its end and its start and beats every other candidate of either by
--- l_best - l_other >= ln(100): the likelihood ratio test, 1 wrong link in 100 at most when two
--- people could both have made the gap (a crowd waiting 0.6-2 m apart). A winner that also passes
--- without the acceleration allowance (z_cv^2 <= 13.28) and whose position is 100 times likelier
--- than an unrelated start there (ll_bg: the Gaussian density of d against the measured density of
--- starts inside the view, per m^2 and quality_max_gap seconds) is linked here ('broken'); any
--- other winner is a 'reach' link, offered to merge_groups() after every cross-camera link
+-- Its log-likelihood under the mixture of the two models (break_evidence: kept its velocity, share
+-- pi, or accelerated) ranks the candidates, and a link is taken only when it is the mutual best of
+-- its end and its start and beats every other candidate of either by ll_best - ll_other >= ln(100):
+-- the likelihood ratio test, 1 wrong link in 100 at most when two people could both have made the
+-- gap (a crowd waiting 0.6-2 m apart). A winner that also passes without the acceleration
+-- allowance (z_cv^2 <= 13.28) and whose position is 100 times likelier than an unrelated start
+-- there (ll_bg: the mixture's position density against the density of starts about the
+-- candidate's start, per m^2 and quality_max_gap seconds) is linked here ('broken'); a winner with
+-- 0 <= ll_bg is a 'reach' link, offered to merge_groups() after every cross-camera link
 -- (merge.sql), so other cameras can refuse it (a short fragment's prediction is too vague to be
 -- taken on its own). Ambiguous gaps are not linked: if another camera sees the road user through
 -- the gap, its matches join the pieces (merge.sql, 'split' links, exported as links).
@@ -242,12 +247,14 @@ FROM w;
 CREATE OR REPLACE TEMP TABLE quality_breaks AS
 SELECT *, CASE WHEN z2_cv <= 13.28 AND ll_bg >= ln(100) THEN 'broken' ELSE 'reach' END AS kind
 FROM quality_candidates
-WHERE mutual_best AND coalesce(ll - ll_next_end, 1e300) >= ln(100) AND coalesce(ll - ll_next_start, 1e300) >= ln(100);
+WHERE mutual_best AND coalesce(ll - ll_next_end, 1e300) >= ln(100) AND coalesce(ll - ll_next_start, 1e300) >= ln(100)
+  -- likelier than an unrelated start about that place (else not a link: 'candidate' in quality_events)
+  AND ll_bg >= 0;
 
 -- the 'reach' links (quality_reach keeps the shape of the events)
 CREATE OR REPLACE TEMP TABLE quality_reach AS
 SELECT camera, class, {'kind': 'broken', 'from_id': from_id, 'to_id': to_id, 'gap': gap, 'distance': distance} AS ev
-FROM quality_breaks WHERE kind = 'reach' AND ll_bg >= 0;
+FROM quality_breaks WHERE kind = 'reach';
 
 -- every event: traj_events' splits and merges (the paper's rules, for quality_flags), the links,
 -- and the other candidates (kind 'candidate': sql/window.sql follows them as edges)

@@ -18,6 +18,7 @@
 //! | [`fuse`] | fused paths: constant-velocity Kalman filter + RTS smoother over every camera's observations of one road user (seed 003 §3.8) |
 //! | [`events`] | broken / split / merge events within one camera, object / fragment / group labels |
 //! | [`break_link`] | the evidence that a start continues an end in one camera (a mixture of constant velocity and acceleration) |
+//! | [`stats`] | small robust statistics shared by the modules (the median) |
 //! | [`graph`] | union–find and the connected components of a bipartite edge list (shared) |
 //! | [`limits`] | work limits per call (LCSS cells, CPD pair visits, output points), raised with `CALL trajdb_set_limit` (refused under `lock_configuration`) |
 
@@ -39,6 +40,7 @@ pub mod lcss;
 pub mod limits;
 pub mod matching;
 pub mod merge;
+pub mod stats;
 pub mod traj;
 
 /// A scalar parameter outside its range: `"<name> must be <rule>, got <value>"`. Modules whose

@@ -215,18 +215,7 @@ pub(super) fn jackknife(v: &[f64]) -> f64 {
     ((b - 1) as f64 / b as f64 * v.iter().map(|x| (x - m).powi(2)).sum::<f64>()).sqrt()
 }
 
-fn median(v: &mut [f64]) -> f64 {
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    if n == 0 {
-        return f64::NAN;
-    }
-    if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    }
-}
+use crate::stats::median;
 
 /// Per track pair: its offset `d_k` under `(theta, s)`, the variance of its mean, its class and
 /// block; over the kept point pairs.

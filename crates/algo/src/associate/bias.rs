@@ -107,15 +107,7 @@ impl BiasState {
 /// The level of [`BiasState::gate`] (one wrong refusal in a thousand true pairs).
 pub const GATE_Q: f64 = 0.999;
 
-fn median(v: &mut [f64]) -> f64 {
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        (v[n / 2 - 1] + v[n / 2]) / 2.0
-    }
-}
+use crate::stats::median;
 
 /// Chi-square CDF with 2 and 4 degrees of freedom.
 fn f2(q: f64) -> f64 {

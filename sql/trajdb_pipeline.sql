@@ -1597,7 +1597,8 @@ SELECT s.cam_fixed, s.cam_moving,
                      list(s.traj_moving ORDER BY s.traj_fixed[1].t, s.traj_moving[1].t, s.track_fixed, s.track_moving),
                      list(c.code ORDER BY s.traj_fixed[1].t, s.traj_moving[1].t, s.track_fixed, s.track_moving),
                      any_value(a.fit.dt), 0.5, getvariable('align_trim'), any_value(cf.sigma_m), any_value(cm.sigma_m),
-                     4 * getvariable('align_bin_s'), getvariable('align_clock_step_s')) AS reg
+                     4 * getvariable('align_bin_s'), getvariable('align_clock_step_s'),
+                     list(class_length_m(t.class) ORDER BY s.traj_fixed[1].t, s.traj_moving[1].t, s.track_fixed, s.track_moving)) AS reg
 FROM align_support_voted s JOIN align_register_pairs USING (cam_fixed, cam_moving, track_fixed, track_moving)
 JOIN align_pairs a USING (cam_fixed, cam_moving)
 JOIN calib_cameras cf ON cf.camera = s.cam_fixed JOIN calib_cameras cm ON cm.camera = s.cam_moving

@@ -274,7 +274,10 @@ pub static FUNCTIONS: &[Function] = &[
                       trim), so a constant offset drops out; the scale is used only when |ln s| > 5 jackknife standard errors (16 \
                       consecutive blocks of pairs), else scale = 1. The translation is the mean of the pairs' offsets weighted by \
                       1 / (tau_c² + the variance of the pair's mean), tau_c the robust spread of class c's offsets, refitted without \
-                      the pairs beyond chi2(2) at 0.999. class_codes: one integer per pair (its class; only equality counts). Every \
+                      the pairs beyond chi2(2) at 0.999, per class; the classes' means combined by a random-effects meta-analysis whose \
+                      between-class variance scales with (class_length / 2)² (class_lengths: one per pair, m, e.g. class_length_m(class); \
+                      default all alike), so a class seen off by one camera moves the translation by its share of the classes' extents, \
+                      not by half. class_codes: one integer per pair (its class; only equality counts). Every \
                       parameter has a standard error (se_*). The clock offset: dt as given (rigid_fit_shifted's; se_dt NULL) or, with \
                       max_shift and step, the minimum over dt ± max_shift (grid of step) of the same model's objective with each class \
                       its own mean offset (crates/algo/src/align/register_clock.rs: a time shift is seen within pairs that turn or change \
@@ -298,8 +301,9 @@ pub static FUNCTIONS: &[Function] = &[
                 p("sigma_moving", Ty::Double),
                 p("max_shift", Ty::Double),
                 p("step", Ty::Double),
+                p("class_lengths", Ty::List(&Ty::Double)),
             ],
-            arities: &[4, 5, 6, 8, 10],
+            arities: &[4, 5, 6, 8, 10, 11],
             returns: Ty::Struct(&[
                 ("dt", Ty::Double),
                 ("se_dt", Ty::Double),
@@ -676,8 +680,23 @@ fn register_pair(a: &Args<'_>, out: &mut Out<'_>) -> R {
     let (fixed, moving, codes, dt, gap, trim) = (a.traj_list(0), a.traj_list(1), a.i64_list(2), a.double(3), a.opt_double(4), a.opt_double(5));
     let (sf, sm, max_shift, step) = (a.opt_double(6), a.opt_double(7), a.opt_double(8), a.opt_double(9));
     let scanning = a.given(8);
+    // class_lengths, read per row before the parallel part (a list column is not shared between threads)
+    let lengths: Option<Vec<Option<Vec<f64>>>> = match a.given(10) {
+        false => None,
+        true => {
+            let l = a.f64_list(10);
+            Some((0..a.rows()).map(|r| l.get(r).map(|o| o.map(|v| v.to_vec()))).collect::<Result<_, _>>()?)
+        }
+    };
     let vals = a.par_map(|r| {
         let (Some(f), Some(m), Some(c), Some(dt)) = (fixed.get(r)?, moving.get(r)?, codes.get(r)?, dt.get(r)) else { return Ok(None) };
+        let lens: Option<&Vec<f64>> = match &lengths {
+            None => None,
+            Some(l) => match &l[r] {
+                Some(v) => Some(v),
+                None => return Ok(None),
+            },
+        };
         let (Some(g), Some(trim), Some(sf), Some(sm)) = (gap.or(r, 0.5), trim.or(r, 0.1), sf.or(r, 0.0), sm.or(r, 0.0)) else { return Ok(None) };
         // max_shift and step: both or neither (arity 10 gives both; a NULL in either: NULL)
         let scan = match (max_shift.or(r, 0.0), step.or(r, 1.0)) {
@@ -693,13 +712,27 @@ fn register_pair(a: &Args<'_>, out: &mut Out<'_>) -> R {
         if pairs.len() != cls.len() {
             return Err(format!("class_codes must list one code per track pair, got {} codes for {} pairs", cls.len(), pairs.len()).into());
         }
+        // class_lengths: one per pair, the same for every pair of a class -> one per class index
+        let mut extents = Vec::new();
+        if let Some(l) = lens {
+            if l.len() != cls.len() {
+                return Err(format!("class_lengths must list one length per track pair, got {} for {} pairs", l.len(), cls.len()).into());
+            }
+            extents = vec![f64::NAN; uniq.len()];
+            for (&k, &v) in cls.iter().zip(l) {
+                if !(v.is_finite() && v > 0.0) {
+                    return Err(format!("class_lengths must be > 0 and finite (m), got {v}").into());
+                }
+                extents[k as usize] = v;
+            }
+        }
         let noise = shift::Noise::new(sf, sm)?;
         let (g, dt, se_dt, edge, moved) = match scan {
-            None => match register::register(&pairs, &cls, dt, g, trim, noise)? {
+            None => match register::register(&pairs, &cls, &extents, dt, g, trim, noise)? {
                 Some(reg) => (reg, dt, None, false, false),
                 None => return Ok(None),
             },
-            Some(grid) => match crate::algo::align::register_clock::register_clock(&pairs, &cls, &grid, g, trim, noise)? {
+            Some(grid) => match crate::algo::align::register_clock::register_clock(&pairs, &cls, &extents, &grid, g, trim, noise)? {
                 Some(c) => (c.registration, c.dt, Some(c.se_dt), c.at_edge, c.moved),
                 None => return Ok(None),
             },

@@ -83,6 +83,18 @@ pub static FUNCTIONS: &[Function] = &[
         table: None,
     },
     Function {
+        name: "class_length_m",
+        description: "The length of a road user of this class (m), recognised by the class name's words: a pedestrian 1 m, a two-wheeler 2 m, \
+                      a car 5 m, a bus or truck 12 m (any other class: a car). A detector's ground point lies on the road user's outline, so \
+                      two cameras' points of one road user differ by at most this; align.sql's registration weighs the classes' \
+                      disagreement by it (register_pair's class_lengths). NULL for NULL.",
+        example: "SELECT class_length_m('heavy_vehicle'); -- 12.0",
+        maths: "crates/algo/src/associate/mod.rs",
+        binding: file!(),
+        signatures: &[Signature { params: &[p("class", Ty::Varchar)], arities: &[], returns: Ty::Double, kernel: class_length_m }],
+        table: None,
+    },
+    Function {
         name: "pair_evidence",
         description: "The evidence of one candidate pair of tracks over their whole common time (docs/association.md, issue 38): from \
                       traj_msd_pairs's msd and mean offset (dx, dy), the camera pair's noise sigma_d (m, per axis), the independent samples \
@@ -218,6 +230,13 @@ fn pair_clear_of(a: &Args<'_>, out: &mut Out<'_>) -> R {
 fn bias_search_m(a: &Args<'_>, out: &mut Out<'_>) -> R {
     let c = a.text(0);
     let vals = a.map(|r| Ok(c.get(r).map(|c| crate::algo::associate::search_reach_m(&c))))?;
+    out.flat(&vals);
+    Ok(())
+}
+
+fn class_length_m(a: &Args<'_>, out: &mut Out<'_>) -> R {
+    let c = a.text(0);
+    let vals = a.map(|r| Ok(c.get(r).map(|c| crate::algo::associate::class_length_m(&c))))?;
     out.flat(&vals);
     Ok(())
 }

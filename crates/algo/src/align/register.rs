@@ -388,15 +388,20 @@ fn between_part(off: &[Offset], w: &[f64], tau2: &[f64], skip: Option<usize>) ->
 }
 
 /// The translation: each class's mean offset `μ_c` ([`class_means`], weights `1 / (τ²_c + v_k)`,
-/// variance `V_c = 1 / Σ w` per axis), combined as a random-effects meta-analysis
-/// (DerSimonian–Laird): the classes' means scatter about `T` with a variance κ² (where each
-/// camera sees a car against where it sees a pedestrian), estimated from Cochran's
-/// `Q = Σ |μ_c − μ̄|² / V_c` over both axes as `max(0, (Q − 2(C − 1)) / (2(Σ W − Σ W² / Σ W)))`,
-/// and `T = Σ μ_c / (V_c + κ²) / Σ 1 / (V_c + κ²)`. Classes that agree (a drone's view) weigh by
-/// their precision, as one pooled mean; classes that do not weigh alike, so that no class's
-/// systematic offset (every car of one camera seen from behind, all offsets equal, τ ≈ 0) takes
-/// the whole translation. Returns `T`, `Σ 1 / (V_c + κ²)` and the pairs used; `None` when no pair.
-fn translation(off: &[Offset], tau2: &[f64], skip_block: Option<usize>) -> Option<([f64; 2], f64, usize)> {
+/// variance `V_c = 1 / Σ w` per axis), combined as a random-effects meta-analysis: the classes'
+/// means scatter about `T` (where each camera sees a car against where it sees a pedestrian) with
+/// a variance `κ² e_c²`, `e_c` half the class's length (`extents`, m: a detector's ground point
+/// lies on the road user's outline, so a car's can be metres from its centre and a pedestrian's
+/// decimetres; all 1 when not given). κ² is Paule–Mandel's: `Q(κ²) = Σ |μ_c − T|² / (V_c + κ² e_c²)`
+/// equal to its degrees of freedom `2(C − 1)` (0 when `Q(0)` is already below them), and
+/// `T = Σ μ_c / (V_c + κ² e_c²) / Σ 1 / (V_c + κ² e_c²)`. Classes that agree (a drone's view)
+/// weigh by their precision, as one pooled mean; classes that do not weigh by their extent, so that
+/// no class's systematic offset (every car of one camera seen from behind, all offsets equal,
+/// τ ≈ 0) moves the translation: with equal weights (DerSimonian–Laird before) half of one
+/// camera's 1 m car offset went into its translation, and the 0.9 m overlap strip of the shared
+/// intersection's cameras 0 and 2 moved by half a metre (3 % of its road users split). Returns `T`,
+/// `Σ 1 / (V_c + κ² e_c²)` and the pairs used; `None` when no pair.
+fn translation(off: &[Offset], tau2: &[f64], extents: &[f64], skip_block: Option<usize>) -> Option<([f64; 2], f64, usize)> {
     let w: Vec<f64> = off.iter().map(|o| 1.0 / (tau2[o.cls as usize] + o.v)).collect();
     let mu = class_means(off, &w, tau2, skip_block);
     let mut per = vec![(0.0f64, 0usize); mu.len()];
@@ -404,28 +409,57 @@ fn translation(off: &[Offset], tau2: &[f64], skip_block: Option<usize>) -> Optio
         per[o.cls as usize].0 += q;
         per[o.cls as usize].1 += 1;
     }
-    let classes: Vec<([f64; 2], f64, usize)> = mu.iter().zip(&per).filter_map(|(m, &(sw, n))| m.filter(|_| sw > 0.0).map(|m| (m, 1.0 / sw, n))).collect();
+    let e2 = |c: usize| extents.get(c).map_or(1.0, |e| if e.is_finite() && *e > 0.0 { (e / 2.0).powi(2) } else { 1.0 });
+    // (mean, V, pairs, e²)
+    let classes: Vec<([f64; 2], f64, usize, f64)> = mu
+        .iter()
+        .zip(&per)
+        .enumerate()
+        .filter_map(|(c, (m, &(sw, n)))| m.filter(|_| sw > 0.0).map(|m| (m, 1.0 / sw, n, e2(c))))
+        .collect();
     if classes.is_empty() {
         return None;
     }
-    let sw: f64 = classes.iter().map(|c| 1.0 / c.1).sum();
-    let sw2: f64 = classes.iter().map(|c| 1.0 / (c.1 * c.1)).sum();
-    let fixed = [0, 1].map(|ax| classes.iter().map(|c| c.0[ax] / c.1).sum::<f64>() / sw);
-    let q: f64 = classes.iter().map(|c| ((c.0[0] - fixed[0]).powi(2) + (c.0[1] - fixed[1]).powi(2)) / c.1).sum();
+    let combine = |k2: f64| -> ([f64; 2], f64, f64) {
+        let sw: f64 = classes.iter().map(|c| 1.0 / (c.1 + k2 * c.3)).sum();
+        let t = [0, 1].map(|ax| classes.iter().map(|c| c.0[ax] / (c.1 + k2 * c.3)).sum::<f64>() / sw);
+        let q: f64 = classes.iter().map(|c| ((c.0[0] - t[0]).powi(2) + (c.0[1] - t[1]).powi(2)) / (c.1 + k2 * c.3)).sum();
+        (t, sw, q)
+    };
     let df = 2.0 * (classes.len() as f64 - 1.0);
-    let den = 2.0 * (sw - sw2 / sw);
-    let kappa2 = if den > 0.0 { ((q - df) / den).max(0.0) } else { 0.0 };
-    let sw_re: f64 = classes.iter().map(|c| 1.0 / (c.1 + kappa2)).sum();
-    let t = [0, 1].map(|ax| classes.iter().map(|c| c.0[ax] / (c.1 + kappa2)).sum::<f64>() / sw_re);
+    let mut k2 = 0.0;
+    if classes.len() > 1 && combine(0.0).2 > df {
+        // Q falls as κ² grows: bracket the root, then bisect (on a log scale)
+        let mut hi = 1e-6;
+        while combine(hi).2 > df && hi < 1e12 {
+            hi *= 10.0;
+        }
+        let mut lo = hi / 10.0;
+        if combine(lo).2 <= df {
+            lo = 0.0;
+        }
+        for _ in 0..100 {
+            let mid = if lo > 0.0 { (lo * hi).sqrt() } else { hi / 2.0 };
+            if combine(mid).2 > df {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        k2 = hi;
+    }
+    let (t, sw_re, _) = combine(k2);
     Some((t, sw_re, classes.iter().map(|c| c.2).sum()))
 }
 
 /// See the module docs. `tracks[k]` is a (fixed, moving) track pair of class `classes[k]` (any
 /// labels: only equality counts), in the order of the recording (the jackknife's blocks are
 /// consecutive pairs); `dt` the clock offset (moving − fixed), `max_gap` the interpolation gap,
-/// `trim` the share of point pairs least trimmed squares leaves out. `None` when fewer than 2
+/// `trim` the share of point pairs least trimmed squares leaves out; `extents[c]` the length of
+/// class `c`'s road users (m; the class labels' ranks index it; empty: all alike), which weighs
+/// the classes' disagreement in [`translation`]. `None` when fewer than 2
 /// track pairs have [`MIN_PAIR_POINTS`] point pairs, or their points do not fix a rotation.
-pub fn register(tracks: &[(Traj<'_>, Traj<'_>)], classes: &[u32], dt: f64, max_gap: f64, trim: f64, noise: Noise) -> Result<Option<Registration>, ShiftError> {
+pub fn register(tracks: &[(Traj<'_>, Traj<'_>)], classes: &[u32], extents: &[f64], dt: f64, max_gap: f64, trim: f64, noise: Noise) -> Result<Option<Registration>, ShiftError> {
     if tracks.len() != classes.len() {
         return Err(ShiftError::Lengths { fixed: tracks.len(), moving: classes.len() });
     }
@@ -504,14 +538,14 @@ pub fn register(tracks: &[(Traj<'_>, Traj<'_>)], classes: &[u32], dt: f64, max_g
     let (theta, scale, se_theta) = if scale_significant { (theta_s, s, jackknife(&jk_theta_s)) } else { (theta_r, 1.0, jackknife(&jk_theta_r)) };
     let off = offsets(&pp, &keep, theta, scale);
     let tau2 = class_tau2(&off);
-    let Some((t, sw, used)) = translation(&off, &tau2, None) else { return Ok(None) };
+    let Some((t, sw, used)) = translation(&off, &tau2, extents, None) else { return Ok(None) };
     let mut jx = Vec::new();
     let mut jy = Vec::new();
     for b in 0..BLOCKS {
         if !off.iter().any(|o| o.block == b) {
             continue;
         }
-        if let Some((tb, _, _)) = translation(&off, &tau2, Some(b)) {
+        if let Some((tb, _, _)) = translation(&off, &tau2, extents, Some(b)) {
             jx.push(tb[0]);
             jy.push(tb[1]);
         }
@@ -593,7 +627,7 @@ mod tests {
 
     fn run(fs: &[OwnedTraj], ms: &[OwnedTraj], cs: &[u32]) -> Registration {
         let views: Vec<_> = fs.iter().zip(ms).map(|(a, b)| (a.view(), b.view())).collect();
-        register(&views, cs, 0.0, 0.5, 0.1, Noise::default()).unwrap().unwrap()
+        register(&views, cs, &[], 0.0, 0.5, 0.1, Noise::default()).unwrap().unwrap()
     }
 
     #[test]
@@ -616,7 +650,7 @@ mod tests {
         let (fs, ms, cs) = scene(400, &tf, [0.05, 0.05], 0.15, 7);
         let views: Vec<_> = fs.iter().zip(&ms).zip(&cs).filter(|(_, &c)| c == 0).map(|((a, b), _)| (a.view(), b.view())).collect();
         let cs = vec![0u32; views.len()];
-        let r = register(&views, &cs, 0.0, 0.5, 0.1, Noise::new(0.15, 0.15 / 1.007).unwrap()).unwrap().unwrap();
+        let r = register(&views, &cs, &[], 0.0, 0.5, 0.1, Noise::new(0.15, 0.15 / 1.007).unwrap()).unwrap().unwrap();
         assert!((r.scale_fit - 1.007).abs() < 0.002, "{r:?}");
         let keep = vec![true; 4];
         let p = Pairs { t: vec![0.0; 4], u: vec![0.0; 4], fx: vec![1.0, -1.0, 0.0, 0.0], fy: vec![0.0, 0.0, 1.0, -1.0], mx: vec![0.5, -0.5, 0.0, 0.0], my: vec![0.0, 0.0, 0.5, -0.5] };
@@ -669,6 +703,28 @@ mod tests {
     }
 
     #[test]
+    fn one_class_seen_off_by_one_camera_moves_the_translation_by_its_extent_share() {
+        // every car (class 1) of the moving camera 1 m off along x, the same for all: the classes
+        // disagree by 1 m. Weighted by extent (cars 5 m, pedestrians 1 m) the translation stays
+        // within a few centimetres of the pedestrians'; with the classes alike it moves by half
+        let tf = Transform2::new(0.4, 3.0, -1.0, 1.0);
+        let (fs, mut ms, cs) = scene(120, &tf, [0.0, 0.0], 0.05, 6);
+        for (m, &c) in ms.iter_mut().zip(&cs) {
+            if c == 1 {
+                for x in m.x.iter_mut() {
+                    *x += 1.0;
+                }
+            }
+        }
+        let views: Vec<_> = fs.iter().zip(&ms).map(|(a, b)| (a.view(), b.view())).collect();
+        let err = |r: &Registration| (r.transform.tx - tf.tx).hypot(r.transform.ty - tf.ty);
+        let alike = register(&views, &cs, &[], 0.0, 0.5, 0.1, Noise::default()).unwrap().unwrap();
+        let sized = register(&views, &cs, &[1.0, 5.0], 0.0, 0.5, 0.1, Noise::default()).unwrap().unwrap();
+        assert!(err(&alike) > 0.3, "{alike:?}");
+        assert!(err(&sized) < 0.1, "{sized:?}");
+    }
+
+    #[test]
     fn a_constant_offset_of_one_pair_barely_moves_the_rotation() {
         // metamorphic: adding a constant to every moving point of one pair changes that pair's
         // offset; it leaves the between-pairs part (an outlier there) and the rotation and scale
@@ -688,11 +744,11 @@ mod tests {
         let tf = Transform2::new(0.0, 0.0, 0.0, 1.0);
         let (fs, ms, cs) = scene(1, &tf, [0.0, 0.0], 0.05, 5);
         let views: Vec<_> = fs.iter().zip(&ms).map(|(a, b)| (a.view(), b.view())).collect();
-        assert_eq!(register(&views, &cs, 0.0, 0.5, 0.1, Noise::default()).unwrap(), None);
-        assert_eq!(register(&[], &[], 0.0, 0.5, 0.1, Noise::default()).unwrap(), None);
-        assert!(register(&views, &[], 0.0, 0.5, 0.1, Noise::default()).is_err());
-        assert_eq!(register(&views, &cs, f64::NAN, 0.5, 0.1, Noise::default()).unwrap_err().to_string(), "dt must be finite, got NaN");
-        assert!(register(&views, &cs, 0.0, 0.5, 1.0, Noise::default()).is_err());
+        assert_eq!(register(&views, &cs, &[], 0.0, 0.5, 0.1, Noise::default()).unwrap(), None);
+        assert_eq!(register(&[], &[], &[], 0.0, 0.5, 0.1, Noise::default()).unwrap(), None);
+        assert!(register(&views, &[], &[], 0.0, 0.5, 0.1, Noise::default()).is_err());
+        assert_eq!(register(&views, &cs, &[], f64::NAN, 0.5, 0.1, Noise::default()).unwrap_err().to_string(), "dt must be finite, got NaN");
+        assert!(register(&views, &cs, &[], 0.0, 0.5, 1.0, Noise::default()).is_err());
         // few pairs: no standard error, so no scale, whatever the points show
         let tf = Transform2::new(0.0, 0.0, 0.0, 1.05);
         let (fs, ms, cs) = scene(5, &tf, [0.0, 0.0], 0.0, 6);

@@ -94,12 +94,12 @@ struct Cell {
 /// pairs at every shift, the centre's registration with an infinite `se_dt`. When the minimum
 /// lies on the grid's edge, `dt` is the grid's centre and the registration is at it (`at_edge`
 /// says so).
-pub fn register_clock(tracks: &[(Traj<'_>, Traj<'_>)], classes: &[u32], grid: &ShiftGrid, max_gap: f64, trim: f64, noise: Noise) -> Result<Option<ClockRegistration>, ShiftError> {
+pub fn register_clock(tracks: &[(Traj<'_>, Traj<'_>)], classes: &[u32], extents: &[f64], grid: &ShiftGrid, max_gap: f64, trim: f64, noise: Noise) -> Result<Option<ClockRegistration>, ShiftError> {
     let max_gap = positive_or_inf("max_gap", max_gap)?;
     let points: u128 = tracks.iter().map(|(f, m)| (f.len() + m.len()) as u128).sum();
     let shifts: Vec<f64> = grid.shifts().collect();
     limits::SHIFT_PAIR_FITS.check((CLOCK_ROUNDS as u128 + 1) * shifts.len() as u128 * points).map_err(ShiftError::RegisterWork)?;
-    let Some(start) = register::register(tracks, classes, grid.centre, max_gap, trim, noise)? else { return Ok(None) };
+    let Some(start) = register::register(tracks, classes, extents, grid.centre, max_gap, trim, noise)? else { return Ok(None) };
     let (mut reg, mut at) = (start.clone(), grid.centre);
     let mut round = 0;
     loop {
@@ -115,7 +115,7 @@ pub fn register_clock(tracks: &[(Traj<'_>, Traj<'_>)], classes: &[u32], grid: &S
         if round == CLOCK_ROUNDS {
             return Ok(Some(settle(ClockRegistration { dt: at, registration: reg, ..fit }, grid.centre, start)));
         }
-        let Some(next) = register::register(tracks, classes, fit.dt, max_gap, trim, noise)? else { return Ok(None) };
+        let Some(next) = register::register(tracks, classes, extents, fit.dt, max_gap, trim, noise)? else { return Ok(None) };
         let moved = (fit.dt - at).abs();
         (reg, at) = (next, fit.dt);
         if moved < 0.5 * grid.step {
@@ -337,7 +337,7 @@ mod tests {
         let (fs, ms, cs) = scene(120, &tf, dt0, 1.0, 1);
         let views: Vec<_> = fs.iter().zip(&ms).map(|(a, b)| (a.view(), b.view())).collect();
         let grid = ShiftGrid::new(0.1, 0.2, 0.005).unwrap();
-        let r = register_clock(&views, &cs, &grid, 0.5, 0.1, Noise::default()).unwrap().unwrap();
+        let r = register_clock(&views, &cs, &[], &grid, 0.5, 0.1, Noise::default()).unwrap().unwrap();
         assert!((r.dt - dt0).abs() < 0.005 && r.moved, "{r:?}");
         assert!(r.se_dt.is_finite() && r.se_dt < 0.01 && !r.at_edge, "{r:?}");
         // the pooled fit trades the cars' offset against the clock
@@ -353,7 +353,7 @@ mod tests {
         let views: Vec<_> = fs.iter().zip(&ms).map(|(a, b)| (a.view(), b.view())).collect();
         let grid = ShiftGrid::new(0.0, 0.2, 0.005).unwrap();
         let pooled = shift::joint(&views, &grid, 0.5, 0.1, Noise::default()).unwrap().unwrap();
-        let r = register_clock(&views, &cs, &ShiftGrid::new(pooled.dt, 0.2, 0.005).unwrap(), 0.5, 0.1, Noise::default()).unwrap().unwrap();
+        let r = register_clock(&views, &cs, &[], &ShiftGrid::new(pooled.dt, 0.2, 0.005).unwrap(), 0.5, 0.1, Noise::default()).unwrap().unwrap();
         assert!((pooled.dt + 0.042).abs() < 0.006, "{pooled:?}");
         // the model agrees within its error: the pooled offset stands
         assert!(!r.moved && r.dt == pooled.dt, "{r:?} {pooled:?}");
@@ -365,17 +365,17 @@ mod tests {
         let (fs, ms, cs) = scene(60, &tf, 0.5, 0.0, 3);
         let views: Vec<_> = fs.iter().zip(&ms).map(|(a, b)| (a.view(), b.view())).collect();
         // the truth beyond the grid: the minimum on its edge, said so
-        let r = register_clock(&views, &cs, &ShiftGrid::new(0.0, 0.1, 0.01).unwrap(), 0.5, 0.1, Noise::default()).unwrap().unwrap();
+        let r = register_clock(&views, &cs, &[], &ShiftGrid::new(0.0, 0.1, 0.01).unwrap(), 0.5, 0.1, Noise::default()).unwrap().unwrap();
         assert!(r.at_edge && r.dt == 0.0, "{r:?}");
-        assert_eq!(register_clock(&[], &[], &ShiftGrid::new(0.0, 0.1, 0.01).unwrap(), 0.5, 0.1, Noise::default()).unwrap(), None);
+        assert_eq!(register_clock(&[], &[], &[], &ShiftGrid::new(0.0, 0.1, 0.01).unwrap(), 0.5, 0.1, Noise::default()).unwrap(), None);
         // no pair overlaps at every shift: the centre stands, with no error
         let short: Vec<_> = views.iter().map(|(f, m)| (*f, *m)).collect();
-        let r = register_clock(&short, &cs, &ShiftGrid::new(0.0, 100.0, 10.0).unwrap(), 0.5, 0.1, Noise::default()).unwrap().unwrap();
+        let r = register_clock(&short, &cs, &[], &ShiftGrid::new(0.0, 100.0, 10.0).unwrap(), 0.5, 0.1, Noise::default()).unwrap().unwrap();
         assert!(r.dt == 0.0 && r.se_dt.is_infinite() && r.pairs == 0 && !r.moved, "{r:?}");
-        assert!(register_clock(&views, &cs, &ShiftGrid::new(0.0, 0.1, 0.01).unwrap(), f64::NAN, 0.1, Noise::default()).is_err());
+        assert!(register_clock(&views, &cs, &[], &ShiftGrid::new(0.0, 0.1, 0.01).unwrap(), f64::NAN, 0.1, Noise::default()).is_err());
         let low = std::sync::Arc::new(limits::Limits::default());
         low.set("shift_pair_fits", 10).unwrap();
-        let e = limits::with_scope(&low, || register_clock(&views, &cs, &ShiftGrid::new(0.0, 0.1, 0.01).unwrap(), 0.5, 0.1, Noise::default()));
+        let e = limits::with_scope(&low, || register_clock(&views, &cs, &[], &ShiftGrid::new(0.0, 0.1, 0.01).unwrap(), 0.5, 0.1, Noise::default()));
         assert!(matches!(e, Err(ShiftError::RegisterWork(_))), "{e:?}");
     }
 

@@ -37,9 +37,19 @@ pub const SEARCH_GROUND_PLANE_M: f64 = 1.0;
 /// (the class names of the input are the analyst's: `pedestrian`, `person`, `bicycle`, `truck`,
 /// ... are recognised by their words).
 pub fn search_reach_m(class: &str) -> f64 {
+    class_length_m(class) + SEARCH_GROUND_PLANE_M
+}
+
+/// The length of a road user of `class` (m), recognised by the class name's words: a pedestrian
+/// (`ped`, `person`, `walk`, ...) 1 m, a two-wheeler (`cycl`, `bike`, `motor`, `scooter`, ...)
+/// 2 m, a bus or truck (`heavy`, `truck`, `bus`, `lorry`, `tram`, ...) 12 m, anything else a car's
+/// 5 m. A detector's ground point lies on the road user's outline, so two cameras' points of one
+/// road user differ by at most this ([`search_reach_m`]), and a class's systematic offset between
+/// two views scales with it (align's registration weighs the classes' disagreement by it).
+pub fn class_length_m(class: &str) -> f64 {
     let c = class.to_ascii_lowercase();
     let has = |words: &[&str]| words.iter().any(|w| c.contains(w));
-    let length = if has(&["ped", "person", "walk", "people", "human"]) {
+    if has(&["ped", "person", "walk", "people", "human"]) {
         1.0
     } else if has(&["cycl", "bike", "bicycl", "motor", "scooter", "two_wheel", "two-wheel"]) {
         2.0
@@ -47,8 +57,7 @@ pub fn search_reach_m(class: &str) -> f64 {
         12.0
     } else {
         5.0
-    };
-    length + SEARCH_GROUND_PLANE_M
+    }
 }
 
 #[cfg(test)]

@@ -186,7 +186,9 @@ pairs AS (
            a.sa2 * ((b.t0 - a.t1) ** 2 / 2) ** 2 AS var_acc,
            b.vx0 - a.vx1 AS dvx, b.vy0 - a.vy1 AS dvy,
            a.s2 / a.sxx1 + b.s2 / b.sxx0 AS varv_cv,
-           a.sa2 * (b.t0 - a.t1) ** 2 AS varv_acc
+           a.sa2 * (b.t0 - a.t1) ** 2 AS varv_acc,
+           -- both ends standing: each velocity within its fit's noise of 0 (chi2(2) at 0.99, 9.21)
+           (a.vx1 ** 2 + a.vy1 ** 2) <= 9.21 * a.s2 / a.sxx1 AND (b.vx0 ** 2 + b.vy0 ** 2) <= 9.21 * b.s2 / b.sxx0 AS standing
     -- (the bucket as a hash key: each end is listed in its bucket and the next, so the join is an
     -- equality; a difference of the two buckets IN (0, 1) was a condition on every pair of a class)
     FROM (SELECT *, unnest([floor(t1 / getvariable('quality_max_gap')), floor(t1 / getvariable('quality_max_gap')) + 1]) AS k FROM e) a
@@ -208,10 +210,13 @@ g AS (
 ),
 -- pi: the share of continuations that kept their velocity through the gap (z2_cv within the
 -- gate), measured per camera and class on the unambiguous candidates (the only candidate of their
--- end and of their start), with Laplace's rule ((k + 1) / (n + 2): never 0 or 1)
+-- end and of their start) of road users standing at both ends, with Laplace's rule
+-- ((k + 1) / (n + 2): never 0 or 1). The mixture scores only standing candidates, and only with
+-- at least 10 such measurements; every other candidate is scored under the acceleration model
+-- alone (pi ~ 0): with pi = 1/2 for all, two queued cars of a clean scene were linked crosswise
 pi AS (
-    SELECT camera, class, (count(*) FILTER (WHERE e0.z2_cv <= 13.28) + 1.0) / (count(*) + 2.0) AS pi
-    FROM g WHERE n_end = 1 AND n_start = 1 GROUP BY ALL
+    SELECT camera, class, (count(*) FILTER (WHERE e0.z2_cv <= 13.28) + 1.0) / (count(*) + 2.0) AS pi, count(*) AS pi_n
+    FROM g WHERE n_end = 1 AND n_start = 1 AND standing GROUP BY ALL
 ),
 -- the density of starts about each candidate's start: the other starts of its camera and class
 -- within local_radius_m over the recording (quality_starts, on a grid of that radius for the
@@ -233,7 +238,7 @@ w AS (
     -- against an unrelated start about that place in the gate's time window
     SELECT g.*, e.z2_cv, e.z2, e.ll, e.ll_bg
     FROM g LEFT JOIN pi p USING (camera, class) JOIN loc l USING (camera, to_id),
-    LATERAL (SELECT break_evidence(dx, dy, dvx, dvy, var_cv, var_acc, varv_cv, varv_acc, coalesce(p.pi, 0.5),
+    LATERAL (SELECT break_evidence(dx, dy, dvx, dvy, var_cv, var_acc, varv_cv, varv_acc, CASE WHEN g.standing AND p.pi_n >= 10 THEN p.pi ELSE 1e-9 END,
                                    l.starts_per_m2_s * getvariable('quality_max_gap')) AS e) x(e)
 )
 SELECT camera, class, from_id, to_id, gap, sqrt(dx * dx + dy * dy) AS distance, z2_cv, z2, ll, ll_bg,

@@ -11,13 +11,13 @@
 //! `L = π N(d; var_cv) N(dv; varv_cv) + (1 − π) N(d; var_cv + var_acc) N(dv; varv_cv + varv_acc)`
 //!
 //! with `π` the share of continuations that kept their velocity (quality.sql measures it per
-//! camera and class on the unambiguous candidates). Why a mixture: with the acceleration model
-//! alone, a person who stood still in a waiting group and reappeared where they stood had a
-//! predicted position spread of metres after a 2–3 s gap, so a neighbour 0.6 m away was almost as
-//! likely and the ratio test refused the link; under the mixture the standing person's
-//! constant-velocity density decides (on `trajdb simulate --waiting-groups 8 --pedestrians 10
-//! --occlusion 0.05`, break recall 0.39 → 0.46 at link precision 0.875 → 0.890; the shared
-//! intersection 0.973 → 0.980 at precision 1.000).
+//! camera and class on the unambiguous candidates of road users standing at both ends, and uses
+//! the mixture only for those, where it has at least 10 of them; π → 0 is the acceleration model
+//! alone). Why a mixture: with the acceleration model alone, a person who stood still in a
+//! waiting group and reappeared where they stood had a predicted position spread of metres after
+//! a 2–3 s gap, so a neighbour 0.6 m away was almost as likely and the ratio test refused the
+//! link; under the mixture the standing person's constant-velocity density decides
+//! (docs/association.md has the figures).
 //!
 //! `ll_bg` compares the position alone against an unrelated start at that place: the mixture's
 //! position density minus `ln λ`, λ the density of starts (per m², over the gate's time window).

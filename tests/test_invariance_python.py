@@ -92,10 +92,13 @@ VIEWS_MEASURED = [
      f"SELECT * REPLACE (x + {_MAX} * (0.3 + 0.7 * {_U1}) * cos(2 * pi() * {_U2}) AS x, "
      f"y + {_MAX} * (0.3 + 0.7 * {_U1}) * sin(2 * pi() * {_U2}) AS y) FROM base"),
 ]
-# issue 38 asks for 0.99; measured now (line of sight): simulated 0.970, dut_intersection_3cam 0.976,
-# dut_roundabout_2cam 0.993; scaled: 0.939, 0.995, 0.995 (within-camera break links do not yet
-# allow a different offset per piece, nor registration a scale). A floor against regressions until then.
-VIEW_KEEP = 0.93
+# issue 38 asks for 0.99 of the road users the same. Measured (issue 38, session 4; simulated,
+# dut_intersection_3cam, dut_roundabout_2cam): scaled 1.000, 1.000, 1.000; every car of one camera
+# 1 m off 1.000, 1.000, 0.998: these must keep 0.99. The line of sight: 0.970, 0.970, 0.986 (the
+# simulated scene has 33 road users: one is 0.03); its floor stays below the target until the
+# losses are mended (issue 38's note explains them).
+VIEW_KEEP = 0.99
+VIEW_KEEP_BY_CHANGE = {"a constant offset per (camera, track) along the line of sight": 0.95}
 
 
 def users(con, unlabel=lambda i: i):
@@ -241,8 +244,9 @@ def main():
             trajdb.pipeline(con, "v")
             got = users(con)
             kept = len(got & base) / max(len(base), 1)
-            ok = kept >= VIEW_KEEP
-            print(("ok   " if ok else "FAIL ") + f"{name}: {change}: {kept:.4f} of {len(base)} road users the same (at least {VIEW_KEEP}; the target is 0.99)")
+            floor = next((v for k, v in VIEW_KEEP_BY_CHANGE.items() if change.startswith(k)), VIEW_KEEP)
+            ok = kept >= floor
+            print(("ok   " if ok else "FAIL ") + f"{name}: {change}: {kept:.4f} of {len(base)} road users the same (at least {floor}; the target is 0.99)")
             if not ok:
                 failed.append(f"{name}: {change}")
         # the prototype clustering (issue 28) on the same scene: its visit order (longest first, then

@@ -74,6 +74,10 @@ GRID38=(
   "--minutes 5 --cameras 3 --rate-hz 10 --waiting-groups 4 --pedestrians 5 --occlusion 0.02"
   "--minutes 10 --cameras 4 --rate-hz 5,10,15,25 --viewpoint-bias 1.2,0.2 --ground-plane-error 0.015 --clock-drift-ppm 200 --clock-offset-max 60 --waiting-groups 2"
   "--minutes 5 --cameras 5 --rate-hz 2,10,25 --viewpoint-bias 1.5,0.3 --ground-plane-error 0.02 --occlusion 0.02 --waiting-groups 4 --pedestrians 5 --noise-sigma 0.05,0.3"
+  # a busy crossing whose pedestrians are cut into pieces mid-view (session 4: a uniform
+  # hypothesis sample left two camera pairs 2 s off; waiting crowds under heavy occlusion)
+  "--minutes 5 --cameras 3 --rate-hz 10 --pedestrians 10 --occlusion 0.05"
+  "--minutes 5 --cameras 3 --rate-hz 10 --waiting-groups 8 --pedestrians 10 --occlusion 0.05"
 )
 for args in "${GRID26[@]}" "${GRID38[@]}"; do
   d=$OUT/$(echo $args | tr -d ' -' | tr ',' '_'); rm -rf $d

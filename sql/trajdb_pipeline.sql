@@ -659,9 +659,9 @@ SELECT reason, count(*) AS tracks_dropped FROM clean_dropped GROUP BY reason ORD
 ;
 -- stage: quality
 -- reads: points, calib_cameras, calib_fit_window, calibrated(), calibrated_values()
--- makes: quality_endpoints, quality_views, quality_start_density, quality_starts, quality_candidates, quality_breaks,
+-- makes: quality_endpoints, quality_views, quality_start_density, quality_starts, quality_pi, quality_candidates, quality_breaks,
 --        quality_events, quality_labels, quality_links, quality_reach_links, quality_flags
--- work: quality_fit, quality_events_cv, quality_reach
+-- work: quality_fit, quality_pairs, quality_events_cv, quality_reach
 -- changes: points
 -- parameters: quality_inset, quality_max_dist, quality_max_gap
 --
@@ -676,6 +676,8 @@ SELECT reason, count(*) AS tracks_dropped FROM clean_dropped GROUP BY reason ORD
 --   quality_start_density(camera, class, starts_per_m2_s, span_s, local_radius_m)  starts inside the view per m^2
 --                                                     and s (site-wide), the recording's span, the radius of the local density
 --   quality_starts(camera, class, x, y, kx, ky)       every start inside the view (the local density's points)
+--   quality_pairs                                     every end -> start pair within the acceleration model's gate
+--   quality_pi(camera, class, pi, pi_n)               the share of standing continuations at constant velocity (a site measurement)
 --   quality_fit(camera, track_id, ...)                least-squares lines over a track's first and last
 --                                                     calib_fit_window seconds (calibrate.sql)
 --   quality_candidates(camera, class, from_id, to_id, every end -> start pair inside the gates, with its
@@ -806,12 +808,15 @@ FROM p GROUP BY camera, track_id;
 CREATE OR REPLACE TEMP TABLE quality_start_density AS
 SELECT q.camera, q.class,
        greatest(count(*) FILTER (WHERE polygon_contains(v.interior, q.e.x0, q.e.y0)), 1)
-         / greatest(any_value(polygon_area(v.interior)), 1.0) / greatest(max(q.e.t1) - min(q.e.t0), 1.0) AS starts_per_m2_s,
-       greatest(max(q.e.t1) - min(q.e.t0), 1.0) AS span_s,
+         / greatest(any_value(polygon_area(v.interior)), 1.0) / any_value(sp.span_s) AS starts_per_m2_s,
+       any_value(sp.span_s) AS span_s,
        greatest(sqrt(5.99 * (greatest(coalesce(any_value(c.sigma_m), 0), 1e-3) ** 2
                              + (coalesce(any_value(k.value), calibrated('quality_max_accel')) / 2.45) ** 2
                                * ((getvariable('quality_max_gap') / 2) ** 2 / 2) ** 2)), 1.0) AS local_radius_m
 FROM quality_endpoints q JOIN quality_views v USING (camera)
+-- the camera's recording span (a class seen twice in an hour is rare over the hour, not over the
+-- minute between its two road users)
+JOIN (SELECT camera, greatest(max(e.t1) - min(e.t0), 1.0) AS span_s FROM quality_endpoints GROUP BY camera) sp USING (camera)
 LEFT JOIN calib_cameras c USING (camera) LEFT JOIN calibrated_values('quality_max_accel') k ON k.class = q.class
 GROUP BY q.camera, q.class;
 
@@ -821,7 +826,7 @@ SELECT q.camera, q.class, q.e.x0 AS x, q.e.y0 AS y,
 FROM quality_endpoints q JOIN quality_views v USING (camera) JOIN quality_start_density d USING (camera, class)
 WHERE polygon_contains(v.interior, q.e.x0, q.e.y0);
 
-CREATE OR REPLACE TEMP TABLE quality_candidates AS
+CREATE OR REPLACE TEMP TABLE quality_pairs AS
 WITH e AS (
     SELECT q.camera, q.class, q.track_id, q.e.t1 AS t1, q.e.t0 AS t0, f.*  EXCLUDE (camera, track_id),
            greatest(coalesce(c.sigma_m, 0), 1e-3) ** 2 AS s2,
@@ -866,17 +871,23 @@ z AS (
 g AS (
     SELECT z.*, count(*) OVER (PARTITION BY camera, from_id) AS n_end, count(*) OVER (PARTITION BY camera, to_id) AS n_start
     FROM z WHERE e0.z2 <= 13.28
-),
+)
+FROM g;
+
 -- pi: the share of continuations that kept their velocity through the gap (z2_cv within the
 -- gate), measured per camera and class on the unambiguous candidates (the only candidate of their
 -- end and of their start) of road users standing at both ends, with Laplace's rule
 -- ((k + 1) / (n + 2): never 0 or 1). The mixture scores only standing candidates, and only with
 -- at least 10 such measurements; every other candidate is scored under the acceleration model
--- alone (pi ~ 0): with pi = 1/2 for all, two queued cars of a clean scene were linked crosswise
-pi AS (
-    SELECT camera, class, (count(*) FILTER (WHERE e0.z2_cv <= 13.28) + 1.0) / (count(*) + 2.0) AS pi, count(*) AS pi_n
-    FROM g WHERE n_end = 1 AND n_start = 1 AND standing GROUP BY ALL
-),
+-- alone (pi = 0): with pi = 1/2 for all, two queued cars of a clean scene were linked crosswise.
+-- A measurement of the site (python/trajdb/windows.py ships it to every window: a window's own
+-- few candidates would give another pi, and other links).
+CREATE OR REPLACE TEMP TABLE quality_pi AS
+SELECT camera, class, (count(*) FILTER (WHERE e0.z2_cv <= 13.28) + 1.0) / (count(*) + 2.0) AS pi, count(*) AS pi_n
+FROM quality_pairs WHERE n_end = 1 AND n_start = 1 AND standing GROUP BY ALL;
+
+CREATE OR REPLACE TEMP TABLE quality_candidates AS
+WITH g AS (FROM quality_pairs),
 -- the density of starts about each candidate's start: the other starts of its camera and class
 -- within local_radius_m over the recording (quality_starts, on a grid of that radius for the
 -- join only), never below the site-wide density
@@ -896,9 +907,10 @@ w AS (
     -- the mixture's evidence (break_evidence): ll ranks the candidates, ll_bg weighs the position
     -- against an unrelated start about that place in the gate's time window
     SELECT g.*, e.z2_cv, e.z2, e.ll, e.ll_bg
-    FROM g LEFT JOIN pi p USING (camera, class) JOIN loc l USING (camera, to_id),
-    LATERAL (SELECT break_evidence(dx, dy, dvx, dvy, var_cv, var_acc, varv_cv, varv_acc, CASE WHEN g.standing AND p.pi_n >= 10 THEN p.pi ELSE 1e-9 END,
-                                   l.starts_per_m2_s * getvariable('quality_max_gap')) AS e) x(e)
+    FROM g LEFT JOIN quality_pi p USING (camera, class) JOIN loc l USING (camera, to_id),
+    -- (quality_max_gap = 0 links only simultaneous ends and starts: the window is then a millisecond)
+    LATERAL (SELECT break_evidence(dx, dy, dvx, dvy, var_cv, var_acc, varv_cv, varv_acc, CASE WHEN g.standing AND p.pi_n >= 10 THEN p.pi ELSE 0.0 END,
+                                   l.starts_per_m2_s * greatest(getvariable('quality_max_gap'), 1e-3)) AS e) x(e)
 )
 SELECT camera, class, from_id, to_id, gap, sqrt(dx * dx + dy * dy) AS distance, z2_cv, z2, ll, ll_bg,
        -- the best other candidate of the end, and of the start
@@ -1434,8 +1446,8 @@ WHERE slope IS NOT NULL;
 
 --    One drift per camera (clock_network, crates/algo/src/align/clock_network.rs): every camera
 --    pair with at least 8 pairs measures the difference of its two cameras' drifts; the cameras'
---    drifts are their weighted least-squares solution (the reference camera, as step 4 chooses it,
---    at 0), used when the recording shows drift at all (the cameras' drifts against 0 beyond the
+--    drifts are their weighted least-squares solution (the camera with the most support in the first refit, as step 4 chooses its reference,
+--    at 0; a group of cameras apart from it at its own first camera), used when the recording shows drift at all (the cameras' drifts against 0 beyond the
 --    5-sigma level, one test for all: a single pair's rule was |D| > 5 se). A pair's drift is then
 --    the difference of its cameras', and its intercept the weighted mean of its pairs' offsets
 --    about that slope. (Each pair on its own, with the tree of step 4 composing them, left a 4-camera
@@ -1447,14 +1459,22 @@ WITH ref AS (
     JOIN calib_camera_order o USING (camera)
     GROUP BY camera ORDER BY sum(support) DESC, any_value(o.data_rank) LIMIT 1
 ),
+-- (the cameras by their data rank, calib_camera_order: camera ids are labels, and the sums run
+-- in the same order whatever they are)
 net AS (
-    SELECT unnest(clock_network(list({'fixed': cam_fixed, 'moving': cam_moving, 'value': drift_fit, 'se': drift_se} ORDER BY cam_fixed, cam_moving),
-                                (SELECT camera FROM ref))) AS c
-    FROM align_drift WHERE n >= 8 AND isfinite(drift_se) AND drift_se > 0 AND isfinite(drift_fit)
+    SELECT unnest(clock_network(list({'fixed': rf.data_rank, 'moving': rm.data_rank, 'value': d.drift_fit, 'se': d.drift_se} ORDER BY rf.data_rank, rm.data_rank),
+                                (SELECT o.data_rank FROM ref JOIN calib_camera_order o USING (camera)))) AS c
+    FROM align_drift d JOIN calib_camera_order rf ON rf.camera = d.cam_fixed JOIN calib_camera_order rm ON rm.camera = d.cam_moving
+    WHERE d.n >= 8 AND isfinite(d.drift_se) AND d.drift_se > 0 AND isfinite(d.drift_fit)
 ),
-cam AS (SELECT c.camera, CASE WHEN c.shown THEN c.value ELSE 0.0 END AS d FROM net)
+cam AS (
+    SELECT o.camera, CASE WHEN n.c.shown THEN n.c.value ELSE 0.0 END AS d, n.c.se AS se
+    FROM net n JOIN calib_camera_order o ON o.data_rank = n.c.camera
+)
 SELECT d.cam_fixed, d.cam_moving, d.n, d.x_span, d.drift_fit, d.drift_se,
        coalesce(m.d, 0.0) - coalesce(f.d, 0.0) AS drift,
+       -- the drift's standard error from the network (the two cameras' se, their covariance left out)
+       sqrt(coalesce(m.se, 0.0) ** 2 + coalesce(f.se, 0.0) ** 2) AS drift_net_se,
        (d.swy - (coalesce(m.d, 0.0) - coalesce(f.d, 0.0)) * d.swx) / d.sw AS intercept
 FROM align_drift d LEFT JOIN cam m ON m.camera = d.cam_moving LEFT JOIN cam f ON f.camera = d.cam_fixed;
 
@@ -1674,7 +1694,7 @@ FROM (SELECT 'camera pair' AS scope, cam_a, cam_b, greatest(sqrt(2 * ln(100)) * 
 --    Walked backwards, D' = -D / (1 + D), O' = -O / (1 + D).
 CREATE OR REPLACE TEMP TABLE align_clock AS
 SELECT p.cam_fixed, p.cam_moving, coalesce(d.drift, 0.0) AS drift,
-       CASE WHEN coalesce(d.drift, 0.0) <> 0 THEN d.drift_se ELSE 0.0 END AS drift_se,
+       CASE WHEN coalesce(d.drift, 0.0) <> 0 THEN d.drift_net_se ELSE 0.0 END AS drift_se,
        d.drift_fit, d.drift_se AS drift_fit_se, coalesce(d.n, 0) AS drift_pairs,
        CASE WHEN coalesce(d.drift, 0.0) = 0 THEN p.fit.dt + (mc.t_origin - fc.t_origin)
             ELSE p.fit.dt * (1 + d.drift) + (mc.t_origin - fc.t_origin) - d.drift * fc.t_origin END AS offset

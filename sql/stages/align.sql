@@ -459,8 +459,8 @@ WHERE slope IS NOT NULL;
 
 --    One drift per camera (clock_network, crates/algo/src/align/clock_network.rs): every camera
 --    pair with at least 8 pairs measures the difference of its two cameras' drifts; the cameras'
---    drifts are their weighted least-squares solution (the reference camera, as step 4 chooses it,
---    at 0), used when the recording shows drift at all (the cameras' drifts against 0 beyond the
+--    drifts are their weighted least-squares solution (the camera with the most support in the first refit, as step 4 chooses its reference,
+--    at 0; a group of cameras apart from it at its own first camera), used when the recording shows drift at all (the cameras' drifts against 0 beyond the
 --    5-sigma level, one test for all: a single pair's rule was |D| > 5 se). A pair's drift is then
 --    the difference of its cameras', and its intercept the weighted mean of its pairs' offsets
 --    about that slope. (Each pair on its own, with the tree of step 4 composing them, left a 4-camera
@@ -472,14 +472,22 @@ WITH ref AS (
     JOIN calib_camera_order o USING (camera)
     GROUP BY camera ORDER BY sum(support) DESC, any_value(o.data_rank) LIMIT 1
 ),
+-- (the cameras by their data rank, calib_camera_order: camera ids are labels, and the sums run
+-- in the same order whatever they are)
 net AS (
-    SELECT unnest(clock_network(list({'fixed': cam_fixed, 'moving': cam_moving, 'value': drift_fit, 'se': drift_se} ORDER BY cam_fixed, cam_moving),
-                                (SELECT camera FROM ref))) AS c
-    FROM align_drift WHERE n >= 8 AND isfinite(drift_se) AND drift_se > 0 AND isfinite(drift_fit)
+    SELECT unnest(clock_network(list({'fixed': rf.data_rank, 'moving': rm.data_rank, 'value': d.drift_fit, 'se': d.drift_se} ORDER BY rf.data_rank, rm.data_rank),
+                                (SELECT o.data_rank FROM ref JOIN calib_camera_order o USING (camera)))) AS c
+    FROM align_drift d JOIN calib_camera_order rf ON rf.camera = d.cam_fixed JOIN calib_camera_order rm ON rm.camera = d.cam_moving
+    WHERE d.n >= 8 AND isfinite(d.drift_se) AND d.drift_se > 0 AND isfinite(d.drift_fit)
 ),
-cam AS (SELECT c.camera, CASE WHEN c.shown THEN c.value ELSE 0.0 END AS d FROM net)
+cam AS (
+    SELECT o.camera, CASE WHEN n.c.shown THEN n.c.value ELSE 0.0 END AS d, n.c.se AS se
+    FROM net n JOIN calib_camera_order o ON o.data_rank = n.c.camera
+)
 SELECT d.cam_fixed, d.cam_moving, d.n, d.x_span, d.drift_fit, d.drift_se,
        coalesce(m.d, 0.0) - coalesce(f.d, 0.0) AS drift,
+       -- the drift's standard error from the network (the two cameras' se, their covariance left out)
+       sqrt(coalesce(m.se, 0.0) ** 2 + coalesce(f.se, 0.0) ** 2) AS drift_net_se,
        (d.swy - (coalesce(m.d, 0.0) - coalesce(f.d, 0.0)) * d.swx) / d.sw AS intercept
 FROM align_drift d LEFT JOIN cam m ON m.camera = d.cam_moving LEFT JOIN cam f ON f.camera = d.cam_fixed;
 
@@ -699,7 +707,7 @@ FROM (SELECT 'camera pair' AS scope, cam_a, cam_b, greatest(sqrt(2 * ln(100)) * 
 --    Walked backwards, D' = -D / (1 + D), O' = -O / (1 + D).
 CREATE OR REPLACE TEMP TABLE align_clock AS
 SELECT p.cam_fixed, p.cam_moving, coalesce(d.drift, 0.0) AS drift,
-       CASE WHEN coalesce(d.drift, 0.0) <> 0 THEN d.drift_se ELSE 0.0 END AS drift_se,
+       CASE WHEN coalesce(d.drift, 0.0) <> 0 THEN d.drift_net_se ELSE 0.0 END AS drift_se,
        d.drift_fit, d.drift_se AS drift_fit_se, coalesce(d.n, 0) AS drift_pairs,
        CASE WHEN coalesce(d.drift, 0.0) = 0 THEN p.fit.dt + (mc.t_origin - fc.t_origin)
             ELSE p.fit.dt * (1 + d.drift) + (mc.t_origin - fc.t_origin) - d.drift * fc.t_origin END AS offset

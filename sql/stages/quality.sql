@@ -1,8 +1,8 @@
 -- stage: quality
 -- reads: points, calib_cameras, calib_fit_window, calibrated(), calibrated_values()
--- makes: quality_endpoints, quality_views, quality_start_density, quality_starts, quality_candidates, quality_breaks,
+-- makes: quality_endpoints, quality_views, quality_start_density, quality_starts, quality_pi, quality_candidates, quality_breaks,
 --        quality_events, quality_labels, quality_links, quality_reach_links, quality_flags
--- work: quality_fit, quality_events_cv, quality_reach
+-- work: quality_fit, quality_pairs, quality_events_cv, quality_reach
 -- changes: points
 -- parameters: quality_inset, quality_max_dist, quality_max_gap
 --
@@ -17,6 +17,8 @@
 --   quality_start_density(camera, class, starts_per_m2_s, span_s, local_radius_m)  starts inside the view per m^2
 --                                                     and s (site-wide), the recording's span, the radius of the local density
 --   quality_starts(camera, class, x, y, kx, ky)       every start inside the view (the local density's points)
+--   quality_pairs                                     every end -> start pair within the acceleration model's gate
+--   quality_pi(camera, class, pi, pi_n)               the share of standing continuations at constant velocity (a site measurement)
 --   quality_fit(camera, track_id, ...)                least-squares lines over a track's first and last
 --                                                     calib_fit_window seconds (calibrate.sql)
 --   quality_candidates(camera, class, from_id, to_id, every end -> start pair inside the gates, with its
@@ -147,12 +149,15 @@ FROM p GROUP BY camera, track_id;
 CREATE OR REPLACE TEMP TABLE quality_start_density AS
 SELECT q.camera, q.class,
        greatest(count(*) FILTER (WHERE polygon_contains(v.interior, q.e.x0, q.e.y0)), 1)
-         / greatest(any_value(polygon_area(v.interior)), 1.0) / greatest(max(q.e.t1) - min(q.e.t0), 1.0) AS starts_per_m2_s,
-       greatest(max(q.e.t1) - min(q.e.t0), 1.0) AS span_s,
+         / greatest(any_value(polygon_area(v.interior)), 1.0) / any_value(sp.span_s) AS starts_per_m2_s,
+       any_value(sp.span_s) AS span_s,
        greatest(sqrt(5.99 * (greatest(coalesce(any_value(c.sigma_m), 0), 1e-3) ** 2
                              + (coalesce(any_value(k.value), calibrated('quality_max_accel')) / 2.45) ** 2
                                * ((getvariable('quality_max_gap') / 2) ** 2 / 2) ** 2)), 1.0) AS local_radius_m
 FROM quality_endpoints q JOIN quality_views v USING (camera)
+-- the camera's recording span (a class seen twice in an hour is rare over the hour, not over the
+-- minute between its two road users)
+JOIN (SELECT camera, greatest(max(e.t1) - min(e.t0), 1.0) AS span_s FROM quality_endpoints GROUP BY camera) sp USING (camera)
 LEFT JOIN calib_cameras c USING (camera) LEFT JOIN calibrated_values('quality_max_accel') k ON k.class = q.class
 GROUP BY q.camera, q.class;
 
@@ -162,7 +167,7 @@ SELECT q.camera, q.class, q.e.x0 AS x, q.e.y0 AS y,
 FROM quality_endpoints q JOIN quality_views v USING (camera) JOIN quality_start_density d USING (camera, class)
 WHERE polygon_contains(v.interior, q.e.x0, q.e.y0);
 
-CREATE OR REPLACE TEMP TABLE quality_candidates AS
+CREATE OR REPLACE TEMP TABLE quality_pairs AS
 WITH e AS (
     SELECT q.camera, q.class, q.track_id, q.e.t1 AS t1, q.e.t0 AS t0, f.*  EXCLUDE (camera, track_id),
            greatest(coalesce(c.sigma_m, 0), 1e-3) ** 2 AS s2,
@@ -207,17 +212,23 @@ z AS (
 g AS (
     SELECT z.*, count(*) OVER (PARTITION BY camera, from_id) AS n_end, count(*) OVER (PARTITION BY camera, to_id) AS n_start
     FROM z WHERE e0.z2 <= 13.28
-),
+)
+FROM g;
+
 -- pi: the share of continuations that kept their velocity through the gap (z2_cv within the
 -- gate), measured per camera and class on the unambiguous candidates (the only candidate of their
 -- end and of their start) of road users standing at both ends, with Laplace's rule
 -- ((k + 1) / (n + 2): never 0 or 1). The mixture scores only standing candidates, and only with
 -- at least 10 such measurements; every other candidate is scored under the acceleration model
--- alone (pi ~ 0): with pi = 1/2 for all, two queued cars of a clean scene were linked crosswise
-pi AS (
-    SELECT camera, class, (count(*) FILTER (WHERE e0.z2_cv <= 13.28) + 1.0) / (count(*) + 2.0) AS pi, count(*) AS pi_n
-    FROM g WHERE n_end = 1 AND n_start = 1 AND standing GROUP BY ALL
-),
+-- alone (pi = 0): with pi = 1/2 for all, two queued cars of a clean scene were linked crosswise.
+-- A measurement of the site (python/trajdb/windows.py ships it to every window: a window's own
+-- few candidates would give another pi, and other links).
+CREATE OR REPLACE TEMP TABLE quality_pi AS
+SELECT camera, class, (count(*) FILTER (WHERE e0.z2_cv <= 13.28) + 1.0) / (count(*) + 2.0) AS pi, count(*) AS pi_n
+FROM quality_pairs WHERE n_end = 1 AND n_start = 1 AND standing GROUP BY ALL;
+
+CREATE OR REPLACE TEMP TABLE quality_candidates AS
+WITH g AS (FROM quality_pairs),
 -- the density of starts about each candidate's start: the other starts of its camera and class
 -- within local_radius_m over the recording (quality_starts, on a grid of that radius for the
 -- join only), never below the site-wide density
@@ -237,9 +248,10 @@ w AS (
     -- the mixture's evidence (break_evidence): ll ranks the candidates, ll_bg weighs the position
     -- against an unrelated start about that place in the gate's time window
     SELECT g.*, e.z2_cv, e.z2, e.ll, e.ll_bg
-    FROM g LEFT JOIN pi p USING (camera, class) JOIN loc l USING (camera, to_id),
-    LATERAL (SELECT break_evidence(dx, dy, dvx, dvy, var_cv, var_acc, varv_cv, varv_acc, CASE WHEN g.standing AND p.pi_n >= 10 THEN p.pi ELSE 1e-9 END,
-                                   l.starts_per_m2_s * getvariable('quality_max_gap')) AS e) x(e)
+    FROM g LEFT JOIN quality_pi p USING (camera, class) JOIN loc l USING (camera, to_id),
+    -- (quality_max_gap = 0 links only simultaneous ends and starts: the window is then a millisecond)
+    LATERAL (SELECT break_evidence(dx, dy, dvx, dvy, var_cv, var_acc, varv_cv, varv_acc, CASE WHEN g.standing AND p.pi_n >= 10 THEN p.pi ELSE 0.0 END,
+                                   l.starts_per_m2_s * greatest(getvariable('quality_max_gap'), 1e-3)) AS e) x(e)
 )
 SELECT camera, class, from_id, to_id, gap, sqrt(dx * dx + dy * dy) AS distance, z2_cv, z2, ll, ll_bg,
        -- the best other candidate of the end, and of the start

@@ -447,9 +447,10 @@ pub static FUNCTIONS: &[Function] = &[
                       x[reference] = 0 the cameras' values are the weighted least-squares solution over the pairs' graph, each with its \
                       standard error (scaled by the pairs' reduced chi-square when above 1). Also per row, for the whole network: chi2 \
                       (the pairs' weighted residuals), dof (pairs - unknowns), t2 (the values' chi-square against 0) and shown (t2 above \
-                      the chi-square bound at the two-sided 5-sigma level: the recording shows drift). Cameras not joined to the \
-                      reference are left out; NULL when the reference is in no pair. A non-finite value, an se <= 0 or a pair of a camera \
-                      with itself is an error naming the pair. O(E + C³).",
+                      the chi-square bound at the two-sided 5-sigma level: the recording shows drift). A group of cameras not joined to the \
+                      reference is anchored at its own smallest camera id (only differences are measured); NULL for no pair. A non-finite \
+                      value, an se <= 0 or a pair of a camera with itself is an error naming the pair; more than 1000 cameras an error. \
+                      O(E log C + C³).",
         example: "SELECT [round(c.value, 1) FOR c IN clock_network([{'fixed': 0, 'moving': 1, 'value': 100.0, 'se': 10.0}, {'fixed': 1, 'moving': 2, 'value': -40.0, 'se': 10.0}, {'fixed': 0, 'moving': 2, 'value': 60.0, 'se': 10.0}], 0)]; -- [0.0, 100.0, 60.0]",
         maths: "crates/algo/src/align/clock_network.rs",
         binding: file!(),
@@ -719,11 +720,16 @@ fn register_pair(a: &Args<'_>, out: &mut Out<'_>) -> R {
                 return Err(format!("class_lengths must list one length per track pair, got {} for {} pairs", l.len(), cls.len()).into());
             }
             extents = vec![f64::NAN; uniq.len()];
-            for (&k, &v) in cls.iter().zip(l) {
-                if !(v.is_finite() && v > 0.0) {
-                    return Err(format!("class_lengths must be > 0 and finite (m), got {v}").into());
+            for (i, (&k, &v)) in cls.iter().zip(l).enumerate() {
+                if !(v > 0.0 && v <= 1e4) {
+                    return Err(format!("class_lengths[{}] must be in (0, 10000] m (a road user's length), got {v}", i + 1).into());
                 }
-                extents[k as usize] = v;
+                let e = &mut extents[k as usize];
+                if e.is_nan() {
+                    *e = v;
+                } else if *e != v {
+                    return Err(format!("class_lengths[{}] is {v}, but an earlier pair of the same class code has {}: one length per class", i + 1, *e).into());
+                }
             }
         }
         let noise = shift::Noise::new(sf, sm)?;

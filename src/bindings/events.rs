@@ -98,7 +98,7 @@ pub static FUNCTIONS: &[Function] = &[
                       varv_cv + varv_acc). Returns z2_cv and z2 (the chi2(4) statistics of each model; quality.sql's candidate gate is \
                       z2 <= 13.28), ll (the mixture's log-density: ranks the candidates of an end and of a start) and ll_bg (the \
                       mixture's log position density over start_density, the density of unrelated starts per m² in the gap's time \
-                      window). NULL for NULL; a variance <= 0 (var_acc, varv_acc: < 0), pi outside (0, 1) or a start_density <= 0 is an \
+                      window). NULL for NULL; a variance <= 0 (var_acc, varv_acc: < 0), pi outside [0, 1) (0: the acceleration model alone), a non-finite difference or a start_density <= 0 is an \
                       error naming it. O(1).",
         example: "SELECT round(break_evidence(0.1, 0.0, 0.0, 0.0, 0.01, 1.0, 0.05, 0.5, 0.5, 0.001).ll_bg, 3); -- 8.498",
         maths: "crates/algo/src/break_link.rs",

@@ -38,10 +38,12 @@ pub const LINK_RATIO: f64 = 100.0;
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum BreakError {
-    /// A variance (name, value) is not > 0 and finite.
+    /// A variance (name, value) is not > 0 (var_acc, varv_acc: >= 0) and finite, or two add to infinity.
     Variance(&'static str, f64),
-    /// pi is not in (0, 1).
+    /// pi is not in [0, 1).
     Pi(f64),
+    /// A difference (name, value) is not finite.
+    Difference(&'static str, f64),
     /// The start density is not > 0 and finite.
     Density(f64),
 }
@@ -49,8 +51,13 @@ pub enum BreakError {
 impl fmt::Display for BreakError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
-            BreakError::Variance(n, v) => write!(f, "{n} must be > 0 and finite (m² or m²/s²), got {v}"),
-            BreakError::Pi(v) => write!(f, "pi must be in (0, 1) (the share of continuations at constant velocity), got {v}"),
+            BreakError::Variance(n, v) => write!(
+                f,
+                "{n} must be {} and finite (m² or m²/s², with its constant-velocity part a finite sum), got {v}",
+                if n.ends_with("_acc") { ">= 0" } else { "> 0" }
+            ),
+            BreakError::Pi(v) => write!(f, "pi must be in [0, 1) (the share of continuations at constant velocity; 0: the acceleration model alone), got {v}"),
+            BreakError::Difference(n, v) => write!(f, "{n} must be finite, got {v}"),
             BreakError::Density(v) => write!(f, "start_density must be > 0 and finite (starts per m² in the gap's window), got {v}"),
         }
     }
@@ -74,8 +81,14 @@ impl BreakModel {
                 return Err(BreakError::Variance(n, v));
             }
         }
-        if !(pi > 0.0 && pi < 1.0) {
+        if !(pi >= 0.0 && pi < 1.0) {
             return Err(BreakError::Pi(pi));
+        }
+        if !(var_cv + var_acc).is_finite() {
+            return Err(BreakError::Variance("var_acc", var_acc));
+        }
+        if !(varv_cv + varv_acc).is_finite() {
+            return Err(BreakError::Variance("varv_acc", varv_acc));
         }
         Ok(BreakModel { var_cv, var_acc, varv_cv, varv_acc, pi })
     }
@@ -108,6 +121,12 @@ fn log_add(a: f64, b: f64) -> f64 {
 pub fn evidence(d2: f64, dv2: f64, m: &BreakModel, start_density: f64) -> Result<Evidence, BreakError> {
     if !(start_density > 0.0 && start_density.is_finite()) {
         return Err(BreakError::Density(start_density));
+    }
+    if !d2.is_finite() {
+        return Err(BreakError::Difference("position difference (dx, dy)", d2));
+    }
+    if !dv2.is_finite() {
+        return Err(BreakError::Difference("velocity difference (dvx, dvy)", dv2));
     }
     let (vp, vv) = (m.var_cv + m.var_acc, m.varv_cv + m.varv_acc);
     let z2_cv = d2 / m.var_cv + dv2 / m.varv_cv;
@@ -159,7 +178,7 @@ mod tests {
         let nb = evidence(0.36, 0.01, &m, 1e-3).unwrap();
         assert!(own.ll - nb.ll >= LINK_RATIO.ln(), "{} vs {}", own.ll, nb.ll);
         // the acceleration model alone could not: its variance is metres wide
-        let acc = BreakModel { pi: 1e-12, ..m };
+        let acc = BreakModel { pi: 0.0, ..m };
         let (a, b) = (evidence(0.01, 0.01, &acc, 1e-3).unwrap(), evidence(0.36, 0.01, &acc, 1e-3).unwrap());
         assert!(a.ll - b.ll < LINK_RATIO.ln());
     }
@@ -177,9 +196,20 @@ mod tests {
         assert_eq!(BreakModel::new(0.0, 0.0, 1.0, 0.0, 0.5), Err(BreakError::Variance("var_cv", 0.0)));
         assert_eq!(BreakModel::new(1.0, -1.0, 1.0, 0.0, 0.5), Err(BreakError::Variance("var_acc", -1.0)));
         assert_eq!(BreakModel::new(1.0, 0.0, 1.0, 0.0, 1.0), Err(BreakError::Pi(1.0)));
+        assert!(BreakModel::new(1e308, 1e308, 1.0, 0.0, 0.5).is_err());
+        assert!(evidence(f64::NAN, 0.0, &model(0.5), 1e-3).is_err());
         assert!(BreakModel::new(1.0, 0.0, 1.0, 0.0, f64::NAN).is_err());
         assert_eq!(evidence(0.0, 0.0, &model(0.5), 0.0), Err(BreakError::Density(0.0)));
-        assert!(BreakError::Pi(2.0).to_string().contains("pi must be in (0, 1)"));
+        assert!(BreakError::Pi(2.0).to_string().contains("pi must be in [0, 1)"));
+        assert!(BreakError::Variance("var_acc", -1.0).to_string().contains("var_acc must be >= 0"));
+    }
+
+    #[test]
+    fn pi_0_is_the_acceleration_model_alone() {
+        let m = BreakModel { pi: 0.0, ..model(0.5) };
+        let e = evidence(0.09, 0.02, &m, 1e-3).unwrap();
+        let l_acc = -e.z2 / 2.0 - (m.var_cv + m.var_acc).ln() - (m.varv_cv + m.varv_acc).ln();
+        assert!((e.ll - l_acc).abs() < 1e-12);
     }
 
     #[test]

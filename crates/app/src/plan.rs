@@ -27,7 +27,7 @@ use std::error::Error;
 /// overlaps. Measuring any of them on one window instead would change the results.
 pub const SITE_TABLES: &[&str] = &[
     "calib_camera_order", "calib_cameras", "calib_classes", "calib_pairs", "calibration", "calib_fit_window", "quality_views", "quality_start_density",
-    "quality_starts",
+    "quality_starts", "quality_pi",
     "align_frames", "align_origin", "calib_match", "calibration_summary",
     "view_polygons", "view_overlaps", "view_merge_order", "view_overlaps_chain",
 ];

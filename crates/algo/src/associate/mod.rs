@@ -49,10 +49,11 @@ pub fn search_reach_m(class: &str) -> f64 {
 pub fn class_length_m(class: &str) -> f64 {
     let c = class.to_ascii_lowercase();
     let has = |words: &[&str]| words.iter().any(|w| c.contains(w));
-    if has(&["ped", "person", "walk", "people", "human"]) {
-        1.0
-    } else if has(&["cycl", "bike", "bicycl", "motor", "scooter", "two_wheel", "two-wheel"]) {
+    // two-wheelers first: a 'pedelec' or a 'pedal_cycle' is not a pedestrian
+    if has(&["cycl", "bike", "bicycl", "motor", "scooter", "two_wheel", "two-wheel", "pedelec"]) {
         2.0
+    } else if has(&["ped", "person", "walk", "people", "human"]) {
+        1.0
     } else if has(&["heavy", "truck", "bus", "lorry", "trailer", "tram", "coach"]) {
         12.0
     } else {
@@ -70,6 +71,8 @@ mod tests {
         assert_eq!(search_reach_m("Person"), 2.0);
         assert_eq!(search_reach_m("cyclist"), 3.0);
         assert_eq!(search_reach_m("motorcycle"), 3.0);
+        assert_eq!(class_length_m("pedelec"), 2.0);
+        assert_eq!(class_length_m("pedal_cycle"), 2.0);
         assert_eq!(search_reach_m("heavy_vehicle"), 13.0);
         assert_eq!(search_reach_m("BUS"), 13.0);
         assert_eq!(search_reach_m("car"), 6.0);

@@ -25,7 +25,6 @@
 //! differences are measured). O(E log C + Σ C_k³) for E pairs and components of C_k cameras, at
 //! most [`MAX_CAMERAS`] cameras per call.
 
-use std::collections::BTreeMap;
 use std::fmt;
 
 /// The level of the test "the recording shows clock drift": a two-sided 5-sigma normal tail,

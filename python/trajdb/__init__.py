@@ -338,7 +338,9 @@ def execute_steps(con, steps, progress=False):
                 except duckdb.Error:
                     pass
             if hasattr(e, "add_note"):
-                e.add_note(f"trajdb: in stage '{stage}' ({file})")
+                # the statement's first words name it when DuckDB's own message does not (an INTERNAL error)
+                head = " ".join(line for line in sql.split("\n") if not line.lstrip().startswith("--"))[:160]
+                e.add_note(f"trajdb: in stage '{stage}' ({file}), in the statement: {' '.join(head.split())} ...")
             raise
         if undo_sql:
             undo.append(undo_sql)

@@ -5,7 +5,7 @@
 -- work: align_centroids, align_tracks, align_activity, align_coarse, align_scan, align_keys, align_sample(),
 --       align_hypotheses(), align_vote(), align_scan_pass, align_hyp, align_best, align_widen(), align_retry,
 --       align_speed_scan, align_speed_votes, align_speed, align_hyp_wide, align_best_wide, align_support,
---       align_refit(), align_drift_pairs, align_wls(), align_drift_obs, align_drift_fit1, align_drift_kept,
+--       align_refit(), align_drift_pairs, align_drift_obs, align_drift_fitted, align_drift_kept,
 --       align_drift, align_support_voted, align_residuals(), align_clean(), align_register_pairs, align_register, align_edges
 -- changes: points, calibration
 -- parameters: align_agree_deg, align_agree_m, align_bin_deg, align_bin_m, align_bin_s, align_clock_step_s,
@@ -394,68 +394,33 @@ SELECT cam_fixed, cam_moving, track_fixed, track_moving, x, traj_fixed, traj_mov
 FROM coarse
 WHERE r IS NOT NULL AND NOT r.at_edge AND r.rms < gate;
 
-CREATE OR REPLACE TEMP MACRO align_wls(src) AS TABLE
-SELECT cam_fixed, cam_moving, count(*) AS n, max(x) - min(x) AS x_span,
-       (sum(w) * sum(w * x * y) - sum(w * x) * sum(w * y)) / nullif(sum(w) * sum(w * x * x) - sum(w * x) ** 2, 0) AS slope,
-       sum(w) / nullif(sum(w) * sum(w * x * x) - sum(w * x) ** 2, 0) AS slope_var0,
-       sum(w * x) AS swx, sum(w * y) AS swy, sum(w) AS sw
-FROM query_table(src) GROUP BY cam_fixed, cam_moving;
-
 CREATE OR REPLACE TEMP TABLE align_drift_obs AS
 SELECT cam_fixed, cam_moving, track_fixed, track_moving, x, r.dt AS y, 1 / greatest(r.se, getvariable('align_clock_step_s')) ** 2 AS w
 FROM align_drift_pairs WHERE isfinite(r.se);
 
-CREATE OR REPLACE TEMP TABLE align_drift_fit1 AS
-SELECT *, (swy - slope * swx) / sw AS intercept FROM align_wls('align_drift_obs');
+--    The fit is one named function (clock_drift_fit, crates/algo/src/align/drift_fit.rs: the
+--    weighted line, the 3-robust-sigma refit, the least-squares and the 8-block jackknife
+--    standard errors, the larger deciding). The least-squares standard error alone assumes
+--    independent pairs; road users seen close in time share biases (the same crowd, the same
+--    interpolation at 2 Hz), which a 5-minute 2 Hz crowd without any drift turned into a
+--    '134 ppm +- 17' drift. The pairs go in time order (the jackknife's blocks are spans of the
+--    recording), ties broken by the track ids, so that the fit does not depend on the threads.
+CREATE OR REPLACE TEMP TABLE align_drift_fitted AS
+SELECT cam_fixed, cam_moving,
+       list({'track_fixed': track_fixed, 'track_moving': track_moving, 'x': x, 'y': y, 'w': w} ORDER BY x, y, track_fixed, track_moving) AS obs,
+       clock_drift_fit(list({'x': x, 'y': y, 'w': w} ORDER BY x, y, track_fixed, track_moving)) AS f
+FROM align_drift_obs GROUP BY cam_fixed, cam_moving;
 
+-- the pairs the outlier test kept (unnest of two lists of one length: element by element)
 CREATE OR REPLACE TEMP TABLE align_drift_kept AS
-WITH z AS (
-    SELECT o.*, (o.y - f.intercept - f.slope * o.x) * sqrt(o.w) AS z
-    FROM align_drift_obs o JOIN align_drift_fit1 f USING (cam_fixed, cam_moving)
-    WHERE f.slope IS NOT NULL
-)
-SELECT z.* EXCLUDE (z), z.z FROM z
-JOIN (SELECT cam_fixed, cam_moving, 1.4826 * median(abs(z)) AS s FROM z GROUP BY ALL) m USING (cam_fixed, cam_moving)
-WHERE abs(z.z) <= 3 * m.s;
+SELECT cam_fixed, cam_moving, o.track_fixed, o.track_moving, o.x, o.y, o.w, r.z
+FROM (SELECT cam_fixed, cam_moving, unnest(obs) AS o, unnest(f) AS r FROM align_drift_fitted WHERE f IS NOT NULL)
+WHERE r.kept;
 
---    The least-squares standard error assumes independent pairs; road users seen close in time
---    share biases (the same crowd, the same interpolation at 2 Hz), which a 5-minute 2 Hz
---    crowd without any drift turned into a '134 ppm +- 17' drift. So the standard error is
---    also taken by the jackknife over 8 blocks of the recording (each block left out in turn),
---    and the larger of the two decides (|D| > 5 se).
 CREATE OR REPLACE TEMP TABLE align_drift AS
-WITH f AS (SELECT *, (swy - slope * swx) / sw AS intercept FROM align_wls('align_drift_kept')),
-chi AS (
-    SELECT k.cam_fixed, k.cam_moving, sum(k.w * (k.y - f.intercept - f.slope * k.x) ** 2) AS chi2
-    FROM align_drift_kept k JOIN f USING (cam_fixed, cam_moving) GROUP BY ALL
-),
-blk AS (
-    SELECT cam_fixed, cam_moving, b, sum(w) AS sw, sum(w * x) AS swx, sum(w * y) AS swy, sum(w * x * x) AS swxx, sum(w * x * y) AS swxy
-    FROM (SELECT *, ntile(8) OVER (PARTITION BY cam_fixed, cam_moving ORDER BY x, y) AS b FROM align_drift_kept)
-    GROUP BY ALL
-),
-tot AS (
-    SELECT cam_fixed, cam_moving, count(*) AS nb, sum(sw) AS sw, sum(swx) AS swx, sum(swy) AS swy, sum(swxx) AS swxx, sum(swxy) AS swxy
-    FROM blk GROUP BY ALL
-),
-jk AS (  -- the slope without block b
-    SELECT t.cam_fixed, t.cam_moving, t.nb,
-           ((t.sw - b.sw) * (t.swxy - b.swxy) - (t.swx - b.swx) * (t.swy - b.swy))
-             / nullif((t.sw - b.sw) * (t.swxx - b.swxx) - (t.swx - b.swx) ** 2, 0) AS slope_k
-    FROM tot t JOIN blk b USING (cam_fixed, cam_moving)
-),
-jse AS (
-    SELECT cam_fixed, cam_moving, sqrt((any_value(nb) - 1) / any_value(nb) * sum((slope_k - m) ** 2)) AS se_jk
-    FROM (SELECT *, avg(slope_k) OVER (PARTITION BY cam_fixed, cam_moving) AS m FROM jk WHERE slope_k IS NOT NULL)
-    GROUP BY ALL HAVING count(*) >= 4
-),
-se AS (
-    SELECT f.*, greatest(sqrt(f.slope_var0 * greatest(chi.chi2 / greatest(f.n - 2, 1), 1e-12)), coalesce(jse.se_jk, 'inf'::DOUBLE)) AS drift_se
-    FROM f JOIN chi USING (cam_fixed, cam_moving) LEFT JOIN jse USING (cam_fixed, cam_moving)
-)
-SELECT cam_fixed, cam_moving, n, x_span, slope AS drift_fit, intercept, drift_se, sw, swx, swy
-FROM se
-WHERE slope IS NOT NULL;
+SELECT cam_fixed, cam_moving, f[1].n AS n, f[1].x_span AS x_span, f[1].slope AS drift_fit, f[1].intercept AS intercept,
+       f[1].se AS drift_se, f[1].sw AS sw, f[1].swx AS swx, f[1].swy AS swy, f[1].usable AS usable
+FROM align_drift_fitted WHERE f IS NOT NULL;
 
 --    One drift per camera (clock_network, crates/algo/src/align/clock_network.rs): every camera
 --    pair with at least 8 pairs measures the difference of its two cameras' drifts; the cameras'
@@ -478,7 +443,7 @@ net AS (
     SELECT unnest(clock_network(list({'fixed': rf.data_rank, 'moving': rm.data_rank, 'value': d.drift_fit, 'se': d.drift_se} ORDER BY rf.data_rank, rm.data_rank),
                                 (SELECT o.data_rank FROM ref JOIN calib_camera_order o USING (camera)))) AS c
     FROM align_drift d JOIN calib_camera_order rf ON rf.camera = d.cam_fixed JOIN calib_camera_order rm ON rm.camera = d.cam_moving
-    WHERE d.n >= 8 AND isfinite(d.drift_se) AND d.drift_se > 0 AND isfinite(d.drift_fit)
+    WHERE d.usable AND isfinite(d.drift_fit)
 ),
 cam AS (
     SELECT o.camera, CASE WHEN n.c.shown THEN n.c.value ELSE 0.0 END AS d, n.c.se AS se
@@ -499,31 +464,11 @@ FROM align_drift d LEFT JOIN cam m ON m.camera = d.cam_moving LEFT JOIN cam f ON
 --    seen close in time share their errors). NULL with fewer than 4 blocks. calibration.csv
 --    reports it; sql/warnings.sql warns when it exceeds half the common clock step.
 CREATE OR REPLACE TEMP TABLE align_offset_se AS
-WITH k AS (
-    SELECT k.cam_fixed, k.cam_moving, k.x, k.y - coalesce(d.drift, 0.0) * k.x AS y, k.w,
-           ntile(8) OVER (PARTITION BY k.cam_fixed, k.cam_moving ORDER BY k.x, k.y) AS b
-    FROM align_drift_kept k LEFT JOIN align_drift d USING (cam_fixed, cam_moving)
-),
--- sums over ordered lists (list_sum), not sum(): a parallel sum adds in another order per
--- thread count and moved the last digits (tests/test_determinism_python.py)
-blk AS (
-    SELECT cam_fixed, cam_moving, b, list_sum(list(w ORDER BY x, y, w)) AS sw, list_sum(list(w * y ORDER BY x, y, w)) AS swy
-    FROM k GROUP BY ALL
-),
-tot AS (
-    SELECT cam_fixed, cam_moving, count(*) AS nb, list_sum(list(sw ORDER BY b)) AS sw, list_sum(list(swy ORDER BY b)) AS swy
-    FROM blk GROUP BY ALL
-),
-jk AS (
-    SELECT cam_fixed, cam_moving, any_value(t.nb) AS nb, any_value(t.sw) AS sw_all,
-           list((t.swy - b.swy) / (t.sw - b.sw) ORDER BY b.b) AS ms
-    FROM tot t JOIN blk b USING (cam_fixed, cam_moving) WHERE t.sw > b.sw
-    GROUP BY cam_fixed, cam_moving
-)
-SELECT cam_fixed, cam_moving, nb AS blocks,
-       CASE WHEN len(ms) >= 4
-            THEN greatest(sqrt((nb - 1) / nb * list_sum([(m - list_sum(ms) / len(ms)) ** 2 FOR m IN ms])), 1 / sqrt(sw_all)) END AS offset_se
-FROM jk;
+SELECT cam_fixed, cam_moving, s.blocks, s.se AS offset_se
+FROM (SELECT k.cam_fixed, k.cam_moving,
+             clock_offset_se(list({'x': k.x, 'y': k.y, 'w': k.w} ORDER BY k.x, k.y, k.track_fixed, k.track_moving), coalesce(any_value(d.drift), 0.0)) AS s
+      FROM align_drift_kept k LEFT JOIN align_drift d USING (cam_fixed, cam_moving)
+      GROUP BY k.cam_fixed, k.cam_moving);
 
 --    a pair with drift: on the relative clocks the fit says y = (1 + D) x + a (x, y: fixed and
 --    moving times). Its support becomes the kept drift pairs, the moving tracks' times warped

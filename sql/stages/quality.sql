@@ -192,8 +192,8 @@ pairs AS (
            b.vx0 - a.vx1 AS dvx, b.vy0 - a.vy1 AS dvy,
            a.s2 / a.sxx1 + b.s2 / b.sxx0 AS varv_cv,
            a.sa2 * (b.t0 - a.t1) ** 2 AS varv_acc,
-           -- both ends standing: each velocity within its fit's noise of 0 (chi2(2) at 0.99, 9.21)
-           (a.vx1 ** 2 + a.vy1 ** 2) <= 9.21 * a.s2 / a.sxx1 AND (b.vx0 ** 2 + b.vy0 ** 2) <= 9.21 * b.s2 / b.sxx0 AS standing
+           -- both ends standing: each velocity within its fit's noise of 0 (break_standing: chi2(2) at 0.99)
+           break_standing(a.vx1, a.vy1, a.s2 / a.sxx1) AND break_standing(b.vx0, b.vy0, b.s2 / b.sxx0) AS standing
     -- (the bucket as a hash key: each end is listed in its bucket and the next, so the join is an
     -- equality; a difference of the two buckets IN (0, 1) was a condition on every pair of a class)
     FROM (SELECT *, unnest([floor(t1 / getvariable('quality_max_gap')), floor(t1 / getvariable('quality_max_gap')) + 1]) AS k FROM e) a
@@ -211,7 +211,7 @@ z AS (
 ),
 g AS (
     SELECT z.*, count(*) OVER (PARTITION BY camera, from_id) AS n_end, count(*) OVER (PARTITION BY camera, to_id) AS n_start
-    FROM z WHERE e0.z2 <= 13.28
+    FROM z WHERE e0.candidate
 )
 FROM g;
 
@@ -224,7 +224,7 @@ FROM g;
 -- A measurement of the site (python/trajdb/windows.py ships it to every window: a window's own
 -- few candidates would give another pi, and other links).
 CREATE OR REPLACE TEMP TABLE quality_pi AS
-SELECT camera, class, (count(*) FILTER (WHERE e0.z2_cv <= 13.28) + 1.0) / (count(*) + 2.0) AS pi, count(*) AS pi_n
+SELECT camera, class, (count(*) FILTER (WHERE e0.candidate_cv) + 1.0) / (count(*) + 2.0) AS pi, count(*) AS pi_n
 FROM quality_pairs WHERE n_end = 1 AND n_start = 1 AND standing GROUP BY ALL;
 
 CREATE OR REPLACE TEMP TABLE quality_candidates AS
@@ -261,12 +261,15 @@ SELECT camera, class, from_id, to_id, gap, sqrt(dx * dx + dy * dy) AS distance, 
          AND row_number() OVER (PARTITION BY camera, to_id ORDER BY ll DESC, from_id) = 1 AS mutual_best
 FROM w;
 
+-- the decision is one named function (break_link_kind, crates/algo/src/break_link.rs): the ratio
+-- test against the best other candidate of the end and of the start (ln 100), no link when less
+-- likely than an unrelated start about that place (else 'candidate' in quality_events), then
+-- 'broken' or 'reach'
 CREATE OR REPLACE TEMP TABLE quality_breaks AS
-SELECT *, CASE WHEN z2_cv <= 13.28 AND ll_bg >= ln(100) THEN 'broken' ELSE 'reach' END AS kind
-FROM quality_candidates
-WHERE mutual_best AND coalesce(ll - ll_next_end, 1e300) >= ln(100) AND coalesce(ll - ll_next_start, 1e300) >= ln(100)
-  -- likelier than an unrelated start about that place (else not a link: 'candidate' in quality_events)
-  AND ll_bg >= 0;
+SELECT * FROM (
+    SELECT *, break_link_kind(z2_cv, ll, ll_bg, coalesce(ll_next_end, '-inf'::DOUBLE), coalesce(ll_next_start, '-inf'::DOUBLE)) AS kind
+    FROM quality_candidates WHERE mutual_best)
+WHERE kind IS NOT NULL;
 
 -- the 'reach' links (quality_reach keeps the shape of the events)
 CREATE OR REPLACE TEMP TABLE quality_reach AS

@@ -473,6 +473,61 @@ pub static FUNCTIONS: &[Function] = &[
         }],
         table: None,
     },
+    Function {
+        name: "clock_drift_fit",
+        description: "A camera pair's clock drift D from its candidate track pairs' own clock offsets (align.sql step 3b; \
+                      crates/algo/src/align/drift_fit.rs): y ≈ a + D x by weighted least squares (weight w = 1 / se²), refitted \
+                      without the pairs beyond 3 robust standard deviations (1.4826 · median |z|) of the first fit; the drift's \
+                      standard error is the larger of least squares' and the delete-a-block jackknife's over 8 blocks of the pairs in \
+                      the order given (pass them in time order; infinite with fewer than 4 blocks). One element per observation, in \
+                      the order given: kept (by the outlier test), z (its standardised residual about the first fit), and the fit of \
+                      the kept pairs repeated (n, x_span, slope, intercept, se, se_ls, se_jk, sw, swx, swy: the weighted sums, for \
+                      the intercept under another slope), usable (at least 8 kept pairs and a finite se > 0: the camera network \
+                      may use the drift). NULL when no fit is defined (no observation, or all at one time). A \
+                      non-finite x or y, or a w that is not finite and > 0, is an error naming the observation. O(n log n).",
+        example: "SELECT round(f[1].slope * 1e6) FROM (SELECT clock_drift_fit([{'x': i * 10.0, 'y': 0.5 + 2e-4 * i * 10.0, 'w': 1e4} FOR i IN range(20)]) AS f); -- 200.0",
+        maths: "crates/algo/src/align/drift_fit.rs",
+        binding: file!(),
+        signatures: &[Signature {
+            params: &[p("obs", Ty::List(&Ty::Struct(&[("x", Ty::Double), ("y", Ty::Double), ("w", Ty::Double)])))],
+            arities: &[],
+            returns: Ty::List(&Ty::Struct(&[
+                ("kept", Ty::Boolean),
+                ("z", Ty::Double),
+                ("n", Ty::Bigint),
+                ("x_span", Ty::Double),
+                ("slope", Ty::Double),
+                ("intercept", Ty::Double),
+                ("se", Ty::Double),
+                ("se_ls", Ty::Double),
+                ("se_jk", Ty::Double),
+                ("sw", Ty::Double),
+                ("swx", Ty::Double),
+                ("swy", Ty::Double),
+                ("usable", Ty::Boolean),
+            ])),
+            kernel: clock_drift_fit,
+        }],
+        table: None,
+    },
+    Function {
+        name: "clock_offset_se",
+        description: "The standard error of a camera pair's clock offset (align.sql; crates/algo/src/align/drift_fit.rs): with the \
+                      drift removed (y - drift · x), the offset is the weighted mean of the pairs' own offsets, and its standard error \
+                      the larger of the mean's (1 / sqrt(sum of w)) and the delete-a-block jackknife's over 8 blocks of the pairs in \
+                      the order given (pass them in time order). blocks: the blocks used; se NULL with fewer than 4. NULL for a NULL \
+                      argument; a bad observation is an error naming it. O(n).",
+        example: "SELECT clock_offset_se([{'x': i * 10.0, 'y': 0.5, 'w': 1e4} FOR i IN range(16)], 0.0).blocks; -- 8",
+        maths: "crates/algo/src/align/drift_fit.rs",
+        binding: file!(),
+        signatures: &[Signature {
+            params: &[p("obs", Ty::List(&Ty::Struct(&[("x", Ty::Double), ("y", Ty::Double), ("w", Ty::Double)]))), p("drift", Ty::Double)],
+            arities: &[],
+            returns: Ty::Struct(&[("blocks", Ty::Bigint), ("se", Ty::Double)]),
+            kernel: clock_offset_se,
+        }],
+        table: None,
+    },
 ];
 
 /// The optional `tau, max_iter, tol, with_scale, starts` (columns 3..7) with their defaults,
@@ -905,5 +960,54 @@ fn clock_network(a: &Args<'_>, out: &mut Out<'_>) -> R {
         })
         .collect();
     out.struct_lists(&cols)?;
+    Ok(())
+}
+
+fn drift_obs(c: &super::vector::Rows<'_>) -> Vec<crate::algo::align::drift_fit::Obs> {
+    let (x, y, w) = (c.f64(0), c.f64(1), c.f64(2));
+    (0..c.len()).map(|k| crate::algo::align::drift_fit::Obs { x: x[k], y: y[k], w: w[k] }).collect()
+}
+
+fn clock_drift_fit(a: &Args<'_>, out: &mut Out<'_>) -> R {
+    use crate::algo::align::drift_fit::fit;
+    let obs = a.struct_list(0);
+    type Cols = (Vec<Option<bool>>, Vec<f64>, Vec<i64>, [Vec<f64>; 9], Vec<Option<bool>>);
+    let fits: Vec<Option<Cols>> = a.map(|r| {
+        let Some(c) = obs.get(r)? else { return Ok(None) };
+        let Some(f) = fit(&drift_obs(&c))? else { return Ok(None) };
+        let k = f.kept.len();
+        let rep = |v: f64| vec![v; k];
+        Ok(Some((
+            f.kept.iter().map(|&b| Some(b)).collect(),
+            f.z.clone(),
+            vec![f.n as i64; k],
+            [rep(f.x_span), rep(f.slope), rep(f.intercept), rep(f.se), rep(f.se_ls), rep(f.se_jk), rep(f.sw), rep(f.swx), rep(f.swy)],
+            vec![Some(f.usable); k],
+        )))
+    })?;
+    let cols: Vec<Option<Vec<Column<'_>>>> = fits
+        .iter()
+        .map(|v| {
+            v.as_ref().map(|(kept, z, n, f, usable)| {
+                let mut c = vec![Column::OptBool(kept), Column::F64(z), Column::I64(n)];
+                c.extend(f.iter().map(|v| Column::F64(v)));
+                c.push(Column::OptBool(usable));
+                c
+            })
+        })
+        .collect();
+    out.struct_lists(&cols)?;
+    Ok(())
+}
+
+fn clock_offset_se(a: &Args<'_>, out: &mut Out<'_>) -> R {
+    use crate::algo::align::drift_fit::offset_se;
+    let (obs, drift) = (a.struct_list(0), a.double(1));
+    let vals = a.map(|r| {
+        let (Some(c), Some(d)) = (obs.get(r)?, drift.get(r)) else { return Ok(None) };
+        let (blocks, se) = offset_se(&drift_obs(&c), d)?;
+        Ok(Some(vec![Value::I64(blocks as i64), se.map_or(Value::Null, Value::F64)]))
+    })?;
+    out.structs(&vals);
     Ok(())
 }

@@ -96,7 +96,7 @@ pub static FUNCTIONS: &[Function] = &[
                       (m), and dv = (dvx, dvy) of their velocities (m/s), under a mixture of two models: the road user kept its velocity \
                       (share pi; variances var_cv per axis of d and varv_cv of dv) or accelerated as its class may (var_cv + var_acc, \
                       varv_cv + varv_acc). Returns z2_cv and z2 (the chi2(4) statistics of each model; quality.sql's candidate gate is \
-                      z2 <= 13.28), ll (the mixture's log-density: ranks the candidates of an end and of a start) and ll_bg (the \
+                      z2 <= 13.28, given as candidate; candidate_cv: z2_cv within it), ll (the mixture's log-density: ranks the candidates of an end and of a start) and ll_bg (the \
                       mixture's log position density over start_density, the density of unrelated starts per m² in the gap's time \
                       window). NULL for NULL; a variance <= 0 (var_acc, varv_acc: < 0), pi outside [0, 1) (0: the acceleration model alone), a non-finite difference or a start_density <= 0 is an \
                       error naming it. O(1).",
@@ -117,8 +117,42 @@ pub static FUNCTIONS: &[Function] = &[
                 p("start_density", Ty::Double),
             ],
             arities: &[],
-            returns: Ty::Struct(&[("z2_cv", Ty::Double), ("z2", Ty::Double), ("ll", Ty::Double), ("ll_bg", Ty::Double)]),
+            returns: Ty::Struct(&[("z2_cv", Ty::Double), ("z2", Ty::Double), ("ll", Ty::Double), ("ll_bg", Ty::Double), ("candidate", Ty::Boolean), ("candidate_cv", Ty::Boolean)]),
             kernel: break_evidence,
+        }],
+        table: None,
+    },
+    Function {
+        name: "break_link_kind",
+        description: "The link decision for a candidate that is the mutual best of its track end and its start (sql/stages/quality.sql; \
+                      crates/algo/src/break_link.rs link_kind): the ratio test (ll beats ll_next_end and ll_next_start, the best \
+                      other candidates of the end and of the start, by ln 100; pass -infinity for none), then no link when \
+                      ll_bg < 0 (less likely than an unrelated start); 'broken' when z2_cv is within the chi2(4) 0.99 gate (13.28) \
+                      and ll_bg >= ln 100, else 'reach'. NULL: no link (or a NULL argument). O(1).",
+        example: "SELECT break_link_kind(1.0, 0.0, 5.0, '-inf'::DOUBLE, '-inf'::DOUBLE); -- broken",
+        maths: "crates/algo/src/break_link.rs",
+        binding: file!(),
+        signatures: &[Signature {
+            params: &[p("z2_cv", Ty::Double), p("ll", Ty::Double), p("ll_bg", Ty::Double), p("ll_next_end", Ty::Double), p("ll_next_start", Ty::Double)],
+            arities: &[],
+            returns: Ty::Varchar,
+            kernel: break_link_kind,
+        }],
+        table: None,
+    },
+    Function {
+        name: "break_standing",
+        description: "Whether a track end stands (sql/stages/quality.sql; crates/algo/src/break_link.rs standing): its velocity \
+                      (vx, vy, m/s) within its fit's noise of 0, |v|² <= 9.21 var_v (chi2(2) at 0.99; var_v: the per-axis \
+                      variance of the fitted velocity, m²/s²). False for var_v <= 0; NULL for NULL. O(1).",
+        example: "SELECT break_standing(0.05, 0.0, 0.01); -- true",
+        maths: "crates/algo/src/break_link.rs",
+        binding: file!(),
+        signatures: &[Signature {
+            params: &[p("vx", Ty::Double), p("vy", Ty::Double), p("var_v", Ty::Double)],
+            arities: &[],
+            returns: Ty::Boolean,
+            kernel: break_standing,
         }],
         table: None,
     },
@@ -225,8 +259,34 @@ fn break_evidence(a: &Args<'_>, out: &mut Out<'_>) -> R {
         }
         let m = BreakModel::new(v[4], v[5], v[6], v[7], v[8])?;
         let e = break_link::evidence(v[0] * v[0] + v[1] * v[1], v[2] * v[2] + v[3] * v[3], &m, v[9])?;
-        Ok(Some([e.z2_cv, e.z2, e.ll, e.ll_bg].map(Value::F64).to_vec()))
+        let mut v = [e.z2_cv, e.z2, e.ll, e.ll_bg].map(Value::F64).to_vec();
+        v.extend([Value::Bool(break_link::candidate(e.z2)), Value::Bool(break_link::candidate(e.z2_cv))]);
+        Ok(Some(v))
     })?;
     out.structs(&vals);
+    Ok(())
+}
+
+fn break_link_kind(a: &Args<'_>, out: &mut Out<'_>) -> R {
+    let cols: Vec<_> = (0..5).map(|i| a.double(i)).collect();
+    let vals = a.map(|r| {
+        let mut v = [0.0; 5];
+        for (k, c) in cols.iter().enumerate() {
+            let Some(x) = c.get(r) else { return Ok(None) };
+            v[k] = x;
+        }
+        Ok(break_link::link_kind(v[0], v[1], v[2], v[3], v[4]).map(|k| k.as_str()))
+    })?;
+    out.text(&vals);
+    Ok(())
+}
+
+fn break_standing(a: &Args<'_>, out: &mut Out<'_>) -> R {
+    let (vx, vy, var) = (a.double(0), a.double(1), a.double(2));
+    let vals = a.map(|r| {
+        let (Some(x), Some(y), Some(v)) = (vx.get(r), vy.get(r), var.get(r)) else { return Ok(None) };
+        Ok(Some(break_link::standing(x * x + y * y, v)))
+    })?;
+    out.flat(&vals);
     Ok(())
 }

@@ -36,6 +36,59 @@ pub const GATE_Z2: f64 = 13.276704135987622;
 /// many times likelier than an unrelated start.
 pub const LINK_RATIO: f64 = 100.0;
 
+/// A track end "stands" when its velocity is within its fit's noise of 0: `|v|² ≤ STANDING_Z2 ·
+/// var_v` (chi-square with 2 degrees of freedom at 0.99, `2 ln 100`). quality.sql scores the
+/// mixture only for candidates standing at both ends ([`standing`]).
+pub const STANDING_Z2: f64 = 9.210340371976184;
+
+/// Whether a track end with velocity² `v2` (m²/s²) and per-axis velocity variance `var_v` (its
+/// fit's noise, m²/s²) stands ([`STANDING_Z2`]). False for a NaN or a variance ≤ 0.
+pub fn standing(v2: f64, var_v: f64) -> bool {
+    var_v > 0.0 && v2 <= STANDING_Z2 * var_v
+}
+
+/// The kind of a taken link.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LinkKind {
+    /// Taken on this camera's evidence alone: within the constant-velocity gate, and [`LINK_RATIO`]
+    /// times likelier than an unrelated start about that place.
+    Broken,
+    /// Taken, but only by the acceleration allowance or with a weaker background test: another
+    /// camera or the merge must confirm it (quality.sql).
+    Reach,
+}
+
+impl LinkKind {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            LinkKind::Broken => "broken",
+            LinkKind::Reach => "reach",
+        }
+    }
+}
+
+/// The link decision for a candidate that is the mutual best of its end and its start (the SQL
+/// finds that: a join): with its evidence (`z2_cv`, `ll`, `ll_bg` of [`evidence`]) and the best
+/// other candidates' `ll` of its end and of its start (−∞ when there is none), the ratio test
+/// (`ll − ll_next ≥ ln LINK_RATIO` for both), and no link when it is less likely than an unrelated
+/// start (`ll_bg < 0`); then [`LinkKind::Broken`] or [`LinkKind::Reach`]. A NaN anywhere is no link.
+pub fn link_kind(z2_cv: f64, ll: f64, ll_bg: f64, ll_next_end: f64, ll_next_start: f64) -> Option<LinkKind> {
+    if [z2_cv, ll, ll_bg, ll_next_end, ll_next_start].iter().any(|v| v.is_nan()) {
+        return None;
+    }
+    let margin = LINK_RATIO.ln();
+    let beats = |next: f64| next == f64::NEG_INFINITY || ll - next >= margin;
+    if !(beats(ll_next_end) && beats(ll_next_start) && ll_bg >= 0.0) {
+        return None;
+    }
+    Some(if z2_cv <= GATE_Z2 && ll_bg >= margin { LinkKind::Broken } else { LinkKind::Reach })
+}
+
+/// Whether a pair is a candidate: its `z2` (acceleration model) within [`GATE_Z2`].
+pub fn candidate(z2: f64) -> bool {
+    z2 <= GATE_Z2
+}
+
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum BreakError {
     /// A variance (name, value) is not > 0 (var_acc, varv_acc: >= 0) and finite, or two add to infinity.
@@ -189,6 +242,31 @@ mod tests {
         let sparse = evidence(0.04, 0.0, &m, 1e-4).unwrap();
         let dense = evidence(0.04, 0.0, &m, 1e-1).unwrap();
         assert!((sparse.ll_bg - dense.ll_bg - 1e3f64.ln()).abs() < 1e-9);
+    }
+
+    #[test]
+    fn the_link_decision_is_the_ratio_test_then_the_background_test() {
+        let m = LINK_RATIO.ln();
+        // no competitor, background passed, constant velocity: broken
+        assert_eq!(link_kind(1.0, 0.0, m, f64::NEG_INFINITY, f64::NEG_INFINITY), Some(LinkKind::Broken));
+        // a competitor within the ratio of the end or of the start: no link
+        assert_eq!(link_kind(1.0, 0.0, m, -m + 0.01, f64::NEG_INFINITY), None);
+        assert_eq!(link_kind(1.0, 0.0, m, f64::NEG_INFINITY, -m + 0.01), None);
+        assert_eq!(link_kind(1.0, 0.0, m, -m, -m), Some(LinkKind::Broken));
+        // beyond the constant-velocity gate, or a weaker background: reach
+        assert_eq!(link_kind(GATE_Z2 + 0.1, 0.0, m, f64::NEG_INFINITY, f64::NEG_INFINITY), Some(LinkKind::Reach));
+        assert_eq!(link_kind(1.0, 0.0, m - 0.1, f64::NEG_INFINITY, f64::NEG_INFINITY), Some(LinkKind::Reach));
+        // less likely than an unrelated start: no link
+        assert_eq!(link_kind(1.0, 0.0, -0.1, f64::NEG_INFINITY, f64::NEG_INFINITY), None);
+        assert_eq!(link_kind(1.0, f64::NAN, m, f64::NEG_INFINITY, f64::NEG_INFINITY), None);
+    }
+
+    #[test]
+    fn standing_is_within_the_fits_noise_of_zero() {
+        assert!(standing(0.0, 0.01) && standing(0.092, 0.01) && !standing(0.093, 0.01));
+        assert!(!standing(0.0, 0.0) && !standing(f64::NAN, 1.0));
+        assert!((STANDING_Z2 - 2.0 * 100f64.ln()).abs() < 1e-12);
+        assert!(candidate(GATE_Z2) && !candidate(GATE_Z2 + 1e-9));
     }
 
     #[test]

@@ -17,6 +17,7 @@
 //! | [`cpd3`] | `cpd_align` (3-D) | the same model in 3-D (rotation by SVD) |
 
 pub mod clock_network;
+pub mod drift_fit;
 pub mod correspond;
 pub mod msd;
 pub mod register;

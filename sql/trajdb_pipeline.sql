@@ -508,7 +508,7 @@ p AS (SELECT camera, median(dt1) AS period_s FROM d WHERE dt1 > 0 GROUP BY camer
 -- a quarter period of each other, none longer than 1.5 periods)
 SELECT camera, period_s,
        median(abs(dt1 - period_s)) AS jitter_s,
-       sqrt(median(ax * ax + ay * ay) FILTER (WHERE even) / (12 * ln(2))) AS sigma_m,
+       noise_sigma_from_second_differences(median(ax * ax + ay * ay) FILTER (WHERE even)) AS sigma_m,
        count(*) AS n_intervals,
        count(*) FILTER (WHERE even) AS n_triples
 FROM (SELECT d.*, p.period_s, abs(d.dt1 - d.dt2) <= 0.25 * p.period_s AND d.dt1 <= 1.5 * p.period_s AS even
@@ -542,8 +542,7 @@ FROM a GROUP BY class;
 -- 1.1 s; at 2 Hz: 1.6 s; cars (accel_p95 ~ 4 m/s^2) at 10 Hz, sigma 0.1 m: 0.5 s.
 CREATE OR REPLACE TEMP TABLE calib_fit_window AS
 SELECT c.camera, k.class,
-       greatest(3 * c.period_s,
-                (72 * greatest(c.sigma_m, 1e-3) ** 2 * c.period_s / greatest(k.accel_p95 / 2.45, 1e-3) ** 2) ** 0.2) AS fit_window_s
+       noise_velocity_window_s(c.sigma_m, c.period_s, noise_sigma_from_rayleigh_p95(k.accel_p95)) AS fit_window_s
 FROM calib_cameras c CROSS JOIN calib_classes k
 WHERE c.period_s > 0;
 
@@ -810,9 +809,9 @@ SELECT q.camera, q.class,
        greatest(count(*) FILTER (WHERE polygon_contains(v.interior, q.e.x0, q.e.y0)), 1)
          / greatest(any_value(polygon_area(v.interior)), 1.0) / any_value(sp.span_s) AS starts_per_m2_s,
        any_value(sp.span_s) AS span_s,
-       greatest(sqrt(5.99 * (greatest(coalesce(any_value(c.sigma_m), 0), 1e-3) ** 2
-                             + (coalesce(any_value(k.value), calibrated('quality_max_accel')) / 2.45) ** 2
-                               * ((getvariable('quality_max_gap') / 2) ** 2 / 2) ** 2)), 1.0) AS local_radius_m
+       noise_reappear_radius_95(greatest(coalesce(any_value(c.sigma_m), 0), 1e-3),
+                                coalesce(noise_sigma_from_rayleigh_p95(coalesce(any_value(k.value), calibrated('quality_max_accel'))), 0.0),
+                                getvariable('quality_max_gap') / 2, 1.0) AS local_radius_m
 FROM quality_endpoints q JOIN quality_views v USING (camera)
 -- the camera's recording span (a class seen twice in an hour is rare over the hour, not over the
 -- minute between its two road users)
@@ -832,7 +831,7 @@ WITH e AS (
            greatest(coalesce(c.sigma_m, 0), 1e-3) ** 2 AS s2,
            -- the class's quality_max_accel (calibrate.sql: given, else its measured accel_p95),
            -- else the default row (given, else no allowance)
-           (coalesce(k.value, calibrated('quality_max_accel')) / 2.45) ** 2 AS sa2,
+           noise_sigma_from_rayleigh_p95(coalesce(k.value, calibrated('quality_max_accel'))) ** 2 AS sa2,
            polygon_contains(v.interior, q.e.x1, q.e.y1) AS end_inside,
            polygon_contains(v.interior, q.e.x0, q.e.y0) AS start_inside
     FROM quality_endpoints q JOIN quality_fit f USING (camera, track_id) JOIN quality_views v USING (camera)
@@ -1603,9 +1602,9 @@ b AS (
 ),
 d AS (
     SELECT cam_fixed, cam_moving,
-           median(sqrt(e.ex ** 2 + e.ey ** 2)) / sqrt(2 * ln(2)) AS sigma_d,
+           noise_sigma_from_rayleigh_median(median(sqrt(e.ex ** 2 + e.ey ** 2))) AS sigma_d,
            -- (n / (n - 1): the variance about a mean estimated from the same n points)
-           median(sqrt(((e.ex - b.bx) ** 2 + (e.ey - b.by) ** 2) * b.n / (b.n - 1))) FILTER (WHERE b.n > 1) / sqrt(2 * ln(2)) AS sigma_res,
+           noise_sigma_from_rayleigh_median(median(sqrt(((e.ex - b.bx) ** 2 + (e.ey - b.by) ** 2) * b.n / (b.n - 1))) FILTER (WHERE b.n > 1)) AS sigma_res,
            count(*) AS n_pairs
     FROM e JOIN b USING (cam_fixed, cam_moving, track_fixed, track_moving)
     GROUP BY cam_fixed, cam_moving
@@ -1625,12 +1624,12 @@ FROM calib_pairs p LEFT JOIN d ON least(d.cam_fixed, d.cam_moving) = p.cam_a AND
 -- sigma = 0, and LCSS needs epsilon > 0; 1 mm is below any camera's noise.
 INSERT INTO calibration
 SELECT 'merge_epsilon', e.scope, e.cam_a, e.cam_b, NULL, e.measured, g.given, coalesce(g.given, e.measured), e.rule
-FROM (SELECT 'camera pair' AS scope, cam_a, cam_b, greatest(sqrt(2 * ln(100)) * sigma_d_m, 1e-3) AS measured, '3.03 x residual sigma' AS rule
+FROM (SELECT 'camera pair' AS scope, cam_a, cam_b, noise_match_epsilon(sigma_d_m) AS measured, '3.03 x residual sigma' AS rule
       FROM calib_match
       UNION ALL
       SELECT 'default', NULL, NULL,
-             coalesce((SELECT max(greatest(sqrt(2 * ln(100)) * sigma_d_m, 1e-3)) FROM calib_match),
-                      greatest(sqrt(2 * ln(100)) * sqrt(2) * (SELECT coalesce(max(sigma_m), 0) FROM calib_cameras), 1e-3)),
+             coalesce((SELECT max(noise_match_epsilon(sigma_d_m)) FROM calib_match),
+                      noise_match_epsilon(sqrt(2) * (SELECT coalesce(max(sigma_m), 0) FROM calib_cameras))),
              'the largest camera pair''s (one camera: 3.03 sqrt(2) sigma)') e,
      (SELECT getvariable('merge_epsilon') AS given) g;
 
@@ -2336,8 +2335,7 @@ JOIN load_ids j ON j.camera = c.camera AND j.track_id = c.linked_id;
 
 CREATE OR REPLACE TEMP TABLE fuse_q AS
 SELECT class, accel_p95,
-       1.5 * greatest((accel_p95 / sqrt(2 * ln(20))) ** 2 - 6 * coalesce((SELECT avg(sigma_m ** 2) FROM calib_cameras WHERE isfinite(sigma_m)), 0),
-                      0.1 * (accel_p95 / sqrt(2 * ln(20))) ** 2) AS q
+       noise_process_q(accel_p95, coalesce((SELECT avg(sigma_m ** 2) FROM calib_cameras WHERE isfinite(sigma_m)), 0)) AS q
 FROM calib_classes WHERE isfinite(accel_p95);
 
 -- Sources that see different points of the road user (issue 38; docs/fusion.md): every source

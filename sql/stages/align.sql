@@ -613,9 +613,9 @@ b AS (
 ),
 d AS (
     SELECT cam_fixed, cam_moving,
-           median(sqrt(e.ex ** 2 + e.ey ** 2)) / sqrt(2 * ln(2)) AS sigma_d,
+           noise_sigma_from_rayleigh_median(median(sqrt(e.ex ** 2 + e.ey ** 2))) AS sigma_d,
            -- (n / (n - 1): the variance about a mean estimated from the same n points)
-           median(sqrt(((e.ex - b.bx) ** 2 + (e.ey - b.by) ** 2) * b.n / (b.n - 1))) FILTER (WHERE b.n > 1) / sqrt(2 * ln(2)) AS sigma_res,
+           noise_sigma_from_rayleigh_median(median(sqrt(((e.ex - b.bx) ** 2 + (e.ey - b.by) ** 2) * b.n / (b.n - 1))) FILTER (WHERE b.n > 1)) AS sigma_res,
            count(*) AS n_pairs
     FROM e JOIN b USING (cam_fixed, cam_moving, track_fixed, track_moving)
     GROUP BY cam_fixed, cam_moving
@@ -635,12 +635,12 @@ FROM calib_pairs p LEFT JOIN d ON least(d.cam_fixed, d.cam_moving) = p.cam_a AND
 -- sigma = 0, and LCSS needs epsilon > 0; 1 mm is below any camera's noise.
 INSERT INTO calibration
 SELECT 'merge_epsilon', e.scope, e.cam_a, e.cam_b, NULL, e.measured, g.given, coalesce(g.given, e.measured), e.rule
-FROM (SELECT 'camera pair' AS scope, cam_a, cam_b, greatest(sqrt(2 * ln(100)) * sigma_d_m, 1e-3) AS measured, '3.03 x residual sigma' AS rule
+FROM (SELECT 'camera pair' AS scope, cam_a, cam_b, noise_match_epsilon(sigma_d_m) AS measured, '3.03 x residual sigma' AS rule
       FROM calib_match
       UNION ALL
       SELECT 'default', NULL, NULL,
-             coalesce((SELECT max(greatest(sqrt(2 * ln(100)) * sigma_d_m, 1e-3)) FROM calib_match),
-                      greatest(sqrt(2 * ln(100)) * sqrt(2) * (SELECT coalesce(max(sigma_m), 0) FROM calib_cameras), 1e-3)),
+             coalesce((SELECT max(noise_match_epsilon(sigma_d_m)) FROM calib_match),
+                      noise_match_epsilon(sqrt(2) * (SELECT coalesce(max(sigma_m), 0) FROM calib_cameras))),
              'the largest camera pair''s (one camera: 3.03 sqrt(2) sigma)') e,
      (SELECT getvariable('merge_epsilon') AS given) g;
 

@@ -91,7 +91,7 @@ p AS (SELECT camera, median(dt1) AS period_s FROM d WHERE dt1 > 0 GROUP BY camer
 -- a quarter period of each other, none longer than 1.5 periods)
 SELECT camera, period_s,
        median(abs(dt1 - period_s)) AS jitter_s,
-       sqrt(median(ax * ax + ay * ay) FILTER (WHERE even) / (12 * ln(2))) AS sigma_m,
+       noise_sigma_from_second_differences(median(ax * ax + ay * ay) FILTER (WHERE even)) AS sigma_m,
        count(*) AS n_intervals,
        count(*) FILTER (WHERE even) AS n_triples
 FROM (SELECT d.*, p.period_s, abs(d.dt1 - d.dt2) <= 0.25 * p.period_s AND d.dt1 <= 1.5 * p.period_s AS even
@@ -125,8 +125,7 @@ FROM a GROUP BY class;
 -- 1.1 s; at 2 Hz: 1.6 s; cars (accel_p95 ~ 4 m/s^2) at 10 Hz, sigma 0.1 m: 0.5 s.
 CREATE OR REPLACE TEMP TABLE calib_fit_window AS
 SELECT c.camera, k.class,
-       greatest(3 * c.period_s,
-                (72 * greatest(c.sigma_m, 1e-3) ** 2 * c.period_s / greatest(k.accel_p95 / 2.45, 1e-3) ** 2) ** 0.2) AS fit_window_s
+       noise_velocity_window_s(coalesce(c.sigma_m, 0.0), c.period_s, coalesce(noise_sigma_from_rayleigh_p95(k.accel_p95), 0.0)) AS fit_window_s
 FROM calib_cameras c CROSS JOIN calib_classes k
 WHERE c.period_s > 0;
 

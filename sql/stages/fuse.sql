@@ -56,8 +56,7 @@
 
 CREATE OR REPLACE TEMP TABLE fuse_q AS
 SELECT class, accel_p95,
-       1.5 * greatest((accel_p95 / sqrt(2 * ln(20))) ** 2 - 6 * coalesce((SELECT avg(sigma_m ** 2) FROM calib_cameras WHERE isfinite(sigma_m)), 0),
-                      0.1 * (accel_p95 / sqrt(2 * ln(20))) ** 2) AS q
+       noise_process_q(accel_p95, coalesce((SELECT avg(sigma_m ** 2) FROM calib_cameras WHERE isfinite(sigma_m)), 0)) AS q
 FROM calib_classes WHERE isfinite(accel_p95);
 
 -- Sources that see different points of the road user (issue 38; docs/fusion.md): every source

@@ -151,9 +151,9 @@ SELECT q.camera, q.class,
        greatest(count(*) FILTER (WHERE polygon_contains(v.interior, q.e.x0, q.e.y0)), 1)
          / greatest(any_value(polygon_area(v.interior)), 1.0) / any_value(sp.span_s) AS starts_per_m2_s,
        any_value(sp.span_s) AS span_s,
-       greatest(sqrt(5.99 * (greatest(coalesce(any_value(c.sigma_m), 0), 1e-3) ** 2
-                             + (coalesce(any_value(k.value), calibrated('quality_max_accel')) / 2.45) ** 2
-                               * ((getvariable('quality_max_gap') / 2) ** 2 / 2) ** 2)), 1.0) AS local_radius_m
+       noise_reappear_radius_95(greatest(coalesce(any_value(c.sigma_m), 0), 1e-3),
+                                coalesce(noise_sigma_from_rayleigh_p95(coalesce(any_value(k.value), calibrated('quality_max_accel'))), 0.0),
+                                getvariable('quality_max_gap') / 2, 1.0) AS local_radius_m
 FROM quality_endpoints q JOIN quality_views v USING (camera)
 -- the camera's recording span (a class seen twice in an hour is rare over the hour, not over the
 -- minute between its two road users)
@@ -173,7 +173,7 @@ WITH e AS (
            greatest(coalesce(c.sigma_m, 0), 1e-3) ** 2 AS s2,
            -- the class's quality_max_accel (calibrate.sql: given, else its measured accel_p95),
            -- else the default row (given, else no allowance)
-           (coalesce(k.value, calibrated('quality_max_accel')) / 2.45) ** 2 AS sa2,
+           noise_sigma_from_rayleigh_p95(coalesce(k.value, calibrated('quality_max_accel'))) ** 2 AS sa2,
            polygon_contains(v.interior, q.e.x1, q.e.y1) AS end_inside,
            polygon_contains(v.interior, q.e.x0, q.e.y0) AS start_inside
     FROM quality_endpoints q JOIN quality_fit f USING (camera, track_id) JOIN quality_views v USING (camera)

@@ -16,6 +16,7 @@ pub mod lcss;
 pub mod matching;
 pub mod merge;
 pub mod meta;
+pub mod noise;
 pub mod params;
 pub mod registry;
 pub mod report;
@@ -40,7 +41,7 @@ pub(crate) fn try_map<T, U>(s: &[T], f: impl FnMut(&T) -> U) -> Result<Vec<U>, S
 
 /// Every function, in reference order.
 pub fn functions() -> Vec<&'static Function> {
-    [traj::FUNCTIONS, lcss::FUNCTIONS, align::FUNCTIONS, associate::FUNCTIONS, geometry::FUNCTIONS, matching::FUNCTIONS, merge::FUNCTIONS, fuse::FUNCTIONS, cluster::FUNCTIONS, conflict::FUNCTIONS, events::FUNCTIONS, meta::FUNCTIONS, params::FUNCTIONS, pipeline::FUNCTIONS, simulate::FUNCTIONS, report::FUNCTIONS]
+    [traj::FUNCTIONS, lcss::FUNCTIONS, align::FUNCTIONS, associate::FUNCTIONS, geometry::FUNCTIONS, matching::FUNCTIONS, merge::FUNCTIONS, fuse::FUNCTIONS, cluster::FUNCTIONS, conflict::FUNCTIONS, events::FUNCTIONS, noise::FUNCTIONS, meta::FUNCTIONS, params::FUNCTIONS, pipeline::FUNCTIONS, simulate::FUNCTIONS, report::FUNCTIONS]
         .into_iter()
         .flatten()
         .collect()

@@ -40,6 +40,7 @@ pub mod lcss;
 pub mod limits;
 pub mod matching;
 pub mod merge;
+pub mod noise;
 pub mod stats;
 pub mod traj;
 

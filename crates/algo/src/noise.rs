@@ -1,0 +1,144 @@
+//! The noise model's conversions: from what calibrate.sql, align.sql, quality.sql and fuse.sql
+//! measure (medians and percentiles of distances) to the model's parameters, each once, with
+//! the distribution it assumes. Positions carry independent Gaussian noise σ per axis; a road
+//! user's acceleration is white noise; a 2-D length of a zero-mean isotropic Gaussian with
+//! per-axis variance s² is Rayleigh with scale s: its median is `s √(2 ln 2)`, its p-quantile
+//! `s √(−2 ln(1 − p))`, and its square is `s² χ²₂` (median `2 ln 2 s²`).
+//!
+//! Every function is O(1) and total: a NaN in gives a NaN out (the SQL's aggregates give NULL
+//! where there is nothing to measure, and the stages coalesce).
+
+/// `√(2 ln 2)`: the median of a Rayleigh distribution in units of its scale.
+pub const RAYLEIGH_MEDIAN: f64 = 1.1774100225154747;
+/// `√(2 ln 20)`: the 95th percentile of a Rayleigh distribution in units of its scale.
+pub const RAYLEIGH_P95: f64 = 2.447746830680816;
+/// `√(2 ln 100)`: the radius holding 99 % of a 2-D isotropic Gaussian, in per-axis sigmas.
+pub const RADIUS_99: f64 = 3.0348542587702925;
+/// The 95 % point of chi-square with 2 degrees of freedom, `2 ln 20`.
+pub const CHI2_2_95: f64 = 5.991464547107979;
+/// The smallest matching radius (m): noise-free input measures σ = 0, and LCSS needs ε > 0; 1 mm
+/// is below any camera's noise.
+pub const MIN_EPSILON_M: f64 = 1e-3;
+/// The floor of the process noise, as a share of its value before the position noise is taken
+/// out (where noise is nearly all of the measurement the difference is uncertain; docs/fusion.md
+/// measured q × 0.1 to cost < 5 % of accuracy).
+pub const Q_FLOOR_SHARE: f64 = 0.1;
+
+/// A camera's per-axis position noise σ from the median of `|p(t+1) − 2 p(t) + p(t−1)|²` over
+/// evenly spaced triples of its tracks (calibrate.sql): a second difference of noisy positions
+/// has per-axis variance 6σ² (plus the motion's own, small at camera rates), so its squared
+/// length is `6σ² χ²₂` with median `12 ln 2 σ²`: `σ = √(median / (12 ln 2))`.
+pub fn sigma_from_second_differences(median_sq: f64) -> f64 {
+    (median_sq / (12.0 * std::f64::consts::LN_2)).sqrt()
+}
+
+/// Per-axis σ from the median length of 2-D residuals (align.sql's matched residuals: Rayleigh,
+/// robust to the few wrong pairs): `median / √(2 ln 2)`.
+pub fn sigma_from_rayleigh_median(median: f64) -> f64 {
+    median / RAYLEIGH_MEDIAN
+}
+
+/// Per-axis σ from the 95th percentile length of a 2-D Gaussian quantity (a class's
+/// acceleration, calibrate.sql's accel_p95): `p95 / √(2 ln 20)`.
+pub fn sigma_from_rayleigh_p95(p95: f64) -> f64 {
+    p95 / RAYLEIGH_P95
+}
+
+/// LCSS's matching radius ε for a camera pair whose residuals have per-axis σ: 99 % of a true
+/// pair's points fall within it, `√(2 ln 100) σ` (3.03 σ), at least [`MIN_EPSILON_M`].
+pub fn match_epsilon(sigma: f64) -> f64 {
+    if sigma.is_nan() {
+        return f64::NAN;
+    }
+    (RADIUS_99 * sigma).max(MIN_EPSILON_M)
+}
+
+/// The continuous white-noise-acceleration density q (m²/s³) of a class for the fusion's
+/// Kalman smoother (fuse.sql), from its acceleration's 95th percentile `accel_p95` (second
+/// differences on tracks resampled to 1 s) and the cameras' mean position variance `noise_var`
+/// (σ², m²). Under the model that second difference is Gaussian per axis with variance
+/// `q · 2τ³/3` (τ = 1 s) plus `6 σ²` of position noise, so
+/// `q = 1.5 · max((accel_p95 / √(2 ln 20))² − 6 σ², Q_FLOOR_SHARE · (accel_p95 / √(2 ln 20))²)`.
+pub fn process_noise_q(accel_p95: f64, noise_var: f64) -> f64 {
+    let s2 = sigma_from_rayleigh_p95(accel_p95).powi(2);
+    1.5 * (s2 - 6.0 * noise_var).max(Q_FLOOR_SHARE * s2)
+}
+
+/// The radius (m) holding 95 % of where a road user reappears after a gap `gap_s` (quality.sql's
+/// local density of starts): position noise σ plus the acceleration allowance `σ_acc gap² / 2`
+/// per axis, `√(5.99 (σ² + (σ_acc gap²/2)²))`, at least `min_radius_m`.
+pub fn reappear_radius_95(sigma: f64, sigma_acc: f64, gap_s: f64, min_radius_m: f64) -> f64 {
+    (CHI2_2_95 * (sigma * sigma + (sigma_acc * gap_s * gap_s / 2.0).powi(2))).sqrt().max(min_radius_m)
+}
+
+/// The window W (s) of the least-squares line that gives a track end's velocity (quality.sql's
+/// break links; calibrate.sql's calib_fit_window): over the last W seconds a line's velocity has
+/// variance `12 σ² period / W³` per axis, and a road user accelerating at `σ_acc` biases it by
+/// about `σ_acc W / 2`; the sum is least at `W⁵ = 72 σ² period / σ_acc²`. At least 3 periods (a
+/// slope and its scatter need 3 points); σ and σ_acc at least 1 mm (/s²).
+pub fn velocity_window_s(sigma: f64, period_s: f64, sigma_acc: f64) -> f64 {
+    let (s, a) = (sigma.max(1e-3), sigma_acc.max(1e-3));
+    (3.0 * period_s).max((72.0 * s * s * period_s / (a * a)).powf(0.2))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_constants_are_their_formulas() {
+        assert!((RAYLEIGH_MEDIAN - (2.0 * 2f64.ln()).sqrt()).abs() < 1e-15);
+        assert!((RAYLEIGH_P95 - (2.0 * 20f64.ln()).sqrt()).abs() < 1e-15);
+        assert!((RADIUS_99 - (2.0 * 100f64.ln()).sqrt()).abs() < 1e-15);
+        assert!((CHI2_2_95 - 2.0 * 20f64.ln()).abs() < 1e-12);
+    }
+
+    /// A deterministic standard normal stream (Box–Muller over an LCG).
+    fn normals(seed: u64) -> impl FnMut() -> f64 {
+        let mut s = seed;
+        let mut u = move || {
+            s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            ((s >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+        };
+        move || (-2.0 * u().ln()).sqrt() * (2.0 * std::f64::consts::PI * u()).cos()
+    }
+
+    fn median(mut v: Vec<f64>) -> f64 {
+        crate::stats::median(&mut v)
+    }
+
+    #[test]
+    fn property_sigma_is_recovered_from_simulated_noise() {
+        let mut g = normals(7);
+        let sigma = 0.13;
+        // second differences of pure noise
+        let p: Vec<(f64, f64)> = (0..40_001).map(|_| (sigma * g(), sigma * g())).collect();
+        let sq: Vec<f64> = p.windows(3).map(|w| (w[2].0 - 2.0 * w[1].0 + w[0].0).powi(2) + (w[2].1 - 2.0 * w[1].1 + w[0].1).powi(2)).collect();
+        let s = sigma_from_second_differences(median(sq));
+        assert!((s / sigma - 1.0).abs() < 0.03, "{s}");
+        // 2-D residual lengths
+        let r: Vec<f64> = (0..40_000).map(|_| (sigma * g()).hypot(sigma * g())).collect();
+        assert!((sigma_from_rayleigh_median(median(r.clone())) / sigma - 1.0).abs() < 0.03);
+        let mut r = r;
+        r.sort_by(f64::total_cmp);
+        assert!((sigma_from_rayleigh_p95(r[38_000]) / sigma - 1.0).abs() < 0.03);
+        // 99 % within the matching radius
+        let inside = r.iter().filter(|&&d| d <= match_epsilon(sigma)).count() as f64 / r.len() as f64;
+        assert!((inside - 0.99).abs() < 0.003, "{inside}");
+    }
+
+    #[test]
+    fn floors_hold() {
+        assert_eq!(match_epsilon(0.0), MIN_EPSILON_M);
+        assert!(match_epsilon(f64::NAN).is_nan());
+        let s2 = sigma_from_rayleigh_p95(1.0).powi(2);
+        assert!((process_noise_q(1.0, 0.0) - 1.5 * s2).abs() < 1e-15);
+        assert!((process_noise_q(1.0, 10.0) - 1.5 * Q_FLOOR_SHARE * s2).abs() < 1e-15);
+        assert_eq!(reappear_radius_95(0.0, 0.0, 1.0, 1.0), 1.0);
+        // pedestrians at 10 Hz, sigma 0.3 m, accel_p95 1.5 m/s²: about 1.1 s; never under 3 periods
+        let w = velocity_window_s(0.3, 0.1, sigma_from_rayleigh_p95(1.5));
+        assert!((w - 1.1).abs() < 0.1, "{w}");
+        assert_eq!(velocity_window_s(0.0, 0.5, 100.0), 1.5);
+        assert!((reappear_radius_95(1.0, 0.0, 1.0, 0.0) - CHI2_2_95.sqrt()).abs() < 1e-12);
+    }
+}

@@ -11,11 +11,11 @@
 /// `√(2 ln 2)`: the median of a Rayleigh distribution in units of its scale.
 pub const RAYLEIGH_MEDIAN: f64 = 1.1774100225154747;
 /// `√(2 ln 20)`: the 95th percentile of a Rayleigh distribution in units of its scale.
-pub const RAYLEIGH_P95: f64 = 2.447746830680816;
+pub const RAYLEIGH_P95: f64 = 2.4477468306808166;
 /// `√(2 ln 100)`: the radius holding 99 % of a 2-D isotropic Gaussian, in per-axis sigmas.
-pub const RADIUS_99: f64 = 3.0348542587702925;
+pub const RADIUS_99: f64 = 3.034854258770293;
 /// The 95 % point of chi-square with 2 degrees of freedom, `2 ln 20`.
-pub const CHI2_2_95: f64 = 5.991464547107979;
+pub const CHI2_2_95: f64 = 5.991464547107982;
 /// The smallest matching radius (m): noise-free input measures σ = 0, and LCSS needs ε > 0; 1 mm
 /// is below any camera's noise.
 pub const MIN_EPSILON_M: f64 = 1e-3;

@@ -286,7 +286,7 @@ mod tests {
     }
 
     #[test]
-    fn ntile_cuts_as_duckdb_does() {
+    fn ntile_cuts_as_the_sql_ntile_does() {
         // 10 rows in 8 tiles: 2, 2, 1, 1, 1, 1, 1, 1
         let b: Vec<usize> = (0..10).map(|i| ntile(i, 10, 8)).collect();
         assert_eq!(b, vec![0, 0, 1, 1, 2, 3, 4, 5, 6, 7]);

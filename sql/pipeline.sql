@@ -181,6 +181,12 @@ SET VARIABLE load_check = (SELECT CASE WHEN n = 0 THEN error('load: the input ' 
 FROM (SELECT count(*) AS n,
              count(*) FILTER (WHERE NOT coalesce(camera IS NOT NULL AND track_id IS NOT NULL AND class IS NOT NULL AND isfinite(t) AND isfinite(x) AND isfinite(y), false)) AS bad
       FROM points));
+-- the class '*' names every class at once in the stages' per-class tables (view_polygons,
+-- view_overlaps): a class of that name would be mixed with all the others
+SET VARIABLE load_check = (SELECT CASE WHEN count(*) > 0
+            THEN error('load: ' || count(*) || ' rows of the input ' || getvariable('pipeline_input') || ' have the class ''*'', which trajdb keeps for "every class" '
+                       || '(fix: rename it when you read the input, e.g. SELECT * REPLACE (CASE WHEN class = ''*'' THEN ''any'' ELSE class END AS class) FROM ...)') END
+FROM points WHERE class = '*');
 -- only estimated points: nothing was observed (estimated <> 0 on every row)
 SET VARIABLE load_check = (SELECT CASE WHEN count(*) FILTER (WHERE estimated = 0) = 0
             THEN error('load: every one of the ' || count(*) || ' rows of the input ' || getvariable('pipeline_input') || ' is estimated (estimated <> 0); '

@@ -301,6 +301,12 @@ SET VARIABLE load_check = (SELECT CASE WHEN n = 0 THEN error('load: the input ' 
 FROM (SELECT count(*) AS n,
              count(*) FILTER (WHERE NOT coalesce(camera IS NOT NULL AND track_id IS NOT NULL AND class IS NOT NULL AND isfinite(t) AND isfinite(x) AND isfinite(y), false)) AS bad
       FROM points));
+-- the class '*' names every class at once in the stages' per-class tables (view_polygons,
+-- view_overlaps): a class of that name would be mixed with all the others
+SET VARIABLE load_check = (SELECT CASE WHEN count(*) > 0
+            THEN error('load: ' || count(*) || ' rows of the input ' || getvariable('pipeline_input') || ' have the class ''*'', which trajdb keeps for "every class" '
+                       || '(fix: rename it when you read the input, e.g. SELECT * REPLACE (CASE WHEN class = ''*'' THEN ''any'' ELSE class END AS class) FROM ...)') END
+FROM points WHERE class = '*');
 -- only estimated points: nothing was observed (estimated <> 0 on every row)
 SET VARIABLE load_check = (SELECT CASE WHEN count(*) FILTER (WHERE estimated = 0) = 0
             THEN error('load: every one of the ' || count(*) || ' rows of the input ' || getvariable('pipeline_input') || ' is estimated (estimated <> 0); '
@@ -1872,13 +1878,21 @@ WITH own AS (
         GROUP BY GROUPING SETS ((camera, class), (camera))
     ) h LEFT JOIN calib_cameras n USING (camera)
 )
+,
+-- one union per camera and class length (a handful), not per class: a label per track (10,000
+-- classes) would otherwise union every class with every other
+tier AS (
+    SELECT camera, class_length_m(class) AS length_m, list(polygon ORDER BY class) AS polys
+    FROM own WHERE class <> '*' AND polygon IS NOT NULL GROUP BY ALL
+),
+upto AS (
+    SELECT a.camera, a.length_m, flatten(list(b.polys ORDER BY b.length_m)) AS polys
+    FROM tier a JOIN tier b ON b.camera = a.camera AND b.length_m <= a.length_m GROUP BY ALL
+),
+cum AS (SELECT camera, length_m, CASE WHEN len(polys) = 1 THEN polys[1] ELSE polygon_union(polys) END AS polygon FROM upto)
 SELECT *, polygon_area(polygon) AS area_m2 FROM (
-SELECT o.camera, o.class,
-       CASE WHEN count(s.polygon) <= 1 THEN any_value(s.polygon) ELSE polygon_union(list(s.polygon ORDER BY s.class)) END AS polygon,
-       any_value(o.n_points) AS n_points
-FROM own o LEFT JOIN own s ON s.camera = o.camera AND s.polygon IS NOT NULL
- AND (s.class = o.class OR (o.class <> '*' AND s.class <> '*' AND class_length_m(s.class) <= class_length_m(o.class)))
-GROUP BY o.camera, o.class);
+SELECT o.camera, o.class, CASE WHEN o.class = '*' THEN o.polygon ELSE c.polygon END AS polygon, o.n_points
+FROM own o LEFT JOIN cum c ON c.camera = o.camera AND c.length_m = class_length_m(o.class));
 -- view_points (every real point in the reference frame) has served: dropped, not kept for the
 -- rest of the run (100 MB of a day's peak memory). IF EXISTS: a window run never makes it.
 -- Qualified temp.main: an unqualified name would reach a table of the user's own of that name

@@ -181,6 +181,13 @@ def main():
     except duckdb.Error as e:
         check("a NULL text track id is refused", "NULL" in str(e) and "track_id NULL" in str(e), str(e))
 
+    # the class '*' is trajdb's "every class": refused with the fix, not mixed with the others
+    try:
+        trajdb.pipeline(con, con.sql("SELECT * REPLACE (CASE WHEN class = 'pedestrian' THEN '*' ELSE class END AS class) FROM my_points"))
+        check("a class named '*' is refused", False, "accepted")
+    except duckdb.Error as e:
+        check("a class named '*' is refused", "the class '*'" in str(e) and "REPLACE" in str(e), str(e))
+
     # no class column: one class, and a warning
     got, warned = run(con, con.sql("SELECT * EXCLUDE (class) FROM my_points"))
     check("no class column: every road user is 'unknown'", {r[1] for r in got["road_users"]} == {"unknown"})

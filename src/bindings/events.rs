@@ -128,7 +128,7 @@ pub static FUNCTIONS: &[Function] = &[
                       crates/algo/src/break_link.rs link_kind): the ratio test (ll beats ll_next_end and ll_next_start, the best \
                       other candidates of the end and of the start, by ln 100; pass -infinity for none), then no link when \
                       ll_bg < 0 (less likely than an unrelated start); 'broken' when z2_cv is within the chi2(4) 0.99 gate (13.28) \
-                      and ll_bg >= ln 100, else 'reach'. NULL: no link (or a NULL argument). O(1).",
+                      and ll_bg >= ln 100, else 'reach'. NULL: no link (or a NULL or NaN argument); a negative z2_cv is an error. O(1).",
         example: "SELECT break_link_kind(1.0, 0.0, 5.0, '-inf'::DOUBLE, '-inf'::DOUBLE); -- broken",
         maths: "crates/algo/src/break_link.rs",
         binding: file!(),
@@ -144,7 +144,7 @@ pub static FUNCTIONS: &[Function] = &[
         name: "break_standing",
         description: "Whether a track end stands (sql/stages/quality.sql; crates/algo/src/break_link.rs standing): its velocity \
                       (vx, vy, m/s) within its fit's noise of 0, |v|² <= 9.21 var_v (chi2(2) at 0.99; var_v: the per-axis \
-                      variance of the fitted velocity, m²/s²). False for var_v <= 0; NULL for NULL. O(1).",
+                      variance of the fitted velocity, m²/s²). False for var_v <= 0 or a non-finite argument; NULL for NULL. O(1).",
         example: "SELECT break_standing(0.05, 0.0, 0.01); -- true",
         maths: "crates/algo/src/break_link.rs",
         binding: file!(),
@@ -274,6 +274,9 @@ fn break_link_kind(a: &Args<'_>, out: &mut Out<'_>) -> R {
         for (k, c) in cols.iter().enumerate() {
             let Some(x) = c.get(r) else { return Ok(None) };
             v[k] = x;
+        }
+        if v[0] < 0.0 {
+            return Err(format!("z2_cv must be >= 0 (a chi-square statistic, break_evidence's z2_cv), got {:e}", v[0]).into());
         }
         Ok(break_link::link_kind(v[0], v[1], v[2], v[3], v[4]).map(|k| k.as_str()))
     })?;

@@ -8,8 +8,9 @@ use std::error::Error;
 
 type R = Result<(), Box<dyn Error>>;
 
-/// A DOUBLE function of DOUBLE arguments, NULL in NULL out.
-fn doubles<const N: usize>(a: &Args<'_>, out: &mut Out<'_>, f: impl Fn([f64; N]) -> f64) -> R {
+/// A DOUBLE function of DOUBLE arguments, NULL in NULL out; an argument outside its domain is an
+/// error naming it.
+fn doubles<const N: usize>(a: &Args<'_>, out: &mut Out<'_>, f: impl Fn([f64; N]) -> Result<f64, noise::NoiseError>) -> R {
     let cols: Vec<_> = (0..N).map(|i| a.double(i)).collect();
     let vals = a.map(|r| {
         let mut v = [0.0; N];
@@ -17,7 +18,7 @@ fn doubles<const N: usize>(a: &Args<'_>, out: &mut Out<'_>, f: impl Fn([f64; N])
             let Some(x) = c.get(r) else { return Ok(None) };
             v[k] = x;
         }
-        Ok(Some(f(v)))
+        Ok(Some(f(v)?))
     })?;
     out.flat(&vals);
     Ok(())
@@ -26,7 +27,7 @@ fn doubles<const N: usize>(a: &Args<'_>, out: &mut Out<'_>, f: impl Fn([f64; N])
 pub static FUNCTIONS: &[Function] = &[
     Function {
         name: "noise_sigma_from_second_differences",
-        description: "A camera's per-axis position noise sigma (m) from the median of |p(t+1) - 2 p(t) + p(t-1)|² (m²) over evenly spaced triples of its tracks (calibrate.sql): the second difference of noisy positions is 6 sigma² per axis, its squared length 6 sigma² chi2(2) with median 12 ln 2 sigma², so sigma = sqrt(median_sq / (12 ln 2)). NULL for NULL. O(1).",
+        description: "A camera's per-axis position noise sigma (m) from the median of |p(t+1) - 2 p(t) + p(t-1)|² (m²) over evenly spaced triples of its tracks (calibrate.sql): the second difference of noisy positions is 6 sigma² per axis, its squared length 6 sigma² chi2(2) with median 12 ln 2 sigma², so sigma = sqrt(median_sq / (12 ln 2)). NULL for NULL; a negative or non-finite argument is an error naming it. O(1).",
         example: "SELECT round(noise_sigma_from_second_differences(12 * ln(2) * 0.01), 6); -- 0.1",
         maths: "crates/algo/src/noise.rs",
         binding: file!(),
@@ -40,7 +41,7 @@ pub static FUNCTIONS: &[Function] = &[
     },
     Function {
         name: "noise_sigma_from_rayleigh_median",
-        description: "Per-axis sigma (m) from the median length of 2-D Gaussian residuals (align.sql's matched residuals): median / sqrt(2 ln 2), the Rayleigh median. NULL for NULL. O(1).",
+        description: "Per-axis sigma (m) from the median length of 2-D Gaussian residuals (align.sql's matched residuals): median / sqrt(2 ln 2), the Rayleigh median. NULL for NULL; a negative or non-finite argument is an error naming it. O(1).",
         example: "SELECT round(noise_sigma_from_rayleigh_median(sqrt(2 * ln(2))), 6); -- 1.0",
         maths: "crates/algo/src/noise.rs",
         binding: file!(),
@@ -54,7 +55,7 @@ pub static FUNCTIONS: &[Function] = &[
     },
     Function {
         name: "noise_sigma_from_rayleigh_p95",
-        description: "Per-axis sigma from the 95th percentile length of a 2-D Gaussian quantity (a class's acceleration, accel_p95): p95 / sqrt(2 ln 20) (= p95 / 2.45). NULL for NULL. O(1).",
+        description: "Per-axis sigma from the 95th percentile length of a 2-D Gaussian quantity (a class's acceleration, accel_p95): p95 / sqrt(2 ln 20) (= p95 / 2.45). NULL for NULL; a negative or non-finite argument is an error naming it. O(1).",
         example: "SELECT round(noise_sigma_from_rayleigh_p95(sqrt(2 * ln(20))), 6); -- 1.0",
         maths: "crates/algo/src/noise.rs",
         binding: file!(),
@@ -68,7 +69,7 @@ pub static FUNCTIONS: &[Function] = &[
     },
     Function {
         name: "noise_match_epsilon",
-        description: "LCSS's matching radius epsilon (m) for a camera pair whose residuals have per-axis sigma_m (align.sql's merge_epsilon): 99 % of a true pair's points fall within sqrt(2 ln 100) sigma (3.03 sigma); at least 1 mm (noise-free input measures sigma 0, and LCSS needs epsilon > 0). NULL for NULL. O(1).",
+        description: "LCSS's matching radius epsilon (m) for a camera pair whose residuals have per-axis sigma_m (align.sql's merge_epsilon): 99 % of a true pair's points fall within sqrt(2 ln 100) sigma (3.03 sigma); at least 1 mm (noise-free input measures sigma 0, and LCSS needs epsilon > 0). NULL for NULL; a negative or non-finite argument is an error naming it. O(1).",
         example: "SELECT round(noise_match_epsilon(0.1), 4); -- 0.3035",
         maths: "crates/algo/src/noise.rs",
         binding: file!(),
@@ -82,7 +83,7 @@ pub static FUNCTIONS: &[Function] = &[
     },
     Function {
         name: "noise_process_q",
-        description: "The white-noise-acceleration density q (m²/s³) of a class for the fusion's Kalman smoother (fuse.sql), from its accel_p95 (m/s²: second differences on tracks resampled to 1 s) and the cameras' mean position variance noise_var (m²): q = 1.5 max((accel_p95 / sqrt(2 ln 20))² - 6 noise_var, 0.1 (accel_p95 / sqrt(2 ln 20))²). NULL for NULL. O(1).",
+        description: "The white-noise-acceleration density q (m²/s³) of a class for the fusion's Kalman smoother (fuse.sql), from its accel_p95 (m/s²: second differences on tracks resampled to 1 s) and the cameras' mean position variance noise_var (m²): q = 1.5 max((accel_p95 / sqrt(2 ln 20))² - 6 noise_var, 0.1 (accel_p95 / sqrt(2 ln 20))²). NULL for NULL; a negative or non-finite argument is an error naming it. O(1).",
         example: "SELECT round(noise_process_q(2.0, 0.0), 4); -- 1.0014",
         maths: "crates/algo/src/noise.rs",
         binding: file!(),
@@ -96,7 +97,7 @@ pub static FUNCTIONS: &[Function] = &[
     },
     Function {
         name: "noise_reappear_radius_95",
-        description: "The radius (m) holding 95 % of where a road user reappears after a gap of gap_s (quality.sql's local density of starts): position noise sigma_m plus the acceleration allowance sigma_acc gap²/2 per axis, sqrt(5.99 (sigma_m² + (sigma_acc gap_s² / 2)²)) (chi2(2) at 0.95), at least min_radius_m. NULL for NULL. O(1).",
+        description: "The radius (m) holding 95 % of where a road user reappears after a gap of gap_s (quality.sql's local density of starts): position noise sigma_m plus the acceleration allowance sigma_acc gap²/2 per axis, sqrt(5.99 (sigma_m² + (sigma_acc gap_s² / 2)²)) (chi2(2) at 0.95), at least min_radius_m. NULL for NULL; a negative or non-finite argument is an error naming it. O(1).",
         example: "SELECT round(noise_reappear_radius_95(1.0, 0.0, 1.0, 0.0), 4); -- 2.4477",
         maths: "crates/algo/src/noise.rs",
         binding: file!(),
@@ -110,7 +111,7 @@ pub static FUNCTIONS: &[Function] = &[
     },
     Function {
         name: "noise_velocity_window_s",
-        description: "The window W (s) of the least-squares line that gives a track end's velocity (calibrate.sql's calib_fit_window, used by quality.sql's break links): the line's velocity variance 12 sigma_m² period_s / W³ per axis plus the bias sigma_acc W / 2 of a road user accelerating at sigma_acc (m/s², per axis) is least at W⁵ = 72 sigma_m² period_s / sigma_acc²; at least 3 periods; sigma_m and sigma_acc at least 1e-3. NULL for NULL. O(1).",
+        description: "The window W (s) of the least-squares line that gives a track end's velocity (calibrate.sql's calib_fit_window, used by quality.sql's break links): the line's velocity variance 12 sigma_m² period_s / W³ per axis plus the bias sigma_acc W / 2 of a road user accelerating at sigma_acc (m/s², per axis) is least at W⁵ = 72 sigma_m² period_s / sigma_acc²; at least 3 periods; sigma_m and sigma_acc at least 1e-3. NULL for NULL; a negative or non-finite argument is an error naming it. O(1).",
         example: "SELECT round(noise_velocity_window_s(0.3, 0.1, 1.5 / sqrt(2 * ln(20))), 2); -- 1.12",
         maths: "crates/algo/src/noise.rs",
         binding: file!(),

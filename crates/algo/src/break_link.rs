@@ -42,9 +42,9 @@ pub const LINK_RATIO: f64 = 100.0;
 pub const STANDING_Z2: f64 = 9.210340371976184;
 
 /// Whether a track end with velocity² `v2` (m²/s²) and per-axis velocity variance `var_v` (its
-/// fit's noise, m²/s²) stands ([`STANDING_Z2`]). False for a NaN or a variance ≤ 0.
+/// fit's noise, m²/s²) stands ([`STANDING_Z2`]). False for a NaN, an infinity or a variance ≤ 0.
 pub fn standing(v2: f64, var_v: f64) -> bool {
-    var_v > 0.0 && v2 <= STANDING_Z2 * var_v
+    v2.is_finite() && var_v.is_finite() && var_v > 0.0 && v2 <= STANDING_Z2 * var_v
 }
 
 /// The kind of a taken link.
@@ -264,7 +264,7 @@ mod tests {
     #[test]
     fn standing_is_within_the_fits_noise_of_zero() {
         assert!(standing(0.0, 0.01) && standing(0.092, 0.01) && !standing(0.093, 0.01));
-        assert!(!standing(0.0, 0.0) && !standing(f64::NAN, 1.0));
+        assert!(!standing(0.0, 0.0) && !standing(f64::NAN, 1.0) && !standing(f64::INFINITY, f64::INFINITY));
         assert!((STANDING_Z2 - 2.0 * 100f64.ln()).abs() < 1e-12);
         assert!(candidate(GATE_Z2) && !candidate(GATE_Z2 + 1e-9));
     }

@@ -5,8 +5,45 @@
 //! per-axis variance s² is Rayleigh with scale s: its median is `s √(2 ln 2)`, its p-quantile
 //! `s √(−2 ln(1 − p))`, and its square is `s² χ²₂` (median `2 ln 2 s²`).
 //!
-//! Every function is O(1) and total: a NaN in gives a NaN out (the SQL's aggregates give NULL
-//! where there is nothing to measure, and the stages coalesce).
+//! Every function is O(1). Each argument is a length, a variance, a percentile or a time, so it
+//! must be finite and ≥ 0 (a period > 0); anything else is a [`NoiseError`] naming it (a NaN, a
+//! negative σ or a negative period would otherwise come out as a plausible number). The SQL's
+//! aggregates give NULL where there is nothing to measure, and the stages coalesce.
+
+use std::fmt;
+
+/// An argument outside its domain: (name, value, what it must be).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct NoiseError {
+    pub param: &'static str,
+    pub value: f64,
+    pub want: &'static str,
+}
+
+impl fmt::Display for NoiseError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{} must be {}, got {:e}", self.param, self.want, self.value)
+    }
+}
+impl std::error::Error for NoiseError {}
+
+/// `v` finite and ≥ 0.
+fn nonneg(param: &'static str, v: f64) -> Result<f64, NoiseError> {
+    if v.is_finite() && v >= 0.0 {
+        Ok(v)
+    } else {
+        Err(NoiseError { param, value: v, want: "finite and >= 0" })
+    }
+}
+
+/// `v` finite and > 0.
+fn positive(param: &'static str, v: f64) -> Result<f64, NoiseError> {
+    if v.is_finite() && v > 0.0 {
+        Ok(v)
+    } else {
+        Err(NoiseError { param, value: v, want: "finite and > 0" })
+    }
+}
 
 /// `√(2 ln 2)`: the median of a Rayleigh distribution in units of its scale.
 pub const RAYLEIGH_MEDIAN: f64 = 1.1774100225154747;
@@ -28,29 +65,26 @@ pub const Q_FLOOR_SHARE: f64 = 0.1;
 /// evenly spaced triples of its tracks (calibrate.sql): a second difference of noisy positions
 /// has per-axis variance 6σ² (plus the motion's own, small at camera rates), so its squared
 /// length is `6σ² χ²₂` with median `12 ln 2 σ²`: `σ = √(median / (12 ln 2))`.
-pub fn sigma_from_second_differences(median_sq: f64) -> f64 {
-    (median_sq / (12.0 * std::f64::consts::LN_2)).sqrt()
+pub fn sigma_from_second_differences(median_sq: f64) -> Result<f64, NoiseError> {
+    Ok((nonneg("median_sq", median_sq)? / (12.0 * std::f64::consts::LN_2)).sqrt())
 }
 
 /// Per-axis σ from the median length of 2-D residuals (align.sql's matched residuals: Rayleigh,
 /// robust to the few wrong pairs): `median / √(2 ln 2)`.
-pub fn sigma_from_rayleigh_median(median: f64) -> f64 {
-    median / RAYLEIGH_MEDIAN
+pub fn sigma_from_rayleigh_median(median: f64) -> Result<f64, NoiseError> {
+    Ok(nonneg("median_m", median)? / RAYLEIGH_MEDIAN)
 }
 
 /// Per-axis σ from the 95th percentile length of a 2-D Gaussian quantity (a class's
 /// acceleration, calibrate.sql's accel_p95): `p95 / √(2 ln 20)`.
-pub fn sigma_from_rayleigh_p95(p95: f64) -> f64 {
-    p95 / RAYLEIGH_P95
+pub fn sigma_from_rayleigh_p95(p95: f64) -> Result<f64, NoiseError> {
+    Ok(nonneg("p95", p95)? / RAYLEIGH_P95)
 }
 
 /// LCSS's matching radius ε for a camera pair whose residuals have per-axis σ: 99 % of a true
 /// pair's points fall within it, `√(2 ln 100) σ` (3.03 σ), at least [`MIN_EPSILON_M`].
-pub fn match_epsilon(sigma: f64) -> f64 {
-    if sigma.is_nan() {
-        return f64::NAN;
-    }
-    (RADIUS_99 * sigma).max(MIN_EPSILON_M)
+pub fn match_epsilon(sigma: f64) -> Result<f64, NoiseError> {
+    Ok((RADIUS_99 * nonneg("sigma_m", sigma)?).max(MIN_EPSILON_M))
 }
 
 /// The continuous white-noise-acceleration density q (m²/s³) of a class for the fusion's
@@ -59,16 +93,18 @@ pub fn match_epsilon(sigma: f64) -> f64 {
 /// (σ², m²). Under the model that second difference is Gaussian per axis with variance
 /// `q · 2τ³/3` (τ = 1 s) plus `6 σ²` of position noise, so
 /// `q = 1.5 · max((accel_p95 / √(2 ln 20))² − 6 σ², Q_FLOOR_SHARE · (accel_p95 / √(2 ln 20))²)`.
-pub fn process_noise_q(accel_p95: f64, noise_var: f64) -> f64 {
-    let s2 = sigma_from_rayleigh_p95(accel_p95).powi(2);
-    1.5 * (s2 - 6.0 * noise_var).max(Q_FLOOR_SHARE * s2)
+pub fn process_noise_q(accel_p95: f64, noise_var: f64) -> Result<f64, NoiseError> {
+    let s2 = sigma_from_rayleigh_p95(nonneg("accel_p95", accel_p95)?)?.powi(2);
+    Ok(1.5 * (s2 - 6.0 * nonneg("noise_var", noise_var)?).max(Q_FLOOR_SHARE * s2))
 }
 
 /// The radius (m) holding 95 % of where a road user reappears after a gap `gap_s` (quality.sql's
 /// local density of starts): position noise σ plus the acceleration allowance `σ_acc gap² / 2`
 /// per axis, `√(5.99 (σ² + (σ_acc gap²/2)²))`, at least `min_radius_m`.
-pub fn reappear_radius_95(sigma: f64, sigma_acc: f64, gap_s: f64, min_radius_m: f64) -> f64 {
-    (CHI2_2_95 * (sigma * sigma + (sigma_acc * gap_s * gap_s / 2.0).powi(2))).sqrt().max(min_radius_m)
+pub fn reappear_radius_95(sigma: f64, sigma_acc: f64, gap_s: f64, min_radius_m: f64) -> Result<f64, NoiseError> {
+    let (sigma, sigma_acc) = (nonneg("sigma_m", sigma)?, nonneg("sigma_acc", sigma_acc)?);
+    let (gap_s, min_radius_m) = (nonneg("gap_s", gap_s)?, nonneg("min_radius_m", min_radius_m)?);
+    Ok((CHI2_2_95 * (sigma * sigma + (sigma_acc * gap_s * gap_s / 2.0).powi(2))).sqrt().max(min_radius_m))
 }
 
 /// The window W (s) of the least-squares line that gives a track end's velocity (quality.sql's
@@ -76,9 +112,10 @@ pub fn reappear_radius_95(sigma: f64, sigma_acc: f64, gap_s: f64, min_radius_m: 
 /// variance `12 σ² period / W³` per axis, and a road user accelerating at `σ_acc` biases it by
 /// about `σ_acc W / 2`; the sum is least at `W⁵ = 72 σ² period / σ_acc²`. At least 3 periods (a
 /// slope and its scatter need 3 points); σ and σ_acc at least 1 mm (/s²).
-pub fn velocity_window_s(sigma: f64, period_s: f64, sigma_acc: f64) -> f64 {
-    let (s, a) = (sigma.max(1e-3), sigma_acc.max(1e-3));
-    (3.0 * period_s).max((72.0 * s * s * period_s / (a * a)).powf(0.2))
+pub fn velocity_window_s(sigma: f64, period_s: f64, sigma_acc: f64) -> Result<f64, NoiseError> {
+    let (s, a) = (nonneg("sigma_m", sigma)?.max(1e-3), nonneg("sigma_acc", sigma_acc)?.max(1e-3));
+    let period_s = positive("period_s", period_s)?;
+    Ok((3.0 * period_s).max((72.0 * s * s * period_s / (a * a)).powf(0.2)))
 }
 
 #[cfg(test)]
@@ -114,31 +151,35 @@ mod tests {
         // second differences of pure noise
         let p: Vec<(f64, f64)> = (0..40_001).map(|_| (sigma * g(), sigma * g())).collect();
         let sq: Vec<f64> = p.windows(3).map(|w| (w[2].0 - 2.0 * w[1].0 + w[0].0).powi(2) + (w[2].1 - 2.0 * w[1].1 + w[0].1).powi(2)).collect();
-        let s = sigma_from_second_differences(median(sq));
+        let s = sigma_from_second_differences(median(sq)).unwrap();
         assert!((s / sigma - 1.0).abs() < 0.03, "{s}");
         // 2-D residual lengths
         let r: Vec<f64> = (0..40_000).map(|_| (sigma * g()).hypot(sigma * g())).collect();
-        assert!((sigma_from_rayleigh_median(median(r.clone())) / sigma - 1.0).abs() < 0.03);
+        assert!((sigma_from_rayleigh_median(median(r.clone())).unwrap() / sigma - 1.0).abs() < 0.03);
         let mut r = r;
         r.sort_by(f64::total_cmp);
-        assert!((sigma_from_rayleigh_p95(r[38_000]) / sigma - 1.0).abs() < 0.03);
+        assert!((sigma_from_rayleigh_p95(r[38_000]).unwrap() / sigma - 1.0).abs() < 0.03);
         // 99 % within the matching radius
-        let inside = r.iter().filter(|&&d| d <= match_epsilon(sigma)).count() as f64 / r.len() as f64;
+        let inside = r.iter().filter(|&&d| d <= match_epsilon(sigma).unwrap()).count() as f64 / r.len() as f64;
         assert!((inside - 0.99).abs() < 0.003, "{inside}");
     }
 
     #[test]
     fn floors_hold() {
-        assert_eq!(match_epsilon(0.0), MIN_EPSILON_M);
-        assert!(match_epsilon(f64::NAN).is_nan());
-        let s2 = sigma_from_rayleigh_p95(1.0).powi(2);
-        assert!((process_noise_q(1.0, 0.0) - 1.5 * s2).abs() < 1e-15);
-        assert!((process_noise_q(1.0, 10.0) - 1.5 * Q_FLOOR_SHARE * s2).abs() < 1e-15);
-        assert_eq!(reappear_radius_95(0.0, 0.0, 1.0, 1.0), 1.0);
+        assert_eq!(match_epsilon(0.0).unwrap(), MIN_EPSILON_M);
+        assert!(match_epsilon(f64::NAN).is_err() && match_epsilon(-1.0).is_err());
+        assert_eq!(velocity_window_s(0.3, -1.0, 1.0).unwrap_err().to_string(), "period_s must be finite and > 0, got -1e0");
+        assert!(process_noise_q(2.0, f64::NAN).is_err() && process_noise_q(2.0, f64::INFINITY).is_err() && process_noise_q(2.0, -1.0).is_err());
+        assert!(reappear_radius_95(0.1, f64::INFINITY, 0.0, 0.0).is_err() && reappear_radius_95(f64::NAN, 0.0, 1.0, 0.5).is_err());
+        assert!(sigma_from_rayleigh_median(-1.0).is_err() && sigma_from_second_differences(-1.0).is_err());
+        let s2 = sigma_from_rayleigh_p95(1.0).unwrap().powi(2);
+        assert!((process_noise_q(1.0, 0.0).unwrap() - 1.5 * s2).abs() < 1e-15);
+        assert!((process_noise_q(1.0, 10.0).unwrap() - 1.5 * Q_FLOOR_SHARE * s2).abs() < 1e-15);
+        assert_eq!(reappear_radius_95(0.0, 0.0, 1.0, 1.0).unwrap(), 1.0);
         // pedestrians at 10 Hz, sigma 0.3 m, accel_p95 1.5 m/s²: about 1.1 s; never under 3 periods
-        let w = velocity_window_s(0.3, 0.1, sigma_from_rayleigh_p95(1.5));
+        let w = velocity_window_s(0.3, 0.1, sigma_from_rayleigh_p95(1.5).unwrap()).unwrap();
         assert!((w - 1.1).abs() < 0.1, "{w}");
-        assert_eq!(velocity_window_s(0.0, 0.5, 100.0), 1.5);
-        assert!((reappear_radius_95(1.0, 0.0, 1.0, 0.0) - CHI2_2_95.sqrt()).abs() < 1e-12);
+        assert_eq!(velocity_window_s(0.0, 0.5, 100.0).unwrap(), 1.5);
+        assert!((reappear_radius_95(1.0, 0.0, 1.0, 0.0).unwrap() - CHI2_2_95.sqrt()).abs() < 1e-12);
     }
 }

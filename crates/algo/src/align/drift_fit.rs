@@ -64,6 +64,8 @@ pub enum DriftError {
     Obs { index: usize, what: &'static str, value: f64 },
     /// The drift given to [`offset_se`] is not finite.
     Drift(f64),
+    /// The observations' weighted mean of x or y, or y − drift · x, overflows.
+    Range,
     /// The working vectors could not be allocated.
     Memory(usize),
 }
@@ -75,6 +77,7 @@ impl fmt::Display for DriftError {
                 write!(f, "obs[{index}].{what} must be finite{}, got {value}", if *what == "w" { " and > 0" } else { "" })
             }
             DriftError::Drift(d) => write!(f, "drift must be finite, got {d}"),
+            DriftError::Range => write!(f, "the observations' x or y (or y - drift * x) are too large to fit (their weighted mean overflows); pass times and offsets relative to the recording's start"),
             DriftError::Memory(n) => write!(f, "could not allocate the working vectors for {n} observations"),
         }
     }
@@ -100,7 +103,8 @@ pub struct DriftFit {
     pub se_ls: f64,
     /// Infinite with fewer than [`MIN_JACKKNIFE_BLOCKS`] blocks.
     pub se_jk: f64,
-    /// The kept pairs' weighted sums S_w, S_wx, S_wy (for the intercept under another slope).
+    /// The kept pairs' weighted sums S_w, S_wx, S_wy, the weights relative to the largest (for the
+    /// intercept under another slope, (S_wy − D S_wx) / S_w).
     pub sw: f64,
     pub swx: f64,
     pub swy: f64,
@@ -206,50 +210,105 @@ fn jackknife(items: &[Obs], stat: impl Fn(&Sums) -> Option<f64>) -> Option<f64> 
     Some(((nb as f64 - 1.0) / nb as f64 * thetas.iter().map(|t| (t - m) * (t - m)).sum::<f64>()).sqrt())
 }
 
+/// The larger of two values, NaN when either is (`f64::max` drops a NaN).
+fn nan_max(a: f64, b: f64) -> f64 {
+    if a.is_nan() || b.is_nan() {
+        f64::NAN
+    } else {
+        a.max(b)
+    }
+}
+
+/// Observations with weights relative to the largest (`w / c`) and x, y about their weighted
+/// means (`mx`, `my`). Why: at epoch-second times (x ≈ 1.78e9) the raw sums `S_wxx`, `S_wx²`
+/// cancel every digit of a ppm slope (a 2000 ppm line came out at 1066 ppm), and weights near
+/// 1e308 overflow the sums. The slope, the outlier test and the jackknife do not depend on
+/// either change; the intercept and the sums are shifted back.
+struct Centred {
+    obs: Vec<Obs>,
+    c: f64,
+    mx: f64,
+    my: f64,
+}
+
+fn centre(obs: &[Obs]) -> Result<Centred, DriftError> {
+    let c = obs.iter().fold(0.0f64, |m, o| m.max(o.w));
+    let (mut sw, mut sx, mut sy) = (0.0, 0.0, 0.0);
+    for o in obs {
+        let w = o.w / c;
+        sw += w;
+        sx += w * o.x;
+        sy += w * o.y;
+    }
+    let (mx, my) = if obs.is_empty() { (0.0, 0.0) } else { (sx / sw, sy / sw) };
+    if !(mx.is_finite() && my.is_finite()) {
+        return Err(DriftError::Range);
+    }
+    let mut out = Vec::new();
+    out.try_reserve_exact(obs.len()).map_err(|_| DriftError::Memory(obs.len()))?;
+    for o in obs {
+        let q = Obs { x: o.x - mx, y: o.y - my, w: o.w / c };
+        if !(q.x.is_finite() && q.y.is_finite()) {
+            return Err(DriftError::Range);
+        }
+        out.push(q);
+    }
+    Ok(Centred { obs: out, c, mx, my })
+}
+
 /// The robust drift fit of one camera pair's observations (module docs, steps 1–3). `obs` should
 /// be in time order (the jackknife's blocks are consecutive). None when a fit is undefined (no
 /// observation, all at one time, or no kept pair spans two times).
 pub fn fit(obs: &[Obs]) -> Result<Option<DriftFit>, DriftError> {
     check(obs)?;
-    let all = Sums::of(obs);
+    let Centred { obs: cobs, c, mx, my } = centre(obs)?;
+    let all = Sums::of(&cobs);
     let Some(b1) = all.slope() else { return Ok(None) };
     let a1 = (all.swy - b1 * all.swx) / all.sw;
-    let mut z = try_vec(obs.len(), 0.0)?;
-    for (zk, o) in z.iter_mut().zip(obs) {
+    let mut z = try_vec(cobs.len(), 0.0)?;
+    for (zk, o) in z.iter_mut().zip(&cobs) {
         *zk = (o.y - a1 - b1 * o.x) * o.w.sqrt();
     }
-    let mut absz = try_vec(obs.len(), 0.0)?;
+    let mut absz = try_vec(cobs.len(), 0.0)?;
     for (a, zk) in absz.iter_mut().zip(&z) {
         *a = zk.abs();
     }
     let s = MAD_TO_SD * median(&mut absz);
     let kept: Vec<bool> = z.iter().map(|zk| zk.abs() <= OUTLIER_Z * s).collect();
+    // z in the weights given (the relative weights scale every z by 1 / sqrt(c))
+    let sc = c.sqrt();
+    for zk in z.iter_mut() {
+        *zk *= sc;
+    }
     let mut k_obs = Vec::new();
-    k_obs.try_reserve_exact(obs.len()).map_err(|_| DriftError::Memory(obs.len()))?;
-    k_obs.extend(obs.iter().zip(&kept).filter(|(_, &k)| k).map(|(o, _)| *o));
+    k_obs.try_reserve_exact(cobs.len()).map_err(|_| DriftError::Memory(cobs.len()))?;
+    k_obs.extend(cobs.iter().zip(&kept).filter(|(_, &k)| k).map(|(o, _)| *o));
     let sums = Sums::of(&k_obs);
     let Some(slope) = sums.slope() else { return Ok(None) };
-    let intercept = (sums.swy - slope * sums.swx) / sums.sw;
+    let a_c = (sums.swy - slope * sums.swx) / sums.sw;
     let n = k_obs.len();
-    let chi2: f64 = k_obs.iter().map(|o| o.w * (o.y - intercept - slope * o.x).powi(2)).sum();
+    let chi2: f64 = k_obs.iter().map(|o| o.w * (o.y - a_c - slope * o.x).powi(2)).sum();
+    // least squares' variance in the weights given: (S_w / Δ) / c · max(c χ² / (n − 2), 1e-12)
     let slope_var0 = sums.sw / sums.det();
-    let se_ls = (slope_var0 * (chi2 / (n.saturating_sub(2).max(1)) as f64).max(1e-12)).sqrt();
+    let dof = (n.saturating_sub(2).max(1)) as f64;
+    let se_ls = nan_max(slope_var0 * chi2 / dof, slope_var0 * 1e-12 / c).sqrt();
     let se_jk = jackknife(&k_obs, Sums::slope).unwrap_or(f64::INFINITY);
     let (lo, hi) = k_obs.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), o| (lo.min(o.x), hi.max(o.x)));
+    let se = nan_max(se_ls, se_jk);
     Ok(Some(DriftFit {
         kept,
         z,
         n,
         x_span: hi - lo,
         slope,
-        intercept,
-        se: se_ls.max(se_jk),
+        intercept: my + a_c - slope * mx,
+        se,
         se_ls,
         se_jk,
         sw: sums.sw,
-        swx: sums.swx,
-        swy: sums.swy,
-        usable: n as i64 >= MIN_DRIFT_PAIRS && se_ls.max(se_jk).is_finite() && se_ls.max(se_jk) > 0.0,
+        swx: sums.sw * mx + sums.swx,
+        swy: sums.sw * my + sums.swy,
+        usable: n as i64 >= MIN_DRIFT_PAIRS && se.is_finite() && se > 0.0,
     }))
 }
 
@@ -263,9 +322,17 @@ pub fn offset_se(obs: &[Obs], drift: f64) -> Result<(usize, Option<f64>), DriftE
     }
     let mut level = Vec::new();
     level.try_reserve_exact(obs.len()).map_err(|_| DriftError::Memory(obs.len()))?;
-    level.extend(obs.iter().map(|o| Obs { x: o.x, y: o.y - drift * o.x, w: o.w }));
-    let sw = Sums::of(&level).sw;
-    let se = jackknife(&level, |s| (s.sw > 0.0).then(|| s.swy / s.sw)).map(|jk| jk.max(1.0 / sw.sqrt()));
+    for o in obs {
+        let y = o.y - drift * o.x;
+        if !y.is_finite() {
+            return Err(DriftError::Range);
+        }
+        level.push(Obs { x: o.x, y, w: o.w });
+    }
+    let Centred { obs: cobs, c, .. } = centre(&level)?;
+    let sw = Sums::of(&cobs).sw;
+    // the weighted mean's se in the weights given: 1 / sqrt(c S_w)
+    let se = jackknife(&cobs, |s| (s.sw > 0.0).then(|| s.swy / s.sw)).map(|jk| nan_max(jk, 1.0 / (c.sqrt() * sw.sqrt())));
     Ok((obs.len().min(JACKKNIFE_BLOCKS), se))
 }
 
@@ -316,6 +383,32 @@ mod tests {
         let f = fit(&obs).unwrap().unwrap();
         assert!(!f.kept[40] && f.n == 99);
         assert!((f.slope - 100e-6).abs() < 5e-6, "{}", f.slope);
+    }
+
+    #[test]
+    fn epoch_second_times_and_huge_weights_give_the_same_fit() {
+        let base = line(200, 0.5, 2e-3, |i| 0.001 * noise(i));
+        let f0 = fit(&base).unwrap().unwrap();
+        // x shifted to epoch seconds (and y with it, as the offset's line moves along)
+        let t0 = 1.78e9;
+        let shifted: Vec<Obs> = base.iter().map(|o| Obs { x: o.x + t0, y: o.y + 2e-3 * t0, w: o.w }).collect();
+        let f1 = fit(&shifted).unwrap().unwrap();
+        assert!((f1.slope - f0.slope).abs() < 1e-9, "{} vs {}", f1.slope, f0.slope);
+        assert!((f1.se / f0.se - 1.0).abs() < 1e-3, "{} vs {}", f1.se, f0.se);
+        assert_eq!(f1.kept, f0.kept);
+        // the intercept under another slope from the sums
+        assert!(((f1.swy - f1.slope * f1.swx) / f1.sw - f1.intercept).abs() < 1e-3);
+        // weights of any scale: the same slope, se and z (z in the weights given)
+        let heavy: Vec<Obs> = base.iter().map(|o| Obs { w: o.w * 1e300, ..*o }).collect();
+        let f2 = fit(&heavy).unwrap().unwrap();
+        assert!((f2.slope - f0.slope).abs() < 1e-12 && (f2.se / f0.se - 1.0).abs() < 1e-9);
+        assert!((f2.z[7] / f0.z[7] / 1e150 - 1.0).abs() < 1e-9);
+        let (_, a) = offset_se(&base, 2e-3).unwrap();
+        let (_, b) = offset_se(&heavy, 2e-3).unwrap();
+        // (the jackknife does not depend on the weights' scale, the mean's 1 / sqrt(S_w) does)
+        assert!(b.unwrap().is_finite() && b.unwrap() <= a.unwrap() * (1.0 + 1e-9));
+        // overflow is an error, not a number
+        assert_eq!(offset_se(&[Obs { x: 1e10, y: 2.0, w: 1.0 }], 1e300), Err(DriftError::Range));
     }
 
     #[test]

@@ -250,13 +250,9 @@ fn traj_labels(a: &Args<'_>, out: &mut Out<'_>) -> R {
 }
 
 fn break_evidence(a: &Args<'_>, out: &mut Out<'_>) -> R {
-    let cols: Vec<_> = (0..10).map(|i| a.double(i)).collect();
+    let row = a.doubles::<10>();
     let vals = a.map(|r| {
-        let mut v = [0.0; 10];
-        for (k, c) in cols.iter().enumerate() {
-            let Some(x) = c.get(r) else { return Ok(None) };
-            v[k] = x;
-        }
+        let Some(v) = row(r) else { return Ok(None) };
         let m = BreakModel::new(v[4], v[5], v[6], v[7], v[8])?;
         let e = break_link::evidence(v[0] * v[0] + v[1] * v[1], v[2] * v[2] + v[3] * v[3], &m, v[9])?;
         let mut v = [e.z2_cv, e.z2, e.ll, e.ll_bg].map(Value::F64).to_vec();
@@ -268,26 +264,19 @@ fn break_evidence(a: &Args<'_>, out: &mut Out<'_>) -> R {
 }
 
 fn break_link_kind(a: &Args<'_>, out: &mut Out<'_>) -> R {
-    let cols: Vec<_> = (0..5).map(|i| a.double(i)).collect();
+    let row = a.doubles::<5>();
     let vals = a.map(|r| {
-        let mut v = [0.0; 5];
-        for (k, c) in cols.iter().enumerate() {
-            let Some(x) = c.get(r) else { return Ok(None) };
-            v[k] = x;
-        }
-        if v[0] < 0.0 {
-            return Err(format!("z2_cv must be >= 0 (a chi-square statistic, break_evidence's z2_cv), got {:e}", v[0]).into());
-        }
-        Ok(break_link::link_kind(v[0], v[1], v[2], v[3], v[4]).map(|k| k.as_str()))
+        let Some(v) = row(r) else { return Ok(None) };
+        Ok(break_link::link_kind(v[0], v[1], v[2], v[3], v[4])?.map(|k| k.as_str()))
     })?;
     out.text(&vals);
     Ok(())
 }
 
 fn break_standing(a: &Args<'_>, out: &mut Out<'_>) -> R {
-    let (vx, vy, var) = (a.double(0), a.double(1), a.double(2));
+    let row = a.doubles::<3>();
     let vals = a.map(|r| {
-        let (Some(x), Some(y), Some(v)) = (vx.get(r), vy.get(r), var.get(r)) else { return Ok(None) };
+        let Some([x, y, v]) = row(r) else { return Ok(None) };
         Ok(Some(break_link::standing(x * x + y * y, v)))
     })?;
     out.flat(&vals);

@@ -11,13 +11,9 @@ type R = Result<(), Box<dyn Error>>;
 /// A DOUBLE function of DOUBLE arguments, NULL in NULL out; an argument outside its domain is an
 /// error naming it.
 fn doubles<const N: usize>(a: &Args<'_>, out: &mut Out<'_>, f: impl Fn([f64; N]) -> Result<f64, noise::NoiseError>) -> R {
-    let cols: Vec<_> = (0..N).map(|i| a.double(i)).collect();
+    let row = a.doubles::<N>();
     let vals = a.map(|r| {
-        let mut v = [0.0; N];
-        for (k, c) in cols.iter().enumerate() {
-            let Some(x) = c.get(r) else { return Ok(None) };
-            v[k] = x;
-        }
+        let Some(v) = row(r) else { return Ok(None) };
         Ok(Some(f(v)?))
     })?;
     out.flat(&vals);

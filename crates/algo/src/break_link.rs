@@ -72,16 +72,21 @@ impl LinkKind {
 /// other candidates' `ll` of its end and of its start (−∞ when there is none), the ratio test
 /// (`ll − ll_next ≥ ln LINK_RATIO` for both), and no link when it is less likely than an unrelated
 /// start (`ll_bg < 0`); then [`LinkKind::Broken`] or [`LinkKind::Reach`]. A NaN anywhere is no link.
-pub fn link_kind(z2_cv: f64, ll: f64, ll_bg: f64, ll_next_end: f64, ll_next_start: f64) -> Option<LinkKind> {
+///
+/// A negative `z2_cv` (a chi-square statistic) is an error.
+pub fn link_kind(z2_cv: f64, ll: f64, ll_bg: f64, ll_next_end: f64, ll_next_start: f64) -> Result<Option<LinkKind>, BreakError> {
+    if z2_cv < 0.0 {
+        return Err(BreakError::Chi2(z2_cv));
+    }
     if [z2_cv, ll, ll_bg, ll_next_end, ll_next_start].iter().any(|v| v.is_nan()) {
-        return None;
+        return Ok(None);
     }
     let margin = LINK_RATIO.ln();
     let beats = |next: f64| next == f64::NEG_INFINITY || ll - next >= margin;
     if !(beats(ll_next_end) && beats(ll_next_start) && ll_bg >= 0.0) {
-        return None;
+        return Ok(None);
     }
-    Some(if z2_cv <= GATE_Z2 && ll_bg >= margin { LinkKind::Broken } else { LinkKind::Reach })
+    Ok(Some(if z2_cv <= GATE_Z2 && ll_bg >= margin { LinkKind::Broken } else { LinkKind::Reach }))
 }
 
 /// Whether a pair is a candidate: its `z2` (acceleration model) within [`GATE_Z2`].
@@ -99,6 +104,8 @@ pub enum BreakError {
     Difference(&'static str, f64),
     /// The start density is not > 0 and finite.
     Density(f64),
+    /// A chi-square statistic (z2_cv) is negative.
+    Chi2(f64),
 }
 
 impl fmt::Display for BreakError {
@@ -111,6 +118,7 @@ impl fmt::Display for BreakError {
             ),
             BreakError::Pi(v) => write!(f, "pi must be in [0, 1) (the share of continuations at constant velocity; 0: the acceleration model alone), got {v}"),
             BreakError::Difference(n, v) => write!(f, "{n} must be finite, got {v}"),
+            BreakError::Chi2(v) => write!(f, "z2_cv must be >= 0 (a chi-square statistic, break_evidence's z2_cv), got {v:e}"),
             BreakError::Density(v) => write!(f, "start_density must be > 0 and finite (starts per m² in the gap's window), got {v}"),
         }
     }
@@ -248,17 +256,18 @@ mod tests {
     fn the_link_decision_is_the_ratio_test_then_the_background_test() {
         let m = LINK_RATIO.ln();
         // no competitor, background passed, constant velocity: broken
-        assert_eq!(link_kind(1.0, 0.0, m, f64::NEG_INFINITY, f64::NEG_INFINITY), Some(LinkKind::Broken));
+        assert_eq!(link_kind(1.0, 0.0, m, f64::NEG_INFINITY, f64::NEG_INFINITY).unwrap(), Some(LinkKind::Broken));
         // a competitor within the ratio of the end or of the start: no link
-        assert_eq!(link_kind(1.0, 0.0, m, -m + 0.01, f64::NEG_INFINITY), None);
-        assert_eq!(link_kind(1.0, 0.0, m, f64::NEG_INFINITY, -m + 0.01), None);
-        assert_eq!(link_kind(1.0, 0.0, m, -m, -m), Some(LinkKind::Broken));
+        assert_eq!(link_kind(1.0, 0.0, m, -m + 0.01, f64::NEG_INFINITY).unwrap(), None);
+        assert_eq!(link_kind(1.0, 0.0, m, f64::NEG_INFINITY, -m + 0.01).unwrap(), None);
+        assert_eq!(link_kind(1.0, 0.0, m, -m, -m).unwrap(), Some(LinkKind::Broken));
         // beyond the constant-velocity gate, or a weaker background: reach
-        assert_eq!(link_kind(GATE_Z2 + 0.1, 0.0, m, f64::NEG_INFINITY, f64::NEG_INFINITY), Some(LinkKind::Reach));
-        assert_eq!(link_kind(1.0, 0.0, m - 0.1, f64::NEG_INFINITY, f64::NEG_INFINITY), Some(LinkKind::Reach));
+        assert_eq!(link_kind(GATE_Z2 + 0.1, 0.0, m, f64::NEG_INFINITY, f64::NEG_INFINITY).unwrap(), Some(LinkKind::Reach));
+        assert_eq!(link_kind(1.0, 0.0, m - 0.1, f64::NEG_INFINITY, f64::NEG_INFINITY).unwrap(), Some(LinkKind::Reach));
         // less likely than an unrelated start: no link
-        assert_eq!(link_kind(1.0, 0.0, -0.1, f64::NEG_INFINITY, f64::NEG_INFINITY), None);
-        assert_eq!(link_kind(1.0, f64::NAN, m, f64::NEG_INFINITY, f64::NEG_INFINITY), None);
+        assert_eq!(link_kind(1.0, 0.0, -0.1, f64::NEG_INFINITY, f64::NEG_INFINITY).unwrap(), None);
+        assert_eq!(link_kind(1.0, f64::NAN, m, f64::NEG_INFINITY, f64::NEG_INFINITY).unwrap(), None);
+        assert_eq!(link_kind(-5.0, 0.0, m, f64::NEG_INFINITY, f64::NEG_INFINITY), Err(BreakError::Chi2(-5.0)));
     }
 
     #[test]

@@ -142,6 +142,18 @@ impl<'a> Args<'a> {
     pub fn double(&self, col: usize) -> PrimCol<'a, f64> {
         PrimCol::new(self.chunk, col)
     }
+    /// The first `N` arguments, all DOUBLE, as one reader: row `r` gives `[f64; N]`, or `None`
+    /// when any of them is NULL (the kernels of scalar formulas).
+    pub fn doubles<const N: usize>(&self) -> impl Fn(usize) -> Option<[f64; N]> + 'a {
+        let cols: [PrimCol<'a, f64>; N] = std::array::from_fn(|i| self.double(i));
+        move |r| {
+            let mut v = [0.0; N];
+            for (x, c) in v.iter_mut().zip(&cols) {
+                *x = c.get(r)?;
+            }
+            Some(v)
+        }
+    }
     pub fn bigint(&self, col: usize) -> PrimCol<'a, i64> {
         PrimCol::new(self.chunk, col)
     }

@@ -1719,6 +1719,13 @@ FROM align_pairs p,
                      ('scale se', p.reg.se_scale, '', 'jackknife over 16 blocks of track pairs (inf: too few pairs)'),
                      ('rotation se', degrees(p.reg.se_theta), 'deg', 'jackknife over 16 blocks of track pairs'),
                      ('translation se', greatest(p.reg.se_tx, p.reg.se_ty), 'm', 'the larger axis: jackknife, or 1/sqrt(sum of weights) when larger'),
+                     ('perspective', 50 * sqrt(p.reg.perspective_hx ** 2 + p.reg.perspective_hy ** 2), '',
+                      'camera ' || p.cam_moving || ' into camera ' || p.cam_fixed || ': the relative scale error 50 m along the perspective '
+                      || 'term of the two ground planes (f (1 + h.(m - m0)) = A m + t + b, fitted within track pairs: perspective_*), '
+                      || CASE WHEN p.reg.perspective_significant THEN 'significant (Wald chi2 ' || round(p.reg.perspective_chi2, 1)
+                                   || ' > 28.74, 5 sigma); reported, not applied: the registration stays a similarity'
+                              ELSE 'within 5 sigma (Wald chi2 ' || coalesce(round(p.reg.perspective_chi2, 1)::VARCHAR, 'NULL') || ')' END),
+                     ('perspective se', 50 * p.reg.perspective_se, '', 'standard error of the perspective at 50 m: jackknife over 16 blocks or least squares, the larger'),
                      ('offset spread', p.reg.tau_max, 'm', 'per axis, the largest class''s spread of constant offsets between the two views of a road user (viewpoint bias)'),
                      ('registration pairs', p.reg.pairs_used, '', 'track pairs in the translation (of ' || p.reg.pairs || ')')) q(quantity, value, unit, how)
 WHERE p.reg IS NOT NULL
@@ -2572,7 +2579,7 @@ FROM cluster_assign a JOIN load_ids i ON i.camera = calibrated('cluster_camera')
 -- trajdb: what a finished pipeline run should tell its user, one row each, in table
 -- pipeline_warnings (k, message). Every runner (trajdb pipeline, trajdb.pipeline in Python, the
 -- DuckDB CLI after `.read sql/pipeline.sql`) reads this one table.
--- reads: points, align_frames, calibration_summary, load_class_flicker, load_duplicates, load_ids, load_twins, load_unit_outliers; parameters: cluster_classes,
+-- reads: points, align_frames, align_pairs, calibration_summary, load_class_flicker, load_duplicates, load_ids, load_twins, load_unit_outliers; parameters: cluster_classes,
 -- load_no_class (set by the load)   makes: pipeline_warnings
 CREATE OR REPLACE TEMP TABLE pipeline_warnings AS
 WITH c AS (SELECT (SELECT count(DISTINCT camera) FROM points) AS cams, (SELECT count(*) FROM align_frames) AS aligned,
@@ -2629,7 +2636,18 @@ SELECT 9, format('cameras {} and {}: their clock offset is uncertain by {} s, mo
 FROM calibration_summary c
 JOIN (SELECT DISTINCT camera, camera_in FROM load_ids) a ON a.camera = try_cast(regexp_extract(c.scope, '^cameras (-?[0-9]+)-', 1) AS INTEGER)
 JOIN (SELECT DISTINCT camera, camera_in FROM load_ids) b ON b.camera = try_cast(regexp_extract(c.scope, '^cameras -?[0-9]+-(-?[0-9]+)$', 1) AS INTEGER)
-WHERE c.quantity = 'clock offset se' AND c.value > getvariable('merge_resample_s') / 2;
+WHERE c.quantity = 'clock offset se' AND c.value > getvariable('merge_resample_s') / 2
+UNION ALL
+-- issue 38: two cameras' ground planes differ by more than a similarity (register_pair's
+-- perspective term, significant at 5 sigma; measured, not applied)
+SELECT 10, format('cameras {} and {}: their ground planes differ by a perspective term ({}% of scale at 50 m, se {}%): no rotation, '
+                  || 'shift and scale maps one onto the other everywhere, so positions far from the overlap are off by up to that share of '
+                  || 'their distance; check the two cameras'' image-to-ground calibrations (calibration.csv, ''perspective'')',
+                  a.camera_in, b.camera_in, round(100 * 50 * sqrt(p.reg.perspective_hx ** 2 + p.reg.perspective_hy ** 2), 2), round(100 * 50 * p.reg.perspective_se, 2))
+FROM align_pairs p
+JOIN (SELECT DISTINCT camera, camera_in FROM load_ids) a ON a.camera = p.cam_fixed
+JOIN (SELECT DISTINCT camera, camera_in FROM load_ids) b ON b.camera = p.cam_moving
+WHERE p.reg.perspective_significant;
 ;
 -- trajdb: the analyst's questions as SQL macros (issue 29 §4; docs/analysis.md).
 --

@@ -1,7 +1,7 @@
 -- trajdb: what a finished pipeline run should tell its user, one row each, in table
 -- pipeline_warnings (k, message). Every runner (trajdb pipeline, trajdb.pipeline in Python, the
 -- DuckDB CLI after `.read sql/pipeline.sql`) reads this one table.
--- reads: points, align_frames, calibration_summary, load_class_flicker, load_duplicates, load_ids, load_twins, load_unit_outliers; parameters: cluster_classes,
+-- reads: points, align_frames, align_pairs, calibration_summary, load_class_flicker, load_duplicates, load_ids, load_twins, load_unit_outliers; parameters: cluster_classes,
 -- load_no_class (set by the load)   makes: pipeline_warnings
 CREATE OR REPLACE TEMP TABLE pipeline_warnings AS
 WITH c AS (SELECT (SELECT count(DISTINCT camera) FROM points) AS cams, (SELECT count(*) FROM align_frames) AS aligned,
@@ -58,4 +58,15 @@ SELECT 9, format('cameras {} and {}: their clock offset is uncertain by {} s, mo
 FROM calibration_summary c
 JOIN (SELECT DISTINCT camera, camera_in FROM load_ids) a ON a.camera = try_cast(regexp_extract(c.scope, '^cameras (-?[0-9]+)-', 1) AS INTEGER)
 JOIN (SELECT DISTINCT camera, camera_in FROM load_ids) b ON b.camera = try_cast(regexp_extract(c.scope, '^cameras -?[0-9]+-(-?[0-9]+)$', 1) AS INTEGER)
-WHERE c.quantity = 'clock offset se' AND c.value > getvariable('merge_resample_s') / 2;
+WHERE c.quantity = 'clock offset se' AND c.value > getvariable('merge_resample_s') / 2
+UNION ALL
+-- issue 38: two cameras' ground planes differ by more than a similarity (register_pair's
+-- perspective term, significant at 5 sigma; measured, not applied)
+SELECT 10, format('cameras {} and {}: their ground planes differ by a perspective term ({}% of scale at 50 m, se {}%): no rotation, '
+                  || 'shift and scale maps one onto the other everywhere, so positions far from the overlap are off by up to that share of '
+                  || 'their distance; check the two cameras'' image-to-ground calibrations (calibration.csv, ''perspective'')',
+                  a.camera_in, b.camera_in, round(100 * 50 * sqrt(p.reg.perspective_hx ** 2 + p.reg.perspective_hy ** 2), 2), round(100 * 50 * p.reg.perspective_se, 2))
+FROM align_pairs p
+JOIN (SELECT DISTINCT camera, camera_in FROM load_ids) a ON a.camera = p.cam_fixed
+JOIN (SELECT DISTINCT camera, camera_in FROM load_ids) b ON b.camera = p.cam_moving
+WHERE p.reg.perspective_significant;

@@ -724,6 +724,13 @@ FROM align_pairs p,
                      ('scale se', p.reg.se_scale, '', 'jackknife over 16 blocks of track pairs (inf: too few pairs)'),
                      ('rotation se', degrees(p.reg.se_theta), 'deg', 'jackknife over 16 blocks of track pairs'),
                      ('translation se', greatest(p.reg.se_tx, p.reg.se_ty), 'm', 'the larger axis: jackknife, or 1/sqrt(sum of weights) when larger'),
+                     ('perspective', 50 * sqrt(p.reg.perspective_hx ** 2 + p.reg.perspective_hy ** 2), '',
+                      'camera ' || p.cam_moving || ' into camera ' || p.cam_fixed || ': the relative scale error 50 m along the perspective '
+                      || 'term of the two ground planes (f (1 + h.(m - m0)) = A m + t + b, fitted within track pairs: perspective_*), '
+                      || CASE WHEN p.reg.perspective_significant THEN 'significant (Wald chi2 ' || round(p.reg.perspective_chi2, 1)
+                                   || ' > 28.74, 5 sigma); reported, not applied: the registration stays a similarity'
+                              ELSE 'within 5 sigma (Wald chi2 ' || coalesce(round(p.reg.perspective_chi2, 1)::VARCHAR, 'NULL') || ')' END),
+                     ('perspective se', 50 * p.reg.perspective_se, '', 'standard error of the perspective at 50 m: jackknife over 16 blocks or least squares, the larger'),
                      ('offset spread', p.reg.tau_max, 'm', 'per axis, the largest class''s spread of constant offsets between the two views of a road user (viewpoint bias)'),
                      ('registration pairs', p.reg.pairs_used, '', 'track pairs in the translation (of ' || p.reg.pairs || ')')) q(quantity, value, unit, how)
 WHERE p.reg IS NOT NULL

@@ -283,7 +283,11 @@ pub static FUNCTIONS: &[Function] = &[
                       its own mean offset (crates/algo/src/align/register_clock.rs: a time shift is seen within pairs that turn or change \
                       speed and in the classes whose offsets scatter little, and one class seen off by one camera does not move it), its \
                       jackknife se_dt, and dt_at_edge when the minimum is on the grid's edge; the given dt stands unless the model's differs \
-                      by more than 3 se_dt (Hausman's rule; dt_moved says which). NULL when fewer than 2 pairs have 3 point pairs. sigma_fixed, sigma_moving: the cameras' position noise (m), whose ratio Deming's scale needs (the \
+                      by more than 3 se_dt (Hausman's rule; dt_moved says which). NULL when fewer than 2 pairs have 3 point pairs. perspective_hx, perspective_hy \
+                      (1/m, the moving camera's axes): the perspective term between the two ground planes, f (1 + h.(m - m0)) = A m + t + b_k, \
+                      fitted within pairs (crates/algo/src/align/perspective.rs) and NOT applied; perspective_se: the standard error of |h| \
+                      (jackknife or least squares, the larger); perspective_chi2: the Wald statistic; perspective_significant: chi2 over the \
+                      chi2(2) quantile of 5 sigma (28.74); all NULL when the points do not fix it. sigma_fixed, sigma_moving: the cameras' position noise (m), whose ratio Deming's scale needs (the \
                       least-squares scale is diluted by the moving view's noise); default 0 and 0: the symmetric fit. Aggregate with list(), \
                       in the order of the recording.",
         example: "SELECT round(register_pair([[{'t':0,'x':0,'y':0},{'t':1,'x':1,'y':0},{'t':2,'x':2,'y':1}], [{'t':0,'x':5,'y':5},{'t':1,'x':5,'y':6},{'t':2,'x':6,'y':8}]], [[{'t':0,'x':1,'y':0},{'t':1,'x':2,'y':0},{'t':2,'x':3,'y':1}], [{'t':0,'x':6,'y':5},{'t':1,'x':6,'y':6},{'t':2,'x':7,'y':8}]], [1, 1], 0.0).tx, 6); -- -1.0",
@@ -323,6 +327,11 @@ pub static FUNCTIONS: &[Function] = &[
                 ("pairs", Ty::Bigint),
                 ("rms", Ty::Double),
                 ("tau_max", Ty::Double),
+                ("perspective_hx", Ty::Double),
+                ("perspective_hy", Ty::Double),
+                ("perspective_se", Ty::Double),
+                ("perspective_chi2", Ty::Double),
+                ("perspective_significant", Ty::Boolean),
             ]),
             kernel: register_pair,
         }],
@@ -806,6 +815,10 @@ fn register_pair(a: &Args<'_>, out: &mut Out<'_>) -> R {
         v.push(Value::I64(g.pairs as i64));
         v.push(Value::F64(g.rms));
         v.push(Value::F64(g.tau_max));
+        match g.perspective {
+            Some(p) => v.extend([Value::F64(p.h[0]), Value::F64(p.h[1]), Value::F64(p.se), Value::F64(p.chi2), Value::Bool(p.significant)]),
+            None => v.extend([Value::Null, Value::Null, Value::Null, Value::Null, Value::Null]),
+        }
         Ok(Some(v))
     })?;
     out.structs(&vals);

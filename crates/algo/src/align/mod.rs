@@ -8,6 +8,7 @@
 //! | [`shift`] | `rigid_fit_scan`, `rigid_fit_shifted` | clock offsets: the fit of a track pair at every time shift (a Hough line), and the joint fit of many pairs with the best shift |
 //! | [`xcorr`] | `activity_lag` | the coarse clock offset of two cameras over every lag: cross-correlation of their activity (FFT, [`fft`]) |
 //! | [`register`] | `register_pair` | the final registration when cameras see different points of a road user: rotation and scale within each track pair, translation weighted by each class's offset spread, standard errors by the jackknife |
+//! | [`perspective`] | `register_pair` (`perspective_*`) | the perspective term between two cameras' ground planes, measured within track pairs, with its jackknife error and a 5-sigma test (reported, not applied) |
 //! | [`register_clock`] | `register_pair` (with `max_shift`) | the clock offset under that model: each class its own mean offset, a time shift seen within pairs (turns, speed changes) and in the classes whose offsets scatter little |
 //! | [`clock_network`] | `clock_network` | one clock drift per camera from every camera pair's drift (weighted least squares over the pairs' graph), and whether the recording shows drift at all |
 //! | [`shift_under`] | `rigid_shift_under` | the clock offset of one track pair under a known transform (align.sql's drift measurement) |
@@ -20,6 +21,7 @@ pub mod clock_network;
 pub mod drift_fit;
 pub mod correspond;
 pub mod msd;
+pub mod perspective;
 pub mod register;
 pub mod register_clock;
 pub mod cpd;

@@ -44,6 +44,7 @@
 //! counted against the work limit `shift_pair_fits` (as `(B + 2)·P` fits) before any work.
 
 use super::correspond::{correspond_into, Pairs};
+use super::perspective::{self, Perspective};
 use super::rigid::{self, wrap_angle, Transform2};
 use super::shift::{Noise, ShiftError};
 use crate::limits;
@@ -93,6 +94,9 @@ pub struct Registration {
     pub tau_max: f64,
     /// τ² per class (m², per axis; index = the class label's rank among the labels given).
     pub tau2: Vec<f64>,
+    /// The perspective term the kept point pairs show ([`perspective`](super::perspective)),
+    /// measured, tested, and not applied; `None` when the points do not fix it.
+    pub perspective: Option<Perspective>,
 }
 
 struct PairPoints {
@@ -560,7 +564,21 @@ pub fn register(tracks: &[(Traj<'_>, Traj<'_>)], classes: &[u32], extents: &[f64
         ss += (c.fx[i] - qx).powi(2) + (c.fy[i] - qy).powi(2);
         n += 1;
     }
+    // the perspective term, within pairs, on the same kept point pairs and blocks
+    let persp = {
+        let idx: Vec<usize> = (0..c.fx.len()).filter(|&i| keep[i]).collect();
+        let abs = |i: usize| {
+            let mu = pp.means[pp.k[i]].0;
+            ([c.fx[i] + mu[0], c.fy[i] + mu[1]], [c.mx[i] + mu[2], c.my[i] + mu[3]])
+        };
+        let (fa, ma): (Vec<[f64; 2]>, Vec<[f64; 2]>) = idx.iter().map(|&i| abs(i)).unzip();
+        let pk: Vec<usize> = idx.iter().map(|&i| pp.k[i]).collect();
+        let bk: Vec<usize> = idx.iter().map(|&i| pp.block[pp.k[i]]).collect();
+        // the inputs are finite (the trajectories are) and as long as each other
+        perspective::perspective(&fa, &ma, &pk, &bk).ok().flatten()
+    };
     Ok(Some(Registration {
+        perspective: persp,
         transform,
         scale_fit: s,
         se_theta,

@@ -468,8 +468,8 @@ DELETE FROM points WHERE camera IN (SELECT camera_dropped FROM load_twins);
 --    periods; a point count alone would drop a real pedestrian seen for 1.5 s at 2 Hz;
 --  * per camera pair, sigma_pair = sqrt(sigma_a^2 + sigma_b^2): a true hypothesis of align.sql
 --    leaves residuals of about sigma_pair per axis, so it votes when its RMS is under
---    align_max_rms_m = 0.1 + 3 sigma_pair, and is kept in the refit under
---    align_refine_rms_m = 0.05 + 2 sigma_pair (road users walking side by side, 0.7 m apart, are
+--    align_max_rms_m = 0.1 + 3 sigma_pair (noise_align_vote_rms), and is kept in the refit under
+--    align_refine_rms_m = 0.05 + 2 sigma_pair (noise_align_refine_rms) (road users walking side by side, 0.7 m apart, are
 --    refused while sigma_pair stays under ~0.3 m). The constants 0.1 / 0.05 m cover the
 --    interpolation and clock-grid error of a hypothesis;
 --  * merge_min_points (LCSS xi) = 2 real samples of the slowest camera on the common clock:
@@ -582,10 +582,10 @@ FROM (
          getvariable('cluster_camera')::DOUBLE, 'the camera with the most real tracks (ties: the first in calib_camera_order, by data)')
     ) t(parameter, measured, given, rule)
     UNION ALL
-    SELECT 'align_max_rms_m', 'camera pair', cam_a, cam_b, NULL, 0.1 + 3 * sigma_pair_m, getvariable('align_max_rms_m'), '0.1 + 3 sigma_pair'
+    SELECT 'align_max_rms_m', 'camera pair', cam_a, cam_b, NULL, noise_align_vote_rms(sigma_pair_m), getvariable('align_max_rms_m'), '0.1 + 3 sigma_pair (noise_align_vote_rms)'
     FROM calib_pairs
     UNION ALL
-    SELECT 'align_refine_rms_m', 'camera pair', cam_a, cam_b, NULL, 0.05 + 2 * sigma_pair_m, getvariable('align_refine_rms_m'), '0.05 + 2 sigma_pair'
+    SELECT 'align_refine_rms_m', 'camera pair', cam_a, cam_b, NULL, noise_align_refine_rms(sigma_pair_m), getvariable('align_refine_rms_m'), '0.05 + 2 sigma_pair (noise_align_refine_rms)'
     FROM calib_pairs
     UNION ALL
     SELECT 'quality_max_accel', 'class', NULL, NULL, class, accel_p95, getvariable('quality_max_accel'),

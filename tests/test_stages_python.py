@@ -159,7 +159,7 @@ def test_align(ext):
     # calibration.csv's rows: the camera pair's values and how they were chosen
     summ = {q: (v, how) for q, v, how in rows(con, "SELECT quantity, value, how FROM result_calibration() WHERE scope = 'cameras 0-1'")}
     assert abs(summ["merge_epsilon"][0] - eps) < 1e-12 * eps and summ["merge_epsilon"][1] == "3.03 x residual sigma", summ
-    assert summ["align_max_rms_m"][1] == "0.1 + 3 sigma_pair", summ
+    assert summ["align_max_rms_m"][1] == "0.1 + 3 sigma_pair (noise_align_vote_rms)", summ
     assert one(con, "SELECT value FROM result_calibration() WHERE quantity = 'reference camera'") == 0
     # given: the value wins everywhere, and is reported as given
     con = scene(ext, "align", merge_epsilon="0.3")

@@ -64,6 +64,34 @@ pub static FUNCTIONS: &[Function] = &[
         table: None,
     },
     Function {
+        name: "noise_align_vote_rms",
+        description: "align.sql's first gate (m): a clock and frame hypothesis of a track pair votes when the RMS of its point pairs about its own fit is within 0.1 + 3 sigma_pair, sigma_pair = sqrt(sigma_a² + sigma_b²) the camera pair's per-axis noise (calibrate.sql's align_max_rms_m, 'auto'); 0.1 m covers a hypothesis's clock-grid and interpolation error. NULL for NULL; a negative or non-finite argument is an error naming it. O(1).",
+        example: "SELECT round(noise_align_vote_rms(0.1), 6); -- 0.4",
+        maths: "crates/algo/src/noise.rs",
+        binding: file!(),
+        signatures: &[Signature {
+            params: &[p("sigma_pair_m", Ty::Double)],
+            arities: &[],
+            returns: Ty::Double,
+            kernel: noise_align_vote_rms,
+        }],
+        table: None,
+    },
+    Function {
+        name: "noise_align_refine_rms",
+        description: "align.sql's second gate (m, align_clean): a track pair is kept in the refit when the RMS about its own mean offset is within 0.05 + 2 sigma_pair (calibrate.sql's align_refine_rms_m, 'auto'): road users walking side by side 0.7 m apart stay out while sigma_pair is under ~0.3 m. NULL for NULL; a negative or non-finite argument is an error naming it. O(1).",
+        example: "SELECT round(noise_align_refine_rms(0.1), 6); -- 0.25",
+        maths: "crates/algo/src/noise.rs",
+        binding: file!(),
+        signatures: &[Signature {
+            params: &[p("sigma_pair_m", Ty::Double)],
+            arities: &[],
+            returns: Ty::Double,
+            kernel: noise_align_refine_rms,
+        }],
+        table: None,
+    },
+    Function {
         name: "noise_match_epsilon",
         description: "LCSS's matching radius epsilon (m) for a camera pair whose residuals have per-axis sigma_m (align.sql's merge_epsilon): 99 % of a true pair's points fall within sqrt(2 ln 100) sigma (3.03 sigma); at least 1 mm (noise-free input measures sigma 0, and LCSS needs epsilon > 0). NULL for NULL; a negative or non-finite argument is an error naming it. O(1).",
         example: "SELECT round(noise_match_epsilon(0.1), 4); -- 0.3035",
@@ -147,4 +175,12 @@ fn noise_process_q(a: &Args<'_>, out: &mut Out<'_>) -> R {
 
 fn noise_reappear_radius_95(a: &Args<'_>, out: &mut Out<'_>) -> R {
     doubles::<4>(a, out, |v| noise::reappear_radius_95(v[0], v[1], v[2], v[3]))
+}
+
+fn noise_align_vote_rms(a: &Args<'_>, out: &mut Out<'_>) -> R {
+    doubles::<1>(a, out, |[s]| noise::align_vote_rms(s))
+}
+
+fn noise_align_refine_rms(a: &Args<'_>, out: &mut Out<'_>) -> R {
+    doubles::<1>(a, out, |[s]| noise::align_refine_rms(s))
 }

@@ -118,9 +118,50 @@ pub fn velocity_window_s(sigma: f64, period_s: f64, sigma_acc: f64) -> Result<f6
     Ok((3.0 * period_s).max((72.0 * s * s * period_s / (a * a)).powf(0.2)))
 }
 
+/// The hypothesis allowance of [`align_vote_rms`] (m): a clock hypothesis on align.sql's grid
+/// is up to half a bin off, and interpolating the moving track at that time adds a few cm at a
+/// road user's speed; 0.1 m covers both (the pre-issue-38 rule, kept: its reason still holds).
+pub const VOTE_ALLOWANCE_M: f64 = 0.1;
+/// Sigmas of [`align_vote_rms`]: a true hypothesis's RMS of n point pairs is about σ_pair per axis
+/// and rarely above 3 σ_pair, where two road users side by side (0.7 m apart) are far above it.
+pub const VOTE_SIGMAS: f64 = 3.0;
+/// The allowance of [`align_refine_rms`] (m): the refit's pairs sit at the pooled clock, so half
+/// the vote's allowance.
+pub const REFINE_ALLOWANCE_M: f64 = 0.05;
+/// Sigmas of [`align_refine_rms`]: tighter than the vote's, so that neighbours walking 0.7 m
+/// apart stay out while σ_pair is under ~0.3 m.
+pub const REFINE_SIGMAS: f64 = 2.0;
+
+/// align.sql's first gate: a hypothesis (a track pair's own best fit) votes when the RMS of its
+/// point pairs about that fit is within `VOTE_ALLOWANCE_M + VOTE_SIGMAS σ_pair` (m), `σ_pair` =
+/// `√(σ_a² + σ_b²)` the camera pair's per-axis residual noise (calibrate.sql).
+pub fn align_vote_rms(sigma_pair: f64) -> Result<f64, NoiseError> {
+    Ok(VOTE_ALLOWANCE_M + VOTE_SIGMAS * nonneg("sigma_pair_m", sigma_pair)?)
+}
+
+/// align.sql's second gate (`align_clean`): a track pair is kept in the refit when the RMS about
+/// its own mean offset is within `REFINE_ALLOWANCE_M + REFINE_SIGMAS σ_pair` (m).
+pub fn align_refine_rms(sigma_pair: f64) -> Result<f64, NoiseError> {
+    Ok(REFINE_ALLOWANCE_M + REFINE_SIGMAS * nonneg("sigma_pair_m", sigma_pair)?)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_align_gates() {
+        assert_eq!(align_vote_rms(0.0).unwrap(), 0.1);
+        assert!((align_vote_rms(0.1).unwrap() - 0.4).abs() < 1e-15);
+        assert!((align_refine_rms(0.1).unwrap() - 0.25).abs() < 1e-15);
+        // neighbours 0.7 m apart fail the refine gate while sigma_pair < 0.3 m: 0.05 + 2 * 0.3 = 0.65
+        assert!(align_refine_rms(0.29).unwrap() < 0.7);
+        assert!(align_vote_rms(-1.0).is_err() && align_refine_rms(f64::NAN).is_err());
+        // the vote admits at least what the refit keeps
+        for s in [0.0, 0.05, 0.2, 1.0] {
+            assert!(align_vote_rms(s).unwrap() >= align_refine_rms(s).unwrap());
+        }
+    }
 
     #[test]
     fn the_constants_are_their_formulas() {

@@ -8,6 +8,12 @@
 -- DuckDB's VARCHAR casts, which round-trip exactly. Stage times come from the temp table
 -- pipeline_timings(stage, seconds) when the runner filled it.
 CREATE TEMP TABLE IF NOT EXISTS pipeline_timings (stage VARCHAR, seconds DOUBLE);
+-- the user's camera names (load_ids: the input's own ids, text stays text) by the stages'
+-- numbers: the report draws by number (colours, plots) and writes every camera by its name
+CREATE OR REPLACE TEMP TABLE report_cams AS
+SELECT c.camera, coalesce(any_value(i.camera_in)::VARCHAR, c.camera::VARCHAR) AS name
+FROM (SELECT DISTINCT camera FROM points) c LEFT JOIN load_ids i USING (camera) GROUP BY c.camera;
+CREATE OR REPLACE TEMP MACRO report_cam(c) AS coalesce((SELECT name FROM report_cams WHERE camera = c), c::VARCHAR);
 CREATE OR REPLACE TEMP MACRO report_cell(v) AS coalesce(replace(replace(v::VARCHAR, chr(30), ' '), chr(31), ' '), chr(21));
 CREATE OR REPLACE TEMP MACRO report_xy(traj) AS array_to_string([p.x::VARCHAR || ' ' || p.y::VARCHAR FOR p IN traj], ',');
 CREATE OR REPLACE TEMP TABLE report_points AS
@@ -49,16 +55,16 @@ CREATE OR REPLACE TEMP TABLE report_rows AS
 SELECT 'meta' AS s, 1 AS k, ['input', getvariable('pipeline_input')] AS c
 UNION ALL SELECT 'meta', 2, ['xi', calibrated('merge_min_points')::BIGINT::VARCHAR]
 UNION ALL SELECT 'meta', 3, ['eta', getvariable('merge_eta')::DOUBLE::VARCHAR]
-UNION ALL SELECT 'meta', 4, ['cluster_camera', calibrated('cluster_camera')::BIGINT::VARCHAR]
+UNION ALL SELECT 'meta', 4, ['cluster_camera', report_cam(calibrated('cluster_camera')::INTEGER)]
 UNION ALL SELECT 'meta', 5, ['step', greatest((SELECT count(*) FROM points WHERE estimated = 0) // 12000, 1)::VARCHAR]
 UNION ALL SELECT 'stage', row_number() OVER (), [stage, seconds::VARCHAR] FROM pipeline_timings
-UNION ALL SELECT 'camera', row_number() OVER (ORDER BY camera), [camera::VARCHAR] FROM (SELECT DISTINCT camera FROM points)
+UNION ALL SELECT 'camera', row_number() OVER (ORDER BY camera), [camera::VARCHAR, name] FROM report_cams
 UNION ALL SELECT 'class', row_number() OVER (ORDER BY class), [class] FROM (SELECT DISTINCT class FROM points)
 UNION ALL SELECT 'transform', row_number() OVER (ORDER BY camera),
-    [camera::VARCHAR, reference::VARCHAR, degrees(to_reference.theta)::VARCHAR, to_reference.tx::VARCHAR, to_reference.ty::VARCHAR,
+    [report_cam(camera), report_cam(reference), degrees(to_reference.theta)::VARCHAR, to_reference.tx::VARCHAR, to_reference.ty::VARCHAR,
      hops::VARCHAR, bottleneck_support::VARCHAR, (clock_offset_s * 1000)::VARCHAR]
     FROM align_frames
-UNION ALL SELECT 'unaligned', row_number() OVER (ORDER BY camera), [camera::VARCHAR]
+UNION ALL SELECT 'unaligned', row_number() OVER (ORDER BY camera), [report_cam(camera)]
     FROM (SELECT DISTINCT camera FROM points ANTI JOIN align_frames USING (camera))
 UNION ALL SELECT 'calibration', row_number() OVER (ORDER BY scope, quantity), [scope, quantity, value::VARCHAR, unit, how]
     FROM result_calibration()  -- the input's camera ids (text stays text)
@@ -84,19 +90,20 @@ UNION ALL SELECT 'cayley', row_number() OVER (ORDER BY class, camera, other), [c
           GROUP BY ALL)
 -- accepted cross-camera links per camera pair and class
 UNION ALL SELECT 'link', row_number() OVER (ORDER BY pair, class), [pair, class, n::VARCHAR]
-    FROM (SELECT t.camera::VARCHAR || '–' || u.camera::VARCHAR AS pair, t.class, count(*) AS n
+    FROM (SELECT report_cam(t.camera) || '–' || report_cam(u.camera) AS pair, t.class, count(*) AS n
           FROM merge_links m JOIN merge_groups ga ON ga.uid = m.uid_a JOIN merge_groups gb ON gb.uid = m.uid_b
           JOIN merge_tracks t ON t.uid = m.uid_a JOIN merge_tracks u ON u.uid = m.uid_b
           WHERE ga.road_user = gb.road_user AND m.kind <> 'reach' GROUP BY ALL)
 -- road users per set of cameras that saw them
 UNION ALL SELECT 'set', row_number() OVER (ORDER BY length(cams), cams, class), [cams, class, n::VARCHAR]
     FROM (SELECT cams, class, count(*) AS n
-          FROM (SELECT array_to_string(list_sort(list_distinct([s.camera FOR s IN sources])), '+') AS cams, class FROM merged)
+          FROM (SELECT array_to_string(list_sort(list_distinct([s.camera::VARCHAR FOR s IN sources])), '+') AS cams, class FROM merged)
           GROUP BY ALL)
 UNION ALL SELECT 'sample', k, [road_user::VARCHAR, class] FROM report_samples
 UNION ALL SELECT 'sample_source', row_number() OVER (ORDER BY s.k, t.camera, t.t0, t.track_id),
-    [s.road_user::VARCHAR, t.camera::VARCHAR, t.track_id::VARCHAR, report_xy(t.traj)]
+    [s.road_user::VARCHAR, t.camera::VARCHAR, report_cam(t.camera) || ':' || coalesce(i.track_in::VARCHAR, t.track_id::VARCHAR), report_xy(t.traj)]
     FROM report_samples s JOIN merge_groups g USING (road_user) JOIN merge_tracks t USING (uid)
+    LEFT JOIN load_ids i ON i.camera = t.camera AND i.track_id = t.track_id
 UNION ALL SELECT 'sample_merged', s.k, [s.road_user::VARCHAR, report_xy(m.traj)]
     FROM report_samples s JOIN merged m USING (road_user)
 UNION ALL SELECT 'cluster', row_number() OVER (ORDER BY class), [class, n_clusters::VARCHAR, n_in::VARCHAR, n::VARCHAR]
@@ -119,7 +126,7 @@ UNION ALL SELECT 'users', row_number() OVER (ORDER BY class), [class, count(*)::
 UNION ALL SELECT 'users_bin', row_number() OVER (ORDER BY b, class), [b::VARCHAR, class, n::VARCHAR]
     FROM (SELECT floor((u.t_start - s.t0) / s.bin_s)::BIGINT AS b, u.class, count(*) AS n FROM report_users u, report_span s GROUP BY ALL)
 UNION ALL SELECT 'warning', row_number() OVER (ORDER BY k), [message] FROM pipeline_warnings
-UNION ALL SELECT 'pair', row_number() OVER (ORDER BY cam_a, cam_b), [cam_a::VARCHAR, cam_b::VARCHAR, sigma_d_m::VARCHAR, n_pairs::VARCHAR, source]
+UNION ALL SELECT 'pair', row_number() OVER (ORDER BY cam_a, cam_b), [report_cam(cam_a), report_cam(cam_b), sigma_d_m::VARCHAR, n_pairs::VARCHAR, source]
     FROM calib_match
 -- speeds per class: the road users' mean speeds (length_m / duration_s) and the spot speeds of
 -- every point of the fused paths (traj_speeds), in m/s
@@ -136,18 +143,26 @@ UNION ALL SELECT 'speed', row_number() OVER (ORDER BY class), [class, n::VARCHAR
 -- (links.csv rows with linked_id <> track_id), its tracks matched to another camera
 -- (matches.csv), the road users it saw, and its alignment (reference NULL: not aligned)
 UNION ALL SELECT 'camq', row_number() OVER (ORDER BY c.camera),
-    [c.camera::VARCHAR, coalesce(l.tracks, 0)::VARCHAR, c.points::VARCHAR, k.period_s::VARCHAR, k.sigma_m::VARCHAR,
-     coalesce(l.linked, 0)::VARCHAR, coalesce(m.matched, 0)::VARCHAR, coalesce(u.users, 0)::VARCHAR, f.reference::VARCHAR,
+    [report_cam(c.camera), coalesce(l.tracks, 0)::VARCHAR, c.points::VARCHAR, k.period_s::VARCHAR, k.sigma_m::VARCHAR,
+     coalesce(l.linked, 0)::VARCHAR, coalesce(m.matched, 0)::VARCHAR, coalesce(u.users, 0)::VARCHAR, report_cam(f.reference),
      (f.clock_offset_s * 1000)::VARCHAR, (f.clock_drift * 1e6)::VARCHAR]
     FROM (SELECT camera, count(*) AS points FROM points WHERE estimated = 0 GROUP BY camera) c
     LEFT JOIN calib_cameras k USING (camera)
-    LEFT JOIN (SELECT camera, count(*) AS tracks, count(*) FILTER (WHERE track_id <> linked_id) AS linked FROM result_links() GROUP BY camera) l USING (camera)
-    -- (both ends of a match from one scan: a UNION ALL of two result_matches() calls lost its
-    -- second branch in DuckDB 2.0.0)
+    -- (the stages' own tables, in the stages' numbers: the result_*() macros and merged speak the
+    -- input's ids, which a text camera id made a join of text with numbers: issue 39)
+    LEFT JOIN (SELECT camera, count(*) AS tracks, count(*) FILTER (WHERE track_id <> linked_id) AS linked FROM merge_chains GROUP BY camera) l USING (camera)
+    -- (both ends of a match from one scan: a UNION ALL of two scans lost its second branch in
+    -- DuckDB 2.0.0)
     LEFT JOIN (SELECT e.camera, count(DISTINCT e.track_id) AS matched
-               FROM (SELECT unnest([{'camera': camera_a, 'track_id': track_a}, {'camera': camera_b, 'track_id': track_b}]) AS e FROM result_matches())
+               FROM (SELECT unnest([{'camera': ta.camera, 'track_id': la.track_id}, {'camera': tb.camera, 'track_id': lb.track_id}]) AS e
+                     FROM merge_links k
+                     JOIN merge_tracks ta ON ta.uid = k.uid_a JOIN merge_tracks tb ON tb.uid = k.uid_b
+                     JOIN merge_groups ga ON ga.uid = k.uid_a JOIN merge_groups gb ON gb.uid = k.uid_b
+                     JOIN quality_links la ON la.camera = ta.camera AND la.linked_id = ta.track_id
+                     JOIN quality_links lb ON lb.camera = tb.camera AND lb.linked_id = tb.track_id
+                     WHERE ga.road_user = gb.road_user AND k.kind <> 'reach')
                GROUP BY e.camera) m ON m.camera = c.camera
-    LEFT JOIN (SELECT s.camera, count(DISTINCT road_user) AS users FROM (SELECT road_user, unnest(sources) AS s FROM merged) GROUP BY s.camera) u
+    LEFT JOIN (SELECT s.camera, count(DISTINCT road_user) AS users FROM (SELECT road_user, unnest(sources) AS s FROM merge_users) GROUP BY s.camera) u
            ON u.camera = c.camera
     LEFT JOIN align_frames f ON f.camera = c.camera
 -- the movement table (approaches found in the data) and the worst post-encroachment times

@@ -1711,16 +1711,19 @@ UNION ALL
 -- the registration of each directly fitted camera pair (register_pair; the moving camera is
 -- mapped onto the fixed one): every parameter with its jackknife standard error
 SELECT 'cameras ' || least(p.cam_fixed, p.cam_moving) || '-' || greatest(p.cam_fixed, p.cam_moving), q.quantity, q.value, q.unit, q.how
-FROM align_pairs p,
+-- (the how texts name the cameras by the input's ids: a text id is the user's camera name)
+FROM align_pairs p
+JOIN (SELECT DISTINCT camera, camera_in FROM load_ids) nm ON nm.camera = p.cam_moving
+JOIN (SELECT DISTINCT camera, camera_in FROM load_ids) nf ON nf.camera = p.cam_fixed,
      LATERAL (VALUES ('scale', p.reg.scale, '',
-                      'camera ' || p.cam_moving || ' into camera ' || p.cam_fixed || ': ' ||
+                      'camera ' || nm.camera_in || ' into camera ' || nf.camera_in || ': ' ||
                       CASE WHEN p.reg.scale_significant THEN 'measured within track pairs, used (|ln s| > 5 se)'
                            ELSE 'rigid: the scale measured within track pairs, ' || round(p.reg.scale_fit, 5) || ', is within 5 se' END),
                      ('scale se', p.reg.se_scale, '', 'jackknife over 16 blocks of track pairs (inf: too few pairs)'),
                      ('rotation se', degrees(p.reg.se_theta), 'deg', 'jackknife over 16 blocks of track pairs'),
                      ('translation se', greatest(p.reg.se_tx, p.reg.se_ty), 'm', 'the larger axis: jackknife, or 1/sqrt(sum of weights) when larger'),
                      ('perspective', 50 * sqrt(p.reg.perspective_hx ** 2 + p.reg.perspective_hy ** 2), '',
-                      'camera ' || p.cam_moving || ' into camera ' || p.cam_fixed || ': the relative scale error 50 m along the perspective '
+                      'camera ' || nm.camera_in || ' into camera ' || nf.camera_in || ': the relative scale error 50 m along the perspective '
                       || 'term of the two ground planes (f (1 + h.(m - m0)) = A m + t + b, fitted within track pairs: perspective_*), '
                       || CASE WHEN p.reg.perspective_significant THEN 'significant (Wald chi2 ' || round(p.reg.perspective_chi2, 1)
                                    || ' > 28.74, 5 sigma); reported, not applied: the registration stays a similarity'
@@ -1937,7 +1940,7 @@ ORDER BY class, cam_a, cam_b;
 -- stage: merge
 -- reads: points, load_ids, calib_camera_order, calib_cameras, calibrated(), calibrated_values(), quality_endpoints, quality_links,
 --        quality_reach_links, align_frames, align_origin, calib_match, view_overlaps, view_merge_order
--- makes: merge_tracks, merge_scores, merge_bias, merge_links, merge_groups, merged, merge_chains, merge_road_users(),
+-- makes: merge_tracks, merge_scores, merge_bias, merge_links, merge_groups, merge_users, merge_chains, merge_road_users(),
 --        result_matches(), result_road_users(), result_links()
 -- work: merge_periods
 -- changes: -
@@ -1958,8 +1961,10 @@ ORDER BY class, cam_a, cam_b;
 --                                                              'reach' (a within-camera break quality.sql leaves
 --                                                              to the other cameras; eta, score NULL)
 --   merge_groups(uid, road_user)                               consistent groups (merge_groups())
---   merged(road_user, class, sources, n_tracks, traj)          the merged trajectories; sources lists the
---                                                              (camera, track_id) pairs it came from
+--   merge_users(road_user, class, sources, n_tracks, traj)     the merged trajectories; sources lists the
+--                                                              (camera, track_id) pairs it came from (the
+--                                                              stages' ids; fuse.sql makes `merged`, the
+--                                                              road users as merged.parquet has them)
 --
 -- How Alg. 4 is carried out, and where it deviates (see docs in src/algo/merge.rs):
 --  * every camera pair whose views overlap for the class is scored (the overlap graph prunes the
@@ -2229,7 +2234,7 @@ FROM (
          FROM merge_links))) AS g
 );
 
-CREATE OR REPLACE TEMP TABLE merged AS
+CREATE OR REPLACE TEMP TABLE merge_users AS
 SELECT g.road_user, any_value(t.class) AS class,
        list({'camera': t.camera, 'track_id': t.track_id} ORDER BY o.position, t.t0) AS sources,
        count(*) AS n_tracks,
@@ -2254,7 +2259,7 @@ FROM quality_links l
 LEFT JOIN merge_tracks t ON t.camera = l.camera AND t.track_id = l.linked_id
 LEFT JOIN merge_groups g ON g.uid = t.uid;
 
-SELECT n_tracks, count(*) AS road_users FROM merged GROUP BY n_tracks ORDER BY n_tracks;
+SELECT n_tracks, count(*) AS road_users FROM merge_users GROUP BY n_tracks ORDER BY n_tracks;
 
 -- The stage's results (sql/export.sql writes them; python/trajdb/windows.py reads them per window).
 -- Table macros: they read the tables when called. Unordered: the caller orders. Camera and
@@ -2284,7 +2289,7 @@ WHERE ga.road_user = gb.road_user AND m.kind <> 'reach';  -- within one camera: 
 -- TIMESTAMPTZ), duration_s and length_m (metres along the merged path) save the analyst a pass
 -- over traj. traj's t (and the geometry's M) stays epoch seconds on the reference clock:
 -- to_timestamp(p.t) is a point's time.
--- (merge_road_users is the definition; fuse.sql adds its columns to it.)
+-- (merge_road_users is the definition; fuse.sql adds its columns to it and makes the table `merged`.)
 CREATE OR REPLACE TEMP MACRO merge_road_users() AS TABLE
 SELECT road_user, class, n_tracks, sources,
        COLUMNS(lambda c: c = CASE WHEN getvariable('input_t_type') LIKE 'TIMESTAMP%' THEN 't_start_tz' ELSE 't_start_s' END) AS t_start,
@@ -2301,7 +2306,7 @@ FROM (SELECT m.road_user, m.class, m.n_tracks,
              CASE WHEN getvariable('input_t_type') LIKE 'TIMESTAMP%' THEN to_timestamp(t_end_s) END AS t_end_tz,
              traj_duration(m.traj) AS duration_s, traj_length_m(m.traj) AS length_m,
              traj_to_wkb(m.traj, true) AS geometry, m.traj
-      FROM merged m);
+      FROM merge_users m);
 
 CREATE OR REPLACE TEMP MACRO result_road_users() AS TABLE FROM merge_road_users();
 
@@ -2315,10 +2320,10 @@ JOIN load_ids j ON j.camera = c.camera AND j.track_id = c.linked_id;
 ;
 -- stage: fuse
 -- reads: points, load_ids, calib_cameras, calib_classes, align_frames, align_origin, merge_tracks, merge_groups,
---        merged, merge_road_users()
--- makes: fuse_q, fuse_offsets, fuse_paths
+--        merge_users, merge_road_users(), result_road_users()
+-- makes: fuse_q, fuse_offsets, fuse_paths, merged
 -- work: -
--- changes: merged, result_road_users()
+-- changes: merge_users, result_road_users()
 -- parameters: merge_resample_max_gap, merge_resample_s
 --
 -- trajdb pipeline: fused paths (issue 26, part 4; docs/fusion.md). Runs after merge.sql.
@@ -2333,15 +2338,18 @@ JOIN load_ids j ON j.camera = c.camera AND j.track_id = c.linked_id;
 --
 -- Reads: points (real points, t on the reference clock since align.sql), align_frames
 --   (to_reference), merge_tracks (camera, track_id, class -> uid), merge_groups (uid ->
---   road_user), merged (the road users), calib_cameras.sigma_m (per camera), calib_classes.accel_p95
+--   road_user), merge_users (the road users), calib_cameras.sigma_m (per camera), calib_classes.accel_p95
 --   (per class).
 -- Makes:
 --   fuse_q(class, accel_p95, q)                    the acceleration noise density per class (m^2/s^3)
 --   fuse_offsets(road_user, camera, track_id, dx, dy, n_common)   each source's constant offset (below)
 --   fuse_paths(road_user, n_cameras, q, traj, sigma)   the fused path and its per-point sigma (m)
---   merged                                          replaced: traj = the fused path, plus sigma_m
+--   merge_users                                     replaced: traj = the fused path, plus sigma_m
 --                                                   (median per-point sigma) and sigma (per point)
 --   result_road_users()                             redefined: merged.parquet gets sigma_m, sigma and offsets
+--   merged                                          the road users as merged.parquet has them (the
+--                                                   input's ids, t_start, ..., geometry, offsets): what
+--                                                   stays in the connection is what the file holds
 -- Parameters: merge_resample_s, merge_resample_max_gap (the common clock merge.sql uses: the
 --   fused path is sampled at t = k * merge_resample_s and not across gaps longer than
 --   merge_resample_max_gap between observations; 0 = one point per distinct observation time).
@@ -2447,28 +2455,35 @@ SELECT road_user, n_cameras, q,
        [r.sigma FOR r IN path] AS sigma
 FROM g CROSS JOIN align_origin o;
 
--- merged: the fused path replaces the merged one (a road user without a q, when no class could
+-- merge_users: the fused path replaces the merged one (a road user without a q, when no class could
 -- be measured, keeps it); sigma_m = the median per-point sigma
-CREATE OR REPLACE TEMP TABLE merged AS
+CREATE OR REPLACE TEMP TABLE merge_users AS
 SELECT m.* REPLACE (coalesce(f.traj, m.traj) AS traj),
        CASE WHEN f.traj IS NOT NULL THEN list_median(f.sigma) END AS sigma_m,
        CASE WHEN f.traj IS NOT NULL THEN f.sigma END AS sigma
-FROM merged m LEFT JOIN fuse_paths f USING (road_user);
+FROM merge_users m LEFT JOIN fuse_paths f USING (road_user);
 
 SELECT n_cameras, count(*) AS road_users, round(median(list_median(sigma)), 4) AS median_sigma_m
 FROM fuse_paths GROUP BY n_cameras ORDER BY n_cameras;
 
 -- road users (merged.parquet): merge.sql's definition (merge_road_users, which reads the fused
--- traj from merged), plus sigma_m (the median of the per-point 1-sigma position error per
+-- traj from merge_users), plus sigma_m (the median of the per-point 1-sigma position error per
 -- axis, m) and sigma (one per point of traj, m).
 -- offsets: each source's offset (fuse_offsets), named by the input's camera and the chain's
 -- linked id (links.csv linked_id), ordered by camera and track; NULL for a road user of one track.
 CREATE OR REPLACE TEMP MACRO result_road_users() AS TABLE
 SELECT r.*, m.sigma_m, m.sigma, o.offsets
-FROM merge_road_users() r JOIN merged m USING (road_user)
+FROM merge_road_users() r JOIN merge_users m USING (road_user)
 LEFT JOIN (SELECT f.road_user, list({'camera': i.camera_in, 'track_id': i.track_in, 'dx': f.dx, 'dy': f.dy} ORDER BY f.camera, f.track_id) AS offsets
            FROM fuse_offsets f JOIN load_ids i ON i.camera = f.camera AND i.track_id = f.track_id
            GROUP BY f.road_user) o USING (road_user);
+
+-- merged: the road users as merged.parquet has them (the README's `FROM merged`): the input's own
+-- camera and track ids in sources and offsets, t_start, t_end, duration_s, length_m, geometry,
+-- sigma_m, sigma. What stays in the connection is what the file holds (issue 39); the stages'
+-- own ids stay in merge_users.
+CREATE OR REPLACE TEMP TABLE merged AS FROM result_road_users() ORDER BY road_user;
+CREATE OR REPLACE TEMP MACRO result_road_users() AS TABLE FROM merged;
 ;
 -- stage: cluster
 -- reads: points, load_ids, calibrated()

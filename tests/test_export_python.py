@@ -85,6 +85,21 @@ def main():
             ok &= cls == truth[ru][0] and [p[2] for p in xym] == truth[ru][2] and [p[0] for p in xym] == truth[ru][3]
         check(ok, "GPKG: every road user, ISO WKB LINESTRING M whose M values are traj's t")
 
+        # an input whose t is a TIMESTAMPTZ: merged.parquet's t_start / t_end are TIMESTAMPTZ, and
+        # the files carry them as seconds and ISO UTC (issue 39: a TypeError in _utc before)
+        con.execute("CREATE TABLE ts_points AS SELECT * REPLACE (to_timestamp(t) AS t) FROM read_parquet(?)", [w + "/sim/points.parquet"])
+        trajdb.pipeline(con, "ts_points", out=w + "/rts")
+        for src, fmt in ((w + "/rts", "geojson"), (con, "gpkg"), (w + "/rts/merged.parquet", "parquet")):
+            try:
+                n = export(src, w + "/ts." + fmt)
+                ok = n == len(truth)
+            except Exception as e:  # noqa: BLE001
+                ok, n = False, repr(e)
+            check(ok, f"TIMESTAMPTZ input: {fmt} export of every road user ({n})")
+        fts = json.load(open(w + "/ts.geojson"))["features"][0]["properties"]
+        check(isinstance(fts["t_start"], float) and fts.get("t_start_utc", "").startswith("2026-"),
+              f"TIMESTAMPTZ input: t_start as seconds and t_start_utc as ISO ({fts['t_start']}, {fts.get('t_start_utc')})")
+
         # GeoParquet: ISO WKB, read back by DuckDB
         export(w + "/r/merged.parquet", w + "/ru.parquet")
         d = duckdb.connect()

@@ -159,6 +159,50 @@ def main():
     types = dict(con.execute("SELECT column_name, column_type FROM (DESCRIBE FROM result_matches())").fetchall())
     check("text ids: matches' ids are VARCHAR", types["camera_a"] == "VARCHAR" and types["track_a"] == "VARCHAR", str(types))
 
+    # a second run on a connection that still holds an unfinished result (issue 39: with a
+    # DataFrame input, DuckDB 2.0's "connection has an unfinished result" came out as "cannot read
+    # an input of type DataFrame"): it runs, or says plainly what to do, never blaming the input
+    pending = con.execute("SELECT * FROM merged")
+    pending.fetchone()
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            trajdb.pipeline(con, pandas.read_parquet(path))
+        check("a run after an unfinished result runs", True)
+    except RuntimeError as e:
+        check("a run after an unfinished result says what to do", "unfinished result" in str(e) and "fetch" in str(e) and "DataFrame" not in str(e), str(e))
+
+    # text ids through every host that writes results (issue 39: report.sql joined the input's text
+    # ids with the stages' numbers, "Could not convert string 'east' to INT32", and nothing was
+    # written): Python, the command and CALL trajdb_pipeline; report.html names the cameras
+    files = ["transforms.csv", "calibration.csv", "matches.csv", "merged.parquet", "clusters.csv", "links.csv", "report.html"]
+    text_parquet = os.path.join(tmp, "text_points.parquet")
+    con.execute(f"COPY text_points TO '{text_parquet}' (FORMAT parquet)")
+    outs = {"Python": os.path.join(tmp, "text-py"), "the command": os.path.join(tmp, "text-cmd"), "CALL trajdb_pipeline": os.path.join(tmp, "text-call")}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        trajdb.pipeline(con, "text_points", out=outs["Python"])
+    # the in-session merged is merged.parquet: the same columns, the input's ids (issue 39)
+    cols_file = [r[0] for r in con.execute("SELECT column_name FROM (DESCRIBE FROM read_parquet(?))", [os.path.join(outs["Python"], "merged.parquet")]).fetchall()]
+    cols_sess = [r[0] for r in con.execute("SELECT column_name FROM (DESCRIBE FROM merged)").fetchall()]
+    check("the in-session merged has merged.parquet's columns", cols_file == cols_sess, f"{cols_sess} vs {cols_file}")
+    same = con.execute("SELECT count(*) FROM ((FROM merged EXCEPT FROM read_parquet(?)) UNION ALL (FROM read_parquet(?) EXCEPT FROM merged))",
+                       [os.path.join(outs["Python"], "merged.parquet")] * 2).fetchall()[0][0]
+    check("the in-session merged holds merged.parquet's rows (text ids included)", same == 0, f"{same} rows differ")
+    r = subprocess.run([sys.executable, "-m", "trajdb", "pipeline", "--input", text_parquet, "--out", outs["the command"]],
+                       capture_output=True, text=True, env=dict(os.environ, PYTHONPATH=os.path.join(ROOT, "python")), timeout=900)
+    check("text ids: the command writes its results", r.returncode == 0, (r.stdout + r.stderr)[-800:])
+    call = trajdb.connect()
+    call.execute("CALL trajdb_pipeline(?, out_dir := ?)", [text_parquet, outs["CALL trajdb_pipeline"]]).fetchall()
+    for host, out in outs.items():
+        missing = [f for f in files if not os.path.exists(os.path.join(out, f))]
+        check(f"text ids: {host} writes every result file", not missing, f"missing {missing}")
+        if not missing:
+            html = open(os.path.join(out, "report.html"), encoding="utf-8").read()
+            check(f"text ids: {host}'s report.html names the cameras", all(f"camera {n}" in html for n in names), "")
+            src = con.execute("SELECT DISTINCT s.camera FROM (SELECT unnest(sources) AS s FROM read_parquet(?))", [os.path.join(out, "merged.parquet")]).fetchall()
+            check(f"text ids: {host}'s merged.parquet names the cameras", {r[0] for r in src} <= set(names), str(src))
+
     # text ids in any order of the rows, and track names that do not sort like the numbers: the same road users
     con.execute("""CREATE TABLE text_points2 AS
                    SELECT getvariable('cam_names')[camera + 1] AS camera, 'trk-' || track_id AS track_id, * EXCLUDE (camera, track_id)

@@ -195,8 +195,8 @@ def test_merge(ext):
     # every one of the 12 road users matched across the cameras (each match checked above against
     # the ids' pattern). Before issue 38 one of them stayed two road users (13, 11 matched): its
     # msd held its offset; pair_evidence judges the residual about the offset and the offset apart.
-    assert one(con, "SELECT count(*) FROM merged") == 12
-    assert one(con, "SELECT count(*) FROM merged WHERE n_tracks = 2") == 12
+    assert one(con, "SELECT count(*) FROM merge_users") == 12
+    assert one(con, "SELECT count(*) FROM merge_users WHERE n_tracks = 2") == 12
     # the merged road user of road user 4 lists both of camera 0's pieces
     src = one(con, "SELECT sources FROM result_road_users() WHERE list_contains(sources, {'camera': 0, 'track_id': 150})")
     assert {(s["camera"], s["track_id"]) for s in src} == {(0, 104), (0, 150), (1, 204)}, src

@@ -233,10 +233,12 @@ def check_unit_check(tmp):
     assert outliers == [(0, 900000 + k, 1080000, 30.0) for k in range(3)], outliers
     assert con.execute("SELECT count(*) FROM points").fetchone()[0] > 3_000_000  # kept
     # the run's warning names them (warnings.sql needs align_frames: every camera aligned here,
-    # and calibration_summary: no camera pair measured)
+    # and calibration_summary and align_pairs: no camera pair measured)
     con.execute("CREATE OR REPLACE TEMP TABLE align_frames AS SELECT DISTINCT camera FROM points")
     con.execute("CREATE OR REPLACE TEMP TABLE calibration_summary AS "
                 "SELECT NULL::VARCHAR AS scope, NULL::VARCHAR AS quantity, NULL::DOUBLE AS value, NULL::VARCHAR AS unit, NULL::VARCHAR AS how WHERE false")
+    con.execute("CREATE OR REPLACE TEMP TABLE align_pairs AS SELECT NULL::INTEGER AS cam_fixed, NULL::INTEGER AS cam_moving, "
+                "NULL::STRUCT(perspective_hx DOUBLE, perspective_hy DOUBLE, perspective_se DOUBLE, perspective_significant BOOLEAN) AS reg WHERE false")
     for stage, file, sql, _ in trajdb.stages(con, "scene_plus"):
         if stage == "warnings":
             con.execute(sql)

@@ -389,6 +389,23 @@ def stages(con, input, out=None, part="all", **params):
         raise ValueError(f"trajdb: {e}") from None
 
 
+def _connection_ready(con, who):
+    """Refuses plainly, before any work, a connection that still holds an unfinished result
+    (`con.execute(...)` whose rows were not all fetched): DuckDB 2.0 runs nothing else on it until
+    then, and the first statement of the run failed with a message that blamed the input (issue 39).
+    DuckDB 1.5 closes such a result when the next statement runs; it is then not an error."""
+    try:
+        con.execute("SELECT 1").fetchall()
+    except duckdb.Error as e:
+        if "unfinished result" in str(e):
+            raise RuntimeError(
+                f"{who}: the connection still holds an unfinished result (a con.execute(...) whose rows were not all fetched); "
+                "fetch the rest (.fetchall()) or close it (.close() on the result, or con.execute('SELECT 1') in DuckDB 1.5) "
+                "and run again; DuckDB runs nothing else on this connection until then (your input is not at fault)"
+            ) from None
+        raise
+
+
 def _input_name(con, input):
     """The input as the pipeline's load reads it, and the name registered for it (or None).
 
@@ -433,6 +450,7 @@ def pipeline(con, input, out=None, progress=False, **params):
     else (a folder with your files in it, the input's folder, '') is refused before any work. A
     failed run leaves the earlier results as they were; trajdb deletes only files it wrote itself
     (README: "Never failing badly")."""
+    _connection_ready(con, "trajdb.pipeline")
     name, registered = _input_name(con, input)
     try:
         steps = stages(con, name, out=out, **params)

@@ -125,10 +125,17 @@ def _road_users(source):
             path = os.path.join(path, "merged.parquet")
         if not os.path.isfile(path):
             raise FileNotFoundError(f"trajdb.export: {path} not found: give a results folder, its merged.parquet or a connection")
-        con, q, args = duckdb.connect(), "SELECT * EXCLUDE (geometry) FROM read_parquet(?) ORDER BY road_user", [path]
+        con, src, args = duckdb.connect(), "read_parquet(?)", [path]
     else:
-        con, q, args = source, "SELECT * EXCLUDE (geometry) FROM result_road_users() ORDER BY road_user", []
-    cur = con.execute(q, args)
+        con, src, args = source, "result_road_users()", []
+    # t_start / t_end are TIMESTAMPTZ when the input's t was a timestamp (merged.parquet keeps the
+    # input's kind); the files carry seconds, as traj's t, and the ISO times beside them. They are
+    # turned into seconds in SQL: fetching a TIMESTAMPTZ into Python needs pytz (issue 39: a
+    # datetime here was a TypeError in _utc)
+    types = dict((r[0], r[1]) for r in con.execute(f"SELECT column_name, column_type FROM (DESCRIBE SELECT * FROM {src})", args).fetchall())
+    ts = [k for k in ("t_start", "t_end") if types.get(k, "").startswith("TIMESTAMP")]
+    replace = f" REPLACE ({', '.join(f'epoch({k}) AS {k}' for k in ts)})" if ts else ""
+    cur = con.execute(f"SELECT * EXCLUDE (geometry){replace} FROM {src} ORDER BY road_user", args)
     names = [d[0] for d in cur.description]
     return [dict(zip(names, r)) for r in cur.fetchall()]
 

@@ -716,16 +716,19 @@ UNION ALL
 -- the registration of each directly fitted camera pair (register_pair; the moving camera is
 -- mapped onto the fixed one): every parameter with its jackknife standard error
 SELECT 'cameras ' || least(p.cam_fixed, p.cam_moving) || '-' || greatest(p.cam_fixed, p.cam_moving), q.quantity, q.value, q.unit, q.how
-FROM align_pairs p,
+-- (the how texts name the cameras by the input's ids: a text id is the user's camera name)
+FROM align_pairs p
+JOIN (SELECT DISTINCT camera, camera_in FROM load_ids) nm ON nm.camera = p.cam_moving
+JOIN (SELECT DISTINCT camera, camera_in FROM load_ids) nf ON nf.camera = p.cam_fixed,
      LATERAL (VALUES ('scale', p.reg.scale, '',
-                      'camera ' || p.cam_moving || ' into camera ' || p.cam_fixed || ': ' ||
+                      'camera ' || nm.camera_in || ' into camera ' || nf.camera_in || ': ' ||
                       CASE WHEN p.reg.scale_significant THEN 'measured within track pairs, used (|ln s| > 5 se)'
                            ELSE 'rigid: the scale measured within track pairs, ' || round(p.reg.scale_fit, 5) || ', is within 5 se' END),
                      ('scale se', p.reg.se_scale, '', 'jackknife over 16 blocks of track pairs (inf: too few pairs)'),
                      ('rotation se', degrees(p.reg.se_theta), 'deg', 'jackknife over 16 blocks of track pairs'),
                      ('translation se', greatest(p.reg.se_tx, p.reg.se_ty), 'm', 'the larger axis: jackknife, or 1/sqrt(sum of weights) when larger'),
                      ('perspective', 50 * sqrt(p.reg.perspective_hx ** 2 + p.reg.perspective_hy ** 2), '',
-                      'camera ' || p.cam_moving || ' into camera ' || p.cam_fixed || ': the relative scale error 50 m along the perspective '
+                      'camera ' || nm.camera_in || ' into camera ' || nf.camera_in || ': the relative scale error 50 m along the perspective '
                       || 'term of the two ground planes (f (1 + h.(m - m0)) = A m + t + b, fitted within track pairs: perspective_*), '
                       || CASE WHEN p.reg.perspective_significant THEN 'significant (Wald chi2 ' || round(p.reg.perspective_chi2, 1)
                                    || ' > 28.74, 5 sigma); reported, not applied: the registration stays a similarity'

@@ -1,9 +1,9 @@
 -- stage: fuse
 -- reads: points, load_ids, calib_cameras, calib_classes, align_frames, align_origin, merge_tracks, merge_groups,
---        merged, merge_road_users()
--- makes: fuse_q, fuse_offsets, fuse_paths
+--        merge_users, merge_road_users(), result_road_users()
+-- makes: fuse_q, fuse_offsets, fuse_paths, merged
 -- work: -
--- changes: merged, result_road_users()
+-- changes: merge_users, result_road_users()
 -- parameters: merge_resample_max_gap, merge_resample_s
 --
 -- trajdb pipeline: fused paths (issue 26, part 4; docs/fusion.md). Runs after merge.sql.
@@ -18,15 +18,18 @@
 --
 -- Reads: points (real points, t on the reference clock since align.sql), align_frames
 --   (to_reference), merge_tracks (camera, track_id, class -> uid), merge_groups (uid ->
---   road_user), merged (the road users), calib_cameras.sigma_m (per camera), calib_classes.accel_p95
+--   road_user), merge_users (the road users), calib_cameras.sigma_m (per camera), calib_classes.accel_p95
 --   (per class).
 -- Makes:
 --   fuse_q(class, accel_p95, q)                    the acceleration noise density per class (m^2/s^3)
 --   fuse_offsets(road_user, camera, track_id, dx, dy, n_common)   each source's constant offset (below)
 --   fuse_paths(road_user, n_cameras, q, traj, sigma)   the fused path and its per-point sigma (m)
---   merged                                          replaced: traj = the fused path, plus sigma_m
+--   merge_users                                     replaced: traj = the fused path, plus sigma_m
 --                                                   (median per-point sigma) and sigma (per point)
 --   result_road_users()                             redefined: merged.parquet gets sigma_m, sigma and offsets
+--   merged                                          the road users as merged.parquet has them (the
+--                                                   input's ids, t_start, ..., geometry, offsets): what
+--                                                   stays in the connection is what the file holds
 -- Parameters: merge_resample_s, merge_resample_max_gap (the common clock merge.sql uses: the
 --   fused path is sampled at t = k * merge_resample_s and not across gaps longer than
 --   merge_resample_max_gap between observations; 0 = one point per distinct observation time).
@@ -132,25 +135,32 @@ SELECT road_user, n_cameras, q,
        [r.sigma FOR r IN path] AS sigma
 FROM g CROSS JOIN align_origin o;
 
--- merged: the fused path replaces the merged one (a road user without a q, when no class could
+-- merge_users: the fused path replaces the merged one (a road user without a q, when no class could
 -- be measured, keeps it); sigma_m = the median per-point sigma
-CREATE OR REPLACE TEMP TABLE merged AS
+CREATE OR REPLACE TEMP TABLE merge_users AS
 SELECT m.* REPLACE (coalesce(f.traj, m.traj) AS traj),
        CASE WHEN f.traj IS NOT NULL THEN list_median(f.sigma) END AS sigma_m,
        CASE WHEN f.traj IS NOT NULL THEN f.sigma END AS sigma
-FROM merged m LEFT JOIN fuse_paths f USING (road_user);
+FROM merge_users m LEFT JOIN fuse_paths f USING (road_user);
 
 SELECT n_cameras, count(*) AS road_users, round(median(list_median(sigma)), 4) AS median_sigma_m
 FROM fuse_paths GROUP BY n_cameras ORDER BY n_cameras;
 
 -- road users (merged.parquet): merge.sql's definition (merge_road_users, which reads the fused
--- traj from merged), plus sigma_m (the median of the per-point 1-sigma position error per
+-- traj from merge_users), plus sigma_m (the median of the per-point 1-sigma position error per
 -- axis, m) and sigma (one per point of traj, m).
 -- offsets: each source's offset (fuse_offsets), named by the input's camera and the chain's
 -- linked id (links.csv linked_id), ordered by camera and track; NULL for a road user of one track.
 CREATE OR REPLACE TEMP MACRO result_road_users() AS TABLE
 SELECT r.*, m.sigma_m, m.sigma, o.offsets
-FROM merge_road_users() r JOIN merged m USING (road_user)
+FROM merge_road_users() r JOIN merge_users m USING (road_user)
 LEFT JOIN (SELECT f.road_user, list({'camera': i.camera_in, 'track_id': i.track_in, 'dx': f.dx, 'dy': f.dy} ORDER BY f.camera, f.track_id) AS offsets
            FROM fuse_offsets f JOIN load_ids i ON i.camera = f.camera AND i.track_id = f.track_id
            GROUP BY f.road_user) o USING (road_user);
+
+-- merged: the road users as merged.parquet has them (the README's `FROM merged`): the input's own
+-- camera and track ids in sources and offsets, t_start, t_end, duration_s, length_m, geometry,
+-- sigma_m, sigma. What stays in the connection is what the file holds (issue 39); the stages'
+-- own ids stay in merge_users.
+CREATE OR REPLACE TEMP TABLE merged AS FROM result_road_users() ORDER BY road_user;
+CREATE OR REPLACE TEMP MACRO result_road_users() AS TABLE FROM merged;

@@ -1,7 +1,7 @@
 -- stage: merge
 -- reads: points, load_ids, calib_camera_order, calib_cameras, calibrated(), calibrated_values(), quality_endpoints, quality_links,
 --        quality_reach_links, align_frames, align_origin, calib_match, view_overlaps, view_merge_order
--- makes: merge_tracks, merge_scores, merge_bias, merge_links, merge_groups, merged, merge_chains, merge_road_users(),
+-- makes: merge_tracks, merge_scores, merge_bias, merge_links, merge_groups, merge_users, merge_chains, merge_road_users(),
 --        result_matches(), result_road_users(), result_links()
 -- work: merge_periods
 -- changes: -
@@ -22,8 +22,10 @@
 --                                                              'reach' (a within-camera break quality.sql leaves
 --                                                              to the other cameras; eta, score NULL)
 --   merge_groups(uid, road_user)                               consistent groups (merge_groups())
---   merged(road_user, class, sources, n_tracks, traj)          the merged trajectories; sources lists the
---                                                              (camera, track_id) pairs it came from
+--   merge_users(road_user, class, sources, n_tracks, traj)     the merged trajectories; sources lists the
+--                                                              (camera, track_id) pairs it came from (the
+--                                                              stages' ids; fuse.sql makes `merged`, the
+--                                                              road users as merged.parquet has them)
 --
 -- How Alg. 4 is carried out, and where it deviates (see docs in src/algo/merge.rs):
 --  * every camera pair whose views overlap for the class is scored (the overlap graph prunes the
@@ -293,7 +295,7 @@ FROM (
          FROM merge_links))) AS g
 );
 
-CREATE OR REPLACE TEMP TABLE merged AS
+CREATE OR REPLACE TEMP TABLE merge_users AS
 SELECT g.road_user, any_value(t.class) AS class,
        list({'camera': t.camera, 'track_id': t.track_id} ORDER BY o.position, t.t0) AS sources,
        count(*) AS n_tracks,
@@ -318,7 +320,7 @@ FROM quality_links l
 LEFT JOIN merge_tracks t ON t.camera = l.camera AND t.track_id = l.linked_id
 LEFT JOIN merge_groups g ON g.uid = t.uid;
 
-SELECT n_tracks, count(*) AS road_users FROM merged GROUP BY n_tracks ORDER BY n_tracks;
+SELECT n_tracks, count(*) AS road_users FROM merge_users GROUP BY n_tracks ORDER BY n_tracks;
 
 -- The stage's results (sql/export.sql writes them; python/trajdb/windows.py reads them per window).
 -- Table macros: they read the tables when called. Unordered: the caller orders. Camera and
@@ -348,7 +350,7 @@ WHERE ga.road_user = gb.road_user AND m.kind <> 'reach';  -- within one camera: 
 -- TIMESTAMPTZ), duration_s and length_m (metres along the merged path) save the analyst a pass
 -- over traj. traj's t (and the geometry's M) stays epoch seconds on the reference clock:
 -- to_timestamp(p.t) is a point's time.
--- (merge_road_users is the definition; fuse.sql adds its columns to it.)
+-- (merge_road_users is the definition; fuse.sql adds its columns to it and makes the table `merged`.)
 CREATE OR REPLACE TEMP MACRO merge_road_users() AS TABLE
 SELECT road_user, class, n_tracks, sources,
        COLUMNS(lambda c: c = CASE WHEN getvariable('input_t_type') LIKE 'TIMESTAMP%' THEN 't_start_tz' ELSE 't_start_s' END) AS t_start,
@@ -365,7 +367,7 @@ FROM (SELECT m.road_user, m.class, m.n_tracks,
              CASE WHEN getvariable('input_t_type') LIKE 'TIMESTAMP%' THEN to_timestamp(t_end_s) END AS t_end_tz,
              traj_duration(m.traj) AS duration_s, traj_length_m(m.traj) AS length_m,
              traj_to_wkb(m.traj, true) AS geometry, m.traj
-      FROM merged m);
+      FROM merge_users m);
 
 CREATE OR REPLACE TEMP MACRO result_road_users() AS TABLE FROM merge_road_users();
 

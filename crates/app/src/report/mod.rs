@@ -49,6 +49,8 @@ pub fn render(text: &str) -> Result<String, DataError> {
 /// camera and the sampling step of the point plots.
 struct Ctx {
     cameras: Vec<i64>,
+    /// (the stages' number, the input's camera id as text): every camera is written by its name
+    names: Vec<(i64, String)>,
     classes: Vec<String>,
     xi: i64,
     eta: String,
@@ -59,11 +61,17 @@ struct Ctx {
 }
 
 impl Ctx {
+    /// A camera's name: the input's id (the number when the data has no name for it).
+    fn name(&self, cam: i64) -> String {
+        self.names.iter().find(|n| n.0 == cam).map_or_else(|| cam.to_string(), |n| n.1.clone())
+    }
+
     fn load(d: &Data) -> R<Ctx> {
         let meta = |k: &str| d.meta(k).map(str::to_string).ok_or_else(|| DataError(format!("no meta row '{k}'")));
         let int = |k: &str| meta(k)?.parse::<i64>().map_err(|_| DataError(format!("meta '{k}' is not an integer")));
         Ok(Ctx {
             cameras: d.rows("camera").iter().map(|r| r.i(0)).collect::<R<_>>()?,
+            names: d.rows("camera").iter().map(|r| Ok((r.i(0)?, r.s(1)?))).collect::<R<_>>()?,
             classes: d.rows("class").iter().map(|r| r.s(0)).collect::<R<_>>()?,
             xi: int("xi")?,
             eta: meta("eta")?,
@@ -157,12 +165,15 @@ fn summary(d: &Data, c: &Ctx, h: &mut String) -> R<()> {
             "<b>{} of {} cameras in one frame</b>{}.",
             tf.len(),
             c.cameras.len(),
+            // (the names are the input's: escaped, as these lines carry markup)
             reference.as_ref().map_or(String::new(), |r| format!(
-                ": camera {r}'s frame and clock are the reference of every output"
+                ": camera {}'s frame and clock are the reference of every output",
+                html::esc(r)
             ))
         ));
         for (cam, reference, theta, tx, ty, off_ms) in tf.iter().filter(|t| t.0 != t.1) {
             let resid = pairs.iter().find(|p| (&p.0 == cam && &p.1 == reference) || (&p.1 == cam && &p.0 == reference));
+            let (cam, reference) = (html::esc(cam), html::esc(reference));
             items.push(format!(
                 "Camera {cam}: turned {theta:.1}° and shifted {:.1} m onto camera {reference}; its clock runs {} camera {reference}'s{}.",
                 tx.hypot(*ty),
@@ -338,8 +349,8 @@ fn transforms(d: &Data, _: &Ctx, h: &mut String) -> R<()> {
         .iter()
         .map(|r| {
             Ok(vec![
-                r.i(0)?.to_string(),
-                r.i(1)?.to_string(),
+                r.s(0)?,
+                r.s(1)?,
                 format!("{:.3}", r.f(2)?),
                 format!("{:.3}", r.f(3)?),
                 format!("{:.3}", r.f(4)?),
@@ -349,11 +360,11 @@ fn transforms(d: &Data, _: &Ctx, h: &mut String) -> R<()> {
             ])
         })
         .collect::<R<Vec<_>>>()?;
-    let unaligned = d.rows("unaligned").iter().map(|r| r.i(0)).collect::<R<Vec<i64>>>()?;
+    let unaligned = d.rows("unaligned").iter().map(|r| r.s(0)).collect::<R<Vec<String>>>()?;
     let _ = write!(
         h,
         "<h2>Camera alignment</h2><p>Each camera's transform into the reference camera's frame (sql/stages/align.sql).{}</p>{}",
-        if unaligned.is_empty() { String::new() } else { format!(" <b>Not aligned (no consistent track pairs): cameras {unaligned:?}.</b>") },
+        if unaligned.is_empty() { String::new() } else { format!(" <b>Not aligned (no consistent track pairs): cameras {}.</b>", unaligned.join(", ")) },
         table(&["camera", "reference", "rotation °", "tx m", "ty m", "hops", "support (pairs)", "clock offset ms"].map(String::from), &tf)
     );
     Ok(())
@@ -383,13 +394,14 @@ fn points(d: &Data, c: &Ctx, h: &mut String) -> R<()> {
     let pts = d.rows("point").iter().map(|r| Ok((r.i(0)?, r.f(1)?, r.f(2)?, r.opt_f(3)?, r.opt_f(4)?))).collect::<R<Vec<Pt>>>()?;
     h.push_str("<h2>Points before and after alignment</h2><p>");
     let _ = write!(h, "{}Before: each camera in its own frame. After: all cameras in the reference frame, with the view polygons (all classes) outlined.</p>{}",
-        if step > 1 { format!("One real point in {step}. ") } else { String::new() }, svg::legend(&c.cameras));
+        if step > 1 { format!("One real point in {step}. ") } else { String::new() }, svg::legend(&c.names));
     for &cam in &c.cameras {
         let mine: Vec<(f64, f64)> = pts.iter().filter(|p| p.0 == cam).map(|p| (p.1, p.2)).collect();
         let fr = Frame::fit(mine.iter().copied(), svg::PLOT_W);
-        h.push_str(&fr.open(&format!("camera {cam}, local frame")));
+        let name = c.name(cam);
+        h.push_str(&fr.open(&format!("camera {name}, local frame")));
         h.push_str(&fr.dots(&mine, color(cam), 1.6));
-        h.push_str(&fr.close(&format!("camera {cam} before alignment (its own frame)")));
+        h.push_str(&fr.close(&format!("camera {name} before alignment (its own frame)")));
     }
     let aligned: Vec<(i64, f64, f64)> = pts.iter().filter_map(|p| Some((p.0, p.3?, p.4?))).collect();
     let fr = Frame::fit(aligned.iter().map(|p| (p.1, p.2)), 620.0);
@@ -410,7 +422,7 @@ fn view_polygons(d: &Data, c: &Ctx, h: &mut String) -> R<()> {
     let overlaps = d.rows("overlap").iter().map(|r| Ok((r.s(0)?, r.i(1)?, r.i(2)?, r.s(3)?, r.f(4)?))).collect::<R<Vec<(String, i64, i64, String, f64)>>>()?;
     let views = &c.views;
     h.push_str("<h2>View polygons and overlaps per class</h2><p>P<sup>k</sup> per camera (outline, camera colour) and the pairwise overlaps P<sup>k∩l</sup> (grey fill), in the common frame.</p>");
-    h.push_str(&svg::legend(&c.cameras));
+    h.push_str(&svg::legend(&c.names));
     let all_view_pts = views.iter().flat_map(|v| svg::rings(&v.2).into_iter().flatten());
     let frv = Frame::fit(all_view_pts, svg::PLOT_W);
     for class in c.classes.iter().map(String::as_str).chain(std::iter::once("*")) {
@@ -421,7 +433,7 @@ fn view_polygons(d: &Data, c: &Ctx, h: &mut String) -> R<()> {
         for (cam, _, w) in views.iter().filter(|v| v.1 == class) {
             h.push_str(&frv.polygon(w, color(*cam), "none", 0.0));
         }
-        let areas: Vec<String> = overlaps.iter().filter(|o| o.0 == class).map(|o| format!("{}∩{} {:.0} m²", o.1, o.2, o.4)).collect();
+        let areas: Vec<String> = overlaps.iter().filter(|o| o.0 == class).map(|o| format!("{}∩{} {:.0} m²", c.name(o.1), c.name(o.2), o.4)).collect();
         h.push_str(&frv.close(&format!("{}: {}", if class == "*" { "all classes" } else { class }, areas.join(", "))));
     }
     Ok(())
@@ -454,7 +466,7 @@ fn track_counts(d: &Data, c: &Ctx, h: &mut String) -> R<()> {
     total.push(format!("{} ({})", x.0, x.1));
     rows.push(total);
     let mut head = vec!["class".to_string()];
-    head.extend(c.cameras.iter().map(|c| format!("camera {c} (*)")));
+    head.extend(c.cameras.iter().map(|&k| format!("camera {} (*)", c.name(k))));
     head.push("total (*)".into());
     let _ = write!(
         h,
@@ -468,7 +480,7 @@ fn track_counts(d: &Data, c: &Ctx, h: &mut String) -> R<()> {
     for class in &c.classes {
         let mut rows = Vec::new();
         for &k in &c.cameras {
-            let mut row = vec![format!("P{k}")];
+            let mut row = vec![format!("P {}", c.name(k))];
             for &l in &c.cameras {
                 let v = if k == l {
                     counts.iter().find(|q| &q.0 == class && q.1 == k).map_or(0, |q| q.2)
@@ -480,7 +492,7 @@ fn track_counts(d: &Data, c: &Ctx, h: &mut String) -> R<()> {
             rows.push(row);
         }
         let mut head = vec![class.clone()];
-        head.extend(c.cameras.iter().map(|c| format!("P{c}")));
+        head.extend(c.cameras.iter().map(|&k| format!("P {}", c.name(k))));
         h.push_str(&table(&head, &rows));
     }
 
@@ -530,12 +542,12 @@ fn matches(d: &Data, c: &Ctx, h: &mut String) -> R<()> {
 /// Up to six merged road users with their sources, chosen for variety (class, cameras, length).
 fn sample_merges(d: &Data, c: &Ctx, h: &mut String) -> R<()> {
     let samples = d.rows("sample").iter().map(|r| Ok((r.i(0)?, r.s(1)?))).collect::<R<Vec<(i64, String)>>>()?;
-    // (road user, camera, track, points)
-    type Source = (i64, i64, i64, Vec<(f64, f64)>);
-    let sources = d.rows("sample_source").iter().map(|r| Ok((r.i(0)?, r.i(1)?, r.i(2)?, r.xy(3)?))).collect::<R<Vec<Source>>>()?;
+    // (road user, camera, "camera:track" in the input's ids, points)
+    type Source = (i64, i64, String, Vec<(f64, f64)>);
+    let sources = d.rows("sample_source").iter().map(|r| Ok((r.i(0)?, r.i(1)?, r.s(2)?, r.xy(3)?))).collect::<R<Vec<Source>>>()?;
     let merged = d.rows("sample_merged").iter().map(|r| Ok((r.i(0)?, r.xy(1)?))).collect::<R<Vec<(i64, Vec<(f64, f64)>)>>>()?;
     h.push_str("<h2>Sample merges</h2><p>Source tracks in the common frame (camera colours, dashed) and the merged trajectory (black): the longest road user of each class and number of cameras.</p>");
-    h.push_str(&svg::legend(&c.cameras));
+    h.push_str(&svg::legend(&c.names));
     for (ru, class) in samples {
         let src: Vec<&Source> = sources.iter().filter(|s| s.0 == ru).collect();
         let merged: &[(f64, f64)] = merged.iter().find(|m| m.0 == ru).map_or(&[], |m| &m.1);
@@ -545,7 +557,7 @@ fn sample_merges(d: &Data, c: &Ctx, h: &mut String) -> R<()> {
             h.push_str(&fr.line(pts, color(*cam), 2.5, true));
         }
         h.push_str(&fr.line(merged, "#000", 1.0, false));
-        let names: Vec<String> = src.iter().map(|s| format!("{}:{}", s.1, s.2)).collect();
+        let names: Vec<String> = src.iter().map(|s| s.2.clone()).collect();
         h.push_str(&fr.close(&format!("road user {ru} ({class}) from camera:track {}", names.join(", "))));
     }
     Ok(())
@@ -558,7 +570,7 @@ fn clusters(d: &Data, c: &Ctx, h: &mut String) -> R<()> {
         .iter()
         .map(|r| Ok(vec![r.s(0)?, r.i(1)?.to_string(), r.i(2)?.to_string(), r.i(3)?.to_string()]))
         .collect::<R<Vec<_>>>()?;
-    let cam = &c.cluster_camera;
+    let cam = &html::esc(&c.cluster_camera);
     let _ = write!(
         h,
         "<h2>Route patterns</h2><p>Agglomerative clustering (average linkage on 1 − LCSS S1, [Buz04]) of camera {cam}'s tracks \
@@ -579,7 +591,7 @@ fn clusters(d: &Data, c: &Ctx, h: &mut String) -> R<()> {
             let (col, w) = if t.1 == 0 { ("#c8c8c8", 0.8) } else { (color(t.1 - 1), 1.2) };
             h.push_str(&fr.line(&t.2, col, w, false));
         }
-        h.push_str(&fr.close(&format!("{class}: route patterns of camera {cam}")));
+        h.push_str(&fr.close(&format!("{class}: route patterns of camera {}", c.cluster_camera)));
     }
     Ok(())
 }

@@ -18,10 +18,10 @@ const LEFT: f64 = 46.0;
 const BOTTOM: f64 = 30.0;
 
 /// A legend of camera colours (HTML).
-pub fn legend(cameras: &[i64]) -> String {
+pub fn legend(cameras: &[(i64, String)]) -> String {
     let items: Vec<String> = cameras
         .iter()
-        .map(|c| format!("<span class=\"key\"><span class=\"sw\" style=\"background:{}\"></span>camera {c}</span>", color(*c)))
+        .map(|(c, name)| format!("<span class=\"key\"><span class=\"sw\" style=\"background:{}\"></span>camera {}</span>", color(*c), esc(name)))
         .collect();
     format!("<p class=\"legend\">{}</p>", items.join(" "))
 }

@@ -51,6 +51,15 @@ SELECT approach_in, approach_out, movement, class, sum(road_users) AS n FROM tra
 CREATE OR REPLACE TEMP TABLE report_conflicts AS
 -- (the 15 smallest PETs under 3 s of conflicts(), found without computing the rest)
 FROM trajdb_top_conflicts(k := 15, max_pet := 3.0) WHERE pet < 3 ORDER BY pet, road_user_a, road_user_b LIMIT 15;
+-- (issue 39) road users that are probably one counted twice: not near misses, listed apart and
+-- counted in "needs a look"; and the near misses (PET under 3 s, not probably one) before merging
+-- (every camera's track its own road user, in the common frame) and after, so the report says
+-- how many merging removed
+CREATE OR REPLACE TEMP TABLE report_probably_one AS FROM trajdb_probably_one();
+CREATE OR REPLACE TEMP TABLE report_tracks AS SELECT uid AS road_user, class, traj FROM merge_tracks;
+CREATE OR REPLACE TEMP TABLE report_near_miss_counts AS
+SELECT (SELECT count(*) FROM trajdb_conflicts(tbl := 'report_tracks', max_pet := 3.0, max_ttc := 0.0) WHERE pet < 3 AND NOT probably_one) AS before,
+       (SELECT count(*) FROM trajdb_conflicts(max_pet := 3.0, max_ttc := 0.0) WHERE pet < 3 AND NOT probably_one) AS after;
 CREATE OR REPLACE TEMP TABLE report_rows AS
 SELECT 'meta' AS s, 1 AS k, ['input', getvariable('pipeline_input')] AS c
 UNION ALL SELECT 'meta', 2, ['xi', calibrated('merge_min_points')::BIGINT::VARCHAR]
@@ -171,6 +180,10 @@ UNION ALL SELECT 'movement', row_number() OVER (ORDER BY n DESC, approach_in, ap
 UNION ALL SELECT 'conflict', row_number() OVER (ORDER BY pet, road_user_a, road_user_b),
        [road_user_a::VARCHAR, class_a, road_user_b::VARCHAR, class_b, round(pet, 2)::VARCHAR, kind, round(pet_x, 1)::VARCHAR,
         round(pet_y, 1)::VARCHAR, coalesce(round(ttc, 2)::VARCHAR, '')] FROM report_conflicts
+UNION ALL SELECT 'dup', row_number() OVER (ORDER BY road_user_a, road_user_b),
+       [road_user_a::VARCHAR, road_user_b::VARCHAR, class_a, round(together_m, 2)::VARCHAR, coalesce(round(pet, 2)::VARCHAR, '')] FROM report_probably_one
+UNION ALL SELECT 'meta', 8, ['near_misses_before', before::VARCHAR] FROM report_near_miss_counts
+UNION ALL SELECT 'meta', 9, ['near_misses_after', after::VARCHAR] FROM report_near_miss_counts
 UNION ALL SELECT 'param', row_number() OVER (ORDER BY stage, name), [name, value, stage, description] FROM pipeline_params;
 COPY (SELECT trajdb_report_html(string_agg(s || chr(31) || array_to_string([report_cell(v) FOR v IN c], chr(31)), chr(30) ORDER BY s, k))
       FROM report_rows)

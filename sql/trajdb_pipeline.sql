@@ -2931,7 +2931,12 @@ GROUP BY ALL ORDER BY ALL;
 -- road_user must be unique.
 -- kind: SSAM's rule on the crossing angle: rear-end (< 30 deg), lane-change (30-85), crossing (> 85).
 -- road_user_first: who passed the conflict point first.
--- top := k: only the first k by (pet, road_user_a, road_user_b), as top_conflicts() below.
+-- together_m: the median distance between the two over their common time (NULL: none);
+-- probably_one: one road user counted twice, not two (same class, closer than the class's width:
+-- conflict_probably_one; issue 39). A conflict study leaves these out: top_conflicts() does, and
+-- probably_one() lists them.
+-- top := k: only the first k by (pet, road_user_a, road_user_b) that are not probably_one, as
+-- top_conflicts() below.
 CREATE OR REPLACE TEMP MACRO trajdb_conflicts(tbl := 'merged', max_pet := 5.0, radius := 2.0, max_ttc := 3.0, top := NULL) AS TABLE
 WITH trajdb_r AS (SELECT road_user, class, traj FROM query_table(tbl) WHERE len(traj) >= 2),
 trajdb_u AS (  -- the pairs are named by road_user: a repeated one would be ambiguous; a NULL parameter
@@ -2945,31 +2950,45 @@ trajdb_u AS (  -- the pairs are named by road_user: a repeated one would be ambi
                            || ' repeated); give each road user one row') END AS ok
     FROM trajdb_r
 ),
+trajdb_rc AS (SELECT *, dense_rank() OVER (ORDER BY class) AS dense_rank_class FROM trajdb_r),
 trajdb_c AS (  -- (ids as BIGINT: integer and decimal road_user columns of any width)
     SELECT unnest(CASE WHEN top IS NULL
                        THEN traj_conflicts(list(road_user::BIGINT ORDER BY road_user), list(traj ORDER BY road_user), max_pet::DOUBLE,
                                            radius::DOUBLE, max_ttc::DOUBLE)
                        ELSE traj_conflicts_top(list(road_user::BIGINT ORDER BY road_user), list(traj ORDER BY road_user), top::BIGINT,
-                                               max_pet::DOUBLE, radius::DOUBLE) END) AS p
-    FROM trajdb_r WHERE road_user IS NOT NULL AND (SELECT ok FROM trajdb_u)
+                                               max_pet::DOUBLE, radius::DOUBLE,
+                                               -- one road user counted twice is not a near miss: left out of the k
+                                               list(dense_rank_class ORDER BY road_user), list(class_min_gap_m(class) ORDER BY road_user)) END) AS p
+    FROM trajdb_rc WHERE road_user IS NOT NULL AND (SELECT ok FROM trajdb_u)
 )
 SELECT p.a AS road_user_a, ra.class AS class_a, p.b AS road_user_b, rb.class AS class_b,
        p.pet, p.x AS pet_x, p.y AS pet_y, p.t_first, p.t_second, p.angle AS angle_deg,
        CASE WHEN p.angle < 30 THEN 'rear-end' WHEN p.angle <= 85 THEN 'lane-change' WHEN p.angle IS NOT NULL THEN 'crossing' END AS kind,
        CASE WHEN p.a_first THEN p.a WHEN NOT p.a_first THEN p.b END AS road_user_first,
-       p.ttc, p.ttc_t, p.ttc_x, p.ttc_y
+       p.ttc, p.ttc_t, p.ttc_x, p.ttc_y, p.together_m,
+       coalesce(conflict_probably_one(ra.class, rb.class, p.together_n, p.together_m), false) AS probably_one
 FROM trajdb_c JOIN (SELECT road_user, class FROM trajdb_r) ra ON ra.road_user = p.a JOIN (SELECT road_user, class FROM trajdb_r) rb ON rb.road_user = p.b
 ORDER BY coalesce(p.pet, 1e300), road_user_a, road_user_b;
 
 -- The k most severe crossings: the first k rows of conflicts() by (pet, road_user_a, road_user_b)
--- (PETs at most max_pet), without computing the rest (conflicts(top := k) calls traj_conflicts_top,
+-- (PETs at most max_pet) that are not one road user counted twice (probably_one), without computing the rest (conflicts(top := k) calls traj_conflicts_top,
 -- which searches the PET bound upward from max_pet / 16: in congestion conflicts() grows with the
 -- square of the road users in a queue, this with the near misses asked for). Same columns as
 -- conflicts(); a pair with a TTC but no crossing is not a crossing and is not here. The report's
 -- near misses.
 -- k := NULL: every crossing (no limit).
 CREATE OR REPLACE TEMP MACRO trajdb_top_conflicts(tbl := 'merged', k := 15, max_pet := 5.0, radius := 2.0) AS TABLE
-FROM trajdb_conflicts(tbl := tbl, max_pet := max_pet, radius := radius, top := k) WHERE pet IS NOT NULL ORDER BY pet, road_user_a, road_user_b;
+FROM trajdb_conflicts(tbl := tbl, max_pet := max_pet, radius := radius, top := k) WHERE pet IS NOT NULL AND NOT probably_one
+ORDER BY pet, road_user_a, road_user_b;
+
+-- Pairs of road users that are probably one road user counted twice (issue 39): same class, and
+-- closer than the class's width over their common time (conflict_probably_one), so a conflict
+-- study must not rank them; the report lists and counts them apart ("needs a look"). A split
+-- road user crosses "itself" with a PET of about 0 and a TTC of 0, so they are the pairs in
+-- contact (TTC 0 at a radius of the widest class's width) at the same moment: linear in the road
+-- users near each other, never all pairs. Same columns as conflicts().
+CREATE OR REPLACE TEMP MACRO trajdb_probably_one(tbl := 'merged') AS TABLE
+FROM trajdb_conflicts(tbl := tbl, max_pet := 0.5, radius := 2.6, max_ttc := 0.0) WHERE probably_one ORDER BY road_user_a, road_user_b;
 
 -- ---------------------------------------------------------------- route patterns
 -- Route patterns of the merged road users: per movement (entry approach, exit approach), the paths
@@ -3027,6 +3046,8 @@ CREATE OR REPLACE TEMP MACRO conflicts(tbl := 'merged', max_pet := 5.0, radius :
 FROM trajdb_conflicts(tbl := tbl, max_pet := max_pet, radius := radius, max_ttc := max_ttc, top := top);
 CREATE OR REPLACE TEMP MACRO top_conflicts(tbl := 'merged', k := 15, max_pet := 5.0, radius := 2.0) AS TABLE
 FROM trajdb_top_conflicts(tbl := tbl, k := k, max_pet := max_pet, radius := radius);
+CREATE OR REPLACE TEMP MACRO probably_one(tbl := 'merged') AS TABLE
+FROM trajdb_probably_one(tbl := tbl);
 CREATE OR REPLACE TEMP MACRO routes(tbl := 'merged', epsilon := 1.5, delta := 30, threshold := 0.5, gates := NULL, left_handed := false, head_m := 5.0, through_deg := 45.0, uturn_deg := 135.0, centre_x := NULL, centre_y := NULL, min_radius_m := 8.0, gap_deg := 25.0, min_users := 3) AS TABLE
 FROM trajdb_routes(tbl := tbl, epsilon := epsilon, delta := delta, threshold := threshold, gates := gates, left_handed := left_handed, head_m := head_m, through_deg := through_deg, uturn_deg := uturn_deg, centre_x := centre_x, centre_y := centre_y, min_radius_m := min_radius_m, gap_deg := gap_deg, min_users := min_users);
 ;

@@ -95,6 +95,19 @@ pub static FUNCTIONS: &[Function] = &[
         table: None,
     },
     Function {
+        name: "class_min_gap_m",
+        description: "The least distance between the centres of two distinct road users of this class (m), recognised by the class \
+                      name's words as class_length_m: a pedestrian 0.25 m (torso depth: two people shoulder to shoulder; pedestrians \
+                      walking in pairs on the DUT scenes were 0.32 m apart and more, one pedestrian split in two 0.03-0.14 m), a \
+                      two-wheeler 0.6 m (a handlebar), a car 1.8 m, a bus or truck 2.55 m (widths; any other class: a car). Two road \
+                      users of the class whose centres stay closer are one body counted twice (conflict_probably_one). NULL for NULL.",
+        example: "SELECT class_min_gap_m('pedestrian'); -- 0.25",
+        maths: "crates/algo/src/associate/mod.rs",
+        binding: file!(),
+        signatures: &[Signature { params: &[p("class", Ty::Varchar)], arities: &[], returns: Ty::Double, kernel: class_min_gap_m }],
+        table: None,
+    },
+    Function {
         name: "pair_evidence",
         description: "The evidence of one candidate pair of tracks over their whole common time (docs/association.md, issue 38): from \
                       traj_msd_pairs's msd and mean offset (dx, dy), the camera pair's noise sigma_d (m, per axis), the independent samples \
@@ -237,6 +250,13 @@ fn bias_search_m(a: &Args<'_>, out: &mut Out<'_>) -> R {
 fn class_length_m(a: &Args<'_>, out: &mut Out<'_>) -> R {
     let c = a.text(0);
     let vals = a.map(|r| Ok(c.get(r).map(|c| crate::algo::associate::class_length_m(&c))))?;
+    out.flat(&vals);
+    Ok(())
+}
+
+fn class_min_gap_m(a: &Args<'_>, out: &mut Out<'_>) -> R {
+    let c = a.text(0);
+    let vals = a.map(|r| Ok(c.get(r).map(|c| crate::algo::associate::class_min_gap_m(&c))))?;
     out.flat(&vals);
     Ok(())
 }

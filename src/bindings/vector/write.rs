@@ -23,6 +23,8 @@ pub enum Column<'v> {
     Text(&'v [&'v str]),
     /// DOUBLE fields that may be NULL
     OptF64(&'v [Option<f64>]),
+    /// BIGINT fields that may be NULL
+    OptI64(&'v [Option<i64>]),
     /// BOOLEAN fields that may be NULL
     OptBool(&'v [Option<bool>]),
 }
@@ -35,6 +37,7 @@ impl Column<'_> {
             Column::I32(s) => s.len(),
             Column::Text(s) => s.len(),
             Column::OptF64(s) => s.len(),
+            Column::OptI64(s) => s.len(),
             Column::OptBool(s) => s.len(),
         }
     }
@@ -198,6 +201,13 @@ fn copy_into(dst: &mut FlatVector<'_>, total: usize, off: usize, src: &Column<'_
                 let d = &mut dst.as_mut_slice_with_len::<f64>(total)[off..off + s.len()];
                 for (d, v) in d.iter_mut().zip(s.iter()) {
                     *d = v.unwrap_or(0.0);
+                }
+                set_nulls_from(dst, off, s.iter().map(Option::is_none));
+            }
+            Column::OptI64(s) => {
+                let d = &mut dst.as_mut_slice_with_len::<i64>(total)[off..off + s.len()];
+                for (d, v) in d.iter_mut().zip(s.iter()) {
+                    *d = v.unwrap_or(0);
                 }
                 set_nulls_from(dst, off, s.iter().map(Option::is_none));
             }

@@ -14,16 +14,20 @@
 //! over the merged sample times of the common period), [`pairs`] (both for every pair of a set
 //! near each other in time and space: a sweep over start times, never all N² pairs; what
 //! sql/analysis.sql `conflicts` calls through `traj_conflicts`), [`top`] (the pairs with the k
-//! smallest PETs, searching the PET bound upward: `top_conflicts`, `traj_conflicts_top`).
+//! smallest PETs, searching the PET bound upward: `top_conflicts`, `traj_conflicts_top`) and
+//! [`together`] (how close two road users stay over their common time, and when that makes
+//! them one road user counted twice: not a near miss).
 
 pub mod candidates;
 pub mod pairs;
 pub mod pet;
+pub mod together;
 pub mod top;
 pub mod ttc;
 
 pub use pairs::{conflicts, Conflict};
 pub use pet::{pet, Pet};
+pub use together::{probably_one, probably_one_body, together, Body, Together};
 pub use top::top_conflicts;
 pub use ttc::{ttc, Ttc};
 
@@ -42,6 +46,8 @@ pub enum ConflictError {
     Lengths { ids: usize, trajs: usize },
     /// the same id twice in `ids` of [`conflicts`] (a road user's pairs would be lost or doubled)
     DuplicateId(i64),
+    /// `classes` of [`top_conflicts`] is not one per road user
+    ClassesLength { ids: usize, classes: usize },
     Work(crate::limits::Exceeded),
 }
 
@@ -63,6 +69,9 @@ impl ConflictError {
             }
             ConflictError::DuplicateId(id) => {
                 format!("ids must be distinct (one path per road user), got {id} twice; aggregate one row per road user first")
+            }
+            ConflictError::ClassesLength { ids, classes } => {
+                format!("classes must list one class per road user, got {classes} classes for {ids} ids (list(class ORDER BY id) over the same rows)")
             }
             ConflictError::Work(e) => e.to_string(),
         }

@@ -33,13 +33,15 @@ use crate::traj::Traj;
 use crate::{non_negative, positive_or_inf};
 use rayon::prelude::*;
 
-/// One kept pair: indices into the input (`a` has the smaller id), its PET and TTC.
+/// One kept pair: indices into the input (`a` has the smaller id), its PET and TTC, and how the
+/// two travel over their common time ([`super::together`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Conflict {
     pub a: usize,
     pub b: usize,
     pub pet: Option<Pet>,
     pub ttc: Option<Ttc>,
+    pub together: Option<super::Together>,
 }
 
 /// Time span, bounding box and reach of one road user.
@@ -96,7 +98,7 @@ pub fn conflicts(ids: &[i64], trajs: &[Traj<'_>], max_pet: f64, radius: f64, max
             let p = pet_checked(trajs[a], trajs[b], max_pet, &super::pet::Budget::new(limit))?;
             let c = ttc_checked(trajs[a], trajs[b], radius);
             let keep = p.is_some() || c.is_some_and(|c| c.ttc <= max_ttc);
-            Ok(keep.then_some(Conflict { a, b, pet: p, ttc: c }))
+            Ok(keep.then(|| Conflict { a, b, pet: p, ttc: c, together: super::together(trajs[a], trajs[b]) }))
         })
         .collect::<Result<_, ConflictError>>()?;
     let mut out = Vec::new();
@@ -162,7 +164,7 @@ mod tests {
                 let p = pet(trajs[a], trajs[b], max_pet).unwrap();
                 let c = ttc(trajs[a], trajs[b], radius).unwrap();
                 if p.is_some() || c.is_some_and(|c| c.ttc <= max_ttc) {
-                    out.push(Conflict { a, b, pet: p, ttc: c });
+                    out.push(Conflict { a, b, pet: p, ttc: c, together: crate::conflict::together(trajs[a], trajs[b]) });
                 }
             }
         }

@@ -49,15 +49,24 @@ use std::sync::Mutex;
 
 /// The pairs (`a` has the smaller id) with the `k` smallest PETs of at most `max_pet` (ties
 /// broken by (id_a, id_b): the first k of the PET order), each with its TTC at `radius`, sorted by
-/// (id_a, id_b). `k = 0`: none.
-/// Errors: those of [`super::conflicts`], and `k` < 0.
-pub fn top_conflicts(ids: &[i64], trajs: &[Traj<'_>], k: i64, max_pet: f64, radius: f64) -> Result<Vec<Conflict>, ConflictError> {
+/// (id_a, id_b). `k = 0`: none. With `bodies` (one per road user), a pair that is
+/// [`probably_one_body`](super::probably_one_body) road user counted twice is not a near miss: it is left
+/// out and does not count towards `k` (issue 39: they were 7 of the 10 smallest PETs of the DUT
+/// intersection).
+/// Errors: those of [`super::conflicts`], `k` < 0, and `bodies` of another length than `ids`.
+pub fn top_conflicts(ids: &[i64], trajs: &[Traj<'_>], k: i64, max_pet: f64, radius: f64, bodies: Option<&[super::Body]>) -> Result<Vec<Conflict>, ConflictError> {
     let max_pet = positive_or_inf("max_pet", max_pet)?;
     let radius = non_negative("radius", radius)?;
     if k < 0 {
         return Err(ParamError { name: "k", value: k as f64, rule: ">= 0" }.into());
     }
     check_set(ids, trajs)?;
+    if let Some(c) = bodies {
+        if c.len() != ids.len() {
+            return Err(ConflictError::ClassesLength { ids: ids.len(), classes: c.len() });
+        }
+    }
+    let one = |a: usize, b: usize| bodies.is_some_and(|c| super::probably_one_body(c[a], c[b], super::together(trajs[a], trajs[b])));
     let k = k as usize;
     if k == 0 {
         return Ok(Vec::new());
@@ -82,6 +91,7 @@ pub fn top_conflicts(ids: &[i64], trajs: &[Traj<'_>], k: i64, max_pet: f64, radi
         let found: Vec<(usize, usize, super::Pet)> = cand
             .par_iter()
             .filter_map(|&(a, b)| match pet_checked(trajs[a], trajs[b], bound.get(), &super::pet::Budget::new(limit)) {
+                Ok(Some(_)) if one(a, b) => None,
                 Ok(Some(p)) => {
                     bound.offer(p.pet);
                     Some(Ok((a, b, p)))
@@ -114,7 +124,7 @@ pub fn top_conflicts(ids: &[i64], trajs: &[Traj<'_>], k: i64, max_pet: f64, radi
     found.sort_unstable_by(|x, y| (ids[x.0], ids[x.1]).cmp(&(ids[y.0], ids[y.1])));
     let kept: Vec<Conflict> = found
         .into_par_iter()
-        .map(|(a, b, p)| Conflict { a, b, pet: Some(p), ttc: ttc_checked(trajs[a], trajs[b], radius) })
+        .map(|(a, b, p)| Conflict { a, b, pet: Some(p), ttc: ttc_checked(trajs[a], trajs[b], radius), together: super::together(trajs[a], trajs[b]) })
         .collect();
     let mut out = Vec::new();
     out.try_reserve(kept.len()).map_err(|_| alloc_error((kept.len() * std::mem::size_of::<Conflict>()) as u128))?;
@@ -203,28 +213,57 @@ mod tests {
         let ids = [1, 2, 3, 4];
         let all = conflicts(&ids, &trajs, 5.0, 2.0, 3.0).unwrap();
         // k = 1: of the two tied at 0.5 s, the first by ids; k = 2: both
-        let one = top_conflicts(&ids, &trajs, 1, 5.0, 2.0).unwrap();
+        let one = top_conflicts(&ids, &trajs, 1, 5.0, 2.0, None).unwrap();
         assert_eq!(one.iter().map(|c| (c.a, c.b)).collect::<Vec<_>>(), vec![(0, 2)], "{one:?}");
-        let two = top_conflicts(&ids, &trajs, 2, 5.0, 2.0).unwrap();
+        let two = top_conflicts(&ids, &trajs, 2, 5.0, 2.0, None).unwrap();
         assert_eq!(two.iter().map(|c| (c.a, c.b)).collect::<Vec<_>>(), vec![(0, 2), (0, 3)], "{two:?}");
         assert!(two.iter().all(|c| (c.pet.unwrap().pet - 0.5).abs() < 1e-9));
         // the same rows (TTC included) as the full table
         for c in &two {
             assert!(all.contains(c), "{c:?}");
         }
-        assert_eq!(top_conflicts(&ids, &trajs, 10, 5.0, 2.0).unwrap(), slow(&ids, &trajs, 10, 5.0, 2.0));
-        assert_eq!(top_conflicts(&ids, &trajs, 10, f64::INFINITY, 2.0).unwrap(), slow(&ids, &trajs, 10, f64::INFINITY, 2.0));
-        assert_eq!(top_conflicts(&ids, &trajs, 0, 5.0, 2.0).unwrap(), vec![]);
-        assert_eq!(top_conflicts(&[], &[], 3, 5.0, 2.0).unwrap(), vec![]);
+        assert_eq!(top_conflicts(&ids, &trajs, 10, 5.0, 2.0, None).unwrap(), slow(&ids, &trajs, 10, 5.0, 2.0));
+        assert_eq!(top_conflicts(&ids, &trajs, 10, f64::INFINITY, 2.0, None).unwrap(), slow(&ids, &trajs, 10, f64::INFINITY, 2.0));
+        assert_eq!(top_conflicts(&ids, &trajs, 0, 5.0, 2.0, None).unwrap(), vec![]);
+        assert_eq!(top_conflicts(&[], &[], 3, 5.0, 2.0, None).unwrap(), vec![]);
     }
 
     #[test]
     fn bad_parameters_are_errors_naming_them() {
         let a = line(0.0, 0.0, 0.0, 1.0, 0.0, 3, 1.0);
-        assert_eq!(top_conflicts(&[1], &[a.view()], -1, 5.0, 2.0).unwrap_err().describe(), "k must be >= 0, got -1");
-        assert_eq!(top_conflicts(&[1], &[a.view()], 1, 0.0, 2.0).unwrap_err().describe(), "max_pet must be > 0, got 0");
-        assert_eq!(top_conflicts(&[1], &[a.view()], 1, 1.0, f64::NAN).unwrap_err().describe(), "radius must be >= 0, got NaN");
-        assert!(matches!(top_conflicts(&[1, 1], &[a.view(), a.view()], 1, 1.0, 2.0), Err(ConflictError::DuplicateId(1))));
+        assert_eq!(top_conflicts(&[1], &[a.view()], -1, 5.0, 2.0, None).unwrap_err().describe(), "k must be >= 0, got -1");
+        assert_eq!(top_conflicts(&[1], &[a.view()], 1, 0.0, 2.0, None).unwrap_err().describe(), "max_pet must be > 0, got 0");
+        assert_eq!(top_conflicts(&[1], &[a.view()], 1, 1.0, f64::NAN, None).unwrap_err().describe(), "radius must be >= 0, got NaN");
+        assert!(matches!(top_conflicts(&[1, 1], &[a.view(), a.view()], 1, 1.0, 2.0, None), Err(ConflictError::DuplicateId(1))));
+    }
+
+    #[test]
+    fn a_road_user_counted_twice_is_not_a_near_miss() {
+        // 1 and 2 are one pedestrian (0.06 m apart, the same times): PET about 0 to each other; 3 crosses
+        // them with PET 0.5 s and 4 with 1.5 s
+        let a = line(0.0, -20.0, 0.0, 1.4, 0.0, 301, 0.1);
+        // (the copy zigzags about the path, as noise does: the two paths cross all the time)
+        let mut b = line(0.0, -20.0, 0.0, 1.4, 0.0, 301, 0.1);
+        for (i, y) in b.y.iter_mut().enumerate() {
+            *y = if i % 2 == 0 { 0.06 } else { -0.06 };
+        }
+        let c = line(8.12, 0.0, -10.0, 0.0, 1.5, 141, 0.1);
+        let d = line(9.12, 0.0, -10.0, 0.0, 1.5, 141, 0.1);
+        let trajs = [a.view(), b.view(), c.view(), d.view()];
+        let ids = [1, 2, 3, 4];
+        let plain = top_conflicts(&ids, &trajs, 1, 5.0, 2.0, None).unwrap();
+        assert_eq!(plain.iter().map(|c| (c.a, c.b)).collect::<Vec<_>>(), vec![(0, 1)], "{plain:?}");
+        let ped = super::super::Body { class: 1, min_gap_m: 0.45 };
+        let cls = [ped; 4];
+        let top = top_conflicts(&ids, &trajs, 2, 5.0, 2.0, Some(&cls)).unwrap();
+        // k = 2 without the pair (1, 2): both crossings of 3 with the pedestrian
+        assert!(top.iter().all(|c| (c.a, c.b) != (0, 1)), "{top:?}");
+        assert_eq!(top.len(), 2);
+        assert!(top.iter().all(|c| c.b == 2 && (c.pet.unwrap().pet - 0.5).abs() < 0.2), "{top:?}");
+        // the same pair as two classes: a near miss again
+        let mixed = [ped, super::super::Body { class: 2, min_gap_m: 0.6 }, ped, ped];
+        assert_eq!(top_conflicts(&ids, &trajs, 1, 5.0, 2.0, Some(&mixed)).unwrap().iter().map(|c| (c.a, c.b)).collect::<Vec<_>>(), vec![(0, 1)]);
+        assert!(matches!(top_conflicts(&ids, &trajs, 1, 5.0, 2.0, Some(&cls[..3])), Err(ConflictError::ClassesLength { ids: 4, classes: 3 })));
     }
 
     proptest! {
@@ -250,7 +289,7 @@ mod tests {
             let ids: Vec<i64> = (0..n as i64).map(|k| k * 5 - 7).collect();
             let views: Vec<Traj<'_>> = trajs.iter().map(|t| t.view()).collect();
             let m = if inf { f64::INFINITY } else { max_pet };
-            prop_assert_eq!(top_conflicts(&ids, &views, k as i64, m, 2.0).unwrap(), slow(&ids, &views, k, m, 2.0));
+            prop_assert_eq!(top_conflicts(&ids, &views, k as i64, m, 2.0, None).unwrap(), slow(&ids, &views, k, m, 2.0));
         }
     }
 }

@@ -41,7 +41,8 @@ FROM points WHERE estimated = 0;
 CREATE OR REPLACE TEMP TABLE report_users AS
 SELECT road_user, class, len(list_distinct([s.camera FOR s IN sources])) AS n_cams, traj_time_range(traj).t_start AS t_start,
        traj_duration(traj) AS duration_s,
-       CASE WHEN traj_duration(traj) >= 1 THEN traj_length_m(traj) / traj_duration(traj) END AS mean_speed
+       CASE WHEN traj_duration(traj) >= 1 THEN traj_length_m(traj) / traj_duration(traj) END AS mean_speed,
+       stationary
 FROM merged;
 -- the analyst's questions (issue 29 §4): movements and near misses come from sql/analysis.sql's
 -- macros, defined again here so that the report stands alone after .read sql/pipeline.sql
@@ -138,15 +139,18 @@ UNION ALL SELECT 'warning', row_number() OVER (ORDER BY k), [message] FROM pipel
 UNION ALL SELECT 'pair', row_number() OVER (ORDER BY cam_a, cam_b), [report_cam(cam_a), report_cam(cam_b), sigma_d_m::VARCHAR, n_pairs::VARCHAR, source]
     FROM calib_match
 -- speeds per class: the road users' mean speeds (length_m / duration_s) and the spot speeds of
--- every point of the fused paths (traj_speeds), in m/s
+-- every point of the fused paths (traj_speeds), in m/s (the report shows km/h); stationary road
+-- users (parked cars: merged.stationary) are left out of both and counted in the last cell
 UNION ALL SELECT 'speed', row_number() OVER (ORDER BY class), [class, n::VARCHAR, m15::VARCHAR, m50::VARCHAR, m85::VARCHAR,
-                                                     s50::VARCHAR, s85::VARCHAR, s95::VARCHAR, smax::VARCHAR]
-    FROM (SELECT u.class, count(u.mean_speed) AS n, quantile_cont(u.mean_speed, 0.15) AS m15, quantile_cont(u.mean_speed, 0.5) AS m50,
-                 quantile_cont(u.mean_speed, 0.85) AS m85, any_value(p.s50) AS s50, any_value(p.s85) AS s85, any_value(p.s95) AS s95,
-                 any_value(p.smax) AS smax
+                                                     s50::VARCHAR, s85::VARCHAR, s95::VARCHAR, smax::VARCHAR, still::VARCHAR]
+    FROM (SELECT u.class, count(u.mean_speed) FILTER (WHERE NOT u.stationary) AS n,
+                 quantile_cont(u.mean_speed, 0.15) FILTER (WHERE NOT u.stationary) AS m15,
+                 quantile_cont(u.mean_speed, 0.5) FILTER (WHERE NOT u.stationary) AS m50,
+                 quantile_cont(u.mean_speed, 0.85) FILTER (WHERE NOT u.stationary) AS m85, any_value(p.s50) AS s50, any_value(p.s85) AS s85,
+                 any_value(p.s95) AS s95, any_value(p.smax) AS smax, count(*) FILTER (WHERE u.stationary) AS still
           FROM report_users u
           LEFT JOIN (SELECT class, quantile_cont(v, 0.5) AS s50, quantile_cont(v, 0.85) AS s85, quantile_cont(v, 0.95) AS s95, max(v) AS smax
-                     FROM (SELECT class, unnest([s.v FOR s IN traj_speeds(traj)]) AS v FROM merged) GROUP BY class) p USING (class)
+                     FROM (SELECT class, unnest([s.v FOR s IN traj_speeds(traj)]) AS v FROM merged WHERE NOT stationary) GROUP BY class) p USING (class)
           GROUP BY u.class)
 -- per camera: its tracks (links.csv: the original ids, before linking) and real points, its measured period and noise, breaks linked within it
 -- (links.csv rows with linked_id <> track_id), its tracks matched to another camera

@@ -2471,8 +2471,10 @@ FROM fuse_paths GROUP BY n_cameras ORDER BY n_cameras;
 -- axis, m) and sigma (one per point of traj, m).
 -- offsets: each source's offset (fuse_offsets), named by the input's camera and the chain's
 -- linked id (links.csv linked_id), ordered by camera and track; NULL for a road user of one track.
+-- stationary: the road user never moved (traj_stationary: a parked car); speed statistics leave
+-- it out (issue 39).
 CREATE OR REPLACE TEMP MACRO result_road_users() AS TABLE
-SELECT r.*, m.sigma_m, m.sigma, o.offsets
+SELECT r.*, m.sigma_m, m.sigma, o.offsets, traj_stationary(r.traj, r.class) AS stationary
 FROM merge_road_users() r JOIN merge_users m USING (road_user)
 LEFT JOIN (SELECT f.road_user, list({'camera': i.camera_in, 'track_id': i.track_in, 'dx': f.dx, 'dy': f.dy} ORDER BY f.camera, f.track_id) AS offsets
            FROM fuse_offsets f JOIN load_ids i ON i.camera = f.camera AND i.track_id = f.track_id
@@ -2880,45 +2882,55 @@ WHERE movement IS NOT NULL
 GROUP BY ALL ORDER BY ALL;
 
 -- ---------------------------------------------------------------- speeds and travel times
+-- Speeds are in km/h everywhere (the column names say so), times in s.
 -- Per road user: the speed samples of its path (traj_speeds: finite differences, on the pipeline's
 -- regular step each sample weighs the same time), their median, 85th percentile and maximum, the
--- mean speed (path length / duration) and the travel time through the site (t_out - t_in).
+-- mean speed (path length / duration), the travel time through the site (t_out - t_in), and
+-- stationary: it never moved (traj_stationary: a parked car; speeds() leaves these out).
 CREATE OR REPLACE TEMP MACRO trajdb_road_user_speeds(tbl := 'merged') AS TABLE
-SELECT road_user, class, traj_length_m(traj) / nullif(traj_duration(traj), 0) AS mean_speed,
-       list_median([s.v FOR s IN traj_speeds(traj)]) AS median_speed,
-       list_aggregate([s.v FOR s IN traj_speeds(traj)], 'quantile_cont', 0.85) AS p85_speed,
-       list_max([s.v FOR s IN traj_speeds(traj)]) AS max_speed, traj_duration(traj) AS travel_time_s, traj_length_m(traj) AS length_m
+SELECT road_user, class, 3.6 * traj_length_m(traj) / nullif(traj_duration(traj), 0) AS mean_speed_kmh,
+       3.6 * list_median([s.v FOR s IN traj_speeds(traj)]) AS median_speed_kmh,
+       3.6 * list_aggregate([s.v FOR s IN traj_speeds(traj)], 'quantile_cont', 0.85) AS p85_speed_kmh,
+       3.6 * list_max([s.v FOR s IN traj_speeds(traj)]) AS max_speed_kmh, traj_duration(traj) AS travel_time_s, traj_length_m(traj) AS length_m,
+       traj_stationary(traj, class) AS stationary
 FROM query_table(tbl)
 WHERE len(traj) >= 2;
 
 -- Per movement (entry approach, exit approach, movement) and class: road users, and the 15th, 50th,
--- 85th and 95th percentiles (and the mean) of their mean speeds (m/s) and travel times (s), and of
--- every speed sample pooled (the spot-speed distribution). Road users with an unknown movement
--- form the rows with NULL approaches.
+-- 85th and 95th percentiles (and the mean) of their mean speeds (km/h) and travel times (s), and of
+-- every speed sample pooled (the spot-speed distribution, km/h). Road users with an unknown movement
+-- form the rows with NULL approaches. Stationary road users (parked cars: traj_stationary) are left
+-- out unless include_stationary := true; stationary counts them per row either way.
 CREATE OR REPLACE TEMP MACRO trajdb_speeds(tbl := 'merged', gates := NULL, left_handed := false, head_m := 5.0, through_deg := 45.0,
                                uturn_deg := 135.0, centre_x := NULL, centre_y := NULL, min_radius_m := 8.0, gap_deg := 25.0,
-                               min_users := 3) AS TABLE
+                               min_users := 3, include_stationary := false) AS TABLE
 WITH trajdb_m AS (FROM trajdb_road_user_movements(tbl := tbl, gates := gates, left_handed := left_handed, head_m := head_m, through_deg := through_deg,
                                     uturn_deg := uturn_deg, centre_x := centre_x, centre_y := centre_y, min_radius_m := min_radius_m,
                                     gap_deg := gap_deg, min_users := min_users)),
-trajdb_s AS (FROM trajdb_road_user_speeds(tbl := tbl)),
-trajdb_spot AS (SELECT road_user, unnest(traj_speeds(traj)).v AS v FROM query_table(tbl)),
+trajdb_s_all AS (FROM trajdb_road_user_speeds(tbl := tbl)),
+trajdb_s AS (FROM trajdb_s_all WHERE include_stationary OR NOT stationary),
+trajdb_still AS (SELECT trajdb_m.approach_in, trajdb_m.approach_out, trajdb_m.movement, trajdb_m.class, count(*) AS n
+                 FROM trajdb_s_all JOIN trajdb_m USING (road_user) WHERE trajdb_s_all.stationary GROUP BY ALL),
+trajdb_spot AS (SELECT road_user, 3.6 * unnest(traj_speeds(traj)).v AS v FROM query_table(tbl) WHERE road_user IN (SELECT road_user FROM trajdb_s)),
 trajdb_spot_q AS (
     SELECT trajdb_m.approach_in, trajdb_m.approach_out, trajdb_m.movement, trajdb_m.class,
            quantile_cont(v, [0.15, 0.5, 0.85, 0.95]) AS q
     FROM trajdb_spot JOIN trajdb_m USING (road_user) GROUP BY ALL
 )
 SELECT trajdb_m.approach_in, trajdb_m.approach_out, trajdb_m.movement, trajdb_m.class, count(*) AS road_users,
-       avg(trajdb_s.mean_speed) AS speed_mean, quantile_cont(trajdb_s.mean_speed, 0.15) AS speed_p15, quantile_cont(trajdb_s.mean_speed, 0.5) AS speed_p50,
-       quantile_cont(trajdb_s.mean_speed, 0.85) AS speed_p85, quantile_cont(trajdb_s.mean_speed, 0.95) AS speed_p95,
-       any_value(q.q[1]) AS spot_p15, any_value(q.q[2]) AS spot_p50, any_value(q.q[3]) AS spot_p85, any_value(q.q[4]) AS spot_p95,
-       avg(trajdb_s.travel_time_s) AS travel_time_mean, quantile_cont(trajdb_s.travel_time_s, 0.15) AS travel_time_p15,
-       quantile_cont(trajdb_s.travel_time_s, 0.5) AS travel_time_p50, quantile_cont(trajdb_s.travel_time_s, 0.85) AS travel_time_p85,
-       quantile_cont(trajdb_s.travel_time_s, 0.95) AS travel_time_p95
+       coalesce(any_value(st.n), 0) AS stationary,
+       avg(trajdb_s.mean_speed_kmh) AS speed_mean_kmh, quantile_cont(trajdb_s.mean_speed_kmh, 0.15) AS speed_p15_kmh, quantile_cont(trajdb_s.mean_speed_kmh, 0.5) AS speed_p50_kmh,
+       quantile_cont(trajdb_s.mean_speed_kmh, 0.85) AS speed_p85_kmh, quantile_cont(trajdb_s.mean_speed_kmh, 0.95) AS speed_p95_kmh,
+       any_value(q.q[1]) AS spot_p15_kmh, any_value(q.q[2]) AS spot_p50_kmh, any_value(q.q[3]) AS spot_p85_kmh, any_value(q.q[4]) AS spot_p95_kmh,
+       avg(trajdb_s.travel_time_s) AS travel_time_mean_s, quantile_cont(trajdb_s.travel_time_s, 0.15) AS travel_time_p15_s,
+       quantile_cont(trajdb_s.travel_time_s, 0.5) AS travel_time_p50_s, quantile_cont(trajdb_s.travel_time_s, 0.85) AS travel_time_p85_s,
+       quantile_cont(trajdb_s.travel_time_s, 0.95) AS travel_time_p95_s
 FROM trajdb_m JOIN trajdb_s USING (road_user)
 LEFT JOIN trajdb_spot_q q ON q.approach_in IS NOT DISTINCT FROM trajdb_m.approach_in AND q.approach_out IS NOT DISTINCT FROM trajdb_m.approach_out
                   AND q.movement IS NOT DISTINCT FROM trajdb_m.movement AND q.class IS NOT DISTINCT FROM trajdb_m.class
-GROUP BY ALL ORDER BY ALL;
+LEFT JOIN trajdb_still st ON st.approach_in IS NOT DISTINCT FROM trajdb_m.approach_in AND st.approach_out IS NOT DISTINCT FROM trajdb_m.approach_out
+                  AND st.movement IS NOT DISTINCT FROM trajdb_m.movement AND st.class IS NOT DISTINCT FROM trajdb_m.class
+GROUP BY trajdb_m.approach_in, trajdb_m.approach_out, trajdb_m.movement, trajdb_m.class ORDER BY ALL;
 
 -- ---------------------------------------------------------------- conflicts
 -- Every pair of road users near each other in time and space, never all pairs: traj_conflicts
@@ -3040,8 +3052,8 @@ CREATE OR REPLACE TEMP MACRO movements(tbl := 'merged', bin_s := 900, gates := N
 FROM trajdb_movements(tbl := tbl, bin_s := bin_s, gates := gates, left_handed := left_handed, head_m := head_m, through_deg := through_deg, uturn_deg := uturn_deg, centre_x := centre_x, centre_y := centre_y, min_radius_m := min_radius_m, gap_deg := gap_deg, min_users := min_users);
 CREATE OR REPLACE TEMP MACRO road_user_speeds(tbl := 'merged') AS TABLE
 FROM trajdb_road_user_speeds(tbl := tbl);
-CREATE OR REPLACE TEMP MACRO speeds(tbl := 'merged', gates := NULL, left_handed := false, head_m := 5.0, through_deg := 45.0, uturn_deg := 135.0, centre_x := NULL, centre_y := NULL, min_radius_m := 8.0, gap_deg := 25.0, min_users := 3) AS TABLE
-FROM trajdb_speeds(tbl := tbl, gates := gates, left_handed := left_handed, head_m := head_m, through_deg := through_deg, uturn_deg := uturn_deg, centre_x := centre_x, centre_y := centre_y, min_radius_m := min_radius_m, gap_deg := gap_deg, min_users := min_users);
+CREATE OR REPLACE TEMP MACRO speeds(tbl := 'merged', gates := NULL, left_handed := false, head_m := 5.0, through_deg := 45.0, uturn_deg := 135.0, centre_x := NULL, centre_y := NULL, min_radius_m := 8.0, gap_deg := 25.0, min_users := 3, include_stationary := false) AS TABLE
+FROM trajdb_speeds(tbl := tbl, gates := gates, left_handed := left_handed, head_m := head_m, through_deg := through_deg, uturn_deg := uturn_deg, centre_x := centre_x, centre_y := centre_y, min_radius_m := min_radius_m, gap_deg := gap_deg, min_users := min_users, include_stationary := include_stationary);
 CREATE OR REPLACE TEMP MACRO conflicts(tbl := 'merged', max_pet := 5.0, radius := 2.0, max_ttc := 3.0, top := NULL) AS TABLE
 FROM trajdb_conflicts(tbl := tbl, max_pet := max_pet, radius := radius, max_ttc := max_ttc, top := top);
 CREATE OR REPLACE TEMP MACRO top_conflicts(tbl := 'merged', k := 15, max_pet := 5.0, radius := 2.0) AS TABLE

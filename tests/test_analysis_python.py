@@ -152,7 +152,7 @@ def check_speeds(con, seed):
         w AS (SELECT o.road_user, list({'t': w.t, 'x': w.x, 'y': w.y} ORDER BY w.t) AS tr
               FROM ru_object o JOIN e USING (road_user) JOIN truth_world w ON w.object_id = o.object_id AND w.t BETWEEN e.t0 AND e.t1
               GROUP BY o.road_user),
-        j AS (SELECT s.class, s.mean_speed, traj_length_m(w.tr) / traj_duration(w.tr) AS true_speed FROM s JOIN w USING (road_user)
+        j AS (SELECT s.class, s.mean_speed_kmh / 3.6 AS mean_speed, traj_length_m(w.tr) / traj_duration(w.tr) AS true_speed FROM s JOIN w USING (road_user)
               WHERE traj_duration(w.tr) > 2)
         SELECT class, count(*), quantile_cont(mean_speed, 0.5), quantile_cont(true_speed, 0.5),
                quantile_cont(mean_speed, 0.85), quantile_cont(true_speed, 0.85)
@@ -160,7 +160,7 @@ def check_speeds(con, seed):
     for cls, n, p50, t50, p85, t85 in rows:
         print(f"  seed {seed} {cls:14s} n={n:3d}  p50 {p50:6.2f} (truth {t50:6.2f})  p85 {p85:6.2f} (truth {t85:6.2f}) m/s")
         assert abs(p50 / t50 - 1) < 0.05 and abs(p85 / t85 - 1) < 0.05, (cls, p50, t50, p85, t85)
-    out = con.execute("SELECT count(*), count(speed_p85), count(travel_time_p50) FROM speeds()").fetchone()
+    out = con.execute("SELECT count(*), count(speed_p85_kmh), count(travel_time_p50_s) FROM speeds()").fetchone()
     assert out[0] > 0 and out[1] == out[0] and out[2] == out[0], out
 
 

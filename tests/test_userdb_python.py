@@ -33,7 +33,7 @@ import duckdb  # noqa: E402
 import trajdb  # noqa: E402
 
 SCENE = os.path.join(ROOT, "..", "shared", "data", "dut_intersection_3cam", "points.parquet")
-MACROS = ["road_user_ends", "approaches", "road_user_movements", "movements", "road_user_speeds", "speeds", "conflicts", "top_conflicts", "routes"]
+MACROS = ["road_user_ends", "approaches", "road_user_movements", "movements", "road_user_speeds", "speeds", "conflicts", "top_conflicts", "probably_one", "routes"]
 
 
 def catalog(con):
@@ -168,10 +168,11 @@ def check_table_names(tmp):
         "approaches": "FROM approaches(tbl := ?)",
         "road_user_movements": "FROM road_user_movements(tbl := ?)",
         "movements": "FROM movements(tbl := ?)",
-        "road_user_speeds": "SELECT road_user, mean_speed, p85_speed FROM road_user_speeds(tbl := ?) ORDER BY road_user",
+        "road_user_speeds": "SELECT road_user, mean_speed_kmh, p85_speed_kmh FROM road_user_speeds(tbl := ?) ORDER BY road_user",
         "speeds": "FROM speeds(tbl := ?)",
         "conflicts": "SELECT road_user_a, road_user_b, pet, ttc FROM conflicts(tbl := ?)",
         "top_conflicts": "SELECT road_user_a, road_user_b, pet FROM top_conflicts(tbl := ?, k := 5)",
+        "probably_one": "SELECT road_user_a, road_user_b, together_m FROM probably_one(tbl := ?)",
         "routes": "SELECT approach_in, approach_out, pattern, road_users FROM routes(tbl := ?)",
     }
     want = {k: con.execute(q, ["trajdb_test_ref"]).fetchall() for k, q in queries.items()}

@@ -151,8 +151,10 @@ FROM fuse_paths GROUP BY n_cameras ORDER BY n_cameras;
 -- axis, m) and sigma (one per point of traj, m).
 -- offsets: each source's offset (fuse_offsets), named by the input's camera and the chain's
 -- linked id (links.csv linked_id), ordered by camera and track; NULL for a road user of one track.
+-- stationary: the road user never moved (traj_stationary: a parked car); speed statistics leave
+-- it out (issue 39).
 CREATE OR REPLACE TEMP MACRO result_road_users() AS TABLE
-SELECT r.*, m.sigma_m, m.sigma, o.offsets
+SELECT r.*, m.sigma_m, m.sigma, o.offsets, traj_stationary(r.traj, r.class) AS stationary
 FROM merge_road_users() r JOIN merge_users m USING (road_user)
 LEFT JOIN (SELECT f.road_user, list({'camera': i.camera_in, 'track_id': i.track_in, 'dx': f.dx, 'dy': f.dy} ORDER BY f.camera, f.track_id) AS offsets
            FROM fuse_offsets f JOIN load_ids i ON i.camera = f.camera AND i.track_id = f.track_id

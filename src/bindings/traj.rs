@@ -48,6 +48,19 @@ pub static FUNCTIONS: &[Function] = &[
         table: None,
     },
     Function {
+        name: "traj_stationary",
+        description: "Did a road user of this class never move (issue 39; crates/algo/src/traj/stationary.rs)? True when its path's extent \
+                      (the diagonal of its bounding box) is under the class's length (class_length_m) and that extent per second of its \
+                      duration is under 0.1 m/s: a parked car, a pedestrian waiting for the whole track; not a short fragment of a \
+                      moving road user. speeds() and the report leave stationary road users out of speed statistics. NULL for NULL and \
+                      for an empty trajectory. O(n).",
+        example: "SELECT traj_stationary([{'t': 0, 'x': 0, 'y': 0}, {'t': 60, 'x': 0.1, 'y': 0}], 'car'); -- true",
+        maths: "crates/algo/src/traj/stationary.rs",
+        binding: file!(),
+        signatures: &[Signature { params: &[p("traj", TRAJ), p("class", Ty::Varchar)], arities: &[], returns: Ty::Boolean, kernel: stationary }],
+        table: None,
+    },
+    Function {
         name: "traj_time_range",
         description: "First and last timestamp; NULL for an empty or NULL trajectory.",
         example: "SELECT traj_time_range([{'t': 1, 'x': 0, 'y': 0}, {'t': 4, 'x': 3, 'y': 4}]); -- {'t_start': 1.0, 't_end': 4.0}",
@@ -150,6 +163,16 @@ fn length_m(a: &Args<'_>, out: &mut Out<'_>) -> R {
 fn duration(a: &Args<'_>, out: &mut Out<'_>) -> R {
     let tr = a.traj(0);
     out.flat(&a.map(|r| Ok(tr.get(r)?.and_then(|t| traj::duration(t.t))))?);
+    Ok(())
+}
+
+fn stationary(a: &Args<'_>, out: &mut Out<'_>) -> R {
+    let (tr, class) = (a.traj(0), a.text(1));
+    let vals = a.map(|r| {
+        let (Some(t), Some(c)) = (tr.get(r)?, class.get(r)) else { return Ok(None) };
+        Ok((t.len() > 0).then(|| crate::algo::traj::stationary::stationary(t, &c)))
+    })?;
+    out.flat(&vals);
     Ok(())
 }
 

@@ -12,6 +12,7 @@
 
 pub mod band;
 pub mod grid;
+pub mod stationary;
 
 use super::{positive, positive_or_inf, ParamError};
 use std::fmt;

@@ -309,14 +309,16 @@ fn speeds(d: &Data, h: &mut String) -> R<()> {
                 kmh(r.opt_f(6)?),
                 kmh(r.opt_f(7)?),
                 kmh(r.opt_f(8)?),
+                r.i(9)?.to_string(),
             ])
         })
         .collect::<R<Vec<_>>>()?;
     let _ = write!(
         h,
         "<h2>Speeds per class</h2><p>In km/h. Mean speed: each road user's length_m / duration_s (those seen for at least 1 s), its 15th, 50th and 85th percentiles over the road users. \
-         Spot speed: every point of the fused paths (traj_speeds, one per 0.1 s step), its percentiles and maximum.</p>{}",
-        table(&["class", "road users", "mean p15", "mean p50", "mean p85", "spot p50", "spot p85", "spot p95", "spot max"].map(String::from), &rows)
+         Spot speed: every point of the fused paths (traj_speeds, one per 0.1 s step), its percentiles and maximum. Stationary road users (they never moved: parked cars, \
+         traj_stationary) are left out of both and counted apart.</p>{}",
+        table(&["class", "road users", "mean p15 km/h", "mean p50 km/h", "mean p85 km/h", "spot p50 km/h", "spot p85 km/h", "spot p95 km/h", "spot max km/h", "stationary (left out)"].map(String::from), &rows)
     );
     Ok(())
 }

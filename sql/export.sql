@@ -26,3 +26,21 @@ TO (getvariable('out_dir') || '/clusters.csv') (HEADER, DELIMITER ',');
 
 COPY (FROM result_links() ORDER BY camera, track_id)
 TO (getvariable('out_dir') || '/links.csv') (HEADER, DELIMITER ',');
+
+-- analysis.sql: the analysis macros (sql/analysis.sql: movements(), speeds(), conflicts(), ...)
+-- over this folder's merged.parquet, for a session that did not run the pipeline itself (the
+-- DuckDB CLI after CALL trajdb_pipeline, which leaves nothing in the session): `.read
+-- results/analysis.sql`, then `FROM movements()`. The view `results_merged` (the macros' default
+-- table there) reads getvariable('trajdb_results') || '/merged.parquet', by default the folder as the run was given
+-- it (relative paths: from the same working folder). Written from the extension's own copy of
+-- sql/analysis.sql (trajdb_script), so it needs no file of the repository.
+COPY (SELECT '-- trajdb: the analysis macros over the results in this folder (docs/analysis.md). In the DuckDB CLI,' || chr(10)
+             || '-- with the extension loaded: .read <this folder>/analysis.sql, then FROM movements();' || chr(10)
+             || '-- another folder: SET VARIABLE trajdb_results = ''path/to/results''; first.' || chr(10)
+             || 'CREATE OR REPLACE TEMP VIEW results_merged AS FROM read_parquet(coalesce(getvariable(''trajdb_results''), '
+             || '''' || replace(coalesce(getvariable('trajdb_results_dir'), getvariable('out_dir'), '.'), '''', '''''') || ''') || ''/merged.parquet'');' || chr(10)
+             -- the macros read results_merged unless told otherwise (a `merged` of the session, a
+             -- pipeline's own table, stays what it is)
+             || string_agg(replace(sql, 'tbl := ''merged''', 'tbl := ''results_merged''') || ';', chr(10) ORDER BY k) || chr(10)
+      FROM trajdb_script('sql/analysis.sql'))
+TO (getvariable('out_dir') || '/analysis.sql') (FORMAT csv, HEADER false, QUOTE '', ESCAPE '', DELIMITER chr(1));

@@ -175,7 +175,7 @@ def main():
     # text ids through every host that writes results (issue 39: report.sql joined the input's text
     # ids with the stages' numbers, "Could not convert string 'east' to INT32", and nothing was
     # written): Python, the command and CALL trajdb_pipeline; report.html names the cameras
-    files = ["transforms.csv", "calibration.csv", "matches.csv", "merged.parquet", "clusters.csv", "links.csv", "report.html"]
+    files = ["transforms.csv", "calibration.csv", "matches.csv", "merged.parquet", "clusters.csv", "links.csv", "report.html", "analysis.sql"]
     text_parquet = os.path.join(tmp, "text_points.parquet")
     con.execute(f"COPY text_points TO '{text_parquet}' (FORMAT parquet)")
     outs = {"Python": os.path.join(tmp, "text-py"), "the command": os.path.join(tmp, "text-cmd"), "CALL trajdb_pipeline": os.path.join(tmp, "text-call")}
@@ -194,6 +194,15 @@ def main():
     check("text ids: the command writes its results", r.returncode == 0, (r.stdout + r.stderr)[-800:])
     call = trajdb.connect()
     call.execute("CALL trajdb_pipeline(?, out_dir := ?)", [text_parquet, outs["CALL trajdb_pipeline"]]).fetchall()
+    # (issue 39) the analysis macros in a session that only called trajdb_pipeline: the results
+    # folder's analysis.sql defines them over its merged.parquet (the DuckDB CLI's .read)
+    fresh = trajdb.connect()
+    fresh.execute("SET VARIABLE trajdb_results = ?", [outs["CALL trajdb_pipeline"]])
+    for st in fresh.extract_statements(open(os.path.join(outs["CALL trajdb_pipeline"], "analysis.sql"), encoding="utf-8").read()):
+        fresh.execute(st.query)
+    n_mov = fresh.execute("SELECT count(*) FROM movements()").fetchall()[0][0]
+    n_ru = fresh.execute("SELECT count(*) FROM results_merged").fetchall()[0][0]
+    check("analysis.sql: a fresh session has movements() over the folder's merged.parquet", n_mov > 0 and n_ru == len(text["road_users"]), f"{n_mov} movements, {n_ru} road users")
     for host, out in outs.items():
         missing = [f for f in files if not os.path.exists(os.path.join(out, f))]
         check(f"text ids: {host} writes every result file", not missing, f"missing {missing}")

@@ -481,7 +481,7 @@ fn read_manifest(dir: &Path) -> Result<Option<Manifest>, OutError> {
 /// sql/report.sql, the simulator and trajdb.simulate's points.parquet): the only names removed
 /// from a staging folder.
 pub const WRITTEN_NAMES: &[&str] = &[
-    "transforms.csv", "calibration.csv", "matches.csv", "merged.parquet", "clusters.csv", "links.csv", "report.html",
+    "transforms.csv", "calibration.csv", "matches.csv", "merged.parquet", "clusters.csv", "links.csv", "report.html", "analysis.sql",
     "points.csv", "points.parquet", "cameras.csv", "truth.csv", "objects.csv", "world.csv", "README.txt",
 ];
 

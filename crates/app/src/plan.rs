@@ -252,6 +252,9 @@ pub fn plan(req: &Request) -> Result<Vec<Step>, Box<dyn Error>> {
             makes: None,
             undo: Some(format!("FROM trajdb_results_end({o}, false)")),
         });
+        // the folder as the caller named it (out_dir is the staging folder while the run writes):
+        // analysis.sql in the results reads merged.parquet from there (sql/export.sql)
+        steps.push(Step { stage: "params".into(), file: "trajdb_stages".into(), sql: format!("SET VARIABLE trajdb_results_dir = {o}"), makes: None, undo: None });
         steps.push(clock_step("start", "params"));
     }
     // 3. the load and the stages (sql/pipeline.sql: params.sql keeps the values set above)

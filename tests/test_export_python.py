@@ -52,8 +52,11 @@ def main():
             [w + "/r/merged.parquet"]).fetchall()}
         check(len(truth) > 10, f"{len(truth)} road users to export")
 
-        # GeoJSON from the results folder
-        n = export(w + "/r", w + "/ru.geojson")
+        # GeoJSON from the results folder: GeoJSON is longitude / latitude or a declared CRS, never
+        # the local frame (issue 39: geopandas read local metres as WGS84); here the identity map
+        # into a projected CRS (control points equal in both frames), so coordinates stay traj's
+        ident = [(0.0, 0.0, 0.0, 0.0), (100.0, 0.0, 100.0, 0.0), (0.0, 100.0, 0.0, 100.0)]
+        n = export(w + "/r", w + "/ru.geojson", control_points=ident, crs="EPSG:32632")
         gj = json.load(open(w + "/ru.geojson"))
         got = {f["properties"]["road_user"]: f for f in gj["features"]}
         check(n == len(truth) and set(got) == set(truth), "GeoJSON: the same road users")
@@ -91,7 +94,7 @@ def main():
         trajdb.pipeline(con, "ts_points", out=w + "/rts")
         for src, fmt in ((w + "/rts", "geojson"), (con, "gpkg"), (w + "/rts/merged.parquet", "parquet")):
             try:
-                n = export(src, w + "/ts." + fmt)
+                n = export(src, w + "/ts." + fmt, **({"control_points": ident, "crs": "EPSG:32632"} if fmt == "geojson" else {}))
                 ok = n == len(truth)
             except Exception as e:  # noqa: BLE001
                 ok, n = False, repr(e)
@@ -165,7 +168,9 @@ def main():
         raises(lambda: fit_map(cps, "utm"), ValueError, "a CRS that is not an EPSG code")
         raises(lambda: export(w + "/r", w + "/x.shp"), ValueError, "an unknown format")
         raises(lambda: export(w + "/r", w + "/ru.geojson"), FileExistsError, "an existing file")
-        raises(lambda: export(w + "/nothing", w + "/y.geojson"), FileNotFoundError, "no results")
+        raises(lambda: export(w + "/r", w + "/local.geojson"), ValueError, "GeoJSON in the local frame (no control points)")
+        check(not os.path.exists(w + "/local.geojson"), "a refused GeoJSON writes nothing")
+        raises(lambda: export(w + "/nothing", w + "/y.gpkg"), FileNotFoundError, "no results")
     sys.exit(1 if failures else 0)
 
 

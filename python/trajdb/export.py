@@ -22,8 +22,9 @@ translation; least squares, Umeyama 1991 in complex form) that maps every path i
 ``"EPSG:4326"`` (X = longitude, Y = latitude, degrees; fitted in a local east/north tangent
 plane) or a projected CRS (``"EPSG:25832"``, metres). ``fit_map`` returns the fit and its residuals.
 
-usage: trajdb.export("results/", "road_users.geojson")
-       trajdb.export(con, "road_users.gpkg", control_points=[...], crs="EPSG:4326")
+usage: trajdb.export("results/", "road_users.gpkg")          (local frame: no CRS)
+       trajdb.export(con, "road_users.geojson", control_points=[...], crs="EPSG:4326")
+GeoJSON is always longitude / latitude (RFC 7946): without control points it is refused.
 """
 import datetime
 import json
@@ -179,6 +180,15 @@ def export(source, path, format=None, control_points=None, crs=None, overwrite=F
     fit = fit_map(control_points, crs) if control_points is not None else None
     if fit is None and crs is not None:
         raise ValueError("trajdb.export: crs needs control_points (the local frame has no CRS of its own)")
+    if fmt == "geojson" and fit is None:
+        # RFC 7946: GeoJSON coordinates are WGS84 longitude / latitude, and geopandas, QGIS and
+        # web maps read them so: metres of a camera's frame would land off the coast of Africa
+        # (issue 39). Nothing is written.
+        raise ValueError(
+            "trajdb.export: GeoJSON is always longitude / latitude (RFC 7946), and the paths are in the reference camera's local frame "
+            "in metres; give control_points=[(x, y, lon, lat), ...] and crs='EPSG:4326' to put them on the map (docs/maps.md), "
+            "or write .gpkg or .parquet, which say they have no CRS"
+        )
     epsg = fit.epsg if fit else None
     rows = _road_users(source)
     feats = []

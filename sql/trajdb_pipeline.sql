@@ -2751,14 +2751,25 @@ FROM trajdb_r;
 -- 1. the site's centre: the least-squares meeting point of every entry and exit heading line
 --    (argmin_p sum |(I - d d^T)(p - a)|^2: arms point at the junction), unless centre_x / centre_y;
 -- 2. every entry moving towards the centre and every exit moving away from it (heading within 45
---    degrees of radial), at least min_radius_m from the centre, gives a bearing from the centre;
+--    degrees of radial), at least min_radius_m from the centre (default: a quarter of the median distance
+--    of the ends from it), gives a bearing from the centre; the ends are the vehicles' (every road
+--    user not a pedestrian that moved: class_kind, traj_stationary) when there are at least
+--    2 min_users of them, else every road user's;
 -- 3. the bearings are cut into approaches at every empty sector wider than gap_deg degrees (the
 --    circle is opened at its widest gap); approaches with fewer than min_users ends are dropped.
 -- Named by the compass point of their mean bearing in the frame (E = +x, N = +y: the frame's
 -- axes, not geography), with a number when two share one; lo_deg..hi_deg is the sector.
-CREATE OR REPLACE TEMP MACRO trajdb_approaches(tbl := 'merged', centre_x := NULL, centre_y := NULL, min_radius_m := 8.0, gap_deg := 25.0,
+CREATE OR REPLACE TEMP MACRO trajdb_approaches(tbl := 'merged', centre_x := NULL, centre_y := NULL, min_radius_m := NULL, gap_deg := 25.0,
                                    min_users := 3, head_m := 5.0) AS TABLE
-WITH trajdb_e AS (FROM trajdb_road_user_ends(tbl := tbl, head_m := head_m)),
+WITH trajdb_all AS (FROM trajdb_road_user_ends(tbl := tbl, head_m := head_m)),
+-- (issue 39) arms come from the vehicles (every class but pedestrians, that moved): pedestrians
+-- end at every corner and crosswalk, and on both DUT scenes their ends made 2 approaches of a
+-- 4-arm crossing and 1 of a roundabout; with fewer than 2 min_users vehicle road users, all
+trajdb_e AS (
+    FROM trajdb_all
+    WHERE class_kind(class) <> 'pedestrian' AND NOT traj_stationary(traj, class)
+       OR (SELECT count(*) FILTER (WHERE class_kind(class) <> 'pedestrian' AND NOT traj_stationary(traj, class)) FROM trajdb_all) < 2 * min_users
+),
 trajdb_lines AS (
     SELECT x_in AS ax, y_in AS ay, radians(h_in) AS h FROM trajdb_e WHERE h_in IS NOT NULL
     UNION ALL SELECT x_out, y_out, radians(h_out) FROM trajdb_e WHERE h_out IS NOT NULL
@@ -2773,12 +2784,21 @@ trajdb_c AS (
            coalesce(centre_y::DOUBLE, (m11 * b2 - m12 * b1) / nullif(m11 * m22 - m12 * m12, 0)) AS cy
     FROM trajdb_m
 ),
+-- the least distance of an end from the centre: min_radius_m, or a quarter of the median distance
+-- of the ends from it (a site's views set it: 8 m fixed dropped a whole arm of the DUT
+-- intersection, whose cars enter 6 m from its centre; half the median dropped the arm of a
+-- simulated crossing whose view ends 20 m out where the others end 40 m out)
+trajdb_rad AS (
+    SELECT coalesce(min_radius_m::DOUBLE, 0.25 * median(d)) AS r_min
+    FROM (SELECT sqrt((x_in - cx) ** 2 + (y_in - cy) ** 2) AS d FROM trajdb_e, trajdb_c
+          UNION ALL SELECT sqrt((x_out - cx) ** 2 + (y_out - cy) ** 2) FROM trajdb_e, trajdb_c)
+),
 trajdb_ends AS (
-    SELECT 'in' AS side, degrees(atan2(y_in - cy, x_in - cx)) AS bearing FROM trajdb_e, trajdb_c
-    WHERE sqrt((x_in - cx) ** 2 + (y_in - cy) ** 2) >= min_radius_m AND abs(trajdb_wrap_deg(h_in - degrees(atan2(y_in - cy, x_in - cx)) - 180)) < 45
+    SELECT 'in' AS side, degrees(atan2(y_in - cy, x_in - cx)) AS bearing FROM trajdb_e, trajdb_c, trajdb_rad
+    WHERE sqrt((x_in - cx) ** 2 + (y_in - cy) ** 2) >= r_min AND abs(trajdb_wrap_deg(h_in - degrees(atan2(y_in - cy, x_in - cx)) - 180)) < 45
     UNION ALL
-    SELECT 'out', degrees(atan2(y_out - cy, x_out - cx)) FROM trajdb_e, trajdb_c
-    WHERE sqrt((x_out - cx) ** 2 + (y_out - cy) ** 2) >= min_radius_m AND abs(trajdb_wrap_deg(h_out - degrees(atan2(y_out - cy, x_out - cx)))) < 45
+    SELECT 'out', degrees(atan2(y_out - cy, x_out - cx)) FROM trajdb_e, trajdb_c, trajdb_rad
+    WHERE sqrt((x_out - cx) ** 2 + (y_out - cy) ** 2) >= r_min AND abs(trajdb_wrap_deg(h_out - degrees(atan2(y_out - cy, x_out - cx)))) < 45
 ),
 trajdb_s AS (SELECT side, (bearing + 360) % 360 AS b FROM trajdb_ends),
 trajdb_g AS (SELECT side, b, b - lag(b) OVER (ORDER BY b) AS gap FROM trajdb_s),
@@ -2799,7 +2819,7 @@ trajdb_named AS (
 )
 SELECT compass || CASE WHEN count(*) OVER (PARTITION BY compass) > 1 THEN row_number() OVER (PARTITION BY compass ORDER BY bearing)::VARCHAR ELSE '' END AS approach,
        bearing AS bearing_deg, (lo + (SELECT start FROM trajdb_cut)) % 360 AS lo_deg, (hi + (SELECT start FROM trajdb_cut)) % 360 AS hi_deg,
-       n_in, n_out, (SELECT cx FROM trajdb_c) AS centre_x, (SELECT cy FROM trajdb_c) AS centre_y
+       n_in, n_out, (SELECT cx FROM trajdb_c) AS centre_x, (SELECT cy FROM trajdb_c) AS centre_y, (SELECT r_min FROM trajdb_rad) AS min_radius_m
 FROM trajdb_named ORDER BY bearing;
 
 -- ---------------------------------------------------------------- movements per road user
@@ -2813,7 +2833,7 @@ FROM trajdb_named ORDER BY bearing;
 -- (-180, 180], negated when left_handed; movement = through (|turn| < through_deg), u-turn
 -- (|turn| >= uturn_deg), left (turn > 0) or right; NULL when either approach is unknown.
 CREATE OR REPLACE TEMP MACRO trajdb_road_user_movements(tbl := 'merged', gates := NULL, left_handed := false, head_m := 5.0, through_deg := 45.0,
-                                            uturn_deg := 135.0, centre_x := NULL, centre_y := NULL, min_radius_m := 8.0,
+                                            uturn_deg := 135.0, centre_x := NULL, centre_y := NULL, min_radius_m := NULL,
                                             gap_deg := 25.0, min_users := 3) AS TABLE
 WITH trajdb_e AS (FROM trajdb_road_user_ends(tbl := tbl, head_m := head_m)),
 trajdb_ap AS (
@@ -2821,10 +2841,10 @@ trajdb_ap AS (
                     min_users := min_users, head_m := head_m)
     WHERE gates IS NULL
 ),
-trajdb_c AS (SELECT any_value(trajdb_ap.centre_x) AS cx, any_value(trajdb_ap.centre_y) AS cy FROM trajdb_ap),  -- qualified: centre_x alone is the parameter
+trajdb_c AS (SELECT any_value(trajdb_ap.centre_x) AS cx, any_value(trajdb_ap.centre_y) AS cy, any_value(trajdb_ap.min_radius_m) AS r_min FROM trajdb_ap),  -- qualified: centre_x alone is the parameter
 trajdb_data_in AS (
     SELECT trajdb_e.road_user, trajdb_ap.approach FROM trajdb_e, trajdb_c, trajdb_ap
-    WHERE sqrt((x_in - cx) ** 2 + (y_in - cy) ** 2) >= min_radius_m
+    WHERE sqrt((x_in - cx) ** 2 + (y_in - cy) ** 2) >= r_min
       AND abs(trajdb_wrap_deg(h_in - degrees(atan2(y_in - cy, x_in - cx)) - 180)) < 45
       AND abs(trajdb_wrap_deg(degrees(atan2(y_in - cy, x_in - cx)) - (trajdb_ap.lo_deg + trajdb_ap.hi_deg) / 2
                                 - CASE WHEN trajdb_ap.hi_deg < trajdb_ap.lo_deg THEN 180 ELSE 0 END))
@@ -2832,7 +2852,7 @@ trajdb_data_in AS (
 ),
 trajdb_data_out AS (
     SELECT trajdb_e.road_user, trajdb_ap.approach FROM trajdb_e, trajdb_c, trajdb_ap
-    WHERE sqrt((x_out - cx) ** 2 + (y_out - cy) ** 2) >= min_radius_m
+    WHERE sqrt((x_out - cx) ** 2 + (y_out - cy) ** 2) >= r_min
       AND abs(trajdb_wrap_deg(h_out - degrees(atan2(y_out - cy, x_out - cx)))) < 45
       AND abs(trajdb_wrap_deg(degrees(atan2(y_out - cy, x_out - cx)) - (trajdb_ap.lo_deg + trajdb_ap.hi_deg) / 2
                                 - CASE WHEN trajdb_ap.hi_deg < trajdb_ap.lo_deg THEN 180 ELSE 0 END))
@@ -2873,7 +2893,7 @@ SELECT NULL::VARCHAR AS approach, NULL::DOUBLE AS x1, NULL::DOUBLE AS y1, NULL::
 -- with both approaches known (see road_user_movements for the others).
 CREATE OR REPLACE TEMP MACRO trajdb_movements(tbl := 'merged', bin_s := 900, gates := NULL, left_handed := false, head_m := 5.0,
                                   through_deg := 45.0, uturn_deg := 135.0, centre_x := NULL, centre_y := NULL,
-                                  min_radius_m := 8.0, gap_deg := 25.0, min_users := 3) AS TABLE
+                                  min_radius_m := NULL, gap_deg := 25.0, min_users := 3) AS TABLE
 SELECT floor(t_in / bin_s::DOUBLE) * bin_s::DOUBLE AS bin_start, approach_in, approach_out, movement, class, count(*) AS road_users
 FROM trajdb_road_user_movements(tbl := tbl, gates := gates, left_handed := left_handed, head_m := head_m, through_deg := through_deg,
                          uturn_deg := uturn_deg, centre_x := centre_x, centre_y := centre_y, min_radius_m := min_radius_m,
@@ -2902,7 +2922,7 @@ WHERE len(traj) >= 2;
 -- form the rows with NULL approaches. Stationary road users (parked cars: traj_stationary) are left
 -- out unless include_stationary := true; stationary counts them per row either way.
 CREATE OR REPLACE TEMP MACRO trajdb_speeds(tbl := 'merged', gates := NULL, left_handed := false, head_m := 5.0, through_deg := 45.0,
-                               uturn_deg := 135.0, centre_x := NULL, centre_y := NULL, min_radius_m := 8.0, gap_deg := 25.0,
+                               uturn_deg := 135.0, centre_x := NULL, centre_y := NULL, min_radius_m := NULL, gap_deg := 25.0,
                                min_users := 3, include_stationary := false) AS TABLE
 WITH trajdb_m AS (FROM trajdb_road_user_movements(tbl := tbl, gates := gates, left_handed := left_handed, head_m := head_m, through_deg := through_deg,
                                     uturn_deg := uturn_deg, centre_x := centre_x, centre_y := centre_y, min_radius_m := min_radius_m,
@@ -3010,7 +3030,7 @@ FROM trajdb_conflicts(tbl := tbl, max_pet := 0.5, radius := 2.6, max_ttc := 0.0)
 -- Road users with an unknown movement are not clustered.
 CREATE OR REPLACE TEMP MACRO trajdb_routes(tbl := 'merged', epsilon := 1.5, delta := 30, threshold := 0.5, gates := NULL, left_handed := false,
                                head_m := 5.0, through_deg := 45.0, uturn_deg := 135.0, centre_x := NULL, centre_y := NULL,
-                               min_radius_m := 8.0, gap_deg := 25.0, min_users := 3) AS TABLE
+                               min_radius_m := NULL, gap_deg := 25.0, min_users := 3) AS TABLE
 WITH trajdb_m AS (FROM trajdb_road_user_movements(tbl := tbl, gates := gates, left_handed := left_handed, head_m := head_m, through_deg := through_deg,
                                     uturn_deg := uturn_deg, centre_x := centre_x, centre_y := centre_y, min_radius_m := min_radius_m,
                                     gap_deg := gap_deg, min_users := min_users)
@@ -3044,15 +3064,15 @@ ORDER BY road_users DESC, approach_in, approach_out, pattern;
 CREATE OR REPLACE TEMP MACRO gate_from_wkt(wkt) AS trajdb_gate_from_wkt(wkt);
 CREATE OR REPLACE TEMP MACRO road_user_ends(tbl := 'merged', head_m := 5.0) AS TABLE
 FROM trajdb_road_user_ends(tbl := tbl, head_m := head_m);
-CREATE OR REPLACE TEMP MACRO approaches(tbl := 'merged', centre_x := NULL, centre_y := NULL, min_radius_m := 8.0, gap_deg := 25.0, min_users := 3, head_m := 5.0) AS TABLE
+CREATE OR REPLACE TEMP MACRO approaches(tbl := 'merged', centre_x := NULL, centre_y := NULL, min_radius_m := NULL, gap_deg := 25.0, min_users := 3, head_m := 5.0) AS TABLE
 FROM trajdb_approaches(tbl := tbl, centre_x := centre_x, centre_y := centre_y, min_radius_m := min_radius_m, gap_deg := gap_deg, min_users := min_users, head_m := head_m);
-CREATE OR REPLACE TEMP MACRO road_user_movements(tbl := 'merged', gates := NULL, left_handed := false, head_m := 5.0, through_deg := 45.0, uturn_deg := 135.0, centre_x := NULL, centre_y := NULL, min_radius_m := 8.0, gap_deg := 25.0, min_users := 3) AS TABLE
+CREATE OR REPLACE TEMP MACRO road_user_movements(tbl := 'merged', gates := NULL, left_handed := false, head_m := 5.0, through_deg := 45.0, uturn_deg := 135.0, centre_x := NULL, centre_y := NULL, min_radius_m := NULL, gap_deg := 25.0, min_users := 3) AS TABLE
 FROM trajdb_road_user_movements(tbl := tbl, gates := gates, left_handed := left_handed, head_m := head_m, through_deg := through_deg, uturn_deg := uturn_deg, centre_x := centre_x, centre_y := centre_y, min_radius_m := min_radius_m, gap_deg := gap_deg, min_users := min_users);
-CREATE OR REPLACE TEMP MACRO movements(tbl := 'merged', bin_s := 900, gates := NULL, left_handed := false, head_m := 5.0, through_deg := 45.0, uturn_deg := 135.0, centre_x := NULL, centre_y := NULL, min_radius_m := 8.0, gap_deg := 25.0, min_users := 3) AS TABLE
+CREATE OR REPLACE TEMP MACRO movements(tbl := 'merged', bin_s := 900, gates := NULL, left_handed := false, head_m := 5.0, through_deg := 45.0, uturn_deg := 135.0, centre_x := NULL, centre_y := NULL, min_radius_m := NULL, gap_deg := 25.0, min_users := 3) AS TABLE
 FROM trajdb_movements(tbl := tbl, bin_s := bin_s, gates := gates, left_handed := left_handed, head_m := head_m, through_deg := through_deg, uturn_deg := uturn_deg, centre_x := centre_x, centre_y := centre_y, min_radius_m := min_radius_m, gap_deg := gap_deg, min_users := min_users);
 CREATE OR REPLACE TEMP MACRO road_user_speeds(tbl := 'merged') AS TABLE
 FROM trajdb_road_user_speeds(tbl := tbl);
-CREATE OR REPLACE TEMP MACRO speeds(tbl := 'merged', gates := NULL, left_handed := false, head_m := 5.0, through_deg := 45.0, uturn_deg := 135.0, centre_x := NULL, centre_y := NULL, min_radius_m := 8.0, gap_deg := 25.0, min_users := 3, include_stationary := false) AS TABLE
+CREATE OR REPLACE TEMP MACRO speeds(tbl := 'merged', gates := NULL, left_handed := false, head_m := 5.0, through_deg := 45.0, uturn_deg := 135.0, centre_x := NULL, centre_y := NULL, min_radius_m := NULL, gap_deg := 25.0, min_users := 3, include_stationary := false) AS TABLE
 FROM trajdb_speeds(tbl := tbl, gates := gates, left_handed := left_handed, head_m := head_m, through_deg := through_deg, uturn_deg := uturn_deg, centre_x := centre_x, centre_y := centre_y, min_radius_m := min_radius_m, gap_deg := gap_deg, min_users := min_users, include_stationary := include_stationary);
 CREATE OR REPLACE TEMP MACRO conflicts(tbl := 'merged', max_pet := 5.0, radius := 2.0, max_ttc := 3.0, top := NULL) AS TABLE
 FROM trajdb_conflicts(tbl := tbl, max_pet := max_pet, radius := radius, max_ttc := max_ttc, top := top);
@@ -3060,6 +3080,6 @@ CREATE OR REPLACE TEMP MACRO top_conflicts(tbl := 'merged', k := 15, max_pet := 
 FROM trajdb_top_conflicts(tbl := tbl, k := k, max_pet := max_pet, radius := radius);
 CREATE OR REPLACE TEMP MACRO probably_one(tbl := 'merged') AS TABLE
 FROM trajdb_probably_one(tbl := tbl);
-CREATE OR REPLACE TEMP MACRO routes(tbl := 'merged', epsilon := 1.5, delta := 30, threshold := 0.5, gates := NULL, left_handed := false, head_m := 5.0, through_deg := 45.0, uturn_deg := 135.0, centre_x := NULL, centre_y := NULL, min_radius_m := 8.0, gap_deg := 25.0, min_users := 3) AS TABLE
+CREATE OR REPLACE TEMP MACRO routes(tbl := 'merged', epsilon := 1.5, delta := 30, threshold := 0.5, gates := NULL, left_handed := false, head_m := 5.0, through_deg := 45.0, uturn_deg := 135.0, centre_x := NULL, centre_y := NULL, min_radius_m := NULL, gap_deg := 25.0, min_users := 3) AS TABLE
 FROM trajdb_routes(tbl := tbl, epsilon := epsilon, delta := delta, threshold := threshold, gates := gates, left_handed := left_handed, head_m := head_m, through_deg := through_deg, uturn_deg := uturn_deg, centre_x := centre_x, centre_y := centre_y, min_radius_m := min_radius_m, gap_deg := gap_deg, min_users := min_users);
 ;

@@ -95,6 +95,18 @@ pub static FUNCTIONS: &[Function] = &[
         table: None,
     },
     Function {
+        name: "class_kind",
+        description: "What kind of road user a class name means, by its words (the one reading of class names, as class_length_m): \
+                      'two_wheeler' (cycl, bike, motor, scooter, pedelec, ...), 'pedestrian' (ped, person, walk, ...), 'heavy' (truck, bus, \
+                      lorry, tram, ...) or 'car' (anything else). approaches() finds a site's arms from the road users that are not \
+                      pedestrians. NULL for NULL.",
+        example: "SELECT class_kind('Bicycle'); -- two_wheeler",
+        maths: "crates/algo/src/associate/mod.rs",
+        binding: file!(),
+        signatures: &[Signature { params: &[p("class", Ty::Varchar)], arities: &[], returns: Ty::Varchar, kernel: class_kind }],
+        table: None,
+    },
+    Function {
         name: "class_min_gap_m",
         description: "The least distance between the centres of two distinct road users of this class (m), recognised by the class \
                       name's words as class_length_m: a pedestrian 0.25 m (torso depth: two people shoulder to shoulder; pedestrians \
@@ -258,5 +270,12 @@ fn class_min_gap_m(a: &Args<'_>, out: &mut Out<'_>) -> R {
     let c = a.text(0);
     let vals = a.map(|r| Ok(c.get(r).map(|c| crate::algo::associate::class_min_gap_m(&c))))?;
     out.flat(&vals);
+    Ok(())
+}
+
+fn class_kind(a: &Args<'_>, out: &mut Out<'_>) -> R {
+    let c = a.text(0);
+    let vals: Vec<Option<&str>> = a.map(|r| Ok(c.get(r).map(|c| crate::algo::associate::Kind::of(&c).name())))?;
+    out.text(&vals);
     Ok(())
 }

@@ -67,6 +67,16 @@ impl Kind {
         }
     }
 
+    /// The kind's name in SQL (`class_kind`): pedestrian, two_wheeler, car, heavy.
+    pub fn name(self) -> &'static str {
+        match self {
+            Kind::Pedestrian => "pedestrian",
+            Kind::TwoWheeler => "two_wheeler",
+            Kind::Car => "car",
+            Kind::Heavy => "heavy",
+        }
+    }
+
     /// Length (m): a pedestrian 1 m (a stride), a two-wheeler 2 m, a car 5 m, a bus or truck 12 m.
     pub fn length_m(self) -> f64 {
         match self {

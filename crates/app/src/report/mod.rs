@@ -205,6 +205,14 @@ fn summary(d: &Data, c: &Ctx, h: &mut String) -> R<()> {
             p.0, p.1, p.2
         ));
     }
+    // approaches found in the data that cannot be right: most vehicles in and out by one (issue 39)
+    if let Some(share) = d.meta("same_approach_share").and_then(|v| v.parse::<f64>().ok()).filter(|v| *v > 0.5) {
+        look.push(format!(
+            "{:.0}% of the vehicles with a known movement enter and leave by the same approach: the approaches found in the data are \
+             probably wrong for this site; draw gates (movements(gates := ...), docs/analysis.md)",
+            100.0 * share
+        ));
+    }
     // road users that are probably one counted twice (issue 39): not near misses
     let dups = d.rows("dup").len();
     if dups > 0 {
@@ -274,12 +282,11 @@ fn analysis(d: &Data, h: &mut String) -> R<()> {
         h.push_str(&table(&["road user", "class", "road user", "class", "PET", "kind", "x", "y", "TTC"].map(String::from), &conflicts));
     }
     let count = |k: &str| d.meta(k).and_then(|v| v.parse::<i64>().ok());
-    if let (Some(before), Some(after)) = (count("near_misses_before"), count("near_misses_after")) {
+    if let (Some(top), Some(same)) = (count("tracks_top_near_misses"), count("tracks_top_same_road_user")) {
         let _ = write!(
             h,
-            "<p>Near misses (PET under 3 s) before merging, every camera's track a road user of its own: {before}; after merging: {after}. \
-             Merging removed {} (the same road user seen by two cameras crosses itself).</p>",
-            before - after
+            "<p>Before merging (every camera's track a road user of its own), {same} of the {top} closest encounters (PET under 3 s) were two \
+             tracks of one road user (seen by two cameras, or broken in one); merging removed them from this table.</p>"
         );
     }
     let dups = cells("dup", 5)?;

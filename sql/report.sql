@@ -192,8 +192,8 @@ UNION ALL SELECT 'conflict', row_number() OVER (ORDER BY pet, road_user_a, road_
 UNION ALL SELECT 'dup', row_number() OVER (ORDER BY road_user_a, road_user_b),
        [road_user_a::VARCHAR, road_user_b::VARCHAR, class_a, round(together_m, 2)::VARCHAR, coalesce(round(pet, 2)::VARCHAR, '')] FROM report_probably_one
 -- (issue 39) found approaches that cannot be right: most vehicles entering and leaving by one
-UNION ALL SELECT 'meta', 10, ['same_approach_share', (count(*) FILTER (WHERE approach_in = approach_out) / greatest(count(*), 1))::VARCHAR]
-    FROM trajdb_road_user_movements() WHERE approach_in IS NOT NULL AND approach_out IS NOT NULL AND class_kind(class) <> 'pedestrian'
+UNION ALL SELECT 'meta', 10, ['same_approach_share', (coalesce(sum(n) FILTER (WHERE approach_in = approach_out), 0) / greatest(sum(n), 1))::VARCHAR]
+    FROM report_movements WHERE approach_in IS NOT NULL AND approach_out IS NOT NULL AND class_kind(class) <> 'pedestrian'
 UNION ALL SELECT 'meta', 8, ['tracks_top_near_misses', top::VARCHAR] FROM report_near_miss_counts
 UNION ALL SELECT 'meta', 9, ['tracks_top_same_road_user', same::VARCHAR] FROM report_near_miss_counts
 UNION ALL SELECT 'param', row_number() OVER (ORDER BY stage, name), [name, value, stage, description] FROM pipeline_params;

@@ -2483,9 +2483,13 @@ LEFT JOIN (SELECT f.road_user, list({'camera': i.camera_in, 'track_id': i.track_
 -- merged: the road users as merged.parquet has them (the README's `FROM merged`): the input's own
 -- camera and track ids in sources and offsets, t_start, t_end, duration_s, length_m, geometry,
 -- sigma_m, sigma. What stays in the connection is what the file holds (issue 39); the stages'
--- own ids stay in merge_users.
+-- own ids stay in merge_users (its paths dropped: merge_road_users() is the stage's, not to be
+-- called after this).
 CREATE OR REPLACE TEMP TABLE merged AS FROM result_road_users() ORDER BY road_user;
 CREATE OR REPLACE TEMP MACRO result_road_users() AS TABLE FROM merged;
+-- merge_users keeps only the stages' ids (report.sql counts road users per camera by them): its
+-- paths are merged's now, and two copies of a day's paths cost 0.6 GB of a Mellingen-sized day
+CREATE OR REPLACE TEMP TABLE merge_users AS SELECT road_user, class, sources, n_tracks FROM merge_users;
 ;
 -- stage: cluster
 -- reads: points, load_ids, calibrated()

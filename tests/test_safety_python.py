@@ -501,13 +501,13 @@ def _i37_edit(w, con):
 
 def _i37_export(w, con):
     # (e) trajdb.export leaves a user's <path>.partial alone
-    e = os.path.join(w, "i37-e.geojson")
+    e = os.path.join(w, "i37-e.gpkg")
     with open(e + ".partial", "w") as f:
         f.write("my partial notes")
     trajdb.export(con, e)
     check("i37 (e): export leaves the user's <path>.partial untouched", open(e + ".partial").read() == "my partial notes" and os.path.exists(e))
     check("i37 (e): ... and leaves no temporary file of its own",
-          sorted(n for n in os.listdir(w) if n.startswith("i37-e")) == ["i37-e.geojson", "i37-e.geojson.partial"], os.listdir(w))
+          sorted(n for n in os.listdir(w) if n.startswith("i37-e")) == ["i37-e.gpkg", "i37-e.gpkg.partial"], os.listdir(w))
 
 
 

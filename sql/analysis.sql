@@ -29,7 +29,7 @@
 --                      reflection): left and right swap. A rigid frame from align.sql keeps the
 --                      world's handedness, so the default (false: x right, y up, counter-clockwise
 --                      positive) is right for the pipeline's output.
---   head_m (5 m), through_deg (45), uturn_deg (135), min_radius_m (8 m), gap_deg (25), min_users (3),
+--   head_m (5 m), through_deg (45), uturn_deg (135), min_radius_m (a quarter of the median end distance), gap_deg (25), min_users (3),
 --   centre_x / centre_y (default: measured): see approaches() and docs/analysis.md.
 
 -- ---------------------------------------------------------------- scalar helpers
@@ -260,7 +260,7 @@ WITH trajdb_m AS (FROM trajdb_road_user_movements(tbl := tbl, gates := gates, le
                                     uturn_deg := uturn_deg, centre_x := centre_x, centre_y := centre_y, min_radius_m := min_radius_m,
                                     gap_deg := gap_deg, min_users := min_users)),
 trajdb_s_all AS (FROM trajdb_road_user_speeds(tbl := tbl)),
-trajdb_s AS (FROM trajdb_s_all WHERE include_stationary OR NOT stationary),
+trajdb_s AS (FROM trajdb_s_all WHERE include_stationary OR NOT coalesce(stationary, false)),
 trajdb_still AS (SELECT trajdb_m.approach_in, trajdb_m.approach_out, trajdb_m.movement, trajdb_m.class, count(*) AS n
                  FROM trajdb_s_all JOIN trajdb_m USING (road_user) WHERE trajdb_s_all.stationary GROUP BY ALL),
 trajdb_spot AS (SELECT road_user, 3.6 * unnest(traj_speeds(traj)).v AS v FROM query_table(tbl) WHERE road_user IN (SELECT road_user FROM trajdb_s)),
@@ -314,7 +314,7 @@ trajdb_u AS (  -- the pairs are named by road_user: a repeated one would be ambi
                            || ' repeated); give each road user one row') END AS ok
     FROM trajdb_r
 ),
-trajdb_rc AS (SELECT *, dense_rank() OVER (ORDER BY class) AS dense_rank_class FROM trajdb_r),
+trajdb_rc AS (SELECT *, dense_rank() OVER (ORDER BY lower(trim(class))) AS dense_rank_class FROM trajdb_r),
 trajdb_c AS (  -- (ids as BIGINT: integer and decimal road_user columns of any width)
     SELECT unnest(CASE WHEN top IS NULL
                        THEN traj_conflicts(list(road_user::BIGINT ORDER BY road_user), list(traj ORDER BY road_user), max_pet::DOUBLE,
@@ -322,7 +322,7 @@ trajdb_c AS (  -- (ids as BIGINT: integer and decimal road_user columns of any w
                        ELSE traj_conflicts_top(list(road_user::BIGINT ORDER BY road_user), list(traj ORDER BY road_user), top::BIGINT,
                                                max_pet::DOUBLE, radius::DOUBLE,
                                                -- one road user counted twice is not a near miss: left out of the k
-                                               list(dense_rank_class ORDER BY road_user), list(class_min_gap_m(class) ORDER BY road_user)) END) AS p
+                                               list(dense_rank_class ORDER BY road_user), list(coalesce(class_min_gap_m(class), class_min_gap_m('unknown')) ORDER BY road_user)) END) AS p
     FROM trajdb_rc WHERE road_user IS NOT NULL AND (SELECT ok FROM trajdb_u)
 )
 SELECT p.a AS road_user_a, ra.class AS class_a, p.b AS road_user_b, rb.class AS class_b,

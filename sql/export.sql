@@ -44,3 +44,5 @@ COPY (SELECT '-- trajdb: the analysis macros over the results in this folder (do
              || string_agg(replace(sql, 'tbl := ''merged''', 'tbl := ''results_merged''') || ';', chr(10) ORDER BY k) || chr(10)
       FROM trajdb_script('sql/analysis.sql'))
 TO (getvariable('out_dir') || '/analysis.sql') (FORMAT csv, HEADER false, QUOTE '', ESCAPE '', DELIMITER chr(1));
+-- (the folder as the runner named it is this run's only: a later manual export must not take it)
+SET VARIABLE trajdb_results_dir = NULL;

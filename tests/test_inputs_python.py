@@ -186,7 +186,10 @@ def main():
     cols_file = [r[0] for r in con.execute("SELECT column_name FROM (DESCRIBE FROM read_parquet(?))", [os.path.join(outs["Python"], "merged.parquet")]).fetchall()]
     cols_sess = [r[0] for r in con.execute("SELECT column_name FROM (DESCRIBE FROM merged)").fetchall()]
     check("the in-session merged has merged.parquet's columns", cols_file == cols_sess, f"{cols_sess} vs {cols_file}")
-    same = con.execute("SELECT count(*) FROM ((FROM merged EXCEPT FROM read_parquet(?)) UNION ALL (FROM read_parquet(?) EXCEPT FROM merged))",
+    # (geometry apart: DuckDB 1.5 reads a GeoParquet column as GEOMETRY, which does not compare with
+    # the BLOB it was written from; the other columns carry the same paths)
+    same = con.execute("SELECT count(*) FROM ((SELECT * EXCLUDE (geometry) FROM merged EXCEPT SELECT * EXCLUDE (geometry) FROM read_parquet(?)) "
+                       "UNION ALL (SELECT * EXCLUDE (geometry) FROM read_parquet(?) EXCEPT SELECT * EXCLUDE (geometry) FROM merged))",
                        [os.path.join(outs["Python"], "merged.parquet")] * 2).fetchall()[0][0]
     check("the in-session merged holds merged.parquet's rows (text ids included)", same == 0, f"{same} rows differ")
     r = subprocess.run([sys.executable, "-m", "trajdb", "pipeline", "--input", text_parquet, "--out", outs["the command"]],

@@ -98,7 +98,8 @@ pub static FUNCTIONS: &[Function] = &[
         name: "class_kind",
         description: "What kind of road user a class name means, by its words (the one reading of class names, as class_length_m): \
                       'two_wheeler' (cycl, bike, motor, scooter, pedelec, ...), 'pedestrian' (ped, person, walk, ...), 'heavy' (truck, bus, \
-                      lorry, tram, ...) or 'car' (anything else). approaches() finds a site's arms from the road users that are not \
+                      lorry, tram, ...), 'unknown' (a name that says nothing: unknown, the load's class without a class column, '', \
+                      object, other) or 'car' (anything else). approaches() finds a site's arms from the road users that are not \
                       pedestrians. NULL for NULL.",
         example: "SELECT class_kind('Bicycle'); -- two_wheeler",
         maths: "crates/algo/src/associate/mod.rs",
@@ -111,7 +112,8 @@ pub static FUNCTIONS: &[Function] = &[
         description: "The least distance between the centres of two distinct road users of this class (m), recognised by the class \
                       name's words as class_length_m: a pedestrian 0.25 m (torso depth: two people shoulder to shoulder; pedestrians \
                       walking in pairs on the DUT scenes were 0.32 m apart and more, one pedestrian split in two 0.03-0.14 m), a \
-                      two-wheeler 0.6 m (a handlebar), a car 1.8 m, a bus or truck 2.55 m (widths; any other class: a car). Two road \
+                      two-wheeler 0.6 m (a handlebar), a car 1.8 m, a bus or truck 2.55 m (widths; any other class: a car; a class \
+                      that says nothing, such as 'unknown': 0.25 m, the least of any road user). Two road \
                       users of the class whose centres stay closer are one body counted twice (conflict_probably_one). NULL for NULL.",
         example: "SELECT class_min_gap_m('pedestrian'); -- 0.25",
         maths: "crates/algo/src/associate/mod.rs",

@@ -71,7 +71,7 @@ impl ConflictError {
                 format!("ids must be distinct (one path per road user), got {id} twice; aggregate one row per road user first")
             }
             ConflictError::ClassesLength { ids, classes } => {
-                format!("classes must list one class per road user, got {classes} classes for {ids} ids (list(class ORDER BY id) over the same rows)")
+                format!("class_codes must list one code per road user, got {classes} codes for {ids} ids (list(code ORDER BY id) over the same rows)")
             }
             ConflictError::Work(e) => e.to_string(),
         }

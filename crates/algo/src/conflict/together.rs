@@ -119,7 +119,8 @@ pub struct Body {
 /// twice (module docs)? Same class, at least [`MIN_COMMON`] common sample times, and a median
 /// distance under the class's least gap.
 pub fn probably_one(class_a: &str, class_b: &str, t: Option<Together>) -> bool {
-    class_a == class_b && probably_one_body(Body { class: 0, min_gap_m: class_min_gap_m(class_a) }, Body { class: 0, min_gap_m: class_min_gap_m(class_b) }, t)
+    // one class whatever its case ('Car' and 'CAR'), as the class's kind is read
+    class_a.trim().eq_ignore_ascii_case(class_b.trim()) && probably_one_body(Body { class: 0, min_gap_m: class_min_gap_m(class_a) }, Body { class: 0, min_gap_m: class_min_gap_m(class_b) }, t)
 }
 
 /// [`probably_one`] for classes given as codes with their least gaps.
@@ -163,6 +164,10 @@ mod tests {
         assert!((t.median_m - 0.08).abs() < 1e-9 && (t.span_s - 3.9).abs() < 1e-9, "{t:?}");
         assert!(probably_one("pedestrian", "pedestrian", Some(t)));
         assert!(!probably_one("pedestrian", "cyclist", Some(t)));
+        assert!(probably_one("Car", "CAR", Some(t)));
+        // no class (the load's 'unknown'): the least gap of any road user, 0.25 m
+        assert!(probably_one("unknown", "unknown", Some(t)));
+        assert!(!probably_one("unknown", "unknown", together(a.view(), line(0.0, 50, 0.1, 0.32).view())));
         // a neighbour walking 0.32 m beside (the closest pair on the DUT scenes): two people
         let side = line(0.0, 50, 0.1, 0.32);
         assert!(!probably_one("pedestrian", "pedestrian", together(a.view(), side.view())));

@@ -5,7 +5,8 @@
 //! 0.3 km/h. A speed study leaves them out; a count keeps them, marked.
 //!
 //! **The rule** ([`stationary`]): the path's extent (the diagonal of its bounding box) is under
-//! the class's length ([`class_length_m`]: it never left a spot of its own size) and that extent
+//! the class's length ([`Kind::still_extent_m`]: it never left a spot of its own size; a pedestrian's
+//! for a class that says nothing, such as `unknown`) and that extent
 //! over its duration is under [`STILL_SPEED_MS`] (so a 0.5 s fragment of a walking pedestrian,
 //! 0.7 m in 0.5 s, is not stationary, while a pedestrian waiting at the kerb for the whole track
 //! is). Measured on the DUT intersection: the parked cars' extents are 0.1-0.2 m (one 0.9 m), the
@@ -14,7 +15,7 @@
 //! # Complexity
 //! O(n) for n points.
 
-use crate::associate::class_length_m;
+use crate::associate::Kind;
 use crate::traj::Traj;
 
 /// Below this extent per second (m/s) a road user did not travel: a fifth of the slowest
@@ -37,7 +38,7 @@ pub fn extent_m(tr: Traj<'_>) -> f64 {
 /// no duration, is stationary when its extent is under the class's length.
 pub fn stationary(tr: Traj<'_>, class: &str) -> bool {
     let e = extent_m(tr);
-    if !(e < class_length_m(class)) {
+    if !(e < Kind::of(class).still_extent_m()) {
         return false;
     }
     let d = if tr.len() >= 2 { tr.t[tr.len() - 1] - tr.t[0] } else { 0.0 };
@@ -72,5 +73,8 @@ mod tests {
         // one point: stationary
         assert!(stationary(path(1, 0.1, 0.0, 0.0).view(), "car"));
         assert_eq!(extent_m(path(0, 0.1, 0.0, 0.0).view()), 0.0);
+        // a class that says nothing is sized as a pedestrian here: 2 m of swaying is not still
+        assert!(!stationary(path(600, 0.1, 0.0, 1.0).view(), "unknown"));
+        assert!(stationary(path(600, 0.1, 0.0, 1.0).view(), "car"));
     }
 }

@@ -254,25 +254,24 @@ fn pair_clear_of(a: &Args<'_>, out: &mut Out<'_>) -> R {
     Ok(())
 }
 
-fn bias_search_m(a: &Args<'_>, out: &mut Out<'_>) -> R {
+/// A DOUBLE of a class name (the road user's size by its kind), NULL for NULL.
+fn by_class(a: &Args<'_>, out: &mut Out<'_>, f: fn(&str) -> f64) -> R {
     let c = a.text(0);
-    let vals = a.map(|r| Ok(c.get(r).map(|c| crate::algo::associate::search_reach_m(&c))))?;
+    let vals = a.map(|r| Ok(c.get(r).map(|c| f(&c))))?;
     out.flat(&vals);
     Ok(())
+}
+
+fn bias_search_m(a: &Args<'_>, out: &mut Out<'_>) -> R {
+    by_class(a, out, crate::algo::associate::search_reach_m)
 }
 
 fn class_length_m(a: &Args<'_>, out: &mut Out<'_>) -> R {
-    let c = a.text(0);
-    let vals = a.map(|r| Ok(c.get(r).map(|c| crate::algo::associate::class_length_m(&c))))?;
-    out.flat(&vals);
-    Ok(())
+    by_class(a, out, crate::algo::associate::class_length_m)
 }
 
 fn class_min_gap_m(a: &Args<'_>, out: &mut Out<'_>) -> R {
-    let c = a.text(0);
-    let vals = a.map(|r| Ok(c.get(r).map(|c| crate::algo::associate::class_min_gap_m(&c))))?;
-    out.flat(&vals);
-    Ok(())
+    by_class(a, out, crate::algo::associate::class_min_gap_m)
 }
 
 fn class_kind(a: &Args<'_>, out: &mut Out<'_>) -> R {

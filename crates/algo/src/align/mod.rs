@@ -35,3 +35,17 @@ pub mod shift_under;
 pub mod speed_lag;
 pub mod twin;
 pub mod xcorr;
+
+/// The scenes of the registration tests: a seeded uniform draw in (0, 1) (a 64-bit LCG's top 53
+/// bits) and a normal one (Box-Muller), shared by register, register_clock and perspective.
+#[cfg(test)]
+pub(crate) mod test_rng {
+    pub(crate) fn lcg(state: &mut u64) -> f64 {
+        *state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        ((*state >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+    }
+    pub(crate) fn gauss(state: &mut u64) -> f64 {
+        let (a, b) = (lcg(state), lcg(state));
+        (-2.0 * a.ln()).sqrt() * (std::f64::consts::TAU * b).cos()
+    }
+}

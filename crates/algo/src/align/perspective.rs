@@ -275,14 +275,7 @@ pub fn perspective(f: &[[f64; 2]], m: &[[f64; 2]], pair: &[usize], block: &[usiz
 mod tests {
     use super::*;
 
-    fn lcg(state: &mut u64) -> f64 {
-        *state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-        ((*state >> 11) as f64 + 0.5) / (1u64 << 53) as f64
-    }
-    fn gauss(state: &mut u64) -> f64 {
-        let (a, b) = (lcg(state), lcg(state));
-        (-2.0 * a.ln()).sqrt() * (std::f64::consts::TAU * b).cos()
-    }
+    use super::super::test_rng::{gauss, lcg};
 
     /// `k` straight tracks crossing a 60 m view; the fixed camera sees world point p as
     /// `c + s q / (1 + h·q)` (q = p − c, the simulator's model), the moving one rotated by

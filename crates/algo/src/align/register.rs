@@ -599,14 +599,7 @@ mod tests {
     use super::*;
     use crate::traj::OwnedTraj;
 
-    fn lcg(state: &mut u64) -> f64 {
-        *state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-        ((*state >> 11) as f64 + 0.5) / (1u64 << 53) as f64
-    }
-    fn gauss(state: &mut u64) -> f64 {
-        let (a, b) = (lcg(state), lcg(state));
-        (-2.0 * a.ln()).sqrt() * (std::f64::consts::TAU * b).cos()
-    }
+    use super::super::test_rng::{gauss, lcg};
 
     /// A scene of `k` road users crossing a 60 m view in many directions, seen by a fixed camera
     /// (world frame) and a moving one (world = `tf(moving)`), with a per-pair offset drawn per

@@ -280,14 +280,7 @@ mod tests {
     use crate::align::shift;
     use crate::traj::OwnedTraj;
 
-    fn lcg(state: &mut u64) -> f64 {
-        *state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-        ((*state >> 11) as f64 + 0.5) / (1u64 << 53) as f64
-    }
-    fn gauss(state: &mut u64) -> f64 {
-        let (a, b) = (lcg(state), lcg(state));
-        (-2.0 * a.ln()).sqrt() * (std::f64::consts::TAU * b).cos()
-    }
+    use super::super::test_rng::{gauss, lcg};
 
     /// Pedestrians crossing in four directions and cars on a one-way road, some turning; the
     /// moving camera's clock runs `dt0` ahead; class 1 (cars) is seen `car_bias` off along the

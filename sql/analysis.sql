@@ -293,7 +293,9 @@ GROUP BY trajdb_m.approach_in, trajdb_m.approach_out, trajdb_m.movement, trajdb_
 -- smallest PET, at most max_pet) and traj_ttc (the minimum TTC at constant velocity, radius = the
 -- sum of the two road users' radii). Kept: pairs with a PET, or a TTC of at most max_ttc.
 -- road_user must be unique.
--- kind: SSAM's rule on the crossing angle: rear-end (< 30 deg), lane-change (30-85), crossing (> 85).
+-- kind: conflict_kind: SSAM's kinds by the crossing angle between two vehicles (rear-end < 30 deg,
+-- lane-change 30-85, crossing > 85), vehicle-pedestrian or pedestrian-pedestrian otherwise, NULL for
+-- a class that says nothing (issue 39: a pedestrian pair is no lane change).
 -- road_user_first: who passed the conflict point first.
 -- together_m: the median distance between the two over their common time (NULL: none);
 -- probably_one: one road user counted twice, not two (same class, closer than the class's width:
@@ -327,7 +329,7 @@ trajdb_c AS (  -- (ids as BIGINT: integer and decimal road_user columns of any w
 )
 SELECT p.a AS road_user_a, ra.class AS class_a, p.b AS road_user_b, rb.class AS class_b,
        p.pet, p.x AS pet_x, p.y AS pet_y, p.t_first, p.t_second, p.angle AS angle_deg,
-       CASE WHEN p.angle < 30 THEN 'rear-end' WHEN p.angle <= 85 THEN 'lane-change' WHEN p.angle IS NOT NULL THEN 'crossing' END AS kind,
+       conflict_kind(ra.class, rb.class, p.angle) AS kind,
        CASE WHEN p.a_first THEN p.a WHEN NOT p.a_first THEN p.b END AS road_user_first,
        p.ttc, p.ttc_t, p.ttc_x, p.ttc_y, p.together_m,
        coalesce(conflict_probably_one(ra.class, rb.class, p.together_n, p.together_m), false) AS probably_one

@@ -42,16 +42,23 @@ CREATE OR REPLACE TEMP TABLE report_users AS
 SELECT road_user, class, len(list_distinct([s.camera FOR s IN sources])) AS n_cams, traj_time_range(traj).t_start AS t_start,
        traj_duration(traj) AS duration_s,
        CASE WHEN traj_duration(traj) >= 1 THEN traj_length_m(traj) / traj_duration(traj) END AS mean_speed,
-       stationary
+       stationary, traj_time_range(traj).t_end AS t_end, n_tracks
 FROM merged;
 -- the analyst's questions (issue 29 §4): movements and near misses come from sql/analysis.sql's
 -- macros, defined again here so that the report stands alone after .read sql/pipeline.sql
 .read sql/analysis.sql
+-- every road user's entry and exit approach and movement, once (the movement table, its diagram,
+-- speeds per movement and the confidence lines all read it)
+CREATE OR REPLACE TEMP TABLE report_ru_mov AS FROM trajdb_road_user_movements();
 CREATE OR REPLACE TEMP TABLE report_movements AS
-SELECT approach_in, approach_out, movement, class, sum(road_users) AS n FROM trajdb_movements() GROUP BY ALL;
-CREATE OR REPLACE TEMP TABLE report_conflicts AS
--- (the 15 smallest PETs under 3 s of conflicts(), found without computing the rest)
-FROM trajdb_top_conflicts(k := 15, max_pet := 3.0) WHERE pet < 3 ORDER BY pet, road_user_a, road_user_b LIMIT 15;
+SELECT approach_in, approach_out, movement, class, count(*) AS n FROM report_ru_mov WHERE movement IS NOT NULL GROUP BY ALL;
+-- the approaches the movements were counted by (found in the data: approaches())
+CREATE OR REPLACE TEMP TABLE report_approaches AS FROM trajdb_approaches();
+-- (issue 39 §8) the near misses of the conflict map and of the PET / TTC distributions: the 300
+-- smallest PETs under 3 s, found without computing the rest; the table shows the first 15
+CREATE OR REPLACE TEMP TABLE report_near AS
+FROM trajdb_top_conflicts(k := 300, max_pet := 3.0) WHERE pet < 3 ORDER BY pet, road_user_a, road_user_b;
+CREATE OR REPLACE TEMP TABLE report_conflicts AS FROM report_near ORDER BY pet, road_user_a, road_user_b LIMIT 15;
 -- (issue 39) road users that are probably one counted twice: not near misses, listed apart and
 -- counted in "needs a look"; and what merging removed from the near-miss table
 CREATE OR REPLACE TEMP TABLE report_probably_one AS FROM trajdb_probably_one();
@@ -66,6 +73,38 @@ SELECT count(*) AS top, count(*) FILTER (WHERE ga.road_user = gb.road_user) AS s
 FROM trajdb_conflicts(tbl := 'report_tracks', max_pet := 3.0, top := 15) c
 JOIN merge_groups ga ON ga.uid = c.road_user_a JOIN merge_groups gb ON gb.uid = c.road_user_b
 WHERE c.pet < 3;
+-- (issue 39 §8) counts per 15 minutes (the peak hour and its factor are the renderer's: it knows
+-- which bins the recording covers whole). Road users that moved, by the time they were first
+-- seen, in 900 s bins: on a wall clock (TIMESTAMP input, seconds since 1970) at the quarter
+-- hours, else from the start of the recording. The span is the merged paths' (reference clock).
+CREATE OR REPLACE TEMP TABLE report_flow_span AS
+SELECT min(t_start) AS t0, max(t_end) AS t1, coalesce(getvariable('input_t_type') LIKE 'TIMESTAMP%', false) AS wall FROM report_users;
+CREATE OR REPLACE TEMP TABLE report_flow AS
+SELECT b, class, count(*) AS n
+FROM (SELECT u.class, CASE WHEN s.wall THEN floor(u.t_start / 900) * 900 ELSE s.t0 + floor((u.t_start - s.t0) / 900) * 900 END AS b
+      FROM report_users u, report_flow_span s WHERE NOT coalesce(u.stationary, false))
+GROUP BY ALL;
+-- (issue 39 §8) how far to trust each number: of its road users, how many were seen by more
+-- than one camera (matched across cameras), joined across a break within one camera (more tracks
+-- than cameras), and flagged (probably one road user counted twice)
+CREATE OR REPLACE TEMP TABLE report_conf AS
+WITH d AS (SELECT road_user_a AS road_user FROM report_probably_one UNION SELECT road_user_b FROM report_probably_one),
+u AS (SELECT u.*, u.road_user IN (SELECT road_user FROM d) AS dup FROM report_users u),
+c AS (SELECT road_user_a AS road_user FROM report_conflicts UNION SELECT road_user_b FROM report_conflicts)
+SELECT topic, count(*) AS n, count(*) FILTER (WHERE n_cams > 1) AS multi, count(*) FILTER (WHERE n_tracks > n_cams) AS joined,
+       count(*) FILTER (WHERE dup) AS flagged
+FROM (SELECT 'movement' AS topic, u.* FROM u JOIN report_ru_mov r USING (road_user)
+      WHERE r.movement IS NOT NULL AND class_kind(u.class) <> 'pedestrian'
+      UNION ALL SELECT 'speed', u.* FROM u WHERE NOT coalesce(u.stationary, false) AND u.mean_speed IS NOT NULL
+      UNION ALL SELECT 'conflict', u.* FROM u WHERE road_user IN (SELECT road_user FROM c)
+      UNION ALL SELECT 'count', u.* FROM u WHERE NOT coalesce(u.stationary, false))
+GROUP BY topic;
+-- (issue 39 §8) the site map: up to 1,500 road users' paths, each thinned to about 40 points
+CREATE OR REPLACE TEMP TABLE report_site AS
+SELECT class, coalesce(stationary, false) AS stationary,
+       list_filter(traj, lambda p, i: (i - 1) % greatest(len(traj) // 40, 1) = 0 OR i = len(traj)) AS traj
+FROM merged WHERE len(traj) >= 1
+QUALIFY row_number() OVER (ORDER BY hash(road_user), road_user) <= 1500;
 CREATE OR REPLACE TEMP TABLE report_rows AS
 SELECT 'meta' AS s, 1 AS k, ['input', getvariable('pipeline_input')] AS c
 UNION ALL SELECT 'meta', 2, ['xi', calibrated('merge_min_points')::BIGINT::VARCHAR]
@@ -196,6 +235,25 @@ UNION ALL SELECT 'meta', 10, ['same_approach_share', (coalesce(sum(n) FILTER (WH
     FROM report_movements WHERE approach_in IS NOT NULL AND approach_out IS NOT NULL AND class_kind(class) <> 'pedestrian'
 UNION ALL SELECT 'meta', 8, ['tracks_top_near_misses', top::VARCHAR] FROM report_near_miss_counts
 UNION ALL SELECT 'meta', 9, ['tracks_top_same_road_user', same::VARCHAR] FROM report_near_miss_counts
+UNION ALL SELECT 'meta', 11, ['flow_t0', t0::VARCHAR] FROM report_flow_span
+UNION ALL SELECT 'meta', 12, ['flow_t1', t1::VARCHAR] FROM report_flow_span
+UNION ALL SELECT 'meta', 13, ['clock', CASE WHEN getvariable('input_t_type') = 'TIMESTAMP WITH TIME ZONE' THEN 'utc'
+                                            WHEN getvariable('input_t_type') LIKE 'TIMESTAMP%' THEN 'wall' ELSE 'relative' END]
+UNION ALL SELECT 'flow', row_number() OVER (ORDER BY b, class), [b::VARCHAR, class, n::VARCHAR] FROM report_flow
+UNION ALL SELECT 'conf', row_number() OVER (ORDER BY topic), [topic, n::VARCHAR, multi::VARCHAR, joined::VARCHAR, flagged::VARCHAR] FROM report_conf
+UNION ALL SELECT 'approach', row_number() OVER (ORDER BY bearing_deg),
+       [approach, bearing_deg::VARCHAR, lo_deg::VARCHAR, hi_deg::VARCHAR, centre_x::VARCHAR, centre_y::VARCHAR, min_radius_m::VARCHAR,
+        n_in::VARCHAR, n_out::VARCHAR] FROM report_approaches
+UNION ALL SELECT 'site_path', row_number() OVER (), [class, stationary::VARCHAR, report_xy(traj)] FROM report_site
+UNION ALL SELECT 'near', row_number() OVER (ORDER BY pet, road_user_a, road_user_b),
+       [pet::VARCHAR, ttc::VARCHAR, kind, pet_x::VARCHAR, pet_y::VARCHAR, class_a, class_b] FROM report_near
+-- speeds per movement: the road users' mean speeds (m/s), moving road users with a known movement
+UNION ALL SELECT 'speed_mov', row_number() OVER (ORDER BY n DESC, approach_in, approach_out, class),
+       [approach_in, approach_out, movement, class, n::VARCHAR, p15::VARCHAR, p50::VARCHAR, p85::VARCHAR, mn::VARCHAR, mx::VARCHAR]
+    FROM (SELECT r.approach_in, r.approach_out, r.movement, r.class, count(*) AS n, quantile_cont(u.mean_speed, 0.15) AS p15,
+                 quantile_cont(u.mean_speed, 0.5) AS p50, quantile_cont(u.mean_speed, 0.85) AS p85, min(u.mean_speed) AS mn, max(u.mean_speed) AS mx
+          FROM report_ru_mov r JOIN report_users u USING (road_user)
+          WHERE r.movement IS NOT NULL AND NOT coalesce(u.stationary, false) AND u.mean_speed IS NOT NULL GROUP BY ALL)
 UNION ALL SELECT 'param', row_number() OVER (ORDER BY stage, name), [name, value, stage, description] FROM pipeline_params;
 COPY (SELECT trajdb_report_html(string_agg(s || chr(31) || array_to_string([report_cell(v) FOR v IN c], chr(31)), chr(30) ORDER BY s, k))
       FROM report_rows)

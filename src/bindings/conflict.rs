@@ -149,6 +149,25 @@ pub static FUNCTIONS: &[Function] = &[
         }],
         table: None,
     },
+    Function {
+        name: "conflict_kind",
+        description: "The kind of a crossing between road users of classes class_a and class_b whose headings meet at angle_deg \
+                      (traj_pet's angle, 0-180): SSAM's kinds between two vehicles (cars, heavy vehicles, two-wheelers): rear-end \
+                      under 30 degrees, lane-change 30-85, crossing above 85 (Gettman et al. 2008); 'vehicle-pedestrian' when one is a \
+                      pedestrian and 'pedestrian-pedestrian' when both are (SSAM's kinds are about vehicles in lanes: a pedestrian pair \
+                      is no lane change). NULL when a class says nothing of the road user (class_kind 'unknown'), a vehicle pair has \
+                      no finite angle, or an argument is NULL (crates/algo/src/conflict/kind.rs). conflicts()' kind column. O(1).",
+        example: "SELECT conflict_kind('car', 'car', 90), conflict_kind('pedestrian', 'pedestrian', 40); -- crossing, pedestrian-pedestrian",
+        maths: "crates/algo/src/conflict/kind.rs",
+        binding: file!(),
+        signatures: &[Signature {
+            params: &[p("class_a", Ty::Varchar), p("class_b", Ty::Varchar), p("angle_deg", Ty::Double)],
+            arities: &[],
+            returns: Ty::Varchar,
+            kernel: kind,
+        }],
+        table: None,
+    },
 ];
 
 /// The columns of one row's kept pairs (CONFLICTS' fields, in order).
@@ -274,6 +293,16 @@ fn ttc(a: &Args<'_>, out: &mut Out<'_>) -> R {
         Ok(Some(c.map(|c| vec![Value::F64(c.ttc), Value::F64(c.t), Value::F64(c.x), Value::F64(c.y)])))
     })?;
     out.structs(&vals.into_iter().map(Option::flatten).collect::<Vec<_>>());
+    Ok(())
+}
+
+fn kind(a: &Args<'_>, out: &mut Out<'_>) -> R {
+    let (ca, cb, g) = (a.text(0), a.text(1), a.double(2));
+    let vals: Vec<Option<&str>> = a.map(|r| {
+        let (Some(x), Some(y), Some(g)) = (ca.get(r), cb.get(r), g.get(r)) else { return Ok(None) };
+        Ok(conflict::conflict_kind(&x, &y, Some(g)))
+    })?;
+    out.text(&vals);
     Ok(())
 }
 

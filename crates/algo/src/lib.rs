@@ -41,6 +41,7 @@ pub mod limits;
 pub mod matching;
 pub mod merge;
 pub mod noise;
+pub mod peak_hour;
 pub mod stats;
 pub mod traj;
 

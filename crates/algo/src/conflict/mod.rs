@@ -16,15 +16,18 @@
 //! sql/analysis.sql `conflicts` calls through `traj_conflicts`), [`top`] (the pairs with the k
 //! smallest PETs, searching the PET bound upward: `top_conflicts`, `traj_conflicts_top`) and
 //! [`together`] (how close two road users stay over their common time, and when that makes
-//! them one road user counted twice: not a near miss).
+//! them one road user counted twice: not a near miss) and [`kind`] (SSAM's kinds, only between
+//! vehicles).
 
 pub mod candidates;
+pub mod kind;
 pub mod pairs;
 pub mod pet;
 pub mod together;
 pub mod top;
 pub mod ttc;
 
+pub use kind::conflict_kind;
 pub use pairs::{conflicts, Conflict};
 pub use pet::{pet, Pet};
 pub use together::{probably_one, probably_one_body, together, Body, Together};

@@ -48,10 +48,17 @@ pub const GLOSSARY: &str = "<h2>Glossary</h2><dl>\
 </ul>";
 
 /// Closes the page. The script counts the sections and the elements wider than their box
-/// (body data-sections / data-overflow), for the headless-browser test (tests/test_report.sh).
+/// (body data-sections / data-overflow), the study's figures drawn at a readable size inside the
+/// window (data-study: their ids) and their labels cut off by their figure (data-clipped), for the
+/// headless-browser test (tests/test_report.sh).
 pub fn page_end() -> &'static str {
     "<script>(function(){var n=0;document.querySelectorAll('body *').forEach(function(e){var r=e.getBoundingClientRect();\
 if(e.scrollWidth>e.clientWidth+1&&getComputedStyle(e).overflowX==='visible'&&e.tagName!=='svg'&&e.closest('svg')===null)n++;\
 if(r.right>document.documentElement.clientWidth+1)n++;});document.body.dataset.overflow=n;\
-document.body.dataset.sections=document.querySelectorAll('h2').length;})();</script></body></html>\n"
+document.body.dataset.sections=document.querySelectorAll('h2').length;\
+var ok=[],clip=0;['site-map','movement-diagram','peak-hour','conflict-map'].forEach(function(id){var e=document.getElementById(id);if(!e)return;\
+var g=e.querySelector('svg');if(!g)return;var b=g.getBoundingClientRect();if(b.width>=200&&b.height>=100&&b.right<=document.documentElement.clientWidth+1)ok.push(id);\
+e.querySelectorAll('svg text').forEach(function(t){var s=t.ownerSVGElement.getBoundingClientRect(),r=t.getBoundingClientRect();\
+if(r.left<s.left-1||r.right>s.right+1||r.top<s.top-1||r.bottom>s.bottom+1)clip++;});});\
+document.body.dataset.study=ok.join(' ');document.body.dataset.clipped=clip;})();</script></body></html>\n"
 }

@@ -12,6 +12,7 @@
 
 mod data;
 mod html;
+mod study;
 mod svg;
 
 pub use data::DataError;
@@ -27,8 +28,13 @@ pub fn render(text: &str) -> Result<String, DataError> {
     let mut h = html::page_start(d.meta("input").unwrap_or("?"));
     // the headline first (issue 29 §5): what was found and how far to trust it
     summary(&d, &c, &mut h)?;
-    analysis(&d, &mut h)?;
+    // the study (issue 39 §8): the site, movements, counts with the peak hour, speeds, near misses
+    study::site_map(&d, &c, &mut h)?;
+    study::movements(&d, &c, &mut h)?;
+    study::counts(&d, &c, &mut h)?;
     speeds(&d, &mut h)?;
+    study::speed_movements(&d, &c, &mut h)?;
+    study::near_misses(&d, &c, &mut h)?;
     camera_quality(&d, &mut h)?;
     transforms(&d, &c, &mut h)?;
     calibration(&d, &c, &mut h)?;
@@ -255,46 +261,6 @@ fn summary(d: &Data, c: &Ctx, h: &mut String) -> R<()> {
             let _ = write!(h, "<li>{}</li>", html::esc(w));
         }
         h.push_str("</ul>");
-    }
-    Ok(())
-}
-
-/// HOOK (issue 29 §4): the movement table and diagram and the conflict list, from
-/// sql/analysis.sql (rows 'movement' and 'conflict' of sql/report.sql). Nothing is drawn until
-/// those rows exist; the engineer who adds them renders them here.
-fn analysis(d: &Data, h: &mut String) -> R<()> {
-    let cells = |section: &str, n: usize| -> R<Vec<Vec<String>>> { d.rows(section).iter().map(|r| (0..n).map(|k| r.s(k)).collect::<R<Vec<_>>>()).collect() };
-    let movements = cells("movement", 5)?;
-    let conflicts = cells("conflict", 9)?;
-    h.push_str("<h2>Movements and near misses</h2><p>Turning movements over the whole recording (entry approach → exit approach, found in the \
-                data: sql/analysis.sql's movements(); per 15 minutes and with your own gates in SQL, docs/analysis.md).</p>");
-    if movements.is_empty() {
-        h.push_str("<p>No road user crosses the site from one approach to another.</p>");
-    } else {
-        h.push_str(&table(&["from", "to", "movement", "class", "road users"].map(String::from), &movements));
-    }
-    h.push_str("<p>The closest encounters: post-encroachment time (PET, s: how long after the first road user left the point where \
-                the paths cross the second arrived) under 3 s, and the time to collision at constant velocity (TTC, s) where they \
-                converged (conflicts()).</p>");
-    if conflicts.is_empty() {
-        h.push_str("<p>No pair of road users crossed within 3 s.</p>");
-    } else {
-        h.push_str(&table(&["road user", "class", "road user", "class", "PET", "kind", "x", "y", "TTC"].map(String::from), &conflicts));
-    }
-    let count = |k: &str| d.meta(k).and_then(|v| v.parse::<i64>().ok());
-    if let (Some(top), Some(same)) = (count("tracks_top_near_misses"), count("tracks_top_same_road_user")) {
-        let _ = write!(
-            h,
-            "<p>Before merging (every camera's track a road user of its own), {same} of the {top} closest encounters (PET under 3 s) were two \
-             tracks of one road user (seen by two cameras, or broken in one); merging removed them from this table.</p>"
-        );
-    }
-    let dups = cells("dup", 5)?;
-    if !dups.is_empty() {
-        h.push_str("<p><b>Probably one road user counted twice</b> (not near misses): two road users of one class whose centres stay closer \
-                    over their common time than two bodies can (conflict_probably_one: a pedestrian 0.25 m, a car 1.8 m), the median distance \
-                    in m; probably_one() in SQL.</p>");
-        h.push_str(&table(&["road user", "road user", "class", "apart (m)", "PET"].map(String::from), &dups));
     }
     Ok(())
 }

@@ -14,7 +14,7 @@ pub fn color(camera: i64) -> &'static str {
 /// The width of a plot area in pixels (axes come on top).
 pub const PLOT_W: f64 = 420.0;
 /// Room for the y tick labels (left) and the x tick labels (below), in pixels.
-const LEFT: f64 = 46.0;
+pub const LEFT: f64 = 46.0;
 const BOTTOM: f64 = 30.0;
 
 /// A legend of camera colours (HTML).
@@ -65,6 +65,10 @@ impl Frame {
         let (x0, x1, y0, y1) = (x0 - pad, x1 + pad, y0 - pad, y1 + pad);
         let k = w / (x1 - x0).max(y1 - y0);
         Frame { x0, y1, k, w: (x1 - x0) * k, h: (y1 - y0) * k }
+    }
+    /// The world box the frame shows: (x0, x1, y0, y1).
+    pub fn bounds(&self) -> (f64, f64, f64, f64) {
+        (self.x0, self.x0 + self.w / self.k, self.y1 - self.h / self.k, self.y1)
     }
     /// SVG pixel of world point (x, y).
     pub fn p(&self, x: f64, y: f64) -> (f64, f64) {
@@ -142,6 +146,24 @@ impl Frame {
             if dash { " stroke-dasharray=\"4 3\"" } else { "" }
         )
     }
+    /// A text label at world point (x, y), `anchor` start / middle / end, with a white halo so
+    /// that it reads over the paths.
+    pub fn text(&self, x: f64, y: f64, s: &str, anchor: &str, size: f64) -> String {
+        let (u, v) = self.p(x, y);
+        format!(
+            "<text x=\"{u:.1}\" y=\"{v:.1}\" font-size=\"{size}\" text-anchor=\"{anchor}\" dominant-baseline=\"middle\" \
+             paint-order=\"stroke\" stroke=\"#fff\" stroke-width=\"3\" fill=\"#222\">{}</text>",
+            esc(s)
+        )
+    }
+    /// A filled circle of `r` pixels at world point (x, y).
+    pub fn circle(&self, x: f64, y: f64, r: f64, fill: &str, title: &str) -> String {
+        let (u, v) = self.p(x, y);
+        format!(
+            "<circle cx=\"{u:.1}\" cy=\"{v:.1}\" r=\"{r:.1}\" fill=\"{fill}\" fill-opacity=\"0.75\" stroke=\"#222\" stroke-width=\"0.5\"><title>{}</title></circle>",
+            esc(title)
+        )
+    }
     /// A (multi)polygon given as WKT (parsed by the algo's polygon reader).
     pub fn polygon(&self, wkt_text: &str, stroke: &str, fill: &str, fill_opacity: f64) -> String {
         let mut d = String::new();
@@ -154,6 +176,70 @@ impl Frame {
         }
         format!("<path d=\"{d}\" stroke=\"{stroke}\" stroke-width=\"1.5\" fill=\"{fill}\" fill-opacity=\"{fill_opacity}\" fill-rule=\"evenodd\"/>")
     }
+}
+
+/// A bar chart (its own SVG, no world frame): one bar per label, `values` with their colours,
+/// the y axis from 0 with about 4 ticks, labels under every `label_every`-th bar. For the
+/// report's counts per 15 minutes and its PET / TTC distributions.
+pub fn bars(title: &str, labels: &[String], values: &[f64], colors: &[&str], y_label: &str, label_every: usize) -> String {
+    let n = values.len().max(1);
+    let bw = (560.0 / n as f64).clamp(3.0, 40.0);
+    // room on the right for the last label
+    let (ph, w) = (160.0, LEFT + bw * n as f64 + 48.0);
+    let top = values.iter().copied().fold(0.0, f64::max).max(1.0);
+    let step = tick_step(top);
+    let k = ph / ((top / step).ceil() * step);
+    let mut s = format!(
+        "<figure style=\"max-width:{w:.0}px\"><svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{w:.0}\" height=\"{:.0}\" viewBox=\"0 0 {w:.1} {:.1}\" style=\"background:#fff\"><title>{}</title>",
+        ph + 46.0,
+        ph + 46.0,
+        esc(title)
+    );
+    let mut t = 0.0;
+    while t * k <= ph + 0.5 {
+        let v = 6.0 + ph - t * k;
+        let _ = write!(
+            s,
+            "<line x1=\"{LEFT}\" y1=\"{v:.1}\" x2=\"{:.1}\" y2=\"{v:.1}\" stroke=\"#ddd\"/><text x=\"{:.1}\" y=\"{:.1}\" font-size=\"10\" text-anchor=\"end\">{}</text>",
+            w - 4.0,
+            LEFT - 4.0,
+            v + 3.5,
+            label(t, step)
+        );
+        t += step;
+    }
+    for (i, v) in values.iter().enumerate() {
+        let x = LEFT + i as f64 * bw;
+        let hgt = v.max(0.0) * k;
+        let _ = write!(
+            s,
+            "<rect x=\"{:.1}\" y=\"{:.1}\" width=\"{:.1}\" height=\"{hgt:.1}\" fill=\"{}\"><title>{}: {}</title></rect>",
+            x + 0.5,
+            6.0 + ph - hgt,
+            (bw - 1.0).max(1.0),
+            colors.get(i).copied().unwrap_or("#1f77b4"),
+            esc(labels.get(i).map_or("", String::as_str)),
+            v
+        );
+        if label_every > 0 && i % label_every == 0 {
+            let _ = write!(
+                s,
+                "<text x=\"{:.1}\" y=\"{:.1}\" font-size=\"10\" text-anchor=\"start\">{}</text>",
+                x + 0.5,
+                ph + 20.0,
+                esc(labels.get(i).map_or("", String::as_str))
+            );
+        }
+    }
+    let _ = write!(
+        s,
+        "<text x=\"10\" y=\"{:.1}\" font-size=\"10\" transform=\"rotate(-90 10 {:.1})\" text-anchor=\"middle\">{}</text></svg><figcaption>{}</figcaption></figure>",
+        6.0 + ph / 2.0,
+        6.0 + ph / 2.0,
+        esc(y_label),
+        esc(title)
+    );
+    s
 }
 
 /// Every ring (exterior and holes) of a POLYGON / MULTIPOLYGON WKT; none for empty or invalid text.

@@ -47,13 +47,33 @@ FROM merged;
 -- the analyst's questions (issue 29 §4): movements and near misses come from sql/analysis.sql's
 -- macros, defined again here so that the report stands alone after .read sql/pipeline.sql
 .read sql/analysis.sql
+-- (issue 39) the gates the report counts movements by, drawn by the analyst: report_gates_in
+-- (the runner reads the parameter report_gates, a file or a table, into it; by hand: CREATE TEMP
+-- TABLE report_gates_in AS FROM 'gates.csv' before this file), with approach, x1, y1, x2, y2 or
+-- approach, wkt. None: the approaches are found in the data, and the report says which.
+CREATE TEMP TABLE IF NOT EXISTS report_gates_in AS SELECT NULL::VARCHAR AS approach WHERE false;
+CREATE OR REPLACE TEMP TABLE report_gates AS
+WITH j AS (SELECT to_json(g) AS j FROM report_gates_in g),
+v AS (SELECT j->>'approach' AS approach, TRY_CAST(j->>'x1' AS DOUBLE) AS x1, TRY_CAST(j->>'y1' AS DOUBLE) AS y1,
+             TRY_CAST(j->>'x2' AS DOUBLE) AS x2, TRY_CAST(j->>'y2' AS DOUBLE) AS y2, j->>'wkt' AS wkt, j::VARCHAR AS row_text FROM j)
+SELECT CASE WHEN coalesce(trim(approach), '') = ''
+            THEN error('report_gates: every gate needs an approach name (columns approach, x1, y1, x2, y2, or approach, wkt), got ' || left(row_text, 200))
+            ELSE approach END AS approach,
+       coalesce(x1, trajdb_gate_from_wkt(wkt).x1) AS x1, coalesce(y1, trajdb_gate_from_wkt(wkt).y1) AS y1,
+       coalesce(x2, trajdb_gate_from_wkt(wkt).x2) AS x2,
+       CASE WHEN coalesce(y2, trajdb_gate_from_wkt(wkt).y2) IS NULL OR x1 IS NULL AND wkt IS NULL
+            THEN error('report_gates: gate ' || approach || ' needs numbers x1, y1, x2, y2 (metres in the results'' frame) or a wkt LINESTRING (x1 y1, x2 y2), got '
+                       || left(row_text, 200))
+            ELSE coalesce(y2, trajdb_gate_from_wkt(wkt).y2) END AS y2
+FROM v;
+SET VARIABLE report_gates_table = CASE WHEN (SELECT count(*) FROM report_gates) > 0 THEN 'report_gates' END;
 -- every road user's entry and exit approach and movement, once (the movement table, its diagram,
 -- speeds per movement and the confidence lines all read it)
-CREATE OR REPLACE TEMP TABLE report_ru_mov AS FROM trajdb_road_user_movements();
+CREATE OR REPLACE TEMP TABLE report_ru_mov AS FROM trajdb_road_user_movements(gates := getvariable('report_gates_table'));
 CREATE OR REPLACE TEMP TABLE report_movements AS
 SELECT approach_in, approach_out, movement, class, count(*) AS n FROM report_ru_mov WHERE movement IS NOT NULL GROUP BY ALL;
 -- the approaches the movements were counted by (found in the data: approaches())
-CREATE OR REPLACE TEMP TABLE report_approaches AS FROM trajdb_approaches();
+CREATE OR REPLACE TEMP TABLE report_approaches AS FROM trajdb_approaches() WHERE getvariable('report_gates_table') IS NULL;
 -- (issue 39 §8) the near misses of the conflict map and of the PET / TTC distributions: the 300
 -- smallest PETs under 3 s, found without computing the rest; the table shows the first 15
 CREATE OR REPLACE TEMP TABLE report_near AS
@@ -233,6 +253,10 @@ UNION ALL SELECT 'dup', row_number() OVER (ORDER BY road_user_a, road_user_b),
 -- (issue 39) found approaches that cannot be right: most vehicles entering and leaving by one
 UNION ALL SELECT 'meta', 10, ['same_approach_share', (coalesce(sum(n) FILTER (WHERE approach_in = approach_out), 0) / greatest(sum(n), 1))::VARCHAR]
     FROM report_movements WHERE approach_in IS NOT NULL AND approach_out IS NOT NULL AND class_kind(class) <> 'pedestrian'
+      AND getvariable('report_gates_table') IS NULL
+UNION ALL SELECT 'meta', 14, ['approaches_from', CASE WHEN getvariable('report_gates_table') IS NULL THEN 'data' ELSE 'gates' END]
+UNION ALL SELECT 'meta', 15, ['gates_source', coalesce(getvariable('report_gates'), '')]
+UNION ALL SELECT 'gate', row_number() OVER (ORDER BY approach, x1, y1), [approach, x1::VARCHAR, y1::VARCHAR, x2::VARCHAR, y2::VARCHAR] FROM report_gates
 UNION ALL SELECT 'meta', 8, ['tracks_top_near_misses', top::VARCHAR] FROM report_near_miss_counts
 UNION ALL SELECT 'meta', 9, ['tracks_top_same_road_user', same::VARCHAR] FROM report_near_miss_counts
 UNION ALL SELECT 'meta', 11, ['flow_t0', t0::VARCHAR] FROM report_flow_span

@@ -24,6 +24,7 @@ usage: python3 tests/test_analysis_python.py path/to/trajdb.duckdb_extension
 """
 import math
 import os
+import re
 import sys
 import tempfile
 
@@ -132,6 +133,47 @@ def check_gates(con, seed):
     labels = con.execute("""SELECT count(*) FILTER (WHERE m.movement IS DISTINCT FROM d.movement) FROM road_user_movements(gates := 'my_gates') m
                             JOIN road_user_movements() d USING (road_user) WHERE m.movement IS NOT NULL AND d.movement IS NOT NULL""").fetchone()[0]
     assert labels == 0
+    check_report_gates(con, seed, gates, want)
+
+
+def report_movements(html):
+    """The movement table of report.html: {(from, to, class): road users}."""
+    part = html.split("<h2>Turning movements</h2>", 1)[1].split("<h2>", 1)[0]
+    rows = re.findall(r"<tr><th>([^<]*)</th><td>([^<]*)</td><td>[^<]*</td><td>([^<]*)</td><td>(\d+)</td></tr>", part)
+    return dict(((a, b, c), int(n)) for a, b, c, n in rows)
+
+
+def check_report_gates(con, seed, gates, want):
+    """(issue 39) report.html counts movements by the analyst's gates (parameter report_gates: a
+    CSV file with approach, wkt, or a table of the connection with approach, x1, y1, x2, y2), says
+    they were drawn, and its movement table equals the truth; a gate without an approach name is
+    an error naming the parameter."""
+    scene = os.path.dirname(con.execute("SELECT getvariable('pipeline_input')").fetchone()[0])
+    csv = os.path.join(scene, "gates.csv")
+    with open(csv, "w", encoding="utf-8") as f:
+        f.write("approach,wkt\n" + "".join(f'{a},"{w}"\n' for a, w in gates))
+    for how, value in (("file", csv), ("table", "my_gates")):
+        out = os.path.join(scene, f"results_{how}")
+        trajdb.pipeline(con, os.path.join(scene, "points.parquet"), out=out, report_gates=value)
+        html = open(os.path.join(out, "report.html"), encoding="utf-8").read()
+        assert "the gates you drew</b> (parameter report_gates = " in html, how
+        assert "4 gates drawn by the analyst (report_gates)" in html, how
+        got = report_movements(html)
+        assert got == want, f"seed {seed} report gates ({how}): {got} != {want}"
+    # and without gates, the report says its approaches were found
+    html = open(os.path.join(scene, "results_file", "report.html"), encoding="utf-8").read()
+    out = os.path.join(scene, "results_found")
+    trajdb.pipeline(con, os.path.join(scene, "points.parquet"), out=out)
+    assert "found in the data</b>" in open(os.path.join(out, "report.html"), encoding="utf-8").read()
+    bad = os.path.join(scene, "bad_gates.csv")
+    with open(bad, "w", encoding="utf-8") as f:
+        f.write("approach,x1,y1,x2,y2\n,0,0,1,1\n")
+    try:
+        trajdb.pipeline(con, os.path.join(scene, "points.parquet"), out=os.path.join(scene, "results_bad"), report_gates=bad)
+        raise AssertionError("a gate without a name was accepted")
+    except duckdb.Error as e:
+        assert "report_gates: every gate needs an approach name" in str(e), e
+    assert not os.path.exists(os.path.join(scene, "results_bad", "report.html"))
 
 
 def check_mirror(con):

@@ -105,6 +105,7 @@ pub const PARAMS: &[Param] = &[
     s("cluster_method", "'auto'", "cluster", "'exact' (every pair of tracks, traj_cluster), 'prototypes' (traj_cluster_prototypes: linear in the tracks) or 'auto' (exact up to cluster_exact_max tracks of a class, prototypes above)").one_of(&["auto", "exact", "prototypes"]),
     i("cluster_exact_max", "3000", "cluster", "with cluster_method auto, the most tracks of one class clustered exactly (3,000: 4.5 M pairs, a few seconds)").within(0.0, 80000.0),
     b("cluster_translation_invariant", "false", "cluster", "use S2 (shapes anywhere) instead of S1 (routes)"),
+    s("report_gates", "''", "report", "gates the report counts movements by, instead of approaches found in the data: a .csv or .parquet file, or a table or view of this connection, with approach, x1, y1, x2, y2 (metres in the results' frame: the site map's axes) or approach, wkt (LINESTRING (x1 y1, x2 y2)); '' : approaches from the data"),
 ];
 
 /// The parameters of a JSON object (`{"merge_eta": 0.6, "cluster_classes": "car"}`): numbers,
@@ -376,7 +377,11 @@ mod tests {
             // read by its stage, directly or as calibrated('name') (an `auto` parameter: then
             // sql/stages/calibrate.sql reads it to decide between the given and measured value)
             // the load step (stage "load") is in sql/pipeline.sql
-            let file = if p.stage == "load" { "sql/pipeline.sql".to_string() } else { format!("sql/stages/{}.sql", p.stage) };
+            let file = match p.stage {
+                "load" => "sql/pipeline.sql".to_string(),
+                "report" => "sql/report.sql".to_string(),
+                stage => format!("sql/stages/{stage}.sql"),
+            };
             let sql = crate::sql::file(&file).unwrap();
             let calib = crate::sql::file("sql/stages/calibrate.sql").unwrap();
             let get = format!("getvariable('{}')", p.name);

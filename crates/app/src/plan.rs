@@ -303,6 +303,7 @@ pub fn plan(req: &Request) -> Result<Vec<Step>, Box<dyn Error>> {
             makes: Some("pipeline_timings".into()),
             undo: None,
         });
+        steps.push(gates_step(&values));
         push_script(&mut steps, "report", "sql/report.sql", &sql::expand_embedded("sql/report.sql")?);
         steps.push(Step {
             stage: "commit".into(),
@@ -315,6 +316,25 @@ pub fn plan(req: &Request) -> Result<Vec<Step>, Box<dyn Error>> {
     let host_made: &[&str] = if req.part == Part::Window { SITE_TABLES } else { &[] };
     check_session_only(&steps, host_made)?;
     Ok(steps)
+}
+
+/// The report's gates (parameter `report_gates`, issue 39): the rows as given, into the temp
+/// table `report_gates_in` that sql/report.sql reads; empty when the parameter is '' (approaches
+/// from the data). A name ending in .csv or .parquet is a file (read_csv / read_parquet), any
+/// other a table or view (query_table); the value is read from its variable, never spliced
+/// into the SQL.
+fn gates_step(values: &[(&'static params::Param, String)]) -> Step {
+    let given = values.iter().find(|(p, _)| p.name == "report_gates").map(|(_, v)| v.trim_matches('\'').trim().to_ascii_lowercase()).unwrap_or_default();
+    let sql = if given.is_empty() {
+        "CREATE OR REPLACE TEMP TABLE report_gates_in AS SELECT NULL::VARCHAR AS approach WHERE false".to_string()
+    } else if given.ends_with(".csv") || given.ends_with(".csv.gz") {
+        "CREATE OR REPLACE TEMP TABLE report_gates_in AS FROM read_csv(getvariable('report_gates'))".to_string()
+    } else if given.ends_with(".parquet") {
+        "CREATE OR REPLACE TEMP TABLE report_gates_in AS FROM read_parquet(getvariable('report_gates'))".to_string()
+    } else {
+        "CREATE OR REPLACE TEMP TABLE report_gates_in AS FROM query_table(getvariable('report_gates'))".to_string()
+    };
+    Step { stage: "report".into(), file: "report_gates".into(), makes: statement_target(&sql), sql, undo: None }
 }
 
 /// A row of the run's clock (`pipeline_clock`: when each stage began), from which the report's

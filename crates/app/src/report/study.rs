@@ -87,6 +87,39 @@ fn approaches(d: &Data) -> R<Vec<Approach>> {
         .collect()
 }
 
+/// A gate drawn by the analyst (parameter report_gates): approach, x1, y1, x2, y2.
+type Gate = (String, f64, f64, f64, f64);
+
+fn gates(d: &Data) -> R<Vec<Gate>> {
+    d.rows("gate").iter().map(|r| Ok((r.s(0)?, r.f(1)?, r.f(2)?, r.f(3)?, r.f(4)?))).collect()
+}
+
+/// Were the approaches drawn (gates), not found in the data?
+fn drawn(d: &Data) -> bool {
+    d.meta("approaches_from") == Some("gates")
+}
+
+/// Every approach's name and bearing (degrees) for the movement diagram: the approaches found
+/// in the data, or the gates' midpoints seen from the centroid of all of them.
+fn bearings(d: &Data) -> R<Vec<(String, f64)>> {
+    if !drawn(d) {
+        return Ok(approaches(d)?.into_iter().map(|a| (a.name, a.bearing)).collect());
+    }
+    let g = gates(d)?;
+    let mut names: Vec<&String> = g.iter().map(|x| &x.0).collect();
+    names.sort();
+    names.dedup();
+    let mid = |name: &str| -> (f64, f64) {
+        let mine: Vec<&Gate> = g.iter().filter(|x| x.0 == name).collect();
+        let n = mine.len().max(1) as f64;
+        (mine.iter().map(|x| (x.1 + x.3) / 2.0).sum::<f64>() / n, mine.iter().map(|x| (x.2 + x.4) / 2.0).sum::<f64>() / n)
+    };
+    let mids: Vec<(f64, f64)> = names.iter().map(|n| mid(n)).collect();
+    let k = mids.len().max(1) as f64;
+    let (cx, cy) = (mids.iter().map(|m| m.0).sum::<f64>() / k, mids.iter().map(|m| m.1).sum::<f64>() / k);
+    Ok(names.iter().zip(&mids).map(|(n, m)| ((*n).clone(), (m.1 - cy).atan2(m.0 - cx).to_degrees())).collect())
+}
+
 /// (class, stationary, path) of the site map's sample of road users.
 type SitePath = (String, bool, Vec<(f64, f64)>);
 
@@ -139,8 +172,8 @@ pub fn site_map(d: &Data, c: &Ctx, h: &mut String) -> R<()> {
         h,
         "<p>The merged paths of {} road users{} in the common frame (metres, the reference camera's axes), coloured by class; parked road users \
          (stationary) as black dots; the cameras' views outlined in their colours; the approaches found in the data (approaches(): where \
-         vehicles enter and leave, named by compass point in the frame's axes) as grey sectors from the site's centre (+). The views are \
-         dashed.</p>{}{}",
+         vehicles enter and leave, named by compass point in the frame's axes) as grey sectors from the site's centre (+), or the gates \
+         you drew (report_gates) as black lines. The views are dashed.</p>{}{}",
         paths.len(),
         if paths.len() >= 1500 { " (a sample)" } else { "" },
         class_legend(c, &classes),
@@ -184,12 +217,21 @@ pub fn site_map(d: &Data, c: &Ctx, h: &mut String) -> R<()> {
         }
         h.push_str(&fr.text(a0.cx, a0.cy, "+", "middle", 16.0));
     }
-    h.push_str(&fr.close(&format!(
-        "Site map: {} road users, {} approaches found in the data{}",
-        paths.len(),
-        ap.len(),
-        if ap.is_empty() { " (none: draw gates, docs/analysis.md)" } else { "" }
-    )));
+    let g = gates(d)?;
+    for (name, x1, y1, x2, y2) in &g {
+        h.push_str(&fr.line(&[(*x1, *y1), (*x2, *y2)], "#000", 3.5, false));
+        h.push_str(&fr.text((x1 + x2) / 2.0, (y1 + y2) / 2.0, name, "middle", 14.0));
+    }
+    h.push_str(&fr.close(&if drawn(d) {
+        format!("Site map: {} road users, {} gates drawn by the analyst (report_gates)", paths.len(), g.len())
+    } else {
+        format!(
+            "Site map: {} road users, {} approaches found in the data{}",
+            paths.len(),
+            ap.len(),
+            if ap.is_empty() { " (none: draw gates, docs/analysis.md)" } else { "" }
+        )
+    }));
     h.push_str("</div>");
     Ok(())
 }
@@ -208,7 +250,7 @@ fn lane_point(bearing_deg: f64, r: f64, w: f64, inbound: bool) -> (f64, f64) {
 /// The movement diagram and table: arrows from the entry approach to the exit approach, width by
 /// the count, one diagram per class (the four largest), then the table.
 pub fn movements(d: &Data, c: &Ctx, h: &mut String) -> R<()> {
-    let ap = approaches(d)?;
+    let ap = bearings(d)?;
     // (from, to, movement, class, n)
     let all = d.rows("movement").iter().map(|r| Ok((r.s(0)?, r.s(1)?, r.s(2)?, r.s(3)?, r.i(4)?))).collect::<R<Vec<_>>>()?;
     // turning movements are the vehicles': a pedestrian crossing one arm enters and leaves by it
@@ -217,14 +259,29 @@ pub fn movements(d: &Data, c: &Ctx, h: &mut String) -> R<()> {
     let peds: i64 = all.iter().filter(|m| !is_vehicle(&m.3)).map(|m| m.4).sum();
     h.push_str("<h2>Turning movements</h2>");
     if mv.is_empty() {
-        h.push_str("<p>No road user crosses the site from one approach to another (no approaches found: draw gates, docs/analysis.md).</p>");
+        h.push_str(if drawn(d) {
+            "<p>No vehicle crossed two of your gates (report_gates).</p>"
+        } else {
+            "<p>No vehicle crosses the site from one approach to another (no approaches found: draw gates, parameter report_gates).</p>"
+        });
         return Ok(());
     }
     let _ = write!(
         h,
-        "<p>Road users per movement over the whole recording, from the entry approach to the exit approach. The approaches were <b>found in \
-         the data</b> (approaches(): the site's centre from where vehicles head, and the bearings at which they enter and leave); to count by \
-         your own lines, use movements(gates := ...) (docs/analysis.md). Arrows drive on the right; the width is the count.</p>{}",
+        "<p>Vehicles per movement over the whole recording, from the entry approach to the exit approach. {} Arrows drive on the right; the \
+         width is the count.</p>{}",
+        if drawn(d) {
+            format!(
+                "The approaches are <b>the gates you drew</b> (parameter report_gates{}): the entry is the gate crossed first, the exit the \
+                 gate crossed last.",
+                d.meta("gates_source").filter(|g| !g.is_empty()).map_or(String::new(), |g| format!(" = {}", esc(g)))
+            )
+        } else {
+            "The approaches were <b>found in the data</b> (approaches(): the site's centre from where vehicles head, and the bearings at \
+             which they enter and leave); to count by your own lines, give gates (parameter report_gates, or movements(gates := ...) in \
+             SQL; docs/analysis.md)."
+                .to_string()
+        },
         confidence(d, "movement", "vehicles with a known movement")?
     );
     let mut classes: Vec<(String, i64)> = Vec::new();
@@ -235,7 +292,7 @@ pub fn movements(d: &Data, c: &Ctx, h: &mut String) -> R<()> {
         }
     }
     classes.sort_by(|a, b| b.1.cmp(&a.1).then(a.0.cmp(&b.0)));
-    let bearing = |name: &str| ap.iter().find(|a| a.name == name).map(|a| a.bearing);
+    let bearing = |name: &str| ap.iter().find(|a| a.0 == name).map(|a| a.1);
     h.push_str("<div id=\"movement-diagram\">");
     for (k, (class, total)) in classes.iter().take(4).enumerate() {
         let col = class_color(c, class);
@@ -249,12 +306,12 @@ pub fn movements(d: &Data, c: &Ctx, h: &mut String) -> R<()> {
              <circle cx=\"170\" cy=\"170\" r=\"118\" fill=\"none\" stroke=\"#ddd\"/>",
             esc(class)
         );
-        for a in &ap {
-            let (u, v) = lane_point(a.bearing, 148.0, 0.0, true);
+        for (name, b) in &ap {
+            let (u, v) = lane_point(*b, 148.0, 0.0, true);
             let _ = write!(
                 h,
                 "<text x=\"{u:.1}\" y=\"{v:.1}\" font-size=\"13\" font-weight=\"bold\" text-anchor=\"middle\" dominant-baseline=\"middle\">{}</text>",
-                esc(&a.name)
+                esc(name)
             );
         }
         let mut drawn = 0;

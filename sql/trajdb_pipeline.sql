@@ -2691,6 +2691,8 @@ WHERE p.reg.perspective_significant;
 --   approaches(tbl, ...)             the approaches (arms) found in the data: where road users enter and leave
 --   road_user_movements(tbl, ...)    each road user's entry approach, exit approach, turn angle and movement
 --   movements(tbl, bin_s, ...)       turning movement counts per bin, approach pair, movement and class
+--   road_user_crossings(tbl, gates)  every crossing of a gate (crosswalk, screenline) by a road user, with its direction
+--   crossings(tbl, gates, bin_s)     road users crossing each gate per bin, direction and class
 --   road_user_speeds(tbl, ...)       each road user's speeds and travel time
 --   speeds(tbl, ...)                 speed and travel-time percentiles per movement and class
 --   conflicts(tbl, max_pet, radius)  PET and TTC of every pair of road users near each other in time and space
@@ -2895,6 +2897,52 @@ FROM trajdb_j ORDER BY road_user;
 CREATE OR REPLACE TEMP VIEW trajdb_no_gates AS
 SELECT NULL::VARCHAR AS approach, NULL::DOUBLE AS x1, NULL::DOUBLE AS y1, NULL::DOUBLE AS x2, NULL::DOUBLE AS y2 WHERE false;
 
+-- ---------------------------------------------------------------- crossings of gates (screenlines)
+-- Every crossing of a gate by a road user (issue 39 §9): pedestrians per crosswalk, cyclists per
+-- path, vehicles per lane or screenline. gates := 'table' is needed: the same table as
+-- movements' gates (approach: the gate's name, x1, y1, x2, y2 in the traj frame; from WKT with
+-- gate_from_wkt). A crossing is where a segment of the path between two samples meets the gate
+-- (its time interpolated); to_left: the road user crosses from the right of the gate (seen from
+-- (x1, y1) towards (x2, y2)) to its left; heading_deg: its direction there (degrees, atan2 in the
+-- frame: 0 = +x, 90 = +y). Only road users whose path's box meets the gate's box are walked.
+CREATE OR REPLACE TEMP MACRO trajdb_road_user_crossings(tbl := 'merged', gates := NULL) AS TABLE
+WITH trajdb_g AS (
+    SELECT approach::VARCHAR AS gate, x1::DOUBLE AS x1, y1::DOUBLE AS y1, x2::DOUBLE AS x2, y2::DOUBLE AS y2
+    FROM query_table(coalesce(gates, 'trajdb_no_gates'))
+    UNION ALL
+    SELECT error('crossings: gates := ''your_gates'' is needed: a table or view with approach (the gate''s name), x1, y1, x2, y2 '
+                 || '(docs/analysis.md, Crossings)'), NULL, NULL, NULL, NULL WHERE gates IS NULL
+),
+trajdb_r AS (
+    SELECT road_user, class, traj, list_min([p.x FOR p IN traj]) AS bx0, list_max([p.x FOR p IN traj]) AS bx1,
+           list_min([p.y FOR p IN traj]) AS by0, list_max([p.y FOR p IN traj]) AS by1
+    FROM query_table(tbl) WHERE len(traj) >= 2
+),
+trajdb_x AS (
+    SELECT r.road_user, r.class, g.gate, unnest(list_filter(list_transform(range(1, len(r.traj)), lambda i: {
+               't': trajdb_gate_time(r.traj[i], r.traj[i + 1], g.x1, g.y1, g.x2, g.y2),
+               'to_left': (g.x2 - g.x1) * (r.traj[i + 1].y - r.traj[i].y) - (g.y2 - g.y1) * (r.traj[i + 1].x - r.traj[i].x) > 0,
+               'heading_deg': degrees(atan2(r.traj[i + 1].y - r.traj[i].y, r.traj[i + 1].x - r.traj[i].x)),
+               'p': r.traj[i], 'q': r.traj[i + 1]}), lambda c: c.t IS NOT NULL)) AS c
+    FROM trajdb_r r, trajdb_g g
+    WHERE r.bx0 <= greatest(g.x1, g.x2) AND r.bx1 >= least(g.x1, g.x2) AND r.by0 <= greatest(g.y1, g.y2) AND r.by1 >= least(g.y1, g.y2)
+)
+SELECT road_user, class, gate, c.t AS t, c.to_left AS to_left, c.heading_deg AS heading_deg,
+       c.p.x + (c.q.x - c.p.x) * (c.t - c.p.t) / nullif(c.q.t - c.p.t, 0) AS x,
+       c.p.y + (c.q.y - c.p.y) * (c.t - c.p.t) / nullif(c.q.t - c.p.t, 0) AS y
+FROM trajdb_x ORDER BY gate, t, road_user;
+
+-- Road users crossing each gate per bin of bin_s seconds (default 900 = 15 minutes, bins at
+-- multiples of bin_s on the traj clock, by the time of the crossing), direction and class. A road
+-- user counts once per gate and direction (its first crossing that way: a pedestrian who stops
+-- on the line and steps back and forth is one crossing, not five); crossings counts them all.
+CREATE OR REPLACE TEMP MACRO trajdb_crossings(tbl := 'merged', gates := NULL, bin_s := 900) AS TABLE
+SELECT bin_start, gate, direction, class, count(*) AS road_users, sum(n) AS crossings
+FROM (SELECT floor(min(t) / bin_s::DOUBLE) * bin_s::DOUBLE AS bin_start, gate, CASE WHEN to_left THEN 'to left' ELSE 'to right' END AS direction,
+             class, count(*) AS n
+      FROM trajdb_road_user_crossings(tbl := tbl, gates := gates) GROUP BY gate, to_left, class, road_user)
+GROUP BY ALL ORDER BY ALL;
+
 -- ---------------------------------------------------------------- turning movement counts
 -- Road users per bin of bin_s seconds (by entry time; default 900 = 15 minutes, bins at multiples
 -- of bin_s on the traj clock), entry approach, exit approach, movement and class. Only road users
@@ -3080,6 +3128,10 @@ CREATE OR REPLACE TEMP MACRO road_user_movements(tbl := 'merged', gates := NULL,
 FROM trajdb_road_user_movements(tbl := tbl, gates := gates, left_handed := left_handed, head_m := head_m, through_deg := through_deg, uturn_deg := uturn_deg, centre_x := centre_x, centre_y := centre_y, min_radius_m := min_radius_m, gap_deg := gap_deg, min_users := min_users);
 CREATE OR REPLACE TEMP MACRO movements(tbl := 'merged', bin_s := 900, gates := NULL, left_handed := false, head_m := 5.0, through_deg := 45.0, uturn_deg := 135.0, centre_x := NULL, centre_y := NULL, min_radius_m := NULL, gap_deg := 25.0, min_users := 3) AS TABLE
 FROM trajdb_movements(tbl := tbl, bin_s := bin_s, gates := gates, left_handed := left_handed, head_m := head_m, through_deg := through_deg, uturn_deg := uturn_deg, centre_x := centre_x, centre_y := centre_y, min_radius_m := min_radius_m, gap_deg := gap_deg, min_users := min_users);
+CREATE OR REPLACE TEMP MACRO road_user_crossings(tbl := 'merged', gates := NULL) AS TABLE
+FROM trajdb_road_user_crossings(tbl := tbl, gates := gates);
+CREATE OR REPLACE TEMP MACRO crossings(tbl := 'merged', gates := NULL, bin_s := 900) AS TABLE
+FROM trajdb_crossings(tbl := tbl, gates := gates, bin_s := bin_s);
 CREATE OR REPLACE TEMP MACRO road_user_speeds(tbl := 'merged') AS TABLE
 FROM trajdb_road_user_speeds(tbl := tbl);
 CREATE OR REPLACE TEMP MACRO speeds(tbl := 'merged', gates := NULL, left_handed := false, head_m := 5.0, through_deg := 45.0, uturn_deg := 135.0, centre_x := NULL, centre_y := NULL, min_radius_m := NULL, gap_deg := 25.0, min_users := 3, include_stationary := false) AS TABLE

@@ -134,6 +134,26 @@ def check_gates(con, seed):
                             JOIN road_user_movements() d USING (road_user) WHERE m.movement IS NOT NULL AND d.movement IS NOT NULL""").fetchone()[0]
     assert labels == 0
     check_report_gates(con, seed, gates, want)
+    # crossings (issue 39 §9): screenlines along each arm's axis, 8-18 m from the centre (where the
+    # crosswalks are), on the merged paths and on the true paths in the same frame: the same road
+    # users cross each one in each direction
+    lines = []
+    for arm, b in ARM_BEARING.items():
+        ux, uy = math.cos(math.radians(b)), math.sin(math.radians(b))
+        p, q = local(8 * ux, 8 * uy), local(18 * ux, 18 * uy)
+        lines.append((arm, p[0], p[1], q[0], q[1]))
+    con.execute("CREATE TABLE screenlines(approach VARCHAR, x1 DOUBLE, y1 DOUBLE, x2 DOUBLE, y2 DOUBLE)")
+    con.executemany("INSERT INTO screenlines VALUES (?, ?, ?, ?, ?)", lines)
+    con.execute("""CREATE TABLE true_paths AS
+        SELECT object_id AS road_user, any_value(class) AS class,
+               list({'t': t, 'x': cos(?) * (x - ?) + sin(?) * (y - ?), 'y': -sin(?) * (x - ?) + cos(?) * (y - ?)} ORDER BY t) AS traj
+        FROM truth_world GROUP BY object_id""", [th, tx, th, ty, th, tx, th, ty])
+    q = "SELECT gate, direction, class, sum(road_users) FROM crossings(tbl := ?, gates := 'screenlines') GROUP BY ALL"
+    got, want_x = (dict(((g, d, c), n) for g, d, c, n in con.execute(q, [t]).fetchall()) for t in ("merged", "true_paths"))
+    peds = sum(n for k, n in want_x.items() if k[2] == "pedestrian")
+    assert peds > 0, want_x
+    assert got == want_x, f"seed {seed} crossings: {got} != truth {want_x}"
+    print(f"  seed {seed}: crossings exact: {sum(want_x.values())} road users over {len(want_x)} (screenline, direction, class) cells, {peds} pedestrians")
 
 
 def report_movements(html):

@@ -249,6 +249,21 @@ def test_caller_file_system(ext, scratch):
     msg = error_of(con, "CALL trajdb_pipeline(?, out_dir := ?)", [os.path.join(sim, "poin*.csv"), out])
     check("sandbox: trajdb_pipeline from and into allowed_directories works (a glob input)",
           msg is None and os.path.exists(os.path.join(out, "merged.parquet")), str(msg))
+    # the report's gates (issue 39) are a file the run reads: outside allowed_directories refused
+    # before it is read; inside, read and drawn
+    gates_out = os.path.join(scratch, "gates.csv")
+    with open(gates_out, "w") as f:
+        f.write("approach,x1,y1,x2,y2\nTOP-SECRET-GATE,0,0,1,1\n")
+    out2 = os.path.join(allowed, "out2")
+    msg = error_of(con, "CALL trajdb_pipeline(?, out_dir := ?, report_gates := ?)", [os.path.join(sim, "points.csv"), out2, gates_out]) or ""
+    check("sandbox: report_gates outside allowed_directories is refused before it is read",
+          "cannot read" in msg and "TOP-SECRET" not in msg and not os.path.exists(out2), msg)
+    gates_in = os.path.join(allowed, "gates.csv")
+    with open(gates_in, "w") as f:
+        f.write("approach,x1,y1,x2,y2\nmy-gate,0,0,1,1\n")
+    msg = error_of(con, "CALL trajdb_pipeline(?, out_dir := ?, report_gates := ?)", [os.path.join(sim, "points.csv"), out2, gates_in])
+    check("sandbox: report_gates inside allowed_directories is read",
+          msg is None and "the gates you drew" in open(os.path.join(out2, "report.html")).read(), str(msg))
     con.close()
     # NUL bytes: refused whole, nothing made at the cut-off name
     con = connect(ext)

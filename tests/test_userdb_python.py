@@ -33,7 +33,7 @@ import duckdb  # noqa: E402
 import trajdb  # noqa: E402
 
 SCENE = os.path.join(ROOT, "..", "shared", "data", "dut_intersection_3cam", "points.parquet")
-MACROS = ["road_user_ends", "approaches", "road_user_movements", "movements", "road_user_speeds", "speeds", "conflicts", "top_conflicts", "probably_one", "routes"]
+MACROS = ["road_user_ends", "approaches", "road_user_movements", "movements", "road_user_crossings", "crossings", "road_user_speeds", "speeds", "conflicts", "top_conflicts", "probably_one", "routes"]
 
 
 def catalog(con):
@@ -168,6 +168,8 @@ def check_table_names(tmp):
         "approaches": "FROM approaches(tbl := ?)",
         "road_user_movements": "FROM road_user_movements(tbl := ?)",
         "movements": "FROM movements(tbl := ?)",
+        "road_user_crossings": "SELECT road_user, gate, t, to_left FROM road_user_crossings(tbl := ?, gates := 'trajdb_test_gates')",
+        "crossings": "FROM crossings(tbl := ?, gates := 'trajdb_test_gates')",
         "road_user_speeds": "SELECT road_user, mean_speed_kmh, p85_speed_kmh FROM road_user_speeds(tbl := ?) ORDER BY road_user",
         "speeds": "FROM speeds(tbl := ?)",
         "conflicts": "SELECT road_user_a, road_user_b, pet, ttc FROM conflicts(tbl := ?)",
@@ -175,7 +177,10 @@ def check_table_names(tmp):
         "probably_one": "SELECT road_user_a, road_user_b, together_m FROM probably_one(tbl := ?)",
         "routes": "SELECT approach_in, approach_out, pattern, road_users FROM routes(tbl := ?)",
     }
+    # a screenline across the DUT intersection's crosswalks (the frame of camera 0)
+    con.execute("CREATE OR REPLACE TEMP TABLE trajdb_test_gates AS SELECT 'a' AS approach, -30.0 AS x1, -40.0 AS y1, -10.0 AS x2, -40.0 AS y2")
     want = {k: con.execute(q, ["trajdb_test_ref"]).fetchall() for k, q in queries.items()}
+    assert len(want["crossings"]) > 0, "no crossing of the test screenline"
     assert len(want["movements"]) >= 2 and len(want["conflicts"]) > 0 and len(want["routes"]) >= 2
     # the names of the macros' CTEs before (a table of that name was read as the CTE)
     names = ["m", "s", "e", "c", "ap", "r", "k", "p", "j", "u", "cc", "lines"]

@@ -121,8 +121,25 @@ impl TableFn for PipelineFn {
         // last word (src/runner.rs, "Sandbox, by construction")
         super::params::may_write_into(args, &out)?;
         let out_dir = crate::app::outdir::absolute(&out)?;
-        let read_paths = readable_inputs(&args.caller_fs()?, &input)?;
+        let fs = args.caller_fs()?;
+        let mut read_paths = readable_inputs(&fs, &input)?;
         let params: Vec<(String, String)> = args.named_as_text()?.into_iter().filter(|(k, _)| k != "out_dir").collect();
+        // the report's gates (issue 39): a file the run may read, as the input; the private
+        // database has none of this connection's tables
+        if let Some((_, g)) = params.iter().rev().find(|(k, _)| k == "report_gates") {
+            let g = g.trim();
+            let lower = g.to_ascii_lowercase();
+            if lower.ends_with(".csv") || lower.ends_with(".csv.gz") || lower.ends_with(".parquet") {
+                fs.may_read(g)?;
+                read_paths.push(g.to_string());
+            } else if !g.is_empty() {
+                return Err(format!(
+                    "report_gates = {g:?}: CALL trajdb_pipeline reads files, not this database's tables; give the gates as a .csv or .parquet \
+                     file (approach, x1, y1, x2, y2 or approach, wkt), or run trajdb.pipeline in Python on your connection"
+                )
+                .into());
+            }
+        }
         let steps = plan::plan(&Request { input, out: Some(out), part: Part::All, params })?;
         let flag = |name: &str| args.setting(name).map(|v| v.eq_ignore_ascii_case("true"));
         let settings = Settings {

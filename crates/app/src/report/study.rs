@@ -688,7 +688,55 @@ pub fn near_misses(d: &Data, c: &Ctx, h: &mut String) -> R<()> {
 
 #[cfg(test)]
 mod tests {
-    use super::{bin_label, lane_point};
+    use super::super::data::Data;
+    use super::super::Ctx;
+    use super::{bin_label, counts, lane_point};
+
+    fn ctx(classes: &[&str]) -> Ctx {
+        Ctx {
+            cameras: vec![0],
+            names: vec![(0, "0".into())],
+            classes: classes.iter().map(|c| c.to_string()).collect(),
+            xi: 3,
+            eta: "0.5".into(),
+            cluster_camera: "0".into(),
+            step: 1,
+            views: Vec::new(),
+        }
+    }
+
+    /// A day on a wall clock from 07:00 to 19:00: the AM and the PM peak hour, each with its
+    /// PHF; pedestrians are counted but not in the vehicles' peak.
+    #[test]
+    fn am_and_pm_peaks_on_a_wall_clock() {
+        let day = 1_700_006_400.0 - 1_700_006_400.0 % 86400.0;
+        let mut text = format!("meta\x1fflow_t0\x1f{}\x1emeta\x1fflow_t1\x1f{}\x1emeta\x1fclock\x1fwall", day + 7.0 * 3600.0, day + 19.0 * 3600.0);
+        for q in 0..48 {
+            let b = day + 7.0 * 3600.0 + 900.0 * q as f64;
+            // cars: 10 a quarter; 40, 40, 40, 60 in 07:30-08:30; 30 a quarter in 16:00-17:00
+            let cars = match q {
+                2..=4 => 40,
+                5 => 60,
+                36..=39 => 30,
+                _ => 10,
+            };
+            text.push_str(&format!("\x1eflow\x1f{b}\x1fcar\x1f{cars}\x1eflow\x1f{b}\x1fpedestrian\x1f{}", if q == 20 { 500 } else { 1 }));
+        }
+        let mut h = String::new();
+        counts(&Data::parse(&text), &ctx(&["car", "pedestrian"]), &mut h).unwrap();
+        assert!(h.contains("<b>AM Peak hour 07:30 – 08:30</b>: V = 180 vehicles, busiest quarter V15 = 60, <b>PHF = 180 / (4 × 60) = 0.75</b>"), "{h}");
+        assert!(h.contains("<b>PM Peak hour 16:00 – 17:00</b>: V = 120 vehicles, busiest quarter V15 = 30, <b>PHF = 120 / (4 × 30) = 1.00</b>"), "{h}");
+    }
+
+    /// A recording shorter than an hour has no peak hour, and says why.
+    #[test]
+    fn no_peak_hour_in_40_minutes() {
+        let text = "meta\x1fflow_t0\x1f100\x1emeta\x1fflow_t1\x1f2500\x1emeta\x1fclock\x1frelative\x1eflow\x1f100\x1fcar\x1f5\x1eflow\x1f1000\x1fcar\x1f7\x1eflow\x1f1900\x1fcar\x1f2";
+        let mut h = String::new();
+        counts(&Data::parse(text), &ctx(&["car"]), &mut h).unwrap();
+        assert!(h.contains("<b>No peak hour</b>: the recording covers 2 whole quarter hours (40 minutes in all)"), "{h}");
+        assert!(h.contains("The busiest whole quarter: +15:00 – +30:00, 7 vehicles."), "{h}");
+    }
 
     #[test]
     fn lanes_keep_to_the_right() {

@@ -42,7 +42,7 @@ CREATE OR REPLACE TEMP TABLE report_users AS
 SELECT road_user, class, len(list_distinct([s.camera FOR s IN sources])) AS n_cams, traj_time_range(traj).t_start AS t_start,
        traj_duration(traj) AS duration_s,
        CASE WHEN traj_duration(traj) >= 1 THEN traj_length_m(traj) / traj_duration(traj) END AS mean_speed,
-       stationary, traj_time_range(traj).t_end AS t_end, n_tracks
+       stationary, traj_time_range(traj).t_end AS t_end, len(sources) AS n_sources
 FROM merged;
 -- the analyst's questions (issue 29 §4): movements and near misses come from sql/analysis.sql's
 -- macros, defined again here so that the report stands alone after .read sql/pipeline.sql
@@ -105,13 +105,14 @@ FROM (SELECT u.class, CASE WHEN s.wall THEN floor(u.t_start / 900) * 900 ELSE s.
       FROM report_users u, report_flow_span s WHERE NOT coalesce(u.stationary, false))
 GROUP BY ALL;
 -- (issue 39 §8) how far to trust each number: of its road users, how many were seen by more
--- than one camera (matched across cameras), joined across a break within one camera (more tracks
--- than cameras), and flagged (probably one road user counted twice)
+-- than one camera (matched across cameras), joined across a break within one camera (more source
+-- tracks than cameras: n_tracks counts a linked chain once), and flagged (probably one road user
+-- counted twice)
 CREATE OR REPLACE TEMP TABLE report_conf AS
 WITH d AS (SELECT road_user_a AS road_user FROM report_probably_one UNION SELECT road_user_b FROM report_probably_one),
 u AS (SELECT u.*, u.road_user IN (SELECT road_user FROM d) AS dup FROM report_users u),
 c AS (SELECT road_user_a AS road_user FROM report_conflicts UNION SELECT road_user_b FROM report_conflicts)
-SELECT topic, count(*) AS n, count(*) FILTER (WHERE n_cams > 1) AS multi, count(*) FILTER (WHERE n_tracks > n_cams) AS joined,
+SELECT topic, count(*) AS n, count(*) FILTER (WHERE n_cams > 1) AS multi, count(*) FILTER (WHERE n_sources > n_cams) AS joined,
        count(*) FILTER (WHERE dup) AS flagged
 FROM (SELECT 'movement' AS topic, u.* FROM u JOIN report_ru_mov r USING (road_user)
       WHERE r.movement IS NOT NULL AND class_kind(u.class) <> 'pedestrian'

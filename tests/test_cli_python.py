@@ -233,8 +233,13 @@ def test_demo_simulates_runs_the_pipeline_and_passes_its_score():
         assert os.path.exists(os.path.join(d, f)), f
     for f in ["transforms.csv", "matches.csv", "merged.parquet", "clusters.csv", "links.csv", "report.html"]:
         assert os.path.exists(os.path.join(d, "results", f)), f
+    # every result file is listed, each with what it is (issue 39)
+    for f in os.listdir(os.path.join(d, "results")):
+        if not f.startswith("."):
+            line = next((l for l in out.splitlines() if l.strip().startswith(f + " ")), None)
+            assert line is not None and "a file of this run" not in line, (f, out)
     html = open(os.path.join(d, "results", "report.html")).read()
-    for needle in ["<svg", "Cayley", "Sample merges", "heavy_vehicle", "cyclist"]:
+    for needle in ["<svg", "Cayley", "Sample merges", "heavy_vehicle", "cyclist", "Site map", "Turning movements", "Near misses"]:
         assert needle in html, f"report lacks {needle}"
     # every class of the simulator is scored
     for c in ["car", "heavy_vehicle", "cyclist", "pedestrian"]:

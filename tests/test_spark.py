@@ -9,7 +9,7 @@ source tracks), the same matches, transforms and merged trajectories within 1e-9
 road users that cross a window seam, windows without road users, a one-camera site, unsorted
 input, every window and write task failing once and retried by Spark (TRAJDB_SPARK_FAIL_ONCE),
 a halo too short on purpose (halo_s=0: the windows ask for more and run again), and the
-README's "### Spark example" as it stands.
+"### Spark example" of docs/spark.md as it stands.
 """
 import glob
 import json
@@ -186,8 +186,8 @@ def main():
 
     spark.stop()
 
-    # 4. the README's "### Spark example", as it stands, in its own process and folder
-    with open(os.path.join(ROOT, "README.md")) as f:
+    # 4. docs/spark.md's "### Spark example", as it stands, in its own process and folder
+    with open(os.path.join(ROOT, "docs", "spark.md")) as f:
         text = f.read()
     m = re.compile(r"```python\n(.*?)```", re.S).search(text, text.index("### Spark example\n"))
     demo = os.path.join(tmp, "readme")

@@ -449,7 +449,7 @@ def pipeline(con, input, out=None, progress=False, **params):
     `out` is a new folder, an empty one, or one holding an earlier trajdb result set; anything
     else (a folder with your files in it, the input's folder, '') is refused before any work. A
     failed run leaves the earlier results as they were; trajdb deletes only files it wrote itself
-    (README: "Never failing badly")."""
+    (docs/robustness.md)."""
     _connection_ready(con, "trajdb.pipeline")
     name, registered = _input_name(con, input)
     try:

@@ -324,6 +324,20 @@ def cmd_simulate(a):
     simulate(connect(a), a.out, sim_params(a))
 
 
+# What each file of a results folder is (`trajdb demo` lists them; docs/outputs.md has every column;
+# tests/test_cli_python.py checks every file written has a line here)
+RESULT_FILES = {
+    "report.html": "the report: site map, movements, counts per 15 min with the peak hour, speeds, near misses, QA",
+    "merged.parquet": "one row per road user: its fused path, sources, times, length (GeoParquet)",
+    "matches.csv": "the accepted cross-camera links between original tracks",
+    "links.csv": "each track's chain of pieces within its camera (broken tracks linked)",
+    "transforms.csv": "each camera pair's transform and clock relation",
+    "calibration.csv": "what the pipeline measured and derived from the data",
+    "clusters.csv": "route patterns of one camera's tracks",
+    "analysis.sql": "the analysis macros over merged.parquet: .read it in the DuckDB CLI",
+}
+
+
 def cmd_demo(a):
     con = connect(a)
     note(f"[trajdb] demo: simulate intersection traffic -> {a.out}")
@@ -335,7 +349,10 @@ def cmd_demo(a):
     ok = f1 >= 0.95 and rot <= 0.5 and trans <= 0.3
     out(f"demo {'PASSED' if ok else 'FAILED'}: match F1 {f1:.3f} (target >= 0.95), worst camera pair {rot:.3f} deg / {trans:.3f} m "
         "(targets 0.5 deg / 0.3 m)")
-    out(f"results: {results}/{{transforms.csv, matches.csv, merged.parquet, clusters.csv, report.html}}")
+    out(f"results in {results} (every column: docs/outputs.md):")
+    for name in sorted(n for n in os.listdir(results) if not n.startswith(".")):
+        size = os.path.getsize(os.path.join(results, name))
+        out(f"  {name:<16} {size:>10,} B  {RESULT_FILES.get(name, 'a file of this run')}")
     if not ok:
         raise RuntimeError("demo: the pipeline missed its accuracy targets")
 

@@ -9,7 +9,7 @@
 optionally estimated; t in seconds or a TIMESTAMP) plus `site`. Every camera keeps its own frame
 and clock, as on one machine.
 
-How it runs (the README's "Scaling out with Spark" has the why):
+How it runs (docs/spark.md has the why):
  1. calibration, once per site: `groupBy(site).applyInArrow` runs the calibration stages
     (windows.CALIBRATION_STAGES) on the site's first `calibrate_s` seconds (a day by default) or
     on `calibrate_on[site] = (t_from, t_to)`; the site tables come back to the driver (a few KB
@@ -173,7 +173,7 @@ def pipeline(points, window_s=3600.0, halo_s=None, calibrate_s=86400.0, calibrat
     """Runs the pipeline on `points` (a Spark DataFrame with a site column), per (site,
     window_s-second window), and returns a Result of DataFrames (computed lazily; `write`
     stores them). `halo_s`: the halo on each side of a window (default: measured per site,
-    see the README); `calibrate_on`: {site: (t_from, t_to)} to calibrate each site on a given
+    see docs/spark.md); `calibrate_on`: {site: (t_from, t_to)} to calibrate each site on a given
     window of its own clocks instead of its first `calibrate_s` seconds; `params`: pipeline
     parameters as in `trajdb params`."""
     from pyspark.sql import functions as F

@@ -7,7 +7,7 @@ tasks, and any other scheduler can too.
     out["road_users"], out["matches"], out["status"]
 
 How a window stays identical to a run on the whole site is explained in sql/window.sql; the
-halo rule is in the README ("Scaling out with Spark").
+halo rule is in docs/spark.md.
 
 The stages are the same SQL files as `trajdb pipeline` (sql/stages.sql). What a site computes
 once is named here, in SITE_TABLES: a window loads those tables instead of running the

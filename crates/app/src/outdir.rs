@@ -1,6 +1,6 @@
 //! The results folder (`out`): the one place that decides what trajdb may write and delete.
 //!
-//! The rules (README, "Never failing badly"; docs/outputs.md):
+//! The rules (docs/robustness.md; docs/outputs.md):
 //! - `out` is a folder that does not exist yet, a truly empty folder, or a folder holding an
 //!   earlier output of trajdb OF THE SAME KIND ([`Kind`]: pipeline results, or a simulated
 //!   scenario with its ground truth), recognised by the manifest [`MANIFEST`] that trajdb writes

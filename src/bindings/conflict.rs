@@ -157,7 +157,7 @@ pub static FUNCTIONS: &[Function] = &[
                       pedestrian and 'pedestrian-pedestrian' when both are (SSAM's kinds are about vehicles in lanes: a pedestrian pair \
                       is no lane change). NULL when a class says nothing of the road user (class_kind 'unknown'), a vehicle pair has \
                       no finite angle, or an argument is NULL (crates/algo/src/conflict/kind.rs). conflicts()' kind column. O(1).",
-        example: "SELECT conflict_kind('car', 'car', 90), conflict_kind('pedestrian', 'pedestrian', 40); -- crossing, pedestrian-pedestrian",
+        example: "SELECT conflict_kind('pedestrian', 'pedestrian', 40); -- pedestrian-pedestrian",
         maths: "crates/algo/src/conflict/kind.rs",
         binding: file!(),
         signatures: &[Signature {

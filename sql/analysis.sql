@@ -338,8 +338,12 @@ GROUP BY trajdb_m.approach_in, trajdb_m.approach_out, trajdb_m.movement, trajdb_
 -- x max_ttc: where a constant-velocity prediction can take it within max_ttc) within max_pet
 -- seconds, found on a space-time grid in one call (linear in the road users near each other), and
 -- computes per pair, in parallel and without copying the paths: traj_pet (the crossing with the
--- smallest PET, at most max_pet) and traj_ttc (the minimum TTC at constant velocity, radius = the
--- sum of the two road users' radii). Kept: pairs with a PET, or a TTC of at most max_ttc.
+-- smallest PET, at most max_pet) and traj_ttc (the minimum TTC at constant velocity: contact when
+-- the centres come within the sum of the two road users' radii, each its class's class_radius_m:
+-- a pedestrian 0.25 m, a car 0.9 m; radius := R makes every pair's R instead). Kept: pairs with a
+-- PET, or a TTC of at most max_ttc.
+-- pedestrian_pairs := false (with top): two pedestrians are no near miss (people pass close by);
+-- the report ranks only the encounters with a vehicle.
 -- road_user must be unique.
 -- kind: conflict_kind: SSAM's kinds by the crossing angle between two vehicles (rear-end < 30 deg,
 -- lane-change 30-85, crossing > 85), vehicle-pedestrian or pedestrian-pedestrian otherwise, NULL for
@@ -351,28 +355,33 @@ GROUP BY trajdb_m.approach_in, trajdb_m.approach_out, trajdb_m.movement, trajdb_
 -- probably_one() lists them.
 -- top := k: only the first k by (pet, road_user_a, road_user_b) that are not probably_one, as
 -- top_conflicts() below.
-CREATE OR REPLACE TEMP MACRO trajdb_conflicts(tbl := 'merged', max_pet := 5.0, radius := 2.0, max_ttc := 3.0, top := NULL) AS TABLE
+CREATE OR REPLACE TEMP MACRO trajdb_conflicts(tbl := 'merged', max_pet := 5.0, radius := NULL, max_ttc := 3.0, top := NULL, pedestrian_pairs := true) AS TABLE
 WITH trajdb_r AS (SELECT road_user, class, traj FROM query_table(tbl) WHERE len(traj) >= 2),
 trajdb_u AS (  -- the pairs are named by road_user: a repeated one would be ambiguous; a NULL parameter
         -- would silently give no rows
-    SELECT CASE WHEN max_pet IS NULL OR radius IS NULL OR (max_ttc IS NULL AND top IS NULL)
-                THEN error('conflicts: max_pet, radius and max_ttc must not be NULL (got max_pet ' || coalesce(max_pet::VARCHAR, 'NULL')
-                           || ', radius ' || coalesce(radius::VARCHAR, 'NULL') || ', max_ttc ' || coalesce(max_ttc::VARCHAR, 'NULL')
+    SELECT CASE WHEN max_pet IS NULL OR (max_ttc IS NULL AND top IS NULL) OR pedestrian_pairs IS NULL
+                THEN error('conflicts: max_pet, max_ttc and pedestrian_pairs must not be NULL (got max_pet ' || coalesce(max_pet::VARCHAR, 'NULL')
+                           || ', max_ttc ' || coalesce(max_ttc::VARCHAR, 'NULL') || ', pedestrian_pairs ' || coalesce(pedestrian_pairs::VARCHAR, 'NULL')
                            || '); leave one out for its default')
                 WHEN count(road_user) = count(DISTINCT road_user) THEN true
                 ELSE error('conflicts: road_user must be unique in ' || tbl || ' (got ' || (count(road_user) - count(DISTINCT road_user))::VARCHAR
                            || ' repeated); give each road user one row') END AS ok
     FROM trajdb_r
 ),
-trajdb_rc AS (SELECT *, dense_rank() OVER (ORDER BY lower(trim(class))) AS dense_rank_class FROM trajdb_r),
+trajdb_rc AS (SELECT *, dense_rank() OVER (ORDER BY lower(trim(class))) AS dense_rank_class,
+                     -- each road user's disc for TTC: radius / 2 when given, else its class's (class_radius_m)
+                     coalesce(radius::DOUBLE / 2, class_radius_m(class), class_radius_m('unknown')) AS r_disc FROM trajdb_r),
 trajdb_c AS (  -- (ids as BIGINT: integer and decimal road_user columns of any width)
     SELECT unnest(CASE WHEN top IS NULL
                        THEN traj_conflicts(list(road_user::BIGINT ORDER BY road_user), list(traj ORDER BY road_user), max_pet::DOUBLE,
-                                           radius::DOUBLE, max_ttc::DOUBLE)
+                                           coalesce(radius, 2.0)::DOUBLE, max_ttc::DOUBLE, list(r_disc ORDER BY road_user))
                        ELSE traj_conflicts_top(list(road_user::BIGINT ORDER BY road_user), list(traj ORDER BY road_user), top::BIGINT,
-                                               max_pet::DOUBLE, radius::DOUBLE,
+                                               max_pet::DOUBLE, coalesce(radius, 2.0)::DOUBLE,
                                                -- one road user counted twice is not a near miss: left out of the k
-                                               list(dense_rank_class ORDER BY road_user), list(coalesce(class_min_gap_m(class), class_min_gap_m('unknown')) ORDER BY road_user)) END) AS p
+                                               list(dense_rank_class ORDER BY road_user), list(coalesce(class_min_gap_m(class), class_min_gap_m('unknown')) ORDER BY road_user),
+                                               list(r_disc ORDER BY road_user),
+                                               -- pedestrian_pairs := false: two pedestrians are no near miss either
+                                               list(CASE WHEN NOT pedestrian_pairs AND class_kind(class) = 'pedestrian' THEN 1 ELSE 0 END ORDER BY road_user)) END) AS p
     FROM trajdb_rc WHERE road_user IS NOT NULL AND (SELECT ok FROM trajdb_u)
 )
 SELECT p.a AS road_user_a, ra.class AS class_a, p.b AS road_user_b, rb.class AS class_b,
@@ -391,8 +400,8 @@ ORDER BY coalesce(p.pet, 1e300), road_user_a, road_user_b;
 -- conflicts(); a pair with a TTC but no crossing is not a crossing and is not here. The report's
 -- near misses.
 -- k := NULL: every crossing (no limit).
-CREATE OR REPLACE TEMP MACRO trajdb_top_conflicts(tbl := 'merged', k := 15, max_pet := 5.0, radius := 2.0) AS TABLE
-FROM trajdb_conflicts(tbl := tbl, max_pet := max_pet, radius := radius, top := k) WHERE pet IS NOT NULL AND NOT probably_one
+CREATE OR REPLACE TEMP MACRO trajdb_top_conflicts(tbl := 'merged', k := 15, max_pet := 5.0, radius := NULL, pedestrian_pairs := true) AS TABLE
+FROM trajdb_conflicts(tbl := tbl, max_pet := max_pet, radius := radius, top := k, pedestrian_pairs := pedestrian_pairs) WHERE pet IS NOT NULL AND NOT probably_one
 ORDER BY pet, road_user_a, road_user_b;
 
 -- Pairs of road users that are probably one road user counted twice (issue 39): same class, and
@@ -460,10 +469,10 @@ CREATE OR REPLACE TEMP MACRO road_user_speeds(tbl := 'merged') AS TABLE
 FROM trajdb_road_user_speeds(tbl := tbl);
 CREATE OR REPLACE TEMP MACRO speeds(tbl := 'merged', gates := NULL, left_handed := false, head_m := 5.0, through_deg := 45.0, uturn_deg := 135.0, centre_x := NULL, centre_y := NULL, min_radius_m := NULL, gap_deg := 25.0, min_users := 3, include_stationary := false) AS TABLE
 FROM trajdb_speeds(tbl := tbl, gates := gates, left_handed := left_handed, head_m := head_m, through_deg := through_deg, uturn_deg := uturn_deg, centre_x := centre_x, centre_y := centre_y, min_radius_m := min_radius_m, gap_deg := gap_deg, min_users := min_users, include_stationary := include_stationary);
-CREATE OR REPLACE TEMP MACRO conflicts(tbl := 'merged', max_pet := 5.0, radius := 2.0, max_ttc := 3.0, top := NULL) AS TABLE
-FROM trajdb_conflicts(tbl := tbl, max_pet := max_pet, radius := radius, max_ttc := max_ttc, top := top);
-CREATE OR REPLACE TEMP MACRO top_conflicts(tbl := 'merged', k := 15, max_pet := 5.0, radius := 2.0) AS TABLE
-FROM trajdb_top_conflicts(tbl := tbl, k := k, max_pet := max_pet, radius := radius);
+CREATE OR REPLACE TEMP MACRO conflicts(tbl := 'merged', max_pet := 5.0, radius := NULL, max_ttc := 3.0, top := NULL, pedestrian_pairs := true) AS TABLE
+FROM trajdb_conflicts(tbl := tbl, max_pet := max_pet, radius := radius, max_ttc := max_ttc, top := top, pedestrian_pairs := pedestrian_pairs);
+CREATE OR REPLACE TEMP MACRO top_conflicts(tbl := 'merged', k := 15, max_pet := 5.0, radius := NULL, pedestrian_pairs := true) AS TABLE
+FROM trajdb_top_conflicts(tbl := tbl, k := k, max_pet := max_pet, radius := radius, pedestrian_pairs := pedestrian_pairs);
 CREATE OR REPLACE TEMP MACRO probably_one(tbl := 'merged') AS TABLE
 FROM trajdb_probably_one(tbl := tbl);
 CREATE OR REPLACE TEMP MACRO routes(tbl := 'merged', epsilon := 1.5, delta := 30, threshold := 0.5, gates := NULL, left_handed := false, head_m := 5.0, through_deg := 45.0, uturn_deg := 135.0, centre_x := NULL, centre_y := NULL, min_radius_m := NULL, gap_deg := 25.0, min_users := 3) AS TABLE

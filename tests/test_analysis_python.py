@@ -265,12 +265,23 @@ def check_conflicts():
     print(f"  top_conflicts: the first k rows of conflicts() for k = 1, 2, 3, 10 ({len(full)} crossings)")
     # k NULL: every crossing (no TTC-only rows); a NULL parameter is an error, not an empty table
     assert con.execute("FROM top_conflicts(tbl := 'scene', k := NULL, max_pet := 5.0)").fetchall() == full
-    for bad in ("max_pet := NULL", "radius := NULL"):
+    for bad in ("max_pet := NULL", "pedestrian_pairs := NULL"):
         try:
             con.execute(f"FROM top_conflicts(tbl := 'scene', {bad})").fetchall()
             raise AssertionError(f"{bad}: no error")
         except duckdb.Error as e:
-            assert "max_pet, radius and max_ttc must not be NULL" in str(e), e
+            assert "max_pet, max_ttc and pedestrian_pairs must not be NULL" in str(e), e
+    # (issue 39) TTC at the classes' radii by default; radius := R for every pair; the
+    # pedestrian 3 and car 1 (PET 0.3) are on a collision course at 0.25 + 0.9 m and at 2 m alike
+    by_class = dict(((a, b), t) for a, b, t in con.execute("SELECT road_user_a, road_user_b, ttc FROM conflicts(tbl := 'scene', max_pet := 5.0)").fetchall())
+    wide = dict(((a, b), t) for a, b, t in con.execute("SELECT road_user_a, road_user_b, ttc FROM conflicts(tbl := 'scene', max_pet := 5.0, radius := 2.0)").fetchall())
+    assert set(by_class) <= set(wide), (by_class, wide)
+    assert all(by_class[p] is None or wide[p] is None or by_class[p] >= wide[p] - 1e-9 for p in by_class), (by_class, wide)
+    # pedestrian_pairs := false leaves no pair of two pedestrians in top_conflicts
+    con.execute("CREATE TABLE scene_p AS SELECT road_user, CASE WHEN road_user IN (1, 3) THEN 'pedestrian' ELSE class END AS class, traj FROM scene")
+    rows = con.execute("SELECT road_user_a, road_user_b FROM top_conflicts(tbl := 'scene_p', k := 10, pedestrian_pairs := false)").fetchall()
+    assert (1, 3) not in rows and rows, rows
+    assert (1, 3) in con.execute("SELECT road_user_a, road_user_b FROM top_conflicts(tbl := 'scene_p', k := 10)").fetchall()
     try:
         con.execute("FROM conflicts(tbl := 'scene', max_ttc := NULL)").fetchall()
         raise AssertionError("max_ttc NULL: no error")

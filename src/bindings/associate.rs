@@ -122,6 +122,20 @@ pub static FUNCTIONS: &[Function] = &[
         table: None,
     },
     Function {
+        name: "class_radius_m",
+        description: "A road user of this class as a disc for time-to-collision (m): half its width, recognised by the class name's words \
+                      as class_length_m: a pedestrian 0.25 m, a two-wheeler 0.35 m, a car 0.9 m, a bus or truck 1.275 m; a class that \
+                      says nothing ('unknown') 1 m. Two road users are in contact when their centres come within the sum of their radii \
+                      (conflicts() and top_conflicts() by default: traj_conflicts' radii; a 2 m disc put pedestrians 1.9 m apart in \
+                      contact, TTC 0). Side by side that is contact; nose to tail the bodies meet while the centres are a length apart, \
+                      so a rear-end TTC is later than the bumpers'. NULL for NULL.",
+        example: "SELECT class_radius_m('pedestrian'); -- 0.25",
+        maths: "crates/algo/src/associate/mod.rs",
+        binding: file!(),
+        signatures: &[Signature { params: &[p("class", Ty::Varchar)], arities: &[], returns: Ty::Double, kernel: class_radius_m }],
+        table: None,
+    },
+    Function {
         name: "pair_evidence",
         description: "The evidence of one candidate pair of tracks over their whole common time (docs/association.md, issue 38): from \
                       traj_msd_pairs's msd and mean offset (dx, dy), the camera pair's noise sigma_d (m, per axis), the independent samples \
@@ -272,6 +286,10 @@ fn class_length_m(a: &Args<'_>, out: &mut Out<'_>) -> R {
 
 fn class_min_gap_m(a: &Args<'_>, out: &mut Out<'_>) -> R {
     by_class(a, out, crate::algo::associate::class_min_gap_m)
+}
+
+fn class_radius_m(a: &Args<'_>, out: &mut Out<'_>) -> R {
+    by_class(a, out, crate::algo::associate::class_radius_m)
 }
 
 fn class_kind(a: &Args<'_>, out: &mut Out<'_>) -> R {

@@ -80,8 +80,10 @@ pub static FUNCTIONS: &[Function] = &[
                       piece's top speed x max_ttc, spans by max_pet / 2): only road users near each other are scored, O(P log P + K) for \
                       P pieces and K pairs of pieces near each other, linear in the road users per window; PET and TTC in parallel, the \
                       paths read in place (sql/analysis.sql conflicts: list(road_user ORDER BY road_user), list(traj ORDER BY \
-                      road_user)). Errors: lists of different lengths, NULL elements, NaN / infinite values, unsorted t, max_pet <= 0, \
-                      radius or max_ttc < 0 or not finite, more candidate pairs than the memory_bytes limit holds.",
+                      road_user)). With radii (one per road user, m: class_radius_m(class)), a pair's TTC is at the sum of its two radii \
+                      instead of radius (candidates searched at twice the largest). Errors: lists of different lengths, NULL elements, NaN \
+                      / infinite values, unsorted t, max_pet <= 0, radius, a radius or max_ttc < 0 or not finite, more candidate pairs \
+                      than the memory_bytes limit holds.",
         example: "SELECT unnest(traj_conflicts([1, 2], [[{'t': 0, 'x': -10, 'y': 0}, {'t': 2, 'x': 10, 'y': 0}], [{'t': 0, 'x': 0, 'y': -10}, {'t': 4, 'x': 0, 'y': 10}]], 5.0, 2.0, 3.0)).pet; -- 1.0",
         maths: "crates/algo/src/conflict/pairs.rs",
         binding: file!(),
@@ -92,8 +94,9 @@ pub static FUNCTIONS: &[Function] = &[
                 p("max_pet", Ty::Double),
                 p("radius", Ty::Double),
                 p("max_ttc", Ty::Double),
+                p("radii", Ty::List(&Ty::Double)),
             ],
-            arities: &[],
+            arities: &[5, 6],
             returns: CONFLICTS,
             kernel: conflicts,
         }],
@@ -110,7 +113,10 @@ pub static FUNCTIONS: &[Function] = &[
                       class, and class_min_gap_m(class)), a pair of one class whose paths stay closer than that gap (together_m, the \
                       median distance over their common time, from at least 2 sample times) is one road user counted twice, not a near \
                       miss: it is left out and does not count towards k (conflict_probably_one; crates/algo/src/conflict/together.rs). \
-                      Errors: those of traj_conflicts, k < 0, and class_codes or min_gaps not one per id.",
+                      With radii (one per road user, m: class_radius_m(class)) a pair's TTC is at the sum of its radii instead of radius; \
+                      with walkers (one per road user: 1 a pedestrian, 0 not) a pair of two pedestrians is left out too (people passing \
+                      close by are no traffic conflict: the report's near misses). \
+                      Errors: those of traj_conflicts, k < 0, and class_codes, min_gaps, radii or walkers not one per id.",
         example: "SELECT len(traj_conflicts_top([1, 2], [[{'t': 0, 'x': -10, 'y': 0}, {'t': 2, 'x': 10, 'y': 0}], [{'t': 0, 'x': 0, 'y': -10}, {'t': 4, 'x': 0, 'y': 10}]], 1, 5.0, 2.0)); -- 1",
         maths: "crates/algo/src/conflict/top.rs",
         binding: file!(),
@@ -123,8 +129,10 @@ pub static FUNCTIONS: &[Function] = &[
                 p("radius", Ty::Double),
                 p("class_codes", Ty::List(&Ty::Bigint)),
                 p("min_gaps", Ty::List(&Ty::Double)),
+                p("radii", Ty::List(&Ty::Double)),
+                p("walkers", Ty::List(&Ty::Bigint)),
             ],
-            arities: &[5, 7],
+            arities: &[5, 7, 9],
             returns: CONFLICTS,
             kernel: conflicts_top,
         }],
@@ -206,11 +214,19 @@ impl PairCols {
 
 fn conflicts(a: &Args<'_>, out: &mut Out<'_>) -> R {
     let (ids, trajs, max_pet, radius, max_ttc) = (a.i64_list(0), a.traj_list(1), a.double(2), a.double(3), a.double(4));
+    let radii = a.given(5).then(|| a.f64_list(5));
     let vals = a.map(|r| {
         let (Some(id), Some(tr), Some(m), Some(rad), Some(mt)) = (ids.get(r)?, trajs.get(r)?, max_pet.get(r), radius.get(r), max_ttc.get(r)) else {
             return Ok(None);
         };
-        let found = conflict::conflicts(id, &tr, m, rad, mt).map_err(|e| e.describe())?;
+        let radii: Option<Vec<f64>> = match &radii {
+            None => None,
+            Some(col) => match col.get(r)? {
+                Some(v) => Some(v.to_vec()),
+                None => return Ok(None),
+            },
+        };
+        let found = conflict::conflicts(id, &tr, m, rad, mt, radii.as_deref()).map_err(|e| e.describe())?;
         Ok(Some(PairCols::of(id, &found)))
     })?;
     write_pairs(&vals, out)?;
@@ -220,6 +236,7 @@ fn conflicts(a: &Args<'_>, out: &mut Out<'_>) -> R {
 fn conflicts_top(a: &Args<'_>, out: &mut Out<'_>) -> R {
     let (ids, trajs, k, max_pet, radius) = (a.i64_list(0), a.traj_list(1), a.bigint(2), a.double(3), a.double(4));
     let bodies = a.given(5).then(|| (a.i64_list(5), a.f64_list(6)));
+    let extra = a.given(7).then(|| (a.f64_list(7), a.i64_list(8)));
     let vals = a.map(|r| {
         let (Some(id), Some(tr), Some(k), Some(m), Some(rad)) = (ids.get(r)?, trajs.get(r)?, k.get(r), max_pet.get(r), radius.get(r)) else {
             return Ok(None);
@@ -239,7 +256,14 @@ fn conflicts_top(a: &Args<'_>, out: &mut Out<'_>) -> R {
                 _ => return Ok(None),
             },
         };
-        let found = conflict::top_conflicts(id, &tr, k, m, rad, body.as_deref()).map_err(|e| e.describe())?;
+        let (radii, walkers): (Option<Vec<f64>>, Option<Vec<bool>>) = match &extra {
+            None => (None, None),
+            Some((rs, ws)) => match (rs.get(r)?, ws.get(r)?) {
+                (Some(rv), Some(wv)) => (Some(rv.to_vec()), Some(wv.iter().map(|&w| w != 0).collect())),
+                _ => return Ok(None),
+            },
+        };
+        let found = conflict::top_conflicts(id, &tr, k, m, rad, body.as_deref(), radii.as_deref(), walkers.as_deref()).map_err(|e| e.describe())?;
         Ok(Some(PairCols::of(id, &found)))
     })?;
     write_pairs(&vals, out)?;

@@ -109,6 +109,24 @@ impl Kind {
         }
     }
 
+    /// The road user as a disc for time-to-collision (m; conflict::ttc: two road users are in
+    /// contact when their centres come within the sum of their radii): half its width, a
+    /// pedestrian 0.25 m (shoulders 0.5 m), a two-wheeler 0.35 m (rider and handlebar), a car
+    /// 0.9 m, a bus or truck 1.275 m; an unknown kind 1 m (a pair 2 m: conflicts()' radius before
+    /// issue 39). The disc is the side-by-side contact: nose to tail the bodies meet while the
+    /// centres are a length apart, so a rear-end TTC is later than the bumpers' (a disc of half
+    /// the length would put two pedestrians walking side by side 0.8 m apart in contact: TTC 0
+    /// for every pedestrian pair of the DUT intersection's top 10 at the old 2 m).
+    pub fn radius_m(self) -> f64 {
+        match self {
+            Kind::Pedestrian => 0.25,
+            Kind::TwoWheeler => 0.35,
+            Kind::Car => 0.9,
+            Kind::Heavy => 1.275,
+            Kind::Unknown => 1.0,
+        }
+    }
+
     /// The least distance (m) between the centres of two distinct road users of this kind: a
     /// pedestrian's torso depth, 0.25 m (two people shoulder to shoulder, or one right behind
     /// the other; measured on the DUT intersection: pedestrians walking in pairs 0.32 m apart and
@@ -122,6 +140,12 @@ impl Kind {
             Kind::Heavy => 2.55,
         }
     }
+}
+
+/// The radius (m) of a road user of `class` as a disc for time-to-collision ([`Kind::radius_m`]):
+/// two road users are in contact when their centres come within the sum of their radii.
+pub fn class_radius_m(class: &str) -> f64 {
+    Kind::of(class).radius_m()
 }
 
 /// The length of a road user of `class` (m, [`Kind::length_m`]). A detector's ground point lies

@@ -51,6 +51,8 @@ pub enum ConflictError {
     DuplicateId(i64),
     /// `classes` of [`top_conflicts`] is not one per road user
     ClassesLength { ids: usize, classes: usize },
+    /// `radii` or `walkers` (named) is not one per road user
+    PerRoadUser { what: &'static str, ids: usize, got: usize },
     Work(crate::limits::Exceeded),
 }
 
@@ -75,6 +77,9 @@ impl ConflictError {
             }
             ConflictError::ClassesLength { ids, classes } => {
                 format!("class_codes must list one code per road user, got {classes} codes for {ids} ids (list(code ORDER BY id) over the same rows)")
+            }
+            ConflictError::PerRoadUser { what, ids, got } => {
+                format!("{what} must list one value per road user, got {got} for {ids} ids (list(value ORDER BY id) over the same rows)")
             }
             ConflictError::Work(e) => e.to_string(),
         }

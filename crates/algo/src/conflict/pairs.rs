@@ -78,15 +78,29 @@ fn boxes_meet(a: &Extent, b: &Extent) -> bool {
 /// take no part), sorted by (id_a, id_b) and then input position. Errors: lists of different
 /// lengths, a trajectory outside the input policy (named `trajs[k]`, 1-based), `max_pet` <= 0 or
 /// NaN, `radius` or `max_ttc` < 0 or not finite, more candidate pairs than the `memory_bytes`
-/// limit holds.
-pub fn conflicts(ids: &[i64], trajs: &[Traj<'_>], max_pet: f64, radius: f64, max_ttc: f64) -> Result<Vec<Conflict>, ConflictError> {
+/// limit holds, `radii` not one per road user or a radius < 0 or not finite.
+///
+/// With `radii` (one per road user, m: `class_radius_m`, issue 39), a pair's TTC is at the sum of
+/// its two radii instead of `radius` (a 2 m disc put two pedestrians 1.9 m apart in contact), and
+/// the candidates are searched at twice the largest radius (a superset).
+pub fn conflicts(ids: &[i64], trajs: &[Traj<'_>], max_pet: f64, radius: f64, max_ttc: f64, radii: Option<&[f64]>) -> Result<Vec<Conflict>, ConflictError> {
     let max_pet = positive_or_inf("max_pet", max_pet)?;
     let radius = non_negative("radius", radius)?;
     let max_ttc = non_negative("max_ttc", max_ttc)?;
     check_set(ids, trajs)?;
+    if let Some(r) = radii {
+        if r.len() != ids.len() {
+            return Err(ConflictError::PerRoadUser { what: "radii", ids: ids.len(), got: r.len() });
+        }
+        for &v in r {
+            non_negative("radii", v)?;
+        }
+    }
+    let pair_radius = |a: usize, b: usize| radii.map_or(radius, |r| r[a] + r[b]);
+    let search = radii.map_or(radius, |r| 2.0 * r.iter().copied().fold(0.0, f64::max));
     // candidates on a space-time grid of path pieces (candidates.rs): a superset of the pairs
     // the whole-path rule above keeps, never every pair that meets in time
-    let cand = ordered_candidates(ids, trajs, radius, max_ttc, max_pet / 2.0)?;
+    let cand = ordered_candidates(ids, trajs, search, max_ttc, max_pet / 2.0)?;
     // PET's work limit, read here (the limits' scope is this thread's) and carried into the
     // rayon workers as a value: each pair of road users may examine that many segment pairs (a
     // real day's call holds 10^5 pairs; the candidates themselves are bounded by memory_bytes)
@@ -96,7 +110,7 @@ pub fn conflicts(ids: &[i64], trajs: &[Traj<'_>], max_pet: f64, radius: f64, max
         .map(|&(a, b)| {
             // every path was validated above, and the parameters checked
             let p = pet_checked(trajs[a], trajs[b], max_pet, &super::pet::Budget::new(limit))?;
-            let c = ttc_checked(trajs[a], trajs[b], radius);
+            let c = ttc_checked(trajs[a], trajs[b], pair_radius(a, b));
             let keep = p.is_some() || c.is_some_and(|c| c.ttc <= max_ttc);
             Ok(keep.then(|| Conflict { a, b, pet: p, ttc: c, together: super::together(trajs[a], trajs[b]) }))
         })
@@ -180,12 +194,12 @@ mod tests {
         let late = line(60.0, 0.0, -32.5, 0.0, 5.0, 131, 0.1);
         let far = line(0.0, 500.0, -32.5, 0.0, 5.0, 131, 0.1);
         let trajs = [a.view(), b.view(), late.view(), far.view()];
-        let got = conflicts(&[1, 2, 3, 4], &trajs, 5.0, 2.0, 3.0).unwrap();
+        let got = conflicts(&[1, 2, 3, 4], &trajs, 5.0, 2.0, 3.0, None).unwrap();
         assert_eq!(got.len(), 1, "{got:?}");
         assert_eq!((got[0].a, got[0].b), (0, 1));
         assert!((got[0].pet.unwrap().pet - 1.5).abs() < 1e-9);
         // ids decide a and b, not positions
-        let got = conflicts(&[9, 2, 3, 4], &trajs, 5.0, 2.0, 3.0).unwrap();
+        let got = conflicts(&[9, 2, 3, 4], &trajs, 5.0, 2.0, 3.0, None).unwrap();
         assert_eq!((got[0].a, got[0].b), (1, 0));
         assert_eq!(got[0].pet.unwrap().t_a, got[0].pet.unwrap().t_a);
     }
@@ -195,14 +209,14 @@ mod tests {
         let a = line(0.0, 0.0, 0.0, 1.0, 0.0, 3, 1.0);
         let mut bad = a.clone();
         bad.t[2] = 0.5;
-        let e = conflicts(&[1, 2], &[a.view(), bad.view()], 5.0, 2.0, 3.0).unwrap_err().describe();
+        let e = conflicts(&[1, 2], &[a.view(), bad.view()], 5.0, 2.0, 3.0, None).unwrap_err().describe();
         assert!(e.starts_with("trajs[2] must be ordered by t"), "{e}");
-        let e = conflicts(&[1], &[a.view(), a.view()], 5.0, 2.0, 3.0).unwrap_err().describe();
+        let e = conflicts(&[1], &[a.view(), a.view()], 5.0, 2.0, 3.0, None).unwrap_err().describe();
         assert!(e.starts_with("ids and trajs must have the same length, got 1 ids and 2 trajectories"), "{e}");
-        assert_eq!(conflicts(&[1], &[a.view()], 0.0, 2.0, 3.0).unwrap_err().describe(), "max_pet must be > 0, got 0");
-        assert_eq!(conflicts(&[1], &[a.view()], 1.0, -2.0, 3.0).unwrap_err().describe(), "radius must be >= 0, got -2");
-        assert_eq!(conflicts(&[1], &[a.view()], 1.0, 2.0, f64::NAN).unwrap_err().describe(), "max_ttc must be >= 0, got NaN");
-        assert_eq!(conflicts(&[], &[], 1.0, 2.0, 3.0).unwrap(), vec![]);
+        assert_eq!(conflicts(&[1], &[a.view()], 0.0, 2.0, 3.0, None).unwrap_err().describe(), "max_pet must be > 0, got 0");
+        assert_eq!(conflicts(&[1], &[a.view()], 1.0, -2.0, 3.0, None).unwrap_err().describe(), "radius must be >= 0, got -2");
+        assert_eq!(conflicts(&[1], &[a.view()], 1.0, 2.0, f64::NAN, None).unwrap_err().describe(), "max_ttc must be >= 0, got NaN");
+        assert_eq!(conflicts(&[], &[], 1.0, 2.0, 3.0, None).unwrap(), vec![]);
     }
 
     proptest! {
@@ -231,10 +245,13 @@ mod tests {
             distinct.sort_unstable();
             distinct.dedup();
             if distinct.len() < ids.len() {
-                prop_assert!(matches!(conflicts(&ids, &views, max_pet, 2.0, max_ttc), Err(ConflictError::DuplicateId(_))));
+                prop_assert!(matches!(conflicts(&ids, &views, max_pet, 2.0, max_ttc, None), Err(ConflictError::DuplicateId(_))));
                 ids = (0..n as i64).map(|k| k * 7 - 3).collect();
             }
-            let got = conflicts(&ids, &views, max_pet, 2.0, max_ttc).unwrap();
+            let got = conflicts(&ids, &views, max_pet, 2.0, max_ttc, None).unwrap();
+            // radii of 1 m each are the 2 m disc of the pair, whatever `radius` says
+            let by_radii = conflicts(&ids, &views, max_pet, 9.0, max_ttc, Some(&vec![1.0; ids.len()])).unwrap();
+            prop_assert_eq!(&by_radii, &got);
             prop_assert_eq!(got, all_pairs(&ids, &views, max_pet, 2.0, max_ttc));
         }
     }

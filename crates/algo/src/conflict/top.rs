@@ -52,9 +52,23 @@ use std::sync::Mutex;
 /// (id_a, id_b). `k = 0`: none. With `bodies` (one per road user), a pair that is
 /// [`probably_one_body`](super::probably_one_body) road user counted twice is not a near miss: it is left
 /// out and does not count towards `k` (issue 39: they were 7 of the 10 smallest PETs of the DUT
-/// intersection).
-/// Errors: those of [`super::conflicts`], `k` < 0, and `bodies` of another length than `ids`.
-pub fn top_conflicts(ids: &[i64], trajs: &[Traj<'_>], k: i64, max_pet: f64, radius: f64, bodies: Option<&[super::Body]>) -> Result<Vec<Conflict>, ConflictError> {
+/// intersection). With `radii` (one per road user, m: `class_radius_m`), a pair's TTC is at the
+/// sum of its two radii instead of `radius`. With `walkers` (one per road user), a pair of two
+/// walkers is left out too: two pedestrians passing close by are no traffic conflict, and on
+/// both DUT scenes they were every one of the 10 smallest PETs (the report ranks the encounters
+/// with a vehicle).
+/// Errors: those of [`super::conflicts`], `k` < 0, and `bodies`, `radii` or `walkers` of another
+/// length than `ids`, a radius < 0 or not finite.
+pub fn top_conflicts(
+    ids: &[i64],
+    trajs: &[Traj<'_>],
+    k: i64,
+    max_pet: f64,
+    radius: f64,
+    bodies: Option<&[super::Body]>,
+    radii: Option<&[f64]>,
+    walkers: Option<&[bool]>,
+) -> Result<Vec<Conflict>, ConflictError> {
     let max_pet = positive_or_inf("max_pet", max_pet)?;
     let radius = non_negative("radius", radius)?;
     if k < 0 {
@@ -66,7 +80,20 @@ pub fn top_conflicts(ids: &[i64], trajs: &[Traj<'_>], k: i64, max_pet: f64, radi
             return Err(ConflictError::ClassesLength { ids: ids.len(), classes: c.len() });
         }
     }
-    let one = |a: usize, b: usize| bodies.is_some_and(|c| super::probably_one_body(c[a], c[b], super::together(trajs[a], trajs[b])));
+    for (what, n) in [("radii", radii.map(<[_]>::len)), ("walkers", walkers.map(<[_]>::len))] {
+        if let Some(n) = n.filter(|n| *n != ids.len()) {
+            return Err(ConflictError::PerRoadUser { what, ids: ids.len(), got: n });
+        }
+    }
+    if let Some(r) = radii {
+        for &v in r {
+            non_negative("radii", v)?;
+        }
+    }
+    let pair_radius = |a: usize, b: usize| radii.map_or(radius, |r| r[a] + r[b]);
+    let one = |a: usize, b: usize| {
+        walkers.is_some_and(|w| w[a] && w[b]) || bodies.is_some_and(|c| super::probably_one_body(c[a], c[b], super::together(trajs[a], trajs[b])))
+    };
     let k = k as usize;
     if k == 0 {
         return Ok(Vec::new());
@@ -124,7 +151,7 @@ pub fn top_conflicts(ids: &[i64], trajs: &[Traj<'_>], k: i64, max_pet: f64, radi
     found.sort_unstable_by(|x, y| (ids[x.0], ids[x.1]).cmp(&(ids[y.0], ids[y.1])));
     let kept: Vec<Conflict> = found
         .into_par_iter()
-        .map(|(a, b, p)| Conflict { a, b, pet: Some(p), ttc: ttc_checked(trajs[a], trajs[b], radius), together: super::together(trajs[a], trajs[b]) })
+        .map(|(a, b, p)| Conflict { a, b, pet: Some(p), ttc: ttc_checked(trajs[a], trajs[b], pair_radius(a, b)), together: super::together(trajs[a], trajs[b]) })
         .collect();
     let mut out = Vec::new();
     out.try_reserve(kept.len()).map_err(|_| alloc_error((kept.len() * std::mem::size_of::<Conflict>()) as u128))?;
@@ -195,7 +222,7 @@ mod tests {
     /// The obviously right version: every conflict with a PET, ordered by (PET, id_a, id_b), the
     /// first k, back in (id_a, id_b) order.
     fn slow(ids: &[i64], trajs: &[Traj<'_>], k: usize, max_pet: f64, radius: f64) -> Vec<Conflict> {
-        let mut all: Vec<Conflict> = conflicts(ids, trajs, max_pet, radius, 0.0).unwrap().into_iter().filter(|c| c.pet.is_some()).collect();
+        let mut all: Vec<Conflict> = conflicts(ids, trajs, max_pet, radius, 0.0, None).unwrap().into_iter().filter(|c| c.pet.is_some()).collect();
         all.sort_by(|x, y| x.pet.unwrap().pet.total_cmp(&y.pet.unwrap().pet).then(ids[x.a].cmp(&ids[y.a])).then(ids[x.b].cmp(&ids[y.b])));
         all.truncate(k);
         all.sort_by_key(|c| (ids[c.a], ids[c.b]));
@@ -211,30 +238,30 @@ mod tests {
         let d = line(-1.0, 0.0, 27.5, 0.0, -5.0, 131, 0.1);
         let trajs = [a.view(), b.view(), c.view(), d.view()];
         let ids = [1, 2, 3, 4];
-        let all = conflicts(&ids, &trajs, 5.0, 2.0, 3.0).unwrap();
+        let all = conflicts(&ids, &trajs, 5.0, 2.0, 3.0, None).unwrap();
         // k = 1: of the two tied at 0.5 s, the first by ids; k = 2: both
-        let one = top_conflicts(&ids, &trajs, 1, 5.0, 2.0, None).unwrap();
+        let one = top_conflicts(&ids, &trajs, 1, 5.0, 2.0, None, None, None).unwrap();
         assert_eq!(one.iter().map(|c| (c.a, c.b)).collect::<Vec<_>>(), vec![(0, 2)], "{one:?}");
-        let two = top_conflicts(&ids, &trajs, 2, 5.0, 2.0, None).unwrap();
+        let two = top_conflicts(&ids, &trajs, 2, 5.0, 2.0, None, None, None).unwrap();
         assert_eq!(two.iter().map(|c| (c.a, c.b)).collect::<Vec<_>>(), vec![(0, 2), (0, 3)], "{two:?}");
         assert!(two.iter().all(|c| (c.pet.unwrap().pet - 0.5).abs() < 1e-9));
         // the same rows (TTC included) as the full table
         for c in &two {
             assert!(all.contains(c), "{c:?}");
         }
-        assert_eq!(top_conflicts(&ids, &trajs, 10, 5.0, 2.0, None).unwrap(), slow(&ids, &trajs, 10, 5.0, 2.0));
-        assert_eq!(top_conflicts(&ids, &trajs, 10, f64::INFINITY, 2.0, None).unwrap(), slow(&ids, &trajs, 10, f64::INFINITY, 2.0));
-        assert_eq!(top_conflicts(&ids, &trajs, 0, 5.0, 2.0, None).unwrap(), vec![]);
-        assert_eq!(top_conflicts(&[], &[], 3, 5.0, 2.0, None).unwrap(), vec![]);
+        assert_eq!(top_conflicts(&ids, &trajs, 10, 5.0, 2.0, None, None, None).unwrap(), slow(&ids, &trajs, 10, 5.0, 2.0));
+        assert_eq!(top_conflicts(&ids, &trajs, 10, f64::INFINITY, 2.0, None, None, None).unwrap(), slow(&ids, &trajs, 10, f64::INFINITY, 2.0));
+        assert_eq!(top_conflicts(&ids, &trajs, 0, 5.0, 2.0, None, None, None).unwrap(), vec![]);
+        assert_eq!(top_conflicts(&[], &[], 3, 5.0, 2.0, None, None, None).unwrap(), vec![]);
     }
 
     #[test]
     fn bad_parameters_are_errors_naming_them() {
         let a = line(0.0, 0.0, 0.0, 1.0, 0.0, 3, 1.0);
-        assert_eq!(top_conflicts(&[1], &[a.view()], -1, 5.0, 2.0, None).unwrap_err().describe(), "k must be >= 0, got -1");
-        assert_eq!(top_conflicts(&[1], &[a.view()], 1, 0.0, 2.0, None).unwrap_err().describe(), "max_pet must be > 0, got 0");
-        assert_eq!(top_conflicts(&[1], &[a.view()], 1, 1.0, f64::NAN, None).unwrap_err().describe(), "radius must be >= 0, got NaN");
-        assert!(matches!(top_conflicts(&[1, 1], &[a.view(), a.view()], 1, 1.0, 2.0, None), Err(ConflictError::DuplicateId(1))));
+        assert_eq!(top_conflicts(&[1], &[a.view()], -1, 5.0, 2.0, None, None, None).unwrap_err().describe(), "k must be >= 0, got -1");
+        assert_eq!(top_conflicts(&[1], &[a.view()], 1, 0.0, 2.0, None, None, None).unwrap_err().describe(), "max_pet must be > 0, got 0");
+        assert_eq!(top_conflicts(&[1], &[a.view()], 1, 1.0, f64::NAN, None, None, None).unwrap_err().describe(), "radius must be >= 0, got NaN");
+        assert!(matches!(top_conflicts(&[1, 1], &[a.view(), a.view()], 1, 1.0, 2.0, None, None, None), Err(ConflictError::DuplicateId(1))));
     }
 
     #[test]
@@ -251,19 +278,45 @@ mod tests {
         let d = line(9.12, 0.0, -10.0, 0.0, 1.5, 141, 0.1);
         let trajs = [a.view(), b.view(), c.view(), d.view()];
         let ids = [1, 2, 3, 4];
-        let plain = top_conflicts(&ids, &trajs, 1, 5.0, 2.0, None).unwrap();
+        let plain = top_conflicts(&ids, &trajs, 1, 5.0, 2.0, None, None, None).unwrap();
         assert_eq!(plain.iter().map(|c| (c.a, c.b)).collect::<Vec<_>>(), vec![(0, 1)], "{plain:?}");
         let ped = super::super::Body { class: 1, min_gap_m: 0.45 };
         let cls = [ped; 4];
-        let top = top_conflicts(&ids, &trajs, 2, 5.0, 2.0, Some(&cls)).unwrap();
+        let top = top_conflicts(&ids, &trajs, 2, 5.0, 2.0, Some(&cls), None, None).unwrap();
         // k = 2 without the pair (1, 2): both crossings of 3 with the pedestrian
         assert!(top.iter().all(|c| (c.a, c.b) != (0, 1)), "{top:?}");
         assert_eq!(top.len(), 2);
         assert!(top.iter().all(|c| c.b == 2 && (c.pet.unwrap().pet - 0.5).abs() < 0.2), "{top:?}");
         // the same pair as two classes: a near miss again
         let mixed = [ped, super::super::Body { class: 2, min_gap_m: 0.6 }, ped, ped];
-        assert_eq!(top_conflicts(&ids, &trajs, 1, 5.0, 2.0, Some(&mixed)).unwrap().iter().map(|c| (c.a, c.b)).collect::<Vec<_>>(), vec![(0, 1)]);
-        assert!(matches!(top_conflicts(&ids, &trajs, 1, 5.0, 2.0, Some(&cls[..3])), Err(ConflictError::ClassesLength { ids: 4, classes: 3 })));
+        assert_eq!(top_conflicts(&ids, &trajs, 1, 5.0, 2.0, Some(&mixed), None, None).unwrap().iter().map(|c| (c.a, c.b)).collect::<Vec<_>>(), vec![(0, 1)]);
+        assert!(matches!(top_conflicts(&ids, &trajs, 1, 5.0, 2.0, Some(&cls[..3]), None, None), Err(ConflictError::ClassesLength { ids: 4, classes: 3 })));
+    }
+
+    #[test]
+    fn walker_pairs_left_out_and_radii_per_road_user() {
+        // pedestrians 1 and 2 walk side by side 1.5 m apart; car 3 crosses them with PET 0.5 s
+        let a = line(0.0, -20.0, 0.0, 1.4, 0.0, 301, 0.1);
+        let b = line(0.3, -20.0, 1.5, 1.4, 0.0, 301, 0.1);
+        let c = line(8.12, 0.0, -10.0, 0.0, 5.0, 61, 0.1);
+        let trajs = [a.view(), b.view(), c.view()];
+        let ids = [1, 2, 3];
+        // the pedestrian pair crosses nowhere (parallel), so the closest is the car with a pedestrian
+        let walkers = [true, true, false];
+        let all = top_conflicts(&ids, &trajs, 3, 5.0, 2.0, None, None, None).unwrap();
+        let some = top_conflicts(&ids, &trajs, 3, 5.0, 2.0, None, None, Some(&walkers)).unwrap();
+        assert!(some.iter().all(|c| !(walkers[c.a] && walkers[c.b])));
+        assert_eq!(all.iter().filter(|c| !(walkers[c.a] && walkers[c.b])).count(), some.len());
+        // TTC at the pair's radii: a 2 m disc puts the two pedestrians in contact, 0.25 m each does not
+        // (two pedestrians crossing at right angles 1 s apart: at least 0.99 m apart)
+        let (d, e) = (line(0.0, -10.0, 0.0, 1.4, 0.0, 201, 0.1), line(1.0, 0.0, -10.0, 0.0, 1.4, 201, 0.1));
+        let pair = [d.view(), e.view()];
+        let wide = top_conflicts(&[1, 2], &pair, 1, 5.0, 2.0, None, None, None).unwrap();
+        let narrow = top_conflicts(&[1, 2], &pair, 1, 5.0, 2.0, None, Some(&[0.25, 0.25]), None).unwrap();
+        assert!(wide[0].ttc.is_some() && narrow[0].ttc.is_none(), "{wide:?} {narrow:?}");
+        assert!((wide[0].pet.unwrap().pet - 1.0).abs() < 1e-9 && narrow[0].pet == wide[0].pet);
+        assert!(matches!(top_conflicts(&[1, 2], &pair, 1, 5.0, 2.0, None, Some(&[0.25]), None), Err(ConflictError::PerRoadUser { what: "radii", ids: 2, got: 1 })));
+        assert_eq!(top_conflicts(&[1, 2], &pair, 1, 5.0, 2.0, None, Some(&[0.25, -1.0]), None).unwrap_err().describe(), "radii must be >= 0, got -1");
     }
 
     proptest! {
@@ -289,7 +342,7 @@ mod tests {
             let ids: Vec<i64> = (0..n as i64).map(|k| k * 5 - 7).collect();
             let views: Vec<Traj<'_>> = trajs.iter().map(|t| t.view()).collect();
             let m = if inf { f64::INFINITY } else { max_pet };
-            prop_assert_eq!(top_conflicts(&ids, &views, k as i64, m, 2.0, None).unwrap(), slow(&ids, &views, k, m, 2.0));
+            prop_assert_eq!(top_conflicts(&ids, &views, k as i64, m, 2.0, None, None, None).unwrap(), slow(&ids, &views, k, m, 2.0));
         }
     }
 }

@@ -47,25 +47,10 @@ FROM merged;
 -- the analyst's questions (issue 29 §4): movements and near misses come from sql/analysis.sql's
 -- macros, defined again here so that the report stands alone after .read sql/pipeline.sql
 .read sql/analysis.sql
--- (issue 39) the gates the report counts movements by, drawn by the analyst: report_gates_in
--- (the runner reads the parameter report_gates, a file or a table, into it; by hand: CREATE TEMP
--- TABLE report_gates_in AS FROM 'gates.csv' before this file), with approach, x1, y1, x2, y2 or
--- approach, wkt. None: the approaches are found in the data, and the report says which.
-CREATE TEMP TABLE IF NOT EXISTS report_gates_in AS SELECT NULL::VARCHAR AS approach WHERE false;
-CREATE OR REPLACE TEMP TABLE report_gates AS
-WITH j AS (SELECT to_json(g) AS j FROM report_gates_in g),
-v AS (SELECT j->>'approach' AS approach, TRY_CAST(j->>'x1' AS DOUBLE) AS x1, TRY_CAST(j->>'y1' AS DOUBLE) AS y1,
-             TRY_CAST(j->>'x2' AS DOUBLE) AS x2, TRY_CAST(j->>'y2' AS DOUBLE) AS y2, j->>'wkt' AS wkt, j::VARCHAR AS row_text FROM j)
-SELECT CASE WHEN coalesce(trim(approach), '') = ''
-            THEN error('report_gates: every gate needs an approach name (columns approach, x1, y1, x2, y2, or approach, wkt), got ' || left(row_text, 200))
-            ELSE approach END AS approach,
-       coalesce(x1, trajdb_gate_from_wkt(wkt).x1) AS x1, coalesce(y1, trajdb_gate_from_wkt(wkt).y1) AS y1,
-       coalesce(x2, trajdb_gate_from_wkt(wkt).x2) AS x2,
-       CASE WHEN coalesce(y2, trajdb_gate_from_wkt(wkt).y2) IS NULL OR x1 IS NULL AND wkt IS NULL
-            THEN error('report_gates: gate ' || approach || ' needs numbers x1, y1, x2, y2 (metres in the results'' frame) or a wkt LINESTRING (x1 y1, x2 y2), got '
-                       || left(row_text, 200))
-            ELSE coalesce(y2, trajdb_gate_from_wkt(wkt).y2) END AS y2
-FROM v;
+-- (issue 39) the gates the report counts movements by, drawn by the analyst: report_gates
+-- (sql/report_gates.sql, which the runner ran before the stages, checks report_gates_in). None:
+-- the approaches are found in the data, and the report says which.
+.read sql/report_gates.sql
 SET VARIABLE report_gates_table = CASE WHEN (SELECT count(*) FROM report_gates) > 0 THEN 'report_gates' END;
 -- every road user's entry and exit approach and movement, once (the movement table, its diagram,
 -- speeds per movement and the confidence lines all read it)
@@ -104,6 +89,16 @@ WHERE c.pet < 3;
 -- hours, else from the start of the recording. The span is the merged paths' (reference clock).
 CREATE OR REPLACE TEMP TABLE report_flow_span AS
 SELECT min(t_start) AS t0, max(t_end) AS t1, coalesce(getvariable('input_t_type') LIKE 'TIMESTAMP%', false) AS wall FROM report_users;
+-- the recording's sessions: where road users follow each other with gaps of at most
+-- recording_gap_s (10 x the 99th percentile gap between first sightings, at least a minute); a
+-- longer empty stretch is the recording stopped (an AM and a PM session), not the traffic
+CREATE OR REPLACE TEMP TABLE report_sessions AS
+WITH u AS (SELECT t_start AS s, t_end AS e FROM report_users WHERE t_start IS NOT NULL AND t_end IS NOT NULL),
+g AS (SELECT recording_gap_s(quantile_cont(d, 0.99)) AS gap FROM (SELECT s - lag(s) OVER (ORDER BY s) AS d FROM u) WHERE d IS NOT NULL),
+o AS (SELECT s, e, max(e) OVER (ORDER BY s, e ROWS BETWEEN UNBOUNDED PRECEDING AND 1 PRECEDING) AS prev_e FROM u),
+k AS (SELECT s, e, sum(CASE WHEN prev_e IS NULL OR s - prev_e > (SELECT coalesce(any_value(gap), 60) FROM g) THEN 1 ELSE 0 END)
+                      OVER (ORDER BY s, e ROWS UNBOUNDED PRECEDING) AS session FROM o)
+SELECT session, min(s) AS s0, max(e) AS s1 FROM k GROUP BY session;
 CREATE OR REPLACE TEMP TABLE report_flow AS
 SELECT b, class, count(*) AS n
 FROM (SELECT u.class, CASE WHEN s.wall THEN floor(u.t_start / 900) * 900 ELSE s.t0 + floor((u.t_start - s.t0) / 900) * 900 END AS b
@@ -270,6 +265,7 @@ UNION ALL SELECT 'meta', 12, ['flow_t1', t1::VARCHAR] FROM report_flow_span
 UNION ALL SELECT 'meta', 13, ['clock', CASE WHEN getvariable('input_t_type') = 'TIMESTAMP WITH TIME ZONE' THEN 'utc'
                                             WHEN getvariable('input_t_type') LIKE 'TIMESTAMP%' THEN 'wall' ELSE 'relative' END]
 UNION ALL SELECT 'flow', row_number() OVER (ORDER BY b, class), [b::VARCHAR, class, n::VARCHAR] FROM report_flow
+UNION ALL SELECT 'session', row_number() OVER (ORDER BY s0), [s0::VARCHAR, s1::VARCHAR] FROM report_sessions
 UNION ALL SELECT 'conf', row_number() OVER (ORDER BY topic), [topic, n::VARCHAR, multi::VARCHAR, joined::VARCHAR, flagged::VARCHAR] FROM report_conf
 UNION ALL SELECT 'approach', row_number() OVER (ORDER BY bearing_deg),
        [approach, bearing_deg::VARCHAR, lo_deg::VARCHAR, hi_deg::VARCHAR, centre_x::VARCHAR, centre_y::VARCHAR, min_radius_m::VARCHAR,

@@ -2730,12 +2730,19 @@ CREATE OR REPLACE TEMP MACRO trajdb_gate_from_wkt(wkt) AS
          ELSE error('gate_from_wkt: a gate is LINESTRING (x1 y1, x2 y2) with two points, got ' || coalesce(wkt, 'NULL')) END;
 
 -- Where segment p -> q (points of a TRAJ) crosses the gate (x1, y1)-(x2, y2): its time, or NULL.
+-- A crossing goes from one side of the gate's line to the other, a point ON the line counting as
+-- the left side (sp, sq: the cross products of the gate with p and q; >= 0 is left), where the
+-- line meets the gate segment (v in [0, 1]). So a path through a sample point on the gate crosses
+-- once, not twice (the segments before and after it both touched it: issue 39, review F2), and a
+-- path that touches the line from the left and turns back does not cross. A gate of zero length
+-- is crossed by nothing.
+CREATE OR REPLACE TEMP MACRO trajdb_gate_side(p, x1, y1, x2, y2) AS (x2 - x1) * (p.y - y1) - (y2 - y1) * (p.x - x1);
 CREATE OR REPLACE TEMP MACRO trajdb_gate_time(p, q, x1, y1, x2, y2) AS (
-    CASE WHEN ((q.x - p.x) * (y2 - y1) - (q.y - p.y) * (x2 - x1)) <> 0 THEN
-        CASE WHEN ((x1 - p.x) * (y2 - y1) - (y1 - p.y) * (x2 - x1)) / ((q.x - p.x) * (y2 - y1) - (q.y - p.y) * (x2 - x1)) BETWEEN 0 AND 1
-              AND ((x1 - p.x) * (q.y - p.y) - (y1 - p.y) * (q.x - p.x)) / ((q.x - p.x) * (y2 - y1) - (q.y - p.y) * (x2 - x1)) BETWEEN 0 AND 1
-             THEN p.t + (q.t - p.t) * ((x1 - p.x) * (y2 - y1) - (y1 - p.y) * (x2 - x1)) / ((q.x - p.x) * (y2 - y1) - (q.y - p.y) * (x2 - x1))
-        END
+    CASE WHEN (trajdb_gate_side(p, x1, y1, x2, y2) >= 0) <> (trajdb_gate_side(q, x1, y1, x2, y2) >= 0)
+              AND ((p.x + (q.x - p.x) * trajdb_gate_side(p, x1, y1, x2, y2) / (trajdb_gate_side(p, x1, y1, x2, y2) - trajdb_gate_side(q, x1, y1, x2, y2)) - x1) * (x2 - x1)
+                 + (p.y + (q.y - p.y) * trajdb_gate_side(p, x1, y1, x2, y2) / (trajdb_gate_side(p, x1, y1, x2, y2) - trajdb_gate_side(q, x1, y1, x2, y2)) - y1) * (y2 - y1))
+                  / nullif((x2 - x1) ** 2 + (y2 - y1) ** 2, 0) BETWEEN 0 AND 1
+         THEN p.t + (q.t - p.t) * trajdb_gate_side(p, x1, y1, x2, y2) / (trajdb_gate_side(p, x1, y1, x2, y2) - trajdb_gate_side(q, x1, y1, x2, y2))
     END);
 
 -- ---------------------------------------------------------------- entries and exits
@@ -2921,7 +2928,7 @@ trajdb_r AS (
 trajdb_x AS (
     SELECT r.road_user, r.class, g.gate, unnest(list_filter(list_transform(range(1, len(r.traj)), lambda i: {
                't': trajdb_gate_time(r.traj[i], r.traj[i + 1], g.x1, g.y1, g.x2, g.y2),
-               'to_left': (g.x2 - g.x1) * (r.traj[i + 1].y - r.traj[i].y) - (g.y2 - g.y1) * (r.traj[i + 1].x - r.traj[i].x) > 0,
+               'to_left': trajdb_gate_side(r.traj[i + 1], g.x1, g.y1, g.x2, g.y2) >= 0,
                'heading_deg': degrees(atan2(r.traj[i + 1].y - r.traj[i].y, r.traj[i + 1].x - r.traj[i].x)),
                'p': r.traj[i], 'q': r.traj[i + 1]}), lambda c: c.t IS NOT NULL)) AS c
     FROM trajdb_r r, trajdb_g g
@@ -2937,7 +2944,10 @@ FROM trajdb_x ORDER BY gate, t, road_user;
 -- user counts once per gate and direction (its first crossing that way: a pedestrian who stops
 -- on the line and steps back and forth is one crossing, not five); crossings counts them all.
 CREATE OR REPLACE TEMP MACRO trajdb_crossings(tbl := 'merged', gates := NULL, bin_s := 900) AS TABLE
-SELECT bin_start, gate, direction, class, count(*) AS road_users, sum(n) AS crossings
+SELECT CASE WHEN bin_s IS NULL OR NOT bin_s::DOUBLE > 0 OR NOT isfinite(bin_s::DOUBLE)
+            THEN error('crossings: bin_s must be a number of seconds > 0, got ' || coalesce(bin_s::VARCHAR, 'NULL') || ' (900: 15 minutes)')
+            ELSE bin_start END AS bin_start,
+       gate, direction, class, count(*) AS road_users, sum(n) AS crossings
 FROM (SELECT floor(min(t) / bin_s::DOUBLE) * bin_s::DOUBLE AS bin_start, gate, CASE WHEN to_left THEN 'to left' ELSE 'to right' END AS direction,
              class, count(*) AS n
       FROM trajdb_road_user_crossings(tbl := tbl, gates := gates) GROUP BY gate, to_left, class, road_user)

@@ -301,6 +301,27 @@ def check_conflicts():
     assert abs(ttc - 2.9) < 1e-6 and abs(t - 2.0) < 1e-6 and pet is None
 
 
+def check_crossing_edges():
+    """(issue 39, review F2) A path through a sample point ON a gate crosses it once; a path that
+    touches the line from its left and turns back does not cross it; bin_s must be > 0."""
+    con = trajdb.connect()
+    con.execute(ANALYSIS)
+    con.execute("""CREATE TABLE paths AS SELECT * FROM (VALUES
+        (1, 'pedestrian', [{'t': 0.0, 'x': 0.0, 'y': -1.0}, {'t': 1.0, 'x': 0.0, 'y': 0.0}, {'t': 2.0, 'x': 0.0, 'y': 1.0}]),
+        (2, 'pedestrian', [{'t': 0.0, 'x': 1.0, 'y': 1.0}, {'t': 1.0, 'x': 1.0, 'y': 0.0}, {'t': 2.0, 'x': 1.0, 'y': 1.0}]),
+        (3, 'pedestrian', [{'t': 0.0, 'x': 2.0, 'y': 1.0}, {'t': 1.0, 'x': 2.0, 'y': -1.0}])) p(road_user, class, traj)""")
+    con.execute("CREATE TABLE line AS SELECT 'g' AS approach, -5.0 AS x1, 0.0 AS y1, 5.0 AS x2, 0.0 AS y2")
+    got = con.execute("SELECT road_user, t, to_left FROM road_user_crossings(tbl := 'paths', gates := 'line') ORDER BY road_user").fetchall()
+    assert got == [(1, 1.0, True), (3, 0.5, False)], got
+    for bad in ("0", "NULL", "-900"):
+        try:
+            con.execute(f"FROM crossings(tbl := 'paths', gates := 'line', bin_s := {bad})").fetchall()
+            raise AssertionError(f"bin_s {bad}: no error")
+        except duckdb.Error as e:
+            assert "crossings: bin_s must be a number of seconds > 0" in str(e), e
+    print("  crossings: once through a sample point on the gate, none for a touch from the left, bin_s checked")
+
+
 def main():
     with tempfile.TemporaryDirectory() as tmp:
         for seed in (1, 2):
@@ -312,6 +333,7 @@ def main():
             check_mirror(con)
             check_speeds(con, seed)
     check_conflicts()
+    check_crossing_edges()
     print("test_analysis_python: ok")
 
 

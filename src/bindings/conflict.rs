@@ -160,7 +160,7 @@ pub static FUNCTIONS: &[Function] = &[
     Function {
         name: "conflict_kind",
         description: "The kind of a crossing between road users of classes class_a and class_b whose headings meet at angle_deg \
-                      (traj_pet's angle, 0-180): SSAM's kinds between two vehicles (cars, heavy vehicles, two-wheelers): rear-end \
+                      (traj_pet's angle, 0-180): SSAM's kinds between two vehicles (cars, heavy vehicles, two-wheelers; an angle outside 0-180 is folded into it): rear-end \
                       under 30 degrees, lane-change 30-85, crossing above 85 (Gettman et al. 2008); 'vehicle-pedestrian' when one is a \
                       pedestrian and 'pedestrian-pedestrian' when both are (SSAM's kinds are about vehicles in lanes: a pedestrian pair \
                       is no lane change). NULL when a class says nothing of the road user (class_kind 'unknown'), a vehicle pair has \

@@ -22,6 +22,20 @@ fn doubles<const N: usize>(a: &Args<'_>, out: &mut Out<'_>, f: impl Fn([f64; N])
 
 pub static FUNCTIONS: &[Function] = &[
     Function {
+        name: "recording_gap_s",
+        description: "How long the road can be empty before the recording, not the traffic, has stopped (s): 10 x p99_interarrival_s (the \
+                      99th percentile of the gaps between consecutive road users' first sightings), at least 60 s (under Poisson arrivals \
+                      a gap of 10 x p99 comes by chance with probability 0.01^10; a recording in sessions shows hours). The report cuts \
+                      the recording into sessions at longer gaps: quarter hours inside a gap are not recorded, those a gap cuts are \
+                      partial, and neither takes part in the peak hour (crates/algo/src/peak_hour.rs). NULL for NULL; NaN or negative: 60. \
+                      O(1).",
+        example: "SELECT recording_gap_s(30); -- 300.0",
+        maths: "crates/algo/src/peak_hour.rs",
+        binding: file!(),
+        signatures: &[Signature { params: &[p("p99_interarrival_s", Ty::Double)], arities: &[], returns: Ty::Double, kernel: recording_gap_s }],
+        table: None,
+    },
+    Function {
         name: "noise_sigma_from_second_differences",
         description: "A camera's per-axis position noise sigma (m) from the median of |p(t+1) - 2 p(t) + p(t-1)|² (m²) over evenly spaced triples of its tracks (calibrate.sql): the second difference of noisy positions is 6 sigma² per axis, its squared length 6 sigma² chi2(2) with median 12 ln 2 sigma², so sigma = sqrt(median_sq / (12 ln 2)). NULL for NULL; a negative or non-finite argument is an error naming it. O(1).",
         example: "SELECT round(noise_sigma_from_second_differences(12 * ln(2) * 0.01), 6); -- 0.1",
@@ -183,4 +197,8 @@ fn noise_align_vote_rms(a: &Args<'_>, out: &mut Out<'_>) -> R {
 
 fn noise_align_refine_rms(a: &Args<'_>, out: &mut Out<'_>) -> R {
     doubles::<1>(a, out, |[s]| noise::align_refine_rms(s))
+}
+
+fn recording_gap_s(a: &Args<'_>, out: &mut Out<'_>) -> R {
+    doubles::<1>(a, out, |[p]| Ok(crate::algo::peak_hour::recording_gap_s(p)))
 }

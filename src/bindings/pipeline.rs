@@ -130,7 +130,7 @@ impl TableFn for PipelineFn {
             let g = g.trim();
             let lower = g.to_ascii_lowercase();
             if lower.ends_with(".csv") || lower.ends_with(".csv.gz") || lower.ends_with(".parquet") {
-                fs.may_read(g)?;
+                fs.may_read(g).map_err(|e| format!("report_gates: cannot read {g:?}: {e}"))?;
                 read_paths.push(g.to_string());
             } else if !g.is_empty() {
                 return Err(format!(

@@ -256,6 +256,9 @@ pub fn plan(req: &Request) -> Result<Vec<Step>, Box<dyn Error>> {
         // analysis.sql in the results reads merged.parquet from there (sql/export.sql)
         steps.push(Step { stage: "params".into(), file: "trajdb_stages".into(), sql: format!("SET VARIABLE trajdb_results_dir = {o}"), makes: None, undo: None });
         steps.push(clock_step("start", "params"));
+        // the report's gates, read and checked before any stage: a bad file fails in seconds
+        steps.extend(gates_steps(&values));
+        push_script(&mut steps, "params", "sql/report_gates.sql", &sql::expand_embedded("sql/report_gates.sql")?);
     }
     // 3. the load and the stages (sql/pipeline.sql: params.sql keeps the values set above)
     let skip: Vec<&str> = SITE_TABLES.iter().chain(SITE_WORK_TABLES).copied().collect();
@@ -303,7 +306,6 @@ pub fn plan(req: &Request) -> Result<Vec<Step>, Box<dyn Error>> {
             makes: Some("pipeline_timings".into()),
             undo: None,
         });
-        steps.push(gates_step(&values));
         push_script(&mut steps, "report", "sql/report.sql", &sql::expand_embedded("sql/report.sql")?);
         steps.push(Step {
             stage: "commit".into(),
@@ -323,18 +325,32 @@ pub fn plan(req: &Request) -> Result<Vec<Step>, Box<dyn Error>> {
 /// from the data). A name ending in .csv or .parquet is a file (read_csv / read_parquet), any
 /// other a table or view (query_table); the value is read from its variable, never spliced
 /// into the SQL.
-fn gates_step(values: &[(&'static params::Param, String)]) -> Step {
+fn gates_steps(values: &[(&'static params::Param, String)]) -> Vec<Step> {
     let given = values.iter().find(|(p, _)| p.name == "report_gates").map(|(_, v)| v.trim_matches('\'').trim().to_ascii_lowercase()).unwrap_or_default();
-    let sql = if given.is_empty() {
-        "CREATE OR REPLACE TEMP TABLE report_gates_in AS SELECT NULL::VARCHAR AS approach WHERE false".to_string()
-    } else if given.ends_with(".csv") || given.ends_with(".csv.gz") {
-        "CREATE OR REPLACE TEMP TABLE report_gates_in AS FROM read_csv(getvariable('report_gates'))".to_string()
-    } else if given.ends_with(".parquet") {
-        "CREATE OR REPLACE TEMP TABLE report_gates_in AS FROM read_parquet(getvariable('report_gates'))".to_string()
-    } else {
-        "CREATE OR REPLACE TEMP TABLE report_gates_in AS FROM query_table(getvariable('report_gates'))".to_string()
-    };
-    Step { stage: "report".into(), file: "report_gates".into(), makes: statement_target(&sql), sql, undo: None }
+    let step = |sql: &str| Step { stage: "params".into(), file: "report_gates".into(), makes: statement_target(sql), sql: sql.to_string(), undo: None };
+    if given.is_empty() {
+        return vec![step("CREATE OR REPLACE TEMP TABLE report_gates_in AS SELECT NULL::VARCHAR AS approach, NULL::DOUBLE AS x1, NULL::DOUBLE AS y1, NULL::DOUBLE AS x2, NULL::DOUBLE AS y2 WHERE false")];
+    }
+    let read = if given.ends_with(".csv") || given.ends_with(".csv.gz") { Some("read_csv") } else if given.ends_with(".parquet") { Some("read_parquet") } else { None };
+    match read {
+        Some(f) => vec![
+            step(
+                "SET VARIABLE report_gates_checked = (SELECT CASE WHEN count(*) = 0 THEN error('report_gates: no file ' || getvariable('report_gates') \
+                 || ' (a gates file: .csv or .parquet with approach, x1, y1, x2, y2 or approach, wkt)') ELSE true END FROM glob(getvariable('report_gates')))",
+            ),
+            step(&format!("CREATE OR REPLACE TEMP TABLE report_gates_in AS FROM {f}(getvariable('report_gates'))")),
+        ],
+        None => vec![
+            step(
+                "SET VARIABLE report_gates_checked = (SELECT CASE WHEN count(*) = 0 THEN error('report_gates: no table or view named ' \
+                 || getvariable('report_gates') || ' in this connection; give a .csv or .parquet file (the name must end so), or the name of a table \
+                 or view with approach, x1, y1, x2, y2 or approach, wkt') ELSE true END \
+                 FROM (SELECT table_name AS n, schema_name AS s FROM duckdb_tables() UNION ALL SELECT view_name, schema_name FROM duckdb_views()) \
+                 WHERE lower(n) = lower(getvariable('report_gates')) OR lower(s || '.' || n) = lower(getvariable('report_gates')))",
+            ),
+            step("CREATE OR REPLACE TEMP TABLE report_gates_in AS FROM query_table(getvariable('report_gates'))"),
+        ],
+    }
 }
 
 /// A row of the run's clock (`pipeline_clock`: when each stage began), from which the report's

@@ -67,7 +67,8 @@ impl Kind {
             return Kind::Unknown;
         }
         let has = |words: &[&str]| words.iter().any(|w| c.contains(w));
-        if has(&["cycl", "bike", "bicycl", "motor", "scooter", "two_wheel", "two-wheel", "pedelec"]) {
+        // (two-wheelers first: 'moped' and 'pedelec' hold "ped" and are no pedestrians)
+        if has(&["cycl", "bike", "bicycl", "motor", "scooter", "two_wheel", "two-wheel", "pedelec", "moped", "mofa", "vespa"]) {
             Kind::TwoWheeler
         } else if has(&["ped", "person", "walk", "people", "human"]) {
             Kind::Pedestrian
@@ -174,6 +175,8 @@ mod tests {
         assert_eq!(search_reach_m("cyclist"), 3.0);
         assert_eq!(search_reach_m("motorcycle"), 3.0);
         assert_eq!(class_length_m("pedelec"), 2.0);
+        assert_eq!(Kind::of("moped"), Kind::TwoWheeler);
+        assert_eq!(Kind::of("Moped_rider"), Kind::TwoWheeler);
         assert_eq!(class_length_m("pedal_cycle"), 2.0);
         assert_eq!(search_reach_m("heavy_vehicle"), 13.0);
         assert_eq!(search_reach_m("BUS"), 13.0);

@@ -12,7 +12,8 @@
 //! - a class that says nothing of the road user ([`Kind::Unknown`]) or no angle: no kind (NULL).
 //!   Calling two unknown road users a "lane change" would be a guess.
 //!
-//! The angle is `Pet::angle` (degrees, 0-180, between the two headings at the crossing).
+//! The angle is `Pet::angle` (degrees, 0-180, between the two headings at the crossing); any
+//! other value is folded into 0-180 (350° and -10° are 10°).
 //!
 //! # Complexity
 //! O(length of the class names).
@@ -35,7 +36,9 @@ pub fn conflict_kind(class_a: &str, class_b: &str, angle_deg: Option<f64>) -> Op
         (true, true) => Some("pedestrian-pedestrian"),
         (true, false) | (false, true) => Some("vehicle-pedestrian"),
         (false, false) => {
-            let g = angle_deg.filter(|g| g.is_finite())?.abs();
+            // the angle between two headings: any value folds into [0, 180] (350 is 10)
+            let g = angle_deg.filter(|g| g.is_finite())?.rem_euclid(360.0);
+            let g = if g > 180.0 { 360.0 - g } else { g };
             Some(if g < REAR_END_MAX_DEG {
                 "rear-end"
             } else if g <= LANE_CHANGE_MAX_DEG {
@@ -57,6 +60,10 @@ mod tests {
         assert_eq!(conflict_kind("car", "bicycle", Some(30.0)), Some("lane-change"));
         assert_eq!(conflict_kind("bus", "car", Some(85.0)), Some("lane-change"));
         assert_eq!(conflict_kind("car", "car", Some(90.0)), Some("crossing"));
+        assert_eq!(conflict_kind("car", "car", Some(350.0)), Some("rear-end"));
+        assert_eq!(conflict_kind("car", "car", Some(-10.0)), Some("rear-end"));
+        assert_eq!(conflict_kind("car", "car", Some(270.0)), Some("crossing"));
+        assert_eq!(conflict_kind("car", "moped", Some(300.0)), Some("lane-change"));
         // a pedestrian pair is no lane change, whatever the angle
         assert_eq!(conflict_kind("pedestrian", "person", Some(45.0)), Some("pedestrian-pedestrian"));
         assert_eq!(conflict_kind("car", "pedestrian", Some(10.0)), Some("vehicle-pedestrian"));

@@ -127,10 +127,11 @@ fn site_paths(d: &Data) -> R<Vec<SitePath>> {
     d.rows("site_path").iter().map(|r| Ok((r.s(0)?, r.s(1)? == "true", r.xy(2)?))).collect()
 }
 
-/// The map's frame: the views (all classes) and the paths.
-fn site_frame(c: &Ctx, paths: &[SitePath], w: f64) -> Frame {
+/// The map's frame: the views (all classes), the paths and the gates drawn.
+fn site_frame(c: &Ctx, paths: &[SitePath], gates: &[Gate], w: f64) -> Frame {
     let views = c.views.iter().filter(|v| v.1 == "*").flat_map(|v| svg::rings(&v.2).into_iter().flatten());
-    Frame::fit(views.chain(paths.iter().flat_map(|p| p.2.iter().copied())), w)
+    let ends = gates.iter().flat_map(|g| [(g.1, g.2), (g.3, g.4)]);
+    Frame::fit(views.chain(paths.iter().flat_map(|p| p.2.iter().copied())).chain(ends), w)
 }
 
 /// The views (outlined, camera colours) and the paths (class colours, thin), for both maps.
@@ -179,7 +180,8 @@ pub fn site_map(d: &Data, c: &Ctx, h: &mut String) -> R<()> {
         class_legend(c, &classes),
         svg::legend(&c.names)
     );
-    let fr = site_frame(c, &paths, 760.0);
+    let g = gates(d)?;
+    let fr = site_frame(c, &paths, &g, 760.0);
     h.push_str("<div id=\"site-map\">");
     h.push_str(&fr.open("site map"));
     h.push_str(&site_background(c, &fr, &paths, false));
@@ -217,7 +219,6 @@ pub fn site_map(d: &Data, c: &Ctx, h: &mut String) -> R<()> {
         }
         h.push_str(&fr.text(a0.cx, a0.cy, "+", "middle", 16.0));
     }
-    let g = gates(d)?;
     for (name, x1, y1, x2, y2) in &g {
         h.push_str(&fr.line(&[(*x1, *y1), (*x2, *y2)], "#000", 3.5, false));
         h.push_str(&fr.text((x1 + x2) / 2.0, (y1 + y2) / 2.0, name, "middle", 14.0));
@@ -244,7 +245,20 @@ fn lane_point(bearing_deg: f64, r: f64, w: f64, inbound: bool) -> (f64, f64) {
     // world (y up): right of d = (dy, -dx); d = -u inbound, u outbound
     let (nx, ny) = if inbound { (-uy, ux) } else { (uy, -ux) };
     let (x, y) = (r * ux + w * nx, r * uy + w * ny);
-    (170.0 + x, 170.0 - y)
+    (DIAGRAM_CX + x, 170.0 - y)
+}
+
+/// The movement diagram's centre (pixels): room either side for the approaches' names.
+const DIAGRAM_CX: f64 = 230.0;
+
+/// An approach's name for the diagram: at most 14 characters (the full name is in the table
+/// and the arrows' titles).
+fn short_name(name: &str) -> String {
+    if name.chars().count() <= 14 {
+        name.to_string()
+    } else {
+        name.chars().take(13).collect::<String>() + "…"
+    }
 }
 
 /// The movement diagram and table: arrows from the entry approach to the exit approach, width by
@@ -261,8 +275,11 @@ pub fn movements(d: &Data, c: &Ctx, h: &mut String) -> R<()> {
     if mv.is_empty() {
         h.push_str(if drawn(d) {
             "<p>No vehicle crossed two of your gates (report_gates).</p>"
-        } else {
+        } else if ap.is_empty() {
             "<p>No vehicle crosses the site from one approach to another (no approaches found: draw gates, parameter report_gates).</p>"
+        } else {
+            "<p>No vehicle crosses the site from one approach to another (the approaches on the site map are where road users enter and \
+             leave; without vehicles they are every road user's).</p>"
         });
         return Ok(());
     }
@@ -300,18 +317,23 @@ pub fn movements(d: &Data, c: &Ctx, h: &mut String) -> R<()> {
         let top = mine.iter().map(|m| m.4).max().unwrap_or(1).max(1) as f64;
         let _ = write!(
             h,
-            "<figure style=\"max-width:340px\"><svg xmlns=\"http://www.w3.org/2000/svg\" width=\"340\" height=\"340\" viewBox=\"0 0 340 340\" style=\"background:#fff\">\
+            "<figure style=\"max-width:460px\"><svg xmlns=\"http://www.w3.org/2000/svg\" width=\"460\" height=\"340\" viewBox=\"0 0 460 340\" style=\"background:#fff\">\
              <title>movements: {}</title><defs><marker id=\"arrow{k}\" viewBox=\"0 0 10 10\" refX=\"6\" refY=\"5\" markerWidth=\"9\" markerHeight=\"9\" \
              markerUnits=\"userSpaceOnUse\" orient=\"auto\"><path d=\"M0 0L10 5L0 10z\" fill=\"{col}\"/></marker></defs>\
-             <circle cx=\"170\" cy=\"170\" r=\"118\" fill=\"none\" stroke=\"#ddd\"/>",
+             <circle cx=\"230\" cy=\"170\" r=\"118\" fill=\"none\" stroke=\"#ddd\"/>",
             esc(class)
         );
         for (name, b) in &ap {
-            let (u, v) = lane_point(*b, 148.0, 0.0, true);
+            let (u, v) = lane_point(*b, 128.0, 0.0, true);
+            // anchored away from the circle, so that a long name runs outward
+            let c = b.to_radians().cos();
+            let (anchor, u) = if c > 0.35 { ("start", u + 4.0) } else if c < -0.35 { ("end", u - 4.0) } else { ("middle", u) };
+            let v = v - 12.0 * b.to_radians().sin().signum() * (c.abs() <= 0.35) as i32 as f64;
             let _ = write!(
                 h,
-                "<text x=\"{u:.1}\" y=\"{v:.1}\" font-size=\"13\" font-weight=\"bold\" text-anchor=\"middle\" dominant-baseline=\"middle\">{}</text>",
-                esc(name)
+                "<text x=\"{u:.1}\" y=\"{v:.1}\" font-size=\"13\" font-weight=\"bold\" text-anchor=\"{anchor}\" dominant-baseline=\"middle\"><title>{}</title>{}</text>",
+                esc(name),
+                esc(&short_name(name))
             );
         }
         let mut drawn = 0;
@@ -321,7 +343,7 @@ pub fn movements(d: &Data, c: &Ctx, h: &mut String) -> R<()> {
             let p0 = lane_point(bi, 118.0, 9.0, true);
             let p1 = lane_point(bo, 118.0, 9.0, false);
             // through the centre for turns and through movements, a loop for a u-turn
-            let ctrl = if m.0 == m.1 { lane_point(bi, 50.0, 0.0, true) } else { (170.0, 170.0) };
+            let ctrl = if m.0 == m.1 { lane_point(bi, 50.0, 0.0, true) } else { (DIAGRAM_CX, 170.0) };
             let _ = write!(
                 h,
                 "<path d=\"M{:.1} {:.1}Q{:.1} {:.1} {:.1} {:.1}\" stroke=\"{col}\" stroke-width=\"{w:.1}\" stroke-opacity=\"0.7\" fill=\"none\" marker-end=\"url(#arrow{k})\"><title>{} → {} {}: {}</title></path>",
@@ -399,8 +421,13 @@ pub fn counts(d: &Data, c: &Ctx, h: &mut String) -> R<()> {
     let counted: Vec<&str> = if vehicles.is_empty() { classes.clone() } else { vehicles.clone() };
     let what = if vehicles.is_empty() { "road users" } else { "vehicles" };
     let cell = |b: usize, class: &str| flow.iter().find(|f| ((f.0 - b0) / 900.0).round() as usize == b && f.1 == class).map_or(0, |f| f.2);
-    // a bin is whole when the recording covers it from start to end (1 s of slack)
-    let whole: Vec<bool> = (0..nb).map(|b| b0 + 900.0 * b as f64 >= t0 - 1.0 && b0 + 900.0 * (b + 1) as f64 <= t1 + 1.0).collect();
+    // a bin is whole when one session of the recording covers it from start to end (1 s of
+    // slack), not recorded when none touches it (the recording stopped: recording_gap_s)
+    let sessions = d.rows("session").iter().map(|r| Ok((r.f(0)?, r.f(1)?))).collect::<R<Vec<(f64, f64)>>>()?;
+    let sessions = if sessions.is_empty() { vec![(t0, t1)] } else { sessions };
+    let span = |b: usize| (b0 + 900.0 * b as f64, b0 + 900.0 * (b + 1) as f64);
+    let whole: Vec<bool> = (0..nb).map(|b| sessions.iter().any(|s| span(b).0 >= s.0 - 1.0 && span(b).1 <= s.1 + 1.0)).collect();
+    let recorded: Vec<bool> = (0..nb).map(|b| sessions.iter().any(|s| span(b).0 < s.1 && span(b).1 > s.0)).collect();
     let volume: Vec<f64> = (0..nb).map(|b| counted.iter().map(|k| cell(b, k)).sum::<i64>() as f64).collect();
     let label = |b: usize| bin_label(b0 + 900.0 * b as f64, t0, wall);
     // the peak hours: of the whole day, or of the morning and the afternoon on a wall clock
@@ -435,14 +462,15 @@ pub fn counts(d: &Data, c: &Ctx, h: &mut String) -> R<()> {
         let n_whole = whole.iter().filter(|w| **w).count();
         let _ = write!(
             h,
-            "<p><b>No peak hour</b>: the recording covers {n_whole} whole quarter hour{} ({:.0} minutes in all); a peak hour needs 4 in a row.{}</p>",
+            "<p><b>No peak hour</b>: the recording covers {n_whole} whole quarter hour{} ({:.0} minutes recorded); a peak hour needs 4 in a row.{}</p>",
             if n_whole == 1 { "" } else { "s" },
-            (t1 - t0) / 60.0,
+            sessions.iter().map(|s| s.1 - s.0).sum::<f64>() / 60.0,
             volume
                 .iter()
                 .enumerate()
                 .filter(|(b, _)| whole[*b])
-                .max_by(|a, b| a.1.total_cmp(b.1))
+                // the first of the busiest
+                .fold(None, |best: Option<(usize, &f64)>, x| if best.is_none_or(|b| x.1 > b.1) { Some(x) } else { best })
                 .map_or(String::new(), |(b, v)| format!(" The busiest whole quarter: {} – {}, {v:.0} {what}.", label(b), label(b + 1)))
         );
     }
@@ -463,6 +491,14 @@ pub fn counts(d: &Data, c: &Ctx, h: &mut String) -> R<()> {
     let in_peak = |b: usize| peaks.iter().any(|(_, p)| b >= p.first && b < p.first + 4);
     let labels: Vec<String> = (0..nb).map(label).collect();
     let colors: Vec<&str> = (0..nb).map(|b| if !whole[b] { "#c7c7c7" } else if in_peak(b) { "#d62728" } else { "#1f77b4" }).collect();
+    if sessions.len() > 1 {
+        let _ = write!(
+            h,
+            "<p>The recording has {} sessions (it stopped for longer than the road is ever empty: recording_gap_s); the quarters between them \
+             were not recorded and are left out.</p>",
+            sessions.len()
+        );
+    }
     let every = (50.0 / (560.0 / nb.max(1) as f64).clamp(3.0, 40.0)).ceil() as usize;
     h.push_str(&svg::bars(
         &format!("{what} per 15 minutes (red: the peak hour; grey: a partial quarter)"),
@@ -483,6 +519,7 @@ pub fn counts(d: &Data, c: &Ctx, h: &mut String) -> R<()> {
         }
         head.push("all".into());
         let rows: Vec<Vec<String>> = (0..nb)
+            .filter(|&b| recorded[b])
             .map(|b| {
                 let mut row = vec![format!(
                     "{}{}{}",
@@ -616,7 +653,7 @@ pub fn near_misses(d: &Data, c: &Ctx, h: &mut String) -> R<()> {
         ];
         let kcol = |k: &Option<String>| KINDS.iter().find(|x| x.0 == k.as_deref().unwrap_or("")).map_or("#bbbbbb", |x| x.1);
         let paths = site_paths(d)?;
-        let fr = site_frame(c, &paths, 760.0);
+        let fr = site_frame(c, &paths, &gates(d)?, 760.0);
         let legend: Vec<String> = KINDS
             .iter()
             .filter_map(|(k, col)| {
@@ -728,13 +765,34 @@ mod tests {
         assert!(h.contains("<b>PM Peak hour 16:00 – 17:00</b>: V = 120 vehicles, busiest quarter V15 = 30, <b>PHF = 120 / (4 × 30) = 1.00</b>"), "{h}");
     }
 
+    /// (issue 39, review F1) Two sessions of the same traffic, 07:00:05-08:05:56 and
+    /// 16:00:05-17:05:56: three whole quarters each, so no peak hour, and the hours between are
+    /// not listed as counted zeros.
+    #[test]
+    fn sessions_have_no_whole_hour_and_the_gap_is_not_counted() {
+        let day = 1_700_006_400.0 - 1_700_006_400.0 % 86400.0;
+        let (a0, a1, p0, p1) = (day + 7.0 * 3600.0 + 5.0, day + 8.0 * 3600.0 + 356.0, day + 16.0 * 3600.0 + 5.0, day + 17.0 * 3600.0 + 356.0);
+        let mut text = format!("meta\x1fflow_t0\x1f{a0}\x1emeta\x1fflow_t1\x1f{p1}\x1emeta\x1fclock\x1fwall\x1esession\x1f{a0}\x1f{a1}\x1esession\x1f{p0}\x1f{p1}");
+        for start in [day + 7.0 * 3600.0, day + 16.0 * 3600.0] {
+            for (q, n) in [200, 190, 200, 200, 60].iter().enumerate() {
+                text.push_str(&format!("\x1eflow\x1f{}\x1fcar\x1f{n}", start + 900.0 * q as f64));
+            }
+        }
+        let mut h = String::new();
+        counts(&Data::parse(&text), &ctx(&["car"]), &mut h).unwrap();
+        assert!(h.contains("<b>No peak hour</b>: the recording covers 6 whole quarter hours"), "{h}");
+        assert!(h.contains("The recording has 2 sessions"), "{h}");
+        assert!(!h.contains("<th>12:00") && h.contains("<th>16:00 (partial)<") && h.contains("<th>08:00 (partial)<"), "{h}");
+        assert!(h.contains("(132 minutes recorded)") && h.contains("The busiest whole quarter: 07:30 – 07:45, 200 vehicles."), "{h}");
+    }
+
     /// A recording shorter than an hour has no peak hour, and says why.
     #[test]
     fn no_peak_hour_in_40_minutes() {
         let text = "meta\x1fflow_t0\x1f100\x1emeta\x1fflow_t1\x1f2500\x1emeta\x1fclock\x1frelative\x1eflow\x1f100\x1fcar\x1f5\x1eflow\x1f1000\x1fcar\x1f7\x1eflow\x1f1900\x1fcar\x1f2";
         let mut h = String::new();
         counts(&Data::parse(text), &ctx(&["car"]), &mut h).unwrap();
-        assert!(h.contains("<b>No peak hour</b>: the recording covers 2 whole quarter hours (40 minutes in all)"), "{h}");
+        assert!(h.contains("<b>No peak hour</b>: the recording covers 2 whole quarter hours (40 minutes recorded)"), "{h}");
         assert!(h.contains("The busiest whole quarter: +15:00 – +30:00, 7 vehicles."), "{h}");
     }
 
@@ -745,6 +803,7 @@ mod tests {
         let (_, y_in) = lane_point(0.0, 100.0, 10.0, true);
         let (_, y_out) = lane_point(0.0, 100.0, 10.0, false);
         assert!(y_in < 170.0 && y_out > 170.0);
+        assert_eq!(super::short_name("East arm (Bahnhofstrasse)"), "East arm (Bah…");
     }
 
     #[test]

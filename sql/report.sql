@@ -98,7 +98,11 @@ g AS (SELECT recording_gap_s(quantile_cont(d, 0.99)) AS gap FROM (SELECT s - lag
 o AS (SELECT s, e, max(e) OVER (ORDER BY s, e ROWS BETWEEN UNBOUNDED PRECEDING AND 1 PRECEDING) AS prev_e FROM u),
 k AS (SELECT s, e, sum(CASE WHEN prev_e IS NULL OR s - prev_e > (SELECT coalesce(any_value(gap), 60) FROM g) THEN 1 ELSE 0 END)
                       OVER (ORDER BY s, e ROWS UNBOUNDED PRECEDING) AS session FROM o)
-SELECT session, min(s) AS s0, max(e) AS s1 FROM k GROUP BY session;
+SELECT session, min(s) AS s0, max(e) AS s1,
+       -- a session's ends are known to within the gaps between road users: a quarter is whole
+       -- when the session covers it but for up to the 99th percentile gap (at most 90 s)
+       (SELECT least(coalesce(quantile_cont(d, 0.99), 1), 90) FROM (SELECT s - lag(s) OVER (ORDER BY s) AS d FROM u) WHERE d IS NOT NULL) AS slack_s
+FROM k GROUP BY session;
 CREATE OR REPLACE TEMP TABLE report_flow AS
 SELECT b, class, count(*) AS n
 FROM (SELECT u.class, CASE WHEN s.wall THEN floor(u.t_start / 900) * 900 ELSE s.t0 + floor((u.t_start - s.t0) / 900) * 900 END AS b
@@ -265,7 +269,7 @@ UNION ALL SELECT 'meta', 12, ['flow_t1', t1::VARCHAR] FROM report_flow_span
 UNION ALL SELECT 'meta', 13, ['clock', CASE WHEN getvariable('input_t_type') = 'TIMESTAMP WITH TIME ZONE' THEN 'utc'
                                             WHEN getvariable('input_t_type') LIKE 'TIMESTAMP%' THEN 'wall' ELSE 'relative' END]
 UNION ALL SELECT 'flow', row_number() OVER (ORDER BY b, class), [b::VARCHAR, class, n::VARCHAR] FROM report_flow
-UNION ALL SELECT 'session', row_number() OVER (ORDER BY s0), [s0::VARCHAR, s1::VARCHAR] FROM report_sessions
+UNION ALL SELECT 'session', row_number() OVER (ORDER BY s0), [s0::VARCHAR, s1::VARCHAR, slack_s::VARCHAR] FROM report_sessions
 UNION ALL SELECT 'conf', row_number() OVER (ORDER BY topic), [topic, n::VARCHAR, multi::VARCHAR, joined::VARCHAR, flagged::VARCHAR] FROM report_conf
 UNION ALL SELECT 'approach', row_number() OVER (ORDER BY bearing_deg),
        [approach, bearing_deg::VARCHAR, lo_deg::VARCHAR, hi_deg::VARCHAR, centre_x::VARCHAR, centre_y::VARCHAR, min_radius_m::VARCHAR,

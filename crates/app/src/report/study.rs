@@ -421,12 +421,14 @@ pub fn counts(d: &Data, c: &Ctx, h: &mut String) -> R<()> {
     let counted: Vec<&str> = if vehicles.is_empty() { classes.clone() } else { vehicles.clone() };
     let what = if vehicles.is_empty() { "road users" } else { "vehicles" };
     let cell = |b: usize, class: &str| flow.iter().find(|f| ((f.0 - b0) / 900.0).round() as usize == b && f.1 == class).map_or(0, |f| f.2);
-    // a bin is whole when one session of the recording covers it from start to end (1 s of
-    // slack), not recorded when none touches it (the recording stopped: recording_gap_s)
-    let sessions = d.rows("session").iter().map(|r| Ok((r.f(0)?, r.f(1)?))).collect::<R<Vec<(f64, f64)>>>()?;
-    let sessions = if sessions.is_empty() { vec![(t0, t1)] } else { sessions };
+    // a bin is whole when one session of the recording covers it from start to end, but for
+    // the session's slack (its ends are known to within the gaps between road users: the 99th
+    // percentile gap, at most 90 s), not recorded when none touches it (the recording stopped:
+    // recording_gap_s)
+    let sessions = d.rows("session").iter().map(|r| Ok((r.f(0)?, r.f(1)?, r.opt_f(2)?.unwrap_or(1.0)))).collect::<R<Vec<(f64, f64, f64)>>>()?;
+    let sessions = if sessions.is_empty() { vec![(t0, t1, 1.0)] } else { sessions };
     let span = |b: usize| (b0 + 900.0 * b as f64, b0 + 900.0 * (b + 1) as f64);
-    let whole: Vec<bool> = (0..nb).map(|b| sessions.iter().any(|s| span(b).0 >= s.0 - 1.0 && span(b).1 <= s.1 + 1.0)).collect();
+    let whole: Vec<bool> = (0..nb).map(|b| sessions.iter().any(|s| span(b).0 >= s.0 - s.2.max(1.0) && span(b).1 <= s.1 + s.2.max(1.0))).collect();
     let recorded: Vec<bool> = (0..nb).map(|b| sessions.iter().any(|s| span(b).0 < s.1 && span(b).1 > s.0)).collect();
     let volume: Vec<f64> = (0..nb).map(|b| counted.iter().map(|k| cell(b, k)).sum::<i64>() as f64).collect();
     let label = |b: usize| bin_label(b0 + 900.0 * b as f64, t0, wall);
@@ -772,7 +774,7 @@ mod tests {
     fn sessions_have_no_whole_hour_and_the_gap_is_not_counted() {
         let day = 1_700_006_400.0 - 1_700_006_400.0 % 86400.0;
         let (a0, a1, p0, p1) = (day + 7.0 * 3600.0 + 5.0, day + 8.0 * 3600.0 + 356.0, day + 16.0 * 3600.0 + 5.0, day + 17.0 * 3600.0 + 356.0);
-        let mut text = format!("meta\x1fflow_t0\x1f{a0}\x1emeta\x1fflow_t1\x1f{p1}\x1emeta\x1fclock\x1fwall\x1esession\x1f{a0}\x1f{a1}\x1esession\x1f{p0}\x1f{p1}");
+        let mut text = format!("meta\x1fflow_t0\x1f{a0}\x1emeta\x1fflow_t1\x1f{p1}\x1emeta\x1fclock\x1fwall\x1esession\x1f{a0}\x1f{a1}\x1f1\x1esession\x1f{p0}\x1f{p1}\x1f1");
         for start in [day + 7.0 * 3600.0, day + 16.0 * 3600.0] {
             for (q, n) in [200, 190, 200, 200, 60].iter().enumerate() {
                 text.push_str(&format!("\x1eflow\x1f{}\x1fcar\x1f{n}", start + 900.0 * q as f64));
@@ -784,6 +786,12 @@ mod tests {
         assert!(h.contains("The recording has 2 sessions"), "{h}");
         assert!(!h.contains("<th>12:00") && h.contains("<th>16:00 (partial)<") && h.contains("<th>08:00 (partial)<"), "{h}");
         assert!(h.contains("(132 minutes recorded)") && h.contains("The busiest whole quarter: 07:30 – 07:45, 200 vehicles."), "{h}");
+        // with the sessions' slack of 10 s (road users a few seconds apart), the quarters 5 s
+        // short are whole: the same peak hour and PHF in both sessions
+        let mut h = String::new();
+        counts(&Data::parse(&text.replace("\x1f1\x1esession", "\x1f10\x1esession").replacen(&format!("{p1}\x1f1"), &format!("{p1}\x1f10"), 1)), &ctx(&["car"]), &mut h).unwrap();
+        assert!(h.contains("<b>AM Peak hour 07:00 – 08:00</b>: V = 790 vehicles, busiest quarter V15 = 200, <b>PHF = 790 / (4 × 200) = 0.99</b>"), "{h}");
+        assert!(h.contains("<b>PM Peak hour 16:00 – 17:00</b>: V = 790 vehicles, busiest quarter V15 = 200, <b>PHF = 790 / (4 × 200) = 0.99</b>"), "{h}");
     }
 
     /// A recording shorter than an hour has no peak hour, and says why.

@@ -310,7 +310,8 @@ WHERE len(traj) >= 2;
 -- 85th and 95th percentiles (and the mean) of their mean speeds (km/h) and travel times (s), and of
 -- every speed sample pooled (the spot-speed distribution, km/h). Road users with an unknown movement
 -- form the rows with NULL approaches. Stationary road users (parked cars: traj_stationary) are left
--- out unless include_stationary := true; stationary counts them per row either way.
+-- out unless include_stationary := true; stationary counts them per row either way, and a row
+-- whose road users are all stationary stays (road_users 0, speeds NULL).
 CREATE OR REPLACE TEMP MACRO trajdb_speeds(tbl := 'merged', gates := NULL, left_handed := false, head_m := 5.0, through_deg := 45.0,
                                uturn_deg := 135.0, centre_x := NULL, centre_y := NULL, min_radius_m := NULL, gap_deg := 25.0,
                                min_users := 3, include_stationary := false) AS TABLE
@@ -319,6 +320,12 @@ WITH trajdb_m AS (FROM trajdb_road_user_movements(tbl := tbl, gates := gates, le
                                     gap_deg := gap_deg, min_users := min_users)),
 trajdb_s_all AS (FROM trajdb_road_user_speeds(tbl := tbl)),
 trajdb_s AS (FROM trajdb_s_all WHERE include_stationary OR NOT coalesce(stationary, false)),
+-- every road user with its speeds only when kept: a group whose road users are all stationary keeps
+-- its row (road_users 0, stationary n, speeds NULL) instead of vanishing
+trajdb_k AS (SELECT road_user, include_stationary OR NOT coalesce(stationary, false) AS kept,
+                    CASE WHEN include_stationary OR NOT coalesce(stationary, false) THEN mean_speed_kmh END AS mean_speed_kmh,
+                    CASE WHEN include_stationary OR NOT coalesce(stationary, false) THEN travel_time_s END AS travel_time_s
+             FROM trajdb_s_all),
 trajdb_still AS (SELECT trajdb_m.approach_in, trajdb_m.approach_out, trajdb_m.movement, trajdb_m.class, count(*) AS n
                  FROM trajdb_s_all JOIN trajdb_m USING (road_user) WHERE trajdb_s_all.stationary GROUP BY ALL),
 trajdb_spot AS (SELECT road_user, 3.6 * unnest(traj_speeds(traj)).v AS v FROM query_table(tbl) WHERE road_user IN (SELECT road_user FROM trajdb_s)),
@@ -327,15 +334,15 @@ trajdb_spot_q AS (
            quantile_cont(v, [0.15, 0.5, 0.85, 0.95]) AS q
     FROM trajdb_spot JOIN trajdb_m USING (road_user) GROUP BY ALL
 )
-SELECT trajdb_m.approach_in, trajdb_m.approach_out, trajdb_m.movement, trajdb_m.class, count(*) AS road_users,
+SELECT trajdb_m.approach_in, trajdb_m.approach_out, trajdb_m.movement, trajdb_m.class, count(*) FILTER (WHERE trajdb_k.kept) AS road_users,
        coalesce(any_value(st.n), 0) AS stationary,
-       avg(trajdb_s.mean_speed_kmh) AS speed_mean_kmh, quantile_cont(trajdb_s.mean_speed_kmh, 0.15) AS speed_p15_kmh, quantile_cont(trajdb_s.mean_speed_kmh, 0.5) AS speed_p50_kmh,
-       quantile_cont(trajdb_s.mean_speed_kmh, 0.85) AS speed_p85_kmh, quantile_cont(trajdb_s.mean_speed_kmh, 0.95) AS speed_p95_kmh,
+       avg(trajdb_k.mean_speed_kmh) AS speed_mean_kmh, quantile_cont(trajdb_k.mean_speed_kmh, 0.15) AS speed_p15_kmh, quantile_cont(trajdb_k.mean_speed_kmh, 0.5) AS speed_p50_kmh,
+       quantile_cont(trajdb_k.mean_speed_kmh, 0.85) AS speed_p85_kmh, quantile_cont(trajdb_k.mean_speed_kmh, 0.95) AS speed_p95_kmh,
        any_value(q.q[1]) AS spot_p15_kmh, any_value(q.q[2]) AS spot_p50_kmh, any_value(q.q[3]) AS spot_p85_kmh, any_value(q.q[4]) AS spot_p95_kmh,
-       avg(trajdb_s.travel_time_s) AS travel_time_mean_s, quantile_cont(trajdb_s.travel_time_s, 0.15) AS travel_time_p15_s,
-       quantile_cont(trajdb_s.travel_time_s, 0.5) AS travel_time_p50_s, quantile_cont(trajdb_s.travel_time_s, 0.85) AS travel_time_p85_s,
-       quantile_cont(trajdb_s.travel_time_s, 0.95) AS travel_time_p95_s
-FROM trajdb_m JOIN trajdb_s USING (road_user)
+       avg(trajdb_k.travel_time_s) AS travel_time_mean_s, quantile_cont(trajdb_k.travel_time_s, 0.15) AS travel_time_p15_s,
+       quantile_cont(trajdb_k.travel_time_s, 0.5) AS travel_time_p50_s, quantile_cont(trajdb_k.travel_time_s, 0.85) AS travel_time_p85_s,
+       quantile_cont(trajdb_k.travel_time_s, 0.95) AS travel_time_p95_s
+FROM trajdb_m JOIN trajdb_k USING (road_user)
 LEFT JOIN trajdb_spot_q q ON q.approach_in IS NOT DISTINCT FROM trajdb_m.approach_in AND q.approach_out IS NOT DISTINCT FROM trajdb_m.approach_out
                   AND q.movement IS NOT DISTINCT FROM trajdb_m.movement AND q.class IS NOT DISTINCT FROM trajdb_m.class
 LEFT JOIN trajdb_still st ON st.approach_in IS NOT DISTINCT FROM trajdb_m.approach_in AND st.approach_out IS NOT DISTINCT FROM trajdb_m.approach_out

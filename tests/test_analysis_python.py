@@ -301,6 +301,20 @@ def check_conflicts():
     assert abs(ttc - 2.9) < 1e-6 and abs(t - 2.0) < 1e-6 and pet is None
 
 
+def check_all_stationary_group():
+    """(issue 39) A group whose road users are all stationary keeps its speeds() row: road_users 0,
+    stationary n, speeds NULL (it vanished, and its parked cars with it)."""
+    con = trajdb.connect()
+    con.execute(ANALYSIS)
+    con.execute("""CREATE TABLE parked AS SELECT road_user, 'car' AS class,
+        list({'t': k::DOUBLE, 'x': road_user * 10 + 0.01 * (k % 2), 'y': 0.0} ORDER BY k) AS traj
+        FROM range(1, 3) r(road_user), range(0, 60) s(k) GROUP BY road_user""")
+    rows = con.execute("SELECT class, road_users, stationary, speed_p50_kmh FROM speeds(tbl := 'parked')").fetchall()
+    assert rows == [("car", 0, 2, None)], rows
+    assert con.execute("SELECT road_users, stationary FROM speeds(tbl := 'parked', include_stationary := true)").fetchall() == [(2, 2)]
+    print("  speeds: a group of parked cars only keeps its row (road_users 0, stationary 2)")
+
+
 def check_crossing_edges():
     """(issue 39, review F2) A path through a sample point ON a gate crosses it once; a path that
     touches the line from its left and turns back does not cross it; bin_s must be > 0."""
@@ -334,6 +348,7 @@ def main():
             check_speeds(con, seed)
     check_conflicts()
     check_crossing_edges()
+    check_all_stationary_group()
     print("test_analysis_python: ok")
 
 

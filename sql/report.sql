@@ -94,14 +94,15 @@ SELECT min(t_start) AS t0, max(t_end) AS t1, coalesce(getvariable('input_t_type'
 -- longer empty stretch is the recording stopped (an AM and a PM session), not the traffic
 CREATE OR REPLACE TEMP TABLE report_sessions AS
 WITH u AS (SELECT t_start AS s, t_end AS e FROM report_users WHERE t_start IS NOT NULL AND t_end IS NOT NULL),
-g AS (SELECT recording_gap_s(quantile_cont(d, 0.99)) AS gap FROM (SELECT s - lag(s) OVER (ORDER BY s) AS d FROM u) WHERE d IS NOT NULL),
+-- the 99th percentile gap between first sightings, once: it sets the gap and the slack
+p AS (SELECT quantile_cont(d, 0.99) AS p99 FROM (SELECT s - lag(s) OVER (ORDER BY s) AS d FROM u) WHERE d IS NOT NULL),
 o AS (SELECT s, e, max(e) OVER (ORDER BY s, e ROWS BETWEEN UNBOUNDED PRECEDING AND 1 PRECEDING) AS prev_e FROM u),
-k AS (SELECT s, e, sum(CASE WHEN prev_e IS NULL OR s - prev_e > (SELECT coalesce(any_value(gap), 60) FROM g) THEN 1 ELSE 0 END)
+k AS (SELECT s, e, sum(CASE WHEN prev_e IS NULL OR s - prev_e > (SELECT coalesce(recording_gap_s(p99), 60) FROM p) THEN 1 ELSE 0 END)
                       OVER (ORDER BY s, e ROWS UNBOUNDED PRECEDING) AS session FROM o)
 SELECT session, min(s) AS s0, max(e) AS s1,
        -- a session's ends are known to within the gaps between road users: a quarter is whole
        -- when the session covers it but for up to the 99th percentile gap (at most 90 s)
-       (SELECT least(coalesce(quantile_cont(d, 0.99), 1), 90) FROM (SELECT s - lag(s) OVER (ORDER BY s) AS d FROM u) WHERE d IS NOT NULL) AS slack_s
+       (SELECT least(coalesce(p99, 1), 90) FROM p) AS slack_s
 FROM k GROUP BY session;
 CREATE OR REPLACE TEMP TABLE report_flow AS
 SELECT b, class, count(*) AS n

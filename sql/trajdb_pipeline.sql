@@ -264,7 +264,8 @@ FROM (SELECT * FROM query(getvariable('input_query'))
 -- track_in: INTEGER / BIGINT, or VARCHAR when the input's were text) to the ids of the stages
 -- (camera INTEGER, track_id BIGINT), and the results map them back (the result_*() macros of the
 -- stages), so 'north' / 'trk-1738' come back unchanged in every result file. Integer ids are
--- kept as they are; text ids are numbered 1, 2, ... in the order of the text (dense_rank), so
+-- kept as they are; text ids are numbered 1, 2, ... in the order of the text (dense_rank; an
+-- archive's days keep their site's camera numbers, load_camera_numbers), so
 -- the numbering, and with it every result, does not depend on the order of the input's rows, and
 -- ordering by the number is ordering by the text. Text ids: their distinct values are read
 -- first (a second pass over the input's two id columns); integer ids: nothing is read here
@@ -272,7 +273,12 @@ FROM (SELECT * FROM query(getvariable('input_query'))
 CREATE OR REPLACE TEMP TABLE load_ids AS
 SELECT camera AS camera_in,
        CASE WHEN getvariable('load_id_types')['camera'] IN ('TINYINT', 'SMALLINT', 'INTEGER', 'BIGINT', 'HUGEINT', 'UTINYINT', 'USMALLINT', 'UINTEGER', 'UBIGINT', 'UHUGEINT')
-            THEN try_cast(camera AS INTEGER) ELSE dense_rank() OVER (ORDER BY camera)::INTEGER END AS camera,
+            THEN try_cast(camera AS INTEGER)
+            -- an archive's day: the site's numbers first (load_camera_numbers, set by the runner:
+            -- crates/app/src/plan.rs), a camera the site has not seen after them
+            ELSE coalesce(getvariable('load_camera_numbers')[camera::VARCHAR],
+                          coalesce(list_max(map_values(getvariable('load_camera_numbers'))), 0)
+                          + dense_rank() OVER (PARTITION BY getvariable('load_camera_numbers')[camera::VARCHAR] IS NULL ORDER BY camera))::INTEGER END AS camera,
        track_id AS track_in,
        CASE WHEN getvariable('load_id_types')['track_id'] IN ('TINYINT', 'SMALLINT', 'INTEGER', 'BIGINT', 'HUGEINT', 'UTINYINT', 'USMALLINT', 'UINTEGER', 'UBIGINT', 'UHUGEINT')
             THEN try_cast(track_id AS BIGINT) ELSE dense_rank() OVER (ORDER BY track_id) END AS track_id

@@ -157,6 +157,7 @@ SIM_OPTIONS = [
     ("--seed", int, "seed", "1", "random seed (the same seed gives the same files)"),
     ("--rate-hz", str, "rate_hz", "10", "camera sampling rate (Hz): R, or R1,R2,... one per camera (cycled)"),
     ("--traffic", float, "traffic", "1", "traffic volume multiplier"),
+    ("--site-seed", int, "site_seed", "none", "the site's seed: cameras from it, traffic from --seed (days of one site)"),
     ("--pedestrians", float, "pedestrians", "1", "extra pedestrian multiplier (a crowd: 10)"),
     ("--cyclists", float, "cyclists", "1", "extra cyclist multiplier (bike lanes; 2 a minute at 1)"),
     ("--noise-sigma", str, None, "0.05,0.15", "camera position noise sigma (m): S, or LO,HI drawn per camera"),

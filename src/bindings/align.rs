@@ -537,6 +537,36 @@ pub static FUNCTIONS: &[Function] = &[
         }],
         table: None,
     },
+    Function {
+        name: "frame_change",
+        description: "Has a camera's frame or clock changed since its calibration (an archive's daily check, issue 40; \
+                      crates/algo/src/align/frame_change.rs): the day's registration of a camera pair minus the calibration day's, \
+                      rotation d_theta (rad), the anchor's position d_x, d_y (m) and the clock d_dt (s), each with its standard error \
+                      (the two days' in quadrature). z_theta = |d_theta| / se_theta, z_pos = sqrt((d_x / se_x)^2 + (d_y / se_y)^2), \
+                      z_clock = |d_dt| / se_dt; changed when the largest, z, exceeds z_crit. A part with a NULL, non-finite or zero \
+                      standard error is not tested (its z NULL); NULL when no part is, or z_crit is NULL; z_crit not > 0 is an error. \
+                      O(1).",
+        example: "SELECT frame_change(0.0, 0.001, 1.0, 0.1, 0.0, 0.1, 0.0, 0.01, 5.0).changed; -- true",
+        maths: "crates/algo/src/align/frame_change.rs",
+        binding: file!(),
+        signatures: &[Signature {
+            params: &[
+                p("d_theta", Ty::Double),
+                p("se_theta", Ty::Double),
+                p("d_x", Ty::Double),
+                p("se_x", Ty::Double),
+                p("d_y", Ty::Double),
+                p("se_y", Ty::Double),
+                p("d_dt", Ty::Double),
+                p("se_dt", Ty::Double),
+                p("z_crit", Ty::Double),
+            ],
+            arities: &[],
+            returns: Ty::Struct(&[("changed", Ty::Boolean), ("z", Ty::Double), ("z_theta", Ty::Double), ("z_pos", Ty::Double), ("z_clock", Ty::Double)]),
+            kernel: frame_change,
+        }],
+        table: None,
+    },
 ];
 
 /// The optional `tau, max_iter, tol, with_scale, starts` (columns 3..7) with their defaults,
@@ -1020,6 +1050,20 @@ fn clock_offset_se(a: &Args<'_>, out: &mut Out<'_>) -> R {
         let (Some(c), Some(d)) = (obs.get(r)?, drift.get(r)) else { return Ok(None) };
         let (blocks, se) = offset_se(&drift_obs(&c), d)?;
         Ok(Some(vec![Value::I64(blocks as i64), se.map_or(Value::Null, Value::F64)]))
+    })?;
+    out.structs(&vals);
+    Ok(())
+}
+
+fn frame_change(a: &Args<'_>, out: &mut Out<'_>) -> R {
+    use crate::algo::align::frame_change::frame_change as test;
+    let c: Vec<_> = (0..9).map(|k| a.double(k)).collect();
+    let vals = a.map(|r| {
+        let Some(z_crit) = c[8].get(r) else { return Ok(None) };
+        let g = |k: usize| c[k].get(r);
+        let Some(f) = test(g(0), g(1), g(2), g(3), g(4), g(5), g(6), g(7), z_crit)? else { return Ok(None) };
+        let o = |v: Option<f64>| v.map_or(Value::Null, Value::F64);
+        Ok(Some(vec![Value::Bool(f.changed), Value::F64(f.z), o(f.z_theta), o(f.z_pos), o(f.z_clock)]))
     })?;
     out.structs(&vals);
     Ok(())

@@ -14,6 +14,7 @@ const NAMED: &[Param] = &[
     p("cameras", Ty::Bigint),
     p("minutes", Ty::Double),
     p("seed", Ty::Bigint),
+    p("site_seed", Ty::Bigint),
     p("rate_hz", Ty::OneOf(&[Ty::Double, Ty::Varchar])),
     p("traffic", Ty::Double),
     p("pedestrians", Ty::Double),
@@ -43,7 +44,8 @@ pub static FUNCTIONS: &[Function] = &[Function {
                   the scenario files into dir, a new or empty folder or one holding an earlier scenario (any other folder is refused, and \
                   files are replaced whole, never half-written; it writes only where this connection's own file system \
                   lets it, as for COPY ... TO): points.csv (the input of sql/pipeline.sql), cameras.csv, truth.csv, world.csv, objects.csv and \
-                  README.txt. One row: dir and the counts. Named parameters (defaults): cameras (3), minutes (5), seed (1), rate_hz (10 Hz; or a list \
+                  README.txt. One row: dir and the counts. Named parameters (defaults): cameras (3), minutes (5), seed (1), site_seed (none: \
+                  the cameras are drawn from it and the traffic from seed, so days of one site share their cameras), rate_hz (10 Hz; or a list \
                   as text, one per camera, cycled: '2,5,7.5,10'), \
                   traffic (1), pedestrians (1), noise_sigma_min / noise_sigma_max (0.05 / 0.15 m), noise_tracks_per_min (1), clock_offset_max \
                   (0 s), world_rate_hz (10), waiting_groups (0 per minute: groups of 2-8 pedestrians and cyclists standing 0.6-2 m apart \
@@ -99,6 +101,9 @@ impl TableFn for SimulateTable {
         }
         if let Some(v) = args.named_bigint("seed")? {
             p.seed = u64::try_from(v).map_err(|_| format!("seed must be >= 0, got {v}"))?;
+        }
+        if let Some(v) = args.named_bigint("site_seed")? {
+            p.site_seed = Some(u64::try_from(v).map_err(|_| format!("site_seed must be >= 0, got {v}"))?);
         }
         for (name, slot) in [
             ("minutes", &mut p.minutes),

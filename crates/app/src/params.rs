@@ -106,6 +106,7 @@ pub const PARAMS: &[Param] = &[
     i("cluster_exact_max", "3000", "cluster", "with cluster_method auto, the most tracks of one class clustered exactly (3,000: 4.5 M pairs, a few seconds)").within(0.0, 80000.0),
     b("cluster_translation_invariant", "false", "cluster", "use S2 (shapes anywhere) instead of S1 (routes)"),
     s("report_gates", "''", "report", "gates the report counts movements by, instead of approaches found in the data: a .csv or .parquet file, or a table or view of this connection, with approach, x1, y1, x2, y2 (metres in the results' frame: the site map's axes) or approach, wkt (LINESTRING (x1 y1, x2 y2)); '' : approaches from the data"),
+    d("archive_change_z", "5.0", "archive", "an archive's daily check (trajdb archive): a camera pair whose registration on the day's matches differs from its calibration day's by more than this many standard errors (rotation, position, clock) has moved; the camera is registered again from that day (docs/archive.md)").within(1.0, 1000.0),
 ];
 
 /// The parameters of a JSON object (`{"merge_eta": 0.6, "cluster_classes": "car"}`): numbers,

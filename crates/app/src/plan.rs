@@ -16,7 +16,8 @@
 //! Parts: [`Part::All`] is a whole run; [`Part::Site`] and [`Part::Window`] split one run of a
 //! large archive into a site's calibration (once) and windows that reuse it (python/trajdb/
 //! windows.py ships the [`SITE_TABLES`] between them; sql/window.sql explains why a window then
-//! equals the whole run).
+//! equals the whole run). [`Part::Day`] is an archive's day (python/trajdb/archive.py): a whole
+//! run with its results folder on a site's calibration kept from an earlier day.
 
 use super::{params, sql};
 use std::error::Error;
@@ -30,13 +31,16 @@ pub const SITE_TABLES: &[&str] = &[
     "quality_starts", "quality_pi",
     "align_frames", "align_origin", "calib_match", "calibration_summary",
     "view_polygons", "view_overlaps", "view_merge_order", "view_overlaps_chain",
+    // the camera pairs' fits (sql/warnings.sql reads their perspective terms: an archive's day
+    // warns as its calibration day did)
+    "align_pairs",
 ];
 
 /// Intermediate tables (and macros) of the site's alignment: made by the site run only, never
 /// shipped, skipped by a window.
 pub const SITE_WORK_TABLES: &[&str] = &[
     "align_centroids", "align_scan", "align_hypotheses", "align_vote", "align_widen", "align_hyp_wide", "align_best_wide", "align_tracks",
-    "align_hyp", "align_best", "align_support", "align_refit", "align_pairs", "align_edges", "view_points", "align_keys", "align_activity",
+    "align_hyp", "align_best", "align_support", "align_refit", "align_edges", "view_points", "align_keys", "align_activity",
     "align_coarse", "align_clock", "align_drift_obs", "align_drift_pairs", "align_drift_fitted", "align_drift_kept", "align_drift",
     "align_retry", "align_speed_votes", "align_speed", "align_sample", "align_scan_pass", "align_speed_scan",
     "align_offset_se", "align_support_voted", "align_residuals", "align_clean", "align_register_pairs", "align_register",
@@ -60,6 +64,10 @@ pub enum Part {
     /// (the host creates the [`SITE_TABLES`] first and sets window_start, window_end,
     /// loaded_from and loaded_to).
     Window,
+    /// One day of an archive (issue 40, python/trajdb/archive.py): the whole pipeline, with a
+    /// results folder, on a calibration kept from an earlier day: every statement that makes no
+    /// site table (the host creates the [`SITE_TABLES`] first, as for a window).
+    Day,
 }
 
 impl Part {
@@ -68,7 +76,8 @@ impl Part {
             "all" | "" => Ok(Part::All),
             "site" => Ok(Part::Site),
             "window" => Ok(Part::Window),
-            other => Err(format!("part must be 'all', 'site' or 'window', got {other:?}")),
+            "day" => Ok(Part::Day),
+            other => Err(format!("part must be 'all', 'site', 'window' or 'day', got {other:?}")),
         }
     }
 }
@@ -213,8 +222,8 @@ pub fn plan(req: &Request) -> Result<Vec<Step>, Box<dyn Error>> {
         }
     }
     let values = params::resolve(&req.params)?;
-    if req.out.is_some() && req.part != Part::All {
-        return Err("out_dir is only for part 'all' (a site or a window returns tables, not files)".into());
+    if req.out.is_some() && !matches!(req.part, Part::All | Part::Day) {
+        return Err("out_dir is only for parts 'all' and 'day' (a site or a window returns tables, not files)".into());
     }
     let mut steps = Vec::new();
     // 1. every parameter: the given values, every other one back to its default
@@ -223,6 +232,21 @@ pub fn plan(req: &Request) -> Result<Vec<Step>, Box<dyn Error>> {
         stage: "params".into(),
         file: "trajdb_stages".into(),
         sql: format!("SET VARIABLE pipeline_input = {}", sql::sql_string(&req.input)),
+        makes: None,
+        undo: None,
+    });
+    // text camera ids are numbered by the load (sql/pipeline.sql); an archive's site and days
+    // (python/trajdb/archive.py) keep the numbers of the site's first calibration, given by the
+    // host in load_camera_numbers (camera text -> number), so that a day without one camera
+    // numbers the others as its site did. A whole run starts from none.
+    steps.push(Step {
+        stage: "params".into(),
+        file: "trajdb_stages".into(),
+        sql: if req.part == Part::All {
+            "SET VARIABLE load_camera_numbers = MAP {}::MAP(VARCHAR, INTEGER)".into()
+        } else {
+            "SET VARIABLE load_camera_numbers = coalesce(getvariable('load_camera_numbers'), MAP {}::MAP(VARCHAR, INTEGER))".into()
+        },
         makes: None,
         undo: None,
     });
@@ -275,13 +299,13 @@ pub fn plan(req: &Request) -> Result<Vec<Step>, Box<dyn Error>> {
         }
         let mut part = Vec::new();
         push_script(&mut part, &stage, &file, &text);
-        if req.part == Part::Window && stage != "load" {
+        if matches!(req.part, Part::Window | Part::Day) && stage != "load" {
             part.retain(|s| !s.makes.as_deref().is_some_and(|m| skip.contains(&m)));
         }
         steps.extend(part);
     }
     match req.part {
-        Part::All => {
+        Part::All | Part::Day => {
             push_script(&mut steps, "warnings", "sql/warnings.sql", &sql::expand_embedded("sql/warnings.sql")?);
             // the analyst's questions as macros over `merged` (movements, speeds, conflicts,
             // routes: docs/analysis.md), defined in the session that ran the pipeline
@@ -315,7 +339,7 @@ pub fn plan(req: &Request) -> Result<Vec<Step>, Box<dyn Error>> {
             undo: None,
         });
     }
-    let host_made: &[&str] = if req.part == Part::Window { SITE_TABLES } else { &[] };
+    let host_made: &[&str] = if matches!(req.part, Part::Window | Part::Day) { SITE_TABLES } else { &[] };
     check_session_only(&steps, host_made)?;
     Ok(steps)
 }
@@ -531,6 +555,10 @@ mod tests {
         assert!(!window.iter().any(|s| s.stage == "cluster"));
         assert!(window.iter().any(|s| s.stage == "merge") && window.iter().any(|s| s.stage == "window"));
         assert!(plan(&Request { out: Some("r".into()), ..req(Part::Site, None) }).is_err());
+        // an archive's day: the whole run with its results folder, on the site's tables
+        let day = plan(&req(Part::Day, Some("r"))).unwrap();
+        assert!(!day.iter().any(|s| s.makes.as_deref().is_some_and(|m| SITE_TABLES.contains(&m) || SITE_WORK_TABLES.contains(&m))));
+        assert!(day.iter().any(|s| s.stage == "report") && day.iter().any(|s| s.stage == "commit") && !day.iter().any(|s| s.stage == "window"));
         // every site table and work table is made by a statement of the site run: a renamed
         // table would otherwise be recomputed per window without notice
         let made: Vec<&str> = site.iter().filter_map(|s| s.makes.as_deref()).collect();

@@ -55,6 +55,10 @@ pub struct SimParams {
     pub cameras: usize,
     pub minutes: f64,
     pub seed: u64,
+    /// The site's seed (issue 40: an archive of days at one site): when set, the cameras (views,
+    /// frames, clocks, noise, ground planes) are drawn from it and only the traffic from `seed`,
+    /// so that days of one site differ in their road users and share their cameras.
+    pub site_seed: Option<u64>,
     /// Camera sampling rates (Hz): camera k samples at `rate_hz[k % len]` (one rate for every
     /// camera, or a list such as 2, 5, 7.5, 10, 12.5, 15, 25, 30).
     pub rate_hz: Vec<f64>,
@@ -147,6 +151,7 @@ impl Default for SimParams {
             cameras: 3,
             minutes: 5.0,
             seed: 1,
+            site_seed: None,
             rate_hz: vec![10.0],
             traffic: 1.0,
             pedestrians: 1.0,
@@ -817,6 +822,7 @@ const STREAM_ORIGIN: u64 = 4;
 const STREAM_BIAS: u64 = 5;
 const STREAM_GROUND: u64 = 6;
 const STREAM_OCCLUSION: u64 = 7;
+const STREAM_SITE: u64 = 8;
 
 /// A camera stands this far beyond its view's far short side (m; [`Camera::position`]).
 pub const CAMERA_SETBACK_M: f64 = 5.0;
@@ -1101,11 +1107,18 @@ fn group_member(
     Ok(samples)
 }
 
+/// The cameras, drawn from `rng` (after the road users, as the first simulator did) or, with a
+/// site seed, from a stream of the site's own; their degradations from streams of `seed` (the
+/// site's when given).
 fn place_cameras(p: &SimParams, rng: &mut ChaCha8Rng) -> Vec<Camera> {
-    let mut cams = place_cameras_rigid(p, rng);
+    let seed = p.site_seed.unwrap_or(p.seed);
+    let mut cams = match p.site_seed {
+        Some(s) => place_cameras_rigid(p, &mut stream(s, STREAM_SITE)),
+        None => place_cameras_rigid(p, rng),
+    };
     // the clock degradations, from a stream of their own (nothing drawn at their defaults)
     if p.clock_drift_ppm > 0.0 {
-        let rng = &mut stream(p.seed, STREAM_DRIFT);
+        let rng = &mut stream(seed, STREAM_DRIFT);
         for c in &mut cams {
             c.clock_drift_ppm = uniform(rng, -p.clock_drift_ppm, p.clock_drift_ppm);
         }
@@ -1117,7 +1130,7 @@ fn place_cameras(p: &SimParams, rng: &mut ChaCha8Rng) -> Vec<Camera> {
     }
     // the ground-plane calibration errors, from a stream of their own
     if p.ground_plane_scale > 0.0 || p.ground_plane_perspective > 0.0 {
-        let rng = &mut stream(p.seed, STREAM_GROUND);
+        let rng = &mut stream(seed, STREAM_GROUND);
         for c in &mut cams {
             let scale = 1.0 + uniform(rng, -p.ground_plane_scale, p.ground_plane_scale);
             let (m, phi) = (uniform(rng, 0.0, p.ground_plane_perspective) / PERSPECTIVE_RANGE_M, uniform(rng, 0.0, std::f64::consts::TAU));
@@ -1126,7 +1139,7 @@ fn place_cameras(p: &SimParams, rng: &mut ChaCha8Rng) -> Vec<Camera> {
     }
     // frames far from the origin: p_local' = p_local + O, so t' = t − R(θ)·O
     if p.origin != Origin::Near {
-        let rng = &mut stream(p.seed, STREAM_ORIGIN);
+        let rng = &mut stream(seed, STREAM_ORIGIN);
         for c in &mut cams {
             let (ox, oy) = match p.origin {
                 Origin::At(x, y) => (x, y),
@@ -1542,6 +1555,19 @@ mod tests {
         assert!(a.points.iter().zip(&b.points).all(|(p, q)| p.x == q.x && p.t == q.t && p.track_id == q.track_id));
         let c = simulate(&SimParams { seed: 8, ..small() }).unwrap();
         assert_ne!(a.points.len(), c.points.len());
+    }
+
+    /// Issue 40: days of one site share their cameras (frames, clocks, noise) and not their traffic.
+    #[test]
+    fn a_site_seed_keeps_the_cameras() {
+        let day = |seed| simulate(&SimParams { seed, site_seed: Some(11), clock_offset_max: 2.0, ..small() }).unwrap();
+        let (a, b) = (day(1), day(2));
+        for (p, q) in a.cameras.iter().zip(&b.cameras) {
+            assert_eq!((p.theta, p.tx, p.ty, p.clock_offset, p.sigma, p.phase), (q.theta, q.tx, q.ty, q.clock_offset, q.sigma, q.phase));
+        }
+        assert_ne!(a.points.len(), b.points.len());
+        let other = simulate(&SimParams { seed: 1, site_seed: Some(12), ..small() }).unwrap();
+        assert_ne!(a.cameras[0].theta, other.cameras[0].theta);
     }
 
     #[test]

@@ -1,0 +1,740 @@
+"""trajdb on an archive: site=S/date=D partitions in, partitioned results out, incremental and
+resumable (issue 40; docs/archive.md).
+
+    trajdb archive --input LAKE --out OUT          # the command line
+    trajdb.archive.run(LAKE, OUT)                  # Python (trajdb.archive(con, LAKE, out=OUT) too)
+    trajdb.spark.archive(spark, LAKE, OUT)         # the same work as Spark tasks
+
+LAKE holds Parquet or CSV files under site=S/date=D/ folders (hive style), or date=D/ folders of
+one site (named by --site, else the folder's name), or date=D/ folders whose files have a `site`
+column. OUT receives, per site and day, Hive-partitioned Parquet that DuckDB and Spark read as
+one table each (`read_parquet('OUT/road_users/*/*/*.parquet', hive_partitioning = true)`):
+
+    road_users/site=S/date=D/part-0.parquet     merged.parquet of the day (GeoParquet)
+    matches/, links/, transforms/, calibration/  the day's matches.csv, links.csv, ... as Parquet
+    reports/site=S/date=D/report.html           the day's report; reports/site=S/index.html the site's
+    _calibrations/site=S/from=D/                the site's calibration made from day D (kept)
+    _state/partitions.parquet                   what was processed from which input (the state)
+    _state/runs.csv                             one line per partition run: seconds, peak memory
+
+How a day runs (`run_task`, the same function on one machine and in a Spark task):
+ 1. the site's calibration in effect (made from an earlier day, or from this one when the site
+    has none) is loaded instead of measured: the pipeline's 'day' part (crates/app/src/plan.rs);
+ 2. the day's matches re-register every camera pair (sql/archive_check.sql); a pair that moved
+    by more than archive_change_z standard errors since the calibration day (frame_change), a
+    pair whose matches collapsed, or a camera the calibration never saw is a camera change: the
+    site is calibrated again from this day, the day runs again on it, and the change is kept in
+    the state (which cameras, which day, by how much), the site's report and a warning;
+ 3. the results go to a scratch folder of the task; the driver moves each file into place
+    (os.replace: a reader sees the old file or the new one, never a part) and then records the
+    partition in the state. A run killed at any moment leaves partitions that are either
+    recorded with their files or not recorded: the next run computes those again, and since a
+    day's result depends only on its input and the calibration in effect (one thread per task),
+    the result is the same bytes as an uninterrupted run.
+
+Incremental: a partition is done when the state holds it with the same input (names, sizes,
+modification times; a content fingerprint when those differ), trajdb version, parameters and
+calibration in effect. Days are chained per site in date order: a day whose calibration in
+effect changed (an earlier day re-registered a camera) runs again. Days run optimistically in
+parallel (each with the calibration in effect before the run); the chain is walked again after
+them, and the few days a change invalidated run again, until nothing changes (in practice one
+round, two when a camera moved).
+
+Files are the user's: OUT must be new, empty, or an archive trajdb made (its `.trajdb-archive`
+marker); trajdb replaces only the files it wrote there, and removes only its own scratch folders
+(_work/task-*). LAKE is only read.
+"""
+import concurrent.futures as cf
+import datetime
+import hashlib
+import json
+import multiprocessing
+import os
+import re
+import shutil
+import sys
+import time
+
+import duckdb
+import pyarrow as pa
+import pyarrow.parquet as pq
+
+from . import __version__, _literal, check_duckdb, execute_steps, read, stages
+from . import windows as W
+
+MARKER = ".trajdb-archive"
+MARKER_HEAD = "# trajdb archive 1: this folder and the files below it were written by trajdb archive; it replaces only its own files\n"
+# the per-day result files: (folder, file name in the task's scratch, what it is)
+TABLES = (
+    ("road_users", "road_users.parquet", "one row per road user: merged.parquet of the day (GeoParquet)"),
+    ("matches", "matches.parquet", "the accepted cross-camera links (matches.csv)"),
+    ("links", "links.parquet", "each track's chain of pieces within its camera (links.csv)"),
+    ("transforms", "transforms.parquet", "each camera pair's transform and clock relation in effect (transforms.csv)"),
+    ("calibration", "calibration.parquet", "what the day's run measured and derived (calibration.csv)"),
+)
+REPORT = ("reports", "report.html")
+STATE_COLUMNS = (
+    ("site", pa.string()), ("date", pa.string()), ("status", pa.string()), ("inputs", pa.string()), ("fingerprint", pa.string()),
+    ("trajdb_version", pa.string()), ("params", pa.string()), ("calibration_in", pa.string()), ("calibration_out", pa.string()),
+    ("calibration_made", pa.bool_()), ("changes", pa.string()), ("cameras", pa.int64()), ("points", pa.int64()),
+    ("road_users", pa.int64()), ("matches", pa.int64()), ("warnings", pa.string()), ("error", pa.string()),
+)
+STATE_SCHEMA = pa.schema(STATE_COLUMNS)
+_KEY = re.compile(r"^(site|date)=(.+)$")
+_DATA = (".parquet", ".csv", ".csv.gz")
+
+
+class ArchiveError(Exception):
+    """A refusal before any work (the folders, the lake's layout): names what and how to fix it."""
+
+
+# --- the lake ---------------------------------------------------------------------------------
+
+
+def _data_files(folder):
+    """The data files of one partition folder (recursively; hidden and _ names skipped), sorted."""
+    out = []
+    for root, dirs, files in os.walk(folder):
+        dirs[:] = sorted(d for d in dirs if not d.startswith((".", "_")))
+        for f in sorted(files):
+            if not f.startswith((".", "_")) and f.lower().endswith(_DATA):
+                out.append(os.path.join(root, f))
+    return out
+
+
+def discover(lake, site=None, con=None):
+    """The partitions of `lake`: a list of dicts {site, date, files, format, site_column} sorted
+    by site and date. Layouts: site=S/date=D/, or date=D/ (one site: `site`, else the lake
+    folder's name; or files with a `site` column, split by its values)."""
+    lake = os.path.abspath(lake)
+    if not os.path.isdir(lake):
+        raise ArchiveError(f"trajdb archive: the input {lake!r} is not a folder; give the lake's root folder (site=S/date=D/ partitions)")
+    parts = []
+    top = sorted(e for e in os.listdir(lake) if not e.startswith((".", "_")))
+    sites = [(m.group(2), os.path.join(lake, e)) for e in top if (m := _KEY.match(e)) and m.group(1) == "site" and os.path.isdir(os.path.join(lake, e))]
+    dates_top = [e for e in top if (m := _KEY.match(e)) and m.group(1) == "date"]
+    if sites and dates_top:
+        raise ArchiveError(f"trajdb archive: {lake!r} mixes site= and date= folders at its top; give one layout (site=S/date=D/ or date=D/)")
+    if sites:
+        for s, folder in sites:
+            for e in sorted(os.listdir(folder)):
+                m = _KEY.match(e)
+                if m and m.group(1) == "date" and os.path.isdir(os.path.join(folder, e)):
+                    parts.append({"site": s, "date": m.group(2), "files": _data_files(os.path.join(folder, e)), "site_column": False})
+    elif dates_top:
+        for e in dates_top:
+            files = _data_files(os.path.join(lake, e))
+            parts.append({"site": None, "date": _KEY.match(e).group(2), "files": files, "site_column": False})
+        has_site = any(_has_site_column(p["files"], con) for p in parts if p["files"])
+        if has_site and site is None:
+            split = []
+            for p in parts:
+                for s in _site_values(p["files"], con):
+                    split.append({**p, "site": s, "site_column": True})
+                if not p["files"] or not _site_values(p["files"], con):
+                    split.append({**p, "site": "(unknown)", "site_column": True})
+            parts = split
+        else:
+            name = site or os.path.basename(lake.rstrip(os.sep)) or "site"
+            parts = [{**p, "site": name} for p in parts]
+    else:
+        raise ArchiveError(f"trajdb archive: {lake!r} has no site=S/ or date=D/ folders; lay the lake out as site=S/date=D/*.parquet "
+                           "(hive style; CSV too), or date=D/ for one site")
+    for p in parts:
+        p["format"] = _format(p["files"])
+    return sorted(parts, key=lambda p: (p["site"], p["date"]))
+
+
+def _format(files):
+    kinds = {("parquet" if f.lower().endswith(".parquet") else "csv") for f in files}
+    return kinds.pop() if len(kinds) == 1 else ("mixed" if kinds else "none")
+
+
+def _scan(con, files):
+    if _format(files) == "parquet":
+        return con.read_parquet(files, hive_partitioning=False, union_by_name=True)
+    return con.read_csv(files, union_by_name=True)
+
+
+def _has_site_column(files, con):
+    own = con is None
+    con = con or duckdb.connect()
+    try:
+        return "site" in [c.lower() for c in _scan(con, files[:1]).columns]
+    except duckdb.Error:
+        return False
+    finally:
+        if own:
+            con.close()
+
+
+def _site_values(files, con):
+    own = con is None
+    con = con or duckdb.connect()
+    try:
+        rel = _scan(con, files)
+        return [str(r[0]) for r in rel.aggregate("site::VARCHAR AS site").distinct().order("site").fetchall() if r[0] is not None]
+    except duckdb.Error:
+        return []
+    finally:
+        if own:
+            con.close()
+
+
+def _stat(files, root):
+    return [[os.path.relpath(f, root), os.path.getsize(f), os.stat(f).st_mtime_ns] for f in files]
+
+
+def _content_fingerprint(files):
+    h = hashlib.blake2b(digest_size=16)
+    for f in files:
+        h.update(os.path.basename(f).encode() + b"\0")
+        with open(f, "rb") as fh:
+            while chunk := fh.read(1 << 22):
+                h.update(chunk)
+        h.update(b"\1")
+    return h.hexdigest()
+
+
+# --- the archive folder -------------------------------------------------------------------------
+
+
+def _inside(a, b):
+    a, b = os.path.realpath(a), os.path.realpath(b)
+    return a == b or a.startswith(b.rstrip(os.sep) + os.sep)
+
+
+def claim(out, lake):
+    """Checks OUT (new, empty, or an archive trajdb made) and returns its absolute path, the
+    marker written. Refuses a folder with anything else in it, the lake itself, a folder inside
+    the lake or holding it, a trajdb results folder."""
+    out = os.path.abspath(out)
+    if not out or out == os.sep:
+        raise ArchiveError(f"trajdb archive: --out {out!r} is not a folder trajdb can own; name a new folder")
+    if _inside(out, lake) or _inside(lake, out):
+        raise ArchiveError(f"trajdb archive: --out {out!r} and the input {lake!r} hold one another; put the results outside the lake")
+    if os.path.exists(out):
+        if not os.path.isdir(out):
+            raise ArchiveError(f"trajdb archive: --out {out!r} is a file; name a new folder")
+        entries = os.listdir(out)
+        if entries and MARKER not in entries:
+            raise ArchiveError(f"trajdb archive: --out {out!r} holds files trajdb did not write ({', '.join(sorted(entries)[:3])}); "
+                               "name a new or empty folder (trajdb never writes among your files)")
+    os.makedirs(out, exist_ok=True)
+    marker = os.path.join(out, MARKER)
+    if not os.path.exists(marker):
+        _write_atomic(marker, (MARKER_HEAD + f"input\t{os.path.abspath(lake)}\n").encode())
+    for d in ("_state", "_work"):
+        os.makedirs(os.path.join(out, d), exist_ok=True)
+    return out
+
+
+def _write_atomic(path, data):
+    tmp = f"{path}.tmp-{os.getpid()}"
+    with open(tmp, "wb") as f:
+        f.write(data)
+        f.flush()
+        os.fsync(f.fileno())
+    os.replace(tmp, path)
+
+
+def _lock(out):
+    """One archive run per OUT at a time (an advisory lock held until the process exits)."""
+    import fcntl
+
+    fh = open(os.path.join(out, "_state", "lock"), "a+")
+    try:
+        fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:
+        fh.close()
+        raise ArchiveError(f"trajdb archive: another trajdb archive is writing into {out!r}; wait for it to finish") from None
+    return fh
+
+
+def _clean_work(out):
+    """Removes the scratch folders of earlier, interrupted runs: only trajdb's own (task-*)."""
+    work = os.path.join(out, "_work")
+    for e in os.listdir(work):
+        if e.startswith("task-"):
+            shutil.rmtree(os.path.join(work, e), ignore_errors=True)
+
+
+def load_state(out):
+    path = os.path.join(out, "_state", "partitions.parquet")
+    if not os.path.exists(path):
+        return {}
+    t = pq.read_table(path)
+    return {(r["site"], r["date"]): r for r in t.to_pylist()}
+
+
+def save_state(out, state):
+    rows = [state[k] for k in sorted(state)]
+    t = pa.Table.from_pylist([{c: r.get(c) for c, _ in STATE_COLUMNS} for r in rows], schema=STATE_SCHEMA)
+    sink = pa.BufferOutputStream()
+    pq.write_table(t, sink)
+    _write_atomic(os.path.join(out, "_state", "partitions.parquet"), sink.getvalue().to_pybytes())
+
+
+def _append_run(out, row):
+    path = os.path.join(out, "_state", "runs.csv")
+    new = not os.path.exists(path)
+    with open(path, "a") as f:
+        if new:
+            f.write("finished_utc,site,date,status,seconds,peak_rss_mb,points\n")
+        f.write(",".join(str(row.get(k, "")) for k in ("finished_utc", "site", "date", "status", "seconds", "peak_rss_mb", "points")) + "\n")
+
+
+# --- one site-day (runs in a worker process or a Spark task) --------------------------------------
+
+
+def _connect(extension):
+    # one thread per task: a task's result is then the same bytes whatever runs beside it
+    return W.connect(extension, threads=1)
+
+
+def _register_input(con, task):
+    rel = _scan(con, task["files"])
+    if task.get("site_column"):
+        rel = rel.filter(duckdb.ColumnExpression("site").cast("VARCHAR") == duckdb.ConstantExpression(task["site"]))
+    con.register("archive_input", rel)
+
+
+def _set_numbers(con, numbers):
+    names = [k for k, _ in numbers]
+    nums = [int(v) for _, v in numbers]
+    con.execute("SET VARIABLE load_camera_numbers = MAP(?::VARCHAR[], ?::INTEGER[])", [names, nums])
+
+
+def _calibrate(task, numbers):
+    """The site's calibration from this day: {table: pyarrow.Table} with the camera numbers."""
+    con = _connect(task["extension"])
+    try:
+        _register_input(con, task)
+        _set_numbers(con, numbers)
+        execute_steps(con, stages(con, "archive_input", part="site", **task["params"]))
+        tables = {t: con.sql(f"FROM {t}").to_arrow_table() for t in W.site_table_names(con)}
+        cams = con.sql("SELECT DISTINCT camera_in::VARCHAR AS camera_in, camera FROM load_ids ORDER BY camera").fetchall()
+        known = dict(numbers)
+        for name, num in cams:
+            known.setdefault(name, int(num))
+        return tables, sorted(known.items(), key=lambda kv: kv[1])
+    finally:
+        con.close()
+
+
+_BASELINE = pa.schema([
+    ("cam_fixed", pa.int32()), ("cam_moving", pa.int32()), ("ax", pa.float64()), ("ay", pa.float64()), ("d_theta", pa.float64()),
+    ("d_x", pa.float64()), ("d_y", pa.float64()), ("d_dt", pa.float64()), ("se_theta", pa.float64()), ("se_x", pa.float64()),
+    ("se_y", pa.float64()), ("se_dt", pa.float64()), ("pairs_per_user", pa.float64()),
+])
+
+
+def _run_day(task, cal, results):
+    """The day on calibration `cal` ({tables, numbers, baseline}) with its results folder
+    `results`; returns the open connection (its tables: the caller reads and closes it)."""
+    con = _connect(task["extension"])
+    try:
+        _register_input(con, task)
+        _set_numbers(con, cal["numbers"])
+        for name, table in cal["tables"].items():
+            con.register("archive_site_table", table)
+            con.execute(f"CREATE OR REPLACE TEMP TABLE {name} AS FROM archive_site_table")
+            con.unregister("archive_site_table")
+        execute_steps(con, stages(con, "archive_input", out=results, part="day", **task["params"]))
+        con.register("archive_baseline_in", cal["baseline"])
+        con.execute("CREATE OR REPLACE TEMP TABLE archive_baseline AS FROM archive_baseline_in")
+        con.unregister("archive_baseline_in")
+        read(con, "sql/archive_check.sql")
+        return con
+    except BaseException:
+        con.close()
+        raise
+
+
+def _check(con, checking):
+    """The day's check: (baseline rows for a calibration made today, changes as dicts; none when
+    not `checking`: the calibration was made from this day)."""
+    baseline = con.sql(
+        """SELECT cam_fixed::INTEGER AS cam_fixed, cam_moving::INTEGER AS cam_moving, ax, ay, d_theta, d_x, d_y, d_dt,
+                  se_theta, se_x, se_y, se_dt, pairs_per_user::DOUBLE AS pairs_per_user
+           FROM archive_check WHERE d_theta IS NOT NULL ORDER BY cam_fixed, cam_moving""").to_arrow_table().cast(_BASELINE)
+    names = "(SELECT DISTINCT camera, camera_in::VARCHAR AS name FROM load_ids)"
+    changes = [dict(zip(("kind", "camera_fixed", "camera_moving", "pairs", "expected_pairs", "turned_deg", "moved_m", "clock_s", "z"), r)) for r in con.sql(
+        f"""SELECT CASE WHEN c.lost THEN 'lost' ELSE 'moved' END, a.name, b.name, c.pairs, round(c.expected_pairs, 1),
+                   round(degrees(c.d_theta - coalesce(bl.d_theta, 0)), 3),
+                   round(sqrt((c.d_x - coalesce(bl.d_x, 0)) ** 2 + (c.d_y - coalesce(bl.d_y, 0)) ** 2), 3),
+                   round(c.d_dt - coalesce(bl.d_dt, 0), 4), round(c.change.z, 1)
+            FROM archive_check c LEFT JOIN archive_baseline bl USING (cam_fixed, cam_moving)
+            JOIN {names} a ON a.camera = c.cam_fixed JOIN {names} b ON b.camera = c.cam_moving
+            WHERE c.changed ORDER BY c.cam_fixed, c.cam_moving""").fetchall()]
+    if checking:
+        for (name,) in con.sql(f"SELECT n.name FROM archive_new_cameras c JOIN {names} n USING (camera) ORDER BY n.name").fetchall():
+            changes.append({"kind": "new camera", "camera_fixed": None, "camera_moving": name})
+    return baseline, changes
+
+
+def _which_camera(changes, checked_pairs):
+    """The camera every changed pair has in common, when only one does (with two cameras the pair
+    says which two; with three or more, the unchanged pairs clear the others)."""
+    moved = [c for c in changes if c["kind"] in ("moved", "lost")]
+    if not moved:
+        return None
+    common = set.intersection(*({c["camera_fixed"], c["camera_moving"]} for c in moved))
+    cleared = {x for p in checked_pairs for x in p}
+    if len(common) == 1:
+        return common.pop()
+    rest = [c for c in common if c not in cleared]
+    return rest[0] if len(rest) == 1 else None
+
+
+def _write_outputs(con, results, scratch):
+    """The day's result files in the task's scratch folder (moved into place by the driver)."""
+    shutil.move(os.path.join(results, "merged.parquet"), os.path.join(scratch, "road_users.parquet"))
+    shutil.move(os.path.join(results, "report.html"), os.path.join(scratch, "report.html"))
+    for macro, name, order in (("result_matches()", "matches", "camera_a, track_a, camera_b, track_b"), ("result_links()", "links", "camera, track_id"),
+                               ("result_transforms()", "transforms", "cam_from, cam_to"), ("result_calibration()", "calibration", "scope, quantity")):
+        con.execute(f"COPY (FROM {macro} ORDER BY {order}) TO {_literal(os.path.join(scratch, name + '.parquet'))} (FORMAT parquet)")
+
+
+def _save_calibration(folder, cal):
+    os.makedirs(folder)
+    for name, table in cal["tables"].items():
+        pq.write_table(table, os.path.join(folder, name + ".parquet"))
+    pq.write_table(pa.table({"camera_in": [k for k, _ in cal["numbers"]], "camera": pa.array([v for _, v in cal["numbers"]], pa.int32())}),
+                   os.path.join(folder, "cameras.parquet"))
+    pq.write_table(cal["baseline"], os.path.join(folder, "baseline.parquet"))
+
+
+def load_calibration(folder):
+    tables = {}
+    for f in sorted(os.listdir(folder)):
+        if f.endswith(".parquet") and f not in ("cameras.parquet", "baseline.parquet"):
+            tables[f[: -len(".parquet")]] = pq.read_table(os.path.join(folder, f))
+    cams = pq.read_table(os.path.join(folder, "cameras.parquet")).to_pylist()
+    return {"tables": tables, "numbers": [(r["camera_in"], r["camera"]) for r in cams],
+            "baseline": pq.read_table(os.path.join(folder, "baseline.parquet")).cast(_BASELINE)}
+
+
+def _peak_rss_mb():
+    try:
+        import resource
+
+        return round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0, 1)
+    except Exception:  # noqa: BLE001 - not on every platform
+        return None
+
+
+def run_task(task):
+    """One site-day: returns {row (the state row), run (timings), scratch, calibration (the
+    folder of a calibration made today, or None)}. Never raises: a failure is the row's error."""
+    t0 = time.perf_counter()
+    scratch = task["scratch"]
+    row = {"site": task["site"], "date": task["date"], "inputs": task["inputs"], "fingerprint": task["fingerprint"],
+           "trajdb_version": __version__, "params": task["params_json"], "calibration_in": task["cal_id"],
+           "calibration_out": task["cal_id"], "calibration_made": False, "changes": "[]", "warnings": "[]", "error": None,
+           "status": "failed", "cameras": None, "points": None, "road_users": None, "matches": None}
+    made = None
+    try:
+        check_duckdb()
+        os.makedirs(scratch)
+        if not task["files"]:
+            raise ValueError(f"site {task['site']} date {task['date']}: the partition has no data files (.parquet or .csv)")
+        if task["format"] == "mixed":
+            raise ValueError(f"site {task['site']} date {task['date']}: the partition mixes Parquet and CSV files; give one format per partition")
+        cal = load_calibration(task["cal_dir"]) if task["cal_dir"] else None
+        changes, camera = [], None
+        if cal is None:
+            tables, numbers = _calibrate(task, [])
+            cal = {"tables": tables, "numbers": numbers, "baseline": _BASELINE.empty_table()}
+            made = "first"
+        con = _run_day(task, cal, os.path.join(scratch, "results"))
+        try:
+            baseline, changes = _check(con, checking=not made)
+            if made:
+                cal["baseline"] = baseline
+            elif changes:
+                checked = [(r[0], r[1]) for r in con.sql(
+                    """SELECT a.camera_in::VARCHAR, b.camera_in::VARCHAR FROM archive_check c
+                       JOIN (SELECT DISTINCT camera, camera_in FROM load_ids) a ON a.camera = c.cam_fixed
+                       JOIN (SELECT DISTINCT camera, camera_in FROM load_ids) b ON b.camera = c.cam_moving
+                       WHERE NOT c.changed AND c.change IS NOT NULL""").fetchall()]
+                camera = _which_camera(changes, checked)
+                # re-register the site from this day, and run the day again on it
+                con.close()
+                con = None
+                shutil.rmtree(os.path.join(scratch, "results"))
+                tables, numbers = _calibrate(task, cal["numbers"])
+                cal = {"tables": tables, "numbers": numbers, "baseline": _BASELINE.empty_table()}
+                con = _run_day(task, cal, os.path.join(scratch, "results"))
+                cal["baseline"], _ = _check(con, checking=False)
+                made = "change"
+            _write_outputs(con, os.path.join(scratch, "results"), scratch)
+            warnings = [r[0] for r in con.sql("SELECT message FROM pipeline_warnings ORDER BY k").fetchall()]
+            stats = con.execute(
+                """SELECT (SELECT count(DISTINCT camera) FROM points), (SELECT count(*) FROM points),
+                          (SELECT count(*) FROM merged), (SELECT count(*) FROM result_matches())""").fetchone()
+        finally:
+            if con is not None:
+                con.close()
+        if made:
+            cal_id = f"{task['date']}-{task['fingerprint'][:12]}"
+            _save_calibration(os.path.join(scratch, "calibration"), cal)
+            row.update(calibration_out=cal_id, calibration_made=True)
+        if changes:
+            who = f"camera {camera}" if camera is not None else "a camera"
+            summary = "; ".join(_describe(c) for c in changes)
+            warnings.append(f"camera change on {task['date']} at site {task['site']}: {who} ({summary}); registered again from this day")
+        row.update(status="ok", changes=json.dumps({"camera": camera, "pairs": changes}) if changes else "[]",
+                   warnings=json.dumps(warnings), cameras=stats[0], points=stats[1], road_users=stats[2], matches=stats[3])
+    except Exception as e:  # noqa: BLE001 - a partition's failure is reported, the others go on
+        row.update(status="failed", error=f"{type(e).__name__}: {e}".strip()[:2000], calibration_out=task["cal_id"], calibration_made=False)
+        made = None
+    run = {"finished_utc": datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ"), "site": task["site"],
+           "date": task["date"], "status": row["status"], "seconds": round(time.perf_counter() - t0, 2), "peak_rss_mb": _peak_rss_mb(),
+           "points": row.get("points")}
+    return {"row": row, "run": run, "scratch": scratch, "calibration": os.path.join(scratch, "calibration") if made else None}
+
+
+def _describe(c):
+    if c["kind"] == "new camera":
+        return f"camera {c['camera_moving']} is new"
+    if c["kind"] == "lost":
+        return f"cameras {c['camera_fixed']}-{c['camera_moving']}: {c['pairs']} matches where {c['expected_pairs']} were expected"
+    return (f"cameras {c['camera_fixed']}-{c['camera_moving']}: moved {c['moved_m']} m, turned {c['turned_deg']} deg, "
+            f"clock {c['clock_s']} s ({c['z']} standard errors)")
+
+
+# --- the driver --------------------------------------------------------------------------------
+
+
+def _cal_dir(out, site, cal_id):
+    return os.path.join(out, "_calibrations", f"site={site}", f"from={cal_id}") if cal_id else None
+
+
+def _commit(out, res):
+    """Moves a finished task's files into place, then records it (the partition's commit point)."""
+    row = res["row"]
+    site, date = row["site"], row["date"]
+    if row["status"] == "ok":
+        if res["calibration"]:
+            dest = _cal_dir(out, site, row["calibration_out"])
+            os.makedirs(os.path.dirname(dest), exist_ok=True)
+            if os.path.exists(dest):  # an interrupted run's copy of the same calibration
+                old = os.path.join(os.path.dirname(res["scratch"]), f"task-old-{os.getpid()}-{time.time_ns()}")
+                os.replace(dest, old)
+                shutil.rmtree(old, ignore_errors=True)
+            os.replace(res["calibration"], dest)
+        for folder, name, _ in TABLES:
+            _place(os.path.join(res["scratch"], name), os.path.join(out, folder, f"site={site}", f"date={date}", "part-0.parquet"))
+        _place(os.path.join(res["scratch"], REPORT[1]), os.path.join(out, REPORT[0], f"site={site}", f"date={date}", REPORT[1]))
+    shutil.rmtree(res["scratch"], ignore_errors=True)
+
+
+def _place(src, dest):
+    os.makedirs(os.path.dirname(dest), exist_ok=True)
+    os.replace(src, dest)
+
+
+def _params_json(params):
+    return json.dumps({k: str(v) for k, v in sorted((params or {}).items())}, sort_keys=True)
+
+
+def _check_params(params, extension):
+    """Unknown names and bad values fail before any work (the extension checks them)."""
+    con = W.connect(extension, threads=1)
+    try:
+        stages(con, "archive_input", part="site", **params)
+    finally:
+        con.close()
+
+
+class Progress:
+    """partitions done / total, points/s, time left: one line rewritten on a terminal, plain
+    lines in a log."""
+
+    def __init__(self, total, stream=None, enabled=True):
+        self.total, self.done, self.points, self.failed, self.t0 = total, 0, 0, 0, time.perf_counter()
+        self.stream = stream or sys.stderr
+        self.enabled = enabled
+        self.tty = enabled and hasattr(self.stream, "isatty") and self.stream.isatty()
+
+    def update(self, res):
+        self.done += 1
+        row = res["row"]
+        self.points += row.get("points") or 0
+        self.failed += row["status"] != "ok"
+        if not self.enabled:
+            return
+        el = time.perf_counter() - self.t0
+        rate = self.points / el if el > 0 else 0.0
+        left = el / self.done * (self.total - self.done)
+        what = f"site {row['site']} {row['date']} {row['status']}"
+        if row["status"] != "ok":
+            what += f": {row['error'][:160]}"
+        line = (f"[trajdb] archive {self.done}/{self.total} partitions, {rate:,.0f} points/s, "
+                f"{_eta(left)} left ({what})")
+        if self.tty:
+            self.stream.write("\r\033[K" + line)
+            if self.done == self.total:
+                self.stream.write("\n")
+        else:
+            self.stream.write(line + "\n")
+        self.stream.flush()
+
+
+def _eta(s):
+    s = int(round(s))
+    return f"{s // 3600} h {s % 3600 // 60:02d} min" if s >= 3600 else (f"{s // 60} min {s % 60:02d} s" if s >= 60 else f"{s} s")
+
+
+def _local_executor(workers):
+    """Tasks in `workers` processes (spawned: DuckDB is not fork-safe), one thread each."""
+
+    def run(tasks, on_done):
+        if workers <= 1 or len(tasks) <= 1:
+            for t in tasks:
+                on_done(run_task(t))
+            return
+        ctx = multiprocessing.get_context("spawn")
+        with cf.ProcessPoolExecutor(max_workers=min(workers, len(tasks)), mp_context=ctx) as pool:
+            futs = [pool.submit(run_task, t) for t in tasks]
+            for f in cf.as_completed(futs):
+                on_done(f.result())
+
+    return run
+
+
+def plan(parts, state, out, params_json, lake):
+    """One round's tasks: walks each site's days in date order with the calibration in effect
+    (the state's, for days already done), and returns the days that need work, each with the
+    calibration it starts from (optimistically: a day run this round is assumed to keep it)."""
+    tasks = []
+    by_site = {}
+    for p in parts:
+        by_site.setdefault(p["site"], []).append(p)
+    for site, days in by_site.items():
+        cal = None
+        for p in days:
+            st = state.get((site, p["date"]))
+            if st and _unchanged(st, p) and st["trajdb_version"] == __version__ and st["params"] == params_json and st["calibration_in"] == cal \
+                    and (cal is None or os.path.isdir(_cal_dir(out, site, cal))):
+                cal = st["calibration_out"]
+                continue
+            if cal is not None and not os.path.isdir(_cal_dir(out, site, cal)):
+                break  # a calibration this round makes: the site's later days wait for the next round
+            tasks.append({**p, "cal_id": cal})
+            if cal is None:
+                cal = f"{p['date']}-{p['fingerprint'][:12]}"  # this day will calibrate the site (if it runs)
+    return tasks
+
+
+def _unchanged(st, p):
+    return st["fingerprint"] == p["fingerprint"]
+
+
+def _fingerprint_parts(parts, state, lake):
+    """Each partition's inputs (name, size, mtime) and content fingerprint; the content is read
+    only when the names, sizes or times differ from the state's (a no-op run reads no data)."""
+    for p in parts:
+        p["inputs"] = json.dumps(_stat(p["files"], lake))
+        st = state.get((p["site"], p["date"]))
+        if st and st["inputs"] == p["inputs"]:
+            p["fingerprint"] = st["fingerprint"]
+        else:
+            p["fingerprint"] = _content_fingerprint(p["files"]) + ("" if not p["site_column"] else "-" + hashlib.sha1(p["site"].encode()).hexdigest()[:8])
+
+
+def run(lake, out, params=None, site=None, workers=None, extension=None, progress=True, executor=None, stream=None, max_rounds=None):
+    """The archive run (module docstring). Returns a summary dict: partitions, done (this run),
+    skipped, failed (in the state after the run), changes (camera changes found this run),
+    seconds. `executor(tasks, on_done)` runs the tasks (default: local processes; trajdb.spark
+    gives Spark's)."""
+    check_duckdb()
+    t0 = time.perf_counter()
+    lake = os.path.abspath(os.fspath(lake))
+    params = {k: v for k, v in (params or {}).items()}
+    from . import extension_path
+
+    extension = extension or extension_path()
+    parts = discover(lake, site=site)
+    out = claim(os.fspath(out), lake)
+    lock = _lock(out)
+    try:
+        _check_params(params, extension)
+        _clean_work(out)
+        state = load_state(out)
+        _fingerprint_parts(parts, state, lake)
+        params_json = _params_json(params)
+        workers = workers or os.cpu_count() or 1
+        executor = executor or _local_executor(workers)
+        done, changes, rounds, ran = 0, [], 0, set()
+        seen = set()
+        while True:
+            tasks = plan(parts, state, out, params_json, lake)
+            if not tasks:
+                break
+            rounds += 1
+            if max_rounds is not None and rounds > max_rounds:
+                break
+            prog = Progress(len(tasks), stream=stream, enabled=progress)
+            for k, t in enumerate(tasks):
+                t.update(scratch=os.path.join(out, "_work", f"task-{os.getpid()}-{rounds}-{k}"), cal_dir=_cal_dir(out, t["site"], t["cal_id"]),
+                         params=params, params_json=params_json, extension=extension)
+
+            def on_done(res):
+                nonlocal done
+                _commit(out, res)
+                row = res["row"]
+                state[(row["site"], row["date"])] = row
+                save_state(out, state)
+                _append_run(out, res["run"])
+                prog.update(res)
+                done += 1
+                ran.add((row["site"], row["date"]))
+                key = (row["site"], row["date"], row["calibration_in"])
+                if row["changes"] not in ("[]", None) and key not in seen:
+                    seen.add(key)
+                    changes.append({"site": row["site"], "date": row["date"], **json.loads(row["changes"])})
+
+            executor(tasks, on_done)
+        _site_indexes(out, state)
+        failed = sorted(k for k, r in state.items() if r["status"] != "ok")
+        present = {(p["site"], p["date"]) for p in parts}
+        return {"partitions": len(parts), "done": done, "skipped": len(parts) - len(ran & present),
+                "failed": len([k for k in failed if k in present]), "failed_partitions": [f"site={s}/date={d}" for s, d in failed if (s, d) in present],
+                "changes": changes, "rounds": rounds, "seconds": round(time.perf_counter() - t0, 2), "out": out,
+                "orphaned": sorted(f"site={s}/date={d}" for s, d in state if (s, d) not in present)}
+    finally:
+        lock.close()
+
+
+def _site_indexes(out, state):
+    """reports/site=S/index.html: the site's days, their counts, failures and camera changes."""
+    import html
+
+    by_site = {}
+    for (s, d), r in sorted(state.items()):
+        by_site.setdefault(s, []).append(r)
+    for s, rows in by_site.items():
+        lines = [f"<!doctype html><meta charset=utf-8><title>trajdb archive: site {html.escape(s)}</title>",
+                 "<style>body{font-family:sans-serif;margin:2em}td,th{padding:2px 8px;text-align:right}td.l,th.l{text-align:left}</style>",
+                 f"<h1>Site {html.escape(s)}</h1><p>{len(rows)} days; {sum(r['status'] != 'ok' for r in rows)} failed; "
+                 f"{sum(bool(r['calibration_made']) for r in rows)} calibrations.</p>",
+                 "<table><tr><th class=l>date</th><th class=l>status</th><th>cameras</th><th>points</th><th>road users</th><th>matches</th>"
+                 "<th class=l>calibration</th><th class=l>camera changes and errors</th></tr>"]
+        for r in rows:
+            ch = json.loads(r["changes"] or "[]")
+            note = ""
+            if ch:
+                who = f"camera {ch['camera']}" if ch.get("camera") is not None else "a camera"
+                note = f"{who}: " + "; ".join(_describe(c) for c in ch["pairs"])
+            if r["error"]:
+                note = r["error"]
+            link = (f"<a href='date={html.escape(r['date'])}/report.html'>{html.escape(r['date'])}</a>" if r["status"] == "ok" else html.escape(r["date"]))
+            lines.append(f"<tr><td class=l>{link}</td><td class=l>{html.escape(r['status'])}</td><td>{r['cameras'] or ''}</td><td>{r['points'] or ''}</td>"
+                         f"<td>{r['road_users'] or ''}</td><td>{r['matches'] or ''}</td><td class=l>{html.escape(r['calibration_out'] or '')}"
+                         f"{' (made)' if r['calibration_made'] else ''}</td><td class=l>{html.escape(note)}</td></tr>")
+        lines.append("</table>")
+        dest = os.path.join(out, REPORT[0], f"site={s}", "index.html")
+        os.makedirs(os.path.dirname(dest), exist_ok=True)
+        _write_atomic(dest, "\n".join(lines).encode())

@@ -1015,7 +1015,7 @@ SELECT label, count(*) AS tracks FROM quality_labels GROUP BY label ORDER BY lab
 -- changes: points, calibration
 -- parameters: align_agree_deg, align_agree_m, align_bin_deg, align_bin_m, align_bin_s, align_clock_step_s,
 --             align_max_clock_offset_s, align_max_hypotheses, align_min_overlap_s, align_min_pairs,
---             align_min_points, align_min_span_m, align_min_support, align_trim, merge_epsilon,
+--             align_min_points, align_min_span_m, align_min_support, align_trim, load_camera_numbers, merge_epsilon,
 --             merge_resample_s
 --
 -- trajdb: put N cameras into one frame and one clock from their tracks alone.
@@ -1818,9 +1818,17 @@ WHERE a.camera <> b.camera AND ia.camera = a.camera AND ib.camera = b.camera;
 -- 'cluster_camera' are the stages' camera numbers, and when the input's camera is text, `how`
 -- ends with its name: (camera 'north').
 CREATE OR REPLACE TEMP MACRO result_calibration() AS TABLE
-WITH cams AS (SELECT DISTINCT camera, camera_in FROM load_ids)
-SELECT CASE WHEN regexp_full_match(s.scope, 'camera -?[0-9]+') THEN 'camera ' || c1.camera_in
-            WHEN regexp_full_match(s.scope, 'cameras -?[0-9]+--?[0-9]+') THEN 'cameras ' || c1.camera_in || '-' || c2.camera_in
+-- (a camera of the calibration that has no points in this input, as on an archive's day
+-- without it: its name from the site's numbers, load_camera_numbers, else its number)
+WITH cams AS (SELECT DISTINCT camera, camera_in::VARCHAR AS camera_in FROM load_ids
+              UNION ALL
+              SELECT e.value, e.key
+              FROM (SELECT unnest(map_entries(coalesce(getvariable('load_camera_numbers'), MAP {}::MAP(VARCHAR, INTEGER)))) AS e)
+              WHERE e.value NOT IN (SELECT camera FROM load_ids))
+SELECT CASE WHEN regexp_full_match(s.scope, 'camera -?[0-9]+') THEN 'camera ' || coalesce(c1.camera_in, regexp_extract(s.scope, '^camera (-?[0-9]+)', 1))
+            WHEN regexp_full_match(s.scope, 'cameras -?[0-9]+--?[0-9]+')
+            THEN 'cameras ' || coalesce(c1.camera_in, regexp_extract(s.scope, '^cameras (-?[0-9]+)-', 1)) || '-'
+                 || coalesce(c2.camera_in, regexp_extract(s.scope, '^cameras -?[0-9]+-(-?[0-9]+)$', 1))
             ELSE s.scope END AS scope,
        s.quantity, s.value, s.unit,
        CASE WHEN cv.camera_in::VARCHAR <> cv.camera::VARCHAR THEN s.how || ' (camera ''' || cv.camera_in || ''')' ELSE s.how END AS how
@@ -2506,7 +2514,7 @@ CREATE OR REPLACE TEMP TABLE merge_users AS SELECT road_user, class, sources, n_
 -- makes: cluster_tracks, cluster_assign, cluster_summary, result_clusters()
 -- work: -
 -- changes: -
--- parameters: cluster_classes, cluster_delta, cluster_epsilon, cluster_exact_max, cluster_method,
+-- parameters: cluster_camera, cluster_camera_used, cluster_classes, cluster_delta, cluster_epsilon, cluster_exact_max, cluster_method,
 --             cluster_rho, cluster_threshold, cluster_translation_invariant
 --
 -- trajdb: route patterns by agglomerative clustering of trajectories (Buzan et al. 4.3-4.5, 5.2).
@@ -2532,15 +2540,21 @@ CREATE OR REPLACE TEMP TABLE merge_users AS SELECT road_user, class, sources, n_
 
 -- The clustered camera: cluster_camera, or (auto) the camera with the most real tracks, ties to
 -- the lowest id (calibrate.sql: the data decides, not a camera number); a given camera must exist.
+-- An archive's day (python/trajdb/archives.py) runs on its site's kept calibration: when the
+-- camera chosen there (auto) has no points today, the day's own choice by the same rule stands.
 -- (a statement that prints nothing: the DuckDB CLI shows no result box for a check that passed)
-SET VARIABLE cluster_check = (SELECT CASE WHEN NOT EXISTS (SELECT 1 FROM points WHERE camera = calibrated('cluster_camera'))
-            THEN error('cluster: cluster_camera ' || calibrated('cluster_camera')::BIGINT || ' is not a camera of the input (cameras: '
+SET VARIABLE cluster_camera_used = (SELECT CASE
+            WHEN EXISTS (SELECT 1 FROM points WHERE camera = calibrated('cluster_camera')) OR getvariable('cluster_camera') IS NOT NULL
+            THEN calibrated('cluster_camera')
+            ELSE (SELECT camera FROM points WHERE estimated = 0 GROUP BY camera ORDER BY count(DISTINCT track_id) DESC, camera LIMIT 1) END);
+SET VARIABLE cluster_check = (SELECT CASE WHEN NOT EXISTS (SELECT 1 FROM points WHERE camera = getvariable('cluster_camera_used'))
+            THEN error('cluster: cluster_camera ' || getvariable('cluster_camera_used')::BIGINT || ' is not a camera of the input (cameras: '
                        || (SELECT string_agg(DISTINCT camera::VARCHAR, ', ' ORDER BY camera::VARCHAR) FROM points) || ')') END);
 CREATE OR REPLACE TEMP TABLE cluster_tracks AS
 SELECT * FROM (
     SELECT track_id, class, traj_resample(list({'t': t, 'x': x, 'y': y} ORDER BY t), 0.5, 1.0) AS traj
     FROM points
-    WHERE camera = calibrated('cluster_camera') AND estimated = 0
+    WHERE camera = getvariable('cluster_camera_used') AND estimated = 0
       AND (getvariable('cluster_classes') = ''
            OR list_contains([lower(trim(c)) FOR c IN string_split(getvariable('cluster_classes'), ',')], lower(class)))
     GROUP BY track_id, class
@@ -2603,7 +2617,7 @@ FROM cluster_summary GROUP BY class ORDER BY class;
 -- clusters: route patterns of one camera
 CREATE OR REPLACE TEMP MACRO result_clusters() AS TABLE
 SELECT i.camera_in AS camera, a.class, i.track_in AS track_id, a.cluster
-FROM cluster_assign a JOIN load_ids i ON i.camera = calibrated('cluster_camera') AND i.track_id = a.track_id;
+FROM cluster_assign a JOIN load_ids i ON i.camera = getvariable('cluster_camera_used') AND i.track_id = a.track_id;
 ;
 ;
 ;

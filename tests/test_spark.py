@@ -184,9 +184,33 @@ def main():
     o = W.run_window(site_pts, cal, 5000.0, 5060.0, 4990.0, 5070.0, extension=EXT)
     assert o["road_users"].num_rows == 0 and o["matches"].num_rows == 0 and o["status"].to_pylist()[0]["complete"]
 
+    # 4. trajdb.spark.archive equals trajdb archive on one machine, file for file (issue 40): two
+    #    sites, two days each, a camera moved on the second day of one (the chain of
+    #    calibrations, a day run again), every archive task failing once and retried by Spark
+    from trajdb import lake_sim
+
+    lake = os.path.join(tmp, "lake")
+    lake_sim.simulate_lake(trajdb.connect(), lake, sites=2, days=2, minutes=3, viewpoint_bias_vehicle=1.0, ground_plane_scale=0.01,
+                           move={"site": "s2", "day": 1, "camera": 0, "dx": 0.0, "dy": 0.0, "deg": 3.0})
+    on_spark, local = os.path.join(tmp, "archive-spark"), os.path.join(tmp, "archive-local")
+    rs = tspark.archive(spark, lake, on_spark, extension=EXT, progress=False)
+    rl = trajdb.archive(trajdb.connect(), lake, local)
+    assert rs["failed"] == rl["failed"] == 0 and rs["done"] == rl["done"] == 4, (rs, rl)
+    assert [c["date"] for c in rs["changes"]] == [c["date"] for c in rl["changes"]] == [lake_sim.day_name(1)], (rs["changes"], rl["changes"])
+    assert any(f.startswith("archive-") for f in os.listdir(fail_dir))
+
+    def tree(d):
+        skip = {"_state/runs.csv", "_state/lock", ".trajdb-archive"}
+        return {os.path.relpath(p, d): open(p, "rb").read() for p in glob.glob(f"{d}/**", recursive=True)
+                if os.path.isfile(p) and os.path.relpath(p, d) not in skip}
+    ts, tl = tree(on_spark), tree(local)
+    assert ts.keys() == tl.keys(), sorted(set(ts) ^ set(tl))
+    assert [f for f in ts if ts[f] != tl[f]] == [], [f for f in ts if ts[f] != tl[f]]
+    n_archive = len(ts)
+
     spark.stop()
 
-    # 4. docs/spark.md's "### Spark example", as it stands, in its own process and folder
+    # 5. docs/spark.md's "### Spark example", as it stands, in its own process and folder
     with open(os.path.join(ROOT, "docs", "spark.md")) as f:
         text = f.read()
     m = re.compile(r"```python\n(.*?)```", re.S).search(text, text.index("### Spark example\n"))
@@ -201,7 +225,8 @@ def main():
 
     n = {s: len(refs[s][0]) for s in sites}
     print(f"test_spark: OK: road users per site {n}, {len(seam)} across a seam, {len(wins)} window tasks, "
-          f"{len(injected)} injected task failures retried, {reran60} windows rerun at 60 s, {rounds} windows rerun with a wider halo (halo_s=0)")
+          f"{len(injected)} injected task failures retried, {reran60} windows rerun at 60 s, {rounds} windows rerun with a wider halo (halo_s=0); "
+          f"archive on Spark = on one machine, {n_archive} files byte for byte")
 
 
 if __name__ == "__main__":

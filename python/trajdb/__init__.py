@@ -528,6 +528,37 @@ def score(con, scenario, results):
     }
 
 
+def archive(con, lake, out, params=None, site=None, workers=None, progress=False, executor=None):
+    """`trajdb archive`: every site=S/date=D partition of the folder `lake` (Parquet or CSV) into
+    the archive folder `out` (Hive-partitioned Parquet, a state table, a report per site),
+    incremental and resumable (python/trajdb/archives.py; docs/archive.md). Parameters as for
+    pipeline (a dict: {"merge_eta": 0.6}). The work runs in connections of its own (one per
+    task, one thread each, `workers` processes: the machine's cores by default); `con` is the
+    caller's, whose sandbox settings hold: with enable_external_access off, lake and out must lie
+    in its allowed_directories. Returns a summary: partitions, done, skipped, failed,
+    failed_partitions, changes (camera changes found), seconds."""
+    from . import archives
+
+    _sandbox(con, [os.fspath(lake), os.fspath(out)], "trajdb.archive")
+    return archives.run(lake, out, params=params, site=site, workers=workers, progress=progress, executor=executor)
+
+
+def _sandbox(con, paths, who):
+    """DuckDB's sandbox of `con` for work done outside it (the archive's own connections):
+    nothing with enable_external_access off, unless every path lies in allowed_directories."""
+    external, allowed = con.execute(
+        "SELECT current_setting('enable_external_access'), current_setting('allowed_directories')").fetchone()
+    if external in (True, "true", "True", 1):
+        return
+    roots = [os.path.realpath(d) for d in (allowed or [])]
+    for p in paths:
+        real = os.path.realpath(p)
+        if not any(real == r or real.startswith(r.rstrip(os.sep) + os.sep) for r in roots):
+            raise PermissionError(
+                f"{who}: {p!r} is outside this connection's allowed_directories ({', '.join(allowed or []) or 'none'}) and "
+                "enable_external_access is off; add the folder to allowed_directories before turning external access off")
+
+
 def demo(out="trajdb-demo", **params):
     """`trajdb demo` in stock DuckDB: simulate (3 cameras, 5 minutes, seed 1 unless given), run
     the pipeline into out/results, score it against the simulator's truth; raises unless match

@@ -358,6 +358,54 @@ def cmd_demo(a):
         raise RuntimeError("demo: the pipeline missed its accuracy targets")
 
 
+def _params_of(a):
+    params = {}
+    for p in a.param or []:
+        name, sep, value = p.partition("=")
+        if not sep:
+            raise UsageError(f"--param needs name=value, got {p!r}")
+        params[name.strip()] = value.strip()
+    return params
+
+
+def cmd_archive(a):
+    from trajdb.archives import _describe
+
+    if a.workers is not None and a.workers < 1:
+        raise UsageError(f"--workers must be >= 1, got {a.workers}")
+    con = connect(a)
+    r = trajdb.archive(con, a.input, a.out, params=_params_of(a), site=a.site, workers=a.workers, progress=True)
+    note(f"[trajdb] archive   {r['partitions']} partitions: {r['done']} run, {r['skipped']} unchanged, {r['failed']} failed "
+         f"({r['seconds']:.1f} s) -> {r['out']}")
+    for c in r["changes"]:
+        who = f"camera {c['camera']}" if c.get("camera") is not None else "a camera"
+        note(f"[trajdb] warning: camera change at site {c['site']} on {c['date']}: {who} "
+             f"({'; '.join(_describe(p) for p in c['pairs'])}); registered again from that day")
+    for p in r["failed_partitions"]:
+        note(f"[trajdb] failed:  {p} (the error is in {os.path.join(r['out'], '_state', 'partitions.parquet')}, column error)")
+    for p in r["orphaned"]:
+        note(f"[trajdb] note:    {p} is in the archive but no longer in the lake; its results are kept")
+    note(f"[trajdb]          open {os.path.join(r['out'], 'reports')} for the reports (index.html per site)")
+    if r["failed"]:
+        raise SystemExit(min(r["failed"], 100))
+
+
+def cmd_simulate_lake(a):
+    move = None
+    if a.move:
+        f = a.move.split(",")
+        if len(f) != 6:
+            raise UsageError(f"--move needs SITE,DAY,CAMERA,DX,DY,DEG, got {a.move!r}")
+        move = {"site": f[0], "day": int(f[1]), "camera": int(f[2]), "dx": _number("--move", f[3]), "dy": _number("--move", f[4]),
+                "deg": _number("--move", f[5])}
+    from trajdb import lake_sim
+
+    t = time.perf_counter()
+    parts = lake_sim.simulate_lake(connect(a), a.out, sites=a.sites, days=a.days, minutes=a.minutes, cameras=a.cameras, move=move,
+                                   traffic=a.traffic)
+    note(f"[trajdb] simulate-lake {time.perf_counter() - t:.1f} s: {len(parts)} partitions, {sum(n for _, _, n in parts)} points -> {a.out}")
+
+
 def cmd_score(a):
     print_score(connect(a), a.scenario, a.results)
 
@@ -572,6 +620,24 @@ def build_parser():
     p.add_argument("--input", required=True, metavar="FILE", help="points as Parquet or CSV: camera, track_id, class, t, x, y[, estimated]")
     p.add_argument("--out", required=True, metavar="DIR", help="results folder (replaced only when the run succeeds)")
     p.add_argument("--param", action="append", metavar="NAME=VALUE", help="set a parameter (repeatable); the list follows")
+    p = add("archive", cmd_archive,
+            "an archive: every site=S/date=D partition of a lake into Hive-partitioned results, incremental and resumable, "
+            "each site's calibration kept and checked every day (docs/archive.md); the exit status is the number of failed partitions")
+    p.add_argument("--input", required=True, metavar="LAKE", help="a folder of site=S/date=D/ (or date=D/) folders of Parquet or CSV points")
+    p.add_argument("--out", required=True, metavar="DIR", help="the archive folder: new, empty, or one trajdb archive made")
+    p.add_argument("--site", metavar="NAME", help="the site's name when LAKE holds date=D/ folders of one site [default: LAKE's folder name]")
+    p.add_argument("--workers", type=int, metavar="N", help="partitions run at once, one core each [default: the machine's cores]")
+    p.add_argument("--param", action="append", metavar="NAME=VALUE", help="set a pipeline parameter (repeatable; trajdb params lists them)")
+    p = add("simulate-lake", cmd_simulate_lake,
+            "simulate an archive: sites x days of trajdb simulate as LAKE/site=S/date=D/points.parquet (truth in LAKE-truth)")
+    p.add_argument("--out", required=True, metavar="LAKE", help="a new folder")
+    p.add_argument("--sites", type=int, default=2, metavar="N", help="sites [default: 2]")
+    p.add_argument("--days", type=int, default=3, metavar="N", help="days per site [default: 3]")
+    p.add_argument("--minutes", type=float, default=10.0, metavar="X", help="minutes per day [default: 10]")
+    p.add_argument("--cameras", type=int, default=3, metavar="N", help="cameras per site [default: 3]")
+    p.add_argument("--traffic", type=float, default=1.0, metavar="X", help="traffic volume multiplier [default: 1]")
+    p.add_argument("--move", metavar="SITE,DAY,CAMERA,DX,DY,DEG",
+                   help="from day DAY (0 = the first) on, site SITE's camera CAMERA moved by DX, DY m and turned by DEG degrees, e.g. s1,2,1,1,0,0")
     p = add("score", cmd_score, "score a results folder against a scenario's ground truth (cameras.csv, truth.csv, world.csv)")
     p.add_argument("scenario", metavar="SCENARIO_DIR")
     p.add_argument("--results", required=True, metavar="DIR", help="the --out folder of trajdb pipeline")
@@ -600,7 +666,7 @@ def build_parser():
 def _join_values(argv):
     """`--origin -100,250` and `--clock-epoch -1e9` as `--origin=-100,250`: argparse would take a
     value that starts with '-' for an option (clap allowed it)."""
-    takes = {o[0] for o in SIM_OPTIONS} | {"--param", "--out", "--input", "--results", "--db"}
+    takes = {o[0] for o in SIM_OPTIONS} | {"--param", "--out", "--input", "--results", "--db", "--move"}
     argv, k = list(argv), 0
     while k < len(argv) - 1:
         if argv[k] in takes and argv[k + 1].startswith("-") and len(argv[k + 1]) > 1:

@@ -462,3 +462,39 @@ def _write_table(df, uri, root, name, parts, order, geo):
 def geo_json():
     """The GeoParquet metadata (a dict) that road_users files carry."""
     return json.loads(_geo_metadata())
+
+
+def _archive_task(task, ext_name):
+    """One site-day of trajdb.archives in a Spark task: the extension from SparkFiles."""
+    from pyspark import SparkFiles
+
+    from trajdb import archives
+
+    res = archives.run_task({**task, "extension": SparkFiles.get(ext_name)})
+    _fail_once("archive", f"{task['site']}-{task['date']}")
+    return res
+
+
+def archive(spark, lake, out, params=None, site=None, extension=None, progress=True):
+    """`trajdb archive` with Spark running the site-days (python/trajdb/archives.py; docs/archive.md):
+    the same lake layout in, the same archive folder out (OUT must be a path the driver and the
+    executors share), the same per-site-day work (archives.run_task: the kept calibration, the
+    daily camera-change check, one DuckDB thread per task) and the same state, so that a run
+    here and `trajdb archive` give the same files (tests/test_spark.py checks it). The driver
+    plans, Spark runs each round's site-days as tasks, the driver commits them."""
+    from . import archives
+
+    sc = spark.sparkContext
+    ext = os.path.abspath(extension or W._default_extension())
+    sc.addFile(ext)
+    sc.addPyFile(_package_zip())
+    ext_name = os.path.basename(ext)
+
+    def executor(tasks, on_done):
+        if not tasks:
+            return
+        rdd = sc.parallelize(tasks, len(tasks))
+        for res in rdd.map(lambda t: _archive_task(t, ext_name)).collect():
+            on_done(res)
+
+    return archives.run(lake, out, params=params, site=site, extension=ext, progress=progress, executor=executor)

@@ -10,7 +10,7 @@
 -- changes: points, calibration
 -- parameters: align_agree_deg, align_agree_m, align_bin_deg, align_bin_m, align_bin_s, align_clock_step_s,
 --             align_max_clock_offset_s, align_max_hypotheses, align_min_overlap_s, align_min_pairs,
---             align_min_points, align_min_span_m, align_min_support, align_trim, merge_epsilon,
+--             align_min_points, align_min_span_m, align_min_support, align_trim, load_camera_numbers, merge_epsilon,
 --             merge_resample_s
 --
 -- trajdb: put N cameras into one frame and one clock from their tracks alone.
@@ -813,9 +813,17 @@ WHERE a.camera <> b.camera AND ia.camera = a.camera AND ib.camera = b.camera;
 -- 'cluster_camera' are the stages' camera numbers, and when the input's camera is text, `how`
 -- ends with its name: (camera 'north').
 CREATE OR REPLACE TEMP MACRO result_calibration() AS TABLE
-WITH cams AS (SELECT DISTINCT camera, camera_in FROM load_ids)
-SELECT CASE WHEN regexp_full_match(s.scope, 'camera -?[0-9]+') THEN 'camera ' || c1.camera_in
-            WHEN regexp_full_match(s.scope, 'cameras -?[0-9]+--?[0-9]+') THEN 'cameras ' || c1.camera_in || '-' || c2.camera_in
+-- (a camera of the calibration that has no points in this input, as on an archive's day
+-- without it: its name from the site's numbers, load_camera_numbers, else its number)
+WITH cams AS (SELECT DISTINCT camera, camera_in::VARCHAR AS camera_in FROM load_ids
+              UNION ALL
+              SELECT e.value, e.key
+              FROM (SELECT unnest(map_entries(coalesce(getvariable('load_camera_numbers'), MAP {}::MAP(VARCHAR, INTEGER)))) AS e)
+              WHERE e.value NOT IN (SELECT camera FROM load_ids))
+SELECT CASE WHEN regexp_full_match(s.scope, 'camera -?[0-9]+') THEN 'camera ' || coalesce(c1.camera_in, regexp_extract(s.scope, '^camera (-?[0-9]+)', 1))
+            WHEN regexp_full_match(s.scope, 'cameras -?[0-9]+--?[0-9]+')
+            THEN 'cameras ' || coalesce(c1.camera_in, regexp_extract(s.scope, '^cameras (-?[0-9]+)-', 1)) || '-'
+                 || coalesce(c2.camera_in, regexp_extract(s.scope, '^cameras -?[0-9]+-(-?[0-9]+)$', 1))
             ELSE s.scope END AS scope,
        s.quantity, s.value, s.unit,
        CASE WHEN cv.camera_in::VARCHAR <> cv.camera::VARCHAR THEN s.how || ' (camera ''' || cv.camera_in || ''')' ELSE s.how END AS how

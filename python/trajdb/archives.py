@@ -2,7 +2,7 @@
 resumable (issue 40; docs/archive.md).
 
     trajdb archive --input LAKE --out OUT          # the command line
-    trajdb.archive.run(LAKE, OUT)                  # Python (trajdb.archive(con, LAKE, out=OUT) too)
+    trajdb.archive(con, LAKE, out=OUT)             # Python (trajdb.archives.run(LAKE, OUT) without a connection)
     trajdb.spark.archive(spark, LAKE, OUT)         # the same work as Spark tasks
 
 LAKE holds Parquet or CSV files under site=S/date=D/ folders (hive style), or date=D/ folders of
@@ -32,7 +32,7 @@ How a day runs (`run_task`, the same function on one machine and in a Spark task
     day's result depends only on its input and the calibration in effect (one thread per task),
     the result is the same bytes as an uninterrupted run.
 
-Incremental: a partition is done when the state holds it with the same input (names, sizes,
+Incremental: a partition is done when the state holds it, not failed, with the same input (names, sizes,
 modification times; a content fingerprint when those differ), trajdb version, parameters and
 calibration in effect. Days are chained per site in date order: a day whose calibration in
 effect changed (an earlier day re-registered a camera) runs again. Days run optimistically in
@@ -44,11 +44,9 @@ Files are the user's: OUT must be new, empty, or an archive trajdb made (its `.t
 marker); trajdb replaces only the files it wrote there, and removes only its own scratch folders
 (_work/task-*). LAKE is only read.
 """
-import concurrent.futures as cf
 import datetime
 import hashlib
 import json
-import multiprocessing
 import os
 import re
 import shutil
@@ -77,7 +75,7 @@ STATE_COLUMNS = (
     ("site", pa.string()), ("date", pa.string()), ("status", pa.string()), ("inputs", pa.string()), ("fingerprint", pa.string()),
     ("trajdb_version", pa.string()), ("params", pa.string()), ("calibration_in", pa.string()), ("calibration_out", pa.string()),
     ("calibration_made", pa.bool_()), ("changes", pa.string()), ("cameras", pa.int64()), ("points", pa.int64()),
-    ("road_users", pa.int64()), ("matches", pa.int64()), ("warnings", pa.string()), ("error", pa.string()),
+    ("road_users", pa.int64()), ("matches", pa.int64()), ("checks", pa.string()), ("warnings", pa.string()), ("error", pa.string()),
 )
 STATE_SCHEMA = pa.schema(STATE_COLUMNS)
 _KEY = re.compile(r"^(site|date)=(.+)$")
@@ -153,7 +151,7 @@ def _format(files):
 def _scan(con, files):
     if _format(files) == "parquet":
         return con.read_parquet(files, hive_partitioning=False, union_by_name=True)
-    return con.read_csv(files, union_by_name=True)
+    return con.read_csv(files, union_by_name=True, hive_partitioning=False)
 
 
 def _has_site_column(files, con):
@@ -229,8 +227,10 @@ def claim(out, lake):
     return out
 
 
-def _write_atomic(path, data):
-    tmp = f"{path}.tmp-{os.getpid()}"
+def _write_atomic(path, data, work=None):
+    """`data` into `path` whole or not at all: written beside it under a name of trajdb's
+    scratch (OUT/_work/task-*, removed by the next run when a kill leaves it), then renamed."""
+    tmp = os.path.join(work, f"task-tmp-{os.getpid()}-{time.time_ns()}") if work else f"{path}.tmp-{os.getpid()}"
     with open(tmp, "wb") as f:
         f.write(data)
         f.flush()
@@ -256,7 +256,11 @@ def _clean_work(out):
     work = os.path.join(out, "_work")
     for e in os.listdir(work):
         if e.startswith("task-"):
-            shutil.rmtree(os.path.join(work, e), ignore_errors=True)
+            p = os.path.join(work, e)
+            if os.path.isdir(p) and not os.path.islink(p):
+                shutil.rmtree(p, ignore_errors=True)
+            else:
+                os.remove(p)
 
 
 def load_state(out):
@@ -272,7 +276,7 @@ def save_state(out, state):
     t = pa.Table.from_pylist([{c: r.get(c) for c, _ in STATE_COLUMNS} for r in rows], schema=STATE_SCHEMA)
     sink = pa.BufferOutputStream()
     pq.write_table(t, sink)
-    _write_atomic(os.path.join(out, "_state", "partitions.parquet"), sink.getvalue().to_pybytes())
+    _write_atomic(os.path.join(out, "_state", "partitions.parquet"), sink.getvalue().to_pybytes(), work=os.path.join(out, "_work"))
 
 
 def _append_run(out, row):
@@ -367,10 +371,15 @@ def _check(con, checking):
             FROM archive_check c LEFT JOIN archive_baseline bl USING (cam_fixed, cam_moving)
             JOIN {names} a ON a.camera = c.cam_fixed JOIN {names} b ON b.camera = c.cam_moving
             WHERE c.changed ORDER BY c.cam_fixed, c.cam_moving""").fetchall()]
+    checks = [dict(zip(("cameras", "pairs", "z", "z_theta", "z_pos", "z_clock", "lost"), r)) for r in con.execute(
+        f"""SELECT a.name || '-' || b.name, c.pairs, round(c.change.z, 2), round(c.change.z_theta, 2), round(c.change.z_pos, 2),
+                   round(c.change.z_clock, 2), c.lost
+            FROM archive_check c JOIN {names} a ON a.camera = c.cam_fixed JOIN {names} b ON b.camera = c.cam_moving
+            ORDER BY c.cam_fixed, c.cam_moving""").fetchall()] if checking else []
     if checking:
         for (name,) in con.sql(f"SELECT n.name FROM archive_new_cameras c JOIN {names} n USING (camera) ORDER BY n.name").fetchall():
             changes.append({"kind": "new camera", "camera_fixed": None, "camera_moving": name})
-    return baseline, changes
+    return baseline, changes, checks
 
 
 def _which_camera(changes, checked_pairs):
@@ -432,10 +441,12 @@ def run_task(task):
     row = {"site": task["site"], "date": task["date"], "inputs": task["inputs"], "fingerprint": task["fingerprint"],
            "trajdb_version": __version__, "params": task["params_json"], "calibration_in": task["cal_id"],
            "calibration_out": task["cal_id"], "calibration_made": False, "changes": "[]", "warnings": "[]", "error": None,
-           "status": "failed", "cameras": None, "points": None, "road_users": None, "matches": None}
+           "status": "failed", "checks": "[]", "cameras": None, "points": None, "road_users": None, "matches": None}
     made = None
     try:
         check_duckdb()
+        if os.path.basename(scratch).startswith("task-") and os.path.isdir(scratch):
+            shutil.rmtree(scratch)  # an earlier attempt of this task (Spark retries a failed task)
         os.makedirs(scratch)
         if not task["files"]:
             raise ValueError(f"site {task['site']} date {task['date']}: the partition has no data files (.parquet or .csv)")
@@ -449,7 +460,7 @@ def run_task(task):
             made = "first"
         con = _run_day(task, cal, os.path.join(scratch, "results"))
         try:
-            baseline, changes = _check(con, checking=not made)
+            baseline, changes, checks = _check(con, checking=not made)
             if made:
                 cal["baseline"] = baseline
             elif changes:
@@ -466,7 +477,7 @@ def run_task(task):
                 tables, numbers = _calibrate(task, cal["numbers"])
                 cal = {"tables": tables, "numbers": numbers, "baseline": _BASELINE.empty_table()}
                 con = _run_day(task, cal, os.path.join(scratch, "results"))
-                cal["baseline"], _ = _check(con, checking=False)
+                cal["baseline"], _, _ = _check(con, checking=False)
                 made = "change"
             _write_outputs(con, os.path.join(scratch, "results"), scratch)
             warnings = [r[0] for r in con.sql("SELECT message FROM pipeline_warnings ORDER BY k").fetchall()]
@@ -485,7 +496,7 @@ def run_task(task):
             summary = "; ".join(_describe(c) for c in changes)
             warnings.append(f"camera change on {task['date']} at site {task['site']}: {who} ({summary}); registered again from this day")
         row.update(status="ok", changes=json.dumps({"camera": camera, "pairs": changes}) if changes else "[]",
-                   warnings=json.dumps(warnings), cameras=stats[0], points=stats[1], road_users=stats[2], matches=stats[3])
+                   checks=json.dumps(checks), warnings=json.dumps(warnings), cameras=stats[0], points=stats[1], road_users=stats[2], matches=stats[3])
     except Exception as e:  # noqa: BLE001 - a partition's failure is reported, the others go on
         row.update(status="failed", error=f"{type(e).__name__}: {e}".strip()[:2000], calibration_out=task["cal_id"], calibration_made=False)
         made = None
@@ -571,11 +582,12 @@ class Progress:
         what = f"site {row['site']} {row['date']} {row['status']}"
         if row["status"] != "ok":
             what += f": {row['error'][:160]}"
+        self.total = max(self.total, self.done)
         line = (f"[trajdb] archive {self.done}/{self.total} partitions, {rate:,.0f} points/s, "
                 f"{_eta(left)} left ({what})")
         if self.tty:
             self.stream.write("\r\033[K" + line)
-            if self.done == self.total:
+            if self.done >= self.total:
                 self.stream.write("\n")
         else:
             self.stream.write(line + "\n")
@@ -588,23 +600,81 @@ def _eta(s):
 
 
 def _local_executor(workers):
-    """Tasks in `workers` processes (spawned: DuckDB is not fork-safe), one thread each."""
+    """Tasks in `workers` worker processes, one thread each: `python -m trajdb.archives --worker`,
+    one task per line of JSON in, one result per line out. Subprocesses, not multiprocessing:
+    a caller's script without `if __name__ == "__main__":` is not run again in each worker, and
+    DuckDB is never forked."""
+    import queue
+    import subprocess
+    import threading
 
     def run(tasks, on_done):
-        if workers <= 1 or len(tasks) <= 1:
-            for t in tasks:
-                on_done(run_task(t))
+        if not tasks:
             return
-        ctx = multiprocessing.get_context("spawn")
-        with cf.ProcessPoolExecutor(max_workers=min(workers, len(tasks)), mp_context=ctx) as pool:
-            futs = [pool.submit(run_task, t) for t in tasks]
-            for f in cf.as_completed(futs):
-                on_done(f.result())
+        todo = queue.Queue()
+        for t in tasks:
+            todo.put(t)
+        results = queue.Queue()
+        env = {**os.environ, "PYTHONPATH": os.pathsep.join([os.path.dirname(os.path.dirname(os.path.abspath(__file__)))]
+                                                          + [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p])}
+
+        def worker():
+            p = subprocess.Popen([sys.executable, "-m", "trajdb.archives", "--worker"], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                                 env=env, text=True, bufsize=1)
+            try:
+                while True:
+                    try:
+                        t = todo.get_nowait()
+                    except queue.Empty:
+                        return
+                    p.stdin.write(json.dumps(t) + "\n")
+                    p.stdin.flush()
+                    line = p.stdout.readline()
+                    if not line:  # the worker died (killed, out of memory): the task failed, a new worker goes on
+                        results.put(_died(t, p.wait()))
+                        p = subprocess.Popen([sys.executable, "-m", "trajdb.archives", "--worker"], stdin=subprocess.PIPE,
+                                             stdout=subprocess.PIPE, env=env, text=True, bufsize=1)
+                        continue
+                    try:
+                        results.put(json.loads(line))
+                    except ValueError:
+                        results.put(_died(t, f"(it wrote {line[:200]!r})"))
+            finally:
+                try:
+                    p.stdin.close()
+                    p.wait(timeout=30)
+                except Exception:  # noqa: BLE001 - a worker that will not stop is killed
+                    p.kill()
+
+        threads = [threading.Thread(target=worker, daemon=True) for _ in range(max(1, min(workers, len(tasks))))]
+        for th in threads:
+            th.start()
+        for _ in tasks:
+            on_done(results.get())
+        for th in threads:
+            th.join()
 
     return run
 
 
-def plan(parts, state, out, params_json, lake):
+def _died(task, status):
+    res = run_task({**task, "files": [], "format": "none", "_died": status})
+    res["row"]["error"] = f"the worker process ended with status {status} while running this partition (killed, or out of memory?)"
+    return res
+
+
+def _worker_main():
+    # the protocol owns the original stdout; anything else printed (by Python or C code) goes to stderr
+    proto = os.fdopen(os.dup(1), "w", buffering=1)
+    os.dup2(2, 1)
+    sys.stdout = sys.stderr
+    for line in sys.stdin:
+        if line.strip():
+            proto.write(json.dumps(run_task(json.loads(line))) + "\n")
+            proto.flush()
+
+
+def plan(parts, state, out, params_json, lake, wait=True, attempted=()):
     """One round's tasks: walks each site's days in date order with the calibration in effect
     (the state's, for days already done), and returns the days that need work, each with the
     calibration it starts from (optimistically: a day run this round is assumed to keep it)."""
@@ -616,20 +686,20 @@ def plan(parts, state, out, params_json, lake):
         cal = None
         for p in days:
             st = state.get((site, p["date"]))
-            if st and _unchanged(st, p) and st["trajdb_version"] == __version__ and st["params"] == params_json and st["calibration_in"] == cal \
-                    and (cal is None or os.path.isdir(_cal_dir(out, site, cal))):
+            same = st and st["fingerprint"] == p["fingerprint"] and st["trajdb_version"] == __version__ and st["params"] == params_json \
+                and st["calibration_in"] == cal and (cal is None or os.path.isdir(_cal_dir(out, site, cal)))
+            # done: the same input, version, parameters and calibration in effect, and not failed
+            # (a failed partition is tried again once per run: a worker killed for memory may pass
+            # next time; a corrupt file fails again in a second)
+            if same and (st["status"] == "ok" or (site, p["date"], cal) in attempted):
                 cal = st["calibration_out"]
                 continue
-            if cal is not None and not os.path.isdir(_cal_dir(out, site, cal)):
+            if wait and cal is not None and not os.path.isdir(_cal_dir(out, site, cal)):
                 break  # a calibration this round makes: the site's later days wait for the next round
             tasks.append({**p, "cal_id": cal})
             if cal is None:
                 cal = f"{p['date']}-{p['fingerprint'][:12]}"  # this day will calibrate the site (if it runs)
     return tasks
-
-
-def _unchanged(st, p):
-    return st["fingerprint"] == p["fingerprint"]
 
 
 def _fingerprint_parts(parts, state, lake):
@@ -645,9 +715,10 @@ def _fingerprint_parts(parts, state, lake):
 
 
 def run(lake, out, params=None, site=None, workers=None, extension=None, progress=True, executor=None, stream=None, max_rounds=None):
-    """The archive run (module docstring). Returns a summary dict: partitions, done (this run),
-    skipped, failed (in the state after the run), changes (camera changes found this run),
-    seconds. `executor(tasks, on_done)` runs the tasks (default: local processes; trajdb.spark
+    """The archive run (module docstring). Returns a summary dict: partitions, done (partitions
+    run this run), runs (day runs: a day run again after an earlier day's camera change counts
+    twice), skipped, failed (in the state after the run), changes (camera changes found this
+    run), seconds. `executor(tasks, on_done)` runs the tasks (default: local processes; trajdb.spark
     gives Spark's)."""
     check_duckdb()
     t0 = time.perf_counter()
@@ -667,16 +738,18 @@ def run(lake, out, params=None, site=None, workers=None, extension=None, progres
         params_json = _params_json(params)
         workers = workers or os.cpu_count() or 1
         executor = executor or _local_executor(workers)
-        done, changes, rounds, ran = 0, [], 0, set()
-        seen = set()
+        done, rounds, ran = 0, 0, set()
+        prog = Progress(len(plan(parts, state, out, params_json, lake, wait=False)), stream=stream, enabled=progress)
+        attempted = set()
         while True:
-            tasks = plan(parts, state, out, params_json, lake)
+            tasks = plan(parts, state, out, params_json, lake, attempted=attempted)
             if not tasks:
                 break
             rounds += 1
             if max_rounds is not None and rounds > max_rounds:
                 break
-            prog = Progress(len(tasks), stream=stream, enabled=progress)
+            prog.total = max(prog.total, prog.done + len(tasks))
+            attempted |= {(t["site"], t["date"], t["cal_id"]) for t in tasks}
             for k, t in enumerate(tasks):
                 t.update(scratch=os.path.join(out, "_work", f"task-{os.getpid()}-{rounds}-{k}"), cal_dir=_cal_dir(out, t["site"], t["cal_id"]),
                          params=params, params_json=params_json, extension=extension)
@@ -691,16 +764,15 @@ def run(lake, out, params=None, site=None, workers=None, extension=None, progres
                 prog.update(res)
                 done += 1
                 ran.add((row["site"], row["date"]))
-                key = (row["site"], row["date"], row["calibration_in"])
-                if row["changes"] not in ("[]", None) and key not in seen:
-                    seen.add(key)
-                    changes.append({"site": row["site"], "date": row["date"], **json.loads(row["changes"])})
 
             executor(tasks, on_done)
         _site_indexes(out, state)
         failed = sorted(k for k, r in state.items() if r["status"] != "ok")
+        # the camera changes of this run's partitions, as the state holds them at the end (a day
+        # run on a calibration that an earlier day's change then replaced ran again)
+        changes = [{"site": s, "date": d, **json.loads(state[(s, d)]["changes"])} for s, d in sorted(ran) if state[(s, d)]["changes"] not in ("[]", None)]
         present = {(p["site"], p["date"]) for p in parts}
-        return {"partitions": len(parts), "done": done, "skipped": len(parts) - len(ran & present),
+        return {"partitions": len(parts), "done": len(ran & present), "runs": done, "skipped": len(parts) - len(ran & present),
                 "failed": len([k for k in failed if k in present]), "failed_partitions": [f"site={s}/date={d}" for s, d in failed if (s, d) in present],
                 "changes": changes, "rounds": rounds, "seconds": round(time.perf_counter() - t0, 2), "out": out,
                 "orphaned": sorted(f"site={s}/date={d}" for s, d in state if (s, d) not in present)}
@@ -737,4 +809,32 @@ def _site_indexes(out, state):
         lines.append("</table>")
         dest = os.path.join(out, REPORT[0], f"site={s}", "index.html")
         os.makedirs(os.path.dirname(dest), exist_ok=True)
-        _write_atomic(dest, "\n".join(lines).encode())
+        _write_atomic(dest, "\n".join(lines).encode(), work=os.path.join(out, "_work"))
+
+
+def export_day(out, site, date, dest, con=None):
+    """One partition of an archive as a `trajdb pipeline` results folder `dest` (a new folder):
+    merged.parquet, matches.csv, links.csv, transforms.csv, calibration.csv and report.html, for
+    the tools that read one (trajdb score, analysis.sql)."""
+    if os.path.exists(dest) and os.listdir(dest):
+        raise ArchiveError(f"trajdb archive: {dest!r} is not empty; name a new folder")
+    os.makedirs(dest, exist_ok=True)
+    own = con is None
+    con = con or duckdb.connect()
+    try:
+        part = lambda folder, name: os.path.join(out, folder, f"site={site}", f"date={date}", name)  # noqa: E731
+        if not os.path.exists(part("road_users", "part-0.parquet")):
+            raise ArchiveError(f"trajdb archive: {out!r} has no partition site={site}/date={date}")
+        shutil.copyfile(part("road_users", "part-0.parquet"), os.path.join(dest, "merged.parquet"))
+        shutil.copyfile(part(REPORT[0], REPORT[1]), os.path.join(dest, REPORT[1]))
+        for folder, _, _ in TABLES[1:]:
+            name = {"matches": "matches.csv", "links": "links.csv", "transforms": "transforms.csv", "calibration": "calibration.csv"}[folder]
+            con.execute(f"COPY (FROM read_parquet(?)) TO {_literal(os.path.join(dest, name))} (HEADER, DELIMITER ',')", [part(folder, "part-0.parquet")])
+    finally:
+        if own:
+            con.close()
+    return dest
+
+
+if __name__ == "__main__" and sys.argv[1:] == ["--worker"]:
+    _worker_main()

@@ -1,0 +1,252 @@
+#!/usr/bin/env python3
+"""The archive (issue 40; python/trajdb/archives.py, docs/archive.md), on simulated lakes of a few
+sites and days (trajdb.lake_sim: each site its own cameras, each day its own traffic, viewpoint
+bias and 1 % ground-plane errors as roadside cameras have):
+
+1. camera changes: a camera moved by 1 m on day 3 of 5 at one site, turned by 1 degree at
+   another: found on that day and on no other, the camera named, the site registered again from
+   it, and the days' road users as right as the days before (IDF1 against the truth);
+2. incremental: a rerun runs nothing and rewrites nothing; a changed partition is the only one
+   run again (the others' files keep their bytes and their modification times);
+3. kill -9 at several moments of a run, then a rerun: every file the same bytes as an
+   uninterrupted run's (the state too); no scratch folder left;
+4. faults: a corrupt file, an empty partition, a day with one camera, a day without one of
+   the cameras: reported per partition, the others done, the exit status the number failed;
+5. the folders: a folder of the user's is refused as --out, and so is the lake itself; the
+   command line; a site column instead of site= folders; text camera ids; the sandbox.
+
+usage: python3 tests/test_archive_python.py path/to/trajdb.duckdb_extension
+"""
+import glob
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+EXT = os.path.abspath(sys.argv[1])
+os.environ["TRAJDB_EXTENSION"] = EXT
+sys.path.insert(0, os.path.join(ROOT, "python"))
+import duckdb  # noqa: E402
+import trajdb  # noqa: E402
+from trajdb import archives as A  # noqa: E402
+from trajdb import lake_sim  # noqa: E402
+
+REAL = dict(viewpoint_bias_vehicle=1.0, viewpoint_bias_vru=0.2, ground_plane_scale=0.01)
+ENV = {**os.environ, "PYTHONPATH": os.path.join(ROOT, "python"), "TRAJDB_EXTENSION": EXT}
+
+
+def cli(*args, check=True):
+    p = subprocess.run([sys.executable, "-m", "trajdb", *args], env=ENV, capture_output=True, text=True)
+    if check and p.returncode != 0:
+        raise AssertionError(f"trajdb {' '.join(args)}: status {p.returncode}\n{p.stderr}")
+    return p
+
+
+def state(out):
+    return {(r["site"], r["date"]): r for r in duckdb.sql(f"FROM read_parquet('{out}/_state/partitions.parquet')").to_arrow_table().to_pylist()}
+
+
+def files(out, skip=("_state/runs.csv", "_state/lock")):
+    """Every file of an archive: {relative path: bytes}."""
+    got = {}
+    for p in sorted(glob.glob(os.path.join(out, "**"), recursive=True) + glob.glob(os.path.join(out, ".*"))):
+        rel = os.path.relpath(p, out)
+        if os.path.isfile(p) and rel not in skip:
+            with open(p, "rb") as f:
+                got[rel] = f.read()
+    return got
+
+
+def idf1(out, truth, site, date, w):
+    dest = tempfile.mkdtemp(prefix=f"score-{site}-{date}-", dir=w)
+    A.export_day(out, site, date, dest)
+    return trajdb.score(trajdb.connect(), os.path.join(truth, f"site={site}", f"date={date}"), dest)["idf1"]
+
+
+def camera_changes(w):
+    con = trajdb.connect()
+    lake = os.path.join(w, "moves")
+    # site s1: camera 1 moved by 1 m on day 2 (0-based); s2: camera 2 turned by 1 degree on day 2
+    lake_sim.simulate_lake(con, lake, sites=1, days=5, minutes=8, move={"site": "s1", "day": 2, "camera": 1, "dx": 1.0, "dy": 0.0, "deg": 0.0}, **REAL)
+    lake2 = os.path.join(w, "turns")
+    lake_sim.simulate_lake(con, lake2, sites=1, days=5, minutes=8, move={"site": "s1", "day": 2, "camera": 2, "dx": 0.0, "dy": 0.0, "deg": 1.0}, **REAL)
+    for lk, cam, what in ((lake, "1", "moved_m"), (lake2, "2", "turned_deg")):
+        out = lk + "-out"
+        r = trajdb.archive(con, lk, out)
+        assert r["failed"] == 0 and r["done"] == 5, r
+        st = state(out)
+        days = sorted(st)
+        changed = [d for (s, d) in days if st[(s, d)]["changes"] != "[]"]
+        assert changed == [lake_sim.day_name(2)], (lk, changed, [st[k]["checks"] for k in days])
+        ch = json.loads(st[("s1", lake_sim.day_name(2))]["changes"])
+        assert ch["camera"] == cam, ch
+        size = max(abs(p[what]) for p in ch["pairs"])
+        assert 0.8 < size < 1.2, (what, ch)
+        # registered again from that day; the days after use the new calibration, unchanged
+        made = [d for (s, d) in days if st[(s, d)]["calibration_made"]]
+        assert made == [lake_sim.day_name(0), lake_sim.day_name(2)], made
+        assert st[("s1", lake_sim.day_name(4))]["calibration_in"].startswith(lake_sim.day_name(2))
+        # the days' road users stay right (as on the days before the change)
+        scores = [idf1(out, lk + "-truth", "s1", d, w) for (_, d) in days]
+        assert min(scores) >= 0.98, scores
+        assert any("camera change" in x for x in json.loads(st[("s1", lake_sim.day_name(2))]["warnings"]))
+        index = open(os.path.join(out, "reports", "site=s1", "index.html")).read()
+        assert f"camera {cam}" in index and "(made)" in index
+        print(f"  camera changes: {what} found on day 2 only, camera {cam} named ({size:.3f}); IDF1 per day {[round(s, 4) for s in scores]}")
+    # with the check off (a threshold no change reaches): what the kept calibration alone gives
+    # on the moved days (printed: at 1 m the identities hold, the paths are a metre off)
+    off = lake + "-off"
+    trajdb.archive(con, lake, off, params={"archive_change_z": 1000})
+    assert all(r["changes"] == "[]" for r in state(off).values())
+    moved = [idf1(off, lake + "-truth", "s1", lake_sim.day_name(d), w) for d in (2, 3, 4)]
+    print(f"  without the check: IDF1 on the moved days {[round(s, 4) for s in moved]}")
+
+
+def incremental(w):
+    con = trajdb.connect()
+    lake, out = os.path.join(w, "inc"), os.path.join(w, "inc-out")
+    lake_sim.simulate_lake(con, lake, sites=2, days=3, minutes=4, **REAL)
+    r = trajdb.archive(con, lake, out)
+    assert r["done"] == 6 and r["failed"] == 0, r
+    before = files(out)
+    mtimes = {p: os.stat(os.path.join(out, p)).st_mtime_ns for p in before}
+    t = time.perf_counter()
+    r = trajdb.archive(con, lake, out)
+    noop = time.perf_counter() - t
+    assert r["done"] == 0 and r["skipped"] == 6, r
+    assert files(out) == before and all(os.stat(os.path.join(out, p)).st_mtime_ns == m for p, m in mtimes.items() if not p.endswith("index.html"))
+    # a touched file with the same bytes: read once (its fingerprint), not run
+    part = os.path.join(lake, "site=s2", f"date={lake_sim.day_name(2)}", "points.parquet")
+    os.utime(part, ns=(time.time_ns(), time.time_ns()))
+    r = trajdb.archive(con, lake, out)
+    assert r["done"] == 0, r
+    # a changed partition (its last day: no later day depends on it): only it runs again
+    con.execute(f"COPY (FROM read_parquet('{part}', hive_partitioning = false) WHERE track_id % 7 <> 3) TO '{part}.new' (FORMAT parquet)")
+    os.replace(part + ".new", part)
+    r = trajdb.archive(con, lake, out)
+    assert r["done"] == 1, r
+    after = files(out)
+    changed = sorted(p for p in after if after[p] != before.get(p))
+    assert all(f"site=s2/date={lake_sim.day_name(2)}" in p or p in ("_state/partitions.parquet", "reports/site=s2/index.html") for p in changed), changed
+    assert any(p.startswith("road_users/site=s2") for p in changed)
+    rerun = f"site=s2/date={lake_sim.day_name(2)}"
+    for p, m in mtimes.items():
+        if rerun not in p and p not in changed and not p.endswith("index.html") and p in after:
+            assert os.stat(os.path.join(out, p)).st_mtime_ns == m, p
+    print(f"  incremental: no-op rerun of 6 partitions {noop:.2f} s; one changed partition: {len(changed)} files rewritten, all its own")
+    return lake
+
+
+def kill_and_resume(w, lake):
+    ref = os.path.join(w, "ref-out")
+    assert cli("archive", "--input", lake, "--out", ref).returncode == 0
+    want = files(ref)
+    for k, delay in enumerate((1.5, 4.0, 7.0)):
+        out = os.path.join(w, f"killed-{k}")
+        p = subprocess.Popen([sys.executable, "-m", "trajdb", "archive", "--input", lake, "--out", out], env=ENV,
+                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
+        time.sleep(delay)
+        os.killpg(p.pid, signal.SIGKILL)  # the driver and its workers, at once
+        p.wait()
+        n = len(state(out)) if os.path.exists(os.path.join(out, "_state", "partitions.parquet")) else 0
+        assert cli("archive", "--input", lake, "--out", out).returncode == 0
+        got = files(out)
+        assert got.keys() == want.keys(), sorted(set(got) ^ set(want))
+        bad = [f for f in want if got[f] != want[f] and f != ".trajdb-archive"]
+        assert not bad, bad
+        assert not [e for e in os.listdir(os.path.join(out, "_work"))], os.listdir(os.path.join(out, "_work"))
+        print(f"  kill -9 after {delay} s ({n} of 6 partitions recorded), rerun: {len(got)} files the same bytes as an uninterrupted run")
+
+
+def faults(w):
+    con = trajdb.connect()
+    lake, out = os.path.join(w, "faults"), os.path.join(w, "faults-out")
+    lake_sim.simulate_lake(con, lake, sites=1, days=2, minutes=4, **REAL)
+    s1 = os.path.join(lake, "site=s1")
+    src = os.path.join(s1, f"date={lake_sim.day_name(1)}", "points.parquet")
+    for name, sql in (("one-camera", "WHERE camera = 0"), ("camera-missing", "WHERE camera <> 2")):
+        os.makedirs(os.path.join(s1, f"date=2026-06-{name}"))
+        con.execute(f"COPY (FROM read_parquet('{src}', hive_partitioning = false) {sql}) TO '{s1}/date=2026-06-{name}/points.parquet' (FORMAT parquet)")
+    os.makedirs(os.path.join(s1, "date=2026-07-corrupt"))
+    with open(os.path.join(s1, "date=2026-07-corrupt", "points.parquet"), "wb") as f:
+        f.write(b"PAR1 not a parquet file at all")
+    os.makedirs(os.path.join(s1, "date=2026-07-empty"))
+    p = cli("archive", "--input", lake, "--out", out, check=False)
+    assert p.returncode == 2, (p.returncode, p.stderr)
+    st = state(out)
+    ok = sorted(d for (_, d), r in st.items() if r["status"] == "ok")
+    failed = {d: r["error"] for (_, d), r in st.items() if r["status"] != "ok"}
+    assert set(failed) == {"2026-07-corrupt", "2026-07-empty"}, failed
+    assert "no data files" in failed["2026-07-empty"] and "parquet" in failed["2026-07-corrupt"].lower(), failed
+    assert "2026-06-one-camera" in ok and "2026-06-camera-missing" in ok, ok
+    assert "failed:  site=s1/date=2026-07-corrupt" in p.stderr, p.stderr
+    # a rerun tries the failed ones again (a worker killed for memory may pass), and only them
+    p = cli("archive", "--input", lake, "--out", out, check=False)
+    assert p.returncode == 2 and "2 run" in p.stderr, p.stderr
+    print(f"  faults: {sorted(failed)} failed with their errors, {len(ok)} others done, exit status 2")
+
+
+def folders(w):
+    con = trajdb.connect()
+    lake = os.path.join(w, "folders")
+    lake_sim.simulate_lake(con, lake, sites=1, days=1, minutes=3, **REAL)
+    mine = os.path.join(w, "mine")
+    os.makedirs(mine)
+    with open(os.path.join(mine, "thesis.docx"), "w") as f:
+        f.write("mine")
+    for out, why in ((mine, "did not write"), (lake, "hold one another"), (os.path.join(lake, "out"), "hold one another")):
+        p = cli("archive", "--input", lake, "--out", out, check=False)
+        assert p.returncode == 1 and why in p.stderr, (out, p.stderr)
+    assert open(os.path.join(mine, "thesis.docx")).read() == "mine" and os.listdir(mine) == ["thesis.docx"]
+    # the sandbox of the caller's connection
+    locked = trajdb.connect()
+    locked.execute(f"SET allowed_directories = ['{os.path.join(w, 'allowed')}']")
+    locked.execute("SET enable_external_access = false")
+    try:
+        trajdb.archive(locked, lake, os.path.join(w, "sandboxed"))
+        raise AssertionError("the sandbox was not obeyed")
+    except PermissionError as e:
+        assert "allowed_directories" in str(e)
+    assert not os.path.exists(os.path.join(w, "sandboxed"))
+    # date=D/ folders with a site column, and text camera ids: numbered as the site's first day
+    # numbered them, whichever cameras a later day has
+    flat = os.path.join(w, "flat")
+    src = os.path.join(lake, "site=s1", f"date={lake_sim.day_name(0)}", "points.parquet")
+    for d, where in (("2026-05-01", ""), ("2026-05-02", "WHERE camera <> 2")):
+        os.makedirs(os.path.join(flat, f"date={d}"))
+        con.execute(f"""COPY (SELECT 'cam-' || chr(99 - camera::INTEGER) AS camera, * EXCLUDE (camera), s AS site
+                              FROM read_parquet('{src}', hive_partitioning = false), (VALUES ('north'), ('south')) v(s) {where})
+                        TO '{flat}/date={d}/points.parquet' (FORMAT parquet)""")
+    out = os.path.join(w, "flat-out")
+    r = trajdb.archive(con, flat, out)
+    assert r["failed"] == 0 and r["done"] == 4, r
+    st = state(out)
+    assert sorted(st) == [("north", "2026-05-01"), ("north", "2026-05-02"), ("south", "2026-05-01"), ("south", "2026-05-02")]
+    cams = duckdb.sql(f"SELECT DISTINCT cam_from FROM read_parquet('{out}/transforms/site=north/date=2026-05-02/*.parquet') ORDER BY 1").fetchall()
+    assert [c[0] for c in cams] == ["cam-b", "cam-c"], cams
+    assert all(r["changes"] == "[]" for r in st.values()), [r["changes"] for r in st.values()]
+    n = duckdb.sql(f"SELECT count(*) FROM read_parquet('{out}/road_users/*/*/*.parquet', hive_partitioning = true) WHERE site = 'south'").fetchall()[0][0]
+    assert n > 0
+    print("  folders: the user's folder and the lake refused as --out, the sandbox obeyed; a site column and text camera ids work")
+
+
+def main():
+    w = tempfile.mkdtemp(prefix="trajdb-archive-")
+    try:
+        camera_changes(w)
+        lake = incremental(w)
+        kill_and_resume(w, lake)
+        faults(w)
+        folders(w)
+    finally:
+        shutil.rmtree(w, ignore_errors=True)
+    print("test_archive: OK")
+
+
+if __name__ == "__main__":
+    main()

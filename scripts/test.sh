@@ -15,12 +15,15 @@
 #      byte-identical results across thread counts and row orders, every input kind (DataFrames,
 #      Arrow, relations, tables, files, text ids, TIMESTAMP t), the analyst's questions against the
 #      simulator's truth (movements, speeds, PET/TTC), fused paths against the true lengths, the
-#      data dictionary against the files, the GIS export, report.html in headless Chromium
+#      data dictionary against the files, the GIS export, the archive (site=S/date=D partitions:
+#      camera changes found, incremental, kill -9 and resume byte-identical, faults isolated:
+#      tests/test_archive_python.py), report.html in headless Chromium
 #      (apt-get installs it), the Python package installed by pip into a fresh venv, and the
 #      prebuilt wheel installed without Rust or a compiler (LOAD trajdb by name)
 #   4. in DuckDB 1.5.5 with DuckDB spatial: the WKB / GeoParquet round trip, and the .slt suite,
 #      fuzz cases, robustness, safety, sandbox, crowd, scorer and README tests again
-#   5. trajdb.spark in Spark local mode against trajdb.pipeline on each whole site
+#   5. trajdb.spark in Spark local mode against trajdb.pipeline on each whole site, and
+#      trajdb.spark.archive against trajdb archive on one machine, file for file
 #      (scripts/install_spark.sh installs pyspark and, from apt, Java 17)
 # Needs: cargo (Rust 1.89+), python3 with venv/pip and PyPI reachable.
 set -euo pipefail
@@ -76,6 +79,7 @@ PY="$VENV/bin/python"
 "$PY" tests/test_paths_python.py "$EXT"
 "$PY" tests/test_outputs_doc_python.py "$EXT"
 "$PY" tests/test_export_python.py "$EXT"
+"$PY" tests/test_archive_python.py "$EXT"
 python3 scripts/sql_single_file.py --check
 if ! command -v chromium > /dev/null && ! command -v chromium-browser > /dev/null; then
   SUDO=""; [ "$(id -u)" -ne 0 ] && SUDO="sudo"

@@ -26,11 +26,16 @@
 --        archive_baseline(cam_fixed, cam_moving, ax, ay, d_theta, d_x, d_y, d_dt, se_theta, se_x,
 --        se_y, se_dt, pairs_per_user), made by the host: the calibration day's rows (empty ON
 --        that day: then the anchor is today's centroid and nothing is tested).
--- Output: archive_check(cam_fixed, cam_moving, pairs, ax, ay, d_theta, d_x, d_y, d_dt,
+-- Output: archive_check(cam_fixed, cam_moving, pairs (all matched), ax, ay, d_theta, d_x, d_y, d_dt,
 --         se_theta, se_x, se_y, se_dt, pairs_per_user, expected_pairs, change, lost, changed)
 --         (stage camera numbers), archive_new_cameras(camera): cameras the calibration never saw.
 
-CREATE OR REPLACE TEMP TABLE archive_pairs AS
+-- At most 400 matched track pairs per camera pair take part: a hash sample (by the pair's ids:
+-- the same pairs on every run), as align.sql samples a long day's hypotheses. 400 pairs fix a
+-- rotation and a position far better than the kept calibration's own errors, and keep the
+-- clock search's work (shifts x points) within register_pair's limit on a 12-hour day (all of
+-- a Mellingen day's 7,000 pairs: 2.1e8 point-pair fits). pairs_per_user counts them all.
+CREATE OR REPLACE TEMP TABLE archive_matched AS
 SELECT least(ta.camera, tb.camera) AS cam_fixed, greatest(ta.camera, tb.camera) AS cam_moving,
        CASE WHEN ta.camera < tb.camera THEN ta.track_id ELSE tb.track_id END AS track_fixed,
        CASE WHEN ta.camera < tb.camera THEN tb.track_id ELSE ta.track_id END AS track_moving,
@@ -39,6 +44,10 @@ FROM merge_links m
 JOIN merge_tracks ta ON ta.uid = m.uid_a JOIN merge_tracks tb ON tb.uid = m.uid_b
 JOIN merge_groups ga ON ga.uid = m.uid_a JOIN merge_groups gb ON gb.uid = m.uid_b
 WHERE ga.road_user = gb.road_user AND m.kind <> 'reach' AND ta.camera <> tb.camera;
+
+CREATE OR REPLACE TEMP TABLE archive_pairs AS
+FROM archive_matched
+QUALIFY row_number() OVER (PARTITION BY cam_fixed, cam_moving ORDER BY hash(track_fixed, track_moving), track_fixed, track_moving) <= 400;
 
 -- every matched track's real points, in its camera's own frame, on the reference clock made
 -- relative to the common clock's origin (seconds of the day, not 1.8e9)
@@ -96,22 +105,24 @@ GROUP BY x.cam_fixed, x.cam_moving;
 CREATE OR REPLACE TEMP TABLE archive_check AS
 WITH users AS (SELECT count(DISTINCT road_user) AS n FROM merge_groups),
 d AS (
-    SELECT a.cam_fixed, a.cam_moving, coalesce(f.pairs, 0) AS pairs, a.ax, a.ay,
+    SELECT a.cam_fixed, a.cam_moving, coalesce(n.pairs, 0) AS pairs, a.ax, a.ay,
            -- the rotation's difference from the kept one, wrapped into (-pi, pi]
            f.reg.theta - a.kept.theta - 2 * pi() * round((f.reg.theta - a.kept.theta) / (2 * pi())) AS d_theta,
            f.reg.tx AS d_x, f.reg.ty AS d_y, f.reg.dt AS d_dt,
            f.reg.se_theta, f.reg.se_tx AS se_x, f.reg.se_ty AS se_y, f.reg.se_dt,
-           coalesce(f.pairs, 0) / greatest((SELECT n FROM users), 1) AS pairs_per_user
+           coalesce(n.pairs, 0) / greatest((SELECT n FROM users), 1) AS pairs_per_user
     FROM archive_anchor a LEFT JOIN archive_fit f USING (cam_fixed, cam_moving)
+    LEFT JOIN (SELECT cam_fixed, cam_moving, count(*) AS pairs FROM archive_matched GROUP BY ALL) n USING (cam_fixed, cam_moving)
 )
 SELECT *, coalesce(change.changed, false) OR coalesce(lost, false) AS changed
 FROM (
     SELECT d.*,
            b.pairs_per_user * (SELECT n FROM users) AS expected_pairs,
-           frame_change(d.d_theta - b.d_theta, sqrt(d.se_theta ** 2 + b.se_theta ** 2),
-                        d.d_x - b.d_x, sqrt(d.se_x ** 2 + b.se_x ** 2),
-                        d.d_y - b.d_y, sqrt(d.se_y ** 2 + b.se_y ** 2),
-                        d.d_dt - b.d_dt, sqrt(d.se_dt ** 2 + b.se_dt ** 2),
+           -- (a part without a value is NaN, not NULL: frame_change leaves it untested)
+           frame_change(coalesce(d.d_theta - b.d_theta, 'nan'), coalesce(sqrt(d.se_theta ** 2 + b.se_theta ** 2), 'nan'),
+                        coalesce(d.d_x - b.d_x, 'nan'), coalesce(sqrt(d.se_x ** 2 + b.se_x ** 2), 'nan'),
+                        coalesce(d.d_y - b.d_y, 'nan'), coalesce(sqrt(d.se_y ** 2 + b.se_y ** 2), 'nan'),
+                        coalesce(d.d_dt - b.d_dt, 'nan'), coalesce(sqrt(d.se_dt ** 2 + b.se_dt ** 2), 'nan'),
                         getvariable('archive_change_z')) AS change,
            b.cam_fixed IS NOT NULL AND b.pairs_per_user * (SELECT n FROM users) >= 20
                AND d.pairs < b.pairs_per_user * (SELECT n FROM users) / 4 AS lost

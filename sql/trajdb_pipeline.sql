@@ -83,6 +83,9 @@ SET VARIABLE cluster_translation_invariant = coalesce(getvariable('cluster_trans
 -- report
 SET VARIABLE report_gates = coalesce(getvariable('report_gates'), ''); -- gates the report counts movements by, instead of approaches found in the data: a .csv or .parquet file, or a table or view of this connection, with approach, x1, y1, x2, y2 (metres in the results' frame: the site map's axes) or approach, wkt (LINESTRING (x1 y1, x2 y2)); '' : approaches from the data
 
+-- archive
+SET VARIABLE archive_change_z = coalesce(getvariable('archive_change_z'), 5.0::DOUBLE); -- an archive's daily check (trajdb archive): a camera pair whose registration on the day's matches differs from its calibration day's by more than this many standard errors (rotation, position, clock) has moved; the camera is registered again from that day (docs/archive.md)
+
 -- the values in use, one row per parameter (report.html shows them)
 CREATE OR REPLACE TEMP TABLE pipeline_params AS SELECT * FROM (VALUES
     ('input_columns', coalesce(getvariable('input_columns')::VARCHAR, 'auto'), 'load', 'your column names, as ''camera=cam_id, track_id=id, t=time'' (any of camera, track_id, class, t, x, y, estimated; unnamed ones keep their name; estimated may be absent)'),
@@ -131,7 +134,8 @@ CREATE OR REPLACE TEMP TABLE pipeline_params AS SELECT * FROM (VALUES
     ('cluster_method', coalesce(getvariable('cluster_method')::VARCHAR, 'auto'), 'cluster', '''exact'' (every pair of tracks, traj_cluster), ''prototypes'' (traj_cluster_prototypes: linear in the tracks) or ''auto'' (exact up to cluster_exact_max tracks of a class, prototypes above)'),
     ('cluster_exact_max', coalesce(getvariable('cluster_exact_max')::VARCHAR, 'auto'), 'cluster', 'with cluster_method auto, the most tracks of one class clustered exactly (3,000: 4.5 M pairs, a few seconds)'),
     ('cluster_translation_invariant', coalesce(getvariable('cluster_translation_invariant')::VARCHAR, 'auto'), 'cluster', 'use S2 (shapes anywhere) instead of S1 (routes)'),
-    ('report_gates', coalesce(getvariable('report_gates')::VARCHAR, 'auto'), 'report', 'gates the report counts movements by, instead of approaches found in the data: a .csv or .parquet file, or a table or view of this connection, with approach, x1, y1, x2, y2 (metres in the results'' frame: the site map''s axes) or approach, wkt (LINESTRING (x1 y1, x2 y2)); '''' : approaches from the data')
+    ('report_gates', coalesce(getvariable('report_gates')::VARCHAR, 'auto'), 'report', 'gates the report counts movements by, instead of approaches found in the data: a .csv or .parquet file, or a table or view of this connection, with approach, x1, y1, x2, y2 (metres in the results'' frame: the site map''s axes) or approach, wkt (LINESTRING (x1 y1, x2 y2)); '''' : approaches from the data'),
+    ('archive_change_z', coalesce(getvariable('archive_change_z')::VARCHAR, 'auto'), 'archive', 'an archive''s daily check (trajdb archive): a camera pair whose registration on the day''s matches differs from its calibration day''s by more than this many standard errors (rotation, position, clock) has moved; the camera is registered again from that day (docs/archive.md)')
 ) t(name, value, stage, description);
 ;
 -- load: the input's columns by name (input_columns maps yours: 'camera=cam_id, t=time'); t may

@@ -203,6 +203,8 @@ def folders(w):
         p = cli("archive", "--input", lake, "--out", out, check=False)
         assert p.returncode == 1 and why in p.stderr, (out, p.stderr)
     assert open(os.path.join(mine, "thesis.docx")).read() == "mine" and os.listdir(mine) == ["thesis.docx"]
+    p = cli("archive", "--input", lake, "--out", os.path.join(w, "bad-memory"), "--task-memory", "lots", check=False)
+    assert p.returncode == 1 and "task memory 'lots'" in p.stderr, p.stderr
     # the sandbox of the caller's connection
     locked = trajdb.connect()
     locked.execute(f"SET allowed_directories = ['{os.path.join(w, 'allowed')}']")
@@ -235,6 +237,23 @@ def folders(w):
     print("  folders: the user's folder and the lake refused as --out, the sandbox obeyed; a site column and text camera ids work")
 
 
+def readme(w):
+    """The README's archive commands, as written, in a folder of their own."""
+    text = open(os.path.join(ROOT, "README.md")).read()
+    i = text.index("## An archive")
+    block = text[text.index("```sh\n", i) + 6:text.index("```", text.index("```sh\n", i) + 6)]
+    d = os.path.join(w, "readme")
+    os.makedirs(d)
+    for line in block.strip().splitlines():
+        cmd = line.split("#")[0].split()
+        assert cmd[0] == "trajdb", line
+        p = subprocess.run([sys.executable, "-m", "trajdb", *cmd[1:]], cwd=d, env=ENV, capture_output=True, text=True)
+        assert p.returncode == 0, (line, p.stderr)
+    st = state(os.path.join(d, "archive"))
+    assert len(st) == 6 and all(r["status"] == "ok" for r in st.values()), st
+    print(f"  README: its archive commands run as written ({len(st)} partitions)")
+
+
 def main():
     w = tempfile.mkdtemp(prefix="trajdb-archive-")
     try:
@@ -243,6 +262,7 @@ def main():
         kill_and_resume(w, lake)
         faults(w)
         folders(w)
+        readme(w)
     finally:
         shutil.rmtree(w, ignore_errors=True)
     print("test_archive: OK")

@@ -528,19 +528,20 @@ def score(con, scenario, results):
     }
 
 
-def archive(con, lake, out, params=None, site=None, workers=None, progress=False, executor=None):
+def archive(con, lake, out, params=None, site=None, workers=None, progress=False, executor=None, task_memory=None):
     """`trajdb archive`: every site=S/date=D partition of the folder `lake` (Parquet or CSV) into
     the archive folder `out` (Hive-partitioned Parquet, a state table, a report per site),
     incremental and resumable (python/trajdb/archives.py; docs/archive.md). Parameters as for
     pipeline (a dict: {"merge_eta": 0.6}). The work runs in connections of its own (one per
-    task, one thread each, `workers` processes: the machine's cores by default); `con` is the
+    task, one thread each, `workers` processes: the machine's cores by default; DuckDB's memory
+    per task `task_memory`, default '1.5GB', spilling beyond it); `con` is the
     caller's, whose sandbox settings hold: with enable_external_access off, lake and out must lie
     in its allowed_directories. Returns a summary: partitions, done, skipped, failed,
     failed_partitions, changes (camera changes found), seconds."""
     from . import archives
 
     _sandbox(con, [os.fspath(lake), os.fspath(out)], "trajdb.archive")
-    return archives.run(lake, out, params=params, site=site, workers=workers, progress=progress, executor=executor)
+    return archives.run(lake, out, params=params, site=site, workers=workers, progress=progress, executor=executor, task_memory=task_memory)
 
 
 def _sandbox(con, paths, who):

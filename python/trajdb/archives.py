@@ -267,7 +267,7 @@ def load_state(out):
     path = os.path.join(out, "_state", "partitions.parquet")
     if not os.path.exists(path):
         return {}
-    t = pq.read_table(path)
+    t = _read_parquet(path)
     return {(r["site"], r["date"]): r for r in t.to_pylist()}
 
 
@@ -291,9 +291,21 @@ def _append_run(out, row):
 # --- one site-day (runs in a worker process or a Spark task) --------------------------------------
 
 
-def _connect(extension):
-    # one thread per task: a task's result is then the same bytes whatever runs beside it
-    return W.connect(extension, threads=1)
+# DuckDB's memory per task: a Mellingen-sized day (3 M points, 12 h) peaked at 2.3 GB without
+# a limit and at 1.5 GB (the process) with 1.2 GB, in the same time (DuckDB spills to the task's
+# scratch folder). A day that cannot fit fails with DuckDB's out-of-memory error, alone: raise
+# it with --task-memory.
+TASK_MEMORY = "1.5GB"
+
+
+def _connect(task):
+    # one thread per task: a task's result is then the same bytes whatever runs beside it; no
+    # progress bar (a worker's output is a log); memory bounded, spilling into the task's scratch
+    con = W.connect(task["extension"], threads=1)
+    con.execute("SET enable_progress_bar = false")
+    con.execute("SET memory_limit = ?", [task.get("memory_limit") or TASK_MEMORY])
+    con.execute("SET temp_directory = ?", [os.path.join(task["scratch"], "spill")])
+    return con
 
 
 def _register_input(con, task):
@@ -311,7 +323,7 @@ def _set_numbers(con, numbers):
 
 def _calibrate(task, numbers):
     """The site's calibration from this day: {table: pyarrow.Table} with the camera numbers."""
-    con = _connect(task["extension"])
+    con = _connect(task)
     try:
         _register_input(con, task)
         _set_numbers(con, numbers)
@@ -336,7 +348,7 @@ _BASELINE = pa.schema([
 def _run_day(task, cal, results):
     """The day on calibration `cal` ({tables, numbers, baseline}) with its results folder
     `results`; returns the open connection (its tables: the caller reads and closes it)."""
-    con = _connect(task["extension"])
+    con = _connect(task)
     try:
         _register_input(con, task)
         _set_numbers(con, cal["numbers"])
@@ -414,14 +426,20 @@ def _save_calibration(folder, cal):
     pq.write_table(cal["baseline"], os.path.join(folder, "baseline.parquet"))
 
 
+def _read_parquet(path):
+    """One Parquet file as it is: no partition columns guessed from its path (pyarrow's
+    read_table adds site and from for a file under site=S/from=D/, depending on its version)."""
+    return pq.ParquetFile(path).read()
+
+
 def load_calibration(folder):
     tables = {}
     for f in sorted(os.listdir(folder)):
         if f.endswith(".parquet") and f not in ("cameras.parquet", "baseline.parquet"):
-            tables[f[: -len(".parquet")]] = pq.read_table(os.path.join(folder, f))
-    cams = pq.read_table(os.path.join(folder, "cameras.parquet")).to_pylist()
+            tables[f[: -len(".parquet")]] = _read_parquet(os.path.join(folder, f))
+    cams = _read_parquet(os.path.join(folder, "cameras.parquet")).to_pylist()
     return {"tables": tables, "numbers": [(r["camera_in"], r["camera"]) for r in cams],
-            "baseline": pq.read_table(os.path.join(folder, "baseline.parquet")).cast(_BASELINE)}
+            "baseline": _read_parquet(os.path.join(folder, "baseline.parquet")).cast(_BASELINE)}
 
 
 def _peak_rss_mb():
@@ -492,7 +510,7 @@ def run_task(task):
             _save_calibration(os.path.join(scratch, "calibration"), cal)
             row.update(calibration_out=cal_id, calibration_made=True)
         if changes:
-            who = f"camera {camera}" if camera is not None else "a camera"
+            who = _who(camera, changes)
             summary = "; ".join(_describe(c) for c in changes)
             warnings.append(f"camera change on {task['date']} at site {task['site']}: {who} ({summary}); registered again from this day")
         row.update(status="ok", changes=json.dumps({"camera": camera, "pairs": changes}) if changes else "[]",
@@ -504,6 +522,14 @@ def run_task(task):
            "date": task["date"], "status": row["status"], "seconds": round(time.perf_counter() - t0, 2), "peak_rss_mb": _peak_rss_mb(),
            "points": row.get("points")}
     return {"row": row, "run": run, "scratch": scratch, "calibration": os.path.join(scratch, "calibration") if made else None}
+
+
+def _who(camera, changes):
+    """The camera a change is put on: the one every changed pair shares, else the pair's two."""
+    if camera is not None:
+        return f"camera {camera}"
+    pairs = {(c["camera_fixed"], c["camera_moving"]) for c in changes if c["kind"] in ("moved", "lost")}
+    return f"camera {min(pairs)[0]} or {min(pairs)[1]}" if len(pairs) == 1 else "a camera"
 
 
 def _describe(c):
@@ -550,11 +576,16 @@ def _params_json(params):
     return json.dumps({k: str(v) for k, v in sorted((params or {}).items())}, sort_keys=True)
 
 
-def _check_params(params, extension):
-    """Unknown names and bad values fail before any work (the extension checks them)."""
+def _check_params(params, extension, task_memory=None):
+    """Unknown names and bad values fail before any work (the extension checks them; DuckDB
+    checks the task memory)."""
     con = W.connect(extension, threads=1)
     try:
         stages(con, "archive_input", part="site", **params)
+        try:
+            con.execute("SET memory_limit = ?", [task_memory or TASK_MEMORY])
+        except duckdb.Error as e:
+            raise ArchiveError(f"trajdb archive: task memory {task_memory!r} is not a memory size DuckDB takes (give e.g. '2GB'): {e}") from None
     finally:
         con.close()
 
@@ -714,7 +745,8 @@ def _fingerprint_parts(parts, state, lake):
             p["fingerprint"] = _content_fingerprint(p["files"]) + ("" if not p["site_column"] else "-" + hashlib.sha1(p["site"].encode()).hexdigest()[:8])
 
 
-def run(lake, out, params=None, site=None, workers=None, extension=None, progress=True, executor=None, stream=None, max_rounds=None):
+def run(lake, out, params=None, site=None, workers=None, extension=None, progress=True, executor=None, stream=None, max_rounds=None,
+        task_memory=None):
     """The archive run (module docstring). Returns a summary dict: partitions, done (partitions
     run this run), runs (day runs: a day run again after an earlier day's camera change counts
     twice), skipped, failed (in the state after the run), changes (camera changes found this
@@ -728,10 +760,10 @@ def run(lake, out, params=None, site=None, workers=None, extension=None, progres
 
     extension = extension or extension_path()
     parts = discover(lake, site=site)
+    _check_params(params, extension, task_memory)
     out = claim(os.fspath(out), lake)
     lock = _lock(out)
     try:
-        _check_params(params, extension)
         _clean_work(out)
         state = load_state(out)
         _fingerprint_parts(parts, state, lake)
@@ -752,7 +784,7 @@ def run(lake, out, params=None, site=None, workers=None, extension=None, progres
             attempted |= {(t["site"], t["date"], t["cal_id"]) for t in tasks}
             for k, t in enumerate(tasks):
                 t.update(scratch=os.path.join(out, "_work", f"task-{os.getpid()}-{rounds}-{k}"), cal_dir=_cal_dir(out, t["site"], t["cal_id"]),
-                         params=params, params_json=params_json, extension=extension)
+                         params=params, params_json=params_json, extension=extension, memory_limit=task_memory or TASK_MEMORY)
 
             def on_done(res):
                 nonlocal done
@@ -798,8 +830,7 @@ def _site_indexes(out, state):
             ch = json.loads(r["changes"] or "[]")
             note = ""
             if ch:
-                who = f"camera {ch['camera']}" if ch.get("camera") is not None else "a camera"
-                note = f"{who}: " + "; ".join(_describe(c) for c in ch["pairs"])
+                note = f"{_who(ch.get('camera'), ch['pairs'])}: " + "; ".join(_describe(c) for c in ch["pairs"])
             if r["error"]:
                 note = r["error"]
             link = (f"<a href='date={html.escape(r['date'])}/report.html'>{html.escape(r['date'])}</a>" if r["status"] == "ok" else html.escape(r["date"]))

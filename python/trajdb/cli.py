@@ -369,17 +369,16 @@ def _params_of(a):
 
 
 def cmd_archive(a):
-    from trajdb.archives import _describe
+    from trajdb.archives import _describe, _who
 
     if a.workers is not None and a.workers < 1:
         raise UsageError(f"--workers must be >= 1, got {a.workers}")
     con = connect(a)
-    r = trajdb.archive(con, a.input, a.out, params=_params_of(a), site=a.site, workers=a.workers, progress=True)
+    r = trajdb.archive(con, a.input, a.out, params=_params_of(a), site=a.site, workers=a.workers, progress=True, task_memory=a.task_memory)
     note(f"[trajdb] archive   {r['partitions']} partitions: {r['done']} run, {r['skipped']} unchanged, {r['failed']} failed "
          f"({r['seconds']:.1f} s) -> {r['out']}")
     for c in r["changes"]:
-        who = f"camera {c['camera']}" if c.get("camera") is not None else "a camera"
-        note(f"[trajdb] warning: camera change at site {c['site']} on {c['date']}: {who} "
+        note(f"[trajdb] warning: camera change at site {c['site']} on {c['date']}: {_who(c.get('camera'), c['pairs'])} "
              f"({'; '.join(_describe(p) for p in c['pairs'])}); registered again from that day")
     for p in r["failed_partitions"]:
         note(f"[trajdb] failed:  {p} (the error is in {os.path.join(r['out'], '_state', 'partitions.parquet')}, column error)")
@@ -627,6 +626,7 @@ def build_parser():
     p.add_argument("--out", required=True, metavar="DIR", help="the archive folder: new, empty, or one trajdb archive made")
     p.add_argument("--site", metavar="NAME", help="the site's name when LAKE holds date=D/ folders of one site [default: LAKE's folder name]")
     p.add_argument("--workers", type=int, metavar="N", help="partitions run at once, one core each [default: the machine's cores]")
+    p.add_argument("--task-memory", metavar="SIZE", help="DuckDB's memory per partition, beyond which it spills to disk [default: 1.5GB]")
     p.add_argument("--param", action="append", metavar="NAME=VALUE", help="set a pipeline parameter (repeatable; trajdb params lists them)")
     p = add("simulate-lake", cmd_simulate_lake,
             "simulate an archive: sites x days of trajdb simulate as LAKE/site=S/date=D/points.parquet (truth in LAKE-truth)")

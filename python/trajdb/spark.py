@@ -475,7 +475,7 @@ def _archive_task(task, ext_name):
     return res
 
 
-def archive(spark, lake, out, params=None, site=None, extension=None, progress=True):
+def archive(spark, lake, out, params=None, site=None, extension=None, progress=True, task_memory=None):
     """`trajdb archive` with Spark running the site-days (python/trajdb/archives.py; docs/archive.md):
     the same lake layout in, the same archive folder out (OUT must be a path the driver and the
     executors share), the same per-site-day work (archives.run_task: the kept calibration, the
@@ -497,4 +497,4 @@ def archive(spark, lake, out, params=None, site=None, extension=None, progress=T
         for res in rdd.map(lambda t: _archive_task(t, ext_name)).collect():
             on_done(res)
 
-    return archives.run(lake, out, params=params, site=site, extension=ext, progress=progress, executor=executor)
+    return archives.run(lake, out, params=params, site=site, extension=ext, progress=progress, executor=executor, task_memory=task_memory)

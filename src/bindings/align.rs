@@ -543,8 +543,9 @@ pub static FUNCTIONS: &[Function] = &[
                       crates/algo/src/align/frame_change.rs): the day's registration of a camera pair minus the calibration day's, \
                       rotation d_theta (rad), the anchor's position d_x, d_y (m) and the clock d_dt (s), each with its standard error \
                       (the two days' in quadrature). z_theta = |d_theta| / se_theta, z_pos = sqrt((d_x / se_x)^2 + (d_y / se_y)^2), \
-                      z_clock = |d_dt| / se_dt; changed when the largest, z, exceeds z_crit. A part with a NULL, non-finite or zero \
-                      standard error is not tested (its z NULL); NULL when no part is, or z_crit is NULL; z_crit not > 0 is an error. \
+                      z_clock = |d_dt| / se_dt; changed when the largest, z, exceeds z_crit. A part whose value or standard error is NaN, infinite or NULL, or whose standard error is 0, \
+                      is not tested (its z NULL; a NULL literal argument makes the whole call NULL, as for any SQL function); NULL when no part is \
+                      tested, or z_crit is NULL; z_crit not > 0 is an error. \
                       O(1).",
         example: "SELECT frame_change(0.0, 0.001, 1.0, 0.1, 0.0, 0.1, 0.0, 0.01, 5.0).changed; -- true",
         maths: "crates/algo/src/align/frame_change.rs",

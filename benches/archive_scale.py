@@ -129,8 +129,8 @@ def main():
     per = big["task_s"] / total
     sd = 1000 * 365
     print(f"a city of 1,000 sites x 365 days at {per:.0f} core-s per site-day: {sd * per / 3600:,.0f} core-hours a year; "
-          f"one night's 1,000 site-days in 6 hours: {1000 * per / (6 * 3600):.0f} cores; "
-          f"a year's backlog on 64 cores: {sd * per / 64 / 86400:.0f} days")
+          f"one night's 1,000 site-days in 6 hours: {1000 * per / (6 * 3600):.1f} cores; "
+          f"a year's backlog on 64 cores: {sd * per / 64 / 86400:.1f} days")
 
 
 if __name__ == "__main__":

@@ -135,7 +135,7 @@ CREATE OR REPLACE TEMP TABLE report_rows AS
 SELECT 'meta' AS s, 1 AS k, ['input', getvariable('pipeline_input')] AS c
 UNION ALL SELECT 'meta', 2, ['xi', calibrated('merge_min_points')::BIGINT::VARCHAR]
 UNION ALL SELECT 'meta', 3, ['eta', getvariable('merge_eta')::DOUBLE::VARCHAR]
-UNION ALL SELECT 'meta', 4, ['cluster_camera', report_cam(coalesce(getvariable('cluster_camera_used'), calibrated('cluster_camera'))::INTEGER)]
+UNION ALL SELECT 'meta', 4, ['cluster_camera', report_cam(coalesce((SELECT camera FROM cluster_camera_used), calibrated('cluster_camera'))::INTEGER)]
 UNION ALL SELECT 'meta', 5, ['step', greatest((SELECT count(*) FROM points WHERE estimated = 0) // 12000, 1)::VARCHAR]
 UNION ALL SELECT 'stage', row_number() OVER (), [stage, seconds::VARCHAR] FROM pipeline_timings
 UNION ALL SELECT 'camera', row_number() OVER (ORDER BY camera), [camera::VARCHAR, name] FROM report_cams

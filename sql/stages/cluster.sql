@@ -1,9 +1,9 @@
 -- stage: cluster
 -- reads: points, load_ids, calibrated()
--- makes: cluster_tracks, cluster_assign, cluster_summary, result_clusters()
+-- makes: cluster_camera_used, cluster_tracks, cluster_assign, cluster_summary, result_clusters()
 -- work: -
 -- changes: -
--- parameters: cluster_camera, cluster_camera_used, cluster_classes, cluster_delta, cluster_epsilon, cluster_exact_max, cluster_method,
+-- parameters: cluster_camera, cluster_classes, cluster_delta, cluster_epsilon, cluster_exact_max, cluster_method,
 --             cluster_rho, cluster_threshold, cluster_translation_invariant
 --
 -- trajdb: route patterns by agglomerative clustering of trajectories (Buzan et al. 4.3-4.5, 5.2).
@@ -32,18 +32,18 @@
 -- An archive's day (python/trajdb/archives.py) runs on its site's kept calibration: when the
 -- camera chosen there (auto) has no points today, the day's own choice by the same rule stands.
 -- (a statement that prints nothing: the DuckDB CLI shows no result box for a check that passed)
-SET VARIABLE cluster_camera_used = (SELECT CASE
-            WHEN EXISTS (SELECT 1 FROM points WHERE camera = calibrated('cluster_camera')) OR getvariable('cluster_camera') IS NOT NULL
+CREATE OR REPLACE TEMP TABLE cluster_camera_used AS
+SELECT CASE WHEN EXISTS (SELECT 1 FROM points WHERE camera = calibrated('cluster_camera')) OR getvariable('cluster_camera') IS NOT NULL
             THEN calibrated('cluster_camera')
-            ELSE (SELECT camera FROM points WHERE estimated = 0 GROUP BY camera ORDER BY count(DISTINCT track_id) DESC, camera LIMIT 1) END);
-SET VARIABLE cluster_check = (SELECT CASE WHEN NOT EXISTS (SELECT 1 FROM points WHERE camera = getvariable('cluster_camera_used'))
-            THEN error('cluster: cluster_camera ' || getvariable('cluster_camera_used')::BIGINT || ' is not a camera of the input (cameras: '
+            ELSE (SELECT camera FROM points WHERE estimated = 0 GROUP BY camera ORDER BY count(DISTINCT track_id) DESC, camera LIMIT 1) END AS camera;
+SET VARIABLE cluster_check = (SELECT CASE WHEN NOT EXISTS (SELECT 1 FROM points WHERE camera = (SELECT camera FROM cluster_camera_used))
+            THEN error('cluster: cluster_camera ' || (SELECT camera FROM cluster_camera_used)::BIGINT || ' is not a camera of the input (cameras: '
                        || (SELECT string_agg(DISTINCT camera::VARCHAR, ', ' ORDER BY camera::VARCHAR) FROM points) || ')') END);
 CREATE OR REPLACE TEMP TABLE cluster_tracks AS
 SELECT * FROM (
     SELECT track_id, class, traj_resample(list({'t': t, 'x': x, 'y': y} ORDER BY t), 0.5, 1.0) AS traj
     FROM points
-    WHERE camera = getvariable('cluster_camera_used') AND estimated = 0
+    WHERE camera = (SELECT camera FROM cluster_camera_used) AND estimated = 0
       AND (getvariable('cluster_classes') = ''
            OR list_contains([lower(trim(c)) FOR c IN string_split(getvariable('cluster_classes'), ',')], lower(class)))
     GROUP BY track_id, class
@@ -106,4 +106,4 @@ FROM cluster_summary GROUP BY class ORDER BY class;
 -- clusters: route patterns of one camera
 CREATE OR REPLACE TEMP MACRO result_clusters() AS TABLE
 SELECT i.camera_in AS camera, a.class, i.track_in AS track_id, a.cluster
-FROM cluster_assign a JOIN load_ids i ON i.camera = getvariable('cluster_camera_used') AND i.track_id = a.track_id;
+FROM cluster_assign a JOIN load_ids i ON i.camera = (SELECT camera FROM cluster_camera_used) AND i.track_id = a.track_id;

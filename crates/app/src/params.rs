@@ -381,6 +381,7 @@ mod tests {
             let file = match p.stage {
                 "load" => "sql/pipeline.sql".to_string(),
                 "report" => "sql/report.sql".to_string(),
+                "archive" => "sql/archive_check.sql".to_string(),
                 stage => format!("sql/stages/{stage}.sql"),
             };
             let sql = crate::sql::file(&file).unwrap();

@@ -234,7 +234,16 @@ def folders(w):
     assert all(r["changes"] == "[]" for r in st.values()), [r["changes"] for r in st.values()]
     n = duckdb.sql(f"SELECT count(*) FROM read_parquet('{out}/road_users/*/*/*.parquet', hive_partitioning = true) WHERE site = 'south'").fetchall()[0][0]
     assert n > 0
-    print("  folders: the user's folder and the lake refused as --out, the sandbox obeyed; a site column and text camera ids work")
+    # a site name that would leave the archive folder ('..', '/') is refused before any work
+    evil = os.path.join(w, "evil")
+    os.makedirs(os.path.join(evil, "date=2026-05-01"))
+    con.execute(f"""COPY (SELECT *, 'x/../../escaped' AS site FROM read_parquet('{src}', hive_partitioning = false))
+                    TO '{evil}/date=2026-05-01/points.parquet' (FORMAT parquet)""")
+    p = cli("archive", "--input", evil, "--out", os.path.join(w, "evil-out"), check=False)
+    assert p.returncode == 1 and "cannot name a folder" in p.stderr, p.stderr
+    assert not os.path.exists(os.path.join(w, "evil-out")) and not os.path.exists(os.path.join(os.path.dirname(w), "escaped"))
+    print("  folders: the user's folder and the lake refused as --out, the sandbox obeyed; a site column and text camera ids work; "
+          "a site named to escape the folder refused")
 
 
 def readme(w):

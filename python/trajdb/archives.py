@@ -123,7 +123,11 @@ def discover(lake, site=None, con=None):
         for e in dates_top:
             files = _data_files(os.path.join(lake, e))
             parts.append({"site": None, "date": _KEY.match(e).group(2), "files": files, "site_column": False})
-        has_site = any(_has_site_column(p["files"], con) for p in parts if p["files"])
+        with_site = [_has_site_column([f], con) for p in parts for f in p["files"]]
+        has_site = any(with_site)
+        if has_site and not all(with_site) and site is None:
+            raise ArchiveError(f"trajdb archive: some files of {lake!r} have a site column and some do not; give every file one "
+                               "(or none, and name the site with --site)")
         if has_site and site is None:
             split = []
             for p in parts:
@@ -140,7 +144,21 @@ def discover(lake, site=None, con=None):
                            "(hive style; CSV too), or date=D/ for one site")
     for p in parts:
         p["format"] = _format(p["files"])
+        for what in ("site", "date"):
+            _check_name(what, p[what])
     return sorted(parts, key=lambda p: (p["site"], p["date"]))
+
+
+_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.:+@ -]{0,127}$")
+
+
+def _check_name(what, value):
+    """A site or date becomes a folder name under OUT: letters, digits and _ . : + @ - and
+    spaces only, never '..', a '/' or a control character (a site column's value
+    'x/../../home' would otherwise write outside the archive folder)."""
+    if not isinstance(value, str) or not _NAME.match(value) or ".." in value:
+        raise ArchiveError(f"trajdb archive: the {what} {value!r} cannot name a folder (letters, digits, _ . : + @ - and spaces, "
+                           f"starting with a letter or digit, no '..'); rename it in the lake")
 
 
 def _format(files):

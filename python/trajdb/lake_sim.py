@@ -27,7 +27,11 @@ def simulate_lake(con, lake, sites=2, days=5, minutes=10.0, cameras=3, move=None
     (p' = R(-deg) (p - d)). `sim`: more trajdb_simulate parameters (viewpoint_bias_vehicle, ...)."""
     if os.path.exists(lake) and os.listdir(lake):
         raise ValueError(f"simulate_lake: {lake!r} is not empty; name a new folder")
+    if not str(lake).strip():
+        raise ValueError("simulate_lake: name a folder for the lake")
     truth = truth or (os.path.abspath(lake).rstrip(os.sep) + "-truth")
+    if os.path.exists(truth) and os.listdir(truth):
+        raise ValueError(f"simulate_lake: the truth folder {truth!r} is not empty; name a new lake (its truth goes beside it)")
     out = []
     for s in range(sites):
         site = f"s{s + 1}"
@@ -35,8 +39,6 @@ def simulate_lake(con, lake, sites=2, days=5, minutes=10.0, cameras=3, move=None
             date = day_name(d, first_day)
             epoch = datetime.datetime.fromisoformat(date + "T07:00:00+00:00").timestamp()
             tdir = os.path.join(truth, f"site={site}", f"date={date}")
-            if os.path.exists(tdir):
-                shutil.rmtree(tdir)
             _simulate(con, tdir, cameras=cameras, minutes=minutes, seed=1000 * (s + 1) + d, site_seed=s + 1, clock_epoch=epoch, **sim)
             part = os.path.join(lake, f"site={site}", f"date={date}")
             os.makedirs(part)

@@ -271,13 +271,7 @@ def pipeline_epilog():
 
 
 def cmd_pipeline(a):
-    params = {}
-    for p in a.param or []:
-        name, sep, value = p.partition("=")
-        if not sep:
-            raise UsageError(f"--param needs name=value, got {p!r}")
-        params[name.strip()] = value.strip()
-    run_pipeline(connect(a), a.input, a.out, params)
+    run_pipeline(connect(a), a.input, a.out, _params_of(a))
 
 
 def run_pipeline(con, input, out_dir, params):

@@ -21,7 +21,7 @@
 #      (apt-get installs it), the Python package installed by pip into a fresh venv, and the
 #      prebuilt wheel installed without Rust or a compiler (LOAD trajdb by name)
 #   4. in DuckDB 1.5.5 with DuckDB spatial: the WKB / GeoParquet round trip, and the .slt suite,
-#      fuzz cases, robustness, safety, sandbox, crowd, scorer and README tests again
+#      fuzz cases, robustness, safety, sandbox, crowd, scorer, README and archive tests again
 #   5. trajdb.spark in Spark local mode against trajdb.pipeline on each whole site, and
 #      trajdb.spark.archive against trajdb archive on one machine, file for file
 #      (scripts/install_spark.sh installs pyspark and, from apt, Java 17)
@@ -110,6 +110,7 @@ PY15="$SPATIAL_VENV/bin/python"
 "$PY15" tests/test_userdb_python.py "$EXT"
 "$PY15" tests/test_outputs_doc_python.py "$EXT"
 "$PY15" tests/test_export_python.py "$EXT"
+"$PY15" tests/test_archive_python.py "$EXT"
 
 echo "== 5/5 trajdb.spark in Spark local mode against trajdb.pipeline per site"
 SPARK_PY="$(scripts/install_spark.sh)"

@@ -1,4 +1,4 @@
--- trajdb: an archive's daily check of its kept calibration (issue 40; python/trajdb/archive.py
+-- trajdb: an archive's daily check of its kept calibration (issue 40; python/trajdb/archives.py
 -- runs it after a day's run on the site's kept calibration: docs/archive.md).
 --
 -- A camera knocked by a truck or re-aimed after maintenance changes its frame (or its clock)
@@ -16,7 +16,10 @@
 -- day's numbers and the calibration day's, in the two fits' standard errors (quadrature), is
 -- frame_change's test (crates/algo/src/align/frame_change.rs; threshold archive_change_z). The
 -- constant difference between this registration on matches and align.sql's on voted pairs
--- cancels. A pair with fewer than 8 matched track pairs is not tested (too few to fit).
+-- cancels. A pair with fewer than 8 matched track pairs is not tested (too few to fit); the
+-- standard errors are jackknife estimates over the fits' track pairs, so the test takes their
+-- degrees of freedom (the smaller fit's pairs - 1: Student's t, not the normal, for a quiet
+-- pair; frame_change's `dof`).
 -- A pair whose matches collapse (fewer than a quarter of the calibration day's rate per road
 -- user, when that rate predicts at least 20) is `lost`: a camera moved so far that the kept
 -- calibration no longer matches anything (a clock off by more than the search, a view turned).
@@ -24,10 +27,11 @@
 -- Input: a day's run (points: every camera's own frame on the reference clock; merge_links,
 --        merge_tracks, merge_groups, align_frames, align_origin, calib_cameras);
 --        archive_baseline(cam_fixed, cam_moving, ax, ay, d_theta, d_x, d_y, d_dt, se_theta, se_x,
---        se_y, se_dt, pairs_per_user), made by the host: the calibration day's rows (empty ON
+--        se_y, se_dt, pairs_per_user, fit_pairs), made by the host: the calibration day's rows (empty ON
 --        that day: then the anchor is today's centroid and nothing is tested).
 -- Output: archive_check(cam_fixed, cam_moving, pairs (all matched), ax, ay, d_theta, d_x, d_y, d_dt,
---         se_theta, se_x, se_y, se_dt, pairs_per_user, expected_pairs, change, lost, changed)
+--         se_theta, se_x, se_y, se_dt, pairs_per_user, fit_pairs (those in the fit), expected_pairs,
+--         change, lost, changed)
 --         (stage camera numbers), archive_new_cameras(camera): cameras the calibration never saw.
 
 -- At most 400 matched track pairs per camera pair take part: a hash sample (by the pair's ids:
@@ -110,7 +114,8 @@ d AS (
            f.reg.theta - a.kept.theta - 2 * pi() * round((f.reg.theta - a.kept.theta) / (2 * pi())) AS d_theta,
            f.reg.tx AS d_x, f.reg.ty AS d_y, f.reg.dt AS d_dt,
            f.reg.se_theta, f.reg.se_tx AS se_x, f.reg.se_ty AS se_y, f.reg.se_dt,
-           coalesce(n.pairs, 0) / greatest((SELECT n FROM users), 1) AS pairs_per_user
+           coalesce(n.pairs, 0) / greatest((SELECT n FROM users), 1) AS pairs_per_user,
+           CASE WHEN f.reg IS NOT NULL THEN f.pairs END AS fit_pairs
     FROM archive_anchor a LEFT JOIN archive_fit f USING (cam_fixed, cam_moving)
     LEFT JOIN (SELECT cam_fixed, cam_moving, count(*) AS pairs FROM archive_matched GROUP BY ALL) n USING (cam_fixed, cam_moving)
 )
@@ -119,11 +124,16 @@ FROM (
     SELECT d.*,
            b.pairs_per_user * (SELECT n FROM users) AS expected_pairs,
            -- (a part without a value is NaN, not NULL: frame_change leaves it untested)
-           frame_change(coalesce(d.d_theta - b.d_theta, 'nan'), coalesce(sqrt(d.se_theta ** 2 + b.se_theta ** 2), 'nan'),
+           -- (the rotations' difference wrapped into (-pi, pi] again)
+           frame_change(coalesce(d.d_theta - b.d_theta - 2 * pi() * round((d.d_theta - b.d_theta) / (2 * pi())), 'nan'),
+                        coalesce(sqrt(d.se_theta ** 2 + b.se_theta ** 2), 'nan'),
                         coalesce(d.d_x - b.d_x, 'nan'), coalesce(sqrt(d.se_x ** 2 + b.se_x ** 2), 'nan'),
                         coalesce(d.d_y - b.d_y, 'nan'), coalesce(sqrt(d.se_y ** 2 + b.se_y ** 2), 'nan'),
                         coalesce(d.d_dt - b.d_dt, 'nan'), coalesce(sqrt(d.se_dt ** 2 + b.se_dt ** 2), 'nan'),
-                        getvariable('archive_change_z')) AS change,
+                        getvariable('archive_change_z'),
+                        -- degrees of freedom: the smaller fit's pairs - 1 (a calibration kept
+                        -- before fit_pairs was recorded: today's alone)
+                        coalesce((least(d.fit_pairs, coalesce(b.fit_pairs, d.fit_pairs)) - 1)::DOUBLE, 'nan'::DOUBLE)) AS change,
            b.cam_fixed IS NOT NULL AND b.pairs_per_user * (SELECT n FROM users) >= 20
                AND d.pairs < b.pairs_per_user * (SELECT n FROM users) / 4 AS lost
     FROM d LEFT JOIN archive_baseline b USING (cam_fixed, cam_moving)

@@ -2629,7 +2629,7 @@ FROM cluster_assign a JOIN load_ids i ON i.camera = (SELECT camera FROM cluster_
 -- pipeline_warnings (k, message). Every runner (trajdb pipeline, trajdb.pipeline in Python, the
 -- DuckDB CLI after `.read sql/pipeline.sql`) reads this one table.
 -- reads: points, align_frames, align_pairs, calibration_summary, load_class_flicker, load_duplicates, load_ids, load_twins, load_unit_outliers; parameters: cluster_classes,
--- load_no_class (set by the load)   makes: pipeline_warnings
+-- load_no_class (set by the load), archive_day_note (set by an archive's host)   makes: pipeline_warnings
 CREATE OR REPLACE TEMP TABLE pipeline_warnings AS
 WITH c AS (SELECT (SELECT count(DISTINCT camera) FROM points) AS cams, (SELECT count(*) FROM align_frames) AS aligned,
                   (SELECT count(*) FROM load_class_flicker) AS flicker,
@@ -2676,6 +2676,10 @@ SELECT 8, format('{} tracks have a sampling period or speed far outside a road u
 FROM (SELECT *, row_number() OVER (ORDER BY camera, track_id) AS rank FROM load_unit_outliers) o
 LEFT JOIN load_ids i ON i.camera = o.camera AND i.track_id = o.track_id
 HAVING count(*) > 0
+UNION ALL
+-- issue 40: an archive's day on which a camera changed (found by the host's daily check,
+-- sql/archive_check.sql, and registered again from this day: python/trajdb/archives.py)
+SELECT 10, getvariable('archive_day_note') WHERE getvariable('archive_day_note') IS NOT NULL
 UNION ALL
 -- issue 38: a camera pair whose clock offset the tracks cannot pin (align.sql, align_offset_se)
 SELECT 9, format('cameras {} and {}: their clock offset is uncertain by {} s, more than half the common clock step (merge_resample_s = {} s): '

@@ -11,9 +11,14 @@ bias and 1 % ground-plane errors as roadside cameras have):
 3. kill -9 at several moments of a run, then a rerun: every file the same bytes as an
    uninterrupted run's (the state too); no scratch folder left;
 4. faults: a corrupt file, an empty partition, a day with one camera, a day without one of
-   the cameras: reported per partition, the others done, the exit status the number failed;
+   the cameras: reported per partition, the others done, the exit status 3 + the number failed;
 5. the folders: a folder of the user's is refused as --out, and so is the lake itself; the
-   command line; a site column instead of site= folders; text camera ids; the sandbox.
+   command line; a site column instead of site= folders; text camera ids; the sandbox;
+6. repairs (the hostile review's findings): a deleted calibration folder is made again, a run
+   from another lake refused, a failed partition's old files removed, export_day's columns,
+   workers that exit between tasks never hang the driver;
+7. metamorphic: one camera's frame in UTM and turned, its clock an hour off, the ids
+   relabelled, the rows shuffled, on every day: the same road users, no camera change.
 
 usage: python3 tests/test_archive_python.py path/to/trajdb.duckdb_extension
 """
@@ -95,6 +100,9 @@ def camera_changes(w):
         scores = [idf1(out, lk + "-truth", "s1", d, w) for (_, d) in days]
         assert min(scores) >= 0.98, scores
         assert any("camera change" in x for x in json.loads(st[("s1", lake_sim.day_name(2))]["warnings"]))
+        # the day's own report says so too (its warnings), and no other day's
+        reports = {d: open(os.path.join(out, "reports", "site=s1", f"date={d}", "report.html")).read() for (_, d) in days}
+        assert [d for d in reports if "camera change on" in reports[d]] == [lake_sim.day_name(2)]
         index = open(os.path.join(out, "reports", "site=s1", "index.html")).read()
         assert f"camera {cam}" in index and "(made)" in index
         print(f"  camera changes: {what} found on day 2 only, camera {cam} named ({size:.3f}); IDF1 per day {[round(s, 4) for s in scores]}")
@@ -161,6 +169,62 @@ def kill_and_resume(w, lake):
         assert not bad, bad
         assert not [e for e in os.listdir(os.path.join(out, "_work"))], os.listdir(os.path.join(out, "_work"))
         print(f"  kill -9 after {delay} s ({n} of 6 partitions recorded), rerun: {len(got)} files the same bytes as an uninterrupted run")
+    return ref
+
+
+def repairs(w, lake, ref):
+    """What the hostile review found: each repaired, each checked."""
+    want = files(ref)
+    # a deleted calibration folder is made again by its day (the site's later days wait for it,
+    # and do not stall): the archive ends as it was, byte for byte
+    out = os.path.join(w, "repair-cal")
+    shutil.copytree(ref, out)
+    first = sorted(glob.glob(os.path.join(out, "_calibrations", "site=s1", "from=*")))[0]
+    shutil.rmtree(first)
+    r = trajdb.archive(trajdb.connect(), lake, out)
+    assert r["failed"] == 0 and os.path.isdir(first) and r["done"] >= 1, r
+    got = files(out)
+    assert [f for f in want if got.get(f) != want[f] and f != ".trajdb-archive"] == [], "not the same archive again"
+    # the archive of one lake refuses a run from another (two lakes' days would mix in one state)
+    other = os.path.join(w, "other-lake")
+    shutil.copytree(lake, other)
+    p = cli("archive", "--input", other, "--out", out, check=False)
+    assert p.returncode == 1 and "is the archive of the lake" in p.stderr, p.stderr
+    # a partition that was right and then fails (its input now corrupt): its old files go, so
+    # that no reader takes them for this input's
+    part = os.path.join(lake + "-copy")
+    shutil.copytree(lake, part)
+    out2 = os.path.join(w, "repair-fail")
+    trajdb.archive(trajdb.connect(), part, out2)
+    day = lake_sim.day_name(2)
+    with open(os.path.join(part, "site=s2", f"date={day}", "points.parquet"), "wb") as f:
+        f.write(b"PAR1 broken")
+    r = trajdb.archive(trajdb.connect(), part, out2)
+    assert r["failed_partitions"] == [f"site=s2/date={day}"], r
+    left = [f for f in files(out2) if f"site=s2/date={day}" in f]
+    assert left == [], left
+    # export_day: the file's own columns (no site and date guessed from the archive's folders),
+    # into a new folder only
+    dest = os.path.join(w, "exported")
+    A.export_day(ref, "s1", lake_sim.day_name(0), dest)
+    head = open(os.path.join(dest, "matches.csv")).readline().strip().split(",")
+    assert "site" not in head and "date" not in head, head
+    try:
+        A.export_day(ref, "s1", lake_sim.day_name(0), dest)
+        raise AssertionError("export_day wrote into a folder that is not empty")
+    except A.ArchiveError as e:
+        assert "not an empty folder" in str(e)
+    # a worker that dies between tasks (here: after each one) never leaves the driver waiting:
+    # the run ends, each partition done or failed with the reason, and a rerun completes it
+    out3 = os.path.join(w, "repair-worker")
+    env = {**ENV, "TRAJDB_ARCHIVE_WORKER_TASKS": "1"}
+    p = subprocess.run([sys.executable, "-m", "trajdb", "archive", "--input", lake, "--out", out3, "--workers", "2"], env=env,
+                       capture_output=True, text=True, timeout=600)
+    st = state(out3)
+    assert len(st) == 6 and all(r["status"] == "ok" or "worker process ended" in (r["error"] or "") for r in st.values()), (p.stderr, st)
+    assert cli("archive", "--input", lake, "--out", out3).returncode == 0
+    print("  repairs: a deleted calibration made again (same bytes), another lake refused, a failed partition's old files "
+          f"removed, export_day without guessed columns, workers that exit after each task: no hang (status {p.returncode})")
 
 
 def faults(w):
@@ -177,7 +241,7 @@ def faults(w):
         f.write(b"PAR1 not a parquet file at all")
     os.makedirs(os.path.join(s1, "date=2026-07-empty"))
     p = cli("archive", "--input", lake, "--out", out, check=False)
-    assert p.returncode == 2, (p.returncode, p.stderr)
+    assert p.returncode == 3 + 2, (p.returncode, p.stderr)  # 3 + the number failed (1 and 2 are an error and a usage error)
     st = state(out)
     ok = sorted(d for (_, d), r in st.items() if r["status"] == "ok")
     failed = {d: r["error"] for (_, d), r in st.items() if r["status"] != "ok"}
@@ -187,8 +251,8 @@ def faults(w):
     assert "failed:  site=s1/date=2026-07-corrupt" in p.stderr, p.stderr
     # a rerun tries the failed ones again (a worker killed for memory may pass), and only them
     p = cli("archive", "--input", lake, "--out", out, check=False)
-    assert p.returncode == 2 and "2 run" in p.stderr, p.stderr
-    print(f"  faults: {sorted(failed)} failed with their errors, {len(ok)} others done, exit status 2")
+    assert p.returncode == 3 + 2 and "2 run" in p.stderr, p.stderr
+    print(f"  faults: {sorted(failed)} failed with their errors, {len(ok)} others done, exit status 3 + 2")
 
 
 def folders(w):
@@ -214,6 +278,14 @@ def folders(w):
         raise AssertionError("the sandbox was not obeyed")
     except PermissionError as e:
         assert "allowed_directories" in str(e)
+    assert not os.path.exists(os.path.join(w, "sandboxed"))
+    nolocal = trajdb.connect()
+    nolocal.execute("SET disabled_filesystems = 'LocalFileSystem'")
+    try:
+        trajdb.archive(nolocal, lake, os.path.join(w, "sandboxed"))
+        raise AssertionError("disabled_filesystems was not obeyed")
+    except PermissionError as e:
+        assert "disabled" in str(e), e
     assert not os.path.exists(os.path.join(w, "sandboxed"))
     # date=D/ folders with a site column, and text camera ids: numbered as the site's first day
     # numbered them, whichever cameras a later day has
@@ -246,6 +318,47 @@ def folders(w):
           "a site named to escape the folder refused")
 
 
+def users(out, site, date, relabel=None):
+    """The day's road users as sets of their source tracks, (camera, track id) with the ids
+    mapped back through `relabel` {(camera, id): original id}."""
+    rows = duckdb.sql(f"""SELECT [(s.camera, s.track_id) FOR s IN sources] FROM
+                          read_parquet('{out}/road_users/site={site}/date={date}/part-0.parquet', hive_partitioning = false)""").fetchall()
+    back = (lambda c, k: relabel[(c, k)]) if relabel else (lambda c, k: k)
+    return {frozenset((c, back(c, k)) for c, k in r[0]) for r in rows}
+
+
+def metamorphic(w):
+    """The same lake with one camera's frame moved into UTM and turned, its clock an hour
+    off, every track relabelled and the rows shuffled, on every day: the same road users on
+    every day, and no camera change (a camera's frame that is the same every day is no change,
+    wherever it is)."""
+    con = trajdb.connect()
+    lake, moved = os.path.join(w, "meta"), os.path.join(w, "meta-moved")
+    lake_sim.simulate_lake(con, lake, sites=1, days=3, minutes=4, **REAL)
+    for d in range(3):
+        src = os.path.join(lake, "site=s1", f"date={lake_sim.day_name(d)}", "points.parquet")
+        dest = os.path.join(moved, "site=s1", f"date={lake_sim.day_name(d)}")
+        os.makedirs(dest)
+        con.execute(f"""COPY (SELECT * REPLACE (track_id * 7919 + 13 AS track_id,
+                                     CASE WHEN camera = 1 THEN t + 3600 ELSE t END AS t,
+                                     CASE WHEN camera = 1 THEN 465000 + x * cos(0.7) - y * sin(0.7) ELSE x END AS x,
+                                     CASE WHEN camera = 1 THEN 5710000 + x * sin(0.7) + y * cos(0.7) ELSE y END AS y)
+                              FROM read_parquet('{src}', hive_partitioning = false) ORDER BY hash(camera, track_id, t))
+                        TO '{dest}/points.parquet' (FORMAT parquet)""")
+    a, b = trajdb.archive(con, lake, lake + "-out"), trajdb.archive(con, moved, moved + "-out")
+    assert a["failed"] == b["failed"] == 0 and a["changes"] == b["changes"] == [], (a, b)
+    same = []
+    for d in range(3):
+        day = lake_sim.day_name(d)
+        relabel = {(c, k * 7919 + 13): k for c, k in duckdb.sql(
+            f"SELECT DISTINCT camera, track_id FROM read_parquet('{lake}/site=s1/date={day}/points.parquet', hive_partitioning = false)").fetchall()}
+        ua, ub = users(lake + "-out", "s1", day), users(moved + "-out", "s1", day, relabel)
+        same.append(len(ua & ub) / max(len(ua), 1))
+        assert ua == ub, (day, len(ua), len(ub), len(ua & ub))
+    print(f"  metamorphic: one camera in UTM, turned 40 deg, its clock +1 h, every id relabelled, rows shuffled: "
+          f"the same road users on each of 3 days ({[round(x, 3) for x in same]}), no camera change")
+
+
 def readme(w):
     """The README's archive commands, as written, in a folder of their own."""
     text = open(os.path.join(ROOT, "README.md")).read()
@@ -268,9 +381,11 @@ def main():
     try:
         camera_changes(w)
         lake = incremental(w)
-        kill_and_resume(w, lake)
+        ref = kill_and_resume(w, lake)
+        repairs(w, lake, ref)
         faults(w)
         folders(w)
+        metamorphic(w)
         readme(w)
     finally:
         shutil.rmtree(w, ignore_errors=True)

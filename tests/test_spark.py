@@ -207,6 +207,15 @@ def main():
     assert ts.keys() == tl.keys(), sorted(set(ts) ^ set(tl))
     assert [f for f in ts if ts[f] != tl[f]] == [], [f for f in ts if ts[f] != tl[f]]
     n_archive = len(ts)
+    # a site-day whose task fails every attempt fails alone: the round's other site-days are done
+    bad = f"s1-{lake_sim.day_name(1)}"
+    open(os.path.join(fail_dir, f"always-archive-{bad}"), "w").close()
+    rb = tspark.archive(spark, lake, os.path.join(tmp, "archive-spark-bad"), extension=EXT, progress=False)
+    os.remove(os.path.join(fail_dir, f"always-archive-{bad}"))
+    assert rb["failed"] == 1 and rb["failed_partitions"] == [f"site=s1/date={lake_sim.day_name(1)}"] and rb["done"] == 4, rb
+    tb = tree(os.path.join(tmp, "archive-spark-bad"))
+    assert not any(f"site=s1/date={lake_sim.day_name(1)}" in f for f in tb), sorted(tb)
+    assert all(tb[f] == ts[f] for f in tb if f.startswith(("road_users/", "matches/"))), "the other site-days differ"
 
     spark.stop()
 
@@ -226,7 +235,7 @@ def main():
     n = {s: len(refs[s][0]) for s in sites}
     print(f"test_spark: OK: road users per site {n}, {len(seam)} across a seam, {len(wins)} window tasks, "
           f"{len(injected)} injected task failures retried, {reran60} windows rerun at 60 s, {rounds} windows rerun with a wider halo (halo_s=0); "
-          f"archive on Spark = on one machine, {n_archive} files byte for byte")
+          f"archive on Spark = on one machine, {n_archive} files byte for byte, a site-day failing every attempt failed alone")
 
 
 if __name__ == "__main__":

@@ -546,7 +546,18 @@ def archive(con, lake, out, params=None, site=None, workers=None, progress=False
 
 def _sandbox(con, paths, who):
     """DuckDB's sandbox of `con` for work done outside it (the archive's own connections):
-    nothing with enable_external_access off, unless every path lies in allowed_directories."""
+    nothing in a folder the connection may not list (disabled_filesystems, allowed_directories,
+    ...), nor with enable_external_access off unless every path lies in allowed_directories
+    (allowed_paths names single files: a folder's work is never covered by it)."""
+    # the connection's own file system first, as DuckDB decides for its own SQL (every sandbox
+    # setting: disabled_filesystems, which current_setting reads back empty in DuckDB 1.5 and
+    # 2.0, included): each folder's listing must be allowed
+    for p in paths:
+        try:
+            con.execute("SELECT count(*) FROM glob(?)", [os.path.join(os.path.abspath(p), "*")]).fetchall()
+        except duckdb.PermissionException as e:
+            raise PermissionError(f"{who}: this connection may not use {p!r} ({str(e).splitlines()[0]}); allow the folder "
+                                  "(allowed_directories, disabled_filesystems) or use another connection") from None
     external, allowed = con.execute(
         "SELECT current_setting('enable_external_access'), current_setting('allowed_directories')").fetchone()
     if external in (True, "true", "True", 1):
@@ -557,7 +568,8 @@ def _sandbox(con, paths, who):
         if not any(real == r or real.startswith(r.rstrip(os.sep) + os.sep) for r in roots):
             raise PermissionError(
                 f"{who}: {p!r} is outside this connection's allowed_directories ({', '.join(allowed or []) or 'none'}) and "
-                "enable_external_access is off; add the folder to allowed_directories before turning external access off")
+                "enable_external_access is off; add the folder to allowed_directories before turning external access off "
+                "(allowed_paths names files, not the folders an archive works in)")
 
 
 def demo(out="trajdb-demo", **params):

@@ -240,6 +240,12 @@ def claim(out, lake):
     marker = os.path.join(out, MARKER)
     if not os.path.exists(marker):
         _write_atomic(marker, (MARKER_HEAD + f"input\t{os.path.abspath(lake)}\n").encode())
+    else:
+        # one archive, one lake: a run from another lake would mix two lakes' days in one state
+        made = [ln.split("\t", 1)[1] for ln in open(marker, encoding="utf-8", errors="replace").read().splitlines() if ln.startswith("input\t")]
+        if made and os.path.realpath(made[0]) != os.path.realpath(lake):
+            raise ArchiveError(f"trajdb archive: {out!r} is the archive of the lake {made[0]!r}, not of {os.path.abspath(lake)!r}; "
+                               "name another --out for this lake (or give that lake's path)")
     for d in ("_state", "_work"):
         os.makedirs(os.path.join(out, d), exist_ok=True)
     return out
@@ -359,18 +365,24 @@ def _calibrate(task, numbers):
 _BASELINE = pa.schema([
     ("cam_fixed", pa.int32()), ("cam_moving", pa.int32()), ("ax", pa.float64()), ("ay", pa.float64()), ("d_theta", pa.float64()),
     ("d_x", pa.float64()), ("d_y", pa.float64()), ("d_dt", pa.float64()), ("se_theta", pa.float64()), ("se_x", pa.float64()),
-    ("se_y", pa.float64()), ("se_dt", pa.float64()), ("pairs_per_user", pa.float64()),
+    ("se_y", pa.float64()), ("se_dt", pa.float64()), ("pairs_per_user", pa.float64()), ("fit_pairs", pa.int64()),
 ])
 
 
-def _run_day(task, cal, results):
+def _run_day(task, cal, results, note=None):
     """The day on calibration `cal` ({tables, numbers, baseline}) with its results folder
-    `results`; returns the open connection (its tables: the caller reads and closes it)."""
+    `results` (`note`: a warning of the archive's for the day's warnings and report); returns
+    the open connection (its tables: the caller reads and closes it)."""
     con = _connect(task)
     try:
         _register_input(con, task)
         _set_numbers(con, cal["numbers"])
+        con.execute("SET VARIABLE archive_day_note = ?::VARCHAR", [note])
+        allowed = set(W.site_table_names(con))
         for name, table in cal["tables"].items():
+            if name not in allowed:  # a file in the calibration folder that is no site table: never a name in SQL
+                raise ArchiveError(f"the kept calibration holds {name}.parquet, which is not a site table trajdb makes "
+                                   f"({', '.join(sorted(allowed))}); remove that file or the calibration folder (it is then made again)")
             con.register("archive_site_table", table)
             con.execute(f"CREATE OR REPLACE TEMP TABLE {name} AS FROM archive_site_table")
             con.unregister("archive_site_table")
@@ -390,7 +402,7 @@ def _check(con, checking):
     not `checking`: the calibration was made from this day)."""
     baseline = con.sql(
         """SELECT cam_fixed::INTEGER AS cam_fixed, cam_moving::INTEGER AS cam_moving, ax, ay, d_theta, d_x, d_y, d_dt,
-                  se_theta, se_x, se_y, se_dt, pairs_per_user::DOUBLE AS pairs_per_user
+                  se_theta, se_x, se_y, se_dt, pairs_per_user::DOUBLE AS pairs_per_user, fit_pairs::BIGINT AS fit_pairs
            FROM archive_check WHERE d_theta IS NOT NULL ORDER BY cam_fixed, cam_moving""").to_arrow_table().cast(_BASELINE)
     names = "(SELECT DISTINCT camera, camera_in::VARCHAR AS name FROM load_ids)"
     changes = [dict(zip(("kind", "camera_fixed", "camera_moving", "pairs", "expected_pairs", "turned_deg", "moved_m", "clock_s", "z"), r)) for r in con.sql(
@@ -456,8 +468,12 @@ def load_calibration(folder):
         if f.endswith(".parquet") and f not in ("cameras.parquet", "baseline.parquet"):
             tables[f[: -len(".parquet")]] = _read_parquet(os.path.join(folder, f))
     cams = _read_parquet(os.path.join(folder, "cameras.parquet")).to_pylist()
+    baseline = _read_parquet(os.path.join(folder, "baseline.parquet"))
+    for name, typ in zip(_BASELINE.names, _BASELINE.types):  # a column a later version added: NULL
+        if name not in baseline.column_names:
+            baseline = baseline.append_column(pa.field(name, typ), pa.nulls(baseline.num_rows, typ))
     return {"tables": tables, "numbers": [(r["camera_in"], r["camera"]) for r in cams],
-            "baseline": _read_parquet(os.path.join(folder, "baseline.parquet")).cast(_BASELINE)}
+            "baseline": baseline.select(_BASELINE.names).cast(_BASELINE)}
 
 
 def _peak_rss_mb():
@@ -473,7 +489,9 @@ def run_task(task):
     """One site-day: returns {row (the state row), run (timings), scratch, calibration (the
     folder of a calibration made today, or None)}. Never raises: a failure is the row's error."""
     t0 = time.perf_counter()
-    scratch = task["scratch"]
+    # this attempt's own folder (a Spark retry, or a speculative copy still running, never shares
+    # one); the driver removes it after the commit, the next run any a kill left
+    scratch = f"{task['scratch']}-{os.getpid()}-{time.time_ns()}"
     row = {"site": task["site"], "date": task["date"], "inputs": task["inputs"], "fingerprint": task["fingerprint"],
            "trajdb_version": __version__, "params": task["params_json"], "calibration_in": task["cal_id"],
            "calibration_out": task["cal_id"], "calibration_made": False, "changes": "[]", "warnings": "[]", "error": None,
@@ -481,8 +499,6 @@ def run_task(task):
     made = None
     try:
         check_duckdb()
-        if os.path.basename(scratch).startswith("task-") and os.path.isdir(scratch):
-            shutil.rmtree(scratch)  # an earlier attempt of this task (Spark retries a failed task)
         os.makedirs(scratch)
         if not task["files"]:
             raise ValueError(f"site {task['site']} date {task['date']}: the partition has no data files (.parquet or .csv)")
@@ -506,13 +522,14 @@ def run_task(task):
                        JOIN (SELECT DISTINCT camera, camera_in FROM load_ids) b ON b.camera = c.cam_moving
                        WHERE NOT c.changed AND c.change IS NOT NULL""").fetchall()]
                 camera = _which_camera(changes, checked)
-                # re-register the site from this day, and run the day again on it
+                # re-register the site from this day, and run the day again on it (its warnings and
+                # report say so)
                 con.close()
                 con = None
                 shutil.rmtree(os.path.join(scratch, "results"))
                 tables, numbers = _calibrate(task, cal["numbers"])
                 cal = {"tables": tables, "numbers": numbers, "baseline": _BASELINE.empty_table()}
-                con = _run_day(task, cal, os.path.join(scratch, "results"))
+                con = _run_day(task, cal, os.path.join(scratch, "results"), note=_change_note(task, camera, changes))
                 cal["baseline"], _, _ = _check(con, checking=False)
                 made = "change"
             _write_outputs(con, os.path.join(scratch, "results"), scratch)
@@ -527,10 +544,6 @@ def run_task(task):
             cal_id = f"{task['date']}-{task['fingerprint'][:12]}"
             _save_calibration(os.path.join(scratch, "calibration"), cal)
             row.update(calibration_out=cal_id, calibration_made=True)
-        if changes:
-            who = _who(camera, changes)
-            summary = "; ".join(_describe(c) for c in changes)
-            warnings.append(f"camera change on {task['date']} at site {task['site']}: {who} ({summary}); registered again from this day")
         row.update(status="ok", changes=json.dumps({"camera": camera, "pairs": changes}) if changes else "[]",
                    checks=json.dumps(checks), warnings=json.dumps(warnings), cameras=stats[0], points=stats[1], road_users=stats[2], matches=stats[3])
     except Exception as e:  # noqa: BLE001 - a partition's failure is reported, the others go on
@@ -540,6 +553,12 @@ def run_task(task):
            "date": task["date"], "status": row["status"], "seconds": round(time.perf_counter() - t0, 2), "peak_rss_mb": _peak_rss_mb(),
            "points": row.get("points")}
     return {"row": row, "run": run, "scratch": scratch, "calibration": os.path.join(scratch, "calibration") if made else None}
+
+
+def _change_note(task, camera, changes):
+    """The day's warning of a camera change (in its pipeline_warnings and report.html)."""
+    summary = "; ".join(_describe(c) for c in changes)
+    return f"camera change on {task['date']} at site {task['site']}: {_who(camera, changes)} ({summary}); registered again from this day"
 
 
 def _who(camera, changes):
@@ -582,7 +601,25 @@ def _commit(out, res):
         for folder, name, _ in TABLES:
             _place(os.path.join(res["scratch"], name), os.path.join(out, folder, f"site={site}", f"date={date}", "part-0.parquet"))
         _place(os.path.join(res["scratch"], REPORT[1]), os.path.join(out, REPORT[0], f"site={site}", f"date={date}", REPORT[1]))
+    else:
+        # the files of an earlier run of this partition no longer describe its input (or this
+        # version, or these parameters): removed, so that no reader takes them for this run's
+        # (only trajdb's own files: the partition's part-0.parquet and report.html)
+        for folder, _, _ in TABLES:
+            _unlink_own(os.path.join(out, folder, f"site={site}", f"date={date}"), "part-0.parquet")
+        _unlink_own(os.path.join(out, REPORT[0], f"site={site}", f"date={date}"), REPORT[1])
     shutil.rmtree(res["scratch"], ignore_errors=True)
+
+
+def _unlink_own(folder, name):
+    """Removes trajdb's file `name` in `folder`, and the folder when that leaves it empty."""
+    path = os.path.join(folder, name)
+    if os.path.isfile(path) and not os.path.islink(path):
+        os.remove(path)
+    try:
+        os.rmdir(folder)  # only when empty
+    except OSError:
+        pass
 
 
 def _place(src, dest):
@@ -667,49 +704,95 @@ def _local_executor(workers):
         env = {**os.environ, "PYTHONPATH": os.pathsep.join([os.path.dirname(os.path.dirname(os.path.abspath(__file__)))]
                                                           + [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p])}
 
+        def spawn():
+            return subprocess.Popen([sys.executable, "-m", "trajdb.archives", "--worker"], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                                    env=env, text=True, bufsize=1)
+
+        def send(p, t):
+            """The task's result line from worker `p` ("" when the worker died); a worker that
+            ended before it took the task (a broken pipe) is replaced once and the task sent again."""
+            for attempt in range(2):
+                try:
+                    p.stdin.write(json.dumps(t) + "\n")
+                    p.stdin.flush()
+                except OSError:  # BrokenPipeError: it died between tasks, before this one
+                    if attempt:
+                        return p, ""
+                    p.wait()
+                    p = spawn()
+                    continue
+                return p, p.stdout.readline()
+            return p, ""
+
         def worker():
-            p = subprocess.Popen([sys.executable, "-m", "trajdb.archives", "--worker"], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
-                                 env=env, text=True, bufsize=1)
+            p, t = None, None
             try:
+                p = spawn()
                 while True:
                     try:
                         t = todo.get_nowait()
                     except queue.Empty:
                         return
-                    p.stdin.write(json.dumps(t) + "\n")
-                    p.stdin.flush()
-                    line = p.stdout.readline()
+                    p, line = send(p, t)
                     if not line:  # the worker died (killed, out of memory): the task failed, a new worker goes on
                         results.put(_died(t, p.wait()))
-                        p = subprocess.Popen([sys.executable, "-m", "trajdb.archives", "--worker"], stdin=subprocess.PIPE,
-                                             stdout=subprocess.PIPE, env=env, text=True, bufsize=1)
+                        t, p = None, spawn()
                         continue
                     try:
                         results.put(json.loads(line))
                     except ValueError:
                         results.put(_died(t, f"(it wrote {line[:200]!r})"))
+                    t = None
+            except BaseException as e:  # noqa: BLE001 - never leave the driver waiting for a result
+                if t is not None:
+                    results.put(failed_result(t, f"the archive's worker thread failed on this partition: {type(e).__name__}: {e}"))
             finally:
-                try:
-                    p.stdin.close()
-                    p.wait(timeout=30)
-                except Exception:  # noqa: BLE001 - a worker that will not stop is killed
-                    p.kill()
+                if p is not None:
+                    try:
+                        p.stdin.close()
+                        p.wait(timeout=30)
+                    except Exception:  # noqa: BLE001 - a worker that will not stop is killed
+                        p.kill()
 
         threads = [threading.Thread(target=worker, daemon=True) for _ in range(max(1, min(workers, len(tasks))))]
         for th in threads:
             th.start()
-        for _ in tasks:
-            on_done(results.get())
+        got = 0
+        while got < len(tasks):
+            try:
+                res = results.get(timeout=1.0)
+            except queue.Empty:
+                if any(th.is_alive() for th in threads):
+                    continue
+                # every worker thread ended: what is still queued never ran (a thread failed
+                # before it took it)
+                while True:
+                    try:
+                        t = todo.get_nowait()
+                    except queue.Empty:
+                        break
+                    results.put(failed_result(t, "no archive worker was left to run this partition"))
+                if results.empty():
+                    raise ArchiveError(f"trajdb archive: {len(tasks) - got} partitions were lost by the worker threads (a bug: please report it)")
+                continue
+            got += 1
+            on_done(res)
         for th in threads:
             th.join()
 
     return run
 
 
-def _died(task, status):
-    res = run_task({**task, "files": [], "format": "none", "_died": status})
-    res["row"]["error"] = f"the worker process ended with status {status} while running this partition (killed, or out of memory?)"
+def failed_result(task, error):
+    """The result of a task that could not report one itself (its process died, its Spark task
+    failed every attempt): the partition failed with `error`, nothing to commit."""
+    res = run_task({**task, "files": [], "format": "none"})
+    res["row"]["error"] = error[:2000]
     return res
+
+
+def _died(task, status):
+    return failed_result(task, f"the worker process ended with status {status} while running this partition (killed, or out of memory?)")
 
 
 def _worker_main():
@@ -717,10 +800,17 @@ def _worker_main():
     proto = os.fdopen(os.dup(1), "w", buffering=1)
     os.dup2(2, 1)
     sys.stdout = sys.stderr
+    # (tests: TRAJDB_ARCHIVE_WORKER_TASKS=n makes a worker end after n tasks, as one killed
+    # between tasks would: tests/test_archive_python.py)
+    quit_after = int(os.environ.get("TRAJDB_ARCHIVE_WORKER_TASKS") or 0)
+    n = 0
     for line in sys.stdin:
         if line.strip():
             proto.write(json.dumps(run_task(json.loads(line))) + "\n")
             proto.flush()
+            n += 1
+            if quit_after and n >= quit_after:
+                os._exit(0)
 
 
 def plan(parts, state, out, params_json, lake, wait=True, attempted=()):
@@ -736,7 +826,10 @@ def plan(parts, state, out, params_json, lake, wait=True, attempted=()):
         for p in days:
             st = state.get((site, p["date"]))
             same = st and st["fingerprint"] == p["fingerprint"] and st["trajdb_version"] == __version__ and st["params"] == params_json \
-                and st["calibration_in"] == cal and (cal is None or os.path.isdir(_cal_dir(out, site, cal)))
+                and st["calibration_in"] == cal and (cal is None or os.path.isdir(_cal_dir(out, site, cal))) \
+                and (not st["calibration_made"] or os.path.isdir(_cal_dir(out, site, st["calibration_out"])))
+            # (a day that made a calibration is done only while its folder is there: a deleted
+            # _calibrations folder is made again by its day, not waited for by the days after it)
             # done: the same input, version, parameters and calibration in effect, and not failed
             # (a failed partition is tried again once per run: a worker killed for memory may pass
             # next time; a corrupt file fails again in a second)
@@ -816,6 +909,7 @@ def run(lake, out, params=None, site=None, workers=None, extension=None, progres
                 ran.add((row["site"], row["date"]))
 
             executor(tasks, on_done)
+            _clean_work(out)  # the scratch of attempts that never reached the driver (a Spark retry's first attempt)
         _site_indexes(out, state)
         failed = sorted(k for k, r in state.items() if r["status"] != "ok")
         # the camera changes of this run's partitions, as the state holds them at the end (a day
@@ -865,20 +959,31 @@ def export_day(out, site, date, dest, con=None):
     """One partition of an archive as a `trajdb pipeline` results folder `dest` (a new folder):
     merged.parquet, matches.csv, links.csv, transforms.csv, calibration.csv and report.html, for
     the tools that read one (trajdb score, analysis.sql)."""
-    if os.path.exists(dest) and os.listdir(dest):
-        raise ArchiveError(f"trajdb archive: {dest!r} is not empty; name a new folder")
-    os.makedirs(dest, exist_ok=True)
+    dest = os.path.abspath(dest)
+    if os.path.lexists(dest) and not (os.path.isdir(dest) and not os.path.islink(dest) and not os.listdir(dest)):
+        raise ArchiveError(f"trajdb archive: {dest!r} exists and is not an empty folder; name a new folder")
+    part = lambda folder, name: os.path.join(out, folder, f"site={site}", f"date={date}", name)  # noqa: E731
+    if not os.path.exists(part("road_users", "part-0.parquet")):
+        raise ArchiveError(f"trajdb archive: {out!r} has no partition site={site}/date={date}")
+    # written whole beside dest, then renamed onto it: a failure leaves no half-written folder
+    stage = f"{dest}.trajdb-tmp-{os.getpid()}-{time.time_ns()}"
+    os.makedirs(stage)
     own = con is None
     con = con or duckdb.connect()
     try:
-        part = lambda folder, name: os.path.join(out, folder, f"site={site}", f"date={date}", name)  # noqa: E731
-        if not os.path.exists(part("road_users", "part-0.parquet")):
-            raise ArchiveError(f"trajdb archive: {out!r} has no partition site={site}/date={date}")
-        shutil.copyfile(part("road_users", "part-0.parquet"), os.path.join(dest, "merged.parquet"))
-        shutil.copyfile(part(REPORT[0], REPORT[1]), os.path.join(dest, REPORT[1]))
+        shutil.copyfile(part("road_users", "part-0.parquet"), os.path.join(stage, "merged.parquet"))
+        shutil.copyfile(part(REPORT[0], REPORT[1]), os.path.join(stage, REPORT[1]))
         for folder, _, _ in TABLES[1:]:
             name = {"matches": "matches.csv", "links": "links.csv", "transforms": "transforms.csv", "calibration": "calibration.csv"}[folder]
-            con.execute(f"COPY (FROM read_parquet(?)) TO {_literal(os.path.join(dest, name))} (HEADER, DELIMITER ',')", [part(folder, "part-0.parquet")])
+            # the file's own columns only (no site and date guessed from its path)
+            con.execute(f"COPY (FROM read_parquet(?, hive_partitioning = false)) TO {_literal(os.path.join(stage, name))} (HEADER, DELIMITER ',')",
+                        [part(folder, "part-0.parquet")])
+        if os.path.isdir(dest):
+            os.rmdir(dest)  # empty (checked above); fails, keeping the stage for no one, if a file appeared since
+        os.replace(stage, dest)
+    except BaseException:
+        shutil.rmtree(stage, ignore_errors=True)
+        raise
     finally:
         if own:
             con.close()

@@ -362,6 +362,11 @@ def _params_of(a):
     return params
 
 
+# `trajdb archive`'s exit status when partitions failed: FAILED_BASE + their number, at most
+# FAILED_BASE + FAILED_MAX (statuses 1 and 2 are an error and a usage error; 130 an interrupt)
+FAILED_BASE, FAILED_MAX = 3, 120
+
+
 def cmd_archive(a):
     from trajdb.archives import _describe, _who
 
@@ -380,7 +385,8 @@ def cmd_archive(a):
         note(f"[trajdb] note:    {p} is in the archive but no longer in the lake; its results are kept")
     note(f"[trajdb]          open {os.path.join(r['out'], 'reports')} for the reports (index.html per site)")
     if r["failed"]:
-        raise SystemExit(min(r["failed"], 100))
+        # 3 + the number failed (0 ok, 1 an error, 2 a usage error, so no count collides with them)
+        raise SystemExit(FAILED_BASE + min(r["failed"], FAILED_MAX))
 
 
 def cmd_simulate_lake(a):
@@ -615,7 +621,7 @@ def build_parser():
     p.add_argument("--param", action="append", metavar="NAME=VALUE", help="set a parameter (repeatable); the list follows")
     p = add("archive", cmd_archive,
             "an archive: every site=S/date=D partition of a lake into Hive-partitioned results, incremental and resumable, "
-            "each site's calibration kept and checked every day (docs/archive.md); the exit status is the number of failed partitions")
+            "each site's calibration kept and checked every day (docs/archive.md); the exit status is 3 + the number of failed partitions (at most 123) when any failed")
     p.add_argument("--input", required=True, metavar="LAKE", help="a folder of site=S/date=D/ (or date=D/) folders of Parquet or CSV points")
     p.add_argument("--out", required=True, metavar="DIR", help="the archive folder: new, empty, or one trajdb archive made")
     p.add_argument("--site", metavar="NAME", help="the site's name when LAKE holds date=D/ folders of one site [default: LAKE's folder name]")

@@ -112,10 +112,13 @@ def _package_zip():
 def _fail_once(kind, key):
     """Fault injection for the tests (TRAJDB_SPARK_FAIL_ONCE=dir in the executors' environment):
     the first attempt of every task of `kind` fails after doing the work of one group (noted in
-    dir); Spark's retry must neither lose nor duplicate output."""
+    dir); Spark's retry must neither lose nor duplicate output. A file `always-<kind>-<key>` in
+    dir makes that task fail every attempt."""
     d = os.environ.get("TRAJDB_SPARK_FAIL_ONCE")
     if not d:
         return
+    if os.path.exists(os.path.join(d, f"always-{kind}-{key}")):  # a task that fails every attempt
+        raise RuntimeError(f"trajdb.spark: injected failure of {kind} task {key}, every attempt (TRAJDB_SPARK_FAIL_ONCE)")
     from pyspark import TaskContext
 
     tc = TaskContext.get()
@@ -494,7 +497,22 @@ def archive(spark, lake, out, params=None, site=None, extension=None, progress=T
         if not tasks:
             return
         rdd = sc.parallelize(tasks, len(tasks))
-        for res in rdd.map(lambda t: _archive_task(t, ext_name)).collect():
+        try:
+            results = rdd.map(lambda t: _archive_task(t, ext_name)).collect()
+        except Exception:  # noqa: BLE001 - a task failed every attempt (its worker killed, say): Spark fails the whole job
+            results = None
+        if results is not None:
+            for res in results:
+                on_done(res)
+            return
+        # each site-day again as a job of its own, so that the one that fails every attempt fails
+        # alone (the others' results are the same bytes: one thread per task)
+        for t in tasks:
+            try:
+                [res] = sc.parallelize([t], 1).map(lambda t: _archive_task(t, ext_name)).collect()
+            except Exception as e:  # noqa: BLE001 - this partition failed, the others go on
+                first = next((ln.strip() for ln in str(e).splitlines() if ln.strip()), type(e).__name__)
+                res = archives.failed_result(t, f"its Spark task failed every attempt: {first[:500]}")
             on_done(res)
 
     return archives.run(lake, out, params=params, site=site, extension=ext, progress=progress, executor=executor, task_memory=task_memory)

@@ -236,7 +236,7 @@ pub fn plan(req: &Request) -> Result<Vec<Step>, Box<dyn Error>> {
         undo: None,
     });
     // text camera ids are numbered by the load (sql/pipeline.sql); an archive's site and days
-    // (python/trajdb/archive.py) keep the numbers of the site's first calibration, given by the
+    // (python/trajdb/archives.py) keep the numbers of the site's first calibration, given by the
     // host in load_camera_numbers (camera text -> number), so that a day without one camera
     // numbers the others as its site did. A whole run starts from none.
     steps.push(Step {
@@ -246,6 +246,19 @@ pub fn plan(req: &Request) -> Result<Vec<Step>, Box<dyn Error>> {
             "SET VARIABLE load_camera_numbers = MAP {}::MAP(VARCHAR, INTEGER)".into()
         } else {
             "SET VARIABLE load_camera_numbers = coalesce(getvariable('load_camera_numbers'), MAP {}::MAP(VARCHAR, INTEGER))".into()
+        },
+        makes: None,
+        undo: None,
+    });
+    // an archive's day may carry a note of its host for the day's warnings and report (a camera
+    // change found and registered again: python/trajdb/archives.py); every other run has none
+    steps.push(Step {
+        stage: "params".into(),
+        file: "trajdb_stages".into(),
+        sql: if req.part == Part::Day {
+            "SET VARIABLE archive_day_note = getvariable('archive_day_note')::VARCHAR".into()
+        } else {
+            "SET VARIABLE archive_day_note = NULL::VARCHAR".into()
         },
         makes: None,
         undo: None,

@@ -146,7 +146,21 @@ def discover(lake, site=None, con=None):
         p["format"] = _format(p["files"])
         for what in ("site", "date"):
             _check_name(what, p[what])
-    return sorted(parts, key=lambda p: (p["site"], p["date"]))
+    return sorted(parts, key=lambda p: (p["site"], date_key(p["date"])))
+
+
+_DATE = re.compile(r"^(\d{4})(?:-(\d{1,2})-(\d{1,2})|(\d{2})(\d{2}))(?!\d)")
+
+
+def date_key(date):
+    """The order of a site's days (their calibrations are chained in it): by the calendar date a
+    name starts with (2026-05-04, 2026-5-4, 20260504, 2026-05-04T06), so that 2026-5-10 comes
+    after 2026-5-9; names that are no date after every date, by name."""
+    m = _DATE.match(date)
+    if not m:
+        return (1, 0, 0, 0, date)
+    y, mo, d = int(m.group(1)), int(m.group(2) or m.group(4)), int(m.group(3) or m.group(5))
+    return (0, y, mo, d, date) if 1 <= mo <= 12 and 1 <= d <= 31 else (1, 0, 0, 0, date)
 
 
 _NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.:+@ -]{0,127}$")
@@ -476,7 +490,26 @@ def load_calibration(folder):
             "baseline": baseline.select(_BASELINE.names).cast(_BASELINE)}
 
 
+def _reset_peak_rss():
+    """Starts a task's peak memory afresh (a worker runs many tasks): Linux resets the process's
+    high-water mark VmHWM on `5` written to /proc/self/clear_refs; elsewhere the peak stays the
+    process's own since it started."""
+    try:
+        with open("/proc/self/clear_refs", "w") as f:
+            f.write("5")
+    except OSError:
+        pass
+
+
 def _peak_rss_mb():
+    """The task's peak resident memory in MB (VmHWM since _reset_peak_rss; else the process's)."""
+    try:
+        with open("/proc/self/status") as f:
+            for line in f:
+                if line.startswith("VmHWM:"):
+                    return round(int(line.split()[1]) / 1024.0, 1)
+    except (OSError, ValueError, IndexError):
+        pass
     try:
         import resource
 
@@ -489,6 +522,7 @@ def run_task(task):
     """One site-day: returns {row (the state row), run (timings), scratch, calibration (the
     folder of a calibration made today, or None)}. Never raises: a failure is the row's error."""
     t0 = time.perf_counter()
+    _reset_peak_rss()
     # this attempt's own folder (a Spark retry, or a speculative copy still running, never shares
     # one); the driver removes it after the commit, the next run any a kill left
     scratch = f"{task['scratch']}-{os.getpid()}-{time.time_ns()}"
@@ -929,7 +963,7 @@ def _site_indexes(out, state):
     import html
 
     by_site = {}
-    for (s, d), r in sorted(state.items()):
+    for (s, d), r in sorted(state.items(), key=lambda kv: (kv[0][0], date_key(kv[0][1]))):
         by_site.setdefault(s, []).append(r)
     for s, rows in by_site.items():
         lines = [f"<!doctype html><meta charset=utf-8><title>trajdb archive: site {html.escape(s)}</title>",

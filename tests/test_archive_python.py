@@ -9,7 +9,8 @@ bias and 1 % ground-plane errors as roadside cameras have):
 2. incremental: a rerun runs nothing and rewrites nothing; a changed partition is the only one
    run again (the others' files keep their bytes and their modification times);
 3. kill -9 at several moments of a run, then a rerun: every file the same bytes as an
-   uninterrupted run's (the state too); no scratch folder left;
+   uninterrupted run's (the state too); no scratch folder left; a driver killed alone takes
+   its workers with it;
 4. faults: a corrupt file, an empty partition, a day with one camera, a day without one of
    the cameras: reported per partition, the others done, the exit status 3 + the number failed;
 5. the folders: a folder of the user's is refused as --out, and so is the lake itself; the
@@ -159,8 +160,23 @@ def kill_and_resume(w, lake):
         p = subprocess.Popen([sys.executable, "-m", "trajdb", "archive", "--input", lake, "--out", out], env=ENV,
                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
         time.sleep(delay)
-        os.killpg(p.pid, signal.SIGKILL)  # the driver and its workers, at once
-        p.wait()
+        if k == 1:
+            # the driver alone: its workers must end with it (not go on computing days no one
+            # will commit)
+            os.kill(p.pid, signal.SIGKILL)
+            p.wait()
+            for _ in range(100):
+                try:
+                    os.killpg(p.pid, 0)
+                except ProcessLookupError:
+                    break
+                time.sleep(0.1)
+            else:
+                os.killpg(p.pid, signal.SIGKILL)
+                raise AssertionError("the workers outlived their driver by 10 s")
+        else:
+            os.killpg(p.pid, signal.SIGKILL)  # the driver and its workers, at once
+            p.wait()
         n = len(state(out)) if os.path.exists(os.path.join(out, "_state", "partitions.parquet")) else 0
         assert cli("archive", "--input", lake, "--out", out).returncode == 0
         got = files(out)

@@ -334,6 +334,8 @@ def _append_run(out, row):
 # scratch folder). A day that cannot fit fails with DuckDB's out-of-memory error, alone: raise
 # it with --task-memory.
 TASK_MEMORY = "1.5GB"
+# the driver rewrites _state/partitions.parquet at most this often (and at each round's end)
+STATE_EVERY_S = 2.0
 
 
 def _connect(task):
@@ -829,7 +831,23 @@ def _died(task, status):
     return failed_result(task, f"the worker process ended with status {status} while running this partition (killed, or out of memory?)")
 
 
+def _die_with_driver():
+    """A worker ends when its driver does (kill -9 included): Linux sends it SIGKILL when the
+    thread that started it ends (PR_SET_PDEATHSIG); elsewhere it ends at its next task (stdin
+    closed). Without this a killed run's workers went on computing days no one would commit."""
+    try:
+        import ctypes
+        import signal
+
+        ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGKILL), 0, 0, 0)  # PR_SET_PDEATHSIG = 1
+    except Exception:  # noqa: BLE001 - not Linux
+        pass
+
+
 def _worker_main():
+    _die_with_driver()
+    if os.getppid() == 1:  # the driver died before the line above: nothing to do for anyone
+        os._exit(0)
     # the protocol owns the original stdout; anything else printed (by Python or C code) goes to stderr
     proto = os.fdopen(os.dup(1), "w", buffering=1)
     os.dup2(2, 1)
@@ -915,7 +933,7 @@ def run(lake, out, params=None, site=None, workers=None, extension=None, progres
         params_json = _params_json(params)
         workers = workers or os.cpu_count() or 1
         executor = executor or _local_executor(workers)
-        done, rounds, ran = 0, 0, set()
+        done, rounds, ran, saved = 0, 0, set(), time.monotonic()
         prog = Progress(len(plan(parts, state, out, params_json, lake, wait=False)), stream=stream, enabled=progress)
         attempted = set()
         while True:
@@ -932,17 +950,25 @@ def run(lake, out, params=None, site=None, workers=None, extension=None, progres
                          params=params, params_json=params_json, extension=extension, memory_limit=task_memory or TASK_MEMORY)
 
             def on_done(res):
-                nonlocal done
+                nonlocal done, saved
                 _commit(out, res)
                 row = res["row"]
                 state[(row["site"], row["date"])] = row
-                save_state(out, state)
+                # the state is rewritten whole (one Parquet file): at most every STATE_EVERY_S
+                # seconds and at each round's end, not after every partition (O(N^2) over a
+                # city's year). A kill in between leaves partitions placed but not recorded: the
+                # next run runs them again, to the same bytes (one thread per task).
+                if time.monotonic() - saved >= STATE_EVERY_S:
+                    save_state(out, state)
+                    saved = time.monotonic()
                 _append_run(out, res["run"])
                 prog.update(res)
                 done += 1
                 ran.add((row["site"], row["date"]))
 
             executor(tasks, on_done)
+            save_state(out, state)
+            saved = time.monotonic()
             _clean_work(out)  # the scratch of attempts that never reached the driver (a Spark retry's first attempt)
         _site_indexes(out, state)
         failed = sorted(k for k, r in state.items() if r["status"] != "ok")

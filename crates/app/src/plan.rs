@@ -16,7 +16,7 @@
 //! Parts: [`Part::All`] is a whole run; [`Part::Site`] and [`Part::Window`] split one run of a
 //! large archive into a site's calibration (once) and windows that reuse it (python/trajdb/
 //! windows.py ships the [`SITE_TABLES`] between them; sql/window.sql explains why a window then
-//! equals the whole run). [`Part::Day`] is an archive's day (python/trajdb/archive.py): a whole
+//! equals the whole run). [`Part::Day`] is an archive's day (python/trajdb/archives.py): a whole
 //! run with its results folder on a site's calibration kept from an earlier day.
 
 use super::{params, sql};
@@ -64,7 +64,7 @@ pub enum Part {
     /// (the host creates the [`SITE_TABLES`] first and sets window_start, window_end,
     /// loaded_from and loaded_to).
     Window,
-    /// One day of an archive (issue 40, python/trajdb/archive.py): the whole pipeline, with a
+    /// One day of an archive (issue 40, python/trajdb/archives.py): the whole pipeline, with a
     /// results folder, on a calibration kept from an earlier day: every statement that makes no
     /// site table (the host creates the [`SITE_TABLES`] first, as for a window).
     Day,

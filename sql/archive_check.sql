@@ -17,9 +17,9 @@
 -- frame_change's test (crates/algo/src/align/frame_change.rs; threshold archive_change_z). The
 -- constant difference between this registration on matches and align.sql's on voted pairs
 -- cancels. A pair with fewer than 8 matched track pairs is not tested (too few to fit); the
--- standard errors are jackknife estimates over the fits' track pairs, so the test takes their
--- degrees of freedom (the smaller fit's pairs - 1: Student's t, not the normal, for a quiet
--- pair; frame_change's `dof`).
+-- standard errors are block jackknife estimates (at most 16 blocks of track pairs), so the test
+-- takes their degrees of freedom from the smaller fit's pairs (Student's t, not the normal:
+-- frame_change's `pairs`).
 -- A pair whose matches collapse (fewer than a quarter of the calibration day's rate per road
 -- user, when that rate predicts at least 20) is `lost`: a camera moved so far that the kept
 -- calibration no longer matches anything (a clock off by more than the search, a view turned).
@@ -131,9 +131,9 @@ FROM (
                         coalesce(d.d_y - b.d_y, 'nan'), coalesce(sqrt(d.se_y ** 2 + b.se_y ** 2), 'nan'),
                         coalesce(d.d_dt - b.d_dt, 'nan'), coalesce(sqrt(d.se_dt ** 2 + b.se_dt ** 2), 'nan'),
                         getvariable('archive_change_z'),
-                        -- degrees of freedom: the smaller fit's pairs - 1 (a calibration kept
-                        -- before fit_pairs was recorded: today's alone)
-                        coalesce((least(d.fit_pairs, coalesce(b.fit_pairs, d.fit_pairs)) - 1)::DOUBLE, 'nan'::DOUBLE)) AS change,
+                        -- the smaller fit's pairs (a calibration kept before fit_pairs was
+                        -- recorded: today's alone)
+                        coalesce(least(d.fit_pairs, coalesce(b.fit_pairs, d.fit_pairs))::DOUBLE, 'nan'::DOUBLE)) AS change,
            b.cam_fixed IS NOT NULL AND b.pairs_per_user * (SELECT n FROM users) >= 20
                AND d.pairs < b.pairs_per_user * (SELECT n FROM users) / 4 AS lost
     FROM d LEFT JOIN archive_baseline b USING (cam_fixed, cam_moving)

@@ -543,10 +543,11 @@ pub static FUNCTIONS: &[Function] = &[
                       crates/algo/src/align/frame_change.rs): the day's registration of a camera pair minus the calibration day's, \
                       rotation d_theta (rad), the anchor's position d_x, d_y (m) and the clock d_dt (s), each with its standard error \
                       (the two days' in quadrature). z_theta = |d_theta| / se_theta, z_pos = sqrt((d_x / se_x)^2 + (d_y / se_y)^2), \
-                      z_clock = |d_dt| / se_dt; changed when the largest, z, exceeds z_crit. `dof` (optional): the standard errors' degrees of \
-                      freedom (the smaller fit's track pairs - 1): each ratio is then first turned into the normal value with Student's t tail \
-                      (Wallace's approximation; z_pos by F(2, dof)), so that a quiet pair's few matches do not raise false alarms; \
-                      absent: known errors; NULL, NaN or < 2: NULL (nothing tested). A part whose value or standard error is NaN, infinite or NULL, or whose standard error is 0, \
+                      z_clock = |d_dt| / se_dt; changed when the largest, z, exceeds z_crit. `pairs` (optional): the track pairs of the smaller \
+                      of the two registrations (register_pair's pairs), whose block jackknife over min(pairs, 16) blocks gives the standard \
+                      errors' degrees of freedom: each ratio is then first turned into the normal value with Student's t tail (Wallace's \
+                      approximation; z_pos by F(2, dof)), so that estimated errors raise no false alarms (t = 5 at 15 degrees of freedom is \
+                      z = 3.77); absent: known errors; NULL, NaN, negative or < 8: NULL (nothing tested). A part whose value or standard error is NaN, infinite or NULL, or whose standard error is 0, \
                       is not tested (its z NULL; a NULL literal argument makes the whole call NULL, as for any SQL function); NULL when no part is \
                       tested, or z_crit is NULL; z_crit not > 0 is an error. \
                       O(1).",
@@ -564,7 +565,7 @@ pub static FUNCTIONS: &[Function] = &[
                 p("d_dt", Ty::Double),
                 p("se_dt", Ty::Double),
                 p("z_crit", Ty::Double),
-                p("dof", Ty::Double),
+                p("pairs", Ty::Double),
             ],
             arities: &[9, 10],
             returns: Ty::Struct(&[("changed", Ty::Boolean), ("z", Ty::Double), ("z_theta", Ty::Double), ("z_pos", Ty::Double), ("z_clock", Ty::Double)]),
@@ -1066,9 +1067,9 @@ fn frame_change(a: &Args<'_>, out: &mut Out<'_>) -> R {
     let vals = a.map(|r| {
         let Some(z_crit) = c[8].get(r) else { return Ok(None) };
         let g = |k: usize| c[k].get(r);
-        // dof given but NULL: nothing tested (NaN: frame_change's "no degrees of freedom")
-        let dof = if c.len() > 9 { Some(g(9).unwrap_or(f64::NAN)) } else { None };
-        let Some(f) = test(g(0), g(1), g(2), g(3), g(4), g(5), g(6), g(7), z_crit, dof)? else { return Ok(None) };
+        // pairs given but NULL: nothing tested (NaN: frame_change's "no jackknife")
+        let pairs = if c.len() > 9 { Some(g(9).unwrap_or(f64::NAN)) } else { None };
+        let Some(f) = test(g(0), g(1), g(2), g(3), g(4), g(5), g(6), g(7), z_crit, pairs)? else { return Ok(None) };
         let o = |v: Option<f64>| v.map_or(Value::Null, Value::F64);
         Ok(Some(vec![Value::Bool(f.changed), Value::F64(f.z), o(f.z_theta), o(f.z_pos), o(f.z_clock)]))
     })?;

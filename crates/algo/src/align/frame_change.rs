@@ -20,12 +20,15 @@
 //! difference or standard error is missing (NULL, not finite, or a standard error of 0) is not
 //! tested; with none left the result is NULL. O(1).
 //!
-//! **Few pairs.** Those tails hold when the standard errors are known. They are estimated (a
-//! jackknife over n matched track pairs: n - 1 degrees of freedom), and with a quiet camera
-//! pair's 8 to 50 pairs a ratio is Student's t, whose tail is far heavier: P(|t_7| > 5) = 1.6e-3,
-//! a false alarm every 600 pair-days (the hostile review's finding). So with `dof` = ν given
-//! (the smaller fit's pairs - 1, a conservative bound on Welch's ν), each ratio is first turned
-//! into the normal (or, for z_pos, the chi-square(2)) value with the same tail:
+//! **Estimated errors.** Those tails hold when the standard errors are known. They are estimated:
+//! register_pair's block jackknife over min(pairs, 16) blocks of track pairs
+//! ([`jackknife_dof`](super::register::jackknife_dof): ν = 15 at most, 7 for a quiet pair's 8
+//! matches), so a ratio is Student's t with ν degrees of freedom, whose tail is far heavier:
+//! P(|t_7| > 5) = 1.6e-3, a false alarm every 600 pair-days, P(|t_15| > 5) = 1.6e-4 (the hostile
+//! review's finding). So with `pairs` given (the track pairs of the smaller of the two
+//! registrations: ν from it, a conservative bound on Welch's ν for the two fits together, which
+//! lies between that and twice it), each ratio is first turned into the normal (or, for z_pos,
+//! the chi-square(2)) value with the same tail:
 //!
 //! ```text
 //! z_theta, z_clock:  z = (8ν + 1) / (8ν + 3) · sqrt(ν ln(1 + t² / ν))     (Wallace 1959, Ann. Math.
@@ -35,10 +38,10 @@
 //!                    (1 + 2F/ν)^(-ν/2) equals chi-square(2)'s exp(-z²/2) exactly at this z)
 //! ```
 //!
-//! Both tend to the ratio itself as ν grows (ν = 399: 1.6 % lower at 5), so large pairs are
-//! tested as before; with ν = 7 a t of 5 becomes 3.15 (its tail, 1.6e-3, is a normal's at 3.15)
-//! and a change must show a t of about 16 to pass z_crit = 5. ν below 2 leaves a part untested (its
-//! tail has no variance).
+//! Both tend to the ratio itself as ν grows; with ν = 15 a t of 5 becomes 3.77 and a change
+//! must show a t of about 8.7 to pass z_crit = 5; with ν = 7 a t of 5 becomes 3.15 (its tail,
+//! 1.6e-3, is a normal's at 3.15) and it takes about 16. Fewer than 8 pairs (no jackknife) leave
+//! nothing tested.
 
 /// What [`frame_change`] decided, with the statistics behind it.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -93,8 +96,9 @@ pub fn f2_as_chi2(z: f64, nu: f64) -> f64 {
 }
 
 /// The test above. `d_*` are the day's differences from the calibration day (rad, m, m, s) and
-/// `se_*` their standard errors; `z_crit` the threshold in standard errors; `dof` the standard
-/// errors' degrees of freedom (None: known errors, the normal limit; below 2: nothing tested).
+/// `se_*` their standard errors; `z_crit` the threshold in standard errors; `pairs` the track
+/// pairs of the smaller registration, whose jackknife gives the errors' degrees of freedom (None:
+/// known errors, the normal limit; NaN, negative or fewer than 8: nothing tested).
 #[allow(clippy::too_many_arguments)]
 pub fn frame_change(
     d_theta: Option<f64>,
@@ -106,15 +110,18 @@ pub fn frame_change(
     d_dt: Option<f64>,
     se_dt: Option<f64>,
     z_crit: f64,
-    dof: Option<f64>,
+    pairs: Option<f64>,
 ) -> Result<Option<FrameChange>, FrameChangeError> {
     if !(z_crit.is_finite() && z_crit > 0.0) {
         return Err(FrameChangeError::BadThreshold(z_crit));
     }
-    let nu = match dof {
+    let nu = match pairs {
         None => f64::INFINITY,
-        Some(nu) if nu >= 2.0 => nu, // (+inf included: the normal limit)
-        Some(_) => return Ok(None),  // NaN or < 2: the errors say nothing
+        Some(n) if n.is_finite() && n >= 0.0 => match super::register::jackknife_dof(n as usize) {
+            0 => return Ok(None), // no jackknife: the errors say nothing
+            nu => nu as f64,
+        },
+        Some(_) => return Ok(None),
     };
     let z_theta = ratio(d_theta, se_theta).map(|t| t_as_normal(t, nu));
     let z_pos = match (ratio(d_x, se_x), ratio(d_y, se_y)) {
@@ -229,15 +236,19 @@ mod tests {
             let z = f2_as_chi2(5.0, nu);
             assert!(((-z * z / 2.0).exp() - (1.0 + 25.0 / nu).powf(-nu / 2.0)).abs() < 1e-15);
         }
-        // 7 degrees of freedom: t = 5 is no change at z_crit 5; t = 20 is
-        let quiet = frame_change(Some(5e-3), Some(1e-3), None, None, None, None, None, None, 5.0, Some(7.0)).unwrap().unwrap();
+        // 8 pairs (7 degrees of freedom): t = 5 is no change at z_crit 5; t = 20 is
+        let quiet = frame_change(Some(5e-3), Some(1e-3), None, None, None, None, None, None, 5.0, Some(8.0)).unwrap().unwrap();
         assert!(!quiet.changed && (quiet.z - 3.15).abs() < 0.05, "{quiet:?}");
-        let moved = frame_change(Some(20e-3), Some(1e-3), None, None, None, None, None, None, 5.0, Some(7.0)).unwrap().unwrap();
+        let moved = frame_change(Some(20e-3), Some(1e-3), None, None, None, None, None, None, 5.0, Some(8.0)).unwrap().unwrap();
         assert!(moved.changed);
-        // many pairs: as the normal; too few degrees of freedom: nothing tested
-        let many = frame_change(Some(6e-3), Some(1e-3), None, None, None, None, None, None, 5.0, Some(399.0)).unwrap().unwrap();
-        assert!(many.changed && (many.z - 5.87).abs() < 0.01, "{many:?}");
-        assert_eq!(frame_change(Some(1.0), Some(1e-3), None, None, None, None, None, None, 5.0, Some(1.0)).unwrap(), None);
-        assert_eq!(frame_change(Some(1.0), Some(1e-3), None, None, None, None, None, None, 5.0, Some(f64::NAN)).unwrap(), None);
+        // 400 pairs: 16 blocks, 15 degrees of freedom (t = 5 -> 3.77, 9 -> 5.2)
+        let many = frame_change(Some(5e-3), Some(1e-3), None, None, None, None, None, None, 5.0, Some(400.0)).unwrap().unwrap();
+        assert!(!many.changed && (many.z - 3.77).abs() < 0.01, "{many:?}");
+        let nine = frame_change(Some(9e-3), Some(1e-3), None, None, None, None, None, None, 5.0, Some(400.0)).unwrap().unwrap();
+        assert!(nine.changed && (nine.z - 5.2).abs() < 0.05, "{nine:?}");
+        // fewer than 8 pairs (no jackknife), NaN, negative: nothing tested
+        for bad in [7.0, f64::NAN, -1.0] {
+            assert_eq!(frame_change(Some(1.0), Some(1e-3), None, None, None, None, None, None, 5.0, Some(bad)).unwrap(), None);
+        }
     }
 }

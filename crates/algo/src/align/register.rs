@@ -55,6 +55,14 @@ use crate::{finite, positive_or_inf};
 pub const BLOCKS: usize = 16;
 /// Fewer non-empty blocks than this: no standard error (infinite), so no scale.
 pub const MIN_BLOCKS: usize = 8;
+
+/// The degrees of freedom of a standard error of [`register`] (and of register_clock's se_dt)
+/// over `pairs` track pairs: a block jackknife over min(pairs, [`BLOCKS`]) non-empty blocks has
+/// one less. 0 when it has no standard error (fewer than [`MIN_BLOCKS`] blocks).
+pub fn jackknife_dof(pairs: usize) -> usize {
+    let b = pairs.min(BLOCKS);
+    if b < MIN_BLOCKS { 0 } else { b - 1 }
+}
 /// A track pair needs this many point pairs to have a mean offset.
 pub const MIN_PAIR_POINTS: usize = 3;
 /// The scale is used when `|ln s|` exceeds this many standard errors (unitless; the clock

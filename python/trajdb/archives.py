@@ -481,7 +481,7 @@ def _read_parquet(path):
 def load_calibration(folder):
     tables = {}
     for f in sorted(os.listdir(folder)):
-        if f.endswith(".parquet") and f not in ("cameras.parquet", "baseline.parquet"):
+        if f.endswith(".parquet") and not f.startswith((".", "_")) and f not in ("cameras.parquet", "baseline.parquet"):
             tables[f[: -len(".parquet")]] = _read_parquet(os.path.join(folder, f))
     cams = _read_parquet(os.path.join(folder, "cameras.parquet")).to_pylist()
     baseline = _read_parquet(os.path.join(folder, "baseline.parquet"))
@@ -528,10 +528,8 @@ def run_task(task):
     # this attempt's own folder (a Spark retry, or a speculative copy still running, never shares
     # one); the driver removes it after the commit, the next run any a kill left
     scratch = f"{task['scratch']}-{os.getpid()}-{time.time_ns()}"
-    row = {"site": task["site"], "date": task["date"], "inputs": task["inputs"], "fingerprint": task["fingerprint"],
-           "trajdb_version": __version__, "params": task["params_json"], "calibration_in": task["cal_id"],
-           "calibration_out": task["cal_id"], "calibration_made": False, "changes": "[]", "warnings": "[]", "error": None,
-           "status": "failed", "checks": "[]", "cameras": None, "points": None, "road_users": None, "matches": None}
+    task = {**task, "scratch": scratch}  # (DuckDB's spill folder too: _connect)
+    row = _failed_row(task, None)
     made = None
     try:
         check_duckdb()
@@ -577,7 +575,7 @@ def run_task(task):
             if con is not None:
                 con.close()
         if made:
-            cal_id = f"{task['date']}-{task['fingerprint'][:12]}"
+            cal_id = calibration_id(task["date"], task["fingerprint"], task["build"], task["params_json"])
             _save_calibration(os.path.join(scratch, "calibration"), cal)
             row.update(calibration_out=cal_id, calibration_made=True)
         row.update(status="ok", changes=json.dumps({"camera": camera, "pairs": changes}) if changes else "[]",
@@ -589,6 +587,14 @@ def run_task(task):
            "date": task["date"], "status": row["status"], "seconds": round(time.perf_counter() - t0, 2), "peak_rss_mb": _peak_rss_mb(),
            "points": row.get("points")}
     return {"row": row, "run": run, "scratch": scratch, "calibration": os.path.join(scratch, "calibration") if made else None}
+
+
+def _failed_row(task, error):
+    """A partition's state row before (or without) its run: failed with `error`."""
+    return {"site": task["site"], "date": task["date"], "inputs": task["inputs"], "fingerprint": task["fingerprint"],
+            "trajdb_version": task["build"], "params": task["params_json"], "calibration_in": task["cal_id"],
+            "calibration_out": task["cal_id"], "calibration_made": False, "changes": "[]", "warnings": "[]", "error": error,
+            "status": "failed", "checks": "[]", "cameras": None, "points": None, "road_users": None, "matches": None}
 
 
 def _change_note(task, camera, changes):
@@ -644,7 +650,8 @@ def _commit(out, res):
         for folder, _, _ in TABLES:
             _unlink_own(os.path.join(out, folder, f"site={site}", f"date={date}"), "part-0.parquet")
         _unlink_own(os.path.join(out, REPORT[0], f"site={site}", f"date={date}"), REPORT[1])
-    shutil.rmtree(res["scratch"], ignore_errors=True)
+    if res["scratch"]:
+        shutil.rmtree(res["scratch"], ignore_errors=True)
 
 
 def _unlink_own(folder, name):
@@ -723,9 +730,13 @@ def _eta(s):
 
 def _local_executor(workers):
     """Tasks in `workers` worker processes, one thread each: `python -m trajdb.archives --worker`,
-    one task per line of JSON in, one result per line out. Subprocesses, not multiprocessing:
-    a caller's script without `if __name__ == "__main__":` is not run again in each worker, and
-    DuckDB is never forked."""
+    one task per line of JSON in; per task the worker answers `took` (it has the task) and then
+    its result, one line each. Subprocesses, not multiprocessing: a caller's script without
+    `if __name__ == "__main__":` is not run again in each worker, and DuckDB is never forked.
+    A worker that ended before it took a task (killed between tasks) is replaced and the task
+    sent again; one that ended while running it fails that partition alone. When the driver
+    stops (an interrupt, an error), no worker takes another task and the running ones are
+    killed: nothing goes on behind a stopped run."""
     import queue
     import subprocess
     import threading
@@ -737,43 +748,69 @@ def _local_executor(workers):
         for t in tasks:
             todo.put(t)
         results = queue.Queue()
+        stop = threading.Event()
+        procs, procs_lock = set(), threading.Lock()
         env = {**os.environ, "PYTHONPATH": os.pathsep.join([os.path.dirname(os.path.dirname(os.path.abspath(__file__)))]
                                                           + [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p])}
 
         def spawn():
-            return subprocess.Popen([sys.executable, "-m", "trajdb.archives", "--worker"], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
-                                    env=env, text=True, bufsize=1)
+            p = subprocess.Popen([sys.executable, "-m", "trajdb.archives", "--worker"], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                                 env=env, text=True, bufsize=1)
+            with procs_lock:
+                procs.add(p)
+            return p
+
+        def end(p):
+            with procs_lock:
+                procs.discard(p)
+            try:
+                p.stdin.close()
+                p.wait(timeout=30)
+            except Exception:  # noqa: BLE001 - a worker that will not stop is killed
+                p.kill()
 
         def send(p, t):
-            """The task's result line from worker `p` ("" when the worker died); a worker that
-            ended before it took the task (a broken pipe) is replaced once and the task sent again."""
+            """(worker, its result line): "" when it died while running the task. A worker that
+            ended before it took the task (no `took`) is replaced and the task sent again, once."""
             for attempt in range(2):
                 try:
                     p.stdin.write(json.dumps(t) + "\n")
                     p.stdin.flush()
-                except OSError:  # BrokenPipeError: it died between tasks, before this one
-                    if attempt:
-                        return p, ""
-                    p.wait()
-                    p = spawn()
-                    continue
-                return p, p.stdout.readline()
-            return p, ""
+                    took = p.stdout.readline()
+                except OSError:  # BrokenPipeError: it had ended
+                    took = ""
+                if took.strip() == "took":
+                    return p, p.stdout.readline()
+                if took:  # not the protocol: a result-shaped line or garbage, as the result
+                    return p, took
+                end(p)
+                if attempt or stop.is_set():
+                    return None, ""
+                p = spawn()
+            return None, ""
 
         def worker():
             p, t = None, None
             try:
                 p = spawn()
-                while True:
+                while not stop.is_set():
                     try:
                         t = todo.get_nowait()
                     except queue.Empty:
                         return
-                    p, line = send(p, t)
+                    q, line = send(p, t)
                     if not line:  # the worker died (killed, out of memory): the task failed, a new worker goes on
-                        results.put(_died(t, p.wait()))
-                        t, p = None, spawn()
+                        status = (q or p).poll()
+                        results.put(_died(t, status))
+                        t = None
+                        if q is not None:
+                            end(q)
+                        p = None
+                        if stop.is_set():
+                            return
+                        p = spawn()
                         continue
+                    p = q
                     try:
                         results.put(json.loads(line))
                     except ValueError:
@@ -784,35 +821,43 @@ def _local_executor(workers):
                     results.put(failed_result(t, f"the archive's worker thread failed on this partition: {type(e).__name__}: {e}"))
             finally:
                 if p is not None:
-                    try:
-                        p.stdin.close()
-                        p.wait(timeout=30)
-                    except Exception:  # noqa: BLE001 - a worker that will not stop is killed
-                        p.kill()
+                    end(p)
 
         threads = [threading.Thread(target=worker, daemon=True) for _ in range(max(1, min(workers, len(tasks))))]
         for th in threads:
             th.start()
         got = 0
-        while got < len(tasks):
-            try:
-                res = results.get(timeout=1.0)
-            except queue.Empty:
-                if any(th.is_alive() for th in threads):
+        try:
+            while got < len(tasks):
+                try:
+                    res = results.get(timeout=1.0)
+                except queue.Empty:
+                    if any(th.is_alive() for th in threads):
+                        continue
+                    # every worker thread ended: what is still queued never ran
+                    while True:
+                        try:
+                            t = todo.get_nowait()
+                        except queue.Empty:
+                            break
+                        results.put(failed_result(t, "no archive worker was left to run this partition"))
+                    if results.empty():
+                        raise ArchiveError(f"trajdb archive: {len(tasks) - got} partitions were lost by the worker threads (a bug: please report it)")
                     continue
-                # every worker thread ended: what is still queued never ran (a thread failed
-                # before it took it)
-                while True:
-                    try:
-                        t = todo.get_nowait()
-                    except queue.Empty:
-                        break
-                    results.put(failed_result(t, "no archive worker was left to run this partition"))
-                if results.empty():
-                    raise ArchiveError(f"trajdb archive: {len(tasks) - got} partitions were lost by the worker threads (a bug: please report it)")
-                continue
-            got += 1
-            on_done(res)
+                got += 1
+                on_done(res)
+        except BaseException:
+            # the driver stops (Ctrl-C in a notebook, an error committing): no new task, and the
+            # running workers killed (their scratch is removed by the next run)
+            stop.set()
+            with procs_lock:
+                running = list(procs)
+            for p in running:
+                try:
+                    p.kill()
+                except OSError:
+                    pass
+            raise
         for th in threads:
             th.join()
 
@@ -822,9 +867,9 @@ def _local_executor(workers):
 def failed_result(task, error):
     """The result of a task that could not report one itself (its process died, its Spark task
     failed every attempt): the partition failed with `error`, nothing to commit."""
-    res = run_task({**task, "files": [], "format": "none"})
-    res["row"]["error"] = error[:2000]
-    return res
+    run = {"finished_utc": datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ"), "site": task["site"],
+           "date": task["date"], "status": "failed", "seconds": "", "peak_rss_mb": "", "points": ""}
+    return {"row": _failed_row(task, error[:2000]), "run": run, "scratch": None, "calibration": None}
 
 
 def _died(task, status):
@@ -845,9 +890,7 @@ def _die_with_driver():
 
 
 def _worker_main():
-    _die_with_driver()
-    if os.getppid() == 1:  # the driver died before the line above: nothing to do for anyone
-        os._exit(0)
+    _die_with_driver()  # (a driver that died before this line: stdin's end ends the worker)
     # the protocol owns the original stdout; anything else printed (by Python or C code) goes to stderr
     proto = os.fdopen(os.dup(1), "w", buffering=1)
     os.dup2(2, 1)
@@ -858,17 +901,40 @@ def _worker_main():
     n = 0
     for line in sys.stdin:
         if line.strip():
-            proto.write(json.dumps(run_task(json.loads(line))) + "\n")
+            task = json.loads(line)
+            proto.write("took\n")  # the task is this worker's now (a worker that dies before this is replaced)
+            proto.flush()
+            proto.write(json.dumps(run_task(task)) + "\n")
             proto.flush()
             n += 1
             if quit_after and n >= quit_after:
                 os._exit(0)
 
 
-def plan(parts, state, out, params_json, lake, wait=True, attempted=()):
+def build_id(extension):
+    """The trajdb build a result depends on: the package version and the extension's bytes (a
+    rebuilt extension may compute other numbers under the same version)."""
+    h = hashlib.blake2b(digest_size=6)
+    with open(extension, "rb") as f:
+        for chunk in iter(lambda: f.read(1 << 20), b""):
+            h.update(chunk)
+    return f"{__version__}+{h.hexdigest()}"
+
+
+def calibration_id(date, fingerprint, build, params_json):
+    """The name of the calibration a day makes: its date, its input and the build and parameters
+    that made it (a calibration made under other parameters is another one, never reused)."""
+    made_by = hashlib.blake2b((build + "\n" + params_json).encode(), digest_size=4).hexdigest()
+    return f"{date}-{fingerprint[:12]}-{made_by}"
+
+
+def plan(parts, state, out, params_json, lake, wait=True, attempted=(), build=None):
     """One round's tasks: walks each site's days in date order with the calibration in effect
     (the state's, for days already done), and returns the days that need work, each with the
-    calibration it starts from (optimistically: a day run this round is assumed to keep it)."""
+    calibration it starts from. A day that makes (or made last time) its site's calibration
+    runs first: the site's later days wait for the next round, when its folder is there
+    (`wait`; without it, all days: the progress bar's count)."""
+    build = build or __version__
     tasks = []
     by_site = {}
     for p in parts:
@@ -877,7 +943,7 @@ def plan(parts, state, out, params_json, lake, wait=True, attempted=()):
         cal = None
         for p in days:
             st = state.get((site, p["date"]))
-            same = st and st["fingerprint"] == p["fingerprint"] and st["trajdb_version"] == __version__ and st["params"] == params_json \
+            same = st and st["fingerprint"] == p["fingerprint"] and st["trajdb_version"] == build and st["params"] == params_json \
                 and st["calibration_in"] == cal and (cal is None or os.path.isdir(_cal_dir(out, site, cal))) \
                 and (not st["calibration_made"] or os.path.isdir(_cal_dir(out, site, st["calibration_out"])))
             # (a day that made a calibration is done only while its folder is there: a deleted
@@ -891,8 +957,11 @@ def plan(parts, state, out, params_json, lake, wait=True, attempted=()):
             if wait and cal is not None and not os.path.isdir(_cal_dir(out, site, cal)):
                 break  # a calibration this round makes: the site's later days wait for the next round
             tasks.append({**p, "cal_id": cal})
+            makes = cal is None or bool(st and st["calibration_made"])
             if cal is None:
-                cal = f"{p['date']}-{p['fingerprint'][:12]}"  # this day will calibrate the site (if it runs)
+                cal = calibration_id(p["date"], p["fingerprint"], build, params_json)  # this day will calibrate the site (if it runs)
+            if wait and makes:
+                break  # it makes the site's calibration again (or may: a camera change): the later days wait for it
     return tasks
 
 
@@ -934,10 +1003,11 @@ def run(lake, out, params=None, site=None, workers=None, extension=None, progres
         workers = workers or os.cpu_count() or 1
         executor = executor or _local_executor(workers)
         done, rounds, ran, saved = 0, 0, set(), time.monotonic()
-        prog = Progress(len(plan(parts, state, out, params_json, lake, wait=False)), stream=stream, enabled=progress)
+        build = build_id(extension)
+        prog = Progress(len(plan(parts, state, out, params_json, lake, wait=False, build=build)), stream=stream, enabled=progress)
         attempted = set()
         while True:
-            tasks = plan(parts, state, out, params_json, lake, attempted=attempted)
+            tasks = plan(parts, state, out, params_json, lake, attempted=attempted, build=build)
             if not tasks:
                 break
             rounds += 1
@@ -947,7 +1017,7 @@ def run(lake, out, params=None, site=None, workers=None, extension=None, progres
             attempted |= {(t["site"], t["date"], t["cal_id"]) for t in tasks}
             for k, t in enumerate(tasks):
                 t.update(scratch=os.path.join(out, "_work", f"task-{os.getpid()}-{rounds}-{k}"), cal_dir=_cal_dir(out, t["site"], t["cal_id"]),
-                         params=params, params_json=params_json, extension=extension, memory_limit=task_memory or TASK_MEMORY)
+                         params=params, params_json=params_json, extension=extension, memory_limit=task_memory or TASK_MEMORY, build=build)
 
             def on_done(res):
                 nonlocal done, saved
@@ -966,9 +1036,12 @@ def run(lake, out, params=None, site=None, workers=None, extension=None, progres
                 done += 1
                 ran.add((row["site"], row["date"]))
 
-            executor(tasks, on_done)
-            save_state(out, state)
-            saved = time.monotonic()
+            try:
+                executor(tasks, on_done)
+            finally:
+                # what was committed is recorded, also when the run stops here (an interrupt)
+                save_state(out, state)
+                saved = time.monotonic()
             _clean_work(out)  # the scratch of attempts that never reached the driver (a Spark retry's first attempt)
         _site_indexes(out, state)
         failed = sorted(k for k, r in state.items() if r["status"] != "ok")

@@ -393,10 +393,10 @@ def cmd_simulate_lake(a):
     move = None
     if a.move:
         f = a.move.split(",")
-        if len(f) != 6:
-            raise UsageError(f"--move needs SITE,DAY,CAMERA,DX,DY,DEG, got {a.move!r}")
+        if len(f) not in (6, 7):
+            raise UsageError(f"--move needs SITE,DAY,CAMERA,DX,DY,DEG[,DT], got {a.move!r}")
         move = {"site": f[0], "day": int(f[1]), "camera": int(f[2]), "dx": _number("--move", f[3]), "dy": _number("--move", f[4]),
-                "deg": _number("--move", f[5])}
+                "deg": _number("--move", f[5]), "dt": _number("--move", f[6]) if len(f) == 7 else 0.0}
     from trajdb import lake_sim
 
     t = time.perf_counter()
@@ -636,8 +636,9 @@ def build_parser():
     p.add_argument("--minutes", type=float, default=10.0, metavar="X", help="minutes per day [default: 10]")
     p.add_argument("--cameras", type=int, default=3, metavar="N", help="cameras per site [default: 3]")
     p.add_argument("--traffic", type=float, default=1.0, metavar="X", help="traffic volume multiplier [default: 1]")
-    p.add_argument("--move", metavar="SITE,DAY,CAMERA,DX,DY,DEG",
-                   help="from day DAY (0 = the first) on, site SITE's camera CAMERA moved by DX, DY m and turned by DEG degrees, e.g. s1,2,1,1,0,0")
+    p.add_argument("--move", metavar="SITE,DAY,CAMERA,DX,DY,DEG[,DT]",
+                   help="from day DAY (0 = the first) on, site SITE's camera CAMERA moved by DX, DY m, turned by DEG degrees and its clock "
+                        "DT s ahead, e.g. s1,2,1,1,0,0")
     p = add("score", cmd_score, "score a results folder against a scenario's ground truth (cameras.csv, truth.csv, world.csv)")
     p.add_argument("scenario", metavar="SCENARIO_DIR")
     p.add_argument("--results", required=True, metavar="DIR", help="the --out folder of trajdb pipeline")

@@ -22,9 +22,9 @@ def day_name(k, first="2026-05-04"):
 
 def simulate_lake(con, lake, sites=2, days=5, minutes=10.0, cameras=3, move=None, truth=None, first_day="2026-05-04", **sim):
     """Writes the lake (a new folder) and returns its partitions [(site, date, points)]. `move`:
-    {"site", "day" (0-based), "camera", "dx", "dy" (m, in the camera's own frame), "deg"}: from
-    that day on, the camera's points are those of a camera moved by (dx, dy) and turned by deg
-    (p' = R(-deg) (p - d)). `sim`: more trajdb_simulate parameters (viewpoint_bias_vehicle, ...)."""
+    {"site", "day" (0-based), "camera", "dx", "dy" (m, in the camera's own frame), "deg", "dt"
+    (s, optional)}: from that day on, the camera's points are those of a camera moved by (dx, dy)
+    and turned by deg (p' = R(-deg) (p - d)), its clock dt ahead (t' = t + dt). `sim`: more trajdb_simulate parameters (viewpoint_bias_vehicle, ...)."""
     if os.path.exists(lake) and os.listdir(lake):
         raise ValueError(f"simulate_lake: {lake!r} is not empty; name a new folder")
     if not str(lake).strip():
@@ -49,9 +49,11 @@ def simulate_lake(con, lake, sites=2, days=5, minutes=10.0, cameras=3, move=None
                 th = -float(m.get("deg", 0.0)) * 3.141592653589793 / 180.0
                 con.execute(
                     """COPY (SELECT * REPLACE (CASE WHEN camera = $cam THEN cos($th) * (x - $dx) - sin($th) * (y - $dy) ELSE x END AS x,
-                                               CASE WHEN camera = $cam THEN sin($th) * (x - $dx) + cos($th) * (y - $dy) ELSE y END AS y)
+                                               CASE WHEN camera = $cam THEN sin($th) * (x - $dx) + cos($th) * (y - $dy) ELSE y END AS y,
+                                               CASE WHEN camera = $cam THEN t + $dt ELSE t END AS t)
                              FROM read_parquet($src, hive_partitioning = false)) TO '""" + dst.replace("'", "''") + "' (FORMAT parquet)",
-                    {"cam": int(m["camera"]), "th": th, "dx": float(m.get("dx", 0.0)), "dy": float(m.get("dy", 0.0)), "src": src})
+                    {"cam": int(m["camera"]), "th": th, "dx": float(m.get("dx", 0.0)), "dy": float(m.get("dy", 0.0)),
+                     "dt": float(m.get("dt", 0.0)), "src": src})
             else:
                 shutil.copyfile(src, dst)
             n = con.execute("SELECT count(*) FROM read_parquet(?)", [dst]).fetchone()[0]

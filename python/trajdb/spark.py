@@ -478,6 +478,13 @@ def _archive_task(task, ext_name):
     return res
 
 
+def _task_failure(e):
+    """Whether a Spark job failed because one of its tasks failed every attempt (Spark's "Job
+    aborted due to stage failure"), rather than the driver or the cluster (a stopped context, a
+    cancelled job: those stop the run, and no partition is marked failed for them)."""
+    return "Job aborted due to stage failure" in str(e)
+
+
 def archive(spark, lake, out, params=None, site=None, extension=None, progress=True, task_memory=None):
     """`trajdb archive` with Spark running the site-days (python/trajdb/archives.py; docs/archive.md):
     the same lake layout in, the same archive folder out (OUT must be a path the driver and the
@@ -499,7 +506,9 @@ def archive(spark, lake, out, params=None, site=None, extension=None, progress=T
         rdd = sc.parallelize(tasks, len(tasks))
         try:
             results = rdd.map(lambda t: _archive_task(t, ext_name)).collect()
-        except Exception:  # noqa: BLE001 - a task failed every attempt (its worker killed, say): Spark fails the whole job
+        except Exception as e:  # noqa: BLE001 - a task failed every attempt (its worker killed, say): Spark fails the whole job
+            if not _task_failure(e):
+                raise  # not a task's failure (a stopped context, a cancelled job): the run stops, no partition is marked
             results = None
         if results is not None:
             for res in results:
@@ -511,6 +520,8 @@ def archive(spark, lake, out, params=None, site=None, extension=None, progress=T
             try:
                 [res] = sc.parallelize([t], 1).map(lambda t: _archive_task(t, ext_name)).collect()
             except Exception as e:  # noqa: BLE001 - this partition failed, the others go on
+                if not _task_failure(e):
+                    raise
                 first = next((ln.strip() for ln in str(e).splitlines() if ln.strip()), type(e).__name__)
                 res = archives.failed_result(t, f"its Spark task failed every attempt: {first[:500]}")
             on_done(res)

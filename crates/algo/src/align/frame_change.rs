@@ -39,8 +39,8 @@
 //! ```
 //!
 //! Both tend to the ratio itself as ν grows; with ν = 15 a t of 5 becomes 3.77 and a change
-//! must show a t of about 8.7 to pass z_crit = 5; with ν = 7 a t of 5 becomes 3.15 (its tail,
-//! 1.6e-3, is a normal's at 3.15) and it takes about 16. Fewer than 8 pairs (no jackknife) leave
+//! must show a t of about 8.3 to pass z_crit = 5; with ν = 7 a t of 5 becomes 3.15 (its tail,
+//! 1.6e-3, is a normal's at 3.15) and it takes about 17.7. Fewer than 8 pairs (no jackknife) leave
 //! nothing tested.
 
 /// What [`frame_change`] decided, with the statistics behind it.

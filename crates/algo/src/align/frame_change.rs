@@ -174,8 +174,8 @@ mod tests {
         }
     }
 
-    /// The small-sample conversion against exact tails: Student's t tail by numerical
-    /// integration of its density, the normal tail by erfc's series; Wallace's z must have the
+    /// The small-sample conversion against exact tails: Student's t and the normal tails by
+    /// numerical integration of their densities; Wallace's z must have the
     /// t's tail within 0.05 in z for ν >= 3, never more than 0.005 above it.
     #[test]
     fn few_pairs_are_judged_by_the_t_tail() {
@@ -191,32 +191,23 @@ mod tests {
             }
             0.5 * (2.0 * std::f64::consts::PI).ln() + (x + 0.5) * t.ln() - t + a.ln()
         }
-        // P(|T_nu| > t) by Simpson on the density over [t, t + 200] in the variable u = 1/(1 + x)
+        // P(|X| > x0) of a symmetric density f: twice its integral from x0, by Simpson in s with
+        // x = x0 + s / (1 - s), s in [0, 1) (dx = ds / (1 - s)^2)
+        fn two_sided_tail(f: impl Fn(f64) -> f64, x0: f64) -> f64 {
+            let n = 20000;
+            let h = 1.0 / n as f64;
+            let g = |s: f64| if s >= 1.0 { 0.0 } else { f(x0 + s / (1.0 - s)) / (1.0 - s).powi(2) };
+            let mut sum = g(0.0) + g(1.0);
+            for k in 1..n {
+                sum += g(k as f64 * h) * if k % 2 == 1 { 4.0 } else { 2.0 };
+            }
+            2.0 * sum * h / 3.0
+        }
         let t_tail = |t: f64, nu: f64| {
             let c = (ln_gamma((nu + 1.0) / 2.0) - ln_gamma(nu / 2.0) - 0.5 * (nu * std::f64::consts::PI).ln()).exp();
-            let f = |x: f64| c * (1.0 + x * x / nu).powf(-(nu + 1.0) / 2.0);
-            // x = t + s / (1 - s), s in [0, 1): dx = ds / (1 - s)^2
-            let n = 20000;
-            let h = 1.0 / n as f64;
-            let g = |s: f64| if s >= 1.0 { 0.0 } else { f(t + s / (1.0 - s)) / (1.0 - s).powi(2) };
-            let mut sum = g(0.0) + g(1.0);
-            for k in 1..n {
-                sum += g(k as f64 * h) * if k % 2 == 1 { 4.0 } else { 2.0 };
-            }
-            2.0 * sum * h / 3.0
+            two_sided_tail(|x| c * (1.0 + x * x / nu).powf(-(nu + 1.0) / 2.0), t)
         };
-        let normal_tail = |z: f64| {
-            // P(|Z| > z) = 2 * integral of the normal density from z, by the same substitution
-            let f = |x: f64| (-x * x / 2.0).exp() / (2.0 * std::f64::consts::PI).sqrt();
-            let n = 20000;
-            let h = 1.0 / n as f64;
-            let g = |s: f64| if s >= 1.0 { 0.0 } else { f(z + s / (1.0 - s)) / (1.0 - s).powi(2) };
-            let mut sum = g(0.0) + g(1.0);
-            for k in 1..n {
-                sum += g(k as f64 * h) * if k % 2 == 1 { 4.0 } else { 2.0 };
-            }
-            2.0 * sum * h / 3.0
-        };
+        let normal_tail = |z: f64| two_sided_tail(|x| (-x * x / 2.0).exp() / (2.0 * std::f64::consts::PI).sqrt(), z);
         for nu in [3.0, 7.0, 20.0, 49.0, 399.0] {
             for t in [1.0, 3.0, 5.0, 8.0] {
                 let z = t_as_normal(t, nu);

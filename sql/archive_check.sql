@@ -1,5 +1,5 @@
--- trajdb: an archive's daily check of its kept calibration (issue 40; python/trajdb/archives.py
--- runs it after a day's run on the site's kept calibration: docs/archive.md).
+-- trajdb: an archive's daily check of its kept calibration (issue 40; src/archive.rs runs it
+-- after a day's run on the site's kept calibration: docs/archive.md).
 --
 -- A camera knocked by a truck or re-aimed after maintenance changes its frame (or its clock)
 -- from one day to the next; the kept calibration would then align it with last week's answer.
@@ -25,14 +25,16 @@
 -- calibration no longer matches anything (a clock off by more than the search, a view turned).
 --
 -- Input: a day's run (points: every camera's own frame on the reference clock; merge_links,
---        merge_tracks, merge_groups, align_frames, align_origin, calib_cameras);
+--        merge_tracks, merge_groups, align_frames, align_origin, calib_cameras, load_ids);
 --        archive_baseline(cam_fixed, cam_moving, ax, ay, d_theta, d_x, d_y, d_dt, se_theta, se_x,
 --        se_y, se_dt, pairs_per_user, fit_pairs), made by the host: the calibration day's rows (empty ON
 --        that day: then the anchor is today's centroid and nothing is tested).
 -- Output: archive_check(cam_fixed, cam_moving, pairs (all matched), ax, ay, d_theta, d_x, d_y, d_dt,
 --         se_theta, se_x, se_y, se_dt, pairs_per_user, fit_pairs (those in the fit), expected_pairs,
 --         change, lost, changed)
---         (stage camera numbers), archive_new_cameras(camera): cameras the calibration never saw.
+--         (stage camera numbers), archive_new_cameras(camera): cameras the calibration never saw;
+--         the views the host reads (by camera name): archive_names, archive_baseline_out,
+--         archive_changes, archive_checks, archive_cleared.
 
 -- At most 400 matched track pairs per camera pair take part: a hash sample (by the pair's ids:
 -- the same pairs on every run), as align.sql samples a long day's hypotheses. 400 pairs fix a
@@ -142,3 +144,42 @@ FROM (
 -- cameras the calibration never saw (calib_cameras: every camera of the calibration day)
 CREATE OR REPLACE TEMP TABLE archive_new_cameras AS
 SELECT DISTINCT camera FROM points WHERE camera NOT IN (SELECT camera FROM calib_cameras);
+
+-- What the host reads of the check (src/archive.rs), by camera name (load_ids: the input's ids):
+-- archive_names(camera, name)
+CREATE OR REPLACE TEMP VIEW archive_names AS SELECT DISTINCT camera, camera_in::VARCHAR AS name FROM load_ids;
+
+-- the baseline a calibration made today keeps: its rows, in archive_baseline's columns
+CREATE OR REPLACE TEMP VIEW archive_baseline_out AS
+SELECT cam_fixed::INTEGER AS cam_fixed, cam_moving::INTEGER AS cam_moving, ax, ay, d_theta, d_x, d_y, d_dt,
+       se_theta, se_x, se_y, se_dt, pairs_per_user::DOUBLE AS pairs_per_user, fit_pairs::BIGINT AS fit_pairs
+FROM archive_check WHERE d_theta IS NOT NULL ORDER BY cam_fixed, cam_moving;
+
+-- the changed pairs (the changes' fields of crates/app/src/archive/change.rs), then the new cameras
+CREATE OR REPLACE TEMP VIEW archive_changes AS
+SELECT * FROM (
+    SELECT 0 AS k, c.cam_fixed AS o1, c.cam_moving AS o2, CASE WHEN c.lost THEN 'lost' ELSE 'moved' END AS kind,
+           a.name AS camera_fixed, b.name AS camera_moving, c.pairs::BIGINT AS pairs, round(c.expected_pairs, 1)::DOUBLE AS expected_pairs,
+           round(degrees(c.d_theta - coalesce(bl.d_theta, 0)), 3)::DOUBLE AS turned_deg,
+           round(sqrt((c.d_x - coalesce(bl.d_x, 0)) ** 2 + (c.d_y - coalesce(bl.d_y, 0)) ** 2), 3)::DOUBLE AS moved_m,
+           round(c.d_dt - coalesce(bl.d_dt, 0), 4)::DOUBLE AS clock_s, round(c.change.z, 1)::DOUBLE AS z
+    FROM archive_check c LEFT JOIN archive_baseline bl USING (cam_fixed, cam_moving)
+    JOIN archive_names a ON a.camera = c.cam_fixed JOIN archive_names b ON b.camera = c.cam_moving
+    WHERE c.changed
+    UNION ALL
+    SELECT 1, 0, 0, 'new camera', NULL, n.name, NULL, NULL, NULL, NULL, NULL, NULL
+    FROM archive_new_cameras c JOIN archive_names n USING (camera)
+) ORDER BY k, o1, o2, camera_moving;
+
+-- every tested pair's figures (the state's checks)
+CREATE OR REPLACE TEMP VIEW archive_checks AS
+SELECT a.name || '-' || b.name AS cameras, c.pairs::BIGINT AS pairs, round(c.change.z, 2)::DOUBLE AS z, round(c.change.z_theta, 2)::DOUBLE AS z_theta,
+       round(c.change.z_pos, 2)::DOUBLE AS z_pos, round(c.change.z_clock, 2)::DOUBLE AS z_clock, c.lost
+FROM archive_check c JOIN archive_names a ON a.camera = c.cam_fixed JOIN archive_names b ON b.camera = c.cam_moving
+ORDER BY c.cam_fixed, c.cam_moving;
+
+-- the pairs that were tested and did not change (they clear their cameras)
+CREATE OR REPLACE TEMP VIEW archive_cleared AS
+SELECT a.name AS camera_fixed, b.name AS camera_moving
+FROM archive_check c JOIN archive_names a ON a.camera = c.cam_fixed JOIN archive_names b ON b.camera = c.cam_moving
+WHERE NOT c.changed AND c.change IS NOT NULL;

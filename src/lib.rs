@@ -14,6 +14,7 @@
 pub use trajdb_algo as algo;
 pub use trajdb_app as app;
 
+pub mod archive;
 pub mod bindings;
 pub mod runner;
 

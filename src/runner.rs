@@ -56,6 +56,8 @@ pub struct Settings {
     /// `autoinstall_known_extensions` / `autoload_known_extensions`; `None` (unreadable): off.
     pub autoinstall: Option<bool>,
     pub autoload: Option<bool>,
+    /// Where DuckDB spills (an archive's task: its scratch folder); `None`: DuckDB's default.
+    pub temp_directory: Option<String>,
 }
 
 /// What a run did, one row per stage (in order), then one per warning, then the total.
@@ -86,6 +88,12 @@ pub struct Run {
 /// Opens a run of `steps` in a private in-memory database with `settings`; `register`
 /// registers trajdb's functions there (the bindings, which sit above this module).
 pub fn open(settings: &Settings, steps: Vec<Step>, register: impl FnOnce(&Connection) -> duckdb::Result<()>) -> Result<Run, Box<dyn Error>> {
+    let con = private(settings, register)?;
+    Ok(Run { con, steps, next: 0, undo: Vec::new(), started: Instant::now(), finished: false })
+}
+
+/// A private in-memory database with `settings` (the sandbox locked) and trajdb's functions.
+pub fn private(settings: &Settings, register: impl FnOnce(&Connection) -> duckdb::Result<()>) -> Result<Connection, Box<dyn Error>> {
     let con = Connection::open_in_memory()?;
     // the sandbox first, in the order DuckDB allows (directories before access is closed);
     // extensions are never installed or loaded behind the caller's back
@@ -98,6 +106,9 @@ pub fn open(settings: &Settings, steps: Vec<Step>, register: impl FnOnce(&Connec
     if let Some(m) = settings.memory_limit.as_deref().filter(|m| !m.trim().is_empty()) {
         con.execute_batch(&format!("SET memory_limit = {}", quote(m)))?;
     }
+    if let Some(d) = settings.temp_directory.as_deref() {
+        con.execute_batch(&format!("SET temp_directory = {}", quote(d)))?;
+    }
     // only what the caller's file system allowed at bind (module doc); then locked
     let list = |v: &[String]| v.iter().map(|d| quote(d)).collect::<Vec<_>>().join(", ");
     if !settings.read_paths.is_empty() {
@@ -109,7 +120,27 @@ pub fn open(settings: &Settings, steps: Vec<Step>, register: impl FnOnce(&Connec
     con.execute_batch("SET enable_external_access = false")?;
     con.execute_batch("SET lock_configuration = true")?;
     register(&con)?;
-    Ok(Run { con, steps, next: 0, undo: Vec::new(), started: Instant::now(), finished: false })
+    Ok(con)
+}
+
+/// Runs `steps` on `con` in order (a host's whole run, as Python's `execute_steps`): after a
+/// step succeeds its undo is remembered; when one fails the remembered undos run last-first and
+/// the error names the stage, its file and the statement.
+pub fn execute_all(con: &Connection, steps: &[Step]) -> Result<(), Box<dyn Error>> {
+    let mut undo: Vec<&str> = Vec::new();
+    for s in steps {
+        if let Err(e) = con.execute_batch(&s.sql) {
+            for u in undo.iter().rev() {
+                let _ = con.execute_batch(u);
+            }
+            let head: String = s.sql.split_whitespace().collect::<Vec<_>>().join(" ").chars().take(90).collect();
+            return Err(format!("stage '{}' ({}) failed: {e}\n  in statement: {head} ...", s.stage, s.file).into());
+        }
+        if let Some(u) = &s.undo {
+            undo.push(u);
+        }
+    }
+    Ok(())
 }
 
 impl Run {

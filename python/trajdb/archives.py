@@ -17,7 +17,8 @@ one table each (`read_parquet('OUT/road_users/*/*/*.parquet', hive_partitioning 
     _state/partitions.parquet                   what was processed from which input (the state)
     _state/runs.csv                             one line per partition run: seconds, peak memory
 
-How a day runs (`run_task`, the same function on one machine and in a Spark task):
+How a day runs (`run_task`: the extension's trajdb_archive_task, src/archive.rs, the same function
+in a worker process, a Spark task and `CALL trajdb_archive`):
  1. the site's calibration in effect (made from an earlier day, or from this one when the site
     has none) is loaded instead of measured: the pipeline's 'day' part (crates/app/src/plan.rs);
  2. the day's matches re-register every camera pair (sql/archive_check.sql); a pair that moved
@@ -57,7 +58,7 @@ import duckdb
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from . import __version__, _literal, check_duckdb, execute_steps, read, stages
+from . import __version__, _literal, check_duckdb, stages
 from . import windows as W
 
 MARKER = ".trajdb-archive"
@@ -301,6 +302,12 @@ def _clean_work(out):
                 os.remove(p)
 
 
+def _read_parquet(path):
+    """One Parquet file as it is: no partition columns guessed from its path (pyarrow's
+    read_table adds site and from for a file under site=S/from=D/, depending on its version)."""
+    return pq.ParquetFile(path).read()
+
+
 def load_state(out):
     path = os.path.join(out, "_state", "partitions.parquet")
     if not os.path.exists(path):
@@ -338,160 +345,6 @@ TASK_MEMORY = "1.5GB"
 STATE_EVERY_S = 2.0
 
 
-def _connect(task):
-    # one thread per task: a task's result is then the same bytes whatever runs beside it; no
-    # progress bar (a worker's output is a log); memory bounded, spilling into the task's scratch
-    con = W.connect(task["extension"], threads=1)
-    con.execute("SET enable_progress_bar = false")
-    con.execute("SET memory_limit = ?", [task.get("memory_limit") or TASK_MEMORY])
-    con.execute("SET temp_directory = ?", [os.path.join(task["scratch"], "spill")])
-    return con
-
-
-def _register_input(con, task):
-    rel = _scan(con, task["files"])
-    if task.get("site_column"):
-        rel = rel.filter(duckdb.ColumnExpression("site").cast("VARCHAR") == duckdb.ConstantExpression(task["site"]))
-    con.register("archive_input", rel)
-
-
-def _set_numbers(con, numbers):
-    names = [k for k, _ in numbers]
-    nums = [int(v) for _, v in numbers]
-    con.execute("SET VARIABLE load_camera_numbers = MAP(?::VARCHAR[], ?::INTEGER[])", [names, nums])
-
-
-def _calibrate(task, numbers):
-    """The site's calibration from this day: {table: pyarrow.Table} with the camera numbers."""
-    con = _connect(task)
-    try:
-        _register_input(con, task)
-        _set_numbers(con, numbers)
-        execute_steps(con, stages(con, "archive_input", part="site", **task["params"]))
-        tables = {t: con.sql(f"FROM {t}").to_arrow_table() for t in W.site_table_names(con)}
-        cams = con.sql("SELECT DISTINCT camera_in::VARCHAR AS camera_in, camera FROM load_ids ORDER BY camera").fetchall()
-        known = dict(numbers)
-        for name, num in cams:
-            known.setdefault(name, int(num))
-        return tables, sorted(known.items(), key=lambda kv: kv[1])
-    finally:
-        con.close()
-
-
-_BASELINE = pa.schema([
-    ("cam_fixed", pa.int32()), ("cam_moving", pa.int32()), ("ax", pa.float64()), ("ay", pa.float64()), ("d_theta", pa.float64()),
-    ("d_x", pa.float64()), ("d_y", pa.float64()), ("d_dt", pa.float64()), ("se_theta", pa.float64()), ("se_x", pa.float64()),
-    ("se_y", pa.float64()), ("se_dt", pa.float64()), ("pairs_per_user", pa.float64()), ("fit_pairs", pa.int64()),
-])
-
-
-def _run_day(task, cal, results, note=None):
-    """The day on calibration `cal` ({tables, numbers, baseline}) with its results folder
-    `results` (`note`: a warning of the archive's for the day's warnings and report); returns
-    the open connection (its tables: the caller reads and closes it)."""
-    con = _connect(task)
-    try:
-        _register_input(con, task)
-        _set_numbers(con, cal["numbers"])
-        con.execute("SET VARIABLE archive_day_note = ?::VARCHAR", [note])
-        allowed = set(W.site_table_names(con))
-        for name, table in cal["tables"].items():
-            if name not in allowed:  # a file in the calibration folder that is no site table: never a name in SQL
-                raise ArchiveError(f"the kept calibration holds {name}.parquet, which is not a site table trajdb makes "
-                                   f"({', '.join(sorted(allowed))}); remove that file or the calibration folder (it is then made again)")
-            con.register("archive_site_table", table)
-            con.execute(f"CREATE OR REPLACE TEMP TABLE {name} AS FROM archive_site_table")
-            con.unregister("archive_site_table")
-        execute_steps(con, stages(con, "archive_input", out=results, part="day", **task["params"]))
-        con.register("archive_baseline_in", cal["baseline"])
-        con.execute("CREATE OR REPLACE TEMP TABLE archive_baseline AS FROM archive_baseline_in")
-        con.unregister("archive_baseline_in")
-        read(con, "sql/archive_check.sql")
-        return con
-    except BaseException:
-        con.close()
-        raise
-
-
-def _check(con, checking):
-    """The day's check: (baseline rows for a calibration made today, changes as dicts; none when
-    not `checking`: the calibration was made from this day)."""
-    baseline = con.sql(
-        """SELECT cam_fixed::INTEGER AS cam_fixed, cam_moving::INTEGER AS cam_moving, ax, ay, d_theta, d_x, d_y, d_dt,
-                  se_theta, se_x, se_y, se_dt, pairs_per_user::DOUBLE AS pairs_per_user, fit_pairs::BIGINT AS fit_pairs
-           FROM archive_check WHERE d_theta IS NOT NULL ORDER BY cam_fixed, cam_moving""").to_arrow_table().cast(_BASELINE)
-    names = "(SELECT DISTINCT camera, camera_in::VARCHAR AS name FROM load_ids)"
-    changes = [dict(zip(("kind", "camera_fixed", "camera_moving", "pairs", "expected_pairs", "turned_deg", "moved_m", "clock_s", "z"), r)) for r in con.sql(
-        f"""SELECT CASE WHEN c.lost THEN 'lost' ELSE 'moved' END, a.name, b.name, c.pairs, round(c.expected_pairs, 1),
-                   round(degrees(c.d_theta - coalesce(bl.d_theta, 0)), 3),
-                   round(sqrt((c.d_x - coalesce(bl.d_x, 0)) ** 2 + (c.d_y - coalesce(bl.d_y, 0)) ** 2), 3),
-                   round(c.d_dt - coalesce(bl.d_dt, 0), 4), round(c.change.z, 1)
-            FROM archive_check c LEFT JOIN archive_baseline bl USING (cam_fixed, cam_moving)
-            JOIN {names} a ON a.camera = c.cam_fixed JOIN {names} b ON b.camera = c.cam_moving
-            WHERE c.changed ORDER BY c.cam_fixed, c.cam_moving""").fetchall()]
-    checks = [dict(zip(("cameras", "pairs", "z", "z_theta", "z_pos", "z_clock", "lost"), r)) for r in con.execute(
-        f"""SELECT a.name || '-' || b.name, c.pairs, round(c.change.z, 2), round(c.change.z_theta, 2), round(c.change.z_pos, 2),
-                   round(c.change.z_clock, 2), c.lost
-            FROM archive_check c JOIN {names} a ON a.camera = c.cam_fixed JOIN {names} b ON b.camera = c.cam_moving
-            ORDER BY c.cam_fixed, c.cam_moving""").fetchall()] if checking else []
-    if checking:
-        for (name,) in con.sql(f"SELECT n.name FROM archive_new_cameras c JOIN {names} n USING (camera) ORDER BY n.name").fetchall():
-            changes.append({"kind": "new camera", "camera_fixed": None, "camera_moving": name})
-    return baseline, changes, checks
-
-
-def _which_camera(changes, checked_pairs):
-    """The camera every changed pair has in common, when only one does (with two cameras the pair
-    says which two; with three or more, the unchanged pairs clear the others)."""
-    moved = [c for c in changes if c["kind"] in ("moved", "lost")]
-    if not moved:
-        return None
-    common = set.intersection(*({c["camera_fixed"], c["camera_moving"]} for c in moved))
-    cleared = {x for p in checked_pairs for x in p}
-    if len(common) == 1:
-        return common.pop()
-    rest = [c for c in common if c not in cleared]
-    return rest[0] if len(rest) == 1 else None
-
-
-def _write_outputs(con, results, scratch):
-    """The day's result files in the task's scratch folder (moved into place by the driver)."""
-    shutil.move(os.path.join(results, "merged.parquet"), os.path.join(scratch, "road_users.parquet"))
-    shutil.move(os.path.join(results, "report.html"), os.path.join(scratch, "report.html"))
-    for macro, name, order in (("result_matches()", "matches", "camera_a, track_a, camera_b, track_b"), ("result_links()", "links", "camera, track_id"),
-                               ("result_transforms()", "transforms", "cam_from, cam_to"), ("result_calibration()", "calibration", "scope, quantity")):
-        con.execute(f"COPY (FROM {macro} ORDER BY {order}) TO {_literal(os.path.join(scratch, name + '.parquet'))} (FORMAT parquet)")
-
-
-def _save_calibration(folder, cal):
-    os.makedirs(folder)
-    for name, table in cal["tables"].items():
-        pq.write_table(table, os.path.join(folder, name + ".parquet"))
-    pq.write_table(pa.table({"camera_in": [k for k, _ in cal["numbers"]], "camera": pa.array([v for _, v in cal["numbers"]], pa.int32())}),
-                   os.path.join(folder, "cameras.parquet"))
-    pq.write_table(cal["baseline"], os.path.join(folder, "baseline.parquet"))
-
-
-def _read_parquet(path):
-    """One Parquet file as it is: no partition columns guessed from its path (pyarrow's
-    read_table adds site and from for a file under site=S/from=D/, depending on its version)."""
-    return pq.ParquetFile(path).read()
-
-
-def load_calibration(folder):
-    tables = {}
-    for f in sorted(os.listdir(folder)):
-        if f.endswith(".parquet") and not f.startswith((".", "_")) and f not in ("cameras.parquet", "baseline.parquet"):
-            tables[f[: -len(".parquet")]] = _read_parquet(os.path.join(folder, f))
-    cams = _read_parquet(os.path.join(folder, "cameras.parquet")).to_pylist()
-    baseline = _read_parquet(os.path.join(folder, "baseline.parquet"))
-    for name, typ in zip(_BASELINE.names, _BASELINE.types):  # a column a later version added: NULL
-        if name not in baseline.column_names:
-            baseline = baseline.append_column(pa.field(name, typ), pa.nulls(baseline.num_rows, typ))
-    return {"tables": tables, "numbers": [(r["camera_in"], r["camera"]) for r in cams],
-            "baseline": baseline.select(_BASELINE.names).cast(_BASELINE)}
-
-
 def _reset_peak_rss():
     """Starts a task's peak memory afresh (a worker runs many tasks): Linux resets the process's
     high-water mark VmHWM on `5` written to /proc/self/clear_refs; elsewhere the peak stays the
@@ -522,71 +375,27 @@ def _peak_rss_mb():
 
 def run_task(task):
     """One site-day: returns {row (the state row), run (timings), scratch, calibration (the
-    folder of a calibration made today, or None)}. Never raises: a failure is the row's error."""
+    folder of a calibration made today, or None)}. Never raises: a failure is the row's error.
+    The day itself is the extension's (`trajdb_archive_task`, src/archive.rs: the same function
+    `CALL trajdb_archive` runs), in a private database of one thread; this process measures it."""
     t0 = time.perf_counter()
     _reset_peak_rss()
-    # this attempt's own folder (a Spark retry, or a speculative copy still running, never shares
-    # one); the driver removes it after the commit, the next run any a kill left
-    scratch = f"{task['scratch']}-{os.getpid()}-{time.time_ns()}"
-    task = {**task, "scratch": scratch}  # (DuckDB's spill folder too: _connect)
-    row = _failed_row(task, None)
-    made = None
     try:
         check_duckdb()
-        os.makedirs(scratch)
-        if not task["files"]:
-            raise ValueError(f"site {task['site']} date {task['date']}: the partition has no data files (.parquet or .csv)")
-        if task["format"] == "mixed":
-            raise ValueError(f"site {task['site']} date {task['date']}: the partition mixes Parquet and CSV files; give one format per partition")
-        cal = load_calibration(task["cal_dir"]) if task["cal_dir"] else None
-        changes, camera = [], None
-        if cal is None:
-            tables, numbers = _calibrate(task, [])
-            cal = {"tables": tables, "numbers": numbers, "baseline": _BASELINE.empty_table()}
-            made = "first"
-        con = _run_day(task, cal, os.path.join(scratch, "results"))
+        con = W.connect(task["extension"], threads=1)
         try:
-            baseline, changes, checks = _check(con, checking=not made)
-            if made:
-                cal["baseline"] = baseline
-            elif changes:
-                checked = [(r[0], r[1]) for r in con.sql(
-                    """SELECT a.camera_in::VARCHAR, b.camera_in::VARCHAR FROM archive_check c
-                       JOIN (SELECT DISTINCT camera, camera_in FROM load_ids) a ON a.camera = c.cam_fixed
-                       JOIN (SELECT DISTINCT camera, camera_in FROM load_ids) b ON b.camera = c.cam_moving
-                       WHERE NOT c.changed AND c.change IS NOT NULL""").fetchall()]
-                camera = _which_camera(changes, checked)
-                # re-register the site from this day, and run the day again on it (its warnings and
-                # report say so)
-                con.close()
-                con = None
-                shutil.rmtree(os.path.join(scratch, "results"))
-                tables, numbers = _calibrate(task, cal["numbers"])
-                cal = {"tables": tables, "numbers": numbers, "baseline": _BASELINE.empty_table()}
-                con = _run_day(task, cal, os.path.join(scratch, "results"), note=_change_note(task, camera, changes))
-                cal["baseline"], _, _ = _check(con, checking=False)
-                made = "change"
-            _write_outputs(con, os.path.join(scratch, "results"), scratch)
-            warnings = [r[0] for r in con.sql("SELECT message FROM pipeline_warnings ORDER BY k").fetchall()]
-            stats = con.execute(
-                """SELECT (SELECT count(DISTINCT camera) FROM points), (SELECT count(*) FROM points),
-                          (SELECT count(*) FROM merged), (SELECT count(*) FROM result_matches())""").fetchone()
+            spec = {k: task.get(k) for k in ("site", "date", "files", "site_column", "inputs", "fingerprint", "cal_id", "cal_dir", "scratch",
+                                             "params", "params_json", "build", "memory_limit")}
+            res = json.loads(con.execute("FROM trajdb_archive_task(?)", [json.dumps(spec)]).fetchone()[0])
         finally:
-            if con is not None:
-                con.close()
-        if made:
-            cal_id = calibration_id(task["date"], task["fingerprint"], task["build"], task["params_json"])
-            _save_calibration(os.path.join(scratch, "calibration"), cal)
-            row.update(calibration_out=cal_id, calibration_made=True)
-        row.update(status="ok", changes=json.dumps({"camera": camera, "pairs": changes}) if changes else "[]",
-                   checks=json.dumps(checks), warnings=json.dumps(warnings), cameras=stats[0], points=stats[1], road_users=stats[2], matches=stats[3])
+            con.close()
     except Exception as e:  # noqa: BLE001 - a partition's failure is reported, the others go on
-        row.update(status="failed", error=f"{type(e).__name__}: {e}".strip()[:2000], calibration_out=task["cal_id"], calibration_made=False)
-        made = None
+        res = {"row": _failed_row(task, f"{type(e).__name__}: {e}".strip()[:2000]), "scratch": None, "calibration": None}
+    row = res["row"]
     run = {"finished_utc": datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ"), "site": task["site"],
            "date": task["date"], "status": row["status"], "seconds": round(time.perf_counter() - t0, 2), "peak_rss_mb": _peak_rss_mb(),
            "points": row.get("points")}
-    return {"row": row, "run": run, "scratch": scratch, "calibration": os.path.join(scratch, "calibration") if made else None}
+    return {"row": row, "run": run, "scratch": res["scratch"], "calibration": res["calibration"]}
 
 
 def _failed_row(task, error):
@@ -595,12 +404,6 @@ def _failed_row(task, error):
             "trajdb_version": task["build"], "params": task["params_json"], "calibration_in": task["cal_id"],
             "calibration_out": task["cal_id"], "calibration_made": False, "changes": "[]", "warnings": "[]", "error": error,
             "status": "failed", "checks": "[]", "cameras": None, "points": None, "road_users": None, "matches": None}
-
-
-def _change_note(task, camera, changes):
-    """The day's warning of a camera change (in its pipeline_warnings and report.html)."""
-    summary = "; ".join(_describe(c) for c in changes)
-    return f"camera change on {task['date']} at site {task['site']}: {_who(camera, changes)} ({summary}); registered again from this day"
 
 
 def _who(camera, changes):

@@ -149,6 +149,7 @@ impl TableFn for PipelineFn {
             memory_limit: args.setting("memory_limit"),
             autoinstall: flag("autoinstall_known_extensions"),
             autoload: flag("autoload_known_extensions"),
+            temp_directory: None,
         };
         Ok((steps, settings, std::sync::Arc::clone(args.limits())))
     }

@@ -4,6 +4,7 @@
 //!
 //! | module | what |
 //! |---|---|
+//! | [`archive`] | an archive of site-days: partitions, state, the incremental rule, the calibration chain, commits |
 //! | [`params`] | the one declared table of pipeline parameters (types, defaults, ranges); generates sql/params.sql |
 //! | [`sql`] | the embedded SQL files, `.read` includes, statement splitting |
 //! | [`plan`] | the pipeline manifest: the statements of one run, stage by stage, with the tables each makes |
@@ -11,6 +12,7 @@
 //! | [`simulate`] | synthetic multi-camera intersection traffic with ground truth |
 //! | [`report`] | report.html: the page from the data of sql/report.sql |
 
+pub mod archive;
 pub mod outdir;
 pub mod params;
 pub mod plan;

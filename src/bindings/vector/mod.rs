@@ -28,6 +28,20 @@ use super::types::{Param, Ty};
 use duckdb::core::DataChunkHandle;
 use std::error::Error;
 
+/// The file this library was loaded from (its bytes name the build an archive's results depend
+/// on: crates/app/src/archive/fingerprint.rs `build`); `None` where the loader cannot say.
+pub fn extension_file() -> Option<std::path::PathBuf> {
+    // SAFETY: dladdr only reads the loader's tables for an address inside this library, and
+    // fills `info`, zeroed here; the name it points to lives as long as the library is loaded
+    unsafe {
+        let mut info: libc::Dl_info = std::mem::zeroed();
+        if libc::dladdr(extension_file as *const libc::c_void, &mut info) == 0 || info.dli_fname.is_null() {
+            return None;
+        }
+        Some(std::path::PathBuf::from(std::ffi::CStr::from_ptr(info.dli_fname).to_string_lossy().into_owned()))
+    }
+}
+
 /// The storage of a struct field the readers support (8-byte DOUBLE or BIGINT).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Kind {

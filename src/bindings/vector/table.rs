@@ -416,6 +416,22 @@ impl Rows<'_> {
         super::chunk_set_bool(self.chunk, col, row, v);
     }
 
+    /// Writes `v`, or NULL for `None`, into column `col` (a BIGINT column) at `row`.
+    pub fn opt_bigint(&mut self, col: usize, row: usize, v: Option<i64>) {
+        match v {
+            Some(v) => self.bigint(col, row, v),
+            None => super::chunk_set_null(self.chunk, col, row),
+        }
+    }
+
+    /// Writes `v`, or NULL for `None`, into column `col` (a BOOLEAN column) at `row`.
+    pub fn opt_boolean(&mut self, col: usize, row: usize, v: Option<bool>) {
+        match v {
+            Some(v) => self.boolean(col, row, v),
+            None => super::chunk_set_null(self.chunk, col, row),
+        }
+    }
+
     /// Writes text, or NULL for `None`, into column `col` (a VARCHAR column) at `row`.
     pub fn opt_text(&mut self, col: usize, row: usize, v: Option<&str>) {
         match v {

@@ -1,0 +1,247 @@
+//! SQL: an archive of site-days in one call (issue 40; docs/archive.md).
+//! - `trajdb_archive(lake, out_dir := ..., <parameter> := value, ...)`: the whole archive run
+//!   (src/archive.rs: the due site-days, each in a private database of one thread);
+//! - `trajdb_archive_task(task)`: one site-day, for hosts that run the days in processes of
+//!   their own (Python's workers, Spark tasks): the same function, so every host writes the
+//!   same bytes.
+
+use super::registry::{p, Function, Table, Ty};
+use super::types::Param;
+use super::vector::table::{self, BindArgs, Rows, TableFn};
+use crate::app::params::{Kind, PARAMS};
+use crate::archive::{self, ArchiveRequest, Driver, PartitionRow, TaskSpec};
+use crate::runner::Settings;
+use std::error::Error;
+use std::sync::{Arc, Mutex};
+
+pub static FUNCTIONS: &[Function] = &[ARCHIVE, TASK];
+
+const fn ty_of(k: Kind) -> Ty {
+    match k {
+        Kind::Double => Ty::Double,
+        Kind::Integer => Ty::Bigint,
+        Kind::Boolean => Ty::Boolean,
+        Kind::Text => Ty::Varchar,
+    }
+}
+
+const N_PARAMS: usize = PARAMS.len();
+const OWN: [Param; 4] = [p("out_dir", Ty::Varchar), p("site", Ty::Varchar), p("task_memory", Ty::Varchar), p("workers", Ty::Bigint)];
+
+/// The call's own named parameters, then every declared pipeline parameter.
+static ARCHIVE_NAMED: [Param; N_PARAMS + 4] = {
+    let mut a = [p("out_dir", Ty::Varchar); N_PARAMS + 4];
+    let mut k = 0;
+    while k < 4 {
+        a[k] = OWN[k];
+        k += 1;
+    }
+    while k < N_PARAMS + 4 {
+        a[k] = p(PARAMS[k - 4].name, ty_of(PARAMS[k - 4].kind));
+        k += 1;
+    }
+    a
+};
+
+const ARCHIVE_COLUMNS: &[(&str, Ty)] = &[
+    ("site", Ty::Varchar),
+    ("date", Ty::Varchar),
+    ("status", Ty::Varchar),
+    ("ran", Ty::Boolean),
+    ("cameras", Ty::Bigint),
+    ("points", Ty::Bigint),
+    ("road_users", Ty::Bigint),
+    ("matches", Ty::Bigint),
+    ("calibration", Ty::Varchar),
+    ("calibration_made", Ty::Boolean),
+    ("changes", Ty::Varchar),
+    ("warnings", Ty::Varchar),
+    ("error", Ty::Varchar),
+];
+
+const ARCHIVE_TABLE: Table = Table { params: &[p("lake", Ty::Varchar)], named: &ARCHIVE_NAMED, columns: ARCHIVE_COLUMNS, register: table::register::<ArchiveFn> };
+
+const ARCHIVE: Function = Function {
+    name: "trajdb_archive",
+    description: "An archive in one statement: `CALL trajdb_archive('lake', out_dir := 'archive')`. `lake` is a folder of Parquet or CSV \
+                  files under site=S/date=D/ (hive style), or date=D/ of one site (`site := 'name'`, else the folder's name), or date=D/ \
+                  whose files have a site column. `out_dir` receives road_users/, matches/, links/, transforms/, calibration/ and \
+                  reports/ as site=S/date=D/ partitions, the sites' kept calibrations and the state (_state/partitions.parquet): it \
+                  must be new, empty or an archive of this lake. Incremental: a second call runs only new or changed partitions (and \
+                  days whose site calibration changed); a killed call is resumed by the next, to the same bytes. Each site's calibration \
+                  is made from its first day, kept, and checked on every later day; a camera that moved or whose clock jumped is \
+                  registered again from that day and reported (changes, warnings, the day's report). `workers` site-days run at once \
+                  (default: this connection's threads), each in a private database of one thread with `task_memory` (default 1.5GB); \
+                  every other named parameter is a pipeline parameter (`FROM trajdb_params()`). The same work and bytes as \
+                  `trajdb archive` and trajdb.spark.archive. Returns one row per site-day run, as it is committed (`ran` true: its \
+                  status, counts, the calibration in effect, its camera changes as JSON, warnings and error; a day run again after an \
+                  earlier day's camera change has a second row), then one row per partition of the lake this call did not run (`ran` \
+                  false: its state). A failed partition does not stop the others. An interrupt stops the call between batches of \
+                  site-days; what was committed is kept, and the next call goes on from there.",
+    example: "SELECT count(*) = 13 FROM (DESCRIBE SELECT * FROM trajdb_archive('lake', out_dir := 'archive')); -- true",
+    maths: "crates/app/src/archive/, src/archive.rs",
+    binding: file!(),
+    signatures: &[],
+    table: Some(ARCHIVE_TABLE),
+};
+
+/// The build id of this extension (crates/app/src/archive/fingerprint.rs `build`).
+fn build_id() -> Result<String, Box<dyn Error>> {
+    let file = super::vector::extension_file().ok_or("cannot find the file this extension was loaded from (its bytes name the build)")?;
+    Ok(crate::app::archive::fingerprint::build(env!("CARGO_PKG_VERSION"), &file)
+        .map_err(|e| format!("cannot read the extension file {} to name the build: {e}", file.display()))?)
+}
+
+fn base_settings(args: &BindArgs<'_>) -> Settings {
+    let flag = |name: &str| args.setting(name).map(|v| v.eq_ignore_ascii_case("true"));
+    Settings { autoinstall: flag("autoinstall_known_extensions"), autoload: flag("autoload_known_extensions"), ..Settings::default() }
+}
+
+struct ArchiveFn;
+
+pub struct ArchiveBind {
+    req: ArchiveRequest,
+    base: Settings,
+    limits: Arc<crate::algo::limits::Limits>,
+}
+
+/// The call's driver (opened on the first call), then its rows.
+pub struct ArchiveScan(Mutex<(Option<Driver>, Vec<PartitionRow>, bool)>);
+
+impl TableFn for ArchiveFn {
+    const TABLE: &'static Table = &ARCHIVE_TABLE;
+    type Bind = ArchiveBind;
+    type Scan = ArchiveScan;
+
+    fn bind(args: &BindArgs<'_>) -> Result<ArchiveBind, Box<dyn Error>> {
+        let lake = args.text(0)?.ok_or("lake is NULL; give the lake's folder (site=S/date=D/ partitions), e.g. 'lake'")?;
+        if lake.trim().is_empty() || lake.contains('\0') {
+            return Err(format!("lake is {lake:?}; give the lake's folder (site=S/date=D/ partitions), e.g. 'lake'").into());
+        }
+        let out = args.named_text("out_dir")?.ok_or("out_dir is missing: name the archive folder, e.g. out_dir := 'archive'")?;
+        if out.trim().is_empty() || out.contains('\0') {
+            return Err(format!("out_dir is {out:?}; name the archive folder, e.g. out_dir := 'archive'").into());
+        }
+        let site = args.named_text("site")?;
+        let task_memory = args.named_text("task_memory")?;
+        let workers = match args.named_bigint("workers")? {
+            Some(w) if !(1..=256).contains(&w) => return Err(format!("workers = {w}: give 1 to 256 site-days at once").into()),
+            Some(w) => w as usize,
+            None => args.setting("threads").and_then(|t| t.trim().parse::<usize>().ok()).unwrap_or(1).clamp(1, 256),
+        };
+        let params: Vec<(String, String)> =
+            args.named_as_text()?.into_iter().filter(|(k, _)| !OWN.iter().any(|o| o.name == k.as_str())).collect();
+        // the sandbox: this connection must be allowed to write the archive and read every file
+        // of the lake (its own file system has the last word: src/bindings/vector/fs.rs)
+        super::params::may_write_into(args, &out)?;
+        let fs = args.caller_fs()?;
+        let lake_abs = std::path::absolute(&lake)?;
+        fs.may_read(&lake_abs.to_string_lossy())?;
+        for part in archive::partitions(&lake_abs, site.as_deref())? {
+            for f in &part.files {
+                fs.may_read(&f.to_string_lossy())?;
+            }
+        }
+        let req = ArchiveRequest { lake: lake_abs, out: out.into(), site, params, task_memory, workers, build: build_id()? };
+        Ok(ArchiveBind { req, base: base_settings(args), limits: Arc::clone(args.limits()) })
+    }
+    fn init(_: &ArchiveBind) -> Result<ArchiveScan, Box<dyn Error>> {
+        Ok(ArchiveScan(Mutex::new((None, Vec::new(), false))))
+    }
+    fn func(bind: &ArchiveBind, scan: &ArchiveScan, out: &mut Rows<'_>) -> Result<usize, Box<dyn Error>> {
+        let mut g = scan.0.lock().unwrap_or_else(|e| e.into_inner());
+        let (driver, pending, finished) = &mut *g;
+        // one batch of site-days per call, its rows returned as they are committed: an interrupt
+        // stops the call between batches (what was committed stays in the state)
+        while pending.is_empty() && !*finished {
+            if driver.is_none() {
+                *driver = Some(Driver::open(bind.req.clone(), bind.base.clone())?);
+            }
+            let d = driver.as_mut().expect("opened");
+            let limits = Arc::clone(&bind.limits);
+            let register = move |con: &duckdb::Connection| super::register_all_with(con, Arc::clone(&limits));
+            match d.step(&register)? {
+                Some(rows) => pending.extend(rows),
+                None => {
+                    pending.extend(d.finish()?);
+                    *finished = true;
+                    *driver = None; // the lock released
+                }
+            }
+        }
+        let n = pending.len().min(Rows::CAPACITY);
+        for (r, pr) in pending.drain(..n).enumerate() {
+            let s = &pr.row;
+            out.text(0, r, &s.site);
+            out.text(1, r, &s.date);
+            out.text(2, r, &s.status);
+            out.boolean(3, r, pr.ran);
+            out.opt_bigint(4, r, s.cameras);
+            out.opt_bigint(5, r, s.points);
+            out.opt_bigint(6, r, s.road_users);
+            out.opt_bigint(7, r, s.matches);
+            out.opt_text(8, r, s.calibration_out.as_deref());
+            out.opt_boolean(9, r, s.calibration_made);
+            out.opt_text(10, r, s.changes.as_deref());
+            out.opt_text(11, r, s.warnings.as_deref());
+            out.opt_text(12, r, s.error.as_deref());
+        }
+        Ok(n)
+    }
+}
+
+const TASK_TABLE: Table = Table { params: &[p("task", Ty::Varchar)], named: &[], columns: &[("result", Ty::Varchar)], register: table::register::<TaskFn> };
+
+const TASK: Function = Function {
+    name: "trajdb_archive_task",
+    description: "One site-day of an archive, for hosts that run the days in processes of their own (python/trajdb/archives.py's workers, \
+                  trajdb.spark tasks): `task` is the JSON the driver plans (site, date, files, inputs, fingerprint, cal_id, cal_dir, \
+                  scratch, params, params_json, build, memory_limit); returns one row, `result`: JSON of the partition's state row, \
+                  its scratch folder and the calibration it made. The day runs in a private database of one thread (src/archive.rs), \
+                  allowed to read the partition's and the calibration's files and to write the scratch folder. A failed day is a \
+                  row with status 'failed' and its error, never an error of the call (bad JSON is one).",
+    example: "SELECT count(*) = 1 FROM (DESCRIBE SELECT * FROM trajdb_archive_task('{}')); -- true",
+    maths: "src/archive.rs",
+    binding: file!(),
+    signatures: &[],
+    table: Some(TASK_TABLE),
+};
+
+struct TaskFn;
+
+impl TableFn for TaskFn {
+    const TABLE: &'static Table = &TASK_TABLE;
+    type Bind = (TaskSpec, Settings, Arc<crate::algo::limits::Limits>);
+    type Scan = Mutex<bool>;
+
+    fn bind(args: &BindArgs<'_>) -> Result<Self::Bind, Box<dyn Error>> {
+        let text = args.text(0)?.ok_or("task is NULL; give the JSON of one site-day (python/trajdb/archives.py plans it)")?;
+        let task: TaskSpec = serde_json::from_str(&text).map_err(|e| format!("task is not the JSON of a site-day: {e}"))?;
+        let fs = args.caller_fs()?;
+        for f in &task.files {
+            fs.may_read(f)?;
+        }
+        if let Some(d) = &task.cal_dir {
+            fs.may_read(d)?;
+        }
+        let scratch = std::path::Path::new(&task.scratch);
+        let parent = scratch.parent().ok_or("task.scratch has no folder")?;
+        super::params::may_write_into(args, &parent.to_string_lossy())?;
+        Ok((task, base_settings(args), Arc::clone(args.limits())))
+    }
+    fn init(_: &Self::Bind) -> Result<Self::Scan, Box<dyn Error>> {
+        Ok(Mutex::new(false))
+    }
+    fn func(bind: &Self::Bind, done: &Self::Scan, out: &mut Rows<'_>) -> Result<usize, Box<dyn Error>> {
+        let mut d = done.lock().unwrap_or_else(|e| e.into_inner());
+        if *d {
+            return Ok(0);
+        }
+        *d = true;
+        let limits = Arc::clone(&bind.2);
+        let register = move |con: &duckdb::Connection| super::register_all_with(con, Arc::clone(&limits));
+        let r = archive::run_task(&bind.0, &bind.1, &register);
+        out.text(0, 0, &serde_json::to_string(&r)?);
+        Ok(1)
+    }
+}

@@ -340,6 +340,12 @@ pub fn run_task(t: &TaskSpec, base: &Settings, register: Register<'_>) -> TaskRe
         if parquet != 0 && parquet != t.files.len() {
             return Err(format!("site {} date {}: the partition mixes Parquet and CSV files; give one format per partition", t.site, t.date).into());
         }
+        // the parameters checked, and the files there, before any database (a file that vanished
+        // since the plan would read as a refused glob)
+        plan::plan(&Request { input: "archive_input".into(), out: None, part: Part::Site, params: params_of(t)? })?;
+        if let Some(f) = t.files.iter().find(|f| !Path::new(f).is_file()) {
+            return Err(format!("site {} date {}: the input file {f} is not there (removed since the run began?)", t.site, t.date).into());
+        }
         let results = scratch.join("results");
         let (mut cal, mut first) = match &t.cal_dir {
             Some(d) => (load_calibration(Path::new(d))?, false),

@@ -19,7 +19,9 @@ bias and 1 % ground-plane errors as roadside cameras have):
    from another lake refused, a failed partition's old files removed, export_day's columns,
    workers that exit between tasks never hang the driver;
 7. metamorphic: one camera's frame in UTM and turned, its clock an hour off, the ids
-   relabelled, the rows shuffled, on every day: the same road users, no camera change.
+   relabelled, the rows shuffled, on every day: the same road users, no camera change;
+8. one SQL call: `CALL trajdb_archive` writes the same bytes as `trajdb archive` (a camera
+   change included) and the same state; killed with -9 and called again, the same bytes.
 
 usage: python3 tests/test_archive_python.py path/to/trajdb.duckdb_extension
 """
@@ -412,6 +414,53 @@ def metamorphic(w):
           f"the same road users on each of 3 days ({[round(x, 3) for x in same]}), no camera change")
 
 
+def sql_call(archive, lake, out):
+    """CALL trajdb_archive(lake, out_dir := out) in a process of its own (as a user's)."""
+    code = ("import duckdb, sys; con = duckdb.connect(config={'allow_unsigned_extensions': 'true'}); "
+            "con.execute('LOAD ' + repr(sys.argv[1])); "
+            "rows = con.execute('FROM trajdb_archive(?, out_dir := ?, workers := 2)', [sys.argv[2], sys.argv[3]]).fetchall(); "
+            "print(sum(r[3] for r in rows), sum(r[2] != 'ok' for r in rows))")
+    return subprocess.Popen([sys.executable, "-c", code, EXT, lake, out], env=ENV, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True, start_new_session=True)
+
+
+def same_archive(a, b):
+    """Two archives of one lake hold the same bytes (the state: the same rows; its file is written
+    by each host's own Parquet writer)."""
+    fa, fb = files(a), files(b)
+    assert fa.keys() == fb.keys(), sorted(set(fa) ^ set(fb))
+    bad = [f for f in fa if fa[f] != fb[f] and f not in (".trajdb-archive", "_state/partitions.parquet")]
+    assert not bad, bad
+    sa, sb = state(a), state(b)
+    assert sa == sb, [(k, {c: (sa[k][c], sb[k][c]) for c in sa[k] if sa[k][c] != sb[k].get(c)}) for k in sa if sa[k] != sb.get(k)][:3]
+    return len(fa)
+
+
+def sql(w, lake, ref):
+    # the camera-change lake of section 1 (made by trajdb.archive): CALL writes the same
+    moves = os.path.join(w, "moves")
+    out = os.path.join(w, "moves-sql")
+    p = sql_call(None, moves, out)
+    so, se = p.communicate()
+    assert p.returncode == 0, se
+    n = same_archive(moves + "-out", out)
+    print(f"  CALL trajdb_archive on the camera-change lake: {n} files the same bytes as trajdb.archive's, the same state ({so.split()})")
+    # kill -9 during the call, then call again: the same bytes as the command's uninterrupted run
+    for k, delay in enumerate((2.0, 5.0)):
+        out = os.path.join(w, f"sql-killed-{k}")
+        p = sql_call(None, lake, out)
+        time.sleep(delay)
+        os.killpg(p.pid, signal.SIGKILL)
+        p.wait()
+        n0 = len(state(out)) if os.path.exists(os.path.join(out, "_state", "partitions.parquet")) else 0
+        p = sql_call(None, lake, out)
+        so, se = p.communicate()
+        assert p.returncode == 0, se
+        n = same_archive(ref, out)
+        assert not os.listdir(os.path.join(out, "_work")), os.listdir(os.path.join(out, "_work"))
+        print(f"  CALL killed -9 after {delay} s ({n0} partitions recorded), called again: {n} files the same bytes as trajdb archive's")
+
+
 def readme(w):
     """The README's archive commands, as written, in a folder of their own."""
     text = open(os.path.join(ROOT, "README.md")).read()
@@ -439,6 +488,7 @@ def main():
         faults(w)
         folders(w)
         metamorphic(w)
+        sql(w, lake, ref)
         readme(w)
     finally:
         shutil.rmtree(w, ignore_errors=True)

@@ -78,7 +78,7 @@ const ARCHIVE: Function = Function {
                   earlier day's camera change has a second row), then one row per partition of the lake this call did not run (`ran` \
                   false: its state). A failed partition does not stop the others. An interrupt stops the call between batches of \
                   site-days; what was committed is kept, and the next call goes on from there.",
-    example: "SELECT count(*) = 13 FROM (DESCRIBE SELECT * FROM trajdb_archive('lake', out_dir := 'archive')); -- true",
+    example: "SELECT count(*) = 1 FROM duckdb_functions() WHERE function_name = 'trajdb_archive'; -- true",
     maths: "crates/app/src/archive/, src/archive.rs",
     binding: file!(),
     signatures: &[],
@@ -200,7 +200,7 @@ const TASK: Function = Function {
                   its scratch folder and the calibration it made. The day runs in a private database of one thread (src/archive.rs), \
                   allowed to read the partition's and the calibration's files and to write the scratch folder. A failed day is a \
                   row with status 'failed' and its error, never an error of the call (bad JSON is one).",
-    example: "SELECT count(*) = 1 FROM (DESCRIBE SELECT * FROM trajdb_archive_task('{}')); -- true",
+    example: "SELECT count(*) = 1 FROM duckdb_functions() WHERE function_name = 'trajdb_archive_task'; -- true",
     maths: "src/archive.rs",
     binding: file!(),
     signatures: &[],

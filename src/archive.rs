@@ -72,6 +72,9 @@ pub struct TaskResult {
     pub scratch: Option<String>,
     pub calibration: Option<String>,
     pub seconds: f64,
+    /// The task's peak memory, when its host measured it (a worker process: VmHWM).
+    #[serde(default)]
+    pub peak_rss_mb: Option<f64>,
 }
 
 impl TaskSpec {
@@ -92,6 +95,14 @@ impl TaskSpec {
             build: r.trajdb_version.clone().unwrap_or_default(),
             memory_limit: None,
         }
+    }
+}
+
+impl TaskResult {
+    /// The result of a task that could not report one itself (its process died, its Spark task
+    /// failed every attempt): the partition failed with `error`, nothing to commit.
+    pub fn failed(t: &TaskSpec, error: &str) -> TaskResult {
+        TaskResult { row: failed_row(t, Some(error.chars().take(2000).collect())), scratch: None, calibration: None, seconds: 0.0, peak_rss_mb: None }
     }
 }
 
@@ -409,6 +420,7 @@ pub fn run_task(t: &TaskSpec, base: &Settings, register: Register<'_>) -> TaskRe
         scratch: Some(scratch.to_string_lossy().into_owned()),
         calibration: made.then(|| scratch.join("calibration").to_string_lossy().into_owned()),
         seconds: t0.elapsed().as_secs_f64(),
+        peak_rss_mb: None,
     }
 }
 
@@ -430,7 +442,7 @@ pub struct ArchiveRequest {
 }
 
 /// One partition's row of `CALL trajdb_archive`'s result.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, Serialize)]
 pub struct PartitionRow {
     pub row: StateRow,
     /// Run by this call (else done by an earlier run, or failed before it and not tried again).
@@ -452,8 +464,40 @@ pub struct Driver {
     ran: HashSet<(String, String)>,
     pending: Vec<TaskSpec>,
     round: usize,
+    runs: usize,
+    total: usize,
     saved: Instant,
     dirty: bool,
+}
+
+/// One camera change of a run, as the state holds it, with its sentence.
+#[derive(Clone, Debug, Serialize)]
+pub struct ChangeNote {
+    pub site: String,
+    pub date: String,
+    pub camera: Option<String>,
+    pub pairs: Vec<Change>,
+    pub message: String,
+}
+
+/// What a run did ([`Driver::finish`]).
+#[derive(Clone, Debug, Serialize)]
+pub struct Summary {
+    pub out: String,
+    pub partitions: usize,
+    /// Partitions run by this call (a day run twice counts once).
+    pub done: usize,
+    /// Day runs (a day run again after an earlier day's camera change counts twice).
+    pub runs: usize,
+    pub skipped: usize,
+    pub failed: usize,
+    pub failed_partitions: Vec<String>,
+    pub changes: Vec<ChangeNote>,
+    pub rounds: usize,
+    /// Partitions of the archive no longer in the lake (their results are kept).
+    pub orphaned: Vec<String>,
+    /// Every partition of the lake: its state row and whether this call ran it.
+    pub rows: Vec<PartitionRow>,
 }
 
 /// The state is rewritten whole (one Parquet file) at most this often, and at each round's end.
@@ -552,7 +596,9 @@ fn append_run(out: &Path, r: &TaskResult) {
             let _ = f.write_all(b"finished_utc,site,date,status,seconds,peak_rss_mb,points\n");
         }
         let pts = r.row.points.map(|p| p.to_string()).unwrap_or_default();
-        let _ = writeln!(f, "{},{},{},{},{:.2},,{pts}", utc_now(), r.row.site, r.row.date, r.row.status, r.seconds);
+        let rss = r.peak_rss_mb.map(|m| format!("{m:.1}")).unwrap_or_default();
+        let secs = if r.seconds > 0.0 { format!("{:.2}", r.seconds) } else { String::new() };
+        let _ = writeln!(f, "{},{},{},{},{secs},{rss},{pts}", utc_now(), r.row.site, r.row.date, r.row.status);
     }
 }
 
@@ -643,55 +689,94 @@ impl Driver {
             ran: HashSet::new(),
             pending: Vec::new(),
             round: 0,
+            runs: 0,
+            total: 0,
             saved: Instant::now(),
             dirty: false,
-        })
+        }
+        .counted())
     }
 
-    fn plan(&self) -> Vec<aplan::Task> {
+    fn counted(mut self) -> Driver {
+        self.total = self.plan(false).len();
+        self
+    }
+
+    /// The partitions of the lake, and those that need work (a progress bar's total: a round
+    /// may add days a camera change made due again).
+    pub fn counts(&self) -> (usize, usize) {
+        (self.parts.len(), self.total)
+    }
+
+    /// The archive folder (absolute).
+    pub fn out(&self) -> &Path {
+        &self.out
+    }
+
+    /// The build this run names its results by.
+    pub fn build(&self) -> &str {
+        &self.req.build
+    }
+
+    fn plan(&self, wait: bool) -> Vec<aplan::Task> {
         let days: Vec<Day<'_>> =
             self.parts.iter().zip(&self.inputs).map(|(p, (_, fp))| Day { site: &p.site, date: &p.date, fingerprint: fp }).collect();
         let out = self.out.clone();
         let exists = move |site: &str, id: &str| folder::cal_dir(&out, site, id).is_dir();
-        aplan::plan(&days, &self.state, &aplan::Run { build: &self.req.build, params_json: &self.params_json }, &exists, true, &self.attempted)
+        aplan::plan(&days, &self.state, &aplan::Run { build: &self.req.build, params_json: &self.params_json }, &exists, wait, &self.attempted)
     }
 
-    /// Runs the next batch of site-days (at most `workers`, at once); false when the archive is
-    /// done. Between batches DuckDB may stop the call (an interrupt): what was committed is in
-    /// the state.
+    /// The next round's tasks (the state saved and the scratch cleaned after the round before),
+    /// or None when the archive is done: for hosts that run the tasks themselves (Python's
+    /// worker processes, Spark), which hand each result to [`Driver::commit`].
+    pub fn next_round(&mut self) -> Result<Option<Vec<TaskSpec>>, Box<dyn Error>> {
+        if self.round > 0 {
+            self.save()?;
+            folder::clean_work(&self.out);
+        }
+        let tasks = self.plan(true);
+        if tasks.is_empty() {
+            return Ok(None);
+        }
+        self.round += 1;
+        self.total = self.total.max(self.runs + tasks.len());
+        let mut specs = Vec::with_capacity(tasks.len());
+        for (k, t) in tasks.iter().enumerate() {
+            let (p, (inp, fp)) = (&self.parts[t.index], &self.inputs[t.index]);
+            self.attempted.insert((p.site.clone(), p.date.clone(), t.cal_id.clone()));
+            let params: serde_json::Map<String, serde_json::Value> =
+                self.req.params.iter().map(|(k, v)| (k.clone(), serde_json::Value::String(v.clone()))).collect();
+            specs.push(TaskSpec {
+                site: p.site.clone(),
+                date: p.date.clone(),
+                files: p.files.iter().map(|f| f.to_string_lossy().into_owned()).collect(),
+                site_column: p.site_column,
+                inputs: inp.clone(),
+                fingerprint: fp.clone(),
+                cal_id: t.cal_id.clone(),
+                cal_dir: t.cal_id.as_deref().map(|c| folder::cal_dir(&self.out, &p.site, c).to_string_lossy().into_owned()),
+                scratch: self.out.join("_work").join(format!("task-{}-{}-{k}", std::process::id(), self.round)).to_string_lossy().into_owned(),
+                params: serde_json::Value::Object(params),
+                params_json: self.params_json.clone(),
+                build: self.req.build.clone(),
+                memory_limit: self.req.task_memory.clone(),
+            });
+        }
+        Ok(Some(specs))
+    }
+
+    /// Runs the next batch of site-days in this process (at most `workers`, at once, each in
+    /// its own database) and commits them; None when the archive is done. Between batches DuckDB
+    /// may stop the call (an interrupt): what was committed is in the state.
     pub fn step(&mut self, register: Register<'_>) -> Result<Option<Vec<PartitionRow>>, Box<dyn Error>> {
         if self.pending.is_empty() {
-            if self.round > 0 {
-                self.save()?;
-                folder::clean_work(&self.out);
+            match self.next_round()? {
+                None => return Ok(None),
+                Some(mut tasks) => {
+                    tasks.reverse();
+                    self.pending = tasks;
+                }
             }
-            let tasks = self.plan();
-            if tasks.is_empty() {
-                return Ok(None);
-            }
-            self.round += 1;
-            for (k, t) in tasks.iter().enumerate() {
-                let (p, (inp, fp)) = (&self.parts[t.index], &self.inputs[t.index]);
-                self.attempted.insert((p.site.clone(), p.date.clone(), t.cal_id.clone()));
-                let params: serde_json::Map<String, serde_json::Value> =
-                    self.req.params.iter().map(|(k, v)| (k.clone(), serde_json::Value::String(v.clone()))).collect();
-                self.pending.push(TaskSpec {
-                    site: p.site.clone(),
-                    date: p.date.clone(),
-                    files: p.files.iter().map(|f| f.to_string_lossy().into_owned()).collect(),
-                    site_column: p.site_column,
-                    inputs: inp.clone(),
-                    fingerprint: fp.clone(),
-                    cal_id: t.cal_id.clone(),
-                    cal_dir: t.cal_id.as_deref().map(|c| folder::cal_dir(&self.out, &p.site, c).to_string_lossy().into_owned()),
-                    scratch: self.out.join("_work").join(format!("task-{}-{}-{k}", std::process::id(), self.round)).to_string_lossy().into_owned(),
-                    params: serde_json::Value::Object(params),
-                    params_json: self.params_json.clone(),
-                    build: self.req.build.clone(),
-                    memory_limit: self.req.task_memory.clone(),
-                });
-            }
-            self.pending.reverse();
         }
         let n = self.req.workers.max(1).min(self.pending.len());
         let batch: Vec<TaskSpec> = self.pending.split_off(self.pending.len() - n).into_iter().rev().collect();
@@ -700,7 +785,7 @@ impl Driver {
             let hs: Vec<_> = batch.iter().map(|t| s.spawn(move || run_task(t, base, register))).collect();
             hs.into_iter()
                 .zip(&batch)
-                .map(|(h, t)| h.join().unwrap_or_else(|_| TaskResult { row: failed_row(t, Some("the task panicked".into())), scratch: None, calibration: None, seconds: 0.0 }))
+                .map(|(h, t)| h.join().unwrap_or_else(|_| TaskResult::failed(t, "the task panicked (a bug: please report it)")))
                 .collect()
         });
         let mut rows = Vec::with_capacity(results.len());
@@ -710,7 +795,9 @@ impl Driver {
         Ok(Some(rows))
     }
 
-    fn commit(&mut self, r: TaskResult) -> Result<StateRow, Box<dyn Error>> {
+    /// Moves a finished task's files into place and records it (the partition's commit point);
+    /// returns its state row.
+    pub     fn commit(&mut self, r: TaskResult) -> Result<StateRow, Box<dyn Error>> {
         let (site, date) = (r.row.site.clone(), r.row.date.clone());
         let ok = r.row.status == "ok";
         let cal = r.calibration.as_deref().map(Path::new).zip(r.row.calibration_out.as_deref());
@@ -721,6 +808,7 @@ impl Driver {
         self.state.insert((site.clone(), date.clone()), row.clone());
         append_run(&self.out, &r);
         self.ran.insert((site, date));
+        self.runs += 1;
         self.dirty = true;
         if self.saved.elapsed().as_secs_f64() >= STATE_EVERY_S {
             self.save()?;
@@ -737,9 +825,8 @@ impl Driver {
         Ok(())
     }
 
-    /// The state saved, the site index pages written; one row per partition of the lake that
-    /// this call did not run.
-    pub fn finish(&mut self) -> Result<Vec<PartitionRow>, Box<dyn Error>> {
+    /// The state saved, the site index pages written; what the run did.
+    pub fn finish(&mut self) -> Result<Summary, Box<dyn Error>> {
         self.save()?;
         folder::clean_work(&self.out);
         let mut by_site: HashMap<&str, Vec<&StateRow>> = HashMap::new();
@@ -754,14 +841,44 @@ impl Driver {
             }
             folder::write_atomic(&dest, index::site_page(site, rows).as_bytes(), Some(&self.out.join("_work")))?;
         }
-        Ok(self
+        let key = |p: &Partition| (p.site.clone(), p.date.clone());
+        let present: HashSet<(String, String)> = self.parts.iter().map(key).collect();
+        let rows: Vec<PartitionRow> = self
             .parts
             .iter()
-            .filter_map(|p| {
-                let k = (p.site.clone(), p.date.clone());
-                self.state.get(&k).filter(|_| !self.ran.contains(&k)).map(|r| PartitionRow { row: r.clone(), ran: false })
-            })
-            .collect())
+            .filter_map(|p| self.state.get(&key(p)).map(|r| PartitionRow { row: r.clone(), ran: self.ran.contains(&key(p)) }))
+            .collect();
+        let name = |s: &str, d: &str| format!("site={s}/date={d}");
+        let failed_partitions: Vec<String> = rows.iter().filter(|r| r.row.status != "ok").map(|r| name(&r.row.site, &r.row.date)).collect();
+        let mut orphaned: Vec<String> = self.state.keys().filter(|k| !present.contains(*k)).map(|(s, d)| name(s, d)).collect();
+        orphaned.sort();
+        let mut changes = Vec::new();
+        for r in rows.iter().filter(|r| r.ran) {
+            if let Some(ch) = r.row.changes.as_deref().filter(|c| *c != "[]").and_then(|c| serde_json::from_str::<Changes>(c).ok()) {
+                let words: Vec<String> = ch.pairs.iter().map(change::describe).collect();
+                changes.push(ChangeNote {
+                    site: r.row.site.clone(),
+                    date: r.row.date.clone(),
+                    message: format!("{} ({})", change::who(ch.camera.as_deref(), &ch.pairs), words.join("; ")),
+                    camera: ch.camera,
+                    pairs: ch.pairs,
+                });
+            }
+        }
+        let done = rows.iter().filter(|r| r.ran).count();
+        Ok(Summary {
+            out: self.out.to_string_lossy().into_owned(),
+            partitions: self.parts.len(),
+            done,
+            runs: self.runs,
+            skipped: self.parts.len() - done,
+            failed: failed_partitions.len(),
+            failed_partitions,
+            changes,
+            rounds: self.round,
+            orphaned,
+            rows,
+        })
     }
 }
 

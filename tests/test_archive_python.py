@@ -323,7 +323,7 @@ def folders(w):
         assert p.returncode == 1 and why in p.stderr, (out, p.stderr)
     assert open(os.path.join(mine, "thesis.docx")).read() == "mine" and os.listdir(mine) == ["thesis.docx"]
     p = cli("archive", "--input", lake, "--out", os.path.join(w, "bad-memory"), "--task-memory", "lots", check=False)
-    assert p.returncode == 1 and "task memory 'lots'" in p.stderr, p.stderr
+    assert p.returncode == 1 and 'task_memory "lots"' in p.stderr, p.stderr
     # the sandbox of the caller's connection
     locked = trajdb.connect()
     locked.execute(f"SET allowed_directories = ['{os.path.join(w, 'allowed')}']")

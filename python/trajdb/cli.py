@@ -368,8 +368,6 @@ FAILED_BASE, FAILED_MAX = 3, 120
 
 
 def cmd_archive(a):
-    from trajdb.archives import _describe, _who
-
     if a.workers is not None and a.workers < 1:
         raise UsageError(f"--workers must be >= 1, got {a.workers}")
     con = connect(a)
@@ -377,8 +375,7 @@ def cmd_archive(a):
     note(f"[trajdb] archive   {r['partitions']} partitions: {r['done']} run, {r['skipped']} unchanged, {r['failed']} failed "
          f"({r['seconds']:.1f} s) -> {r['out']}")
     for c in r["changes"]:
-        note(f"[trajdb] warning: camera change at site {c['site']} on {c['date']}: {_who(c.get('camera'), c['pairs'])} "
-             f"({'; '.join(_describe(p) for p in c['pairs'])}); registered again from that day")
+        note(f"[trajdb] warning: camera change at site {c['site']} on {c['date']}: {c['message']}; registered again from that day")
     for p in r["failed_partitions"]:
         note(f"[trajdb] failed:  {p} (the error is in {os.path.join(r['out'], '_state', 'partitions.parquet')}, column error)")
     for p in r["orphaned"]:

@@ -14,7 +14,7 @@ use crate::runner::Settings;
 use std::error::Error;
 use std::sync::{Arc, Mutex};
 
-pub static FUNCTIONS: &[Function] = &[ARCHIVE, TASK];
+pub static FUNCTIONS: &[Function] = &[ARCHIVE, TASK, OPEN, NEXT, COMMIT, CLOSE];
 
 const fn ty_of(k: Kind) -> Ty {
     match k {
@@ -97,6 +97,32 @@ fn base_settings(args: &BindArgs<'_>) -> Settings {
     Settings { autoinstall: flag("autoinstall_known_extensions"), autoload: flag("autoload_known_extensions"), ..Settings::default() }
 }
 
+/// The request of trajdb_archive or trajdb_archive_open, its folders checked against this
+/// connection's sandbox: it must be allowed to write the archive and to read every file of the
+/// lake (its own file system has the last word: src/bindings/vector/fs.rs).
+fn request(args: &BindArgs<'_>, params: Vec<(String, String)>, workers: usize) -> Result<ArchiveRequest, Box<dyn Error>> {
+    let lake = args.text(0)?.ok_or("lake is NULL; give the lake's folder (site=S/date=D/ partitions), e.g. 'lake'")?;
+    if lake.trim().is_empty() || lake.contains('\0') {
+        return Err(format!("lake is {lake:?}; give the lake's folder (site=S/date=D/ partitions), e.g. 'lake'").into());
+    }
+    let out = args.named_text("out_dir")?.ok_or("out_dir is missing: name the archive folder, e.g. out_dir := 'archive'")?;
+    if out.trim().is_empty() || out.contains('\0') {
+        return Err(format!("out_dir is {out:?}; name the archive folder, e.g. out_dir := 'archive'").into());
+    }
+    let site = args.named_text("site")?;
+    let task_memory = args.named_text("task_memory")?;
+    super::params::may_write_into(args, &out)?;
+    let fs = args.caller_fs()?;
+    let lake_abs = std::path::absolute(&lake)?;
+    fs.may_read(&lake_abs.to_string_lossy())?;
+    for part in archive::partitions(&lake_abs, site.as_deref())? {
+        for f in &part.files {
+            fs.may_read(&f.to_string_lossy())?;
+        }
+    }
+    Ok(ArchiveRequest { lake: lake_abs, out: out.into(), site, params, task_memory, workers, build: build_id()? })
+}
+
 struct ArchiveFn;
 
 pub struct ArchiveBind {
@@ -114,16 +140,6 @@ impl TableFn for ArchiveFn {
     type Scan = ArchiveScan;
 
     fn bind(args: &BindArgs<'_>) -> Result<ArchiveBind, Box<dyn Error>> {
-        let lake = args.text(0)?.ok_or("lake is NULL; give the lake's folder (site=S/date=D/ partitions), e.g. 'lake'")?;
-        if lake.trim().is_empty() || lake.contains('\0') {
-            return Err(format!("lake is {lake:?}; give the lake's folder (site=S/date=D/ partitions), e.g. 'lake'").into());
-        }
-        let out = args.named_text("out_dir")?.ok_or("out_dir is missing: name the archive folder, e.g. out_dir := 'archive'")?;
-        if out.trim().is_empty() || out.contains('\0') {
-            return Err(format!("out_dir is {out:?}; name the archive folder, e.g. out_dir := 'archive'").into());
-        }
-        let site = args.named_text("site")?;
-        let task_memory = args.named_text("task_memory")?;
         let workers = match args.named_bigint("workers")? {
             Some(w) if !(1..=256).contains(&w) => return Err(format!("workers = {w}: give 1 to 256 site-days at once").into()),
             Some(w) => w as usize,
@@ -131,18 +147,7 @@ impl TableFn for ArchiveFn {
         };
         let params: Vec<(String, String)> =
             args.named_as_text()?.into_iter().filter(|(k, _)| !OWN.iter().any(|o| o.name == k.as_str())).collect();
-        // the sandbox: this connection must be allowed to write the archive and read every file
-        // of the lake (its own file system has the last word: src/bindings/vector/fs.rs)
-        super::params::may_write_into(args, &out)?;
-        let fs = args.caller_fs()?;
-        let lake_abs = std::path::absolute(&lake)?;
-        fs.may_read(&lake_abs.to_string_lossy())?;
-        for part in archive::partitions(&lake_abs, site.as_deref())? {
-            for f in &part.files {
-                fs.may_read(&f.to_string_lossy())?;
-            }
-        }
-        let req = ArchiveRequest { lake: lake_abs, out: out.into(), site, params, task_memory, workers, build: build_id()? };
+        let req = request(args, params, workers)?;
         Ok(ArchiveBind { req, base: base_settings(args), limits: Arc::clone(args.limits()) })
     }
     fn init(_: &ArchiveBind) -> Result<ArchiveScan, Box<dyn Error>> {
@@ -163,7 +168,7 @@ impl TableFn for ArchiveFn {
             match d.step(&register)? {
                 Some(rows) => pending.extend(rows),
                 None => {
-                    pending.extend(d.finish()?);
+                    pending.extend(d.finish()?.rows.into_iter().filter(|r| !r.ran));
                     *finished = true;
                     *driver = None; // the lock released
                 }
@@ -245,3 +250,196 @@ impl TableFn for TaskFn {
         Ok(1)
     }
 }
+
+// --- a driver step by step, for hosts that run the site-days themselves -------------------------
+
+/// The drivers opened by trajdb_archive_open in this process, by handle (each holds its
+/// archive's lock until trajdb_archive_close, or until the process ends).
+static DRIVERS: Mutex<Vec<(i64, Driver)>> = Mutex::new(Vec::new());
+static NEXT_HANDLE: std::sync::atomic::AtomicI64 = std::sync::atomic::AtomicI64::new(1);
+
+fn with_driver<T>(h: i64, f: impl FnOnce(&mut Driver) -> Result<T, Box<dyn Error>>) -> Result<T, Box<dyn Error>> {
+    let mut g = DRIVERS.lock().unwrap_or_else(|e| e.into_inner());
+    let d = g.iter_mut().find(|(k, _)| *k == h).map(|(_, d)| d).ok_or_else(|| format!("handle {h} is no open archive run (trajdb_archive_open gives one; trajdb_archive_close ends it)"))?;
+    f(d)
+}
+
+fn handle_arg(args: &BindArgs<'_>) -> Result<i64, Box<dyn Error>> {
+    Ok(args.bigint(0)?.ok_or("handle is NULL; give the handle trajdb_archive_open returned")?)
+}
+
+type Action = Box<dyn FnOnce() -> Result<Vec<Vec<Option<String>>>, Box<dyn Error>> + Send + Sync>;
+
+/// What a step does, decided at bind (the arguments read and checked) and done once, at the
+/// first call of the scan (a bind may run again; the work must not).
+pub struct Once(Mutex<Option<Action>>);
+
+fn emit(once: &Once, out: &mut Rows<'_>, kinds: &[Ty]) -> Result<usize, Box<dyn Error>> {
+    let Some(action) = once.0.lock().unwrap_or_else(|e| e.into_inner()).take() else { return Ok(0) };
+    let rows = action()?;
+    if rows.len() > Rows::CAPACITY {
+        return Err(format!("{} rows for one chunk of {} (a bug: please report it)", rows.len(), Rows::CAPACITY).into());
+    }
+    for (r, row) in rows.iter().enumerate() {
+        for (c, v) in row.iter().enumerate() {
+            match (kinds[c], v) {
+                (Ty::Bigint, Some(v)) => out.bigint(c, r, v.parse()?),
+                (_, v) => out.opt_text(c, r, v.as_deref()),
+            }
+        }
+    }
+    Ok(rows.len())
+}
+
+macro_rules! step_fn {
+    ($t:ident, $table:ident, $kinds:expr, |$args:ident| $body:block) => {
+        struct $t;
+        impl TableFn for $t {
+            const TABLE: &'static Table = &$table;
+            type Bind = Mutex<Option<Action>>;
+            type Scan = Once;
+            fn bind($args: &BindArgs<'_>) -> Result<Self::Bind, Box<dyn Error>> {
+                let action: Action = $body;
+                Ok(Mutex::new(Some(action)))
+            }
+            fn init(b: &Self::Bind) -> Result<Once, Box<dyn Error>> {
+                Ok(Once(Mutex::new(b.lock().unwrap_or_else(|e| e.into_inner()).take())))
+            }
+            fn func(_: &Self::Bind, once: &Once, out: &mut Rows<'_>) -> Result<usize, Box<dyn Error>> {
+                emit(once, out, $kinds)
+            }
+        }
+    };
+}
+
+const OPEN_TABLE: Table = Table {
+    params: &[p("lake", Ty::Varchar)],
+    named: &[p("out_dir", Ty::Varchar), p("site", Ty::Varchar), p("task_memory", Ty::Varchar), p("params", Ty::Varchar)],
+    columns: &[("handle", Ty::Bigint), ("partitions", Ty::Bigint), ("due", Ty::Bigint), ("out_dir", Ty::Varchar), ("build", Ty::Varchar)],
+    register: table::register::<OpenFn>,
+};
+
+const OPEN: Function = Function {
+    name: "trajdb_archive_open",
+    description: "Opens an archive run for a host that runs the site-days itself (python/trajdb/archives.py's worker processes, \
+                  trajdb.spark): the lake read, `out_dir` claimed and locked, the state loaded, as trajdb_archive does; `params` a JSON \
+                  object of pipeline parameters. Returns one row: the run's handle, the lake's partitions, how many need work now, the \
+                  archive folder and the build. Then trajdb_archive_next(handle) gives each round's tasks, the host runs each with \
+                  trajdb_archive_task and hands its result to trajdb_archive_commit(handle, result), and trajdb_archive_close(handle) \
+                  ends the run (the lock is held until then, or until the process ends).",
+    example: "SELECT count(*) = 1 FROM duckdb_functions() WHERE function_name = 'trajdb_archive_open'; -- true",
+    maths: "crates/app/src/archive/, src/archive.rs",
+    binding: file!(),
+    signatures: &[],
+    table: Some(OPEN_TABLE),
+};
+
+step_fn!(OpenFn, OPEN_TABLE, &[Ty::Bigint, Ty::Bigint, Ty::Bigint, Ty::Varchar, Ty::Varchar], |args| {
+    let params = crate::app::params::from_json(&args.named_text("params")?.unwrap_or_default())?;
+    let req = request(args, params, 1)?;
+    let base = base_settings(args);
+    Box::new(move || {
+        let d = Driver::open(req, base)?;
+        let h = NEXT_HANDLE.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        let (parts, due) = d.counts();
+        let row = vec![Some(h.to_string()), Some(parts.to_string()), Some(due.to_string()), Some(d.out().to_string_lossy().into_owned()), Some(d.build().to_string())];
+        DRIVERS.lock().unwrap_or_else(|e| e.into_inner()).push((h, d));
+        Ok(vec![row])
+    })
+});
+
+const NEXT_TABLE: Table =
+    Table { params: &[p("handle", Ty::Bigint)], named: &[], columns: &[("task", Ty::Varchar)], register: table::register::<NextFn> };
+
+const NEXT: Function = Function {
+    name: "trajdb_archive_next",
+    description: "The next round's site-days of an open archive run (trajdb_archive_open): one row per task, the JSON that \
+                  trajdb_archive_task takes; no row when the archive is done. The state of the round before is saved first.",
+    example: "SELECT count(*) = 1 FROM duckdb_functions() WHERE function_name = 'trajdb_archive_next'; -- true",
+    maths: "crates/app/src/archive/plan.rs, src/archive.rs",
+    binding: file!(),
+    signatures: &[],
+    table: Some(NEXT_TABLE),
+};
+
+step_fn!(NextFn, NEXT_TABLE, &[Ty::Varchar], |args| {
+    let h = handle_arg(args)?;
+    Box::new(move || {
+        let tasks = with_driver(h, |d| d.next_round())?.unwrap_or_default();
+        let mut rows = Vec::with_capacity(tasks.len());
+        for t in tasks {
+            rows.push(vec![Some(serde_json::to_string(&t)?)]);
+        }
+        Ok(rows)
+    })
+});
+
+const COMMIT_TABLE: Table = Table {
+    params: &[p("handle", Ty::Bigint), p("result", Ty::Varchar)],
+    named: &[],
+    columns: &[("row", Ty::Varchar)],
+    register: table::register::<CommitFn>,
+};
+
+const COMMIT: Function = Function {
+    name: "trajdb_archive_commit",
+    description: "Commits one site-day of an open archive run: `result` is trajdb_archive_task's JSON (with `peak_rss_mb` when the host \
+                  measured it), or {\"task\": <the task's JSON>, \"error\": \"...\"} for a task that could not report one (its process \
+                  died, its Spark task failed every attempt). Its files are moved into place, then it is recorded in the state; \
+                  returns the partition's state row as JSON.",
+    example: "SELECT count(*) = 1 FROM duckdb_functions() WHERE function_name = 'trajdb_archive_commit'; -- true",
+    maths: "crates/app/src/archive/folder.rs, src/archive.rs",
+    binding: file!(),
+    signatures: &[],
+    table: Some(COMMIT_TABLE),
+};
+
+#[derive(serde::Deserialize)]
+struct Unreported {
+    task: TaskSpec,
+    error: String,
+}
+
+step_fn!(CommitFn, COMMIT_TABLE, &[Ty::Varchar], |args| {
+    let h = handle_arg(args)?;
+    let text = args.text(1)?.ok_or("result is NULL; give trajdb_archive_task's result")?;
+    let res = match serde_json::from_str::<archive::TaskResult>(&text) {
+        Ok(r) => r,
+        Err(e) => match serde_json::from_str::<Unreported>(&text) {
+            Ok(u) => archive::TaskResult::failed(&u.task, &u.error),
+            Err(_) => return Err(format!("result is not trajdb_archive_task's JSON (nor {{\"task\", \"error\"}}): {e}").into()),
+        },
+    };
+    Box::new(move || {
+        let row = with_driver(h, |d| d.commit(res))?;
+        Ok(vec![vec![Some(serde_json::to_string(&row)?)]])
+    })
+});
+
+const CLOSE_TABLE: Table =
+    Table { params: &[p("handle", Ty::Bigint)], named: &[], columns: &[("summary", Ty::Varchar)], register: table::register::<CloseFn> };
+
+const CLOSE: Function = Function {
+    name: "trajdb_archive_close",
+    description: "Ends an open archive run: the state saved, the sites' index pages written, the lock released. Returns one row, \
+                  the run's summary as JSON (partitions, done, runs, skipped, failed, failed_partitions, changes with their sentences, \
+                  rounds, orphaned, and every partition's state row with `ran`).",
+    example: "SELECT count(*) = 1 FROM duckdb_functions() WHERE function_name = 'trajdb_archive_close'; -- true",
+    maths: "src/archive.rs",
+    binding: file!(),
+    signatures: &[],
+    table: Some(CLOSE_TABLE),
+};
+
+step_fn!(CloseFn, CLOSE_TABLE, &[Ty::Varchar], |args| {
+    let h = handle_arg(args)?;
+    Box::new(move || {
+        let mut d = {
+            let mut g = DRIVERS.lock().unwrap_or_else(|e| e.into_inner());
+            let k = g.iter().position(|(k, _)| *k == h).ok_or_else(|| format!("handle {h} is no open archive run (trajdb_archive_open gives one)"))?;
+            g.remove(k).1
+        };
+        let summary = d.finish()?;
+        Ok(vec![vec![Some(serde_json::to_string(&summary)?)]])
+    })
+});

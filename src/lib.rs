@@ -5,10 +5,11 @@
 //! - [`app`] (crates/app): the pipeline manifest, parameters, results folder, simulator and
 //!   report renderer, no DuckDB;
 //! - [`runner`]: executes the manifest in a private in-memory database per call (`trajdb_pipeline`);
+//! - [`archive`]: an archive's site-day in private databases, and the driver of `trajdb_archive`;
 //! - [`bindings`]: the DuckDB functions (descriptors, kernels, the vector module);
 //! - the entry point (`trajdb_init_c_api`).
 //!
-//! Every arrow points down: bindings → runner → app → algo. No crate compiles DuckDB: DuckDB's
+//! Every arrow points down: bindings → runner (and archive) → app → algo. No crate compiles DuckDB: DuckDB's
 //! C API is reached through the function pointers DuckDB fills in at LOAD.
 
 pub use trajdb_algo as algo;
@@ -65,6 +66,7 @@ mod tests {
             ("crates/algo/src", &["duckdb", "trajdb_app", "crate::bindings", "crate::runner"]),
             ("crates/app/src", &["duckdb::", "use duckdb", "trajdb::", "crate::bindings", "crate::runner"]),
             ("src/runner.rs", &["crate::bindings", "super::bindings"]),
+            ("src/archive.rs", &["crate::bindings", "super::bindings"]),
             ("src/bindings/vector", &["registry"]),
             ("src/bindings/types.rs", &["registry", "vector::"]),
         ];

@@ -359,9 +359,9 @@ def run(lake, out, params=None, site=None, workers=None, extension=None, progres
                 def on_done(res):
                     with lock:  # (one connection: one commit at a time)
                         run = res.pop("run", None) or {}
-                        if "task" not in res:
+                        if "task" not in res and run:  # as the host measured it (the process's own time and peak)
                             res["peak_rss_mb"] = run.get("peak_rss_mb")
-                            res.setdefault("seconds", run.get("seconds") or 0.0)
+                            res["seconds"] = run.get("seconds") or res.get("seconds") or 0.0
                         row = json.loads(con.execute("FROM trajdb_archive_commit(?, ?)", [h, json.dumps(res)]).fetchone()[0])
                         prog.update({"row": row})
 

@@ -77,27 +77,6 @@ pub struct TaskResult {
     pub peak_rss_mb: Option<f64>,
 }
 
-impl TaskSpec {
-    /// The task a state row records (for its failed row when its commit fails).
-    fn of_row(r: &StateRow) -> TaskSpec {
-        TaskSpec {
-            site: r.site.clone(),
-            date: r.date.clone(),
-            files: Vec::new(),
-            site_column: false,
-            inputs: r.inputs.clone().unwrap_or_default(),
-            fingerprint: r.fingerprint.clone().unwrap_or_default(),
-            cal_id: r.calibration_in.clone(),
-            cal_dir: None,
-            scratch: String::new(),
-            params: serde_json::Value::Null,
-            params_json: r.params.clone().unwrap_or_default(),
-            build: r.trajdb_version.clone().unwrap_or_default(),
-            memory_limit: None,
-        }
-    }
-}
-
 impl TaskResult {
     /// The result of a task that could not report one itself (its process died, its Spark task
     /// failed every attempt): the partition failed with `error`, nothing to commit.
@@ -463,6 +442,8 @@ pub struct Driver {
     attempted: HashSet<(String, String, Option<String>)>,
     ran: HashSet<(String, String)>,
     pending: Vec<TaskSpec>,
+    /// The tasks handed out and not committed yet, by partition.
+    handed: HashMap<(String, String), TaskSpec>,
     round: usize,
     runs: usize,
     total: usize,
@@ -688,6 +669,7 @@ impl Driver {
             attempted: HashSet::new(),
             ran: HashSet::new(),
             pending: Vec::new(),
+            handed: HashMap::new(),
             round: 0,
             runs: 0,
             total: 0,
@@ -762,6 +744,9 @@ impl Driver {
                 memory_limit: self.req.task_memory.clone(),
             });
         }
+        for t in &specs {
+            self.handed.insert((t.site.clone(), t.date.clone()), t.clone());
+        }
         Ok(Some(specs))
     }
 
@@ -797,13 +782,52 @@ impl Driver {
 
     /// Moves a finished task's files into place and records it (the partition's commit point);
     /// returns its state row.
-    pub     fn commit(&mut self, r: TaskResult) -> Result<StateRow, Box<dyn Error>> {
+    pub fn commit(&mut self, r: TaskResult) -> Result<StateRow, Box<dyn Error>> {
         let (site, date) = (r.row.site.clone(), r.row.date.clone());
+        // only a task this run handed out, once; its files only from its own scratch folder
+        // under OUT/_work; what the state records of its input, build and parameters is the
+        // driver's own (a result is a host's JSON: it never names a folder to move or remove)
+        let Some(task) = self.handed.remove(&(site.clone(), date.clone())) else {
+            return Err(format!("site {site:?} date {date:?} is no task of this run waiting for its result (trajdb_archive_next hands them out, once)").into());
+        };
+        let work = self.out.join("_work");
+        let scratch = r.scratch.as_deref().map(Path::new);
+        if let Some(sc) = scratch {
+            let own = sc.parent() == Some(work.as_path())
+                && sc.file_name().is_some_and(|n| n.to_string_lossy().starts_with(&format!("{}-", Path::new(&task.scratch).file_name().map(|f| f.to_string_lossy().into_owned()).unwrap_or_default())))
+                && !sc.is_symlink();
+            if !own {
+                self.handed.insert((site.clone(), date.clone()), task);
+                return Err(format!("the result's scratch {:?} is not its task's folder under {}", sc.display().to_string(), work.display()).into());
+            }
+        }
+        let made_id = fingerprint::calibration_id(&task.date, &task.fingerprint, &task.build, &task.params_json);
+        let calibration = match r.calibration.as_deref() {
+            Some(c) if scratch.is_some_and(|sc| Path::new(c) == sc.join("calibration")) && r.row.calibration_out.as_deref() == Some(made_id.as_str()) => Some(Path::new(c)),
+            Some(c) => {
+                self.handed.insert((site.clone(), date.clone()), task);
+                return Err(format!("the result's calibration {c:?} is not its scratch's calibration folder, or not named {made_id}").into());
+            }
+            None => None,
+        };
         let ok = r.row.status == "ok";
-        let cal = r.calibration.as_deref().map(Path::new).zip(r.row.calibration_out.as_deref());
-        let mut row = r.row.clone();
-        if let Err(e) = folder::commit(&self.out, &site, &date, ok, r.scratch.as_deref().map(Path::new), cal) {
-            row = failed_row(&TaskSpec::of_row(&row), Some(e.to_string()));
+        let mut row = StateRow {
+            inputs: Some(task.inputs.clone()),
+            fingerprint: Some(task.fingerprint.clone()),
+            trajdb_version: Some(task.build.clone()),
+            params: Some(task.params_json.clone()),
+            calibration_in: task.cal_id.clone(),
+            ..r.row.clone()
+        };
+        if ok && calibration.is_some() {
+            row.calibration_made = Some(true);
+            row.calibration_out = Some(made_id.clone());
+        } else {
+            row.calibration_made = Some(false);
+            row.calibration_out = task.cal_id.clone();
+        }
+        if let Err(e) = folder::commit(&self.out, &site, &date, ok, scratch, calibration.zip(Some(made_id.as_str()))) {
+            row = failed_row(&task, Some(e.to_string()));
         }
         self.state.insert((site.clone(), date.clone()), row.clone());
         append_run(&self.out, &r);

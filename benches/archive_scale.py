@@ -1,5 +1,6 @@
-"""The archive's cost (issue 40): `trajdb archive` on one machine and `trajdb.spark.archive` in
-Spark local mode, on 1, 4 and 16 simulated site-days, in one run.
+"""The archive's cost (issue 40): `trajdb archive` on one machine (worker processes), the one SQL
+call `CALL trajdb_archive` (threads of one process) and `trajdb.spark.archive` in Spark local
+mode, on 1, 4 and 16 simulated site-days, in one run.
 
     PY=$(scripts/install_spark.sh)
     $PY benches/archive_scale.py --extension trajdb.duckdb_extension [--minutes 720 --sizes 1,4,16 --out /tmp/trajdb-archive-bench]
@@ -7,9 +8,10 @@ Spark local mode, on 1, 4 and 16 simulated site-days, in one run.
 A site-day is `trajdb simulate` at Mellingen's size by default (3 cameras, 12 hours, traffic 1.4,
 5 Hz: pipeline_scale.sh's Mellingen day), 4 sites of 4 days each (each site its own cameras,
 each day its own traffic). The lakes of 1 and 4 site-days are the first partitions of the 16.
-Both runners do the same work per site-day (archives.run_task: the site's first day calibrates
-it, every other day runs on the kept calibration and is checked; one DuckDB thread per task)
-with 2 tasks at a time (--workers 2; Spark local[2]).
+All runners do the same work per site-day (the extension's trajdb_archive_task: the site's first
+day calibrates it, every other day runs on the kept calibration and is checked; one DuckDB
+thread per task) with 2 tasks at a time (--workers 2; workers := 2; Spark local[2]). The SQL
+call's tasks share one process: its peak is the process's (two tasks at once), not a task's.
 
 Prints per run: wall, points/s, core-seconds per site-day (the tasks' own seconds, from the
 archive's _state/runs.csv, one thread each; and wall x 2 cores, which also counts the idle core
@@ -39,7 +41,7 @@ def timed(args, e):
     _, status, ru = os.wait4(p.pid, 0)
     if os.waitstatus_to_exitcode(status) != 0:
         raise RuntimeError(f"{args[:4]} failed with status {os.waitstatus_to_exitcode(status)}")
-    return time.perf_counter() - t, ru.ru_utime + ru.ru_stime
+    return time.perf_counter() - t, ru.ru_utime + ru.ru_stime, ru.ru_maxrss / 1024.0
 
 
 def runs(out):
@@ -58,6 +60,15 @@ spark.sparkContext.setLogLevel("ERROR")
 r = tspark.archive(spark, sys.argv[1], sys.argv[2], extension=sys.argv[3], progress=False)
 assert r["failed"] == 0, r
 spark.stop()
+"""
+
+SQL = """
+import sys, duckdb
+con = duckdb.connect(config={"allow_unsigned_extensions": "true"})
+con.execute("SET enable_progress_bar = false")
+con.execute("LOAD " + repr(sys.argv[3]))
+rows = con.execute("FROM trajdb_archive(?, out_dir := ?, workers := 2)", [sys.argv[1], sys.argv[2]]).fetchall()
+assert all(r[2] == "ok" for r in rows), rows
 """
 
 
@@ -100,31 +111,38 @@ def main():
             os.makedirs(d, exist_ok=True)
             os.symlink(os.path.join(full, f"site={site}", f"date={date}"), os.path.join(d, f"date={date}"))
         points = sum(p[2] for p in order[:n])
-        for runner in ("one machine", "spark local[2]"):
+        for runner in ("one machine", "sql call", "spark local[2]"):
             if runner.startswith("spark") and a.no_spark:
                 continue
             out = os.path.join(a.out, f"out-{n}-{runner.split()[0]}")
             if runner == "one machine":
                 args = [sys.executable, "-m", "trajdb", "archive", "--input", lake, "--out", out, "--workers", "2"]
+            elif runner == "sql call":
+                args = [sys.executable, "-c", SQL, lake, out, ext]
             else:
                 args = [sys.executable, "-c", SPARK, lake, out, ext]
-            wall, cpu = timed(args, e)
+            wall, cpu, maxrss = timed(args, e)
             r = runs(out)
             task_s = sum(float(x["seconds"]) for x in r)
-            peak = max(float(x["peak_rss_mb"] or 0) for x in r)
+            peak = max(float(x["peak_rss_mb"] or 0) for x in r) if runner != "sql call" else maxrss
             rows.append(dict(n=n, runner=runner, wall=wall, points=points, task_s=task_s, runs=len(r), peak=peak, cpu=cpu))
             print(f"{n:>3} site-days  {runner:<15} wall {wall:7.1f} s  {points / wall:>10,.0f} points/s  "
                   f"task core-s/site-day {task_s / n:6.1f}  wall x 2 cores/site-day {2 * wall / n:6.1f}  "
                   f"largest task {peak:6.0f} MB  ({len(r)} task runs)", flush=True)
     for n in sizes:
         one = [r for r in rows if r["n"] == n and r["runner"] == "one machine"]
-        sp = [r for r in rows if r["n"] == n and r["runner"].startswith("spark")]
-        if one and sp:
-            print(f"{n:>3} site-days  Spark / one machine: task core-s {sp[0]['task_s'] / one[0]['task_s']:.2f}, wall {sp[0]['wall'] / one[0]['wall']:.2f}")
+        for other in ("sql call", "spark local[2]"):
+            sp = [r for r in rows if r["n"] == n and r["runner"] == other]
+            if one and sp:
+                print(f"{n:>3} site-days  {other} / one machine: task core-s {sp[0]['task_s'] / one[0]['task_s']:.2f}, "
+                      f"wall {sp[0]['wall'] / one[0]['wall']:.2f}")
     # the incremental no-op: the 16 again, unchanged
     out = os.path.join(a.out, f"out-{total}-one")
-    wall, _ = timed([sys.executable, "-m", "trajdb", "archive", "--input", os.path.join(a.out, f"lake-{total}"), "--out", out], e)
+    wall, _, _ = timed([sys.executable, "-m", "trajdb", "archive", "--input", os.path.join(a.out, f"lake-{total}"), "--out", out], e)
     print(f"no-op rerun of {total} site-days: {wall:.2f} s (the command, Python start included)")
+    out = os.path.join(a.out, f"out-{total}-sql")
+    wall, _, _ = timed([sys.executable, "-c", SQL, os.path.join(a.out, f"lake-{total}"), out, ext], e)
+    print(f"no-op rerun of {total} site-days by the SQL call: {wall:.2f} s (Python start and LOAD included)")
     big = [r for r in rows if r["n"] == total and r["runner"] == "one machine"][0]
     per = big["task_s"] / total
     sd = 1000 * 365

@@ -1,4 +1,4 @@
--- trajdb: an archive's daily check of its kept calibration (issue 40; src/archive.rs runs it
+-- trajdb: an archive's daily check of its kept calibration (issue 40; src/archive/task.rs runs it
 -- after a day's run on the site's kept calibration: docs/archive.md).
 --
 -- A camera knocked by a truck or re-aimed after maintenance changes its frame (or its clock)
@@ -145,7 +145,7 @@ FROM (
 CREATE OR REPLACE TEMP TABLE archive_new_cameras AS
 SELECT DISTINCT camera FROM points WHERE camera NOT IN (SELECT camera FROM calib_cameras);
 
--- What the host reads of the check (src/archive.rs), by camera name (load_ids: the input's ids):
+-- What the host reads of the check (src/archive/task.rs), by camera name (load_ids: the input's ids):
 -- archive_names(camera, name)
 CREATE OR REPLACE TEMP VIEW archive_names AS SELECT DISTINCT camera, camera_in::VARCHAR AS name FROM load_ids;
 

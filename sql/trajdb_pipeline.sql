@@ -2544,7 +2544,7 @@ CREATE OR REPLACE TEMP TABLE merge_users AS SELECT road_user, class, sources, n_
 
 -- The clustered camera: cluster_camera, or (auto) the camera with the most real tracks, ties to
 -- the lowest id (calibrate.sql: the data decides, not a camera number); a given camera must exist.
--- An archive's day (src/archive.rs) runs on its site's kept calibration: when the
+-- An archive's day (src/archive/task.rs) runs on its site's kept calibration: when the
 -- camera chosen there (auto) has no points today, the day's own choice by the same rule stands.
 -- (a statement that prints nothing: the DuckDB CLI shows no result box for a check that passed)
 CREATE OR REPLACE TEMP TABLE cluster_camera_used AS
@@ -2678,7 +2678,7 @@ LEFT JOIN load_ids i ON i.camera = o.camera AND i.track_id = o.track_id
 HAVING count(*) > 0
 UNION ALL
 -- issue 40 (first: the day's headline): an archive's day on which a camera changed (found by the host's daily check,
--- sql/archive_check.sql, and registered again from this day: src/archive.rs)
+-- sql/archive_check.sql, and registered again from this day: src/archive/task.rs)
 SELECT 0, getvariable('archive_day_note') WHERE getvariable('archive_day_note') IS NOT NULL
 UNION ALL
 -- issue 38: a camera pair whose clock offset the tracks cannot pin (align.sql, align_offset_se)

@@ -51,7 +51,7 @@ LEFT JOIN load_ids i ON i.camera = o.camera AND i.track_id = o.track_id
 HAVING count(*) > 0
 UNION ALL
 -- issue 40 (first: the day's headline): an archive's day on which a camera changed (found by the host's daily check,
--- sql/archive_check.sql, and registered again from this day: src/archive.rs)
+-- sql/archive_check.sql, and registered again from this day: src/archive/task.rs)
 SELECT 0, getvariable('archive_day_note') WHERE getvariable('archive_day_note') IS NOT NULL
 UNION ALL
 -- issue 38: a camera pair whose clock offset the tracks cannot pin (align.sql, align_offset_se)

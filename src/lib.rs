@@ -66,7 +66,7 @@ mod tests {
             ("crates/algo/src", &["duckdb", "trajdb_app", "crate::bindings", "crate::runner"]),
             ("crates/app/src", &["duckdb::", "use duckdb", "trajdb::", "crate::bindings", "crate::runner"]),
             ("src/runner.rs", &["crate::bindings", "super::bindings"]),
-            ("src/archive.rs", &["crate::bindings", "super::bindings"]),
+            ("src/archive", &["crate::bindings", "super::bindings"]),
             ("src/bindings/vector", &["registry"]),
             ("src/bindings/types.rs", &["registry", "vector::"]),
         ];

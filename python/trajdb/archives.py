@@ -9,7 +9,7 @@ resumable (issue 40; docs/archive.md has the layout, the state and the rules).
 Every decision is the extension's, written once for every host: the lake's partitions, the
 fingerprints, the incremental rule and the calibration chain, the names, the commits
 (crates/app/src/archive), and a day's run with its camera-change check (trajdb_archive_task,
-src/archive.rs). This module is only what a Python host adds: worker processes (a day per
+src/archive/). This module is only what a Python host adds: worker processes (a day per
 process, a dead worker replaced, workers that die with their driver), Spark's executor hook,
 progress on a terminal or in a log. The driver asks trajdb_archive_open / _next / _commit /
 _close on a connection of its own; each worker runs trajdb_archive_task.
@@ -65,7 +65,7 @@ def run_task(task):
     """One site-day: returns trajdb_archive_task's result {row (the state row), scratch,
     calibration (the folder of a calibration made today, or None)} with this process's `run`
     (seconds, peak memory), or failed_result's. Never raises: a failure is the row's error.
-    The day itself is the extension's (`trajdb_archive_task`, src/archive.rs: the same function
+    The day itself is the extension's (`trajdb_archive_task`, src/archive/: the same function
     `CALL trajdb_archive` runs), in a private database of one thread; this process measures it."""
     t0 = time.perf_counter()
     _reset_peak_rss()
@@ -316,7 +316,7 @@ def _refusal(e, fn):
 def run(lake, out, params=None, site=None, workers=None, extension=None, progress=True, executor=None, stream=None, max_rounds=None,
         task_memory=None):
     """The archive run (module docstring). The decisions are the extension's (trajdb_archive_open,
-    _next, _commit, _close: crates/app/src/archive, src/archive.rs); this function runs each
+    _next, _commit, _close: crates/app/src/archive, src/archive/); this function runs each
     round's tasks with `executor(tasks, on_done)` (default: local worker processes; trajdb.spark
     gives Spark's) and shows progress. Returns a summary dict: partitions, done (partitions run
     this run), runs (day runs: a day run again after an earlier day's camera change counts

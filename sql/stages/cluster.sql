@@ -29,7 +29,7 @@
 
 -- The clustered camera: cluster_camera, or (auto) the camera with the most real tracks, ties to
 -- the lowest id (calibrate.sql: the data decides, not a camera number); a given camera must exist.
--- An archive's day (src/archive.rs) runs on its site's kept calibration: when the
+-- An archive's day (src/archive/task.rs) runs on its site's kept calibration: when the
 -- camera chosen there (auto) has no points today, the day's own choice by the same rule stands.
 -- (a statement that prints nothing: the DuckDB CLI shows no result box for a check that passed)
 CREATE OR REPLACE TEMP TABLE cluster_camera_used AS

@@ -1,6 +1,6 @@
 //! SQL: an archive of site-days in one call (issue 40; docs/archive.md).
 //! - `trajdb_archive(lake, out_dir := ..., <parameter> := value, ...)`: the whole archive run
-//!   (src/archive.rs: the due site-days, each in a private database of one thread);
+//!   (src/archive/: the due site-days, each in a private database of one thread);
 //! - `trajdb_archive_task(task)`: one site-day, for hosts that run the days in processes of
 //!   their own (Python's workers, Spark tasks): the same function, so every host writes the
 //!   same bytes.
@@ -79,7 +79,7 @@ const ARCHIVE: Function = Function {
                   false: its state). A failed partition does not stop the others. An interrupt stops the call between batches of \
                   site-days; what was committed is kept, and the next call goes on from there.",
     example: "SELECT count(*) = 1 FROM duckdb_functions() WHERE function_name = 'trajdb_archive'; -- true",
-    maths: "crates/app/src/archive/, src/archive.rs",
+    maths: "crates/app/src/archive/, src/archive/",
     binding: file!(),
     signatures: &[],
     table: Some(ARCHIVE_TABLE),
@@ -202,11 +202,11 @@ const TASK: Function = Function {
     description: "One site-day of an archive, for hosts that run the days in processes of their own (python/trajdb/archives.py's workers, \
                   trajdb.spark tasks): `task` is the JSON the driver plans (site, date, files, inputs, fingerprint, cal_id, cal_dir, \
                   scratch, params, params_json, build, memory_limit); returns one row, `result`: JSON of the partition's state row, \
-                  its scratch folder and the calibration it made. The day runs in a private database of one thread (src/archive.rs), \
+                  its scratch folder and the calibration it made. The day runs in a private database of one thread (src/archive/), \
                   allowed to read the partition's and the calibration's files and to write the scratch folder. A failed day is a \
                   row with status 'failed' and its error, never an error of the call (bad JSON is one).",
     example: "SELECT count(*) = 1 FROM duckdb_functions() WHERE function_name = 'trajdb_archive_task'; -- true",
-    maths: "src/archive.rs",
+    maths: "src/archive/",
     binding: file!(),
     signatures: &[],
     table: Some(TASK_TABLE),
@@ -328,7 +328,7 @@ const OPEN: Function = Function {
                   trajdb_archive_task and hands its result to trajdb_archive_commit(handle, result), and trajdb_archive_close(handle) \
                   ends the run (the lock is held until then, or until the process ends).",
     example: "SELECT count(*) = 1 FROM duckdb_functions() WHERE function_name = 'trajdb_archive_open'; -- true",
-    maths: "crates/app/src/archive/, src/archive.rs",
+    maths: "crates/app/src/archive/, src/archive/",
     binding: file!(),
     signatures: &[],
     table: Some(OPEN_TABLE),
@@ -356,7 +356,7 @@ const NEXT: Function = Function {
     description: "The next round's site-days of an open archive run (trajdb_archive_open): one row per task, the JSON that \
                   trajdb_archive_task takes; no row when the archive is done. The state of the round before is saved first.",
     example: "SELECT count(*) = 1 FROM duckdb_functions() WHERE function_name = 'trajdb_archive_next'; -- true",
-    maths: "crates/app/src/archive/plan.rs, src/archive.rs",
+    maths: "crates/app/src/archive/plan.rs, src/archive/",
     binding: file!(),
     signatures: &[],
     table: Some(NEXT_TABLE),
@@ -388,7 +388,7 @@ const COMMIT: Function = Function {
                   died, its Spark task failed every attempt). Its files are moved into place, then it is recorded in the state; \
                   returns the partition's state row as JSON.",
     example: "SELECT count(*) = 1 FROM duckdb_functions() WHERE function_name = 'trajdb_archive_commit'; -- true",
-    maths: "crates/app/src/archive/folder.rs, src/archive.rs",
+    maths: "crates/app/src/archive/folder.rs, src/archive/",
     binding: file!(),
     signatures: &[],
     table: Some(COMMIT_TABLE),
@@ -425,7 +425,7 @@ const CLOSE: Function = Function {
                   the run's summary as JSON (partitions, done, runs, skipped, failed, failed_partitions, changes with their sentences, \
                   rounds, orphaned, and every partition's state row with `ran`).",
     example: "SELECT count(*) = 1 FROM duckdb_functions() WHERE function_name = 'trajdb_archive_close'; -- true",
-    maths: "src/archive.rs",
+    maths: "src/archive/",
     binding: file!(),
     signatures: &[],
     table: Some(CLOSE_TABLE),

@@ -210,7 +210,7 @@ const STAGES: Function = Function {
                   it remembers its undo; when a row fails it runs the remembered undos last-first. `out_dir` (optional) adds the result \
                   files and report.html, the results folder claimed first and committed last; `part` is 'all' (default), 'site' (the \
                   load and the calibration stages of a site) 'window' (one window that reuses a site's tables: sql/window.sql) or 'day' (an archive's day: the whole run, \
-                  with out_dir, on a site's tables kept from an earlier day: src/archive.rs); \
+                  with out_dir, on a site's tables kept from an earlier day: src/archive/task.rs); \
                   `params` a JSON object of pipeline parameters ('{\"merge_eta\": 0.6}'), checked by name, type and range.",
     example: "SELECT count(DISTINCT stage) >= 9 FROM trajdb_stages('points.parquet'); -- true",
     maths: "crates/app/src/plan.rs",

@@ -16,7 +16,7 @@
 //! Parts: [`Part::All`] is a whole run; [`Part::Site`] and [`Part::Window`] split one run of a
 //! large archive into a site's calibration (once) and windows that reuse it (python/trajdb/
 //! windows.py ships the [`SITE_TABLES`] between them; sql/window.sql explains why a window then
-//! equals the whole run). [`Part::Day`] is an archive's day (src/archive.rs): a whole
+//! equals the whole run). [`Part::Day`] is an archive's day (src/archive/task.rs): a whole
 //! run with its results folder on a site's calibration kept from an earlier day.
 
 use super::{params, sql};
@@ -64,7 +64,7 @@ pub enum Part {
     /// (the host creates the [`SITE_TABLES`] first and sets window_start, window_end,
     /// loaded_from and loaded_to).
     Window,
-    /// One day of an archive (issue 40, src/archive.rs): the whole pipeline, with a
+    /// One day of an archive (issue 40, src/archive/task.rs): the whole pipeline, with a
     /// results folder, on a calibration kept from an earlier day: every statement that makes no
     /// site table (the host creates the [`SITE_TABLES`] first, as for a window).
     Day,
@@ -236,7 +236,7 @@ pub fn plan(req: &Request) -> Result<Vec<Step>, Box<dyn Error>> {
         undo: None,
     });
     // text camera ids are numbered by the load (sql/pipeline.sql); an archive's site and days
-    // (src/archive.rs) keep the numbers of the site's first calibration, given by the
+    // (src/archive/task.rs) keep the numbers of the site's first calibration, given by the
     // host in load_camera_numbers (camera text -> number), so that a day without one camera
     // numbers the others as its site did. A whole run starts from none.
     steps.push(Step {
@@ -251,7 +251,7 @@ pub fn plan(req: &Request) -> Result<Vec<Step>, Box<dyn Error>> {
         undo: None,
     });
     // an archive's day may carry a note of its host for the day's warnings and report (a camera
-    // change found and registered again: src/archive.rs); every other run has none
+    // change found and registered again: src/archive/task.rs); every other run has none
     steps.push(Step {
         stage: "params".into(),
         file: "trajdb_stages".into(),

@@ -99,45 +99,71 @@ pub struct Summary {
     pub rows: Vec<PartitionRow>,
 }
 
+/// A private database that may read exactly `files` (the lake's, each checked against the
+/// caller's sandbox before): the site column's values are read there, never elsewhere.
+fn reader(files: &[String]) -> Result<Connection, Box<dyn Error>> {
+    let con = Connection::open_in_memory()?;
+    con.execute_batch(&format!("SET allowed_paths = {}; SET enable_external_access = false; SET lock_configuration = true", list_sql(files)))?;
+    Ok(con)
+}
+
+fn scan_sql(files: &[String]) -> String {
+    let reader = if files.iter().all(|f| f.to_ascii_lowercase().ends_with(".parquet")) { "read_parquet" } else { "read_csv" };
+    format!("{reader}({}, hive_partitioning = false, union_by_name = true)", list_sql(files))
+}
+
 /// The site values of some files (a date=D/ lake with a site column).
 fn site_values(con: &Connection, files: &[PathBuf]) -> Vec<String> {
     if files.is_empty() {
         return Vec::new();
     }
     let list: Vec<String> = files.iter().map(|f| f.to_string_lossy().into_owned()).collect();
-    let reader = if list.iter().all(|f| f.to_ascii_lowercase().ends_with(".parquet")) { "read_parquet" } else { "read_csv" };
-    let q = format!(
-        "SELECT DISTINCT site::VARCHAR AS s FROM {reader}({}, hive_partitioning = false, union_by_name = true) WHERE site IS NOT NULL ORDER BY s",
-        list_sql(&list)
-    );
+    let q = format!("SELECT DISTINCT site::VARCHAR AS s FROM {} WHERE site IS NOT NULL ORDER BY s", scan_sql(&list));
     con.prepare(&q).and_then(|mut st| st.query_map([], |r| r.get::<_, String>(0))?.collect()).unwrap_or_default()
 }
 
 fn has_site_column(con: &Connection, file: &Path) -> bool {
-    let f = file.to_string_lossy().into_owned();
-    let reader = if f.to_ascii_lowercase().ends_with(".parquet") { "read_parquet" } else { "read_csv" };
-    let q = format!("SELECT count(*) FROM (DESCRIBE SELECT * FROM {reader}({}, hive_partitioning = false)) WHERE lower(column_name) = 'site'", sql_string(&f));
+    let f = vec![file.to_string_lossy().into_owned()];
+    let q = format!("SELECT count(*) FROM (DESCRIBE SELECT * FROM {}) WHERE lower(column_name) = 'site'", scan_sql(&f));
     con.query_row(&q, [], |r| r.get::<_, i64>(0)).map(|n| n > 0).unwrap_or(false)
 }
 
-/// The lake's partitions, named and sorted (crates/app/src/archive/layout.rs).
-pub fn partitions(lake: &Path, site: Option<&str>) -> Result<Vec<Partition>, Box<dyn Error>> {
-    let parts = match layout::discover(lake)? {
-        Layout::Sites(p) => p,
+/// The lake's partitions, named and sorted (crates/app/src/archive/layout.rs); `check` is
+/// asked for every data file before any is read (the caller's sandbox). `site`: the name of a
+/// one-site date=D/ lake, or the one site to take of a lake of several.
+pub fn partitions(lake: &Path, site: Option<&str>, check: &dyn Fn(&Path) -> Result<(), String>) -> Result<Vec<Partition>, Box<dyn Error>> {
+    let layout = layout::discover(lake)?;
+    let all: Vec<PathBuf> = match &layout {
+        Layout::Sites(p) | Layout::Dates(p) => p.iter().flat_map(|q| q.files.iter().cloned()).collect(),
+    };
+    for f in &all {
+        check(f)?;
+    }
+    let parts = match layout {
+        Layout::Sites(p) => match site {
+            Some(s) => layout::only_site(p, s)?,
+            None => p,
+        },
         Layout::Dates(p) => {
-            let con = Connection::open_in_memory()?;
-            let with: Vec<bool> = p.iter().flat_map(|q| q.files.iter()).map(|f| has_site_column(&con, f)).collect();
+            let files: Vec<String> = all.iter().map(|f| f.to_string_lossy().into_owned()).collect();
+            let con = reader(&files)?;
+            let with: Vec<bool> = all.iter().map(|f| has_site_column(&con, f)).collect();
             let any = with.iter().any(|b| *b);
-            if any && !with.iter().all(|b| *b) && site.is_none() {
+            let every = with.iter().all(|b| *b);
+            if any && !every && site.is_none() {
                 return Err(ArchiveError(format!(
-                    "trajdb archive: some files of {:?} have a site column and some do not; give every file one (or none, and name the site with site := ...)",
+                    "trajdb archive: some files of {:?} have a site column and some do not (or cannot be read); give every file one (or none, and name the site with site := ...)",
                     lake.display().to_string()
                 ))
                 .into());
             }
-            if any && site.is_none() {
+            if any && every {
                 let values: Vec<Vec<String>> = p.iter().map(|q| site_values(&con, &q.files)).collect();
-                layout::split_by_site(p, &values)
+                let split = layout::split_by_site(p, &values);
+                match site {
+                    Some(s) => layout::only_site(split, s)?,
+                    None => split,
+                }
             } else {
                 layout::name_single_site(p, site, lake)
             }
@@ -150,8 +176,9 @@ impl Driver {
     /// Reads the lake, checks the parameters, claims and locks OUT, loads the state and each
     /// partition's fingerprint (the content is read only when names, sizes or times changed).
     pub fn open(req: ArchiveRequest, base: Settings) -> Result<Driver, Box<dyn Error>> {
-        let lake = std::path::absolute(&req.lake)?;
-        let parts = partitions(&lake, req.site.as_deref())?;
+        let lake = folder::resolve(&req.lake)?;
+        // (the host checked every file against its caller's sandbox before: trajdb_archive's bind)
+        let parts = partitions(&lake, req.site.as_deref(), &|_| Ok(()))?;
         // unknown names and bad values fail before any work
         plan::plan(&Request { input: "archive_input".into(), out: None, part: Part::Site, params: req.params.clone() })?;
         if let Some(m) = &req.task_memory {
@@ -160,6 +187,7 @@ impl Driver {
                 .map_err(|e| format!("task_memory {m:?} is not a memory size DuckDB takes (give e.g. '2GB'): {e}"))?;
         }
         let out = folder::claim(&req.out, &lake)?;
+        folder::no_links(&out, &out.join("_state").join("lock"))?;
         let lock = folder::lock(&out)?;
         folder::clean_work(&out);
         let state = load_state(&out)?;

@@ -101,7 +101,9 @@ pub(super) fn append_run(out: &Path, r: &TaskResult) {
     use std::io::Write;
     let p = out.join("_state").join("runs.csv");
     let new = !p.exists();
-    if let Ok(mut f) = fs::OpenOptions::new().create(true).append(true).open(&p) {
+    use std::os::unix::fs::OpenOptionsExt;
+    // never through a symbolic link (a file trajdb did not make)
+    if let Ok(mut f) = fs::OpenOptions::new().create(true).append(true).custom_flags(libc::O_NOFOLLOW).open(&p) {
         if new {
             let _ = f.write_all(b"finished_utc,site,date,status,seconds,peak_rss_mb,points\n");
         }

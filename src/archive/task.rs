@@ -182,7 +182,12 @@ const BASELINE_SQL: &str = "cam_fixed INTEGER, cam_moving INTEGER, ax DOUBLE, ay
 /// A kept calibration's folder: its site tables (only trajdb's names), camera numbers and baseline.
 fn load_calibration(dir: &Path) -> Result<Calibration, Box<dyn Error>> {
     let cams = dir.join("cameras.parquet");
+    // a database allowed exactly this file
     let con = Connection::open_in_memory()?;
+    con.execute_batch(&format!(
+        "SET allowed_paths = [{}]; SET enable_external_access = false; SET lock_configuration = true",
+        sql_string(&cams.to_string_lossy())
+    ))?;
     let mut numbers = Vec::new();
     let mut st = con.prepare("SELECT camera_in::VARCHAR, camera::INTEGER FROM read_parquet(?, hive_partitioning = false) ORDER BY camera")?;
     for r in st.query_map([cams.to_string_lossy().as_ref()], |r| Ok((r.get::<_, String>(0)?, r.get::<_, i32>(1)?)))? {

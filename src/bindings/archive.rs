@@ -85,11 +85,16 @@ const ARCHIVE: Function = Function {
     table: Some(ARCHIVE_TABLE),
 };
 
-/// The build id of this extension (crates/app/src/archive/fingerprint.rs `build`).
+/// The build id of this extension (crates/app/src/archive/fingerprint.rs `build`), and the
+/// DuckDB that runs it: another DuckDB writes other Parquet bytes and may round a last digit
+/// otherwise, so an archive made by one is not taken as done by another.
 fn build_id() -> Result<String, Box<dyn Error>> {
     let file = super::vector::extension_file().ok_or("cannot find the file this extension was loaded from (its bytes name the build)")?;
-    Ok(crate::app::archive::fingerprint::build(env!("CARGO_PKG_VERSION"), &file)
-        .map_err(|e| format!("cannot read the extension file {} to name the build: {e}", file.display()))?)
+    let build = crate::app::archive::fingerprint::build(env!("CARGO_PKG_VERSION"), &file)
+        .map_err(|e| format!("cannot read the extension file {} to name the build: {e}", file.display()))?;
+    let con = duckdb::Connection::open_in_memory()?;
+    let version: String = con.query_row("SELECT library_version FROM pragma_version()", [], |r| r.get(0))?;
+    Ok(format!("{build}+duckdb-{version}"))
 }
 
 fn base_settings(args: &BindArgs<'_>) -> Settings {
@@ -111,16 +116,15 @@ fn request(args: &BindArgs<'_>, params: Vec<(String, String)>, workers: usize) -
     }
     let site = args.named_text("site")?;
     let task_memory = args.named_text("task_memory")?;
+    // the paths as the sandbox check resolves them (`~`, `..`, links) are the paths written to
     super::params::may_write_into(args, &out)?;
+    let out = crate::app::archive::folder::resolve(std::path::Path::new(&out))?;
+    let lake = crate::app::archive::folder::resolve(std::path::Path::new(&lake))?;
+    // every file of the lake checked before any is read (a site column is read to split a
+    // date=D/ lake: only through a database allowed exactly these files)
     let fs = args.caller_fs()?;
-    let lake_abs = std::path::absolute(&lake)?;
-    fs.may_read(&lake_abs.to_string_lossy())?;
-    for part in archive::partitions(&lake_abs, site.as_deref())? {
-        for f in &part.files {
-            fs.may_read(&f.to_string_lossy())?;
-        }
-    }
-    Ok(ArchiveRequest { lake: lake_abs, out: out.into(), site, params, task_memory, workers, build: build_id()? })
+    archive::partitions(&lake, site.as_deref(), &|f| fs.may_read(&f.to_string_lossy()))?;
+    Ok(ArchiveRequest { lake, out, site, params, task_memory, workers, build: build_id()? })
 }
 
 struct ArchiveFn;
@@ -221,17 +225,24 @@ impl TableFn for TaskFn {
 
     fn bind(args: &BindArgs<'_>) -> Result<Self::Bind, Box<dyn Error>> {
         let text = args.text(0)?.ok_or("task is NULL; give the JSON of one site-day (python/trajdb/archives.py plans it)")?;
-        let task: TaskSpec = serde_json::from_str(&text).map_err(|e| format!("task is not the JSON of a site-day: {e}"))?;
+        let mut task: TaskSpec = serde_json::from_str(&text).map_err(|e| format!("task is not the JSON of a site-day: {e}"))?;
+        // every path as the sandbox check resolves it (`~`, `..`, links) is the path used
+        let abs = |p: &str| crate::app::outdir::absolute(p).map(|p| p.to_string_lossy().into_owned());
         let fs = args.caller_fs()?;
-        for f in &task.files {
+        for f in task.files.iter_mut() {
             fs.may_read(f)?;
+            *f = abs(f)?;
         }
-        if let Some(d) = &task.cal_dir {
-            fs.may_read(d)?;
+        if let Some(d) = task.cal_dir.as_mut() {
+            *d = abs(d)?;
+            for e in std::fs::read_dir(&*d).map_err(|e| format!("task.cal_dir {d:?}: {e}"))?.flatten() {
+                fs.may_read(&e.path().to_string_lossy())?;
+            }
         }
-        let scratch = std::path::Path::new(&task.scratch);
+        let scratch = std::path::PathBuf::from(abs(&task.scratch)?);
         let parent = scratch.parent().ok_or("task.scratch has no folder")?;
         super::params::may_write_into(args, &parent.to_string_lossy())?;
+        task.scratch = scratch.to_string_lossy().into_owned();
         Ok((task, base_settings(args), Arc::clone(args.limits())))
     }
     fn init(_: &Self::Bind) -> Result<Self::Scan, Box<dyn Error>> {
@@ -256,7 +267,15 @@ impl TableFn for TaskFn {
 /// The drivers opened by trajdb_archive_open in this process, by handle (each holds its
 /// archive's lock until trajdb_archive_close, or until the process ends).
 static DRIVERS: Mutex<Vec<(i64, Driver)>> = Mutex::new(Vec::new());
-static NEXT_HANDLE: std::sync::atomic::AtomicI64 = std::sync::atomic::AtomicI64::new(1);
+/// A handle no other connection can guess (a connection that was not given it cannot drive,
+/// commit into or close another's run): 62 random bits.
+fn new_handle() -> i64 {
+    use std::hash::{BuildHasher, Hasher};
+    let mut h = std::collections::hash_map::RandomState::new().build_hasher();
+    h.write_u128(std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map(|d| d.as_nanos()).unwrap_or(0));
+    h.write_u32(std::process::id());
+    (h.finish() >> 2) as i64
+}
 
 fn with_driver<T>(h: i64, f: impl FnOnce(&mut Driver) -> Result<T, Box<dyn Error>>) -> Result<T, Box<dyn Error>> {
     let mut g = DRIVERS.lock().unwrap_or_else(|e| e.into_inner());
@@ -339,8 +358,15 @@ step_fn!(OpenFn, OPEN_TABLE, &[Ty::Bigint, Ty::Bigint, Ty::Bigint, Ty::Varchar, 
     let req = request(args, params, 1)?;
     let base = base_settings(args);
     Box::new(move || {
-        let d = Driver::open(req, base)?;
-        let h = NEXT_HANDLE.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        let d = Driver::open(req, base).map_err(|e| {
+            let open_here = DRIVERS.lock().map(|g| !g.is_empty()).unwrap_or(false);
+            if open_here && e.to_string().contains("another trajdb archive is writing") {
+                format!("{e} (a run opened in this process with trajdb_archive_open and not closed holds it: trajdb_archive_close(handle) ends it)").into()
+            } else {
+                e
+            }
+        })?;
+        let h = new_handle();
         let (parts, due) = d.counts();
         let row = vec![Some(h.to_string()), Some(parts.to_string()), Some(due.to_string()), Some(d.out().to_string_lossy().into_owned()), Some(d.build().to_string())];
         DRIVERS.lock().unwrap_or_else(|e| e.into_inner()).push((h, d));

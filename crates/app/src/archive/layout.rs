@@ -71,7 +71,8 @@ pub fn data_files(folder: &Path) -> Result<Vec<PathBuf>, ArchiveError> {
     let mut out = Vec::new();
     let entries = sorted_entries(folder)?;
     for (name, p, _) in entries.iter().filter(|e| !e.2) {
-        if DATA.iter().any(|s| name.to_ascii_lowercase().ends_with(s)) {
+        // regular files only (a FIFO or a device named *.csv would block or never end)
+        if DATA.iter().any(|s| name.to_ascii_lowercase().ends_with(s)) && fs::metadata(p).is_ok_and(|m| m.is_file()) {
             out.push(p.clone());
         }
     }
@@ -152,6 +153,25 @@ pub fn split_by_site(parts: Vec<Partition>, values: &[Vec<String>]) -> Vec<Parti
         }
     }
     out
+}
+
+/// The partitions of site `site` only (`site` given for a lake of several sites); an error when
+/// the lake has none.
+pub fn only_site(parts: Vec<Partition>, site: &str) -> Result<Vec<Partition>, ArchiveError> {
+    let sites: Vec<String> = {
+        let mut v: Vec<String> = parts.iter().map(|p| p.site.clone()).collect();
+        v.sort();
+        v.dedup();
+        v
+    };
+    let kept: Vec<Partition> = parts.into_iter().filter(|p| p.site == site).collect();
+    if kept.is_empty() {
+        return Err(ArchiveError(format!(
+            "trajdb archive: site {site:?} is not in the lake (its sites: {}); leave site out for every site",
+            sites.iter().take(10).cloned().collect::<Vec<_>>().join(", ")
+        )));
+    }
+    Ok(kept)
 }
 
 /// Checks every name and sorts the partitions by site, then [`date_order`].

@@ -21,7 +21,11 @@ bias and 1 % ground-plane errors as roadside cameras have):
 7. metamorphic: one camera's frame in UTM and turned, its clock an hour off, the ids
    relabelled, the rows shuffled, on every day: the same road users, no camera change;
 8. one SQL call: `CALL trajdb_archive` writes the same bytes as `trajdb archive` (a camera
-   change included) and the same state; killed with -9 and called again, the same bytes.
+   change included) and the same state; killed with -9 and called again, the same bytes;
+9. the hostile probe's findings: `~` in out_dir is the home folder the sandbox checked; a
+   symbolic link in the archive folder is refused and nothing is written through it; a file of
+   the lake outside the sandbox is never read (its content never in an error); a commit whose
+   result files are incomplete leaves no half partition.
 
 usage: python3 tests/test_archive_python.py path/to/trajdb.duckdb_extension
 """
@@ -461,6 +465,69 @@ def sql(w, lake, ref):
         print(f"  CALL killed -9 after {delay} s ({n0} partitions recorded), called again: {n} files the same bytes as trajdb archive's")
 
 
+def probe(w):
+    con = trajdb.connect()
+    lake = os.path.join(w, "probe", "sb", "lake")
+    lake_sim.simulate_lake(con, lake, sites=1, days=2, minutes=2, **REAL)
+    sb = os.path.dirname(lake)
+    # H1: '~' is the home folder the sandbox allowed, never a folder named '~' in the working folder
+    home, cwd = os.path.join(w, "probe", "home"), os.path.join(w, "probe", "cwd")
+    os.makedirs(home)
+    os.makedirs(cwd)
+    code = ("import duckdb, sys; con = duckdb.connect(config={'allow_unsigned_extensions': 'true'}); con.execute('LOAD ' + repr(sys.argv[1])); "
+            "con.execute('SET allowed_directories = ' + repr([sys.argv[2] + '/', sys.argv[3] + '/'])); con.execute('SET enable_external_access = false'); "
+            "print(len(con.execute(\"FROM trajdb_archive(?, out_dir := '~/arch', workers := 1)\", [sys.argv[3]]).fetchall()))")
+    p = subprocess.run([sys.executable, "-c", code, EXT, home, lake], env={**ENV, "HOME": home}, cwd=cwd, capture_output=True, text=True)
+    assert p.returncode == 0, p.stderr
+    assert os.path.exists(os.path.join(home, "arch", ".trajdb-archive")) and not os.listdir(cwd), (os.listdir(home), os.listdir(cwd))
+    out = os.path.join(home, "arch")
+    # H2: a link in the archive folder (to a folder of the user's) is refused; nothing written through it
+    outside = os.path.join(w, "probe", "outside")
+    os.makedirs(outside)
+    os.rename(os.path.join(out, "reports"), os.path.join(w, "probe", "reports-aside"))
+    os.symlink(outside, os.path.join(out, "reports"))
+    shutil.rmtree(os.path.join(out, "_calibrations"))
+    try:
+        trajdb.archive(con, lake, out)
+        raise AssertionError("a symbolic link in the archive folder was followed")
+    except A.ArchiveError as e:
+        assert "symbolic link" in str(e), e
+    assert os.listdir(outside) == [], os.listdir(outside)
+    # H3: a lake file that is a link to a file outside the sandbox: refused, never read
+    secret = os.path.join(w, "probe", "secret.csv")
+    with open(secret, "w") as f:
+        f.write("site,camera\nhunter2 is the password,1\n")
+    dl = os.path.join(sb, "lake-d")
+    for d in ("2026-05-04", "2026-05-05"):
+        os.makedirs(os.path.join(dl, f"date={d}"))
+    con.execute("COPY (SELECT 's1' AS site, * FROM read_parquet(?)) TO '" + os.path.join(dl, "date=2026-05-04", "p.parquet") + "'",
+                [os.path.join(lake, "site=s1", "date=" + lake_sim.day_name(0), "points.parquet")])
+    os.symlink(secret, os.path.join(dl, "date=2026-05-05", "evil.csv"))
+    locked = trajdb.connect()
+    locked.execute(f"SET allowed_directories = ['{sb}/']")
+    locked.execute("SET enable_external_access = false")
+    try:
+        locked.execute("FROM trajdb_archive(?, out_dir := ?)", [dl, os.path.join(sb, "out-d")]).fetchall()
+        raise AssertionError("a file outside the sandbox was read")
+    except duckdb.Error as e:
+        assert "hunter2" not in str(e) and "evil.csv" in str(e), e
+    assert not os.path.exists(os.path.join(sb, "out-d", "road_users"))
+    # M7: a result whose files are incomplete: the partition failed, none of its files in place
+    ext = duckdb.connect(config={"allow_unsigned_extensions": "true"})
+    ext.execute(f"LOAD '{EXT}'")
+    out2 = os.path.join(w, "probe", "half")
+    h = ext.execute("SELECT handle FROM trajdb_archive_open(?, out_dir := ?)", [lake, out2]).fetchone()[0]
+    task = ext.execute("FROM trajdb_archive_next(?)", [h]).fetchone()[0]
+    res = json.loads(ext.execute("FROM trajdb_archive_task(?)", [task]).fetchone()[0])
+    os.remove(os.path.join(res["scratch"], "links.parquet"))
+    row = json.loads(ext.execute("FROM trajdb_archive_commit(?, ?)", [h, json.dumps(res)]).fetchone()[0])
+    assert row["status"] == "failed" and "links.parquet" in row["error"], row
+    ext.execute("FROM trajdb_archive_close(?)", [h]).fetchall()
+    assert not glob.glob(os.path.join(out2, "*", "site=*", "date=*", "*")), glob.glob(os.path.join(out2, "*", "site=*", "date=*", "*"))
+    print("  probe: '~' is the sandbox's home folder; a link in the archive refused, nothing written through it; a lake file "
+          "outside the sandbox never read; an incomplete result leaves no half partition")
+
+
 def readme(w):
     """The README's archive commands, as written, in a folder of their own."""
     text = open(os.path.join(ROOT, "README.md")).read()
@@ -489,6 +556,7 @@ def main():
         folders(w)
         metamorphic(w)
         sql(w, lake, ref)
+        probe(w)
         readme(w)
     finally:
         shutil.rmtree(w, ignore_errors=True)

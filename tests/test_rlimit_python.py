@@ -206,6 +206,14 @@ def table_call(fn, scratch):
         "trajdb_functions": "FROM trajdb_functions()",
         "trajdb_params": "FROM trajdb_params()",
         "trajdb_set_limit": "FROM trajdb_set_limit('lcss_cells', 10000000000)",
+        "trajdb_archive": f"FROM trajdb_archive('{d}-no-lake', out_dir := '{d}')",
+        "trajdb_archive_open": f"FROM trajdb_archive_open('{d}-no-lake', out_dir := '{d}')",
+        "trajdb_archive_task": "FROM trajdb_archive_task('" + json.dumps({"site": "a", "date": "d", "files": [], "inputs": "[]", "fingerprint": "x",
+                                                                         "cal_id": None, "cal_dir": None, "scratch": d + "/task-1",
+                                                                         "params_json": "{}", "build": "b"}) + "')",
+        "trajdb_archive_next": "FROM trajdb_archive_next(1)",
+        "trajdb_archive_commit": "FROM trajdb_archive_commit(1, '{}')",
+        "trajdb_archive_close": "FROM trajdb_archive_close(1)",
     }.get(fn, f"FROM {fn}()")
 
 

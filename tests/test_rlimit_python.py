@@ -196,6 +196,11 @@ def overloads(con):
 def table_call(fn, scratch):
     """Table functions: each with inputs that would be large; file writers into scratch."""
     d = os.path.join(scratch, fn)
+    lake = os.path.join(scratch, fn + "-lake")
+    if fn.startswith("trajdb_archive"):
+        os.makedirs(os.path.join(lake, "site=a", "date=2026-05-04"), exist_ok=True)
+    task = {"site": "a", "date": "d", "files": [], "inputs": "[]", "fingerprint": "x", "cal_id": None, "cal_dir": None,
+            "scratch": d + "/task-1", "params_json": "{}", "build": "b"}
     return {
         "trajdb_simulate": f"FROM trajdb_simulate('{d}', minutes := 1440, traffic := 50, pedestrians := 50, rate_hz := 30)",
         "trajdb_pipeline": f"FROM trajdb_pipeline('nope_missing_table', out_dir := '{d}')",
@@ -206,13 +211,12 @@ def table_call(fn, scratch):
         "trajdb_functions": "FROM trajdb_functions()",
         "trajdb_params": "FROM trajdb_params()",
         "trajdb_set_limit": "FROM trajdb_set_limit('lcss_cells', 10000000000)",
-        "trajdb_archive": f"FROM trajdb_archive('{d}-no-lake', out_dir := '{d}')",
-        "trajdb_archive_open": f"FROM trajdb_archive_open('{d}-no-lake', out_dir := '{d}')",
-        "trajdb_archive_task": "FROM trajdb_archive_task('" + json.dumps({"site": "a", "date": "d", "files": [], "inputs": "[]", "fingerprint": "x",
-                                                                         "cal_id": None, "cal_dir": None, "scratch": d + "/task-1",
-                                                                         "params_json": "{}", "build": "b"}) + "')",
+        # (a lake of one empty partition: the call runs, the day fails for want of files)
+        "trajdb_archive": f"FROM trajdb_archive('{lake}', out_dir := '{d}')",
+        "trajdb_archive_open": f"FROM trajdb_archive_open('{lake}', out_dir := '{d}')",
+        "trajdb_archive_task": "FROM trajdb_archive_task('" + json.dumps(task) + "')",
         "trajdb_archive_next": "FROM trajdb_archive_next(1)",
-        "trajdb_archive_commit": "FROM trajdb_archive_commit(1, '{}')",
+        "trajdb_archive_commit": "FROM trajdb_archive_commit(1, '" + json.dumps({"task": task, "error": "x"}) + "')",
         "trajdb_archive_close": "FROM trajdb_archive_close(1)",
     }.get(fn, f"FROM {fn}()")
 

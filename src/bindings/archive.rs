@@ -8,7 +8,7 @@
 use super::registry::{p, Function, Table, Ty};
 use super::types::Param;
 use super::vector::table::{self, BindArgs, Rows, TableFn};
-use crate::app::params::{Kind, PARAMS};
+use crate::app::params::PARAMS;
 use crate::archive::{self, ArchiveRequest, Driver, PartitionRow, TaskSpec};
 use crate::runner::Settings;
 use std::error::Error;
@@ -16,16 +16,8 @@ use std::sync::{Arc, Mutex};
 
 pub static FUNCTIONS: &[Function] = &[ARCHIVE, TASK, OPEN, NEXT, COMMIT, CLOSE];
 
-const fn ty_of(k: Kind) -> Ty {
-    match k {
-        Kind::Double => Ty::Double,
-        Kind::Integer => Ty::Bigint,
-        Kind::Boolean => Ty::Boolean,
-        Kind::Text => Ty::Varchar,
-    }
-}
+use super::pipeline::{ty_of, N_PARAMS};
 
-const N_PARAMS: usize = PARAMS.len();
 const OWN: [Param; 4] = [p("out_dir", Ty::Varchar), p("site", Ty::Varchar), p("task_memory", Ty::Varchar), p("workers", Ty::Bigint)];
 
 /// The call's own named parameters, then every declared pipeline parameter.

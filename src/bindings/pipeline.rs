@@ -24,7 +24,8 @@ use std::sync::Mutex;
 
 pub static FUNCTIONS: &[Function] = &[PIPELINE, STAGES, SCRIPT, PARAMS_TABLE, PARAMS_SCRIPT, REFERENCE];
 
-const fn ty_of(k: Kind) -> Ty {
+/// The SQL type of a declared parameter kind (the named parameters of trajdb_pipeline and trajdb_archive).
+pub(super) const fn ty_of(k: Kind) -> Ty {
     match k {
         Kind::Double => Ty::Double,
         Kind::Integer => Ty::Bigint,
@@ -33,7 +34,7 @@ const fn ty_of(k: Kind) -> Ty {
     }
 }
 
-const N_PARAMS: usize = PARAMS.len();
+pub(super) const N_PARAMS: usize = PARAMS.len();
 
 /// `out_dir` and every declared pipeline parameter, as named parameters of trajdb_pipeline.
 static PIPELINE_NAMED: [Param; N_PARAMS + 1] = {

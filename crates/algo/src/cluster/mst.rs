@@ -28,7 +28,7 @@
 //! few to hide the memory's latency). The same pass checks every entry (NaN, negative) for
 //! [`super::linkage::dendrogram_condensed`], which so needs no pass of its own.
 
-use super::linkage::{Condensed, RawMerge};
+use super::condensed::{Condensed, RawMerge};
 use rayon::prelude::*;
 
 /// Below this many items outside the tree a step is scanned on one thread: a rayon split costs a
@@ -42,10 +42,7 @@ const CHUNK: usize = 2048;
 const TEAM_MIN: usize = 4096;
 /// At most this many threads in a team (the scan is bound by memory, not by cores).
 const MAX_TEAM: usize = 8;
-/// How many items ahead the column scans prefetch (at n = 5,000, best of 3 in CPU time on a
-/// shared machine, `examples/condensed_timing`: none 0.124 s single / 0.126 s average, 16 ahead
-/// 0.078 / 0.101, 32 0.058 / 0.085, 64 0.047 / 0.081, 96 0.044 / 0.075).
-pub(super) const AHEAD: usize = 64;
+use super::condensed::AHEAD;
 
 /// The smallest `(D, index)` of a chunk: `(distance, item, position)`; `None` if every item of
 /// the chunk is finished.

@@ -28,8 +28,7 @@
 //! clusters run in parallel chunks (rayon). Their column reads (one cache line per row) are
 //! prefetched [`AHEAD`] items ahead, as in [`super::mst`].
 
-use super::linkage::{Condensed, Linkage, RawMerge};
-use super::mst::AHEAD;
+use super::condensed::{Condensed, Linkage, RawMerge, AHEAD};
 use rayon::prelude::*;
 
 /// Below this many active clusters a scan or update runs on one thread (see mst.rs: at n = 5,000

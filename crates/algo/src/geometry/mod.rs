@@ -4,6 +4,8 @@
 //! |---|---|---|
 //! | [`region`] | every polygon argument, `polygon_contains`, `traj_clip`, `traj_points_inside` | WKT/WKB parsing (nesting capped), prepared point-in-polygon (slab index), clipping |
 //! | [`valid`] | every polygon argument | the one gate: ring orientation normalised (shells counter-clockwise, holes clockwise), invalid polygons refused |
+//! | [`error`] | every polygon argument | why a polygon is refused ([`error::RegionError`], its rings named by [`error::RingId`]): a leaf |
+//! | [`slabs`] | | the slab index shared by point-in-polygon and validation: a leaf |
 //! | [`hull`] | `view_polygon` | convex / concave hull with a density rule |
 //! | [`polygon`] | `polygon_overlap`, `polygon_union`, `polygon_buffer`, `polygon_area`, `polygon_to_wkt` | boolean operations (geo / i_overlay), area, WKB/WKT output |
 //!
@@ -13,7 +15,9 @@
 //! invalid polygon is an error naming the rule it breaks, in every function alike; [`valid`]
 //! explains why it is refused rather than repaired).
 
+pub mod error;
 pub mod hull;
 pub mod polygon;
 pub mod region;
+pub mod slabs;
 pub mod valid;

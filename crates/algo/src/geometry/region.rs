@@ -31,52 +31,12 @@
 //! whose every edge spans its height: a horizontal ray then crosses them all);
 //! [`inside_indices`] is O(n) such tests.
 
-use super::valid::{self, RingId};
+pub use super::error::{RegionError, MAX_COORD, MAX_WKT_DEPTH};
+use super::slabs::Slabs;
+use super::valid;
 use geo::{BoundingRect, Coord, GeoNum, Geometry, Kernel, MultiPolygon, Orientation, Rect};
 use crate::traj::{OwnedTraj, Traj};
 use crate::{finite, ParamError};
-use std::fmt;
-
-/// Why a region could not be used.
-#[derive(Clone, Debug, PartialEq)]
-pub enum RegionError {
-    /// The text is not valid WKT.
-    Wkt(String),
-    /// The bytes are not valid WKB.
-    Wkb(String),
-    /// Valid geometry, but not a POLYGON or MULTIPOLYGON.
-    NotPolygon(&'static str),
-    /// A vertex is NaN or infinite.
-    NotFinite,
-    /// A ring crosses or touches itself (near the given point).
-    SelfIntersection { x: f64, y: f64 },
-    /// A ring with fewer than 4 points (3 distinct corners and the closing point).
-    ShortRing { points: usize },
-    /// A vertex beyond ±[`MAX_COORD`]: areas and intersections would overflow.
-    Magnitude { x: f64, y: f64 },
-    /// WKT nested deeper than [`MAX_WKT_DEPTH`] parentheses.
-    WktTooDeep { depth: usize },
-    /// A ring with fewer than 3 distinct corners.
-    Degenerate { ring: RingId, corners: usize },
-    /// Two rings cross (near the given point).
-    Crossing { a: RingId, b: RingId, x: f64, y: f64 },
-    /// Two rings share a stretch of boundary (from the given point).
-    SharedBoundary { a: RingId, b: RingId, x: f64, y: f64 },
-    /// A hole is not inside its shell (the point is in the hole, outside the shell).
-    HoleOutside { hole: RingId, x: f64, y: f64 },
-    /// A hole lies inside another hole of the same polygon.
-    HoleInHole { inner: RingId, outer: RingId, x: f64, y: f64 },
-    /// Parts `a` and `b` (0-based) of a MULTIPOLYGON overlap (the point is in both).
-    PartsOverlap { a: usize, b: usize, x: f64, y: f64 },
-    /// Validation would need more than [`valid::MAX_EDGE_TESTS`] edge-pair tests.
-    TooComplex { tests: u64, cap: u64 },
-    /// The index of a polygon this large could not be allocated.
-    TooLarge { edges: usize },
-}
-
-/// Deepest parenthesis nesting accepted in WKT, as the `wkb` reader's 128 GEOMETRYCOLLECTION
-/// levels (a POLYGON needs 2, a MULTIPOLYGON 3).
-pub const MAX_WKT_DEPTH: usize = 128;
 
 /// The deepest parenthesis nesting of `s` (a `)` without its `(` counts as nothing, so this is
 /// never below the depth the parser would reach). O(n), no recursion.
@@ -95,79 +55,7 @@ pub fn wkt_depth(s: &str) -> usize {
     deepest
 }
 
-const REPAIR: &str = "fix the data, or repair it with ST_MakeValid and the method you mean";
-const UNITE: &str = "pass them as separate elements of polygon_union to unite them";
 
-/// How to fix a problem between rings `a` and `b`: parts of a MULTIPOLYGON that meet can be
-/// united by polygon_union.
-fn repair(a: &RingId, b: &RingId) -> String {
-    if a.polygon != b.polygon {
-        format!("if the polygons are meant to overlap, {UNITE}; else {REPAIR}")
-    } else {
-        REPAIR.to_string()
-    }
-}
-
-/// Largest |coordinate| of a polygon vertex: products of two coordinates (areas, orientation
-/// tests) stay far from overflow. Larger polygons are refused, not computed wrongly.
-pub const MAX_COORD: f64 = 1e150;
-
-impl fmt::Display for RegionError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            RegionError::Wkt(e) => write!(f, "invalid WKT: {e}"),
-            RegionError::Wkb(e) => write!(f, "invalid WKB: {e}"),
-            RegionError::NotPolygon(k) => write!(f, "must be a POLYGON or MULTIPOLYGON, got {k}"),
-            RegionError::NotFinite => write!(f, "has a NaN or infinite vertex"),
-            RegionError::SelfIntersection { x, y } => {
-                write!(f, "is not a valid polygon: a ring intersects itself at ({x} {y})")
-            }
-            RegionError::ShortRing { points } => {
-                write!(f, "is not a valid polygon: a ring has {points} points, fewer than 4 (3 corners and the closing point)")
-            }
-            RegionError::Magnitude { x, y } => write!(f, "has a vertex ({x:?} {y:?}) beyond ±{MAX_COORD:e}"),
-            RegionError::WktTooDeep { depth } => write!(
-                f,
-                "is WKT nested {depth} parentheses deep, above the cap of {MAX_WKT_DEPTH} \
-                 (a POLYGON needs 2, a MULTIPOLYGON 3); pass a POLYGON or MULTIPOLYGON"
-            ),
-            RegionError::Degenerate { ring, corners } => {
-                write!(f, "is not a valid polygon: {ring} has {corners} distinct corners, fewer than 3")
-            }
-            RegionError::Crossing { a, b, x, y } => {
-                write!(f, "is not a valid polygon: {a} and {b} cross at ({x} {y}); {}", repair(a, b))
-            }
-            RegionError::SharedBoundary { a, b, x, y } => write!(
-                f,
-                "is not a valid polygon: {a} and {b} share a stretch of boundary from ({x} {y}) \
-                 (rings may touch only at points); {}",
-                repair(a, b)
-            ),
-            RegionError::HoleOutside { hole, x, y } => write!(
-                f,
-                "is not a valid polygon: {hole} is not inside its shell ({x} {y} is in the hole, outside the shell); {REPAIR}"
-            ),
-            RegionError::HoleInHole { inner, outer, x, y } => {
-                write!(f, "is not a valid polygon: {inner} lies inside {outer} (at {x} {y}); {REPAIR}")
-            }
-            RegionError::PartsOverlap { a, b, x, y } => write!(
-                f,
-                "is not a valid polygon: polygons {} and {} of the MULTIPOLYGON overlap (at {x} {y}); \
-                 {UNITE}, or {REPAIR}",
-                a + 1,
-                b + 1
-            ),
-            RegionError::TooComplex { tests, cap } => write!(
-                f,
-                "is too complex to validate: {tests} edge-pair tests, above the cap of {cap}; simplify it (fewer vertices)"
-            ),
-            RegionError::TooLarge { edges } => {
-                write!(f, "has {edges} edges: the index could not be allocated; simplify it (fewer vertices)")
-            }
-        }
-    }
-}
-impl std::error::Error for RegionError {}
 
 /// One edge in a slab, with its y-range and largest x kept inline for early rejection.
 #[derive(Clone, Copy, Debug)]
@@ -188,88 +76,6 @@ struct SlabIndex {
     /// `edges[start[s]..start[s + 1]]` are the edges whose y-range meets slab `s`.
     start: Vec<u32>,
     edges: Vec<Edge>,
-}
-
-/// Items with y-ranges bucketed into horizontal slabs of `[y0, y0 + height]`: `items[start[s]..
-/// start[s + 1]]` are the items whose range meets slab `s`. The slab count adapts so that the
-/// entries stay O(n) however tall the items are (at most `2n + n · nslab · (mean height /
-/// height)`, about 4n): with one slab per item a comb of 40,000 full-height edges needed
-/// 88 GB and aborted the host.
-pub(super) struct Slabs {
-    y0: f64,
-    inv_h: f64,
-    start: Vec<u32>,
-    items: Vec<u32>,
-}
-
-impl Slabs {
-    /// Errors only when the index cannot be allocated.
-    pub(super) fn new(ranges: &[(f64, f64)], y0: f64, height: f64) -> Result<Self, RegionError> {
-        let n = ranges.len();
-        let too_large = || RegionError::TooLarge { edges: n };
-        if n >= (u32::MAX / 8) as usize {
-            return Err(too_large());
-        }
-        let cap = n.clamp(1, 1 << 16);
-        let (nslab, inv_h) = if height > 0.0 {
-            let span: f64 = ranges.iter().map(|&(lo, hi)| (hi - lo) / height).sum();
-            let nslab = if span > 0.0 { ((2.0 * n as f64 / span) as usize).clamp(1, cap) } else { cap };
-            (nslab, nslab as f64 / height)
-        } else {
-            (1, 0.0)
-        };
-        let mut slabs = Slabs { y0, inv_h, start: Vec::new(), items: Vec::new() };
-        slabs.start.try_reserve_exact(nslab + 1).map_err(|_| too_large())?;
-        slabs.start.resize(nslab + 1, 0);
-        for &(lo, hi) in ranges {
-            for s in slabs.slab(lo)..=slabs.slab(hi) {
-                slabs.start[s + 1] += 1;
-            }
-        }
-        for s in 0..nslab {
-            slabs.start[s + 1] += slabs.start[s];
-        }
-        let total = slabs.start[nslab] as usize;
-        slabs.items.try_reserve_exact(total).map_err(|_| too_large())?;
-        slabs.items.resize(total, 0);
-        let mut fill: Vec<u32> = Vec::new();
-        fill.try_reserve_exact(nslab).map_err(|_| too_large())?;
-        fill.extend_from_slice(&slabs.start[..nslab]);
-        for (k, &(lo, hi)) in ranges.iter().enumerate() {
-            let (first, last) = (slabs.slab(lo), slabs.slab(hi));
-            for f in &mut fill[first..=last] {
-                slabs.items[*f as usize] = k as u32;
-                *f += 1;
-            }
-        }
-        Ok(slabs)
-    }
-
-    /// How many slabs.
-    pub(super) fn len(&self) -> usize {
-        self.start.len() - 1
-    }
-
-    /// The items of slab `s`.
-    pub(super) fn items(&self, s: usize) -> &[u32] {
-        &self.items[self.start[s] as usize..self.start[s + 1] as usize]
-    }
-
-    /// The items of slab `s`, to reorder.
-    pub(super) fn items_mut(&mut self, s: usize) -> &mut [u32] {
-        &mut self.items[self.start[s] as usize..self.start[s + 1] as usize]
-    }
-
-    /// The slab of `y` (clamped to the first and last).
-    #[inline]
-    pub(super) fn slab(&self, y: f64) -> usize {
-        (((y - self.y0) * self.inv_h) as usize).min(self.start.len() - 2)
-    }
-
-    /// The items whose range may contain `y`.
-    pub(super) fn get(&self, y: f64) -> &[u32] {
-        self.items(self.slab(y))
-    }
 }
 
 impl SlabIndex {

@@ -62,9 +62,10 @@
 //! The sweep is a loop (geo's `sweep::Intersections` recurses once per segment it passes
 //! without a hit, which overflowed an 8 MiB stack at 100,000 disjoint segments).
 
-use super::region::{RegionError, Slabs};
+pub use super::error::RingId;
+use super::error::{RegionError, MAX_COORD};
+use super::slabs::Slabs;
 use geo::{Coord, GeoNum, Kernel, LineString, MultiPolygon, Orientation, Polygon};
-use std::fmt;
 
 type Ker = <f64 as GeoNum>::Ker;
 
@@ -73,23 +74,6 @@ type Ker = <f64 as GeoNum>::Ker;
 /// test. A view polygon needs a few per edge; a dense spiky star of 100,000 vertices (the
 /// worst shape measured) 3.5e8 (2 s).
 pub const MAX_EDGE_TESTS: u64 = 1_000_000_000;
-
-/// A ring of a (multi)polygon, 0-based; shown 1-based.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct RingId {
-    pub polygon: usize,
-    /// `None` for the shell.
-    pub hole: Option<usize>,
-}
-
-impl fmt::Display for RingId {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self.hole {
-            None => write!(f, "the shell of polygon {}", self.polygon + 1),
-            Some(h) => write!(f, "hole {} of polygon {}", h + 1, self.polygon + 1),
-        }
-    }
-}
 
 /// One ring: its corners are `corners[start..start + n]` (no repeats, not closed).
 #[derive(Clone, Copy, Debug)]
@@ -182,7 +166,7 @@ pub fn normalise(poly: MultiPolygon<f64>) -> Result<MultiPolygon<f64>, RegionErr
     if !all().flat_map(|r| r.0.iter()).all(|c| c.x.is_finite() && c.y.is_finite()) {
         return Err(RegionError::NotFinite);
     }
-    if let Some(c) = all().flat_map(|r| r.0.iter()).find(|c| c.x.abs() > super::region::MAX_COORD || c.y.abs() > super::region::MAX_COORD) {
+    if let Some(c) = all().flat_map(|r| r.0.iter()).find(|c| c.x.abs() > MAX_COORD || c.y.abs() > MAX_COORD) {
         return Err(RegionError::Magnitude { x: c.x, y: c.y });
     }
     if let Some(r) = all().find(|r| r.0.len() < 4) {

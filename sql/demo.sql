@@ -1,6 +1,6 @@
 -- trajdb demo, part 1: two roadside cameras watch one intersection, each in its OWN frame.
 -- Everything is generated here, no external data. `trajdb demo` runs this file, then
--- sql/align.sql (finds the camera transform from the tracks alone), then sql/demo_match.sql.
+-- sql/stages/align.sql (finds the camera transform from the tracks alone), then sql/demo_match.sql.
 
 -- Synthetic road users: cars east-west, pedestrians north-south, on straight lanes.
 CREATE OR REPLACE TEMP TABLE demo_objects AS

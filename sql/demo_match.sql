@@ -1,6 +1,6 @@
--- trajdb demo, part 3 (after sql/demo.sql and sql/align.sql): bring every track into the
+-- trajdb demo, part 3 (after sql/demo.sql and sql/stages/align.sql): bring every track into the
 -- reference frame, then score the track pairs of the two cameras with LCSS inside the shared
--- overlap P^{1∩2} of their views for that class, as sql/overlap.sql found it (thesis eq. 2.10:
+-- overlap P^{1∩2} of their views for that class, as sql/stages/overlap.sql found it (thesis eq. 2.10:
 -- eps = 1 m, T = 0.5 s, at least 5 points in the overlap).
 
 CREATE OR REPLACE TEMP TABLE demo_tracks AS

@@ -1,4 +1,4 @@
--- trajdb pipeline parameters: GENERATED from src/app/params.rs by `trajdb params --sql > sql/params.sql`.
+-- trajdb pipeline parameters: GENERATED from crates/app/src/params.rs by `trajdb params --sql > sql/params.sql`.
 -- Each keeps a value you SET VARIABLE before `.read sql/params.sql`; otherwise it takes the default.
 
 -- load

@@ -3,7 +3,7 @@
 -- SET VARIABLE out_dir = 'results'; .read sql/export.sql; .read sql/report.sql).
 --
 -- This file gathers the report's data from the pipeline's tables; trajdb_report_html() (Rust,
--- src/app/report/) only draws it. Every row below is one line of the data text: its section
+-- crates/app/src/report/) only draws it. Every row below is one line of the data text: its section
 -- name and cells, cells separated by chr(31), rows by chr(30), NULL as chr(21). Numbers are
 -- DuckDB's VARCHAR casts, which round-trip exactly. Stage times come from the temp table
 -- pipeline_timings(stage, seconds) when the runner filled it.

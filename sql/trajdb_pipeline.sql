@@ -17,7 +17,7 @@
 -- `trajdb pipeline --input FILE --out DIR` runs the same files and also writes the results
 -- (sql/export.sql) and report.html (sql/report.sql); in the CLI afterwards:
 --   SET VARIABLE out_dir = 'results'; .read sql/export.sql; .read sql/report.sql
--- trajdb pipeline parameters: GENERATED from src/app/params.rs by `trajdb params --sql > sql/params.sql`.
+-- trajdb pipeline parameters: GENERATED from crates/app/src/params.rs by `trajdb params --sql > sql/params.sql`.
 -- Each keeps a value you SET VARIABLE before `.read sql/params.sql`; otherwise it takes the default.
 
 -- load
@@ -626,7 +626,7 @@ FROM calib_cameras ORDER BY camera;
 -- makes: clean_dropped
 -- work: -
 -- changes: points
--- parameters: clean_drop_estimated_tails, clean_max_speed, clean_xi
+-- parameters: clean_drop_estimated_tails, clean_max_speed, clean_min_duration_s, clean_min_points, clean_xi
 --
 -- trajdb pipeline, stage 2: clean the loaded `points` table in place.
 --  * optionally (clean_drop_estimated_tails = true) drop a track whose last xi points are all
@@ -642,7 +642,7 @@ FROM calib_cameras ORDER BY camera;
 --    is a real road user. A track without any real point is 'estimated only';
 --  * drop a track whose median speed between real points exceeds clean_max_speed (m/s): no
 --    road user at an intersection moves at 70 m/s, a tracker's id swap across the view does.
--- Parameters (clean_*): declared once in src/app/params.rs, defaults in sql/params.sql;
+-- Parameters (clean_*): declared once in crates/app/src/params.rs, defaults in sql/params.sql;
 -- `trajdb params` lists them, `trajdb pipeline --param name=value` or SET VARIABLE sets them.
 
 CREATE OR REPLACE TEMP TABLE clean_dropped AS
@@ -682,7 +682,7 @@ SELECT reason, count(*) AS tracks_dropped FROM clean_dropped GROUP BY reason ORD
 --        quality_events, quality_labels, quality_links, quality_reach_links, quality_flags
 -- work: quality_fit, quality_pairs, quality_events_cv, quality_reach
 -- changes: points
--- parameters: quality_inset, quality_max_dist, quality_max_gap
+-- parameters: quality_inset, quality_max_accel, quality_max_dist, quality_max_gap
 --
 -- trajdb: track quality within one camera (Zhao et al. III): broken, split and merged tracks,
 -- found from track endpoints; broken pieces are linked into one track before cross-camera
@@ -735,7 +735,7 @@ SELECT reason, count(*) AS tracks_dropped FROM clean_dropped GROUP BY reason ORD
 --
 -- It ends by replacing `points`' track_id by linked_id (the original rows stay in
 -- quality_endpoints / quality_links), so the cross-camera stages run on linked tracks.
--- Parameters (quality_*): declared once in src/app/params.rs, defaults in sql/params.sql;
+-- Parameters (quality_*): declared once in crates/app/src/params.rs, defaults in sql/params.sql;
 -- `trajdb params` lists them, `trajdb pipeline --param name=value` or SET VARIABLE sets them.
 
 CREATE OR REPLACE TEMP TABLE quality_endpoints AS
@@ -1018,9 +1018,9 @@ SELECT label, count(*) AS tracks FROM quality_labels GROUP BY label ORDER BY lab
 --       align_drift, align_support_voted, align_residuals(), align_clean(), align_register_pairs, align_register, align_edges
 -- changes: points, calibration
 -- parameters: align_agree_deg, align_agree_m, align_bin_deg, align_bin_m, align_bin_s, align_clock_step_s,
---             align_max_clock_offset_s, align_max_hypotheses, align_min_overlap_s, align_min_pairs,
---             align_min_points, align_min_span_m, align_min_support, align_trim, load_camera_numbers, merge_epsilon,
---             merge_resample_s
+--             align_max_clock_offset_s, align_max_hypotheses, align_max_rms_m, align_min_overlap_s,
+--             align_min_pairs, align_min_points, align_min_span_m, align_min_support, align_refine_rms_m,
+--             align_trim, load_camera_numbers, merge_epsilon, merge_resample_s
 --
 -- trajdb: put N cameras into one frame and one clock from their tracks alone.
 --
@@ -1054,7 +1054,7 @@ SELECT label, count(*) AS tracks FROM quality_labels GROUP BY label ORDER BY lab
 -- centroid: moving a frame or shifting a clock changes nothing but that camera's result
 -- (tests/test_invariance_python.py).
 --
--- Parameters (align_*): declared once in src/app/params.rs, defaults in sql/params.sql. Tracks
+-- Parameters (align_*): declared once in crates/app/src/params.rs, defaults in sql/params.sql. Tracks
 -- need >= align_min_points real points; pairs overlap >= align_min_overlap_s in time, give
 -- >= align_min_pairs point pairs and their moving points span >= align_min_span_m; hypotheses
 -- with residual < align_max_rms_m vote in bins of align_bin_deg degrees and align_bin_m metres;
@@ -1089,7 +1089,7 @@ HAVING count(*) >= getvariable('align_min_points');
 
 -- 0. the coarse clock offset of every camera pair, over EVERY lag the recordings allow: the
 --    cross-correlation peak of the two cameras' activity (tracks in view over time;
---    activity_lag, src/algo/align/xcorr.rs). No range is assumed: a camera seconds, hours or
+--    activity_lag, crates/algo/src/align/xcorr.rs). No range is assumed: a camera seconds, hours or
 --    a day off, or on another epoch, is found the same way. It is coarse (a road user is in both
 --    views at once only inside their overlap, so mostly one-way traffic between the views puts
 --    the peak a few seconds off): step 1 searches around it, widening when needed. Bins of
@@ -1102,7 +1102,7 @@ GROUP BY camera;
 
 -- 1. hypotheses. Clocks may differ (dt = moving clock - fixed clock): each track pair is fitted
 --    at every shift dt on a grid of align_bin_s within +-max_off of its camera pair
---    (rigid_fit_scan, src/algo/align/shift.rs). A straight track fits at every shift, its
+--    (rigid_fit_scan, crates/algo/src/align/shift.rs). A straight track fits at every shift, its
 --    translation sliding along the road; a turning one only near its true offset. A camera pair
 --    needs a few hundred agreeing pairs, not every pair of a 12-hour day: at most
 --    align_max_hypotheses track pairs per camera pair are scanned, drawn evenly by a hash of
@@ -1266,7 +1266,7 @@ CREATE OR REPLACE TEMP TABLE align_retry AS FROM align_widen(2);
 --    crossing (13 s on a simulated crowd), and a 16 x wider exact scan of every sampled pair
 --    cost 30 s there. For the pairs to search again only, each sampled track pair (same class,
 --    within the activity peak's half width of its centre) votes the lag that best lines up the
---    two speed profiles over at least 4 s (speed_lag, src/algo/align/speed_lag.rs; a best lag
+--    two speed profiles over at least 4 s (speed_lag, crates/algo/src/align/speed_lag.rs; a best lag
 --    on the range's edge is no peak and is dropped), in bins of half the first search range.
 --    The best window of three bins, with at least align_min_support votes and 5 Poisson
 --    standard deviations above the median window (the background: pairs of different road
@@ -1862,7 +1862,7 @@ DROP TABLE IF EXISTS temp.main.align_register_pairs;
 -- (thesis 2.3: P^k, P^{k∩l}, and (P^{k1} ∪ … ∪ P^{k(i-1)}) ∩ P^{ki} for a merge order).
 --
 -- Input: `points(camera, track_id, class, t, x, y, estimated)` in camera-local frames and
--- `align_frames(camera, reference, to_reference, ...)` from sql/align.sql.
+-- `align_frames(camera, reference, to_reference, ...)` from sql/stages/align.sql.
 -- Output tables (polygons are WKB BLOBs; polygon_to_wkt() reads them, and DuckDB spatial's
 -- ST_GeomFromWKB() takes them as they are):
 --   view_polygons(camera, class, polygon, area_m2, n_points)        P^k; class '*' = all classes
@@ -1880,7 +1880,7 @@ DROP TABLE IF EXISTS temp.main.align_register_pairs;
 --   (calib_cameras.sigma_m, sql/stages/calibrate.sql; 0 switches the correction off);
 --   merge order: the cameras' data order (calib_camera_order: camera ids are labels; the table
 --   view_merge_order can be replaced).
--- Parameters (overlap_*): declared once in src/app/params.rs, defaults in sql/params.sql;
+-- Parameters (overlap_*): declared once in crates/app/src/params.rs, defaults in sql/params.sql;
 -- `trajdb params` lists them, `trajdb pipeline --param name=value` or SET VARIABLE sets them.
 
 -- Position noise per camera: measured by sql/stages/calibrate.sql (calib_cameras.sigma_m).
@@ -1966,12 +1966,13 @@ ORDER BY class, cam_a, cam_b;
 --        result_matches(), result_road_users(), result_links()
 -- work: merge_periods
 -- changes: -
--- parameters: input_t_type, merge_eta, merge_resample_max_gap, merge_resample_s, merge_time_window
+-- parameters: input_t_type, merge_epsilon, merge_eta, merge_min_points, merge_resample_max_gap,
+--             merge_resample_s, merge_time_window
 --
 -- trajdb: one row per road user across N cameras (thesis Alg. 2-4 and eq. 2.11).
 --
 -- Input: `points(camera, track_id, class, t, x, y, estimated)`, plus `align_frames` from
--- sql/align.sql and `view_overlaps` / `view_merge_order` from sql/overlap.sql.
+-- sql/stages/align.sql and `view_overlaps` / `view_merge_order` from sql/stages/overlap.sql.
 -- Output (the defaults below were chosen on benches/accuracy_merge.py, see the parameters):
 --   merge_tracks(camera, track_id, class, uid, traj, t0, t1)   tracks in the common frame
 --   merge_scores(uid_a, uid_b, camera_a, camera_b, eta,      LCSS similarity inside P^{a∩b} (eq. 2.10) of every
@@ -1988,7 +1989,7 @@ ORDER BY class, cam_a, cam_b;
 --                                                              stages' ids; fuse.sql makes `merged`, the
 --                                                              road users as merged.parquet has them)
 --
--- How Alg. 4 is carried out, and where it deviates (see docs in src/algo/merge.rs):
+-- How Alg. 4 is carried out, and where it deviates (see docs in crates/algo/src/merge.rs):
 --  * every camera pair whose views overlap for the class is scored (the overlap graph prunes the
 --    pairs; no merge-order permutations are tried: groups make the order irrelevant for *which*
 --    tracks belong together, the order only fixes how points are averaged);
@@ -2025,7 +2026,7 @@ ORDER BY class, cam_a, cam_b;
 -- the slowest camera on the common clock (sql/stages/calibrate.sql). T = 0.25 s is 2.5 steps
 -- of the common clock: after the clock offsets are removed (align.sql) it only has to cover
 -- the clock's step.
--- Parameters (merge_*): declared once in src/app/params.rs, defaults in sql/params.sql;
+-- Parameters (merge_*): declared once in crates/app/src/params.rs, defaults in sql/params.sql;
 -- `trajdb params` lists them, `trajdb pipeline --param name=value` or SET VARIABLE sets them.
 -- Common clock: every track is resampled to t = clock_origin + k * merge_resample_s (traj_resample;
 -- clock_origin is align.sql's align_origin, from the reference camera's first time; 0 keeps the
@@ -2356,7 +2357,7 @@ JOIN load_ids j ON j.camera = c.camera AND j.track_id = c.linked_id;
 -- overstated the mean speed by 23-45%. Here every road user's path is instead the smoothed
 -- estimate of one constant-velocity motion model from ALL its real observations in every
 -- camera, each with its camera's measured noise (traj_fuse: Kalman filter + Rauch-Tung-Striebel
--- smoother, seed 003 eq. 3.10-3.15, src/algo/fuse/), on the common clock.
+-- smoother, seed 003 eq. 3.10-3.15, crates/algo/src/fuse/), on the common clock.
 --
 -- Reads: points (real points, t on the reference clock since align.sql), align_frames
 --   (to_reference), merge_tracks (camera, track_id, class -> uid), merge_groups (uid ->
@@ -2524,7 +2525,7 @@ CREATE OR REPLACE TEMP TABLE merge_users AS SELECT road_user, class, sources, n_
 -- trajdb: route patterns by agglomerative clustering of trajectories (Buzan et al. 4.3-4.5, 5.2).
 --
 -- Input: `points(camera, track_id, class, t, x, y, estimated)`. One camera's tracks are
--- clustered per class in that camera's own frame (no alignment needed; after sql/merge.sql the
+-- clustered per class in that camera's own frame (no alignment needed; after sql/stages/merge.sql the
 -- same works on merged(road_user, class, traj)).
 -- Output:
 --   cluster_tracks(track_id, class, traj)                 tracks resampled to 2 Hz (traj_resample, t = k/2 s)
@@ -2539,7 +2540,7 @@ CREATE OR REPLACE TEMP TABLE merge_users AS SELECT road_user, class, sources, n_
 -- groups far fewer, larger patterns. Pairs with no common subsequence (distance 1) are left
 -- out of the list: they are cannot-links, and under average linkage such tracks never share a
 -- cluster.
--- Parameters (cluster_*): declared once in src/app/params.rs, defaults in sql/params.sql;
+-- Parameters (cluster_*): declared once in crates/app/src/params.rs, defaults in sql/params.sql;
 -- `trajdb params` lists them, `trajdb pipeline --param name=value` or SET VARIABLE sets them.
 
 -- The clustered camera: cluster_camera, or (auto) the camera with the most real tracks, ties to

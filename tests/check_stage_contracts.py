@@ -20,8 +20,14 @@ alone and the stage's rationale:
               creates that no earlier stage made);
   changes     tables and macros of the load or an earlier stage that it replaces (CREATE OR
               REPLACE) or changes (INSERT INTO, UPDATE, DELETE FROM);
-  parameters  every getvariable('name') of its SQL.
-Macros are written with `()`. The check is exact (sets are compared both ways), and every
+  parameters  what tunes the stage: every getvariable('name') of its SQL, and every value it reads
+              through calibrated('name') or calibrated_values('name') (a parameter that may be
+              `auto`, measured by calibrate.sql). Each parameter of crates/app/src/params.rs names
+              its stage there: that stage's header must list it, and every listed parameter must
+              be declared there.
+Macros are written with `()`. Also: every repository path named in a comment or a doc (sql/...,
+src/..., crates/..., tests/..., docs/..., scripts/..., python/..., benches/...) exists.
+The check is exact (sets are compared both ways), and every
 arrow points down: no stage names a table or macro made by a later stage, and no stage reads
 one made by nobody before it.
 
@@ -38,6 +44,41 @@ FIELDS = ("stage", "reads", "makes", "work", "changes", "parameters")
 CREATE = re.compile(r"\bCREATE\s+(?:OR\s+REPLACE\s+)?(?:TEMP\s+|TEMPORARY\s+)?(TABLE|VIEW|MACRO)\s+(?:IF\s+NOT\s+EXISTS\s+)?(\w+)", re.I)
 CHANGE = re.compile(r"\b(?:INSERT\s+INTO|UPDATE|DELETE\s+FROM)\s+(\w+)", re.I)
 GETVAR = re.compile(r"getvariable\(\s*'([^']*)'\s*\)", re.I)
+CALIBRATED = re.compile(r"\bcalibrated(?:_values)?\(\s*'([^']*)'\s*\)", re.I)
+PARAM_DECL = re.compile(r'\b[dibs]\(\s*"(\w+)",\s*"(?:[^"\\]|\\.)*",\s*"(\w+)"')
+# a repository path: a top-level folder of the repository, then a file or folder name
+REPO_PATH = re.compile(r"(?<![\w./-])((?:\.ci|src|crates|sql|tests|docs|scripts|python|benches)/[\w./*-]*[\w*])")
+PATH_SCAN = (".rs", ".sql", ".py", ".sh", ".md", ".toml", ".yml", ".slt")
+
+
+def declared_params():
+    """{name: stage} of every parameter in crates/app/src/params.rs."""
+    text = open(os.path.join(ROOT, "crates/app/src/params.rs"), encoding="utf-8").read()
+    return dict(PARAM_DECL.findall(text))
+
+
+def missing_paths():
+    """Every repository path named in a source file or a doc that does not exist. Placeholders
+    (a name in capitals: sql/stages/NAME.sql), globs and templates (* < {) are not paths."""
+    errors = []
+    for top in ["README.md", ".ci", "src", "crates", "sql", "tests", "docs", "scripts", "python", "benches"]:
+        start = os.path.join(ROOT, top)
+        walk = [(ROOT, [], [top])] if os.path.isfile(start) else os.walk(start)
+        for dirpath, dirs, files in walk:
+            dirs[:] = [d for d in dirs if d not in ("target", "build", "__pycache__", "testdata", ".git")]
+            for fname in sorted(files):
+                if not (fname.endswith(PATH_SCAN) or dirpath.endswith(".ci")):
+                    continue
+                path = os.path.join(dirpath, fname)
+                rel = os.path.relpath(path, ROOT)
+                for no, line in enumerate(open(path, encoding="utf-8", errors="replace"), 1):
+                    for m in REPO_PATH.finditer(line):
+                        p = m.group(1).rstrip(".").split("#")[0]
+                        if any(c in p for c in "*<{") or any(re.fullmatch(r"[A-Z][A-Z_]*(\.\w+)?", seg) for seg in p.split("/")):
+                            continue
+                        if not os.path.exists(os.path.join(ROOT, p)):
+                            errors.append(f"{rel}:{no}: names {p}, which does not exist")
+    return errors
 
 
 def strip_comments(sql):
@@ -165,6 +206,7 @@ def main():
     # every name each stage creates, to find arrows pointing up
     later = {}
     infos = []
+    listed = {}
     for rel in files:
         path = os.path.join(ROOT, rel)
         text = open(path, encoding="utf-8").read()
@@ -199,7 +241,8 @@ def main():
                 continue
             if references(body, n, mac):
                 errors.append(f"{rel}: names {n}{'()' if mac else ''}, made by the later stage {who}: every arrow must point down")
-        params = sorted(set(GETVAR.findall(code)))
+        params = sorted(set(GETVAR.findall(code)) | set(CALIBRATED.findall(code)))
+        listed[stem] = params
         kinds_all = dict(made)
         kinds_all.update(kinds)
         if show:
@@ -243,6 +286,21 @@ def main():
         for n in new:
             made[n] = kinds[n]
     errors += persistent_creates()
+    # params.rs names one stage per parameter: that stage tunes it (its header lists it)
+    decl = declared_params()
+    for name, stage in sorted(decl.items()):
+        if stage in listed and name not in listed[stage]:
+            who = [k for k, v in listed.items() if name in v]
+            errors.append(f"crates/app/src/params.rs: {name} is declared for the stage {stage}, whose SQL does not read it "
+                          f"(read by: {', '.join(who) or 'no stage'})")
+    # the load's own variables (sql/pipeline.sql sets or reads them: input_t_type, load_camera_numbers)
+    load_text = strip_comments(open(os.path.join(ROOT, "sql/pipeline.sql"), encoding="utf-8").read().split(".read sql/stages.sql")[0])
+    load_vars = set(re.findall(r"\bSET\s+VARIABLE\s+(\w+)", load_text, re.I)) | set(GETVAR.findall(load_text))
+    for stage, names in listed.items():
+        for n in names:
+            if n not in decl and n not in load_vars:
+                errors.append(f"sql/stages/{stage}.sql: reads the parameter {n}, which crates/app/src/params.rs does not declare")
+    errors += missing_paths()
     if errors:
         print("\n".join(errors))
         print(f"check_stage_contracts: {len(errors)} mismatch(es)")

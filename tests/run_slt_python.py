@@ -3,7 +3,7 @@
 
 This is a small reader of the sqllogictest subset our files use (`statement ok`,
 `statement error <regex>`, `query <types>` with `----` results, `#` comments). Values are
-formatted exactly as tests/sqllogic.rs does: each result column is cast to VARCHAR by DuckDB,
+formatted exactly as sqllogictest-rs formats them: each result column is cast to VARCHAR by DuckDB,
 NULL prints as `NULL`, the empty string as `(empty)`, and cells of a row are joined by one
 space with whitespace normalised (sqllogictest-rs's default validator).
 

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """The `trajdb` command (python/trajdb/cli.py) as a user runs it: `python -m trajdb ...` in a
 child process, over PyPI DuckDB and the loadable extension (the port of the old Rust
-tests/cli.rs, which ran the bundled-DuckDB binary).
+tests/test_cli_python.py, which ran the bundled-DuckDB binary).
 
 Covered: help for every command (and a bare `--help`, which once ran the demo into a folder
 named --help); sql as a table, CSV and JSON, several statements, stdin, --db; one-line errors

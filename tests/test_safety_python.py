@@ -317,7 +317,7 @@ def main():
     check("sandboxed: trajdb_results_begin creates nothing", not os.path.exists(os.path.join(w, "sandboxed2")), msg)
 
     # ---- fuzz: random `out` strings against a tree of the user's files. Through the SQL functions
-    # every runner uses (trajdb_results_begin / _end, src/app/outdir.rs), 300 cases: whatever
+    # every runner uses (trajdb_results_begin / _end, crates/app/src/outdir.rs), 300 cases: whatever
     # is refused or written, no file of the user's changes or disappears.
     import random
     rnd = random.Random(25)

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """`trajdb.score` (the Python twin of `trajdb score`, the same sql/score.sql) on a hand-made
-scenario whose HOTA and clock errors are computed by hand below (issue 26, part 6; the same case
-as the unit test hota_and_drifting_epoch_clocks_by_hand in src/app/score.rs). docs/scoring.md
+scenario whose HOTA and clock errors are computed by hand below (issue 26, part 6; the scorer is
+sql/score.sql). docs/scoring.md
 defines every figure.
 
 Two cameras at identity transforms; clocks t_cam = (1 + D 1e-6) w + o (w: world time) at

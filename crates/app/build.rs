@@ -1,4 +1,4 @@
-//! Embeds every file under the repository's `sql/` in the library (`src/sql.rs` looks them up
+//! Embeds every file under the repository's `sql/` in the library (`crates/app/src/sql.rs` looks them up
 //! by path), so that the extension's runner runs the same SQL files the DuckDB CLI `.read`s,
 //! without a second list of them in Rust.
 use std::path::Path;

@@ -477,7 +477,7 @@ def simulate(con, out, **params):
         if not str(k).isidentifier():
             raise ValueError(f"trajdb.simulate: parameter names are those of trajdb_simulate (cameras, minutes, seed, ...), got {k!r}")
     # names are identifiers (DuckDB refuses unknown ones); values and paths are bound parameters.
-    # The scenario and points.parquet go into one claim of `out` (src/app/outdir.rs), so that
+    # The scenario and points.parquet go into one claim of `out` (crates/app/src/outdir.rs), so that
     # points.parquet is in the manifest: a later scenario into `out` replaces it with the rest.
     args = "".join(f", {k} := ?" for k in params)
     out = os.path.abspath(os.fspath(out))

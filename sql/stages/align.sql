@@ -9,9 +9,9 @@
 --       align_drift, align_support_voted, align_residuals(), align_clean(), align_register_pairs, align_register, align_edges
 -- changes: points, calibration
 -- parameters: align_agree_deg, align_agree_m, align_bin_deg, align_bin_m, align_bin_s, align_clock_step_s,
---             align_max_clock_offset_s, align_max_hypotheses, align_min_overlap_s, align_min_pairs,
---             align_min_points, align_min_span_m, align_min_support, align_trim, load_camera_numbers, merge_epsilon,
---             merge_resample_s
+--             align_max_clock_offset_s, align_max_hypotheses, align_max_rms_m, align_min_overlap_s,
+--             align_min_pairs, align_min_points, align_min_span_m, align_min_support, align_refine_rms_m,
+--             align_trim, load_camera_numbers, merge_epsilon, merge_resample_s
 --
 -- trajdb: put N cameras into one frame and one clock from their tracks alone.
 --
@@ -45,7 +45,7 @@
 -- centroid: moving a frame or shifting a clock changes nothing but that camera's result
 -- (tests/test_invariance_python.py).
 --
--- Parameters (align_*): declared once in src/app/params.rs, defaults in sql/params.sql. Tracks
+-- Parameters (align_*): declared once in crates/app/src/params.rs, defaults in sql/params.sql. Tracks
 -- need >= align_min_points real points; pairs overlap >= align_min_overlap_s in time, give
 -- >= align_min_pairs point pairs and their moving points span >= align_min_span_m; hypotheses
 -- with residual < align_max_rms_m vote in bins of align_bin_deg degrees and align_bin_m metres;
@@ -80,7 +80,7 @@ HAVING count(*) >= getvariable('align_min_points');
 
 -- 0. the coarse clock offset of every camera pair, over EVERY lag the recordings allow: the
 --    cross-correlation peak of the two cameras' activity (tracks in view over time;
---    activity_lag, src/algo/align/xcorr.rs). No range is assumed: a camera seconds, hours or
+--    activity_lag, crates/algo/src/align/xcorr.rs). No range is assumed: a camera seconds, hours or
 --    a day off, or on another epoch, is found the same way. It is coarse (a road user is in both
 --    views at once only inside their overlap, so mostly one-way traffic between the views puts
 --    the peak a few seconds off): step 1 searches around it, widening when needed. Bins of
@@ -93,7 +93,7 @@ GROUP BY camera;
 
 -- 1. hypotheses. Clocks may differ (dt = moving clock - fixed clock): each track pair is fitted
 --    at every shift dt on a grid of align_bin_s within +-max_off of its camera pair
---    (rigid_fit_scan, src/algo/align/shift.rs). A straight track fits at every shift, its
+--    (rigid_fit_scan, crates/algo/src/align/shift.rs). A straight track fits at every shift, its
 --    translation sliding along the road; a turning one only near its true offset. A camera pair
 --    needs a few hundred agreeing pairs, not every pair of a 12-hour day: at most
 --    align_max_hypotheses track pairs per camera pair are scanned, drawn evenly by a hash of
@@ -257,7 +257,7 @@ CREATE OR REPLACE TEMP TABLE align_retry AS FROM align_widen(2);
 --    crossing (13 s on a simulated crowd), and a 16 x wider exact scan of every sampled pair
 --    cost 30 s there. For the pairs to search again only, each sampled track pair (same class,
 --    within the activity peak's half width of its centre) votes the lag that best lines up the
---    two speed profiles over at least 4 s (speed_lag, src/algo/align/speed_lag.rs; a best lag
+--    two speed profiles over at least 4 s (speed_lag, crates/algo/src/align/speed_lag.rs; a best lag
 --    on the range's edge is no peak and is dropped), in bins of half the first search range.
 --    The best window of three bins, with at least align_min_support votes and 5 Poisson
 --    standard deviations above the median window (the background: pairs of different road

@@ -3,7 +3,7 @@
 -- makes: clean_dropped
 -- work: -
 -- changes: points
--- parameters: clean_drop_estimated_tails, clean_max_speed, clean_xi
+-- parameters: clean_drop_estimated_tails, clean_max_speed, clean_min_duration_s, clean_min_points, clean_xi
 --
 -- trajdb pipeline, stage 2: clean the loaded `points` table in place.
 --  * optionally (clean_drop_estimated_tails = true) drop a track whose last xi points are all
@@ -19,7 +19,7 @@
 --    is a real road user. A track without any real point is 'estimated only';
 --  * drop a track whose median speed between real points exceeds clean_max_speed (m/s): no
 --    road user at an intersection moves at 70 m/s, a tracker's id swap across the view does.
--- Parameters (clean_*): declared once in src/app/params.rs, defaults in sql/params.sql;
+-- Parameters (clean_*): declared once in crates/app/src/params.rs, defaults in sql/params.sql;
 -- `trajdb params` lists them, `trajdb pipeline --param name=value` or SET VARIABLE sets them.
 
 CREATE OR REPLACE TEMP TABLE clean_dropped AS

@@ -9,7 +9,7 @@
 -- trajdb: route patterns by agglomerative clustering of trajectories (Buzan et al. 4.3-4.5, 5.2).
 --
 -- Input: `points(camera, track_id, class, t, x, y, estimated)`. One camera's tracks are
--- clustered per class in that camera's own frame (no alignment needed; after sql/merge.sql the
+-- clustered per class in that camera's own frame (no alignment needed; after sql/stages/merge.sql the
 -- same works on merged(road_user, class, traj)).
 -- Output:
 --   cluster_tracks(track_id, class, traj)                 tracks resampled to 2 Hz (traj_resample, t = k/2 s)
@@ -24,7 +24,7 @@
 -- groups far fewer, larger patterns. Pairs with no common subsequence (distance 1) are left
 -- out of the list: they are cannot-links, and under average linkage such tracks never share a
 -- cluster.
--- Parameters (cluster_*): declared once in src/app/params.rs, defaults in sql/params.sql;
+-- Parameters (cluster_*): declared once in crates/app/src/params.rs, defaults in sql/params.sql;
 -- `trajdb params` lists them, `trajdb pipeline --param name=value` or SET VARIABLE sets them.
 
 -- The clustered camera: cluster_camera, or (auto) the camera with the most real tracks, ties to

@@ -14,7 +14,7 @@
 -- overstated the mean speed by 23-45%. Here every road user's path is instead the smoothed
 -- estimate of one constant-velocity motion model from ALL its real observations in every
 -- camera, each with its camera's measured noise (traj_fuse: Kalman filter + Rauch-Tung-Striebel
--- smoother, seed 003 eq. 3.10-3.15, src/algo/fuse/), on the common clock.
+-- smoother, seed 003 eq. 3.10-3.15, crates/algo/src/fuse/), on the common clock.
 --
 -- Reads: points (real points, t on the reference clock since align.sql), align_frames
 --   (to_reference), merge_tracks (camera, track_id, class -> uid), merge_groups (uid ->

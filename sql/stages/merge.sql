@@ -5,12 +5,13 @@
 --        result_matches(), result_road_users(), result_links()
 -- work: merge_periods
 -- changes: -
--- parameters: input_t_type, merge_eta, merge_resample_max_gap, merge_resample_s, merge_time_window
+-- parameters: input_t_type, merge_epsilon, merge_eta, merge_min_points, merge_resample_max_gap,
+--             merge_resample_s, merge_time_window
 --
 -- trajdb: one row per road user across N cameras (thesis Alg. 2-4 and eq. 2.11).
 --
 -- Input: `points(camera, track_id, class, t, x, y, estimated)`, plus `align_frames` from
--- sql/align.sql and `view_overlaps` / `view_merge_order` from sql/overlap.sql.
+-- sql/stages/align.sql and `view_overlaps` / `view_merge_order` from sql/stages/overlap.sql.
 -- Output (the defaults below were chosen on benches/accuracy_merge.py, see the parameters):
 --   merge_tracks(camera, track_id, class, uid, traj, t0, t1)   tracks in the common frame
 --   merge_scores(uid_a, uid_b, camera_a, camera_b, eta,      LCSS similarity inside P^{a∩b} (eq. 2.10) of every
@@ -27,7 +28,7 @@
 --                                                              stages' ids; fuse.sql makes `merged`, the
 --                                                              road users as merged.parquet has them)
 --
--- How Alg. 4 is carried out, and where it deviates (see docs in src/algo/merge.rs):
+-- How Alg. 4 is carried out, and where it deviates (see docs in crates/algo/src/merge.rs):
 --  * every camera pair whose views overlap for the class is scored (the overlap graph prunes the
 --    pairs; no merge-order permutations are tried: groups make the order irrelevant for *which*
 --    tracks belong together, the order only fixes how points are averaged);
@@ -64,7 +65,7 @@
 -- the slowest camera on the common clock (sql/stages/calibrate.sql). T = 0.25 s is 2.5 steps
 -- of the common clock: after the clock offsets are removed (align.sql) it only has to cover
 -- the clock's step.
--- Parameters (merge_*): declared once in src/app/params.rs, defaults in sql/params.sql;
+-- Parameters (merge_*): declared once in crates/app/src/params.rs, defaults in sql/params.sql;
 -- `trajdb params` lists them, `trajdb pipeline --param name=value` or SET VARIABLE sets them.
 -- Common clock: every track is resampled to t = clock_origin + k * merge_resample_s (traj_resample;
 -- clock_origin is align.sql's align_origin, from the reference camera's first time; 0 keeps the

@@ -10,7 +10,7 @@
 -- (thesis 2.3: P^k, P^{k∩l}, and (P^{k1} ∪ … ∪ P^{k(i-1)}) ∩ P^{ki} for a merge order).
 --
 -- Input: `points(camera, track_id, class, t, x, y, estimated)` in camera-local frames and
--- `align_frames(camera, reference, to_reference, ...)` from sql/align.sql.
+-- `align_frames(camera, reference, to_reference, ...)` from sql/stages/align.sql.
 -- Output tables (polygons are WKB BLOBs; polygon_to_wkt() reads them, and DuckDB spatial's
 -- ST_GeomFromWKB() takes them as they are):
 --   view_polygons(camera, class, polygon, area_m2, n_points)        P^k; class '*' = all classes
@@ -28,7 +28,7 @@
 --   (calib_cameras.sigma_m, sql/stages/calibrate.sql; 0 switches the correction off);
 --   merge order: the cameras' data order (calib_camera_order: camera ids are labels; the table
 --   view_merge_order can be replaced).
--- Parameters (overlap_*): declared once in src/app/params.rs, defaults in sql/params.sql;
+-- Parameters (overlap_*): declared once in crates/app/src/params.rs, defaults in sql/params.sql;
 -- `trajdb params` lists them, `trajdb pipeline --param name=value` or SET VARIABLE sets them.
 
 -- Position noise per camera: measured by sql/stages/calibrate.sql (calib_cameras.sigma_m).

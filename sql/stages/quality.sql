@@ -4,7 +4,7 @@
 --        quality_events, quality_labels, quality_links, quality_reach_links, quality_flags
 -- work: quality_fit, quality_pairs, quality_events_cv, quality_reach
 -- changes: points
--- parameters: quality_inset, quality_max_dist, quality_max_gap
+-- parameters: quality_inset, quality_max_accel, quality_max_dist, quality_max_gap
 --
 -- trajdb: track quality within one camera (Zhao et al. III): broken, split and merged tracks,
 -- found from track endpoints; broken pieces are linked into one track before cross-camera
@@ -57,7 +57,7 @@
 --
 -- It ends by replacing `points`' track_id by linked_id (the original rows stay in
 -- quality_endpoints / quality_links), so the cross-camera stages run on linked tracks.
--- Parameters (quality_*): declared once in src/app/params.rs, defaults in sql/params.sql;
+-- Parameters (quality_*): declared once in crates/app/src/params.rs, defaults in sql/params.sql;
 -- `trajdb params` lists them, `trajdb pipeline --param name=value` or SET VARIABLE sets them.
 
 CREATE OR REPLACE TEMP TABLE quality_endpoints AS

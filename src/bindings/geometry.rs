@@ -101,7 +101,7 @@ pub static FUNCTIONS: &[Function] = &[
         name: "polygon_buffer",
         description: concat!(
             "Moves the boundary outward by distance (> 0) or inward (< 0), with round joins, like ST_Buffer on a polygon. \
-                      sql/overlap.sql shrinks each view polygon by the camera's measured position noise, because the hull of noisy \
+                      sql/stages/overlap.sql shrinks each view polygon by the camera's measured position noise, because the hull of noisy \
                       points overshoots the true view edge. Shrinking past the middle gives POLYGON EMPTY. distance must be finite.",
             polygon_rules!()
         ),

@@ -47,7 +47,7 @@ pub struct Signature {
 pub struct Function {
     pub name: &'static str,
     pub description: &'static str,
-    /// Runs as written; after `-- ` the expected result (checked by tests/cli.rs unless it
+    /// Runs as written; after `-- ` the expected result (checked by tests/test_cli_python.py unless it
     /// contains `~`).
     pub example: &'static str,
     /// The file(s) that hold the maths, e.g. `crates/algo/src/lcss/time_window.rs`.

@@ -262,7 +262,7 @@ pub fn set_sql(values: &[(&'static Param, String)]) -> String {
 /// The text of `sql/params.sql`: every default, kept when the variable is already set.
 pub fn params_sql() -> String {
     let mut s = String::from(
-        "-- trajdb pipeline parameters: GENERATED from src/app/params.rs by `trajdb params --sql > sql/params.sql`.\n\
+        "-- trajdb pipeline parameters: GENERATED from crates/app/src/params.rs by `trajdb params --sql > sql/params.sql`.\n\
          -- Each keeps a value you SET VARIABLE before `.read sql/params.sql`; otherwise it takes the default.\n",
     );
     let mut stage = "";

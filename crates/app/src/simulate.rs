@@ -1508,7 +1508,7 @@ impl Scenario {
         let mut s = String::new();
         let _ = writeln!(s, "Synthetic intersection scenario made by `{command}` (trajdb {}).", env!("CARGO_PKG_VERSION"));
         let _ = writeln!(s, "Parameters: {p:?}");
-        let _ = writeln!(s, "World: four-arm intersection at the origin (arms E/N/W/S, 70 m), lanes at 1.75 m, bike lanes at 5 m, sidewalks at 8 m, crosswalks 10 m from the centre; see src/app/simulate.rs and docs/simulate.md.");
+        let _ = writeln!(s, "World: four-arm intersection at the origin (arms E/N/W/S, 70 m), lanes at 1.75 m, bike lanes at 5 m, sidewalks at 8 m, crosswalks 10 m from the centre; see crates/app/src/simulate.rs and docs/simulate.md.");
         let per_class = |c: &str| self.objects.iter().filter(|o| o.class == c).count();
         let _ = writeln!(
             s,
@@ -1730,7 +1730,7 @@ mod tests {
         d
     }
 
-    /// The folder's entries but for the run lock (which stays, unlocked: src/app/outdir.rs).
+    /// The folder's entries but for the run lock (which stays, unlocked: crates/app/src/outdir.rs).
     fn names(d: &Path) -> Vec<String> {
         let mut v: Vec<String> =
             std::fs::read_dir(d).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).filter(|n| n != outdir::LOCK).collect();

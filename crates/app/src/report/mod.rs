@@ -600,6 +600,6 @@ fn clusters(d: &Data, c: &Ctx, h: &mut String) -> R<()> {
 /// The parameters the run used (`pipeline_params`).
 fn parameters(d: &Data, _: &Ctx, h: &mut String) -> R<()> {
     let rows = d.rows("param").iter().map(|r| Ok(vec![r.s(0)?, r.s(1)?, r.s(2)?, r.s(3)?])).collect::<R<Vec<_>>>()?;
-    let _ = write!(h, "<h2>Parameters</h2><p>Declared in src/app/params.rs; set with <code>--param name=value</code>.</p>{}", table(&["name", "value", "stage", "description"].map(String::from), &rows));
+    let _ = write!(h, "<h2>Parameters</h2><p>Declared in crates/app/src/params.rs; set with <code>--param name=value</code>.</p>{}", table(&["name", "value", "stage", "description"].map(String::from), &rows));
     Ok(())
 }

@@ -1007,32 +1007,13 @@ FROM points p LEFT JOIN quality_links l USING (camera, track_id);
 SELECT ev.kind, count(*) AS events FROM quality_events GROUP BY ev.kind ORDER BY ev.kind;
 SELECT label, count(*) AS tracks FROM quality_labels GROUP BY label ORDER BY label;
 ;
--- stage: align
--- reads: points, load_ids, calib_camera_order, calib_cameras, calib_pairs, calibration, calibrated_values()
--- makes: align_frames, align_origin, align_pairs, align_clock, align_offset_se, calib_match, calibration_summary,
---        result_transforms(), result_calibration()
--- work: align_centroids, align_tracks, align_activity, align_coarse, align_scan, align_keys, align_sample(),
---       align_hypotheses(), align_vote(), align_scan_pass, align_hyp, align_best, align_widen(), align_retry,
---       align_speed_scan, align_speed_votes, align_speed, align_hyp_wide, align_best_wide, align_support,
---       align_refit(), align_drift_pairs, align_drift_obs, align_drift_fitted, align_drift_kept,
---       align_drift, align_support_voted, align_residuals(), align_clean(), align_register_pairs, align_register, align_edges
--- changes: points, calibration
--- parameters: align_agree_deg, align_agree_m, align_bin_deg, align_bin_m, align_bin_s, align_clock_step_s,
---             align_max_clock_offset_s, align_max_hypotheses, align_max_rms_m, align_min_overlap_s,
---             align_min_pairs, align_min_points, align_min_span_m, align_min_support, align_refine_rms_m,
---             align_trim, load_camera_numbers, merge_epsilon, merge_resample_s
+-- stage: align (a stage of five files, each with its own contract header; run in this order)
 --
--- trajdb: put N cameras into one frame and one clock from their tracks alone.
---
--- Reads: `points(camera, track_id, class, t, x, y, estimated)`, each camera in its own frame
--- and on its own clock; calib_cameras, calib_pairs and the resolved align_max_rms_m /
--- align_refine_rms_m per camera pair (calibration, calibrate.sql).
--- Makes: `align_pairs` (one transform and clock fit per camera pair that has support),
--- `align_clock` (its offset and drift), `align_frames` (camera -> reference frame and clock
--- t_camera = (1 + clock_drift) t_reference + clock_offset_s, composed along a spanning tree),
--- `align_origin` (the common clock's grid origin), `calib_match` (the matched tracks'
--- residual sigma per camera pair), merge_epsilon's rows of `calibration`, `calibration_summary`,
--- and `points` with t on the reference camera's clock. Parameters: align_* (below).
+-- trajdb: put N cameras into one frame and one clock from their tracks alone. Each camera's
+-- points are in its own frame and on its own clock; at the end of this stage `points` is on the
+-- reference camera's clock, `align_frames` holds every camera's transform into the reference
+-- camera's frame and its clock t_camera = (1 + D) t_reference + O, and
+-- merge_epsilon's rows are in `calibration`.
 --
 -- Method (why not the thesis's speed pre-match + CPD from R = I, see docs/alignment.md):
 --  0. the coarse clock offset of each camera pair over every lag (activity cross-correlation);
@@ -1061,7 +1042,22 @@ SELECT label, count(*) AS tracks FROM quality_labels GROUP BY label ORDER BY lab
 -- a hypothesis agrees within align_agree_deg / align_agree_m; a camera pair needs
 -- >= align_min_support agreeing hypotheses; the refit trims align_trim of the pairs, and the
 -- second pass keeps track pairs within align_refine_rms_m RMS of the first fit.
-
+--
+--   align/coarse.sql    0. the coarse clock offset of every camera pair (activity cross-correlation)
+--   align/vote.sql      1-2. hypotheses from track pairs over a grid of clock offsets, the vote, passes 2 and 3
+--   align/refit.sql     3-3b. the joint refit of the agreeing pairs, the clock drift and the offset's standard error
+--   align/register.sql  3c. the cleaned pairs, the final registration (register_pair), calib_match, merge_epsilon
+--   align/frames.sql    4-5. the spanning tree, align_frames, calibration_summary, points on the reference clock
+-- stage: align/coarse
+-- reads: points, calib_camera_order
+-- makes: align_centroids, align_tracks, align_coarse
+-- work: align_activity
+-- changes: -
+-- parameters: align_max_clock_offset_s, align_min_points
+--
+-- trajdb align, the coarse clock offset of every camera pair (step 0), and the tracks and centroids every later step of align
+--        works on.
+-- Part of the stage align (sql/stages/align.sql: the method, the files in order).
 
 -- Each camera's centroid (the mean of its real points), the origin every vote is taken about.
 -- A hypothesis (theta, tx, ty) is a rotation about the moving frame's ORIGIN: an angle error
@@ -1100,21 +1096,6 @@ SELECT camera, list({'t': t, 'v': v} ORDER BY t, v) AS events
 FROM (SELECT camera, t0 AS t, 1.0 AS v FROM align_tracks UNION ALL SELECT camera, t1, -1.0 FROM align_tracks)
 GROUP BY camera;
 
--- 1. hypotheses. Clocks may differ (dt = moving clock - fixed clock): each track pair is fitted
---    at every shift dt on a grid of align_bin_s within +-max_off of its camera pair
---    (rigid_fit_scan, crates/algo/src/align/shift.rs). A straight track fits at every shift, its
---    translation sliding along the road; a turning one only near its true offset. A camera pair
---    needs a few hundred agreeing pairs, not every pair of a 12-hour day: at most
---    align_max_hypotheses track pairs per camera pair are scanned, drawn evenly by a hash of
---    their ids (all of them on the shared scenes' busiest pair: 18k candidates -> 4k).
---    The search range is not a fixed bound (a camera 1.56 s off was placed at the edge of a
---    +-1 s range, 0.995 s): pass 1 searches +-align_max_clock_offset_s; a camera pair whose
---    winning offset lies within two bins of the edge, or whose winner has fewer than
---    align_min_support votes (none at all: no common time within the range), or a small winner
---    (under 4 x align_min_support) with fewer than twice the votes of the next bin (a chance
---    coincidence of a few pairs, not a peak; a true peak's neighbours on the same road can come
---    close to it, so large winners are trusted: a heuristic, not yet measured), is searched again over 4 times the range (passes 2 and 3: up to 16 x), and keeps the wider
---    search's winner when it has more votes. A pair truly in range wins inside it and is never
 --    searched again, so in-range results are those of a single pass.
 --    Which camera of a pair is fixed and which is moved onto it is the cameras' data order
 --    (calib_camera_order: the fixed one comes first), never their ids: the fits below are not
@@ -1137,7 +1118,34 @@ LATERAL (SELECT CASE WHEN getvariable('align_max_clock_offset_s') > 0
                      THEN activity_lag(ea.events, eb.events,
                                        greatest(getvariable('align_max_clock_offset_s') / 2,
                                                 greatest(ea.events[-1].t, eb.events[-1].t) / 4194304)) END AS l);
+;
+-- stage: align/vote
+-- reads: calibrated_values(), align_centroids, align_tracks, align_coarse
+-- makes: align_scan, align_hyp, align_best
+-- work: align_keys, align_sample(), align_hypotheses(), align_vote(), align_scan_pass, align_widen(), align_retry, align_speed_scan,
+--       align_speed_votes, align_speed, align_hyp_wide, align_best_wide
+-- changes: -
+-- parameters: align_bin_deg, align_bin_m, align_bin_s, align_max_clock_offset_s, align_max_hypotheses, align_max_rms_m,
+--             align_min_overlap_s, align_min_pairs, align_min_span_m, align_min_support
+--
+-- trajdb align, hypotheses from track pairs over a grid of clock offsets and their vote (steps 1-2, passes 1-3).
+-- Part of the stage align (sql/stages/align.sql: the method, the files in order).
 
+-- 1. hypotheses. Clocks may differ (dt = moving clock - fixed clock): each track pair is fitted
+--    at every shift dt on a grid of align_bin_s within +-max_off of its camera pair
+--    (rigid_fit_scan, crates/algo/src/align/shift.rs). A straight track fits at every shift, its
+--    translation sliding along the road; a turning one only near its true offset. A camera pair
+--    needs a few hundred agreeing pairs, not every pair of a 12-hour day: at most
+--    align_max_hypotheses track pairs per camera pair are scanned, drawn evenly by a hash of
+--    their ids (all of them on the shared scenes' busiest pair: 18k candidates -> 4k).
+--    The search range is not a fixed bound (a camera 1.56 s off was placed at the edge of a
+--    +-1 s range, 0.995 s): pass 1 searches +-align_max_clock_offset_s; a camera pair whose
+--    winning offset lies within two bins of the edge, or whose winner has fewer than
+--    align_min_support votes (none at all: no common time within the range), or a small winner
+--    (under 4 x align_min_support) with fewer than twice the votes of the next bin (a chance
+--    coincidence of a few pairs, not a peak; a true peak's neighbours on the same road can come
+--    close to it, so large winners are trusted: a heuristic, not yet measured), is searched again over 4 times the range (passes 2 and 3: up to 16 x), and keeps the wider
+--    search's winner when it has more votes. A pair truly in range wins inside it and is never
 CREATE OR REPLACE TEMP TABLE align_scan AS
 SELECT cam_fixed, cam_moving, coalesce(centre, 0.0) AS centre, getvariable('align_max_clock_offset_s') AS max_off, 1 AS pass
 FROM align_coarse;
@@ -1329,6 +1337,17 @@ DELETE FROM align_hyp WHERE (cam_fixed, cam_moving) IN (
     SELECT (w.cam_fixed, w.cam_moving) FROM align_best_wide w LEFT JOIN align_best b USING (cam_fixed, cam_moving) WHERE w.votes > coalesce(b.votes, 0));
 INSERT INTO align_hyp FROM align_hyp_wide WHERE (cam_fixed, cam_moving) NOT IN (SELECT (cam_fixed, cam_moving) FROM align_hyp);
 CREATE OR REPLACE TEMP TABLE align_best AS FROM align_vote('align_hyp');
+;
+-- stage: align/refit
+-- reads: calib_camera_order, calib_cameras, calibrated_values(), align_tracks, align_scan, align_hyp, align_best
+-- makes: align_support, align_refit(), align_pairs, align_drift, align_offset_se
+-- work: align_drift_pairs, align_drift_obs, align_drift_fitted, align_drift_kept
+-- changes: align_best
+-- parameters: align_agree_deg, align_agree_m, align_bin_s, align_clock_step_s, align_min_pairs, align_min_support,
+--             align_refine_rms_m, align_trim
+--
+-- trajdb align, the joint refit of the agreeing track pairs, the clock drift and the clock offset's standard error (steps 3, 3b).
+-- Part of the stage align (sql/stages/align.sql: the method, the files in order).
 
 -- 3. the agreeing hypotheses at the winning shift (angle difference wrapped to [-180, 180)) are
 --    the pre-matched track pairs: same road user in both cameras, found without any coordinates
@@ -1497,6 +1516,17 @@ FROM align_drift d
 WHERE d.cam_fixed = b.cam_fixed AND d.cam_moving = b.cam_moving AND d.drift <> 0;
 
 CREATE OR REPLACE TEMP TABLE align_pairs AS FROM align_refit();
+;
+-- stage: align/register
+-- reads: calib_cameras, calib_pairs, calibrated_values(), align_tracks, align_support, align_refit(), align_pairs
+-- makes: calib_match
+-- work: align_support_voted, align_residuals(), align_clean(), align_register_pairs, align_register
+-- changes: align_pairs, align_support, calibration
+-- parameters: align_bin_s, align_clock_step_s, align_refine_rms_m, align_trim, merge_epsilon
+--
+-- trajdb align, the cleaned pairs, the final registration per camera pair (register_pair, step 3c), the matched residuals
+--        (calib_match) and merge_epsilon's rows of calibration.
+-- Part of the stage align (sql/stages/align.sql: the method, the files in order).
 
 --    (the voted pairs, kept for register_pair below: cleaned again under the second fit)
 CREATE OR REPLACE TEMP TABLE align_support_voted AS FROM align_support;
@@ -1652,6 +1682,18 @@ FROM (SELECT 'camera pair' AS scope, cam_a, cam_b, noise_match_epsilon(sigma_d_m
                       noise_match_epsilon(sqrt(2) * (SELECT coalesce(max(sigma_m), 0) FROM calib_cameras))),
              'the largest camera pair''s (one camera: 3.03 sqrt(2) sigma)') e,
      (SELECT getvariable('merge_epsilon') AS given) g;
+;
+-- stage: align/frames
+-- reads: points, load_ids, calib_camera_order, calib_cameras, calibration, align_centroids, align_pairs, align_drift,
+--        align_offset_se, calib_match
+-- makes: align_frames, align_origin, calibration_summary, result_transforms(), result_calibration()
+-- work: align_clock, align_edges
+-- changes: points
+-- parameters: load_camera_numbers, merge_resample_s
+--
+-- trajdb align, the spanning tree of camera pairs to the reference camera (step 4), every camera's frame and clock,
+--        calibration_summary, and `points` on the reference camera's clock (step 5).
+-- Part of the stage align (sql/stages/align.sql: the method, the files in order).
 
 -- 4. spanning tree: widest path from every camera to the reference camera (the one with the
 --    most support; ties: the first in the data order), composing moving -> fixed transforms (inverted when walked backwards).
@@ -1850,6 +1892,7 @@ DROP TABLE IF EXISTS temp.main.align_keys;
 DROP TABLE IF EXISTS temp.main.align_support_voted;
 DROP TABLE IF EXISTS temp.main.align_register_pairs;
 ;
+;
 -- stage: overlap
 -- reads: points, calib_camera_order, calib_cameras, align_frames
 -- makes: view_polygons, view_overlaps, view_merge_order, view_overlaps_chain
@@ -1963,7 +2006,7 @@ ORDER BY class, cam_a, cam_b;
 -- reads: points, load_ids, calib_camera_order, calib_cameras, calibrated(), calibrated_values(), quality_endpoints, quality_links,
 --        quality_reach_links, align_frames, align_origin, calib_match, view_overlaps, view_merge_order
 -- makes: merge_tracks, merge_scores, merge_bias, merge_links, merge_groups, merge_users, merge_chains, merge_road_users(),
---        result_matches(), result_road_users(), result_links()
+--        result_matches(), result_links()
 -- work: merge_periods
 -- changes: -
 -- parameters: input_t_type, merge_epsilon, merge_eta, merge_min_points, merge_resample_max_gap,
@@ -2331,8 +2374,6 @@ FROM (SELECT m.road_user, m.class, m.n_tracks,
              traj_to_wkb(m.traj, true) AS geometry, m.traj
       FROM merge_users m);
 
-CREATE OR REPLACE TEMP MACRO result_road_users() AS TABLE FROM merge_road_users();
-
 -- links: tracks linked within a camera (every track and the id of its chain: quality.sql's
 -- links, and the pieces of one camera merge.sql put in one road user; merge_chains)
 CREATE OR REPLACE TEMP MACRO result_links() AS TABLE
@@ -2343,10 +2384,10 @@ JOIN load_ids j ON j.camera = c.camera AND j.track_id = c.linked_id;
 ;
 -- stage: fuse
 -- reads: points, load_ids, calib_cameras, calib_classes, align_frames, align_origin, merge_tracks, merge_groups,
---        merge_users, merge_road_users(), result_road_users()
--- makes: fuse_q, fuse_offsets, fuse_paths, merged
+--        merge_users, merge_road_users()
+-- makes: fuse_q, fuse_offsets, fuse_paths, merged, result_road_users()
 -- work: -
--- changes: merge_users, result_road_users()
+-- changes: merge_users
 -- parameters: merge_resample_max_gap, merge_resample_s
 --
 -- trajdb pipeline: fused paths (issue 26, part 4; docs/fusion.md). Runs after merge.sql.
@@ -2369,7 +2410,8 @@ JOIN load_ids j ON j.camera = c.camera AND j.track_id = c.linked_id;
 --   fuse_paths(road_user, n_cameras, q, traj, sigma)   the fused path and its per-point sigma (m)
 --   merge_users                                     replaced: traj = the fused path, plus sigma_m
 --                                                   (median per-point sigma) and sigma (per point)
---   result_road_users()                             redefined: merged.parquet gets sigma_m, sigma and offsets
+--   result_road_users()                             merged.parquet's rows (FROM merged): merge_road_users() with
+--                                                   sigma_m, sigma, offsets and stationary
 --   merged                                          the road users as merged.parquet has them (the
 --                                                   input's ids, t_start, ..., geometry, offsets): what
 --                                                   stays in the connection is what the file holds
@@ -2496,19 +2538,18 @@ FROM fuse_paths GROUP BY n_cameras ORDER BY n_cameras;
 -- linked id (links.csv linked_id), ordered by camera and track; NULL for a road user of one track.
 -- stationary: the road user never moved (traj_stationary: a parked car); speed statistics leave
 -- it out (issue 39).
-CREATE OR REPLACE TEMP MACRO result_road_users() AS TABLE
+-- merged: the road users as merged.parquet has them (the README's `FROM merged`): the input's own
+-- camera and track ids in sources and offsets, t_start, t_end, duration_s, length_m, geometry,
+-- sigma_m, sigma. What stays in the connection is what the file holds (issue 39); the stages'
+-- own ids stay in merge_users (its paths dropped: merge_road_users() is merge.sql's, not to be
+-- called after this). result_road_users() is defined here only, once merged exists.
+CREATE OR REPLACE TEMP TABLE merged AS
 SELECT r.*, m.sigma_m, m.sigma, o.offsets, traj_stationary(r.traj, r.class) AS stationary
 FROM merge_road_users() r JOIN merge_users m USING (road_user)
 LEFT JOIN (SELECT f.road_user, list({'camera': i.camera_in, 'track_id': i.track_in, 'dx': f.dx, 'dy': f.dy} ORDER BY f.camera, f.track_id) AS offsets
            FROM fuse_offsets f JOIN load_ids i ON i.camera = f.camera AND i.track_id = f.track_id
-           GROUP BY f.road_user) o USING (road_user);
-
--- merged: the road users as merged.parquet has them (the README's `FROM merged`): the input's own
--- camera and track ids in sources and offsets, t_start, t_end, duration_s, length_m, geometry,
--- sigma_m, sigma. What stays in the connection is what the file holds (issue 39); the stages'
--- own ids stay in merge_users (its paths dropped: merge_road_users() is the stage's, not to be
--- called after this).
-CREATE OR REPLACE TEMP TABLE merged AS FROM result_road_users() ORDER BY road_user;
+           GROUP BY f.road_user) o USING (road_user)
+ORDER BY road_user;
 CREATE OR REPLACE TEMP MACRO result_road_users() AS TABLE FROM merged;
 -- merge_users keeps only the stages' ids (report.sql counts road users per camera by them): its
 -- paths are merged's now, and two copies of a day's paths cost 0.6 GB of a Mellingen-sized day

@@ -17,7 +17,7 @@ alone and the stage's rationale:
               EARLIER stage (in sql/stages.sql order) that the stage's SQL names;
   makes       what the stage creates for later stages and the results (CREATE ... TABLE / VIEW /
               MACRO); work: what it creates only for itself (makes + work = every name it
-              creates that no earlier stage made);
+              creates that no earlier stage made; no later stage reads a stage's work);
   changes     tables and macros of the load or an earlier stage that it replaces (CREATE OR
               REPLACE) or changes (INSERT INTO, UPDATE, DELETE FROM);
   parameters  what tunes the stage: every getvariable('name') of its SQL, and every value it reads
@@ -144,8 +144,15 @@ def load_objects():
 
 
 def stage_files():
+    """The stage files in run order. A stage file that `.read`s files (sql/stages/align.sql) is a
+    stage of several files: each of them has its own header (`-- stage: align/coarse`) and is
+    checked as a stage of its own, in the order read."""
     text = open(os.path.join(ROOT, "sql/stages.sql"), encoding="utf-8").read()
-    return re.findall(r"^\.read\s+(sql/stages/\w+\.sql)\s*$", text, re.M)
+    out = []
+    for rel in re.findall(r"^\.read\s+(sql/stages/\w+\.sql)\s*$", text, re.M):
+        inner = re.findall(r"^\.read\s+(sql/stages/[\w/]+\.sql)\s*$", open(os.path.join(ROOT, rel), encoding="utf-8").read(), re.M)
+        out += inner or [rel]
+    return out
 
 
 def parse_header(path, text):
@@ -207,6 +214,7 @@ def main():
     later = {}
     infos = []
     listed = {}
+    work_of = {}
     for rel in files:
         path = os.path.join(ROOT, rel)
         text = open(path, encoding="utf-8").read()
@@ -217,7 +225,7 @@ def main():
         for n, mac in cr:
             later.setdefault(n, (rel, mac))
     for idx, (rel, text, code, bare, cr) in enumerate(infos):
-        stem = os.path.splitext(os.path.basename(rel))[0]
+        stem = os.path.splitext(os.path.relpath(rel, "sql/stages"))[0]
         kinds = {}
         for n, mac in cr:
             kinds[n] = mac
@@ -273,6 +281,10 @@ def main():
                 if len(dset) != len(declared):
                     errors.append(f"{rel}: {field}: a name is listed twice")
 
+            # another stage's work is its own: what a later stage reads is made
+            for n in reads:
+                if n in work_of:
+                    errors.append(f"{rel}: reads {n}, which {work_of[n]} lists as its own work: list it in that file's makes")
             for d in header["reads"]:
                 base = (d[:-2] if d.endswith("()") else d).lower()
                 if base not in made:
@@ -285,11 +297,16 @@ def main():
             check("parameters", header["parameters"], params)
         for n in new:
             made[n] = kinds[n]
+        if not herr:
+            for w in header["work"]:
+                work_of[(w[:-2] if w.endswith("()") else w).lower()] = rel
     errors += persistent_creates()
     # params.rs names one stage per parameter: that stage tunes it (its header lists it)
     decl = declared_params()
     for name, stage in sorted(decl.items()):
-        if stage in listed and name not in listed[stage]:
+        # a stage of several files (align) lists it in one of them (align/vote)
+        files = [k for k in listed if k == stage or k.startswith(stage + "/")]
+        if files and not any(name in listed[k] for k in files):
             who = [k for k, v in listed.items() if name in v]
             errors.append(f"crates/app/src/params.rs: {name} is declared for the stage {stage}, whose SQL does not read it "
                           f"(read by: {', '.join(who) or 'no stage'})")

@@ -198,7 +198,7 @@ def test_merge(ext):
     assert one(con, "SELECT count(*) FROM merge_users") == 12
     assert one(con, "SELECT count(*) FROM merge_users WHERE n_tracks = 2") == 12
     # the merged road user of road user 4 lists both of camera 0's pieces
-    src = one(con, "SELECT sources FROM result_road_users() WHERE list_contains(sources, {'camera': 0, 'track_id': 150})")
+    src = one(con, "SELECT sources FROM merge_road_users() WHERE list_contains(sources, {'camera': 0, 'track_id': 150})")
     assert {(s["camera"], s["track_id"]) for s in src} == {(0, 104), (0, 150), (1, 204)}, src
     # one epsilon per camera pair, from calibration
     assert one(con, "SELECT count(*) FROM merge_scores s WHERE s.candidate") >= 11

@@ -1,9 +1,9 @@
 -- stage: fuse
 -- reads: points, load_ids, calib_cameras, calib_classes, align_frames, align_origin, merge_tracks, merge_groups,
---        merge_users, merge_road_users(), result_road_users()
--- makes: fuse_q, fuse_offsets, fuse_paths, merged
+--        merge_users, merge_road_users()
+-- makes: fuse_q, fuse_offsets, fuse_paths, merged, result_road_users()
 -- work: -
--- changes: merge_users, result_road_users()
+-- changes: merge_users
 -- parameters: merge_resample_max_gap, merge_resample_s
 --
 -- trajdb pipeline: fused paths (issue 26, part 4; docs/fusion.md). Runs after merge.sql.
@@ -26,7 +26,8 @@
 --   fuse_paths(road_user, n_cameras, q, traj, sigma)   the fused path and its per-point sigma (m)
 --   merge_users                                     replaced: traj = the fused path, plus sigma_m
 --                                                   (median per-point sigma) and sigma (per point)
---   result_road_users()                             redefined: merged.parquet gets sigma_m, sigma and offsets
+--   result_road_users()                             merged.parquet's rows (FROM merged): merge_road_users() with
+--                                                   sigma_m, sigma, offsets and stationary
 --   merged                                          the road users as merged.parquet has them (the
 --                                                   input's ids, t_start, ..., geometry, offsets): what
 --                                                   stays in the connection is what the file holds
@@ -153,19 +154,18 @@ FROM fuse_paths GROUP BY n_cameras ORDER BY n_cameras;
 -- linked id (links.csv linked_id), ordered by camera and track; NULL for a road user of one track.
 -- stationary: the road user never moved (traj_stationary: a parked car); speed statistics leave
 -- it out (issue 39).
-CREATE OR REPLACE TEMP MACRO result_road_users() AS TABLE
+-- merged: the road users as merged.parquet has them (the README's `FROM merged`): the input's own
+-- camera and track ids in sources and offsets, t_start, t_end, duration_s, length_m, geometry,
+-- sigma_m, sigma. What stays in the connection is what the file holds (issue 39); the stages'
+-- own ids stay in merge_users (its paths dropped: merge_road_users() is merge.sql's, not to be
+-- called after this). result_road_users() is defined here only, once merged exists.
+CREATE OR REPLACE TEMP TABLE merged AS
 SELECT r.*, m.sigma_m, m.sigma, o.offsets, traj_stationary(r.traj, r.class) AS stationary
 FROM merge_road_users() r JOIN merge_users m USING (road_user)
 LEFT JOIN (SELECT f.road_user, list({'camera': i.camera_in, 'track_id': i.track_in, 'dx': f.dx, 'dy': f.dy} ORDER BY f.camera, f.track_id) AS offsets
            FROM fuse_offsets f JOIN load_ids i ON i.camera = f.camera AND i.track_id = f.track_id
-           GROUP BY f.road_user) o USING (road_user);
-
--- merged: the road users as merged.parquet has them (the README's `FROM merged`): the input's own
--- camera and track ids in sources and offsets, t_start, t_end, duration_s, length_m, geometry,
--- sigma_m, sigma. What stays in the connection is what the file holds (issue 39); the stages'
--- own ids stay in merge_users (its paths dropped: merge_road_users() is the stage's, not to be
--- called after this).
-CREATE OR REPLACE TEMP TABLE merged AS FROM result_road_users() ORDER BY road_user;
+           GROUP BY f.road_user) o USING (road_user)
+ORDER BY road_user;
 CREATE OR REPLACE TEMP MACRO result_road_users() AS TABLE FROM merged;
 -- merge_users keeps only the stages' ids (report.sql counts road users per camera by them): its
 -- paths are merged's now, and two copies of a day's paths cost 0.6 GB of a Mellingen-sized day

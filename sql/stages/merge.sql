@@ -2,7 +2,7 @@
 -- reads: points, load_ids, calib_camera_order, calib_cameras, calibrated(), calibrated_values(), quality_endpoints, quality_links,
 --        quality_reach_links, align_frames, align_origin, calib_match, view_overlaps, view_merge_order
 -- makes: merge_tracks, merge_scores, merge_bias, merge_links, merge_groups, merge_users, merge_chains, merge_road_users(),
---        result_matches(), result_road_users(), result_links()
+--        result_matches(), result_links()
 -- work: merge_periods
 -- changes: -
 -- parameters: input_t_type, merge_epsilon, merge_eta, merge_min_points, merge_resample_max_gap,
@@ -369,8 +369,6 @@ FROM (SELECT m.road_user, m.class, m.n_tracks,
              traj_duration(m.traj) AS duration_s, traj_length_m(m.traj) AS length_m,
              traj_to_wkb(m.traj, true) AS geometry, m.traj
       FROM merge_users m);
-
-CREATE OR REPLACE TEMP MACRO result_road_users() AS TABLE FROM merge_road_users();
 
 -- links: tracks linked within a camera (every track and the id of its chain: quality.sql's
 -- links, and the pieces of one camera merge.sql put in one road user; merge_chains)

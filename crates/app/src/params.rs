@@ -384,7 +384,8 @@ mod tests {
                 "archive" => "sql/archive_check.sql".to_string(),
                 stage => format!("sql/stages/{stage}.sql"),
             };
-            let sql = crate::sql::file(&file).unwrap();
+            // (a stage of several files, align: every file it reads)
+            let sql = crate::sql::expand_embedded(&file).unwrap();
             let calib = crate::sql::file("sql/stages/calibrate.sql").unwrap();
             let get = format!("getvariable('{}')", p.name);
             assert!(

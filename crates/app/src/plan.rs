@@ -299,17 +299,20 @@ pub fn plan(req: &Request) -> Result<Vec<Step>, Box<dyn Error>> {
     }
     // 3. the load and the stages (sql/pipeline.sql: params.sql keeps the values set above)
     let skip: Vec<&str> = SITE_TABLES.iter().chain(SITE_WORK_TABLES).copied().collect();
-    for (name, text) in sql::parts("sql/pipeline.sql")? {
+    let mut timed = String::new();
+    for sql::Part { stage: name, file, sql: text } in sql::parts("sql/pipeline.sql")? {
         let stage = if name == "setup" { "load".to_string() } else { name };
-        let file = if stage == "load" { "sql/pipeline.sql".to_string() } else { format!("sql/stages/{stage}.sql") };
+        let file = if stage == "load" { "sql/pipeline.sql".to_string() } else { file };
         match req.part {
             Part::Site if stage != "load" && !CALIBRATION_STAGES.contains(&stage.as_str()) => continue,
             Part::Window if WINDOW_SKIPS_STAGES.contains(&stage.as_str()) => continue,
             _ => {}
         }
-        if req.out.is_some() && stage != "load" {
+        // one clock step per stage (a stage of several files is timed as one)
+        if req.out.is_some() && stage != "load" && stage != timed {
             steps.push(clock_step(&stage, &file));
         }
+        timed.clone_from(&stage);
         let mut part = Vec::new();
         push_script(&mut part, &stage, &file, &text);
         if matches!(req.part, Part::Window | Part::Day) && stage != "load" {

@@ -60,35 +60,50 @@ fn expand(sql: &str, depth: usize, load: Loader<'_>) -> Result<String, Box<dyn E
     Ok(out)
 }
 
-/// `embedded` SQL cut into timed parts: each `.read sql/stages/NAME.sql` is the part `NAME`;
-/// every other statement (parameters, loading) goes into a part named `setup`. Files are the
-/// embedded copies, so the binary runs exactly the SQL it was built with.
-pub fn parts(path: &str) -> Result<Vec<(String, String)>, Box<dyn Error>> {
-    let mut out: Vec<(String, String)> = Vec::new();
-    collect(path, &mut out, 0)?;
+/// One timed part of a script: the stage it belongs to, the file its text comes from, the text.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Part {
+    pub stage: String,
+    pub file: String,
+    pub sql: String,
+}
+
+/// `embedded` SQL cut into timed parts: each `.read sql/stages/NAME.sql` is the stage `NAME`;
+/// every other statement (parameters, loading) goes into a part named `setup`. A stage file that
+/// itself `.read`s files (sql/stages/align.sql reads sql/stages/align/*.sql, each with its own
+/// contract header) gives one part per file it reads, all of the stage `NAME`, each naming its
+/// own file. Files are the embedded copies, so the binary runs exactly the SQL it was built with.
+pub fn parts(path: &str) -> Result<Vec<Part>, Box<dyn Error>> {
+    let mut out: Vec<Part> = Vec::new();
+    collect(path, None, &mut out, 0)?;
     Ok(out)
 }
 
-fn collect(path: &str, out: &mut Vec<(String, String)>, depth: usize) -> Result<(), Box<dyn Error>> {
+fn collect(path: &str, stage: Option<&str>, out: &mut Vec<Part>, depth: usize) -> Result<(), Box<dyn Error>> {
     if depth > 16 {
         return Err(".read nested more than 16 levels".into());
     }
     let text = file(path).ok_or_else(|| format!("{path} is not an embedded SQL file"))?;
     for line in text.lines() {
-        match read_target(line) {
-            Some(f) if f.starts_with("sql/stages/") => {
+        match (read_target(line), stage) {
+            // a stage file: its own part (or, when it reads files, theirs)
+            (Some(f), None) if f.starts_with("sql/stages/") => {
                 let name = f.trim_start_matches("sql/stages/").trim_end_matches(".sql").to_string();
-                let sql = file(f).ok_or_else(|| format!("{path}: {f} is not an embedded SQL file"))?;
-                out.push((name, sql.to_string()));
+                collect(f, Some(&name), out, depth + 1)?;
             }
-            Some(f) => collect(f, out, depth + 1)?,
-            None => {
-                if out.last().is_none_or(|(n, _)| n != "setup") {
-                    out.push(("setup".to_string(), String::new()));
+            (Some(f), Some(s)) => collect(f, Some(s), out, depth + 1)?,
+            (Some(f), None) => collect(f, None, out, depth + 1)?,
+            (None, st) => {
+                let (st, file) = match st {
+                    Some(s) => (s.to_string(), path.to_string()),
+                    None => ("setup".to_string(), String::new()),
+                };
+                if out.last().is_none_or(|p| p.stage != st || p.file != file) {
+                    out.push(Part { stage: st, file, sql: String::new() });
                 }
                 let last = out.last_mut().expect("pushed");
-                last.1.push_str(line);
-                last.1.push('\n');
+                last.sql.push_str(line);
+                last.sql.push('\n');
             }
         }
     }
@@ -97,7 +112,13 @@ fn collect(path: &str, out: &mut Vec<(String, String)>, depth: usize) -> Result<
 
 /// The stage names of `sql/stages.sql`, in order.
 pub fn stages() -> Vec<String> {
-    parts("sql/stages.sql").expect("sql/stages.sql").into_iter().map(|(n, _)| n).filter(|n| n != "setup").collect()
+    let mut out: Vec<String> = Vec::new();
+    for p in parts("sql/stages.sql").expect("sql/stages.sql") {
+        if p.stage != "setup" && out.last() != Some(&p.stage) {
+            out.push(p.stage);
+        }
+    }
+    out
 }
 
 /// A SQL string literal (single quotes doubled).
@@ -183,11 +204,16 @@ mod tests {
     fn one_stage_list_for_every_runner() {
         assert_eq!(stages(), ["calibrate", "clean", "quality", "align", "overlap", "merge", "fuse", "cluster"]);
         let p = parts("sql/pipeline.sql").unwrap();
-        let names: Vec<&str> = p.iter().map(|x| x.0.as_str()).collect();
+        let mut names: Vec<&str> = p.iter().map(|x| x.stage.as_str()).collect();
+        names.dedup();
         assert_eq!(names, ["setup", "calibrate", "clean", "quality", "align", "overlap", "merge", "fuse", "cluster"]);
-        assert!(p[0].1.contains("coalesce(getvariable('merge_eta')") && p[0].1.contains("pipeline_input"));
-        for s in stages() {
-            let text = file(&format!("sql/stages/{s}.sql")).unwrap();
+        assert!(p[0].sql.contains("coalesce(getvariable('merge_eta')") && p[0].sql.contains("pipeline_input"));
+        // every part of a stage names the file its text comes from
+        for x in p.iter().filter(|x| x.stage != "setup") {
+            assert!(file(&x.file).is_some() && x.file.starts_with(&format!("sql/stages/{}", x.stage)), "{x:?}");
+        }
+        for x in p.iter().filter(|x| x.stage != "setup") {
+            let (s, text) = (&x.file, &x.sql);
             // a stage may set a check variable (`SET VARIABLE x_check = (... error() ...)`: prints
             // nothing in the DuckDB CLI), never a parameter
             for l in text.lines().filter(|l| l.trim_start().to_ascii_uppercase().starts_with("SET VARIABLE")) {

@@ -501,14 +501,8 @@ pub fn resample(tr: Traj<'_>, period: f64, max_gap: f64) -> Result<OwnedTraj, Tr
     if out.t.try_reserve_exact(want).is_err() || out.x.try_reserve_exact(want).is_err() || out.y.try_reserve_exact(want).is_err() {
         return Err(TrajError::OutOfMemory(estimate));
     }
-    let mut k = (t0 / period).ceil() as i64;
     let mut j = 0usize;
-    loop {
-        let t = k as f64 * period;
-        if t > t1 {
-            break;
-        }
-        k += 1;
+    for t in grid::clock_ticks(t0, t1, period) {
         while j + 1 < n && tr.t[j + 1] < t {
             j += 1;
         }

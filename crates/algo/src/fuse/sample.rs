@@ -86,17 +86,8 @@ fn on_clock(s: &Smoothed, period: f64, max_gap: f64) -> Result<FusedPath, FuseEr
     let (first, last) = (s.t0 + s.tau[0], s.t0 + s.tau[m - 1]);
     let estimate = ((last - first) / period).floor() + 1.0;
     let mut out = FusedPath::with_capacity(estimate.max(0.0) as usize)?;
-    let mut k = (first / period).ceil() as i64;
     let mut g = 0usize;
-    loop {
-        let t = k as f64 * period;
-        if t > last {
-            break;
-        }
-        k += 1;
-        if t < first {
-            continue;
-        }
+    for t in crate::traj::grid::clock_ticks(first, last, period) {
         let tau = t - s.t0;
         while g + 1 < m && s.tau[g + 1] <= tau {
             g += 1;

@@ -7,7 +7,10 @@ truth T_b^-1 o T_a: rotation error in degrees and the RMS displacement of a's po
 in the true overlap of the two views (the convention of shared/data/README.md).
 
 Methods:
-  trajdb      sql/stages/align.sql (hypotheses from track pairs, voting, trimmed refit, spanning tree)
+  trajdb      the pipeline's align stage (sql/stages/align.sql: sql/stages/align/*.sql; hypotheses from
+              track pairs, voting, trimmed refit, spanning tree), run with the stages before it
+              (load, calibrate, clean, quality) from the extension's manifest (benches/stages.py);
+              only the align stage is timed
   timecpd8    cpd_align on all points of both cameras (a fixed 1/8 sample), tau = 0.5 s, 8 starts
   cpd_RI      plain rigid CPD (tau = inf) from R = I only (the thesis's start)
   timecpd_RI  TimeCPD (tau = 0.5 s) from R = I only
@@ -17,6 +20,9 @@ The purity of each pre-match (share of kept pairs that are the same object, from
 is printed too: the thesis's speed pre-match, a tighter coordinate-free signature (1 Hz speeds
 within 0.3 m/s and turn rates within 0.15 rad/s, Hungarian), and trajdb's consensus pairs
 (align_support: track pairs whose closed-form transform agrees with the winning vote).
+The errors are measured over the input's points (points.parquet, estimated = 0); the CPD methods
+and the pre-matches work on the pipeline's `points` after the align stage (cleaned, linked, on the
+reference camera's clock).
 
 usage: python3 benches/accuracy_align.py --ext trajdb.duckdb_extension [--scenario DIR ...] [--no-cpd]
 """
@@ -25,17 +31,12 @@ import csv
 import math
 import os
 import sys
-import time
 
 import duckdb
 
+from stages import run_stages
+
 HERE = os.path.dirname(os.path.abspath(__file__))
-
-
-def stage_sql(name):
-    """sql/stages/NAME.sql after the parameter defaults of sql/params.sql (the stages read them)."""
-    read = lambda *p: open(os.path.join(HERE, "..", "sql", *p)).read()
-    return read("params.sql") + "\n" + read("stages", name)
 DATA = os.path.join(HERE, "..", "..", "shared", "data")
 
 
@@ -68,16 +69,14 @@ def main():
     ap.add_argument("--no-cpd", action="store_true")
     a = ap.parse_args()
     scenarios = a.scenario or [os.path.join(DATA, "dut_intersection_3cam"), os.path.join(DATA, "dut_roundabout_2cam")]
-    align_sql = stage_sql("align.sql")
     worst = (0.0, 0.0)
     for sc in scenarios:
         con = duckdb.connect(config={"allow_unsigned_extensions": "true"})
         con.execute(f"LOAD '{os.path.abspath(a.ext)}'")
         pq = os.path.abspath(os.path.join(sc, "points.parquet"))
-        con.execute(f"CREATE TABLE points AS SELECT * FROM read_parquet('{pq}')")
-        t0 = time.perf_counter()
-        con.execute(align_sql)
-        el = time.perf_counter() - t0
+        el = run_stages(con, pq, "align")["align"]
+        # the input's points (the pipeline's `points` are cleaned and linked by then)
+        con.execute(f"CREATE TABLE raw AS SELECT * FROM read_parquet('{pq}')")
         frames = {r[0]: (r[1], r[2], r[3], r[4]) for r in con.execute(
             "SELECT camera, to_reference.theta, to_reference.tx, to_reference.ty, to_reference.scale FROM align_frames").fetchall()}
         support = {(r[0], r[1]): r[2] for r in con.execute("SELECT cam_fixed, cam_moving, support FROM align_pairs").fetchall()}
@@ -86,14 +85,14 @@ def main():
             for row in csv.DictReader(f):
                 truth[int(row["camera"])] = ((float(row["theta_rad"]), float(row["tx"]), float(row["ty"]), 1.0), row["view_wkt_world"])
         cams = sorted(truth)
-        print(f"\n== {os.path.basename(sc)}: {len(cams)} cameras; sql/stages/align.sql ran in {el:.2f} s; pair support {support}")
+        print(f"\n== {os.path.basename(sc)}: {len(cams)} cameras; the align stage ran in {el:.2f} s; pair support {support}")
 
         def errors(est_ab, ca, cb):
             """rotation error (deg) and RMS displacement over a's points in the true overlap."""
             true_ab = tf_compose(tf_invert(truth[cb][0]), truth[ca][0])
             # overlap test in world coordinates (true views), plain point-in-polygon
             wa = truth[ca][0]
-            rows = con.execute(f"SELECT x, y FROM points WHERE camera = {ca} AND estimated = 0").fetchall()
+            rows = con.execute(f"SELECT x, y FROM raw WHERE camera = {ca} AND estimated = 0").fetchall()
             ov = overlap_polys[(ca, cb)]
             sq, n = 0.0, 0
             for x, y in rows:
@@ -156,10 +155,14 @@ def main():
 def prematch(con, sc, cams, methods):
     """Coordinate-free pre-matching, thesis-style and with our signature; purity from truth.csv."""
     con.execute(f"CREATE OR REPLACE TABLE truth AS SELECT * FROM read_csv('{os.path.join(os.path.abspath(sc), 'truth.csv')}')")
+    # the tracks the align stage works on (its align_tracks, dropped at the stage's end: real points,
+    # >= align_min_points), here on the common clock of the aligned `points`
     con.execute("""
         CREATE OR REPLACE TABLE pm_tracks AS
         SELECT camera, track_id, class, traj, t0, t1, traj_speeds(traj) AS sp, traj_turn_rates(traj, 1.5) AS tu
-        FROM align_tracks""")
+        FROM (SELECT camera, track_id, class, list({'t': t, 'x': x, 'y': y} ORDER BY t) AS traj, min(t) AS t0, max(t) AS t1
+              FROM points WHERE estimated = 0 GROUP BY camera, track_id, class
+              HAVING count(*) >= getvariable('align_min_points'))""")
     con.execute("""
         CREATE OR REPLACE TABLE pm_cand AS
         SELECT a.camera AS ca, b.camera AS cb, a.track_id AS ta, b.track_id AS tb,

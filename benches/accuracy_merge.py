@@ -1,9 +1,12 @@
 #!/usr/bin/env python3
 """Accuracy of the multi-camera merge (sql/stages/align.sql -> sql/stages/overlap.sql -> sql/stages/merge.sql) on the
-real-trajectory scenarios, against truth.csv (read only here, never by the pipeline).
+real-trajectory scenarios, against truth.csv (read only here, never by the pipeline). The pipeline
+is the extension's manifest up to the merge stage (load, calibrate, clean, quality, align, overlap,
+merge; benches/stages.py); the time printed is that of the stages align, overlap and merge.
 
 A track pair (any two tracks, same or different camera) is positive when both tracks belong to
-the same true object. Scored:
+the same true object. The tracks are merge_tracks', the quality stage's linked tracks (a chain of
+broken pieces is one track, under the id of one of its pieces). Scored:
   thesis     the thesis's output: the one-to-one Hungarian links per camera pair (eta >= eta_bar),
              nothing else (split pieces in one camera are never joined);
   trajdb     the road users of sql/stages/merge.sql: all track pairs in one merge group (Hungarian links
@@ -16,17 +19,12 @@ usage: python benches/accuracy_merge.py --ext trajdb.duckdb_extension [--scenari
 import argparse
 import itertools
 import os
-import time
 
 import duckdb
 
+from stages import run_stages
+
 HERE = os.path.dirname(os.path.abspath(__file__))
-
-
-def stage_sql(name):
-    """sql/stages/NAME.sql after the parameter defaults of sql/params.sql (the stages read them)."""
-    read = lambda *p: open(os.path.join(HERE, "..", "sql", *p)).read()
-    return read("params.sql") + "\n" + read("stages", name)
 DATA = os.path.join(HERE, "..", "..", "shared", "data")
 
 
@@ -43,15 +41,12 @@ def main():
     ap.add_argument("--scenario", action="append")
     a = ap.parse_args()
     scenarios = a.scenario or [os.path.join(DATA, "dut_intersection_3cam"), os.path.join(DATA, "dut_roundabout_2cam")]
-    sql = "".join(stage_sql(f) + "\n;\n" for f in ["align.sql", "overlap.sql", "merge.sql"])
     print(f"duckdb {duckdb.__version__}")
     for sc in scenarios:
         con = duckdb.connect(config={"allow_unsigned_extensions": "true"})
         con.execute(f"LOAD '{os.path.abspath(a.ext)}'")
-        con.execute(f"CREATE TABLE points AS SELECT * FROM read_parquet('{os.path.abspath(os.path.join(sc, 'points.parquet'))}')")
-        t0 = time.perf_counter()
-        con.execute(sql)
-        el = time.perf_counter() - t0
+        secs = run_stages(con, os.path.join(sc, "points.parquet"), "merge")
+        el = sum(secs[s] for s in ("align", "overlap", "merge"))
         obj = {u: o for u, o, noise in con.execute(
             f"""SELECT m.uid, t.object_id, t.is_noise FROM read_csv('{os.path.abspath(os.path.join(sc, 'truth.csv'))}') t
                 JOIN merge_tracks m USING (camera, track_id)""").fetchall() if not noise}
@@ -69,9 +64,9 @@ def main():
         bad = con.execute("""SELECT count(DISTINCT g.road_user) FROM merge_groups g JOIN merge_tracks a USING (uid)
                              JOIN merge_groups h ON h.road_user = g.road_user JOIN merge_tracks b ON b.uid = h.uid
                              WHERE a.uid < b.uid AND a.camera = b.camera AND a.t0 <= b.t1 AND b.t0 <= a.t1""").fetchall()[0][0]
-        n_users = con.execute("SELECT count(*) FROM merged").fetchall()[0][0]
+        n_users = con.execute("SELECT count(*) FROM merge_users").fetchall()[0][0]
         print(f"\n== {os.path.basename(sc)}: {len(uids)} tracks, {len(by_obj)} objects, {len(truth)} true same-object pairs; "
-              f"pipeline {el:.2f} s; {n_users} road users; inconsistent groups: {bad}")
+              f"align+overlap+merge {el:.2f} s; {n_users} road users; inconsistent groups: {bad}")
         print(f"{'method':10s} {'precision':>9s} {'recall':>7s} {'F1':>6s} {'pairs':>7s}")
         for name, pred in [("thesis", links), ("trajdb", grouped)]:
             p, r, f, n = prf(pred, truth)

@@ -1,7 +1,9 @@
 #!/usr/bin/env python3
 """Accuracy of the camera-overlap polygons on the real-trajectory scenarios.
 
-Runs the pipeline (sql/stages/align.sql, then sql/stages/overlap.sql) on points.parquet, takes the pairwise
+Runs the pipeline (the extension's manifest up to the overlap stage: load, calibrate, clean, quality,
+align, overlap; benches/stages.py) on points.parquet, once per variant with the variant's overlap_*
+parameters (only overlap.sql reads them), takes the pairwise
 overlaps of the all-class view polygons (class '*') in the common frame, and compares them with
 the true overlap of the cameras' `view_wkt_world` rectangles from cameras.csv, mapped into the
 same frame with the true transform of the reference camera (p_local = R(-theta)(p - t), see the
@@ -28,16 +30,13 @@ import shapely
 from shapely import wkb, wkt
 from shapely.affinity import affine_transform
 
+from stages import run_stages
+
 HERE = os.path.dirname(os.path.abspath(__file__))
-
-
-def stage_sql(name):
-    """sql/stages/NAME.sql after the parameter defaults of sql/params.sql (the stages read them)."""
-    read = lambda *p: open(os.path.join(HERE, "..", "sql", *p)).read()
-    return read("params.sql") + "\n" + read("stages", name)
 DATA = os.path.join(HERE, "..", "..", "shared", "data")
 
-# name, method, concavity, density radius, min_neighbours, shrink (x measured noise sigma)
+# name, then the pipeline parameters overlap_method ('convex' / 'concave'), overlap_concavity,
+# overlap_radius_m (density radius), overlap_min_neighbours, overlap_shrink_sigmas (x measured noise sigma)
 VARIANTS = [
     ("convex (default)", "convex", 2.0, 2.0, 3, 1.0),
     ("convex, no shrink", "convex", 2.0, 2.0, 3, 0.0),
@@ -54,17 +53,21 @@ def main():
     ap.add_argument("--scenario", action="append")
     a = ap.parse_args()
     scenarios = a.scenario or [os.path.join(DATA, "dut_intersection_3cam"), os.path.join(DATA, "dut_roundabout_2cam")]
-    align_sql = stage_sql("align.sql")
-    overlap_sql = stage_sql("overlap.sql")
     print(f"duckdb {duckdb.__version__}, shapely {shapely.__version__}")
     worst = {}
     for sc in scenarios:
-        con = duckdb.connect(config={"allow_unsigned_extensions": "true"})
-        con.execute(f"LOAD '{os.path.abspath(a.ext)}'")
         pq = os.path.abspath(os.path.join(sc, "points.parquet"))
-        con.execute(f"CREATE TABLE points AS SELECT * FROM read_parquet('{pq}')")
-        con.execute(align_sql)
-        ref = con.execute("SELECT any_value(reference) FROM align_frames").fetchone()[0]
+        results, ref = {}, None
+        for name, method, conc, radius, k, shrink in VARIANTS:
+            con = duckdb.connect(config={"allow_unsigned_extensions": "true"})
+            con.execute(f"LOAD '{os.path.abspath(a.ext)}'")
+            run_stages(con, pq, "overlap", overlap_method=method, overlap_concavity=conc, overlap_radius_m=radius,
+                       overlap_min_neighbours=k, overlap_shrink_sigmas=shrink)
+            r = con.execute("SELECT any_value(reference) FROM align_frames").fetchone()[0]
+            assert ref is None or r == ref, (name, r, ref)
+            ref = r
+            for ca, cb, blob in con.execute("SELECT cam_a, cam_b, polygon FROM view_overlaps WHERE class = '*'").fetchall():
+                results[(name, ca, cb)] = wkb.loads(bytes(blob))
         cams = {}
         with open(os.path.join(sc, "cameras.csv")) as f:
             for row in csv.DictReader(f):
@@ -78,16 +81,6 @@ def main():
         views = {k: affine_transform(v[3], to_ref) for k, v in cams.items()}
         print(f"\n== {os.path.basename(sc)} (reference camera {ref})")
         print(f"{'pair':6s} {'true m2':>8s} {'∩site m2':>9s} | " + " | ".join(f"{v[0]:>26s}" for v in VARIANTS))
-        results = {}
-        for name, method, conc, radius, k, shrink in VARIANTS:
-            sql = (overlap_sql.replace("'convex';", f"'{method}';", 1)
-                   .replace("overlap_concavity = 2.0", f"overlap_concavity = {conc}")
-                   .replace("overlap_radius_m = 2.0", f"overlap_radius_m = {radius}")
-                   .replace("overlap_min_neighbours = 3", f"overlap_min_neighbours = {k}")
-                   .replace("overlap_shrink_sigmas = 1.0", f"overlap_shrink_sigmas = {shrink}"))
-            con.execute(sql)
-            for ca, cb, blob in con.execute("SELECT cam_a, cam_b, polygon FROM view_overlaps WHERE class = '*'").fetchall():
-                results[(name, ca, cb)] = wkb.loads(bytes(blob))
         for ca in sorted(cams):
             for cb in sorted(cams):
                 if ca >= cb:

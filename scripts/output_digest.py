@@ -26,6 +26,7 @@ SHARED = sys.argv[2] if len(sys.argv) > 2 else os.path.join(ROOT, "..", "shared"
 GRID = {
     "demo": dict(cameras=3, minutes=5, seed=1),
     "clocks": dict(cameras=4, minutes=4, traffic=2, seed=11, clock_offset_max=0.3, noise_sigma_min=0.05, noise_sigma_max=0.2),
+    "drift": dict(cameras=4, minutes=6, seed=3, clock_offset_max=2.0, clock_drift_ppm=200),
     "seen_from": dict(cameras=3, minutes=4, seed=7, viewpoint_bias_vehicle=1.2, viewpoint_bias_vru=0.3, ground_plane_scale=0.01, ground_plane_perspective=0.01),
 }
 

@@ -1506,12 +1506,12 @@ CREATE OR REPLACE TEMP TABLE align_support AS
 SELECT * FROM align_support WHERE (cam_fixed, cam_moving) NOT IN (SELECT (cam_fixed, cam_moving) FROM align_drift WHERE drift <> 0)
 UNION ALL
 SELECT k.cam_fixed, k.cam_moving, k.track_fixed, k.track_moving, p.traj_fixed,
-       list_transform(p.traj_moving, lambda q: {'t': q.t / (1 + d.drift), 'x': q.x, 'y': q.y}) AS traj_moving
+       list_transform(p.traj_moving, lambda q: {'t': clock_to_reference(q.t, 0.0, d.drift), 'x': q.x, 'y': q.y}) AS traj_moving
 FROM align_drift_kept k JOIN align_drift d USING (cam_fixed, cam_moving)
 JOIN align_drift_pairs p USING (cam_fixed, cam_moving, track_fixed, track_moving)
 WHERE d.drift <> 0;
 
-UPDATE align_best b SET dt = d.intercept / (1 + d.drift)
+UPDATE align_best b SET dt = clock_to_reference(d.intercept, 0.0, d.drift)
 FROM align_drift d
 WHERE d.cam_fixed = b.cam_fixed AND d.cam_moving = b.cam_moving AND d.drift <> 0;
 
@@ -1705,19 +1705,19 @@ CREATE OR REPLACE TEMP TABLE align_clock AS
 SELECT p.cam_fixed, p.cam_moving, coalesce(d.drift, 0.0) AS drift,
        CASE WHEN coalesce(d.drift, 0.0) <> 0 THEN d.drift_net_se ELSE 0.0 END AS drift_se,
        d.drift_fit, d.drift_se AS drift_fit_se, coalesce(d.n, 0) AS drift_pairs,
-       CASE WHEN coalesce(d.drift, 0.0) = 0 THEN p.fit.dt + (mc.t_origin - fc.t_origin)
-            ELSE p.fit.dt * (1 + d.drift) + (mc.t_origin - fc.t_origin) - d.drift * fc.t_origin END AS offset
+       clock_from_relative(p.fit.dt, coalesce(d.drift, 0.0), mc.t_origin, fc.t_origin).offset AS offset
 FROM align_pairs p LEFT JOIN align_drift d USING (cam_fixed, cam_moving)
 JOIN align_centroids mc ON mc.camera = p.cam_moving JOIN align_centroids fc ON fc.camera = p.cam_fixed;
 
 CREATE OR REPLACE TEMP TABLE align_edges AS
 SELECT p.cam_moving AS src, p.cam_fixed AS dst, p.support,
-       {'theta': p.fit.theta, 'tx': p.fit.tx, 'ty': p.fit.ty, 'scale': p.fit.scale} AS tf, c.offset AS dt, c.drift, c.drift_se
+       {'theta': p.fit.theta, 'tx': p.fit.tx, 'ty': p.fit.ty, 'scale': p.fit.scale} AS tf,
+       {'offset': c.offset, 'drift': c.drift} AS clock, c.drift_se
 FROM align_pairs p JOIN align_clock c USING (cam_fixed, cam_moving)
 UNION ALL
 SELECT p.cam_fixed, p.cam_moving, p.support,
        transform_invert({'theta': p.fit.theta, 'tx': p.fit.tx, 'ty': p.fit.ty, 'scale': p.fit.scale}),
-       -c.offset / (1 + c.drift), -c.drift / (1 + c.drift), c.drift_se
+       clock_invert({'offset': c.offset, 'drift': c.drift}), c.drift_se
 FROM align_pairs p JOIN align_clock c USING (cam_fixed, cam_moving);
 
 CREATE OR REPLACE TEMP TABLE align_frames AS
@@ -1728,25 +1728,23 @@ ref AS (
 ),
 -- ranks: the path's cameras in the data order (calib_camera_order), the tie-break between
 -- paths of equal bottleneck and hops (camera ids are labels)
-walk(camera, node, tf, dt, drift, drift_var, bottleneck, hops, visited, ranks) AS (
-    -- start at each camera with the identity, walk edges towards the reference; clocks compose:
-    -- t_cam = (1 + Dw) t_node + Ow and t_node = (1 + De) t_dst + Oe give
-    -- t_cam = (1 + Dw)(1 + De) t_dst + (1 + Dw) Oe + Ow
-    SELECT camera, camera, {'theta': 0.0::DOUBLE, 'tx': 0.0::DOUBLE, 'ty': 0.0::DOUBLE, 'scale': 1.0::DOUBLE}, 0.0::DOUBLE, 0.0::DOUBLE, 0.0::DOUBLE,
+walk(camera, node, tf, clock, drift_var, bottleneck, hops, visited, ranks) AS (
+    -- start at each camera with the identity, walk edges towards the reference; clocks compose
+    -- (clock_compose: the camera's clock against the node after the node's against the edge's end)
+    SELECT camera, camera, {'theta': 0.0::DOUBLE, 'tx': 0.0::DOUBLE, 'ty': 0.0::DOUBLE, 'scale': 1.0::DOUBLE},
+           {'offset': 0.0::DOUBLE, 'drift': 0.0::DOUBLE}, 0.0::DOUBLE,
            1e18::DOUBLE, 0, [camera], [data_rank]
     FROM (SELECT DISTINCT camera FROM points) LEFT JOIN calib_camera_order USING (camera)
     UNION ALL
-    SELECT w.camera, e.dst, transform_compose(e.tf, w.tf),
-           CASE WHEN w.drift = 0 THEN w.dt + e.dt ELSE (1 + w.drift) * e.dt + w.dt END,
-           CASE WHEN w.drift = 0 AND e.drift = 0 THEN 0.0 ELSE w.drift + e.drift + w.drift * e.drift END,
+    SELECT w.camera, e.dst, transform_compose(e.tf, w.tf), clock_compose(w.clock, e.clock),
            w.drift_var + e.drift_se ** 2,
            least(w.bottleneck, e.support), w.hops + 1,
            list_append(w.visited, e.dst), list_append(w.ranks, o.data_rank)
     FROM walk w JOIN align_edges e ON e.src = w.node JOIN calib_camera_order o ON o.camera = e.dst
     WHERE NOT list_contains(w.visited, e.dst) AND w.node <> (SELECT camera FROM ref)
 )
-SELECT w.camera, (SELECT camera FROM ref) AS reference, w.tf AS to_reference, w.dt AS clock_offset_s,
-       w.drift AS clock_drift, sqrt(w.drift_var) AS clock_drift_se, w.hops,
+SELECT w.camera, (SELECT camera FROM ref) AS reference, w.tf AS to_reference, w.clock.offset AS clock_offset_s,
+       w.clock.drift AS clock_drift, sqrt(w.drift_var) AS clock_drift_se, w.hops,
        CASE WHEN w.hops = 0 THEN NULL ELSE w.bottleneck END AS bottleneck_support
 FROM walk w
 WHERE w.node = (SELECT camera FROM ref)
@@ -1816,8 +1814,7 @@ FROM align_frames;
 
 -- 5. every later stage works on the reference camera's clock: t := (t - O) / (1 + D).
 CREATE OR REPLACE TEMP TABLE points AS
-SELECT p.* REPLACE (CASE WHEN coalesce(f.clock_drift, 0.0) = 0 THEN p.t - coalesce(f.clock_offset_s, 0.0)
-                         ELSE (p.t - f.clock_offset_s) / (1 + f.clock_drift) END AS t)
+SELECT p.* REPLACE (clock_to_reference(p.t, coalesce(f.clock_offset_s, 0.0), coalesce(f.clock_drift, 0.0)) AS t)
 FROM points p LEFT JOIN align_frames f USING (camera);
 
 --    clock_origin: the reference camera's first real time (every camera's when none was placed).
@@ -1848,13 +1845,11 @@ FROM align_frames ORDER BY camera;
 -- at t is seen by cam_from at that time on its clock; without drift, t + clock_offset_s)
 CREATE OR REPLACE TEMP MACRO result_transforms() AS TABLE
 SELECT ia.camera_in AS cam_from, ib.camera_in AS cam_to, tf.theta AS theta_rad, tf.tx, tf.ty,
-       CASE WHEN a.clock_drift = 0 AND b.clock_drift = 0 THEN a.clock_offset_s - b.clock_offset_s
-            ELSE a.clock_offset_s - (1 + a.clock_drift) / (1 + b.clock_drift) * b.clock_offset_s END AS clock_offset_s,
-       CASE WHEN a.clock_drift = 0 AND b.clock_drift = 0 THEN 0.0
-            ELSE ((1 + a.clock_drift) / (1 + b.clock_drift) - 1) * 1e6 END AS clock_drift_ppm,
-       tf.scale
+       clk.offset AS clock_offset_s, clk.drift * 1e6 AS clock_drift_ppm, tf.scale
 FROM align_frames a, align_frames b,
-     LATERAL (SELECT transform_compose(transform_invert(b.to_reference), a.to_reference) AS tf),
+     LATERAL (SELECT transform_compose(transform_invert(b.to_reference), a.to_reference) AS tf,
+                     clock_between({'offset': a.clock_offset_s, 'drift': a.clock_drift},
+                                   {'offset': b.clock_offset_s, 'drift': b.clock_drift}) AS clk),
      (SELECT DISTINCT camera, camera_in FROM load_ids) ia, (SELECT DISTINCT camera, camera_in FROM load_ids) ib
 WHERE a.camera <> b.camera AND ia.camera = a.camera AND ib.camera = b.camera;
 

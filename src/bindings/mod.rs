@@ -8,6 +8,7 @@
 pub mod align;
 pub mod archive;
 pub mod associate;
+pub mod clock;
 pub mod cluster;
 pub mod conflict;
 pub mod events;
@@ -42,7 +43,7 @@ pub(crate) fn try_map<T, U>(s: &[T], f: impl FnMut(&T) -> U) -> Result<Vec<U>, S
 
 /// Every function, in reference order.
 pub fn functions() -> Vec<&'static Function> {
-    [traj::FUNCTIONS, lcss::FUNCTIONS, align::FUNCTIONS, associate::FUNCTIONS, geometry::FUNCTIONS, matching::FUNCTIONS, merge::FUNCTIONS, fuse::FUNCTIONS, cluster::FUNCTIONS, conflict::FUNCTIONS, events::FUNCTIONS, noise::FUNCTIONS, meta::FUNCTIONS, params::FUNCTIONS, pipeline::FUNCTIONS, archive::FUNCTIONS, simulate::FUNCTIONS, report::FUNCTIONS]
+    [traj::FUNCTIONS, lcss::FUNCTIONS, align::FUNCTIONS, clock::FUNCTIONS, associate::FUNCTIONS, geometry::FUNCTIONS, matching::FUNCTIONS, merge::FUNCTIONS, fuse::FUNCTIONS, cluster::FUNCTIONS, conflict::FUNCTIONS, events::FUNCTIONS, noise::FUNCTIONS, meta::FUNCTIONS, params::FUNCTIONS, pipeline::FUNCTIONS, archive::FUNCTIONS, simulate::FUNCTIONS, report::FUNCTIONS]
         .into_iter()
         .flatten()
         .collect()

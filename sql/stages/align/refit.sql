@@ -166,12 +166,12 @@ CREATE OR REPLACE TEMP TABLE align_support AS
 SELECT * FROM align_support WHERE (cam_fixed, cam_moving) NOT IN (SELECT (cam_fixed, cam_moving) FROM align_drift WHERE drift <> 0)
 UNION ALL
 SELECT k.cam_fixed, k.cam_moving, k.track_fixed, k.track_moving, p.traj_fixed,
-       list_transform(p.traj_moving, lambda q: {'t': q.t / (1 + d.drift), 'x': q.x, 'y': q.y}) AS traj_moving
+       list_transform(p.traj_moving, lambda q: {'t': clock_to_reference(q.t, 0.0, d.drift), 'x': q.x, 'y': q.y}) AS traj_moving
 FROM align_drift_kept k JOIN align_drift d USING (cam_fixed, cam_moving)
 JOIN align_drift_pairs p USING (cam_fixed, cam_moving, track_fixed, track_moving)
 WHERE d.drift <> 0;
 
-UPDATE align_best b SET dt = d.intercept / (1 + d.drift)
+UPDATE align_best b SET dt = clock_to_reference(d.intercept, 0.0, d.drift)
 FROM align_drift d
 WHERE d.cam_fixed = b.cam_fixed AND d.cam_moving = b.cam_moving AND d.drift <> 0;
 

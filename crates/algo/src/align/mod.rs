@@ -10,6 +10,7 @@
 //! | [`register`] | `register_pair` | the final registration when cameras see different points of a road user: rotation and scale within each track pair, translation weighted by each class's offset spread, standard errors by the jackknife |
 //! | [`perspective`] | `register_pair` (`perspective_*`) | the perspective term between two cameras' ground planes, measured within track pairs, with its jackknife error and a 5-sigma test (reported, not applied) |
 //! | [`register_clock`] | `register_pair` (with `max_shift`) | the clock offset under that model: each class its own mean offset, a time shift seen within pairs (turns, speed changes) and in the classes whose offsets scatter little |
+//! | [`clock`] | `clock_to_reference`, `clock_compose`, `clock_invert`, `clock_between`, `clock_from_relative` | the clock model t = (1 + D) t_ref + O, written once |
 //! | [`clock_network`] | `clock_network` | one clock drift per camera from every camera pair's drift (weighted least squares over the pairs' graph), and whether the recording shows drift at all |
 //! | [`shift_under`] | `rigid_shift_under` | the clock offset of one track pair under a known transform (align.sql's drift measurement) |
 //! | [`speed_lag`] | `speed_lag` | the clock offset of one track pair from their speed profiles (frame-free): align.sql's second coarse offset where the activity peak was too far off |
@@ -18,6 +19,7 @@
 //! | [`cpd`] | `cpd_align` (2-D) | rigid TimeCPD, thesis eq. 2.7/2.8, Alg. 5–8, sparse time-windowed E-step |
 //! | [`cpd3`] | `cpd_align` (3-D) | the same model in 3-D (rotation by SVD) |
 
+pub mod clock;
 pub mod clock_network;
 pub mod drift_fit;
 pub mod frame_change;

@@ -243,3 +243,26 @@ SELECT cls.class,
        (SELECT assa FROM s_hota h WHERE h.class = cls.class) AS assa
 FROM cls;
 
+
+-- The match F1 per class (and '*'), written once: `trajdb score`, trajdb.score() and the demo
+-- read it here. 0 when precision + recall is 0 or unknown.
+CREATE OR REPLACE TEMP TABLE s_match_f1 AS
+SELECT class, CASE WHEN precision + recall > 0 THEN 2.0 * precision * recall / (precision + recall) ELSE 0.0 END AS f1
+FROM s_class_scores;
+
+-- One row: the worst camera pair (rotation deg, translation m, clock offset error s over the
+-- recording, drift error ppm; NULL when no camera pair was placed) and the overall figures.
+CREATE OR REPLACE TEMP TABLE s_summary AS
+SELECT e.rot_deg, e.trans_m, e.clock_s, e.drift_ppm,
+       coalesce((SELECT f1 FROM s_match_f1 WHERE class = '*'), 0.0) AS match_f1,
+       i.idf1, i.hota, i.deta, i.assa, i.exact_share AS exact
+FROM (SELECT max(rot_deg) AS rot_deg, max(trans_m) AS trans_m, max(clock_err_s) AS clock_s, max(drift_err_ppm) AS drift_ppm
+      FROM s_pair_err WHERE cam_from < cam_to) e,
+     (SELECT * FROM s_identity WHERE class = '*') i;
+
+-- The demo's targets (`trajdb demo`, scripts/demo.sh and trajdb.demo() read them here, one
+-- place): match F1 >= 0.95 and every camera pair within 0.5 deg and 0.3 m.
+CREATE OR REPLACE TEMP TABLE s_demo AS
+SELECT 0.95 AS target_f1, 0.5 AS target_rot_deg, 0.3 AS target_trans_m,
+       coalesce(match_f1 >= 0.95 AND rot_deg <= 0.5 AND trans_m <= 0.3, false) AS passed
+FROM s_summary;

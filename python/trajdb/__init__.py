@@ -509,23 +509,9 @@ def score(con, scenario, results):
     con.execute("SET VARIABLE score_scenario = ?", [os.path.abspath(scenario)])
     con.execute("SET VARIABLE score_results = ?", [os.path.abspath(results)])
     read(con, "sql/score.sql")
-    rot, trans, clock, drift = con.sql(
-        "SELECT max(rot_deg), max(trans_m), max(clock_err_s), max(drift_err_ppm) FROM s_pair_err WHERE cam_from < cam_to"
-    ).fetchall()[0]
-    p, r = con.sql("SELECT precision, recall FROM s_class_scores WHERE class = '*'").fetchall()[0]
-    idf1, exact, hota, deta, assa = con.sql("SELECT idf1, exact_share, hota, deta, assa FROM s_identity WHERE class = '*'").fetchall()[0]
-    return {
-        "rot_deg": rot,
-        "trans_m": trans,
-        "clock_s": clock,
-        "drift_ppm": drift,
-        "match_f1": 2 * p * r / (p + r) if p + r > 0 else 0.0,
-        "idf1": idf1,
-        "hota": hota,
-        "deta": deta,
-        "assa": assa,
-        "exact": exact,
-    }
+    # one row, computed in sql/score.sql (s_summary: the F1 and the worst pair are written there)
+    cur = con.execute("FROM s_summary")
+    return dict(zip([d[0] for d in cur.description], cur.fetchall()[0]))
 
 
 def archive(con, lake, out, params=None, site=None, workers=None, progress=False, executor=None, task_memory=None):
@@ -575,17 +561,17 @@ def _sandbox(con, paths, who):
 def demo(out="trajdb-demo", **params):
     """`trajdb demo` in stock DuckDB: simulate (3 cameras, 5 minutes, seed 1 unless given), run
     the pipeline into out/results, score it against the simulator's truth; raises unless match
-    F1 >= 0.95 and every camera pair is within 0.5 deg / 0.3 m (the binary's targets)."""
+    F1 >= 0.95 and every camera pair is within 0.5 deg / 0.3 m (sql/score.sql's s_demo)."""
     con = connect()
     row = simulate(con, out, **params)
     results = os.path.join(out, "results")
     pipeline(con, os.path.join(out, "points.parquet"), out=results)
     s = score(con, out, results)
-    ok = s["match_f1"] >= 0.95 and s["rot_deg"] <= 0.5 and s["trans_m"] <= 0.3
+    ok, tf1, trot, ttrans = con.execute("SELECT passed, target_f1, target_rot_deg, target_trans_m FROM s_demo").fetchall()[0]
     print(f"simulated {row[1]} objects, {row[2]} cameras, {row[3]} tracks, {row[4]} points -> {out}")
     print(
-        f"demo {'PASSED' if ok else 'FAILED'}: match F1 {s['match_f1']:.3f} (target >= 0.95), IDF1 {s['idf1']:.3f}, "
-        f"worst camera pair {s['rot_deg']:.3f} deg / {s['trans_m']:.3f} m (targets 0.5 deg / 0.3 m); results in {results}"
+        f"demo {'PASSED' if ok else 'FAILED'}: match F1 {s['match_f1']:.3f} (target >= {tf1}), IDF1 {s['idf1']:.3f}, "
+        f"worst camera pair {s['rot_deg']:.3f} deg / {s['trans_m']:.3f} m (targets {trot} deg / {ttrans} m); results in {results}"
     )
     if not ok:
         raise RuntimeError("demo: the pipeline missed its accuracy targets")

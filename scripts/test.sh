@@ -5,7 +5,8 @@
 #   1. Rust: the workspace's unit and property tests (crates/algo: the maths; crates/app: the
 #      manifest, parameters, results folder, simulator, report; the extension's own), and the
 #      fuzz cases generated for step 4 (tests/fuzz.rs writes them; no DuckDB in any test binary)
-#   2. the loadable extension: build, footer; docs/functions.md is what trajdb_reference() says
+#   2. the loadable extension: build, footer; docs/functions.md and the family table of
+#      docs/development.md are what trajdb_reference() says
 #   3. in DuckDB 2.0 (PyPI): tests/sql/*.slt, the fuzz cases, robustness (concurrency, interrupt,
 #      work limits), every function under RLIMIT_AS and every long kernel under an interrupt
 #      (tests/test_rlimit_python.py), safety (results folder, injection, sandbox, parameters), table functions in
@@ -54,6 +55,16 @@ if open("docs/functions.md").read() != now:
     sys.exit(f"docs/functions.md is stale: the extension's reference is in {got}; "
              "run  python -m trajdb functions --markdown > docs/functions.md")
 print("ok   docs/functions.md is the extension's trajdb_reference('markdown')")
+families = con.execute("SELECT trajdb_reference('families')").fetchall()[0][0]
+dev = open("docs/development.md").read()
+begin, end = "<!-- generated: trajdb functions --families -->\n", "<!-- end generated -->\n"
+if begin not in dev or end not in dev[dev.index(begin):]:
+    sys.exit("docs/development.md lacks its generated family table's markers")
+i = dev.index(begin) + len(begin)
+if dev[i:dev.index(end, i)] != families:
+    sys.exit("docs/development.md's family table is stale: replace the lines between its markers with "
+             "python -m trajdb functions --families")
+print("ok   docs/development.md's family table is the extension's trajdb_reference('families')")
 PY
 
 echo "== 3/5 DuckDB 2.0 (PyPI): SQL, fuzz, robustness, safety, invariance, stages, command, package"
@@ -69,6 +80,7 @@ PY="$VENV/bin/python"
 "$PY" tests/test_score_python.py "$EXT"
 "$PY" tests/test_readme.py "$EXT"
 "$PY" tests/check_stage_contracts.py
+"$PY" tests/check_rust_imports.py
 "$PY" tests/test_stages_python.py "$EXT"
 "$PY" tests/test_cli_python.py "$EXT"
 "$PY" tests/test_determinism_python.py "$EXT"

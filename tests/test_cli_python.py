@@ -158,9 +158,16 @@ def test_functions_reference_is_docs_functions_md():
         want = f.read()
     assert out == want, "docs/functions.md is stale: python -m trajdb functions --markdown > docs/functions.md"
     for name in ["lcss_similarity", "lcss_s2", "traj_speeds", "trajdb_functions"]:
-        assert f"## `{name}`" in out, name
+        assert f"### `{name}`" in out and f"[`{name}`](#{name})" in out, name
     text, _ = ok("functions")
-    assert "lcss_similarity(" in text and "## " not in text, text[:300]
+    assert "lcss_similarity(" in text and "## " not in text and "== Similarity (LCSS) ==" in text, text[:300]
+    # the family table of docs/development.md, between its markers
+    families, _ = ok("functions", "--families")
+    with open(os.path.join(ROOT, "docs", "development.md")) as f:
+        dev = f.read()
+    begin, end = "<!-- generated: trajdb functions --families -->\n", "<!-- end generated -->\n"
+    i = dev.index(begin) + len(begin)
+    assert dev[i:dev.index(end, i)] == families, "docs/development.md's family table is stale: python -m trajdb functions --families"
 
 
 def test_every_documented_example_runs_and_matches_its_comment():

@@ -6,7 +6,7 @@ console script `trajdb` that `pip install .` makes).
     trajdb simulate --out DIR [--cameras N --minutes M --seed S ...]
     trajdb score SCENARIO_DIR --results DIR
     trajdb demo [--out DIR] [simulate options]            (simulate -> pipeline -> score)
-    trajdb functions [--markdown]                         (the SQL function reference)
+    trajdb functions [--markdown | --families]            (the SQL function reference)
     trajdb params [--sql]                                 (the pipeline parameters)
     trajdb report RESULTS_DIR [--open]                    (where report.html is; --open: in a browser)
     trajdb install-cli [--duckdb BIN | --duckdb-version V] [--dir DIR]   (LOAD trajdb by name in the DuckDB CLI)
@@ -407,7 +407,8 @@ def cmd_score(a):
 
 
 def cmd_functions(a):
-    verbatim(connect(a).execute("SELECT trajdb_reference(?)", ["markdown" if a.markdown else "text"]).fetchone()[0])
+    fmt = "markdown" if a.markdown else "families" if a.families else "text"
+    verbatim(connect(a).execute("SELECT trajdb_reference(?)", [fmt]).fetchone()[0])
 
 
 def cmd_params(a):
@@ -642,7 +643,10 @@ def build_parser():
     add_sim_options(add("simulate", cmd_simulate, "simulate an intersection seen by N cameras, with ground truth (trajdb_simulate)"), None)
     add_sim_options(add("demo", cmd_demo, "simulate, run the pipeline and score it (no outside data needed)"), "trajdb-demo")
     p = add("functions", cmd_functions, "the SQL function reference")
-    p.add_argument("--markdown", action="store_true", help="as docs/functions.md")
+    how = p.add_mutually_exclusive_group()
+    how.add_argument("--markdown", action="store_true", help="as docs/functions.md")
+    how.add_argument("--families", action="store_true",
+                     help="where each section's maths, bindings and functions live (the generated table of docs/development.md)")
     p = add("params", cmd_params, "the pipeline parameters")
     p.add_argument("--sql", action="store_true", help="as sql/params.sql")
     p = add("report", cmd_report, "the report.html of a results folder: its file:// address (--open: in the default browser)")

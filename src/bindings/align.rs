@@ -1,7 +1,7 @@
 //! SQL: camera alignment. Maths: `crates/algo/src/align/` (cpd.rs and cpd3.rs for `cpd_align`, rigid.rs
 //! for the fit and the transforms, correspond.rs for `traj_correspond`).
 
-use super::registry::{p, Function, Param, Signature, Ty, SERIES, TRAJ, TRANSFORM};
+use super::registry::{pd, Function, Param, Section, Signature, Ty, SERIES, TRAJ, TRANSFORM};
 use super::vector::{Args, Column, Out, StructCol, Value};
 use crate::algo::align::correspond::Pairs;
 use crate::algo::align::cpd::{self, CpdParams};
@@ -18,19 +18,38 @@ const RIGID: &str = "crates/algo/src/align/rigid.rs";
 
 const TRAJ3: Ty = Ty::List(&Ty::Struct(&[("t", Ty::Double), ("x", Ty::Double), ("y", Ty::Double), ("z", Ty::Double)]));
 const PAIRS4: Ty = Ty::List(&Ty::Struct(&[("fx", Ty::Double), ("fy", Ty::Double), ("mx", Ty::Double), ("my", Ty::Double)]));
+const PAIRS_ARG: Param = pd("pairs", PAIRS4, "point pairs: (fx, fy) in the fixed frame and (mx, my) in the moving frame (m), e.g. traj_correspond(...)");
+const TF: Param =
+    pd("tf", TRANSFORM, "a transform from the moving frame into the fixed one, p' = scale R(theta) p + (tx, ty): theta (rad), tx, ty (m), scale > 0");
+const GAP_05: Param = pd("max_gap", Ty::Double, "no interpolation across a gap of the moving track longer than this (s), > 0; default 0.5");
+const FIXED: Param = pd("fixed", TRAJ, "the fixed camera's track, sorted by t");
+const MOVING: Param = pd("moving", TRAJ, "the moving camera's track of the same road user, sorted by t");
+const FIXED_LIST: Param = pd("fixed", Ty::List(&TRAJ), "the fixed camera's tracks, one per track pair (e.g. list(a.traj))");
+const MOVING_LIST: Param = pd("moving", Ty::List(&TRAJ), "the moving camera's tracks, one per track pair, in the order of fixed");
+const CENTRE: Param = pd("centre", Ty::Double, "the middle of the clock offsets tried (s; the moving clock minus the fixed clock)");
+const HALF_WIDTH: Param = pd("half_width", Ty::Double, "offsets are tried up to this far either side of centre (s), >= 0");
+const STEP: Param = pd("step", Ty::Double, "the step between the offsets tried (s), > 0 (at most 100001 offsets)");
+const SIGMA_FIXED: Param = pd("sigma_fixed", Ty::Double, "the fixed camera's position noise (m per axis), >= 0; default 0");
+const SIGMA_MOVING: Param = pd("sigma_moving", Ty::Double, "the moving camera's position noise (m per axis), >= 0; default 0");
+const TRIM_01: Param = pd("trim", Ty::Double, "the share of point pairs least trimmed squares leaves out, in [0, 1); default 0.1");
+const DRIFT_OBS: Param = pd(
+    "obs",
+    Ty::List(&Ty::Struct(&[("x", Ty::Double), ("y", Ty::Double), ("w", Ty::Double)])),
+    "one per track pair, in time order: its clock offset y (s) at time x (s), weight w = 1 / se^2 (finite, > 0)",
+);
 
 /// `(fixed, moving, w [, tau [, max_iter, tol [, with_scale, starts]]])` with `T` the point type.
 macro_rules! cpd_params {
     ($t:expr) => {
         &[
-            p("fixed", $t),
-            p("moving", $t),
-            p("w", Ty::Double),
-            p("tau", Ty::Double),
-            p("max_iter", Ty::Bigint),
-            p("tol", Ty::Double),
-            p("with_scale", Ty::Boolean),
-            p("starts", Ty::Bigint),
+            pd("fixed", $t, "the fixed camera's points {t (s), x, y (m)}, or {t, x, y, z} in 3-D: the frame the transform maps into"),
+            pd("moving", $t, "the moving camera's points, of the same form: the transform maps them onto fixed"),
+            pd("w", Ty::Double, "the outlier weight, in [0, 1)"),
+            pd("tau", Ty::Double, "the time standard deviation (s), in [1e-100, 1e100] or 'inf'; default 'inf' (plain rigid CPD, time unused)"),
+            pd("max_iter", Ty::Bigint, "the most EM iterations, 1 to 100000; default 100"),
+            pd("tol", Ty::Double, "EM stops when its objective q changes by less than this, in [0, 1); default 1e-5"),
+            pd("with_scale", Ty::Boolean, "true: estimate a scale too (a similarity transform); default false"),
+            pd("starts", Ty::Bigint, "EM starts from this many rotations 2 pi k / starts, 1 to 360; default 8"),
         ]
     };
 }
@@ -96,6 +115,8 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT round(degrees(cpd_align(a, b, 0.0, 1.0).theta)) FROM (SELECT [{'t':0,'x':0,'y':0},{'t':1,'x':4,'y':0},{'t':2,'x':4,'y':3}] AS a, [{'t':0,'x':0,'y':0},{'t':1,'x':0,'y':-4},{'t':2,'x':3,'y':-4}] AS b); -- 90.0",
         maths: "crates/algo/src/align/cpd.rs, crates/algo/src/align/cpd3.rs",
         binding: file!(),
+        section: Section::Alignment,
+        see_also: &["rigid_fit", "register_pair", "transform_apply"],
         signatures: &[
             Signature { params: CPD_PARAMS, arities: CPD_ARITIES, returns: CPD_RESULT, kernel: cpd_align },
             Signature { params: CPD3_PARAMS, arities: CPD_ARITIES, returns: CPD3_RESULT, kernel: cpd_align3 },
@@ -110,8 +131,14 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT round(degrees(rigid_fit([{'fx':0,'fy':0,'mx':0,'my':0},{'fx':0,'fy':1,'mx':1,'my':0}]).theta)); -- 90.0",
         maths: RIGID,
         binding: file!(),
+        section: Section::Alignment,
+        see_also: &["traj_correspond", "rigid_rms", "rigid_fit_scan", "cpd_align"],
         signatures: &[Signature {
-            params: &[p("pairs", PAIRS4), p("trim", Ty::Double), p("with_scale", Ty::Boolean)],
+            params: &[
+                PAIRS_ARG,
+                pd("trim", Ty::Double, "the share of pairs least trimmed squares leaves out, in [0, 1); default 0 (plain least squares)"),
+                pd("with_scale", Ty::Boolean, "true: fit a scale too (a similarity transform); default false (rigid)"),
+            ],
             arities: &[1, 2, 3],
             returns: Ty::Struct(&[
                 ("theta", Ty::Double),
@@ -133,7 +160,9 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT rigid_rms([{'fx': 1, 'fy': 0, 'mx': 0, 'my': 0}], {'theta': 0, 'tx': 0, 'ty': 0, 'scale': 1}); -- 1.0",
         maths: RIGID,
         binding: file!(),
-        signatures: &[Signature { params: &[p("pairs", PAIRS4), p("tf", TRANSFORM)], arities: &[], returns: Ty::Double, kernel: rigid_rms }],
+        section: Section::Alignment,
+        see_also: &["rigid_fit", "traj_correspond"],
+        signatures: &[Signature { params: &[PAIRS_ARG, TF], arities: &[], returns: Ty::Double, kernel: rigid_rms }],
         table: None,
     },
     Function {
@@ -145,8 +174,15 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT traj_correspond([{'t':1,'x':0,'y':0}], [{'t':0,'x':0,'y':0},{'t':2,'x':4,'y':2}], 3.0); -- [{'fx': 0.0, 'fy': 0.0, 'mx': 2.0, 'my': 1.0}]",
         maths: "crates/algo/src/align/correspond.rs",
         binding: file!(),
+        section: Section::Alignment,
+        see_also: &["rigid_fit", "rigid_fit_scan", "traj_msd_pairs"],
         signatures: &[Signature {
-            params: &[p("fixed", TRAJ), p("moving", TRAJ), p("max_gap", Ty::Double), p("shift", Ty::Double)],
+            params: &[
+                FIXED,
+                MOVING,
+                GAP_05,
+                pd("shift", Ty::Double, "the moving clock minus the fixed clock (s): the moving times are read as t - shift; default 0"),
+            ],
             arities: &[2, 3, 4],
             returns: PAIRS4,
             kernel: traj_correspond,
@@ -166,8 +202,13 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT traj_msd_pairs([1], [[{'t':0,'x':0,'y':0},{'t':1,'x':1,'y':0}]], [2], [[{'t':0,'x':0,'y':1},{'t':1,'x':1,'y':1}]], [{'a': 1, 'b': 2}], 0.5); -- [{'a': 1, 'b': 2, 'n_common': 2, 'msd': 1.0, 'dx': 0.0, 'dy': -1.0}]",
         maths: "crates/algo/src/align/msd.rs",
         binding: file!(),
+        section: Section::Association,
+        see_also: &["traj_correspond", "pair_evidence", "lcss_similarity_pairs"],
         signatures: &[Signature {
-            params: two_sets_params!(p("pairs", Ty::List(&Ty::Struct(&[("a", Ty::Bigint), ("b", Ty::Bigint)]))), p("max_gap", Ty::Double)),
+            params: super::common::two_sets_params!(
+                pd("pairs", Ty::List(&Ty::Struct(&[("a", Ty::Bigint), ("b", Ty::Bigint)])), "the track pairs to measure: a an id of ids_a, b an id of ids_b"),
+                pd("max_gap", Ty::Double, "no interpolation across a gap of trajs_b's track longer than this (s), > 0")
+            ),
             arities: &[],
             returns: Ty::List(&Ty::Struct(&[
                 ("a", Ty::Bigint),
@@ -191,8 +232,16 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT len(rigid_fit_scan([{'t':0,'x':0,'y':0},{'t':1,'x':1,'y':0},{'t':2,'x':2,'y':1}], [{'t':0,'x':0,'y':0},{'t':1,'x':1,'y':0},{'t':2,'x':2,'y':1}], 1.0, 0.5)); -- 3",
         maths: "crates/algo/src/align/shift.rs",
         binding: file!(),
+        section: Section::Clocks,
+        see_also: &["rigid_fit", "traj_correspond", "activity_lag", "rigid_fit_shifted"],
         signatures: &[Signature {
-            params: &[p("fixed", TRAJ), p("moving", TRAJ), p("max_shift", Ty::Double), p("step", Ty::Double), p("max_gap", Ty::Double)],
+            params: &[
+                FIXED,
+                MOVING,
+                pd("max_shift", Ty::Double, "the clock offsets tried run from -max_shift to max_shift (s; moving clock minus fixed clock), >= 0"),
+                STEP,
+                GAP_05,
+            ],
             arities: &[4, 5],
             returns: Ty::List(&Ty::Struct(&[
                 ("dt", Ty::Double),
@@ -219,17 +268,19 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT rigid_fit_shifted([[{'t':0,'x':0,'y':0},{'t':1,'x':1,'y':0},{'t':2,'x':1,'y':1}]], [[{'t':0.5,'x':0,'y':0},{'t':1.5,'x':1,'y':0},{'t':2.5,'x':1,'y':1}]], 0.5, 0.1, 0.1, 1.0, 0.0).dt; -- 0.5",
         maths: "crates/algo/src/align/shift.rs",
         binding: file!(),
+        section: Section::Clocks,
+        see_also: &["rigid_fit_scan", "register_pair", "rigid_shift_under"],
         signatures: &[Signature {
             params: &[
-                p("fixed", Ty::List(&TRAJ)),
-                p("moving", Ty::List(&TRAJ)),
-                p("centre", Ty::Double),
-                p("half_width", Ty::Double),
-                p("step", Ty::Double),
-                p("max_gap", Ty::Double),
-                p("trim", Ty::Double),
-                p("sigma_fixed", Ty::Double),
-                p("sigma_moving", Ty::Double),
+                FIXED_LIST,
+                MOVING_LIST,
+                CENTRE,
+                HALF_WIDTH,
+                STEP,
+                GAP_05,
+                TRIM_01,
+                SIGMA_FIXED,
+                SIGMA_MOVING,
             ],
             arities: &[5, 6, 7, 9],
             returns: Ty::Struct(&[
@@ -258,8 +309,14 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT round(activity_lag([{'t':0,'v':1},{'t':5,'v':-1},{'t':9,'v':1},{'t':12,'v':-1}], [{'t':100,'v':1},{'t':105,'v':-1},{'t':109,'v':1},{'t':112,'v':-1}], 0.5).dt, 3); -- 100.0",
         maths: "crates/algo/src/align/xcorr.rs",
         binding: file!(),
+        section: Section::Clocks,
+        see_also: &["speed_lag", "rigid_fit_scan"],
         signatures: &[Signature {
-            params: &[p("a", SERIES), p("b", SERIES), p("bin_s", Ty::Double)],
+            params: &[
+                pd("a", SERIES, "camera a's events {t (s), v}, sorted by t: v is added to its activity from t on (+1 where a track starts, -1 where it ends)"),
+                pd("b", SERIES, "camera b's events, in the same form on b's own clock"),
+                pd("bin_s", Ty::Double, "the bin width of the activity (s), > 0"),
+            ],
             arities: &[],
             returns: Ty::Struct(&[("dt", Ty::Double), ("score", Ty::Double), ("runner_up", Ty::Double), ("half_width_s", Ty::Double)]),
             kernel: activity_lag,
@@ -293,19 +350,21 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT round(register_pair([[{'t':0,'x':0,'y':0},{'t':1,'x':1,'y':0},{'t':2,'x':2,'y':1}], [{'t':0,'x':5,'y':5},{'t':1,'x':5,'y':6},{'t':2,'x':6,'y':8}]], [[{'t':0,'x':1,'y':0},{'t':1,'x':2,'y':0},{'t':2,'x':3,'y':1}], [{'t':0,'x':6,'y':5},{'t':1,'x':6,'y':6},{'t':2,'x':7,'y':8}]], [1, 1], 0.0).tx, 6); -- -1.0",
         maths: "crates/algo/src/align/register.rs",
         binding: file!(),
+        section: Section::Alignment,
+        see_also: &["rigid_fit_shifted", "class_length_m", "frame_change"],
         signatures: &[Signature {
             params: &[
-                p("fixed", Ty::List(&TRAJ)),
-                p("moving", Ty::List(&TRAJ)),
-                p("class_codes", Ty::List(&Ty::Bigint)),
-                p("dt", Ty::Double),
-                p("max_gap", Ty::Double),
-                p("trim", Ty::Double),
-                p("sigma_fixed", Ty::Double),
-                p("sigma_moving", Ty::Double),
-                p("max_shift", Ty::Double),
-                p("step", Ty::Double),
-                p("class_lengths", Ty::List(&Ty::Double)),
+                FIXED_LIST,
+                MOVING_LIST,
+                pd("class_codes", Ty::List(&Ty::Bigint), "one integer per track pair: its class (only equality counts)"),
+                pd("dt", Ty::Double, "the clock offset (s; the moving clock minus the fixed clock), e.g. rigid_fit_shifted's dt"),
+                GAP_05,
+                TRIM_01,
+                SIGMA_FIXED,
+                SIGMA_MOVING,
+                pd("max_shift", Ty::Double, "with step: the clock offset is searched over dt +- max_shift (s), >= 0; default: dt as given"),
+                pd("step", Ty::Double, "the grid step of that search (s), > 0"),
+                pd("class_lengths", Ty::List(&Ty::Double), "one road-user length per track pair (m), in (0, 10000], the same within a class, e.g. class_length_m(class); default: all classes alike"),
             ],
             arities: &[4, 5, 6, 8, 10, 11],
             returns: Ty::Struct(&[
@@ -349,16 +408,18 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT round(rigid_shift_under([{'t':0,'x':0,'y':0},{'t':1,'x':1,'y':0},{'t':2,'x':2,'y':0},{'t':3,'x':3,'y':0}], [{'t':0.5,'x':0,'y':0},{'t':1.5,'x':1,'y':0},{'t':2.5,'x':2,'y':0},{'t':3.5,'x':3,'y':0}], {'theta':0,'tx':0,'ty':0,'scale':1}, 0.5, 0.2, 0.1, 2.0, 2).dt, 3); -- 0.5",
         maths: "crates/algo/src/align/shift_under.rs",
         binding: file!(),
+        section: Section::Clocks,
+        see_also: &["rigid_fit_shifted", "clock_drift_fit"],
         signatures: &[Signature {
             params: &[
-                p("fixed", TRAJ),
-                p("moving", TRAJ),
-                p("tf", TRANSFORM),
-                p("centre", Ty::Double),
-                p("half_width", Ty::Double),
-                p("step", Ty::Double),
-                p("max_gap", Ty::Double),
-                p("min_pairs", Ty::Bigint),
+                FIXED,
+                MOVING,
+                TF,
+                CENTRE,
+                HALF_WIDTH,
+                STEP,
+                GAP_05,
+                pd("min_pairs", Ty::Bigint, "offsets pairing fewer points than this are not compared, >= 2; default 10"),
             ],
             arities: &[6, 7, 8],
             returns: Ty::Struct(&[("dt", Ty::Double), ("rms", Ty::Double), ("n", Ty::Bigint), ("se", Ty::Double), ("at_edge", Ty::Boolean)]),
@@ -379,8 +440,15 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT camera_twin(1000, 1000, 1000); -- {'share': 1.0, 'twin': true, 'copy': 2}",
         maths: "crates/algo/src/align/twin.rs",
         binding: file!(),
+        section: Section::Alignment,
+        see_also: &["register_pair"],
         signatures: &[Signature {
-            params: &[p("points_a", Ty::Bigint), p("points_b", Ty::Bigint), p("shared", Ty::Bigint), p("min_share", Ty::Double)],
+            params: &[
+                pd("points_a", Ty::Bigint, "camera a's points that fill a 0.1 mm cell of its own frame alone, >= 0"),
+                pd("points_b", Ty::Bigint, "camera b's points counted the same way, >= 0"),
+                pd("shared", Ty::Bigint, "the most of them that fall in the same cell as a point of the other camera at one time difference, >= 0, at most the smaller count"),
+                pd("min_share", Ty::Double, "the share shared / min(points_a, points_b) that makes a twin, in (0, 1]; default 0.5"),
+            ],
             arities: &[3, 4],
             returns: Ty::Struct(&[("share", Ty::Double), ("twin", Ty::Boolean), ("copy", Ty::Bigint)]),
             kernel: camera_twin_fn,
@@ -398,8 +466,17 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT speed_lag([{'t':0,'x':0,'y':0},{'t':2,'x':0,'y':0},{'t':4,'x':4,'y':0},{'t':6,'x':12,'y':0}], [{'t':10,'x':0,'y':0},{'t':12,'x':0,'y':0},{'t':14,'x':0,'y':4},{'t':16,'x':0,'y':12}], 10, 1, 0.5, 3).lag; -- 10.0",
         maths: "crates/algo/src/align/speed_lag.rs",
         binding: file!(),
+        section: Section::Clocks,
+        see_also: &["activity_lag", "traj_speeds"],
         signatures: &[Signature {
-            params: &[p("a", TRAJ), p("b", TRAJ), p("centre", Ty::Double), p("half_width", Ty::Double), p("step", Ty::Double), p("min_samples", Ty::Bigint)],
+            params: &[
+                pd("a", TRAJ, "camera a's track of the road user, sorted by t"),
+                pd("b", TRAJ, "camera b's track of the same road user, on b's clock"),
+                pd("centre", Ty::Double, "the middle of the lags tried (s; b's clock minus a's)"),
+                pd("half_width", Ty::Double, "lags are tried up to this far either side of centre (s), >= 0"),
+                pd("step", Ty::Double, "the step between the lags tried (s), > 0"),
+                pd("min_samples", Ty::Bigint, "the least speeds a lag must compare, >= 3; default 8"),
+            ],
             arities: &[5, 6],
             returns: Ty::Struct(&[("lag", Ty::Double), ("corr", Ty::Double), ("n", Ty::Bigint)]),
             kernel: speed_lag_fn,
@@ -412,7 +489,14 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT transform_apply([{'t':0,'x':1,'y':0}], {'theta': pi()/2, 'tx': 10, 'ty': 0, 'scale': 1})[1].x; -- 10.0",
         maths: RIGID,
         binding: file!(),
-        signatures: &[Signature { params: &[p("traj", TRAJ), p("tf", TRANSFORM)], arities: &[], returns: TRAJ, kernel: transform_apply }],
+        section: Section::Alignment,
+        see_also: &["transform_point", "transform_compose", "transform_invert"],
+        signatures: &[Signature {
+            params: &[pd("traj", TRAJ, "the trajectory to map (t unchanged)"), TF],
+            arities: &[],
+            returns: TRAJ,
+            kernel: transform_apply,
+        }],
         table: None,
     },
     Function {
@@ -422,8 +506,10 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT transform_point({'theta': 0, 'tx': 10, 'ty': -1, 'scale': 2}, 1, 0); -- {'x': 12.0, 'y': -1.0}",
         maths: RIGID,
         binding: file!(),
+        section: Section::Alignment,
+        see_also: &["transform_apply", "transform_invert"],
         signatures: &[Signature {
-            params: &[p("tf", TRANSFORM), p("x", Ty::Double), p("y", Ty::Double)],
+            params: &[TF, pd("x", Ty::Double, "the point's x (m), finite"), pd("y", Ty::Double, "the point's y (m), finite")],
             arities: &[],
             returns: Ty::Struct(&[("x", Ty::Double), ("y", Ty::Double)]),
             kernel: transform_point,
@@ -437,7 +523,17 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT transform_compose({'theta': 0, 'tx': 1, 'ty': 0, 'scale': 1}, {'theta': 0, 'tx': 0, 'ty': 2, 'scale': 1}); -- {'theta': 0.0, 'tx': 1.0, 'ty': 2.0, 'scale': 1.0}",
         maths: RIGID,
         binding: file!(),
-        signatures: &[Signature { params: &[p("a", TRANSFORM), p("b", TRANSFORM)], arities: &[], returns: TRANSFORM, kernel: transform_compose }],
+        section: Section::Alignment,
+        see_also: &["transform_invert", "transform_apply"],
+        signatures: &[Signature {
+            params: &[
+                pd("a", TRANSFORM, "the transform applied second: theta (rad), tx, ty (m), scale > 0"),
+                pd("b", TRANSFORM, "the transform applied first: theta (rad), tx, ty (m), scale > 0"),
+            ],
+            arities: &[],
+            returns: TRANSFORM,
+            kernel: transform_compose,
+        }],
         table: None,
     },
     Function {
@@ -446,7 +542,9 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT transform_invert({'theta': 0, 'tx': 3, 'ty': -1, 'scale': 2}); -- {'theta': -0.0, 'tx': -1.5, 'ty': 0.5, 'scale': 0.5}",
         maths: RIGID,
         binding: file!(),
-        signatures: &[Signature { params: &[p("tf", TRANSFORM)], arities: &[], returns: TRANSFORM, kernel: transform_invert }],
+        section: Section::Alignment,
+        see_also: &["transform_compose", "transform_apply"],
+        signatures: &[Signature { params: &[TF], arities: &[], returns: TRANSFORM, kernel: transform_invert }],
         table: None,
     },
     Function {
@@ -463,10 +561,16 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT [round(c.value, 1) FOR c IN clock_network([{'fixed': 0, 'moving': 1, 'value': 100.0, 'se': 10.0}, {'fixed': 1, 'moving': 2, 'value': -40.0, 'se': 10.0}, {'fixed': 0, 'moving': 2, 'value': 60.0, 'se': 10.0}], 0)]; -- [0.0, 100.0, 60.0]",
         maths: "crates/algo/src/align/clock_network.rs",
         binding: file!(),
+        section: Section::Clocks,
+        see_also: &["clock_drift_fit", "clock_offset_se"],
         signatures: &[Signature {
             params: &[
-                p("pairs", Ty::List(&Ty::Struct(&[("fixed", Ty::Bigint), ("moving", Ty::Bigint), ("value", Ty::Double), ("se", Ty::Double)]))),
-                p("reference", Ty::Bigint),
+                pd(
+                    "pairs",
+                    Ty::List(&Ty::Struct(&[("fixed", Ty::Bigint), ("moving", Ty::Bigint), ("value", Ty::Double), ("se", Ty::Double)])),
+                    "one measurement per camera pair: value ~ x[moving] - x[fixed] (finite) with its standard error se > 0; fixed and moving are camera ids",
+                ),
+                pd("reference", Ty::Bigint, "the camera whose value is 0"),
             ],
             arities: &[],
             returns: Ty::List(&Ty::Struct(&[
@@ -497,8 +601,10 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT round(f[1].slope * 1e6) FROM (SELECT clock_drift_fit([{'x': i * 10.0, 'y': 0.5 + 2e-4 * i * 10.0, 'w': 1e4} FOR i IN range(20)]) AS f); -- 200.0",
         maths: "crates/algo/src/align/drift_fit.rs",
         binding: file!(),
+        section: Section::Clocks,
+        see_also: &["clock_offset_se", "clock_network", "rigid_shift_under"],
         signatures: &[Signature {
-            params: &[p("obs", Ty::List(&Ty::Struct(&[("x", Ty::Double), ("y", Ty::Double), ("w", Ty::Double)])))],
+            params: &[DRIFT_OBS],
             arities: &[],
             returns: Ty::List(&Ty::Struct(&[
                 ("kept", Ty::Boolean),
@@ -529,8 +635,10 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT clock_offset_se([{'x': i * 10.0, 'y': 0.5, 'w': 1e4} FOR i IN range(16)], 0.0).blocks; -- 8",
         maths: "crates/algo/src/align/drift_fit.rs",
         binding: file!(),
+        section: Section::Clocks,
+        see_also: &["clock_drift_fit", "clock_network"],
         signatures: &[Signature {
-            params: &[p("obs", Ty::List(&Ty::Struct(&[("x", Ty::Double), ("y", Ty::Double), ("w", Ty::Double)]))), p("drift", Ty::Double)],
+            params: &[DRIFT_OBS, pd("drift", Ty::Double, "the camera pair's clock drift (s per s), removed as y - drift x")],
             arities: &[],
             returns: Ty::Struct(&[("blocks", Ty::Bigint), ("se", Ty::Double)]),
             kernel: clock_offset_se,
@@ -554,18 +662,20 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT frame_change(0.0, 0.001, 1.0, 0.1, 0.0, 0.1, 0.0, 0.01, 5.0).changed; -- true",
         maths: "crates/algo/src/align/frame_change.rs",
         binding: file!(),
+        section: Section::Alignment,
+        see_also: &["register_pair", "trajdb_archive"],
         signatures: &[Signature {
             params: &[
-                p("d_theta", Ty::Double),
-                p("se_theta", Ty::Double),
-                p("d_x", Ty::Double),
-                p("se_x", Ty::Double),
-                p("d_y", Ty::Double),
-                p("se_y", Ty::Double),
-                p("d_dt", Ty::Double),
-                p("se_dt", Ty::Double),
-                p("z_crit", Ty::Double),
-                p("pairs", Ty::Double),
+                pd("d_theta", Ty::Double, "the day's rotation minus the calibration day's (rad)"),
+                pd("se_theta", Ty::Double, "its standard error (rad), both days' in quadrature"),
+                pd("d_x", Ty::Double, "the change of the anchor's x (m)"),
+                pd("se_x", Ty::Double, "its standard error (m)"),
+                pd("d_y", Ty::Double, "the change of the anchor's y (m)"),
+                pd("se_y", Ty::Double, "its standard error (m)"),
+                pd("d_dt", Ty::Double, "the change of the clock offset (s)"),
+                pd("se_dt", Ty::Double, "its standard error (s)"),
+                pd("z_crit", Ty::Double, "changed when the largest z exceeds this, > 0"),
+                pd("pairs", Ty::Double, "the track pairs of the smaller registration: the standard errors' degrees of freedom (NULL, NaN or < 8: nothing tested); default: known errors"),
             ],
             arities: &[9, 10],
             returns: Ty::Struct(&[("changed", Ty::Boolean), ("z", Ty::Double), ("z_theta", Ty::Double), ("z_pos", Ty::Double), ("z_clock", Ty::Double)]),
@@ -916,45 +1026,13 @@ fn speed_lag_fn(a: &Args<'_>, out: &mut Out<'_>) -> R {
     Ok(())
 }
 
-/// The parameters of a call on two sets of trajectories (`ids_a, trajs_a, ids_b, trajs_b`, then
-/// `$rest`): traj_msd_pairs, lcss_similarity_pairs.
-macro_rules! two_sets_params {
-    ($($rest:expr),*) => {
-        &[p("ids_a", Ty::List(&Ty::Bigint)), p("trajs_a", Ty::List(&TRAJ)), p("ids_b", Ty::List(&Ty::Bigint)), p("trajs_b", Ty::List(&TRAJ)), $($rest),*]
-    };
-}
-pub(super) use two_sets_params;
-
-/// The id positions of both sets of a two-set call; lists of different lengths or a duplicate
-/// id on one side are errors.
-pub(super) type Positions = std::collections::HashMap<i64, usize>;
-pub(super) fn two_sets(ia: &[i64], ta: &[crate::algo::traj::Traj<'_>], ib: &[i64], tb: &[crate::algo::traj::Traj<'_>]) -> Result<(Positions, Positions), Box<dyn Error>> {
-    for (ids, n, side) in [(ia, ta.len(), "a"), (ib, tb.len(), "b")] {
-        if ids.len() != n {
-            return Err(format!("ids_{side} has {} elements but trajs_{side} has {n}; pass list(id ORDER BY id) and list(traj ORDER BY id) of the same rows", ids.len()).into());
-        }
-    }
-    Ok((positions(ia, "a")?, positions(ib, "b")?))
-}
-
-/// Positions of `ids` (one side of a two-set call); a duplicate id is an error.
-fn positions(ids: &[i64], side: &str) -> Result<std::collections::HashMap<i64, usize>, Box<dyn Error>> {
-    let mut at = std::collections::HashMap::with_capacity(ids.len());
-    for (k, &id) in ids.iter().enumerate() {
-        if at.insert(id, k).is_some() {
-            return Err(format!("ids_{side} must be distinct (one track per id), got {id} twice").into());
-        }
-    }
-    Ok(at)
-}
-
 fn traj_msd_pairs(a: &Args<'_>, out: &mut Out<'_>) -> R {
     let (ia, ta, ib, tb, pairs, gap) = (a.i64_list(0), a.traj_list(1), a.i64_list(2), a.traj_list(3), a.struct_list(4), a.double(5));
     let vals = a.map(|r| {
         let (Some(ia), Some(ta), Some(ib), Some(tb), Some(pairs), Some(gap)) = (ia.get(r)?, ta.get(r)?, ib.get(r)?, tb.get(r)?, pairs.get(r)?, gap.get(r)) else {
             return Ok(None);
         };
-        let (pa, pb) = two_sets(ia, &ta, ib, &tb)?;
+        let (pa, pb) = super::common::two_sets(ia, &ta, ib, &tb)?;
         let (ka, kb) = (pairs.i64(0), pairs.i64(1));
         let mut at = Vec::new();
         at.try_reserve(ka.len()).map_err(|_| "traj_msd_pairs: out of memory for the pairs")?;

@@ -5,10 +5,10 @@
 //!   their own (Python's workers, Spark tasks): the same function, so every host writes the
 //!   same bytes.
 
-use super::registry::{p, Function, Table, Ty};
+use super::common::{pipeline_param, N_PARAMS};
+use super::registry::{pd, Function, Section, Table, Ty};
 use super::types::Param;
 use super::vector::table::{self, BindArgs, Rows, TableFn};
-use crate::app::params::PARAMS;
 use crate::archive::{self, ArchiveRequest, Driver, PartitionRow, TaskSpec};
 use crate::runner::Settings;
 use std::error::Error;
@@ -16,20 +16,24 @@ use std::sync::{Arc, Mutex};
 
 pub static FUNCTIONS: &[Function] = &[ARCHIVE, TASK, OPEN, NEXT, COMMIT, CLOSE];
 
-use super::pipeline::{ty_of, N_PARAMS};
-
-const OWN: [Param; 4] = [p("out_dir", Ty::Varchar), p("site", Ty::Varchar), p("task_memory", Ty::Varchar), p("workers", Ty::Bigint)];
+/// The call's own named parameters.
+const OWN: [Param; 4] = [
+    pd("out_dir", Ty::Varchar, "the archive folder: new, empty or an archive of this lake (required)"),
+    pd("site", Ty::Varchar, "the site's name for a lake of date=D/ folders without a site column (default: the lake folder's name)"),
+    pd("task_memory", Ty::Varchar, "the memory limit of each site-day's private database, as DuckDB's memory_limit (default '1.5GB')"),
+    pd("workers", Ty::Bigint, "site-days run at once, 1 to 256 (default: this connection's threads)"),
+];
 
 /// The call's own named parameters, then every declared pipeline parameter.
 static ARCHIVE_NAMED: [Param; N_PARAMS + 4] = {
-    let mut a = [p("out_dir", Ty::Varchar); N_PARAMS + 4];
+    let mut a = [OWN[0]; N_PARAMS + 4];
     let mut k = 0;
     while k < 4 {
         a[k] = OWN[k];
         k += 1;
     }
     while k < N_PARAMS + 4 {
-        a[k] = p(PARAMS[k - 4].name, ty_of(PARAMS[k - 4].kind));
+        a[k] = pipeline_param(k - 4);
         k += 1;
     }
     a
@@ -51,7 +55,9 @@ const ARCHIVE_COLUMNS: &[(&str, Ty)] = &[
     ("error", Ty::Varchar),
 ];
 
-const ARCHIVE_TABLE: Table = Table { params: &[p("lake", Ty::Varchar)], named: &ARCHIVE_NAMED, columns: ARCHIVE_COLUMNS, register: table::register::<ArchiveFn> };
+const LAKE: Param = pd("lake", Ty::Varchar, "the lake's folder: Parquet or CSV files under site=S/date=D/, or date=D/ of one site");
+
+const ARCHIVE_TABLE: Table = Table { params: &[LAKE], named: &ARCHIVE_NAMED, columns: ARCHIVE_COLUMNS, register: table::register::<ArchiveFn> };
 
 const ARCHIVE: Function = Function {
     name: "trajdb_archive",
@@ -73,6 +79,8 @@ const ARCHIVE: Function = Function {
     example: "SELECT count(*) = 1 FROM duckdb_functions() WHERE function_name = 'trajdb_archive'; -- true",
     maths: "crates/app/src/archive/, src/archive/",
     binding: file!(),
+    section: Section::Archive,
+    see_also: &["trajdb_archive_open", "trajdb_archive_task", "trajdb_pipeline", "frame_change"],
     signatures: &[],
     table: Some(ARCHIVE_TABLE),
 };
@@ -109,7 +117,7 @@ fn request(args: &BindArgs<'_>, params: Vec<(String, String)>, workers: usize) -
     let site = args.named_text("site")?;
     let task_memory = args.named_text("task_memory")?;
     // the paths as the sandbox check resolves them (`~`, `..`, links) are the paths written to
-    super::params::may_write_into(args, &out)?;
+    super::common::may_write_into(args, &out)?;
     let out = crate::app::archive::folder::resolve(std::path::Path::new(&out))?;
     let lake = crate::app::archive::folder::resolve(std::path::Path::new(&lake))?;
     // every file of the lake checked before any is read (a site column is read to split a
@@ -191,7 +199,12 @@ impl TableFn for ArchiveFn {
     }
 }
 
-const TASK_TABLE: Table = Table { params: &[p("task", Ty::Varchar)], named: &[], columns: &[("result", Ty::Varchar)], register: table::register::<TaskFn> };
+const TASK_TABLE: Table = Table {
+    params: &[pd("task", Ty::Varchar, "one site-day as the driver plans it: the JSON of a trajdb_archive_next row")],
+    named: &[],
+    columns: &[("result", Ty::Varchar)],
+    register: table::register::<TaskFn>,
+};
 
 const TASK: Function = Function {
     name: "trajdb_archive_task",
@@ -204,6 +217,8 @@ const TASK: Function = Function {
     example: "SELECT count(*) = 1 FROM duckdb_functions() WHERE function_name = 'trajdb_archive_task'; -- true",
     maths: "src/archive/",
     binding: file!(),
+    section: Section::Archive,
+    see_also: &["trajdb_archive_open", "trajdb_archive_commit"],
     signatures: &[],
     table: Some(TASK_TABLE),
 };
@@ -233,7 +248,7 @@ impl TableFn for TaskFn {
         }
         let scratch = std::path::PathBuf::from(abs(&task.scratch)?);
         let parent = scratch.parent().ok_or("task.scratch has no folder")?;
-        super::params::may_write_into(args, &parent.to_string_lossy())?;
+        super::common::may_write_into(args, &parent.to_string_lossy())?;
         task.scratch = scratch.to_string_lossy().into_owned();
         Ok((task, base_settings(args), Arc::clone(args.limits())))
     }
@@ -323,9 +338,12 @@ macro_rules! step_fn {
     };
 }
 
+/// The run a step belongs to.
+const HANDLE: Param = pd("handle", Ty::Bigint, "the run's handle, from trajdb_archive_open");
+
 const OPEN_TABLE: Table = Table {
-    params: &[p("lake", Ty::Varchar)],
-    named: &[p("out_dir", Ty::Varchar), p("site", Ty::Varchar), p("task_memory", Ty::Varchar), p("params", Ty::Varchar)],
+    params: &[LAKE],
+    named: &[OWN[0], OWN[1], OWN[2], pd("params", Ty::Varchar, "a JSON object of pipeline parameters, e.g. '{\"merge_eta\": 0.6}'; default: every default")],
     columns: &[("handle", Ty::Bigint), ("partitions", Ty::Bigint), ("due", Ty::Bigint), ("out_dir", Ty::Varchar), ("build", Ty::Varchar)],
     register: table::register::<OpenFn>,
 };
@@ -341,6 +359,8 @@ const OPEN: Function = Function {
     example: "SELECT count(*) = 1 FROM duckdb_functions() WHERE function_name = 'trajdb_archive_open'; -- true",
     maths: "crates/app/src/archive/, src/archive/",
     binding: file!(),
+    section: Section::Archive,
+    see_also: &["trajdb_archive_next", "trajdb_archive_task", "trajdb_archive_commit", "trajdb_archive_close"],
     signatures: &[],
     table: Some(OPEN_TABLE),
 };
@@ -367,7 +387,7 @@ step_fn!(OpenFn, OPEN_TABLE, &[Ty::Bigint, Ty::Bigint, Ty::Bigint, Ty::Varchar, 
 });
 
 const NEXT_TABLE: Table =
-    Table { params: &[p("handle", Ty::Bigint)], named: &[], columns: &[("task", Ty::Varchar)], register: table::register::<NextFn> };
+    Table { params: &[HANDLE], named: &[], columns: &[("task", Ty::Varchar)], register: table::register::<NextFn> };
 
 const NEXT: Function = Function {
     name: "trajdb_archive_next",
@@ -376,6 +396,8 @@ const NEXT: Function = Function {
     example: "SELECT count(*) = 1 FROM duckdb_functions() WHERE function_name = 'trajdb_archive_next'; -- true",
     maths: "crates/app/src/archive/plan.rs, src/archive/",
     binding: file!(),
+    section: Section::Archive,
+    see_also: &["trajdb_archive_open", "trajdb_archive_task"],
     signatures: &[],
     table: Some(NEXT_TABLE),
 };
@@ -393,7 +415,10 @@ step_fn!(NextFn, NEXT_TABLE, &[Ty::Varchar], |args| {
 });
 
 const COMMIT_TABLE: Table = Table {
-    params: &[p("handle", Ty::Bigint), p("result", Ty::Varchar)],
+    params: &[
+        HANDLE,
+        pd("result", Ty::Varchar, "trajdb_archive_task's result JSON, or {\"task\": <the task's JSON>, \"error\": \"...\"} for a task that reported none"),
+    ],
     named: &[],
     columns: &[("row", Ty::Varchar)],
     register: table::register::<CommitFn>,
@@ -408,6 +433,8 @@ const COMMIT: Function = Function {
     example: "SELECT count(*) = 1 FROM duckdb_functions() WHERE function_name = 'trajdb_archive_commit'; -- true",
     maths: "crates/app/src/archive/folder.rs, src/archive/",
     binding: file!(),
+    section: Section::Archive,
+    see_also: &["trajdb_archive_task", "trajdb_archive_close"],
     signatures: &[],
     table: Some(COMMIT_TABLE),
 };
@@ -435,7 +462,7 @@ step_fn!(CommitFn, COMMIT_TABLE, &[Ty::Varchar], |args| {
 });
 
 const CLOSE_TABLE: Table =
-    Table { params: &[p("handle", Ty::Bigint)], named: &[], columns: &[("summary", Ty::Varchar)], register: table::register::<CloseFn> };
+    Table { params: &[HANDLE], named: &[], columns: &[("summary", Ty::Varchar)], register: table::register::<CloseFn> };
 
 const CLOSE: Function = Function {
     name: "trajdb_archive_close",
@@ -445,6 +472,8 @@ const CLOSE: Function = Function {
     example: "SELECT count(*) = 1 FROM duckdb_functions() WHERE function_name = 'trajdb_archive_close'; -- true",
     maths: "src/archive/",
     binding: file!(),
+    section: Section::Archive,
+    see_also: &["trajdb_archive_open"],
     signatures: &[],
     table: Some(CLOSE_TABLE),
 };

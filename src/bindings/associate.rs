@@ -2,7 +2,7 @@
 //! `crates/algo/src/associate/` (pair.rs: a candidate's evidence; bias.rs: a camera pair's bias
 //! state).
 
-use super::registry::{p, Function, Signature, Ty};
+use super::registry::{pd, Function, Param, Section, Signature, Ty};
 use super::vector::{Args, Out, Value};
 use crate::algo::associate::bias::{self, BiasState, Offset};
 use crate::algo::associate::pair;
@@ -13,6 +13,10 @@ type R = Result<(), Box<dyn Error>>;
 const STATE: Ty =
     Ty::Struct(&[("mx", Ty::Double), ("my", Ty::Double), ("sxx", Ty::Double), ("sxy", Ty::Double), ("syy", Ty::Double), ("n", Ty::Bigint)]);
 const OFFSETS: Ty = Ty::List(&Ty::Struct(&[("dx", Ty::Double), ("dy", Ty::Double), ("se2", Ty::Double)]));
+const STATE_ARG: Param =
+    pd("state", STATE, "a bias state: mean (mx, my; m), covariance (sxx, sxy, syy; m²) and n anchors, as bias_state or bias_state_none give");
+const CLASS: Param = pd("class", Ty::Varchar, "the class name (e.g. 'car', 'Bicycle', 'heavy_vehicle'), read by its words");
+const SIGMA_D: Param = pd("sigma_d", Ty::Double, "the camera pair's position noise (m per axis), >= 0 and finite");
 
 pub static FUNCTIONS: &[Function] = &[
     Function {
@@ -26,7 +30,16 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT round(bias_state([{'dx': 1.0, 'dy': 0.0, 'se2': 0.0}, {'dx': 1.1, 'dy': 0.1, 'se2': 0.0}, {'dx': 0.9, 'dy': -0.1, 'se2': 0.0}, {'dx': 1.0, 'dy': 0.05, 'se2': 0.0}, {'dx': 1.05, 'dy': -0.05, 'se2': 0.0}]).mx, 2); -- 1.01",
         maths: "crates/algo/src/associate/bias.rs",
         binding: file!(),
-        signatures: &[Signature { params: &[p("offsets", OFFSETS)], arities: &[], returns: STATE, kernel: bias_state }],
+        section: Section::Association,
+        see_also: &["bias_state_between", "bias_state_none", "bias_fits", "pair_evidence"],
+        signatures: &[Signature {
+            params: &[
+                pd("offsets", OFFSETS, "the offsets (dx, dy; m) of unambiguous matches of one class, each with its measurement variance se2 per axis (m², sigma_d² / n_eff)"),
+            ],
+            arities: &[],
+            returns: STATE,
+            kernel: bias_state,
+        }],
         table: None,
     },
     Function {
@@ -38,7 +51,14 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT bias_state_between([{'mx': 1.0, 'my': 0.0, 'sxx': 0.01, 'sxy': 0.0, 'syy': 0.01, 'n': 40}, {'mx': 0.0, 'my': 0.0, 'sxx': 0.01, 'sxy': 0.0, 'syy': 0.01, 'n': 15}]).sxx; -- 0.51",
         maths: "crates/algo/src/associate/bias_between.rs",
         binding: file!(),
-        signatures: &[Signature { params: &[p("states", Ty::List(&STATE))], arities: &[], returns: STATE, kernel: bias_state_between }],
+        section: Section::Association,
+        see_also: &["bias_state", "bias_state_none"],
+        signatures: &[Signature {
+            params: &[pd("states", Ty::List(&STATE), "the bias states of the camera pair's other classes")],
+            arities: &[],
+            returns: STATE,
+            kernel: bias_state_between,
+        }],
         table: None,
     },
     Function {
@@ -51,8 +71,15 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT bias_fits(bias_state_none(0.2), 0.3, 0.0, 0.0); -- true",
         maths: "crates/algo/src/associate/bias.rs",
         binding: file!(),
+        section: Section::Association,
+        see_also: &["bias_state", "bias_state_none", "pair_evidence"],
         signatures: &[Signature {
-            params: &[p("state", STATE), p("dx", Ty::Double), p("dy", Ty::Double), p("se2", Ty::Double)],
+            params: &[
+                STATE_ARG,
+                pd("dx", Ty::Double, "the offset's x (m)"),
+                pd("dy", Ty::Double, "the offset's y (m)"),
+                pd("se2", Ty::Double, "the offset's measurement variance per axis (m²); negative or not finite counts as 0"),
+            ],
             arities: &[],
             returns: Ty::Boolean,
             kernel: bias_fits,
@@ -66,7 +93,9 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT bias_state_none(0.2).sxx; -- 0.04000000000000001",
         maths: "crates/algo/src/associate/bias.rs",
         binding: file!(),
-        signatures: &[Signature { params: &[p("sigma_d", Ty::Double)], arities: &[], returns: STATE, kernel: bias_state_none }],
+        section: Section::Association,
+        see_also: &["bias_state", "bias_fits"],
+        signatures: &[Signature { params: &[SIGMA_D], arities: &[], returns: STATE, kernel: bias_state_none }],
         table: None,
     },
     Function {
@@ -79,7 +108,9 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT bias_search_m('car'); -- 6.0",
         maths: "crates/algo/src/associate/mod.rs",
         binding: file!(),
-        signatures: &[Signature { params: &[p("class", Ty::Varchar)], arities: &[], returns: Ty::Double, kernel: bias_search_m }],
+        section: Section::Association,
+        see_also: &["class_length_m", "lcss_similarity_pairs"],
+        signatures: &[Signature { params: &[CLASS], arities: &[], returns: Ty::Double, kernel: bias_search_m }],
         table: None,
     },
     Function {
@@ -91,7 +122,9 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT class_length_m('heavy_vehicle'); -- 12.0",
         maths: "crates/algo/src/associate/mod.rs",
         binding: file!(),
-        signatures: &[Signature { params: &[p("class", Ty::Varchar)], arities: &[], returns: Ty::Double, kernel: class_length_m }],
+        section: Section::Classes,
+        see_also: &["class_kind", "bias_search_m", "register_pair", "traj_stationary"],
+        signatures: &[Signature { params: &[CLASS], arities: &[], returns: Ty::Double, kernel: class_length_m }],
         table: None,
     },
     Function {
@@ -104,7 +137,9 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT class_kind('Bicycle'); -- two_wheeler",
         maths: "crates/algo/src/associate/mod.rs",
         binding: file!(),
-        signatures: &[Signature { params: &[p("class", Ty::Varchar)], arities: &[], returns: Ty::Varchar, kernel: class_kind }],
+        section: Section::Classes,
+        see_also: &["class_length_m", "class_min_gap_m", "class_radius_m"],
+        signatures: &[Signature { params: &[CLASS], arities: &[], returns: Ty::Varchar, kernel: class_kind }],
         table: None,
     },
     Function {
@@ -118,7 +153,9 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT class_min_gap_m('pedestrian'); -- 0.25",
         maths: "crates/algo/src/associate/mod.rs",
         binding: file!(),
-        signatures: &[Signature { params: &[p("class", Ty::Varchar)], arities: &[], returns: Ty::Double, kernel: class_min_gap_m }],
+        section: Section::Classes,
+        see_also: &["class_kind", "conflict_probably_one"],
+        signatures: &[Signature { params: &[CLASS], arities: &[], returns: Ty::Double, kernel: class_min_gap_m }],
         table: None,
     },
     Function {
@@ -132,7 +169,9 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT class_radius_m('pedestrian'); -- 0.25",
         maths: "crates/algo/src/associate/mod.rs",
         binding: file!(),
-        signatures: &[Signature { params: &[p("class", Ty::Varchar)], arities: &[], returns: Ty::Double, kernel: class_radius_m }],
+        section: Section::Classes,
+        see_also: &["class_kind", "traj_ttc", "traj_conflicts"],
+        signatures: &[Signature { params: &[CLASS], arities: &[], returns: Ty::Double, kernel: class_radius_m }],
         table: None,
     },
     Function {
@@ -149,8 +188,17 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT pair_evidence(1.02, 1.0, 0.0, 0.1, 100, bias_state_none(0.5)).candidate; -- true",
         maths: "crates/algo/src/associate/pair.rs",
         binding: file!(),
+        section: Section::Association,
+        see_also: &["traj_msd_pairs", "bias_state", "pair_clear_of", "hungarian_match"],
         signatures: &[Signature {
-            params: &[p("msd", Ty::Double), p("dx", Ty::Double), p("dy", Ty::Double), p("sigma_d", Ty::Double), p("n_eff", Ty::Double), p("state", STATE)],
+            params: &[
+                pd("msd", Ty::Double, "the pair's mean squared distance over its common time (m²), traj_msd_pairs' msd"),
+                pd("dx", Ty::Double, "its mean offset's x (m), traj_msd_pairs' dx"),
+                pd("dy", Ty::Double, "its mean offset's y (m), traj_msd_pairs' dy"),
+                SIGMA_D,
+                pd("n_eff", Ty::Double, "the pair's independent samples (one per period of the slower camera); below 1 counts as 1"),
+                STATE_ARG,
+            ],
             arities: &[],
             returns: Ty::Struct(&[
                 ("r_res", Ty::Double),
@@ -172,14 +220,16 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT pair_clear_of(1.0, 1.0, 100, 1.1, 2.0, 100); -- true",
         maths: "crates/algo/src/associate/pair.rs",
         binding: file!(),
+        section: Section::Association,
+        see_also: &["pair_evidence"],
         signatures: &[Signature {
             params: &[
-                p("r_res", Ty::Double),
-                p("d2", Ty::Double),
-                p("n_eff", Ty::Double),
-                p("r_rival", Ty::Double),
-                p("d2_rival", Ty::Double),
-                p("n_rival", Ty::Double),
+                pd("r_res", Ty::Double, "the match's r_res (pair_evidence)"),
+                pd("d2", Ty::Double, "the match's d2 (pair_evidence)"),
+                pd("n_eff", Ty::Double, "the match's independent samples"),
+                pd("r_rival", Ty::Double, "the rival candidate's r_res"),
+                pd("d2_rival", Ty::Double, "the rival's d2"),
+                pd("n_rival", Ty::Double, "the rival's independent samples"),
             ],
             arities: &[],
             returns: Ty::Boolean,

@@ -1,7 +1,7 @@
 //! SQL: agglomerative clustering. Maths: `crates/algo/src/cluster/` (linkage.rs for the pairwise
 //! forms, traj_cluster.rs for trajectories in one call), Buzan et al. sections 4.3–4.5.
 
-use super::registry::{p, Function, Param, Signature, Ty, TRAJ};
+use super::registry::{pd, Function, Param, Section, Signature, Ty, TRAJ};
 use super::vector::{Args, Column, Out};
 use crate::algo::cluster::linkage::{self, Cut, Dendrogram, Linkage};
 use crate::algo::cluster::prototype;
@@ -16,8 +16,23 @@ const PAIRS: Ty = Ty::List(&Ty::Struct(&[("a", Ty::Bigint), ("b", Ty::Bigint), (
 const DENDROGRAM: Ty = Ty::List(&Ty::Struct(&[("left", Ty::Bigint), ("right", Ty::Bigint), ("distance", Ty::Double), ("size", Ty::Bigint)]));
 const ASSIGNMENT: Ty = Ty::List(&Ty::Struct(&[("id", Ty::Bigint), ("cluster", Ty::Integer)]));
 const PROTOTYPE_ASSIGNMENT: Ty = Ty::List(&Ty::Struct(&[("id", Ty::Bigint), ("cluster", Ty::Integer), ("prototype", Ty::Bigint)]));
-const PAIRS_METHOD: [Param; 2] = [p("pairs", PAIRS), p("method", Ty::Varchar)];
-const CONDENSED_METHOD: [Param; 2] = [p("condensed", Ty::List(&Ty::Double)), p("method", Ty::Varchar)];
+const METHOD: Param = pd("method", Ty::Varchar, "the linkage: 'single', 'complete', 'average', 'weighted' or 'ward'");
+const PAIRS_METHOD: [Param; 2] = [
+    pd("pairs", PAIRS, "the distances between ids: {a, b, distance >= 0}; an absent pair or distance 'inf' is a cannot-link"),
+    METHOD,
+];
+const CONDENSED_METHOD: [Param; 2] = [
+    pd("condensed", Ty::List(&Ty::Double), "the upper triangle of the n x n distance matrix row by row, n(n-1)/2 values >= 0 ('inf': a cannot-link)"),
+    METHOD,
+];
+const THRESHOLD: Param = pd("threshold", Ty::Double, "every merge at a height (distance) up to this is applied; not NaN");
+const IDS: Param = pd("ids", Ty::List(&Ty::Bigint), "the trajectories' ids, distinct (list(id ORDER BY id))");
+const TRAJS: Param = pd("trajs", Ty::List(&TRAJ), "the trajectories, in the order of ids (list(traj ORDER BY id))");
+const DELTA: Param = pd("delta", Ty::Bigint, "the largest difference |i - j| of the list positions of a match (samples), >= 0");
+const EPSILON: Param = pd("epsilon", Ty::Double, "the matching distance per axis (m), > 0");
+const RHO: Param = pd("rho", Ty::Double, "the least length ratio min(n, m) / max(n, m), in (0, 1]; default: no ratio test");
+const TRANSLATION_INVARIANT: Param =
+    pd("translation_invariant", Ty::Boolean, "true: Buzan's translation-invariant S2 (lcss_s2) instead of S1; default false");
 
 pub static FUNCTIONS: &[Function] = &[
     Function {
@@ -32,7 +47,9 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT agglomerative_cluster([{'a': 1, 'b': 2, 'distance': 0.1}, {'a': 2, 'b': 3, 'distance': 0.2}, {'a': 1, 'b': 3, 'distance': 0.9}], 'average', 0.3); -- [{'id': 1, 'cluster': 1}, {'id': 2, 'cluster': 1}, {'id': 3, 'cluster': 2}]",
         maths: LINKAGE,
         binding: file!(),
-        signatures: &[Signature { params: &[PAIRS_METHOD[0], PAIRS_METHOD[1], p("threshold", Ty::Double)], arities: &[], returns: ASSIGNMENT, kernel: cluster_threshold }],
+        section: Section::Clustering,
+        see_also: &["agglomerative_cluster_k", "agglomerative_dendrogram", "traj_cluster", "lcss_distance"],
+        signatures: &[Signature { params: &[PAIRS_METHOD[0], PAIRS_METHOD[1], THRESHOLD], arities: &[], returns: ASSIGNMENT, kernel: cluster_threshold }],
         table: None,
     },
     Function {
@@ -43,7 +60,14 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT agglomerative_cluster_k([{'a': 1, 'b': 2, 'distance': 0.1}, {'a': 2, 'b': 3, 'distance': 0.2}, {'a': 1, 'b': 3, 'distance': 0.9}], 'single', 1); -- [{'id': 1, 'cluster': 1}, {'id': 2, 'cluster': 1}, {'id': 3, 'cluster': 1}]",
         maths: LINKAGE,
         binding: file!(),
-        signatures: &[Signature { params: &[PAIRS_METHOD[0], PAIRS_METHOD[1], p("k", Ty::Bigint)], arities: &[], returns: ASSIGNMENT, kernel: cluster_k }],
+        section: Section::Clustering,
+        see_also: &["agglomerative_cluster", "agglomerative_dendrogram"],
+        signatures: &[Signature {
+            params: &[PAIRS_METHOD[0], PAIRS_METHOD[1], pd("k", Ty::Bigint, "the most clusters to cut at, >= 1")],
+            arities: &[],
+            returns: ASSIGNMENT,
+            kernel: cluster_k,
+        }],
         table: None,
     },
     Function {
@@ -54,6 +78,8 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT agglomerative_dendrogram([{'a': 7, 'b': 9, 'distance': 0.5}, {'a': 7, 'b': 8, 'distance': 0.25}, {'a': 8, 'b': 9, 'distance': 1}], 'complete'); -- [{'left': 0, 'right': 1, 'distance': 0.25, 'size': 2}, {'left': 2, 'right': 3, 'distance': 1.0, 'size': 3}]",
         maths: LINKAGE,
         binding: file!(),
+        section: Section::Clustering,
+        see_also: &["agglomerative_dendrogram_condensed", "agglomerative_cluster"],
         signatures: &[Signature { params: &PAIRS_METHOD, arities: &[], returns: DENDROGRAM, kernel: dendrogram }],
         table: None,
     },
@@ -66,6 +92,8 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT agglomerative_dendrogram_condensed([0.5, 0.25, 1.0], 'complete'); -- [{'left': 0, 'right': 2, 'distance': 0.25, 'size': 2}, {'left': 1, 'right': 3, 'distance': 1.0, 'size': 3}]",
         maths: LINKAGE,
         binding: file!(),
+        section: Section::Clustering,
+        see_also: &["agglomerative_dendrogram"],
         signatures: &[Signature { params: &CONDENSED_METHOD, arities: &[], returns: DENDROGRAM, kernel: dendrogram_condensed }],
         table: None,
     },
@@ -81,16 +109,18 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT traj_cluster([1, 2, 3], [[{'t':0,'x':0,'y':0},{'t':1,'x':1,'y':0}], [{'t':0,'x':0,'y':0.1},{'t':1,'x':1,'y':0.1}], [{'t':0,'x':50,'y':50},{'t':1,'x':51,'y':50}]], 'average', 0.5, 1, 1.0); -- [{'id': 1, 'cluster': 1}, {'id': 2, 'cluster': 1}, {'id': 3, 'cluster': 0}]",
         maths: "crates/algo/src/cluster/traj_cluster.rs",
         binding: file!(),
+        section: Section::Clustering,
+        see_also: &["traj_cluster_prototypes", "lcss_s1", "lcss_s2", "agglomerative_cluster"],
         signatures: &[Signature {
             params: &[
-                p("ids", Ty::List(&Ty::Bigint)),
-                p("trajs", Ty::List(&TRAJ)),
-                p("method", Ty::Varchar),
-                p("threshold", Ty::Double),
-                p("delta", Ty::Bigint),
-                p("epsilon", Ty::Double),
-                p("rho", Ty::Double),
-                p("translation_invariant", Ty::Boolean),
+                IDS,
+                TRAJS,
+                METHOD,
+                THRESHOLD,
+                DELTA,
+                EPSILON,
+                RHO,
+                TRANSLATION_INVARIANT,
             ],
             arities: &[6, 7, 8],
             returns: ASSIGNMENT,
@@ -110,17 +140,19 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT traj_cluster_prototypes([1, 2, 3], [[{'t':0,'x':0,'y':0},{'t':1,'x':1,'y':0}], [{'t':0,'x':0,'y':0.1},{'t':1,'x':1,'y':0.1}], [{'t':0,'x':50,'y':50},{'t':1,'x':51,'y':50}]], 'average', 0.5, 0.25, 1, 1.0); -- [{'id': 1, 'cluster': 1, 'prototype': 1}, {'id': 2, 'cluster': 1, 'prototype': 1}, {'id': 3, 'cluster': 0, 'prototype': 3}]",
         maths: "crates/algo/src/cluster/prototype.rs",
         binding: file!(),
+        section: Section::Clustering,
+        see_also: &["traj_cluster"],
         signatures: &[Signature {
             params: &[
-                p("ids", Ty::List(&Ty::Bigint)),
-                p("trajs", Ty::List(&TRAJ)),
-                p("method", Ty::Varchar),
-                p("threshold", Ty::Double),
-                p("radius", Ty::Double),
-                p("delta", Ty::Bigint),
-                p("epsilon", Ty::Double),
-                p("rho", Ty::Double),
-                p("translation_invariant", Ty::Boolean),
+                IDS,
+                TRAJS,
+                METHOD,
+                pd("threshold", Ty::Double, "the prototypes' clustering applies every merge at a height up to this; not NaN"),
+                pd("radius", Ty::Double, "a trajectory joins the nearest prototype within this distance 1 - min(S_x, S_y), in [0, 1] (e.g. half the threshold)"),
+                DELTA,
+                EPSILON,
+                RHO,
+                TRANSLATION_INVARIANT,
             ],
             arities: &[7, 8, 9],
             returns: PROTOTYPE_ASSIGNMENT,

@@ -1,7 +1,7 @@
 //! SQL: surrogate safety measures between two road users (PET, TTC; docs/analysis.md).
 //! Maths: `crates/algo/src/conflict/` (pet.rs, ttc.rs, pairs.rs, top.rs).
 
-use super::registry::{p, Function, Signature, Ty, TRAJ};
+use super::registry::{pd, Function, Param, Section, Signature, Ty, TRAJ};
 use super::vector::{Args, Column, Out, Value};
 use crate::algo::conflict;
 use std::error::Error;
@@ -37,6 +37,18 @@ const CONFLICTS: Ty = Ty::List(&Ty::Struct(&[
     ("together_m", Ty::Double),
 ]));
 
+const A: Param = pd("a", TRAJ, "the first road user's trajectory, sorted by t");
+const B: Param = pd("b", TRAJ, "the second road user's trajectory, sorted by t, on the same clock and in the same frame");
+const IDS: Param = pd("ids", Ty::List(&Ty::Bigint), "the road users' ids (list(road_user ORDER BY road_user))");
+const TRAJS: Param = pd("trajs", Ty::List(&TRAJ), "their trajectories, in the order of ids");
+const RADII: Param = pd(
+    "radii",
+    Ty::List(&Ty::Double),
+    "one radius per road user (m, e.g. class_radius_m(class)): a pair's TTC is at the sum of its two; default: radius for every pair",
+);
+const CLASS_A: Param = pd("class_a", Ty::Varchar, "the first road user's class name (read as class_kind reads it)");
+const CLASS_B: Param = pd("class_b", Ty::Varchar, "the second road user's class name");
+
 pub static FUNCTIONS: &[Function] = &[
     Function {
         name: "traj_pet",
@@ -53,7 +65,14 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT traj_pet([{'t': 0, 'x': -10, 'y': 0}, {'t': 2, 'x': 10, 'y': 0}], [{'t': 0, 'x': 0, 'y': -10}, {'t': 4, 'x': 0, 'y': 10}]).pet; -- 1.0",
         maths: "crates/algo/src/conflict/pet.rs",
         binding: file!(),
-        signatures: &[Signature { params: &[p("a", TRAJ), p("b", TRAJ), p("max_pet", Ty::Double)], arities: &[2, 3], returns: PET, kernel: pet }],
+        section: Section::Conflicts,
+        see_also: &["traj_ttc", "traj_conflicts", "conflict_kind"],
+        signatures: &[Signature {
+            params: &[A, B, pd("max_pet", Ty::Double, "crossings with a larger PET are left out (s), > 0; default: no limit")],
+            arities: &[2, 3],
+            returns: PET,
+            kernel: pet,
+        }],
         table: None,
     },
     Function {
@@ -68,7 +87,14 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT traj_ttc([{'t': 0, 'x': -50, 'y': 0}, {'t': 1, 'x': -40, 'y': 0}], [{'t': 0, 'x': 50, 'y': 0}, {'t': 1, 'x': 40, 'y': 0}], 2.0); -- {'ttc': 3.9000000000000004, 't': 1.0, 'x': 0.0, 'y': 0.0}",
         maths: "crates/algo/src/conflict/ttc.rs",
         binding: file!(),
-        signatures: &[Signature { params: &[p("a", TRAJ), p("b", TRAJ), p("radius", Ty::Double)], arities: &[], returns: TTC, kernel: ttc }],
+        section: Section::Conflicts,
+        see_also: &["traj_pet", "traj_conflicts", "class_radius_m"],
+        signatures: &[Signature {
+            params: &[A, B, pd("radius", Ty::Double, "the distance between the centres that is contact (m: the sum of both radii), >= 0")],
+            arities: &[],
+            returns: TTC,
+            kernel: ttc,
+        }],
         table: None,
     },
     Function {
@@ -87,14 +113,16 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT unnest(traj_conflicts([1, 2], [[{'t': 0, 'x': -10, 'y': 0}, {'t': 2, 'x': 10, 'y': 0}], [{'t': 0, 'x': 0, 'y': -10}, {'t': 4, 'x': 0, 'y': 10}]], 5.0, 2.0, 3.0)).pet; -- 1.0",
         maths: "crates/algo/src/conflict/pairs.rs",
         binding: file!(),
+        section: Section::Conflicts,
+        see_also: &["traj_pet", "traj_ttc", "traj_conflicts_top", "class_radius_m"],
         signatures: &[Signature {
             params: &[
-                p("ids", Ty::List(&Ty::Bigint)),
-                p("trajs", Ty::List(&TRAJ)),
-                p("max_pet", Ty::Double),
-                p("radius", Ty::Double),
-                p("max_ttc", Ty::Double),
-                p("radii", Ty::List(&Ty::Double)),
+                IDS,
+                TRAJS,
+                pd("max_pet", Ty::Double, "a pair is kept with a PET up to this (s), > 0"),
+                pd("radius", Ty::Double, "the distance between the centres that is contact for the TTC (m), >= 0"),
+                pd("max_ttc", Ty::Double, "a pair is also kept with a TTC up to this (s), >= 0"),
+                RADII,
             ],
             arities: &[5, 6],
             returns: CONFLICTS,
@@ -120,17 +148,19 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT len(traj_conflicts_top([1, 2], [[{'t': 0, 'x': -10, 'y': 0}, {'t': 2, 'x': 10, 'y': 0}], [{'t': 0, 'x': 0, 'y': -10}, {'t': 4, 'x': 0, 'y': 10}]], 1, 5.0, 2.0)); -- 1",
         maths: "crates/algo/src/conflict/top.rs",
         binding: file!(),
+        section: Section::Conflicts,
+        see_also: &["traj_conflicts", "conflict_probably_one", "class_min_gap_m"],
         signatures: &[Signature {
             params: &[
-                p("ids", Ty::List(&Ty::Bigint)),
-                p("trajs", Ty::List(&TRAJ)),
-                p("k", Ty::Bigint),
-                p("max_pet", Ty::Double),
-                p("radius", Ty::Double),
-                p("class_codes", Ty::List(&Ty::Bigint)),
-                p("min_gaps", Ty::List(&Ty::Double)),
-                p("radii", Ty::List(&Ty::Double)),
-                p("walkers", Ty::List(&Ty::Bigint)),
+                IDS,
+                TRAJS,
+                pd("k", Ty::Bigint, "how many pairs to return (those with the smallest PET), >= 0"),
+                pd("max_pet", Ty::Double, "the largest PET a returned pair may have (s), > 0"),
+                pd("radius", Ty::Double, "the distance between the centres that is contact for the TTC (m), >= 0"),
+                pd("class_codes", Ty::List(&Ty::Bigint), "one code per road user: its class (only equality counts); with min_gaps"),
+                pd("min_gaps", Ty::List(&Ty::Double), "one least gap per road user (m, class_min_gap_m(class)): a pair of one class whose paths stay closer is one road user, left out"),
+                RADII,
+                pd("walkers", Ty::List(&Ty::Bigint), "one per road user: 1 a pedestrian, 0 not; a pair of two pedestrians is left out"),
             ],
             arities: &[5, 7, 9],
             returns: CONFLICTS,
@@ -149,8 +179,15 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT conflict_probably_one('pedestrian', 'pedestrian', 40, 0.08); -- true",
         maths: "crates/algo/src/conflict/together.rs",
         binding: file!(),
+        section: Section::Conflicts,
+        see_also: &["class_min_gap_m", "traj_conflicts_top"],
         signatures: &[Signature {
-            params: &[p("class_a", Ty::Varchar), p("class_b", Ty::Varchar), p("together_n", Ty::Bigint), p("together_m", Ty::Double)],
+            params: &[
+                CLASS_A,
+                CLASS_B,
+                pd("together_n", Ty::Bigint, "the sample times the two paths share (traj_conflicts' together_n)"),
+                pd("together_m", Ty::Double, "the median distance between them over that time (m, traj_conflicts' together_m)"),
+            ],
             arities: &[],
             returns: Ty::Boolean,
             kernel: probably_one,
@@ -168,8 +205,14 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT conflict_kind('pedestrian', 'pedestrian', 40); -- pedestrian-pedestrian",
         maths: "crates/algo/src/conflict/kind.rs",
         binding: file!(),
+        section: Section::Conflicts,
+        see_also: &["traj_pet", "class_kind"],
         signatures: &[Signature {
-            params: &[p("class_a", Ty::Varchar), p("class_b", Ty::Varchar), p("angle_deg", Ty::Double)],
+            params: &[
+                CLASS_A,
+                CLASS_B,
+                pd("angle_deg", Ty::Double, "the angle between their headings at the crossing (degrees, traj_pet's angle), 0-180; other values are folded into it"),
+            ],
             arities: &[],
             returns: Ty::Varchar,
             kernel: kind,

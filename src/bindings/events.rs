@@ -1,8 +1,8 @@
 //! SQL: events between the tracks of one camera (Zhao et al. III.A) and object / fragment /
 //! group labels (section IV). Maths: `crates/algo/src/events.rs`.
 
-use super::try_map;
-use super::registry::{p, Function, Param, Signature, Ty, GEOMETRY};
+use super::common::try_map;
+use super::registry::{pd, Function, Param, Section, Signature, Ty, GEOMETRY};
 use super::vector::{Args, Column, Out, Rows, Value};
 use crate::algo::break_link::{self, BreakModel};
 use crate::algo::events::{self, Endpoints, EventParams, LabelParams};
@@ -31,7 +31,11 @@ macro_rules! endpoint_fields {
 }
 const ENDPOINTS: Ty = endpoint_fields!();
 const LABEL_TRACKS: Ty = endpoint_fields!(("vx0", Ty::Double), ("vy0", Ty::Double));
-const GAP_DIST: [Param; 3] = [p("max_gap", Ty::Double), p("max_dist", Ty::Double), p("interior", GEOMETRY)];
+const GAP_DIST: [Param; 3] = [
+    pd("max_gap", Ty::Double, "a start counts for an end up to this long after it (s), >= 0"),
+    pd("max_dist", Ty::Double, "a start counts only when it lies within this distance of the end moved on at its final velocity for the gap (m), >= 0"),
+    pd("interior", GEOMETRY, "only endpoints inside this polygon count, e.g. polygon_buffer(view_polygon(...), -3); default: all"),
+];
 
 pub static FUNCTIONS: &[Function] = &[
     Function {
@@ -46,8 +50,16 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT traj_events([{'id': 1, 't0': 0, 'x0': 0, 'y0': 0, 't1': 10, 'x1': 10, 'y1': 0, 'vx1': 1, 'vy1': 0}, {'id': 2, 't0': 11.5, 'x0': 11.6, 'y0': 0, 't1': 20, 'x1': 20, 'y1': 0, 'vx1': 1, 'vy1': 0}], 2, 1); -- [{'kind': broken, 'from_id': 1, 'to_id': 2, 'gap': 1.5, 'distance': 0.09999999999999964}]",
         maths: MATHS,
         binding: file!(),
+        section: Section::Quality,
+        see_also: &["traj_labels", "break_evidence", "polygon_buffer"],
         signatures: &[Signature {
-            params: &[p("tracks", ENDPOINTS), GAP_DIST[0], GAP_DIST[1], GAP_DIST[2], p("accel", Ty::Double)],
+            params: &[
+                pd("tracks", ENDPOINTS, "one per track of one camera: its id, first point (t0 (s), x0, y0 (m)), last point (t1, x1, y1) and velocity at the end (vx1, vy1; m/s)"),
+                GAP_DIST[0],
+                GAP_DIST[1],
+                GAP_DIST[2],
+                pd("accel", Ty::Double, "an acceleration allowance (m/s²), >= 0: the distance grows to max_dist + accel gap² / 2; default 0"),
+            ],
             arities: &[3, 4, 5],
             returns: Ty::List(&Ty::Struct(&[
                 ("kind", Ty::Varchar),
@@ -71,17 +83,19 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT traj_labels([{'id': 1, 't0': 0, 'x0': 0, 'y0': 0, 't1': 10, 'x1': 10, 'y1': 0, 'vx1': 1, 'vy1': 0, 'vx0': 1, 'vy0': 0}, {'id': 2, 't0': 10.5, 'x0': 10.5, 'y0': 0.5, 't1': 20, 'x1': 20, 'y1': 9, 'vx1': 1, 'vy1': 1, 'vx0': 1, 'vy0': 1}, {'id': 3, 't0': 10.5, 'x0': 10.5, 'y0': -0.5, 't1': 20, 'x1': 20, 'y1': -9, 'vx1': 1, 'vy1': -1, 'vx0': 1, 'vy0': -1}], 2, 1); -- [{'id': 1, 'label': group, 'coherence': 1.0}, {'id': 2, 'label': object, 'coherence': 1.6664855972319293e-07}, {'id': 3, 'label': object, 'coherence': 1.6664855972319293e-07}]",
         maths: MATHS,
         binding: file!(),
+        section: Section::Quality,
+        see_also: &["traj_events"],
         signatures: &[Signature {
             params: &[
-                p("tracks", LABEL_TRACKS),
+                pd("tracks", LABEL_TRACKS, "as traj_events' tracks, plus the velocity at the start (vx0, vy0; m/s)"),
                 GAP_DIST[0],
                 GAP_DIST[1],
                 GAP_DIST[2],
-                p("sigma_speed", Ty::Double),
-                p("sigma_heading", Ty::Double),
-                p("tau_speed", Ty::Double),
-                p("tau_heading", Ty::Double),
-                p("threshold", Ty::Double),
+                pd("sigma_speed", Ty::Double, "the spread of the speed difference within one object (m/s), > 0; default 0.5 (the four coherency parameters and threshold: all or none)"),
+                pd("sigma_heading", Ty::Double, "the spread of the heading difference within one object (rad), > 0; default 0.25"),
+                pd("tau_speed", Ty::Double, "the spread of the speed difference between different objects (m/s), > 0; default 3"),
+                pd("tau_heading", Ty::Double, "the spread of the heading difference between different objects (rad), > 0; default 1.5"),
+                pd("threshold", Ty::Double, "tracks are fragments of one object when their least pairwise posterior is at least this, in [0, 1]; default 0.7"),
             ],
             arities: &[3, 4, 9],
             returns: Ty::List(&Ty::Struct(&[("id", Ty::Bigint), ("label", Ty::Varchar), ("coherence", Ty::Double)])),
@@ -103,18 +117,20 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT round(break_evidence(0.1, 0.0, 0.0, 0.0, 0.01, 1.0, 0.05, 0.5, 0.5, 0.001).ll_bg, 3); -- 8.498",
         maths: "crates/algo/src/break_link.rs",
         binding: file!(),
+        section: Section::Quality,
+        see_also: &["break_link_kind", "break_standing", "noise_reappear_radius_95"],
         signatures: &[Signature {
             params: &[
-                p("dx", Ty::Double),
-                p("dy", Ty::Double),
-                p("dvx", Ty::Double),
-                p("dvy", Ty::Double),
-                p("var_cv", Ty::Double),
-                p("var_acc", Ty::Double),
-                p("varv_cv", Ty::Double),
-                p("varv_acc", Ty::Double),
-                p("pi", Ty::Double),
-                p("start_density", Ty::Double),
+                pd("dx", Ty::Double, "the x difference of the two ends' positions extrapolated to the middle of the gap (m), finite"),
+                pd("dy", Ty::Double, "the y difference of those positions (m), finite"),
+                pd("dvx", Ty::Double, "the x difference of the two ends' velocities (m/s), finite"),
+                pd("dvy", Ty::Double, "the y difference of their velocities (m/s), finite"),
+                pd("var_cv", Ty::Double, "the position difference's variance per axis if the road user kept its velocity (m²), > 0"),
+                pd("var_acc", Ty::Double, "what acceleration adds to it (m²), >= 0"),
+                pd("varv_cv", Ty::Double, "the velocity difference's variance per axis if it kept its velocity (m²/s²), > 0"),
+                pd("varv_acc", Ty::Double, "what acceleration adds to it (m²/s²), >= 0"),
+                pd("pi", Ty::Double, "the share of the constant-velocity model in the mixture, in [0, 1) (0: the acceleration model alone)"),
+                pd("start_density", Ty::Double, "the density of unrelated starts in the gap's time window (per m²), > 0"),
             ],
             arities: &[],
             returns: Ty::Struct(&[("z2_cv", Ty::Double), ("z2", Ty::Double), ("ll", Ty::Double), ("ll_bg", Ty::Double), ("candidate", Ty::Boolean), ("candidate_cv", Ty::Boolean)]),
@@ -132,8 +148,16 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT break_link_kind(1.0, 0.0, 5.0, '-inf'::DOUBLE, '-inf'::DOUBLE); -- broken",
         maths: "crates/algo/src/break_link.rs",
         binding: file!(),
+        section: Section::Quality,
+        see_also: &["break_evidence"],
         signatures: &[Signature {
-            params: &[p("z2_cv", Ty::Double), p("ll", Ty::Double), p("ll_bg", Ty::Double), p("ll_next_end", Ty::Double), p("ll_next_start", Ty::Double)],
+            params: &[
+                pd("z2_cv", Ty::Double, "the candidate's constant-velocity statistic (break_evidence's z2_cv), >= 0"),
+                pd("ll", Ty::Double, "the candidate's log-density (break_evidence's ll)"),
+                pd("ll_bg", Ty::Double, "its log-density over unrelated starts (break_evidence's ll_bg)"),
+                pd("ll_next_end", Ty::Double, "the best other candidate's ll for the same track end; -infinity for none"),
+                pd("ll_next_start", Ty::Double, "the best other candidate's ll for the same start; -infinity for none"),
+            ],
             arities: &[],
             returns: Ty::Varchar,
             kernel: break_link_kind,
@@ -148,8 +172,14 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT break_standing(0.05, 0.0, 0.01); -- true",
         maths: "crates/algo/src/break_link.rs",
         binding: file!(),
+        section: Section::Quality,
+        see_also: &["break_evidence", "noise_velocity_window_s"],
         signatures: &[Signature {
-            params: &[p("vx", Ty::Double), p("vy", Ty::Double), p("var_v", Ty::Double)],
+            params: &[
+                pd("vx", Ty::Double, "the track end's fitted velocity, x (m/s)"),
+                pd("vy", Ty::Double, "its y (m/s)"),
+                pd("var_v", Ty::Double, "the fitted velocity's variance per axis (m²/s²); <= 0 gives false"),
+            ],
             arities: &[],
             returns: Ty::Boolean,
             kernel: break_standing,
@@ -193,7 +223,7 @@ fn traj_events(a: &Args<'_>, out: &mut Out<'_>) -> R {
         let p = p.with_accel(acc)?;
         Ok(Some(events::events(&endpoints(&f), region.as_deref(), &p)?))
     })?;
-    // the result's columns are as long as the events: allocated fallibly (super::try_map)
+    // the result's columns are as long as the events: allocated fallibly (super::common::try_map)
     let split: Vec<Option<_>> = vals
         .iter()
         .map(|v| {

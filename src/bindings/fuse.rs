@@ -1,7 +1,7 @@
 //! SQL: fused paths (one road user's observations from every camera, smoothed into one path).
 //! Maths: `crates/algo/src/fuse/` (constant-velocity Kalman filter + RTS smoother, seed 003 §3.8).
 
-use super::registry::{p, Function, Param, Signature, Ty, SERIES, TRAJ};
+use super::registry::{pd, Function, Param, Section, Signature, Ty, SERIES, TRAJ};
 use super::vector::{Args, Column, Out};
 use crate::algo::fuse::{self, FusedPath, Obs};
 use crate::algo::traj::OwnedTraj;
@@ -12,7 +12,12 @@ const MATHS: &str = "crates/algo/src/fuse/smooth.rs, crates/algo/src/fuse/sample
 
 /// `STRUCT(t DOUBLE, x DOUBLE, y DOUBLE, sigma DOUBLE)[]`: observations with their noise.
 const OBS: Ty = Ty::List(&Ty::Struct(&[("t", Ty::Double), ("x", Ty::Double), ("y", Ty::Double), ("sigma", Ty::Double)]));
-const PARAMS: [Param; 4] = [p("obs", OBS), p("q", Ty::Double), p("period", Ty::Double), p("max_gap", Ty::Double)];
+const PARAMS: [Param; 4] = [
+    pd("obs", OBS, "every observation of the road user, sorted by t: t (s), x, y (m) in one frame and on one clock, sigma > 0 its camera's position noise per axis (m)"),
+    pd("q", Ty::Double, "the white-acceleration noise density per axis (m²/s³), >= 0; 0: a straight line at one velocity"),
+    pd("period", Ty::Double, "the path at t = k * period (s), > 0; default: one point per distinct observation time"),
+    pd("max_gap", Ty::Double, "with period: no point across a gap between observations longer than this (s), > 0; default: no limit"),
+];
 
 pub static FUNCTIONS: &[Function] = &[
     Function {
@@ -29,6 +34,8 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT traj_fuse([{'t': 0, 'x': 0, 'y': 0, 'sigma': 0.1}, {'t': 1, 'x': 1, 'y': 0, 'sigma': 0.1}, {'t': 1, 'x': 1, 'y': 0, 'sigma': 0.2}, {'t': 2, 'x': 2, 'y': 0, 'sigma': 0.1}], 0.5); -- [{'t': 0.0, 'x': 0.0, 'y': 0.0}, {'t': 1.0, 'x': 1.0, 'y': 0.0}, {'t': 2.0, 'x': 2.0, 'y': 0.0}]",
         maths: MATHS,
         binding: file!(),
+        section: Section::Fusion,
+        see_also: &["traj_fuse_sigma", "traj_fuse_with_sigma", "traj_resample", "noise_process_q"],
         signatures: &[Signature { params: &PARAMS, arities: &[2, 3, 4], returns: TRAJ, kernel: fuse_traj }],
         table: None,
     },
@@ -40,6 +47,8 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT traj_fuse_sigma([{'t': 0, 'x': 0, 'y': 0, 'sigma': 0.1}, {'t': 0, 'x': 0.1, 'y': 0, 'sigma': 0.1}], 0.5); -- [{'t': 0.0, 'v': 0.07071067811865477}]",
         maths: MATHS,
         binding: file!(),
+        section: Section::Fusion,
+        see_also: &["traj_fuse", "traj_fuse_with_sigma"],
         signatures: &[Signature { params: &PARAMS, arities: &[2, 3, 4], returns: SERIES, kernel: fuse_sigma }],
         table: None,
     },
@@ -51,6 +60,8 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT traj_fuse_with_sigma([{'t': 0, 'x': 0, 'y': 0, 'sigma': 0.1}, {'t': 0, 'x': 0.1, 'y': 0, 'sigma': 0.1}], 0.5); -- [{'t': 0.0, 'x': 0.05000000000000001, 'y': 0.0, 'sigma': 0.07071067811865477}]",
         maths: MATHS,
         binding: file!(),
+        section: Section::Fusion,
+        see_also: &["traj_fuse", "traj_fuse_sigma"],
         signatures: &[Signature {
             params: &PARAMS,
             arities: &[2, 3, 4],
@@ -71,8 +82,13 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT [round(o.dx, 6) FOR o IN traj_source_offsets([[{'t':0,'x':1,'y':0},{'t':1,'x':2,'y':0},{'t':2,'x':3,'y':0}], [{'t':0,'x':0,'y':0},{'t':1,'x':1,'y':0},{'t':2,'x':2,'y':0}]], 0.5)]; -- [0.5, -0.5]",
         maths: "crates/algo/src/fuse/offsets.rs",
         binding: file!(),
+        section: Section::Fusion,
+        see_also: &["traj_fuse", "traj_msd_pairs"],
         signatures: &[Signature {
-            params: &[p("sources", Ty::List(&TRAJ)), p("max_gap", Ty::Double)],
+            params: &[
+                pd("sources", Ty::List(&TRAJ), "one road user's tracks from every camera, in one frame and on one clock (list(traj))"),
+                pd("max_gap", Ty::Double, "no interpolation across a gap of a track longer than this (s), > 0"),
+            ],
             arities: &[],
             returns: Ty::List(&Ty::Struct(&[("dx", Ty::Double), ("dy", Ty::Double), ("n_common", Ty::Bigint)])),
             kernel: source_offsets,

@@ -12,7 +12,7 @@
 //! below; valid.rs says why they are refused rather than repaired. WKT nested deeper than 128
 //! parentheses is refused before it is parsed. Each description ends with [`polygon_rules!`].
 
-use super::registry::{p, Function, Signature, Ty, GEOMETRY, GEOMETRY_LIST, TRAJ};
+use super::registry::{pd, Function, Param, Section, Signature, Ty, GEOMETRY, GEOMETRY_LIST, TRAJ};
 use super::vector::{Args, Out};
 use crate::algo::geometry::{hull, polygon, region};
 use std::error::Error;
@@ -32,12 +32,21 @@ macro_rules! polygon_rules {
 const POLYGON: &str = "crates/algo/src/geometry/polygon.rs";
 const REGION: &str = "crates/algo/src/geometry/region.rs";
 const XY: Ty = Ty::List(&Ty::Struct(&[("x", Ty::Double), ("y", Ty::Double)]));
+const P: Param = pd("p", GEOMETRY, "the polygon: WKT, WKB or GEOMETRY (POLYGON or MULTIPOLYGON)");
+const TRAJ_ARG: Param = pd("traj", TRAJ, "the trajectory: points {t (s), x, y (m)}");
+const CLOSED: Param = pd("p", GEOMETRY, "the polygon (closed: points on its boundary are inside), WKT, WKB or GEOMETRY");
 
 /// `(points, method [, param [, radius, min_neighbours]])` with `T` the point type.
 macro_rules! hull_signature {
     ($t:expr) => {
         Signature {
-            params: &[p("points", $t), p("method", Ty::Varchar), p("param", Ty::Double), p("radius", Ty::Double), p("min_neighbours", Ty::Bigint)],
+            params: &[
+                pd("points", $t, "the points one camera saw (of one class): {x, y} (m), or a TRAJ such as flatten(list(traj))"),
+                pd("method", Ty::Varchar, "'convex' or 'concave'"),
+                pd("param", Ty::Double, "'concave': the concavity, > 0 (1 tight, larger smoother, 'Infinity' the convex hull); default 2; 'convex' ignores it"),
+                pd("radius", Ty::Double, "with min_neighbours: a point counts only when enough other points lie within this distance (m), > 0"),
+                pd("min_neighbours", Ty::Bigint, "the other points within radius a point needs to count, >= 0"),
+            ],
             arities: &[2, 3, 5],
             returns: Ty::Blob,
             kernel: view_polygon,
@@ -62,6 +71,8 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT polygon_to_wkt(view_polygon([{'x': 0, 'y': 0}, {'x': 4, 'y': 0}, {'x': 1, 'y': 1}, {'x': 0, 'y': 4}], 'convex')); -- POLYGON ((4 0, 0 4, 0 0, 4 0))",
         maths: "crates/algo/src/geometry/hull.rs",
         binding: file!(),
+        section: Section::Geometry,
+        see_also: &["polygon_overlap", "polygon_union", "polygon_buffer", "polygon_to_wkt"],
         signatures: &[hull_signature!(XY), hull_signature!(TRAJ)],
         table: None,
     },
@@ -76,7 +87,14 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT polygon_to_wkt(polygon_overlap('POLYGON ((0 0, 4 0, 4 4, 0 4, 0 0))', 'POLYGON ((2 2, 6 2, 6 6, 2 6, 2 2))')); -- POLYGON ((2 4, 2 2, 4 2, 4 4, 2 4))",
         maths: POLYGON,
         binding: file!(),
-        signatures: &[Signature { params: &[p("a", GEOMETRY), p("b", GEOMETRY)], arities: &[], returns: Ty::Blob, kernel: overlap }],
+        section: Section::Geometry,
+        see_also: &["polygon_union", "view_polygon", "polygon_area"],
+        signatures: &[Signature {
+            params: &[pd("a", GEOMETRY, "the first polygon (WKT, WKB or GEOMETRY)"), pd("b", GEOMETRY, "the second polygon")],
+            arities: &[],
+            returns: Ty::Blob,
+            kernel: overlap,
+        }],
         table: None,
     },
     Function {
@@ -89,8 +107,10 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT polygon_area(polygon_union(['POLYGON ((0 0, 4 0, 4 4, 0 4, 0 0))', 'POLYGON ((2 2, 6 2, 6 6, 2 6, 2 2))'])); -- 28.0",
         maths: POLYGON,
         binding: file!(),
+        section: Section::Geometry,
+        see_also: &["polygon_overlap", "view_polygon", "polygon_area"],
         signatures: &[Signature {
-            params: &[p("polygons", GEOMETRY_LIST)],
+            params: &[pd("polygons", GEOMETRY_LIST, "the polygons, e.g. list(p); no NULL element")],
             arities: &[],
             returns: Ty::Blob,
             kernel: union,
@@ -108,7 +128,14 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT polygon_area(polygon_buffer('POLYGON ((0 0, 10 0, 10 10, 0 10, 0 0))', -1)); -- 64.0",
         maths: POLYGON,
         binding: file!(),
-        signatures: &[Signature { params: &[p("p", GEOMETRY), p("distance", Ty::Double)], arities: &[], returns: Ty::Blob, kernel: buffer }],
+        section: Section::Geometry,
+        see_also: &["view_polygon", "polygon_overlap"],
+        signatures: &[Signature {
+            params: &[P, pd("distance", Ty::Double, "how far the boundary moves, in the coordinates' unit (m): > 0 outward, < 0 inward; finite")],
+            arities: &[],
+            returns: Ty::Blob,
+            kernel: buffer,
+        }],
         table: None,
     },
     Function {
@@ -117,7 +144,9 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT polygon_area('POLYGON ((0 0, 4 0, 4 4, 0 4, 0 0), (1 1, 2 1, 2 2, 1 2, 1 1))'); -- 15.0",
         maths: POLYGON,
         binding: file!(),
-        signatures: &[Signature { params: &[p("p", GEOMETRY)], arities: &[], returns: Ty::Double, kernel: area }],
+        section: Section::Geometry,
+        see_also: &["polygon_overlap", "polygon_union"],
+        signatures: &[Signature { params: &[P], arities: &[], returns: Ty::Double, kernel: area }],
         table: None,
     },
     Function {
@@ -131,8 +160,10 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT polygon_contains('POLYGON ((0 0, 4 0, 4 4, 0 4, 0 0))', 4, 2); -- true",
         maths: REGION,
         binding: file!(),
+        section: Section::Geometry,
+        see_also: &["traj_points_inside", "traj_clip"],
         signatures: &[Signature {
-            params: &[p("p", GEOMETRY), p("x", Ty::Double), p("y", Ty::Double)],
+            params: &[CLOSED, pd("x", Ty::Double, "the point's x, finite"), pd("y", Ty::Double, "the point's y, finite")],
             arities: &[],
             returns: Ty::Boolean,
             kernel: contains,
@@ -149,7 +180,9 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT polygon_to_wkt('POLYGON((0 0,1 0,1 1,0 0))'); -- POLYGON ((0 0, 1 0, 1 1, 0 0))",
         maths: POLYGON,
         binding: file!(),
-        signatures: &[Signature { params: &[p("p", GEOMETRY)], arities: &[], returns: Ty::Varchar, kernel: to_wkt }],
+        section: Section::Geometry,
+        see_also: &["polygon_to_geometry", "traj_to_wkt"],
+        signatures: &[Signature { params: &[P], arities: &[], returns: Ty::Varchar, kernel: to_wkt }],
         table: None,
     },
     Function {
@@ -163,7 +196,9 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT polygon_to_geometry(view_polygon([{'x': 0, 'y': 0}, {'x': 4, 'y': 0}, {'x': 0, 'y': 4}], 'convex'))::VARCHAR; -- POLYGON ((0 0, 4 0, 0 4, 0 0))",
         maths: POLYGON,
         binding: file!(),
-        signatures: &[Signature { params: &[p("p", GEOMETRY)], arities: &[], returns: Ty::Geometry, kernel: to_geometry }],
+        section: Section::Geometry,
+        see_also: &["polygon_to_wkt", "traj_to_geometry"],
+        signatures: &[Signature { params: &[P], arities: &[], returns: Ty::Geometry, kernel: to_geometry }],
         table: None,
     },
     Function {
@@ -175,7 +210,9 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT traj_clip([{'t': 0, 'x': 1, 'y': 1}, {'t': 1, 'x': 9, 'y': 1}, {'t': 2, 'x': 2, 'y': 2}], 'POLYGON ((0 0, 4 0, 4 4, 0 4, 0 0))'); -- [{'t': 0.0, 'x': 1.0, 'y': 1.0}, {'t': 2.0, 'x': 2.0, 'y': 2.0}]",
         maths: REGION,
         binding: file!(),
-        signatures: &[Signature { params: &[p("traj", TRAJ), p("p", GEOMETRY)], arities: &[], returns: TRAJ, kernel: clip }],
+        section: Section::Geometry,
+        see_also: &["traj_points_inside", "polygon_contains", "lcss_similarity"],
+        signatures: &[Signature { params: &[TRAJ_ARG, CLOSED], arities: &[], returns: TRAJ, kernel: clip }],
         table: None,
     },
     Function {
@@ -187,7 +224,9 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT traj_points_inside([{'t': 0, 'x': 1, 'y': 1}, {'t': 1, 'x': 9, 'y': 1}, {'t': 2, 'x': 2, 'y': 2}], 'POLYGON ((0 0, 4 0, 4 4, 0 4, 0 0))'); -- 2",
         maths: REGION,
         binding: file!(),
-        signatures: &[Signature { params: &[p("traj", TRAJ), p("p", GEOMETRY)], arities: &[], returns: Ty::Bigint, kernel: points_inside }],
+        section: Section::Geometry,
+        see_also: &["traj_clip", "polygon_contains"],
+        signatures: &[Signature { params: &[TRAJ_ARG, CLOSED], arities: &[], returns: Ty::Bigint, kernel: points_inside }],
         table: None,
     },
 ];

@@ -1,7 +1,7 @@
 //! SQL: the LCSS family. Maths: `crates/algo/src/lcss/` (time_window.rs for the thesis's eq. 2.9/2.10
 //! and the 1-D series form, index.rs for Buzan's S1, translate.rs for S2).
 
-use super::registry::{p, Function, Param, Signature, Ty, GEOMETRY, SERIES, TRAJ};
+use super::registry::{pd, Function, Param, Section, Signature, Ty, GEOMETRY, SERIES, TRAJ};
 use super::vector::{Args, Column, Out, Value};
 use crate::algo::lcss::index::{self, IndexParams};
 use crate::algo::lcss::time_window::{self as tw, TimeWindowParams};
@@ -12,14 +12,32 @@ type R = Result<(), Box<dyn Error>>;
 const TW_MATHS: &str = "crates/algo/src/lcss/time_window.rs";
 const INDEX_MATHS: &str = "crates/algo/src/lcss/index.rs";
 
+const A: Param = pd("a", TRAJ, "the first trajectory, sorted by t");
+const B: Param = pd("b", TRAJ, "the second trajectory, sorted by t");
+const EPSILON: Param = pd("epsilon", Ty::Double, "points match when closer than this (m), > 0");
+const TIME_WINDOW: Param = pd("time_window", Ty::Double, "a match must also be closer than this in time (s), > 0");
+const MIN_POINTS: Param =
+    pd("min_points", Ty::Bigint, "a side with fewer points than this (counted inside region when one is given) scores 0, >= 0; default 0");
+const REGION: Param = pd("region", GEOMETRY, "only the points inside this polygon take part (WKT, WKB or GEOMETRY); default: all points");
 /// `(a, b, epsilon, time_window [, min_points [, region]])` of the time-window forms.
-const TW_PARAMS: &[Param] =
-    &[p("a", TRAJ), p("b", TRAJ), p("epsilon", Ty::Double), p("time_window", Ty::Double), p("min_points", Ty::Bigint), p("region", GEOMETRY)];
+const TW_PARAMS: &[Param] = &[A, B, EPSILON, TIME_WINDOW, MIN_POINTS, REGION];
 const TW_ARITIES: &[usize] = &[4, 5, 6];
 /// `(a, b, epsilon, time_window [, min_points])` of the series forms.
-const SERIES_PARAMS: &[Param] = &[p("a", SERIES), p("b", SERIES), p("epsilon", Ty::Double), p("time_window", Ty::Double), p("min_points", Ty::Bigint)];
+const SERIES_PARAMS: &[Param] = &[
+    pd("a", SERIES, "the first series {t (s), v} sorted by t, e.g. traj_speeds(...)"),
+    pd("b", SERIES, "the second series {t (s), v} sorted by t"),
+    pd("epsilon", Ty::Double, "values match when |v_a - v_b| is less than this (the series' unit), > 0"),
+    TIME_WINDOW,
+    pd("min_points", Ty::Bigint, "a side with fewer samples than this scores 0, >= 0; default 0"),
+];
 /// `(a, b, delta, epsilon [, rho])` of the index-window forms.
-const INDEX_PARAMS: &[Param] = &[p("a", TRAJ), p("b", TRAJ), p("delta", Ty::Bigint), p("epsilon", Ty::Double), p("rho", Ty::Double)];
+const INDEX_PARAMS: &[Param] = &[
+    pd("a", TRAJ, "the first trajectory (its list positions count, t is not read)"),
+    pd("b", TRAJ, "the second trajectory (its list positions count, t is not read)"),
+    pd("delta", Ty::Bigint, "the largest difference |i - j| of the list positions of a match (samples), >= 0"),
+    pd("epsilon", Ty::Double, "the matching distance (m), > 0: between the points for lcss_index_similarity, per axis for lcss_s1 and lcss_s2"),
+    pd("rho", Ty::Double, "the least length ratio min(n, m) / max(n, m), in (0, 1]: a pair below it scores 0; default: no ratio test"),
+];
 const PAIRS: Ty = Ty::List(&Ty::Struct(&[("i", Ty::Integer), ("j", Ty::Integer)]));
 
 pub static FUNCTIONS: &[Function] = &[
@@ -32,6 +50,8 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT lcss_length(a, b, 1.0, 0.5) FROM (SELECT [{'t':0,'x':0,'y':0},{'t':1,'x':1,'y':0}] AS a, [{'t':0.1,'x':0.2,'y':0},{'t':1.1,'x':1.2,'y':0}] AS b); -- 2",
         maths: TW_MATHS,
         binding: file!(),
+        section: Section::Similarity,
+        see_also: &["lcss_similarity", "lcss_distance", "lcss_matches", "lcss_series_length"],
         signatures: &[Signature { params: TW_PARAMS, arities: TW_ARITIES, returns: Ty::Bigint, kernel: length }],
         table: None,
     },
@@ -42,6 +62,8 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT lcss_similarity(a, b, 1.0, 0.5, 2, 'POLYGON((-1 -1, 5 -1, 5 5, -1 5, -1 -1))') FROM (SELECT [{'t':0,'x':0,'y':0},{'t':1,'x':1,'y':0}] AS a, [{'t':0.1,'x':0.2,'y':0},{'t':1.1,'x':1.2,'y':0}] AS b); -- 1.0",
         maths: TW_MATHS,
         binding: file!(),
+        section: Section::Similarity,
+        see_also: &["lcss_length", "lcss_distance", "lcss_matches", "lcss_similarity_pairs", "lcss_s2"],
         signatures: &[Signature { params: TW_PARAMS, arities: TW_ARITIES, returns: Ty::Double, kernel: similarity }],
         table: None,
     },
@@ -51,6 +73,8 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT lcss_distance([{'t':0,'x':0,'y':0}], [{'t':0,'x':5,'y':0}], 1.0, 1.0); -- 1.0",
         maths: TW_MATHS,
         binding: file!(),
+        section: Section::Similarity,
+        see_also: &["lcss_similarity", "agglomerative_cluster"],
         signatures: &[Signature { params: TW_PARAMS, arities: TW_ARITIES, returns: Ty::Double, kernel: distance }],
         table: None,
     },
@@ -62,6 +86,8 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT lcss_matches([{'t':0,'x':0,'y':0},{'t':1,'x':1,'y':0}], [{'t':1.1,'x':1.2,'y':0}], 1.0, 0.5); -- [{'i': 2, 'j': 1}]",
         maths: TW_MATHS,
         binding: file!(),
+        section: Section::Similarity,
+        see_also: &["lcss_length", "lcss_series_matches", "trajectory_merge"],
         signatures: &[Signature { params: TW_PARAMS, arities: TW_ARITIES, returns: PAIRS, kernel: matches }],
         table: None,
     },
@@ -71,6 +97,8 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT lcss_series_length([{'t':0,'v':1.0},{'t':1,'v':2.0}], [{'t':0.2,'v':1.5},{'t':1.2,'v':2.1}], 1.0, 0.5); -- 2",
         maths: TW_MATHS,
         binding: file!(),
+        section: Section::Similarity,
+        see_also: &["lcss_series_similarity", "lcss_series_matches", "lcss_length"],
         signatures: &[Signature { params: SERIES_PARAMS, arities: &[4, 5], returns: Ty::Bigint, kernel: series_length }],
         table: None,
     },
@@ -81,6 +109,8 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT lcss_series_similarity([{'t':0,'v':1.0},{'t':1,'v':2.0}], [{'t':0.2,'v':1.5},{'t':1.2,'v':5.0}], 1.0, 0.5); -- 0.5",
         maths: TW_MATHS,
         binding: file!(),
+        section: Section::Similarity,
+        see_also: &["lcss_series_length", "traj_speeds", "traj_turn_rates", "lcss_similarity"],
         signatures: &[Signature { params: SERIES_PARAMS, arities: &[4, 5], returns: Ty::Double, kernel: series_similarity }],
         table: None,
     },
@@ -90,6 +120,8 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT lcss_series_matches([{'t':0,'v':1.0},{'t':1,'v':2.0}], [{'t':0.2,'v':1.5}], 1.0, 0.5); -- [{'i': 1, 'j': 1}]",
         maths: TW_MATHS,
         binding: file!(),
+        section: Section::Similarity,
+        see_also: &["lcss_series_length", "lcss_matches"],
         signatures: &[Signature { params: SERIES_PARAMS, arities: &[4, 5], returns: PAIRS, kernel: series_matches }],
         table: None,
     },
@@ -101,6 +133,8 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT lcss_index_similarity([{'t':0,'x':0,'y':0},{'t':1,'x':1,'y':0}], [{'t':0,'x':0.1,'y':0},{'t':1,'x':5,'y':0}], 1, 0.5); -- 0.5",
         maths: INDEX_MATHS,
         binding: file!(),
+        section: Section::Similarity,
+        see_also: &["lcss_s1", "lcss_s2", "lcss_similarity"],
         signatures: &[Signature { params: INDEX_PARAMS, arities: &[4, 5], returns: Ty::Double, kernel: index_similarity }],
         table: None,
     },
@@ -111,6 +145,8 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT lcss_s1([{'t':0,'x':0,'y':0},{'t':1,'x':1,'y':0}], [{'t':0,'x':0.1,'y':9},{'t':1,'x':1.1,'y':9}], 1, 0.5); -- {'sx': 1.0, 'sy': 0.0}",
         maths: INDEX_MATHS,
         binding: file!(),
+        section: Section::Similarity,
+        see_also: &["lcss_s2", "lcss_index_similarity", "traj_cluster"],
         signatures: &[Signature {
             params: INDEX_PARAMS,
             arities: &[4, 5],
@@ -127,6 +163,8 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT lcss_s2([{'t':0,'x':0,'y':0},{'t':1,'x':1,'y':1}], [{'t':0,'x':10,'y':20},{'t':1,'x':11,'y':21}], 1, 0.5); -- sx = sy = 1, cx ~ -10, cy ~ -20",
         maths: "crates/algo/src/lcss/translate.rs",
         binding: file!(),
+        section: Section::Similarity,
+        see_also: &["lcss_s1", "lcss_similarity", "traj_cluster"],
         signatures: &[Signature {
             params: INDEX_PARAMS,
             arities: &[4, 5],
@@ -150,8 +188,10 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT unnest(lcss_similarity_pairs([1, 2], [[{'t':0,'x':0,'y':0},{'t':1,'x':1,'y':0}], [{'t':0,'x':50,'y':0}]], [7], [[{'t':0.1,'x':0.2,'y':0},{'t':1.1,'x':1.2,'y':0}]], 1.0, 0.5)); -- {'a': 1, 'b': 7, 'eta': 1.0}",
         maths: "crates/algo/src/lcss/sparse.rs",
         binding: file!(),
+        section: Section::Similarity,
+        see_also: &["lcss_similarity", "hungarian_match", "traj_msd_pairs"],
         signatures: &[Signature {
-            params: super::align::two_sets_params!(p("epsilon", Ty::Double), p("time_window", Ty::Double), p("min_points", Ty::Bigint), p("region", GEOMETRY)),
+            params: super::common::two_sets_params!(EPSILON, TIME_WINDOW, MIN_POINTS, REGION),
             arities: &[6, 7, 8],
             returns: Ty::List(&Ty::Struct(&[("a", Ty::Bigint), ("b", Ty::Bigint), ("eta", Ty::Double)])),
             kernel: similarity_pairs,
@@ -300,7 +340,7 @@ fn similarity_pairs(a: &Args<'_>, out: &mut Out<'_>) -> R {
         let p = TimeWindowParams::new(eps, t, xi)?;
         let Some(reg) = region.get(r)? else { return Ok(None) };
         // lists of one length, one trajectory per id (a repeated id would give pairs no one can tell apart)
-        super::align::two_sets(ia, &ta, ib, &tb)?;
+        super::common::two_sets(ia, &ta, ib, &tb)?;
         let found = crate::algo::lcss::sparse::similarity_sparse(&ta, &tb, &p, reg.as_deref())?;
         let (ka, kb, eta): (Vec<i64>, Vec<i64>, Vec<f64>) = (
             found.iter().map(|q| ia[q.a]).collect(),

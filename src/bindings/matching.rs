@@ -1,7 +1,7 @@
 //! SQL: one-to-one selection of candidate pairs (the Hungarian step of thesis Alg. 2–4).
 //! Maths: `crates/algo/src/matching/` (hungarian.rs, assign.rs).
 
-use super::registry::{p, Function, Signature, Ty};
+use super::registry::{pd, Function, Section, Signature, Ty};
 use super::vector::{Args, Column, Out};
 use crate::algo::matching::{assign, hungarian};
 use std::error::Error;
@@ -25,8 +25,14 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT hungarian_match([{'a': 1, 'b': 10, 'score': 0.9}, {'a': 1, 'b': 20, 'score': 0.8}, {'a': 2, 'b': 10, 'score': 0.8}], true, 0.5); -- [{'a': 1, 'b': 20, 'score': 0.8}, {'a': 2, 'b': 10, 'score': 0.8}]",
         maths: "crates/algo/src/matching/hungarian.rs",
         binding: file!(),
+        section: Section::Matching,
+        see_also: &["assign_pairs", "merge_groups", "lcss_similarity_pairs"],
         signatures: &[Signature {
-            params: &[p("pairs", PAIRS), p("maximize", Ty::Boolean), p("min_score", Ty::Double)],
+            params: &[
+                pd("pairs", PAIRS, "the candidate pairs {a, b, score}; a pair not listed is never matched; a NULL or NaN score is an error"),
+                pd("maximize", Ty::Boolean, "true: maximise the total score (similarities), false: minimise it (costs); default true"),
+                pd("min_score", Ty::Double, "candidates scoring below it (maximize) or above it (costs) are removed before solving; default: none"),
+            ],
             arities: &[1, 2, 3],
             returns: PAIRS,
             kernel: hungarian_match,
@@ -41,7 +47,14 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT assign_pairs([{'a': 1, 'b': 10, 'w': 0.9}, {'a': 1, 'b': 20, 'w': 0.8}, {'a': 2, 'b': 10, 'w': 0.8}, {'a': 2, 'b': 20, 'w': 0.1}]); -- [{'a': 1, 'b': 20, 'w': 0.8}, {'a': 2, 'b': 10, 'w': 0.8}]",
         maths: "crates/algo/src/matching/assign.rs",
         binding: file!(),
-        signatures: &[Signature { params: &[p("edges", EDGES)], arities: &[], returns: EDGES, kernel: assign_pairs }],
+        section: Section::Matching,
+        see_also: &["hungarian_match"],
+        signatures: &[Signature {
+            params: &[pd("edges", EDGES, "the candidate pairs {a, b, w} with weights w >= 0 (0: never chosen)")],
+            arities: &[],
+            returns: EDGES,
+            kernel: assign_pairs,
+        }],
         table: None,
     },
 ];

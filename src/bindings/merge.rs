@@ -2,7 +2,7 @@
 //! Maths: `crates/algo/src/merge.rs` (eq. 2.11, the φ_i = Θ(φ_{i−1}, A^{k_i}) recursion, consistent
 //! groups).
 
-use super::registry::{p, Function, Param, Signature, Ty, GEOMETRY, GEOMETRY_LIST, TRAJ};
+use super::registry::{pd, Function, Param, Section, Signature, Ty, GEOMETRY, GEOMETRY_LIST, TRAJ};
 use super::vector::{Args, Column, Out};
 use crate::algo::geometry::region::Region;
 use crate::algo::lcss::time_window::TimeWindowParams;
@@ -12,7 +12,15 @@ use std::error::Error;
 type R = Result<(), Box<dyn Error>>;
 const MATHS: &str = "crates/algo/src/merge.rs";
 
-const AB: [Param; 4] = [p("a", TRAJ), p("b", TRAJ), p("epsilon", Ty::Double), p("time_window", Ty::Double)];
+const EPSILON: Param = pd("epsilon", Ty::Double, "points match when closer than this (m), > 0");
+const TIME_WINDOW: Param = pd("time_window", Ty::Double, "a match must also be closer than this in time (s), > 0");
+const AB: [Param; 4] = [
+    pd("a", TRAJ, "the first trajectory, sorted by t"),
+    pd("b", TRAJ, "the second trajectory, sorted by t, in the same frame and on the same clock"),
+    EPSILON,
+    TIME_WINDOW,
+];
+const REGION: Param = pd("region", GEOMETRY, "only the points inside this polygon are matched (eq. 2.10); the others are kept as they are; default: all points");
 
 pub static FUNCTIONS: &[Function] = &[
     Function {
@@ -27,20 +35,29 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT trajectory_merge([{'t': 0, 'x': 0, 'y': 0}, {'t': 1, 'x': 1, 'y': 0}], [{'t': 1, 'x': 1, 'y': 0.2}, {'t': 2, 'x': 2, 'y': 0.2}], 0.5, 0.1); -- [{'t': 0.0, 'x': 0.0, 'y': 0.0}, {'t': 1.0, 'x': 1.0, 'y': 0.1}, {'t': 2.0, 'x': 2.0, 'y': 0.2}]",
         maths: MATHS,
         binding: file!(),
+        section: Section::Matching,
+        see_also: &["lcss_matches", "merge_groups", "polygon_overlap", "traj_fuse"],
         signatures: &[
             Signature {
-                params: &[AB[0], AB[1], AB[2], AB[3], p("min_points", Ty::Bigint), p("region", GEOMETRY)],
+                params: &[
+                    AB[0],
+                    AB[1],
+                    AB[2],
+                    AB[3],
+                    pd("min_points", Ty::Bigint, "nothing is matched when a side has fewer points than this (counted inside region), >= 0; default 1"),
+                    REGION,
+                ],
                 arities: &[4, 6],
                 returns: TRAJ,
                 kernel: merge_pair,
             },
-            Signature { params: &[AB[0], AB[1], AB[2], AB[3], p("region", GEOMETRY)], arities: &[], returns: TRAJ, kernel: merge_pair },
+            Signature { params: &[AB[0], AB[1], AB[2], AB[3], REGION], arities: &[], returns: TRAJ, kernel: merge_pair },
             Signature {
                 params: &[
-                    p("trajs", Ty::List(&TRAJ)),
-                    p("epsilon", Ty::Double),
-                    p("time_window", Ty::Double),
-                    p("regions", GEOMETRY_LIST),
+                    pd("trajs", Ty::List(&TRAJ), "the trajectories to merge, in merge order (one per camera)"),
+                    EPSILON,
+                    TIME_WINDOW,
+                    pd("regions", GEOMETRY_LIST, "one polygon per merge step (len(trajs) - 1): step i matches inside regions[i] only; default: all points"),
                 ],
                 arities: &[3, 4],
                 returns: TRAJ,
@@ -59,10 +76,16 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT merge_groups([{'id': 1, 'camera': 1, 't0': 0, 't1': 9}, {'id': 2, 'camera': 2, 't0': 0, 't1': 4}, {'id': 3, 'camera': 2, 't0': 5, 't1': 9}, {'id': 4, 'camera': 2, 't0': 1, 't1': 3}], [{'a': 1, 'b': 2}, {'a': 1, 'b': 3}, {'a': 1, 'b': 4}]); -- [{'id': 1, 'grp': 1}, {'id': 2, 'grp': 1}, {'id': 3, 'grp': 1}, {'id': 4, 'grp': 4}]",
         maths: MATHS,
         binding: file!(),
+        section: Section::Matching,
+        see_also: &["hungarian_match", "trajectory_merge"],
         signatures: &[Signature {
             params: &[
-                p("tracks", Ty::List(&Ty::Struct(&[("id", Ty::Bigint), ("camera", Ty::Bigint), ("t0", Ty::Double), ("t1", Ty::Double)]))),
-                p("links", Ty::List(&Ty::Struct(&[("a", Ty::Bigint), ("b", Ty::Bigint)]))),
+                pd(
+                    "tracks",
+                    Ty::List(&Ty::Struct(&[("id", Ty::Bigint), ("camera", Ty::Bigint), ("t0", Ty::Double), ("t1", Ty::Double)])),
+                    "every track: its id, camera and time span t0 to t1 (s)",
+                ),
+                pd("links", Ty::List(&Ty::Struct(&[("a", Ty::Bigint), ("b", Ty::Bigint)])), "pairs of track ids judged one road user, in priority order (applied first to last)"),
             ],
             arities: &[],
             returns: Ty::List(&Ty::Struct(&[("id", Ty::Bigint), ("grp", Ty::Bigint)])),

@@ -9,7 +9,7 @@
 //! and refuses when it is true or cannot be read; the scalar `trajdb_limit` only reads. No other
 //! function changes a limit ([`limits::Limits::set`] is called here alone).
 
-use super::registry::{p, Doc, Function, Signature, Table, Ty};
+use super::registry::{pd, Doc, Function, Section, Signature, Table, Ty};
 use super::vector::table::{self, BindArgs, Rows, TableFn};
 use super::vector::{Args, Out};
 use crate::algo::limits;
@@ -24,6 +24,9 @@ const COLUMNS: &[(&str, Ty)] = &[
     ("maths", Ty::Varchar),
     ("binding", Ty::Varchar),
     ("test", Ty::Varchar),
+    ("section", Ty::Varchar),
+    ("see_also", Ty::Varchar),
+    ("arguments", Ty::Varchar),
 ];
 
 pub static FUNCTIONS: &[Function] = &[TRAJDB_FUNCTIONS, TRAJDB_LIMIT, TRAJDB_SET_LIMIT];
@@ -36,7 +39,17 @@ const TRAJDB_LIMIT: Function = Function {
     example: "SELECT trajdb_limit('lcss_cells'); -- 10000000000",
     maths: "crates/algo/src/limits.rs",
     binding: file!(),
-    signatures: &[Signature { params: &[p("name", Ty::Varchar), p("value", Ty::Bigint)], arities: &[1, 2], returns: Ty::Bigint, kernel: limit }],
+    section: Section::Reference,
+    see_also: &["trajdb_set_limit"],
+    signatures: &[Signature {
+        params: &[
+            pd("name", Ty::Varchar, "the limit's name, one of those listed under trajdb_set_limit (e.g. 'lcss_cells')"),
+            pd("value", Ty::Bigint, "not taken: setting a limit is CALL trajdb_set_limit(name, value), and trajdb_limit(name, value) an error that says so"),
+        ],
+        arities: &[1, 2],
+        returns: Ty::Bigint,
+        kernel: limit,
+    }],
     table: None,
 };
 
@@ -74,13 +87,23 @@ const TRAJDB_SET_LIMIT: Function = Function {
     example: "SELECT value FROM trajdb_set_limit('lcss_cells', 20000000000); -- 20000000000",
     maths: "crates/algo/src/limits.rs",
     binding: file!(),
+    section: Section::Reference,
+    see_also: &["trajdb_limit"],
     signatures: &[],
     table: Some(SET_TABLE),
 };
 
 const SET_COLUMNS: &[(&str, Ty)] = &[("name", Ty::Varchar), ("previous", Ty::Bigint), ("value", Ty::Bigint)];
 
-const SET_TABLE: Table = Table { params: &[p("name", Ty::Varchar), p("value", Ty::Bigint)], named: &[], columns: SET_COLUMNS, register: table::register::<SetLimit> };
+const SET_TABLE: Table = Table {
+    params: &[
+        pd("name", Ty::Varchar, "the limit's name: 'lcss_cells', 'cpd_pair_visits', 'output_points', 'memory_bytes', 'shift_pair_fits', 'label_pairs', 'assign_steps' or 'pet_segment_pairs'"),
+        pd("value", Ty::Bigint, "the new value, a whole number >= 1"),
+    ],
+    named: &[],
+    columns: SET_COLUMNS,
+    register: table::register::<SetLimit>,
+};
 
 struct SetLimit;
 
@@ -131,11 +154,14 @@ impl TableFn for SetLimit {
 
 const TRAJDB_FUNCTIONS: Function = Function {
     name: "trajdb_functions",
-    description: "One row per trajdb function with its overloads (parameter names and types), description, example, and where its maths, \
-                  binding and tests live; docs/functions.md is generated from the same descriptors.",
+    description: "One row per trajdb function with its overloads (parameter names and types), description, example, where its maths, \
+                  binding and tests live, its section of the reference, related functions (see_also, comma-separated) and its \
+                  arguments (one line each: name, type and what it means); docs/functions.md is generated from the same descriptors.",
     example: "SELECT name FROM trajdb_functions() ORDER BY name;",
     maths: "src/bindings/registry.rs",
     binding: file!(),
+    section: Section::Reference,
+    see_also: &["trajdb_reference"],
     signatures: &[],
     table: Some(TABLE),
 };
@@ -166,7 +192,11 @@ impl TableFn for FunctionsTable {
         let start = cursor.next.fetch_add(Rows::CAPACITY, Ordering::SeqCst).min(docs.len());
         let rows = &docs[start..(start + Rows::CAPACITY).min(docs.len())];
         for (r, d) in rows.iter().enumerate() {
-            for (k, v) in [d.name, d.signatures.as_str(), d.description, d.example, d.maths, d.binding, d.test.as_str()].into_iter().enumerate() {
+            let see_also = d.see_also.join(", ");
+            let arguments: Vec<String> = d.arguments.iter().map(|a| format!("{} {}: {}", a.name, a.ty, a.doc)).collect();
+            let arguments = arguments.join("\n");
+            let row = [d.name, d.signatures.as_str(), d.description, d.example, d.maths, d.binding, d.test.as_str(), d.section.title(), see_also.as_str(), arguments.as_str()];
+            for (k, v) in row.into_iter().enumerate() {
                 out.text(k, r, v);
             }
         }

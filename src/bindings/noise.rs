@@ -1,7 +1,7 @@
 //! SQL bindings of the noise model's conversions (crates/algo/src/noise.rs): what the stages
 //! measure (medians and percentiles of distances) to the model's parameters, each once.
 
-use super::registry::{p, Function, Signature, Ty};
+use super::registry::{pd, Function, Param, Section, Signature, Ty};
 use super::vector::{Args, Out};
 use crate::algo::noise;
 use std::error::Error;
@@ -20,6 +20,8 @@ fn doubles<const N: usize>(a: &Args<'_>, out: &mut Out<'_>, f: impl Fn([f64; N])
     Ok(())
 }
 
+const SIGMA_PAIR: Param = pd("sigma_pair_m", Ty::Double, "the camera pair's per-axis noise sqrt(sigma_a² + sigma_b²) (m), >= 0");
+
 pub static FUNCTIONS: &[Function] = &[
     Function {
         name: "recording_gap_s",
@@ -32,7 +34,16 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT recording_gap_s(30); -- 300.0",
         maths: "crates/algo/src/peak_hour.rs",
         binding: file!(),
-        signatures: &[Signature { params: &[p("p99_interarrival_s", Ty::Double)], arities: &[], returns: Ty::Double, kernel: recording_gap_s }],
+        section: Section::Noise,
+        see_also: &["noise_reappear_radius_95"],
+        signatures: &[Signature {
+            params: &[
+                pd("p99_interarrival_s", Ty::Double, "the 99th percentile of the gaps between consecutive road users' first sightings (s); NaN or negative gives 60"),
+            ],
+            arities: &[],
+            returns: Ty::Double,
+            kernel: recording_gap_s,
+        }],
         table: None,
     },
     Function {
@@ -41,8 +52,12 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT round(noise_sigma_from_second_differences(12 * ln(2) * 0.01), 6); -- 0.1",
         maths: "crates/algo/src/noise.rs",
         binding: file!(),
+        section: Section::Noise,
+        see_also: &["noise_sigma_from_rayleigh_median", "noise_match_epsilon"],
         signatures: &[Signature {
-            params: &[p("median_sq", Ty::Double)],
+            params: &[
+                pd("median_sq", Ty::Double, "the median of |p(t+1) - 2 p(t) + p(t-1)|² over evenly spaced triples of a camera's tracks (m²), >= 0"),
+            ],
             arities: &[],
             returns: Ty::Double,
             kernel: noise_sigma_from_second_differences,
@@ -55,8 +70,10 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT round(noise_sigma_from_rayleigh_median(sqrt(2 * ln(2))), 6); -- 1.0",
         maths: "crates/algo/src/noise.rs",
         binding: file!(),
+        section: Section::Noise,
+        see_also: &["noise_sigma_from_second_differences", "noise_sigma_from_rayleigh_p95"],
         signatures: &[Signature {
-            params: &[p("median_m", Ty::Double)],
+            params: &[pd("median_m", Ty::Double, "the median length of the 2-D residuals (m), >= 0")],
             arities: &[],
             returns: Ty::Double,
             kernel: noise_sigma_from_rayleigh_median,
@@ -69,8 +86,10 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT round(noise_sigma_from_rayleigh_p95(sqrt(2 * ln(20))), 6); -- 1.0",
         maths: "crates/algo/src/noise.rs",
         binding: file!(),
+        section: Section::Noise,
+        see_also: &["noise_sigma_from_rayleigh_median", "noise_process_q"],
         signatures: &[Signature {
-            params: &[p("p95", Ty::Double)],
+            params: &[pd("p95", Ty::Double, "the 95th percentile length of the 2-D quantity (its unit, e.g. m/s² for accel_p95), >= 0")],
             arities: &[],
             returns: Ty::Double,
             kernel: noise_sigma_from_rayleigh_p95,
@@ -83,8 +102,10 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT round(noise_align_vote_rms(0.1), 6); -- 0.4",
         maths: "crates/algo/src/noise.rs",
         binding: file!(),
+        section: Section::Noise,
+        see_also: &["noise_align_refine_rms", "rigid_fit_scan"],
         signatures: &[Signature {
-            params: &[p("sigma_pair_m", Ty::Double)],
+            params: &[SIGMA_PAIR],
             arities: &[],
             returns: Ty::Double,
             kernel: noise_align_vote_rms,
@@ -97,8 +118,10 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT round(noise_align_refine_rms(0.1), 6); -- 0.25",
         maths: "crates/algo/src/noise.rs",
         binding: file!(),
+        section: Section::Noise,
+        see_also: &["noise_align_vote_rms"],
         signatures: &[Signature {
-            params: &[p("sigma_pair_m", Ty::Double)],
+            params: &[SIGMA_PAIR],
             arities: &[],
             returns: Ty::Double,
             kernel: noise_align_refine_rms,
@@ -111,8 +134,10 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT round(noise_match_epsilon(0.1), 4); -- 0.3035",
         maths: "crates/algo/src/noise.rs",
         binding: file!(),
+        section: Section::Noise,
+        see_also: &["lcss_similarity_pairs", "noise_sigma_from_rayleigh_median"],
         signatures: &[Signature {
-            params: &[p("sigma_m", Ty::Double)],
+            params: &[pd("sigma_m", Ty::Double, "the per-axis sigma of the camera pair's residuals (m), >= 0")],
             arities: &[],
             returns: Ty::Double,
             kernel: noise_match_epsilon,
@@ -125,8 +150,13 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT round(noise_process_q(2.0, 0.0), 4); -- 1.0014",
         maths: "crates/algo/src/noise.rs",
         binding: file!(),
+        section: Section::Noise,
+        see_also: &["traj_fuse", "noise_sigma_from_rayleigh_p95"],
         signatures: &[Signature {
-            params: &[p("accel_p95", Ty::Double), p("noise_var", Ty::Double)],
+            params: &[
+                pd("accel_p95", Ty::Double, "the class's 95th percentile acceleration (m/s²; second differences on tracks resampled to 1 s), >= 0"),
+                pd("noise_var", Ty::Double, "the cameras' mean position variance (m²), >= 0"),
+            ],
             arities: &[],
             returns: Ty::Double,
             kernel: noise_process_q,
@@ -139,8 +169,15 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT round(noise_reappear_radius_95(1.0, 0.0, 1.0, 0.0), 4); -- 2.4477",
         maths: "crates/algo/src/noise.rs",
         binding: file!(),
+        section: Section::Noise,
+        see_also: &["break_evidence", "noise_velocity_window_s"],
         signatures: &[Signature {
-            params: &[p("sigma_m", Ty::Double), p("sigma_acc", Ty::Double), p("gap_s", Ty::Double), p("min_radius_m", Ty::Double)],
+            params: &[
+                pd("sigma_m", Ty::Double, "the position noise per axis (m), >= 0"),
+                pd("sigma_acc", Ty::Double, "the road user's acceleration per axis (m/s²), >= 0"),
+                pd("gap_s", Ty::Double, "the gap (s), >= 0"),
+                pd("min_radius_m", Ty::Double, "the least radius returned (m), >= 0"),
+            ],
             arities: &[],
             returns: Ty::Double,
             kernel: noise_reappear_radius_95,
@@ -153,8 +190,14 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT round(noise_velocity_window_s(0.3, 0.1, 1.5 / sqrt(2 * ln(20))), 2); -- 1.12",
         maths: "crates/algo/src/noise.rs",
         binding: file!(),
+        section: Section::Noise,
+        see_also: &["break_evidence", "noise_reappear_radius_95"],
         signatures: &[Signature {
-            params: &[p("sigma_m", Ty::Double), p("period_s", Ty::Double), p("sigma_acc", Ty::Double)],
+            params: &[
+                pd("sigma_m", Ty::Double, "the position noise per axis (m), >= 0 (at least 1e-3 is used)"),
+                pd("period_s", Ty::Double, "the sampling period (s), >= 0"),
+                pd("sigma_acc", Ty::Double, "the road user's acceleration per axis (m/s²), >= 0 (at least 1e-3 is used)"),
+            ],
             arities: &[],
             returns: Ty::Double,
             kernel: noise_velocity_window_s,

@@ -9,7 +9,8 @@
 //!   file system (every sandbox setting of the connection applies, as to its COPY ... TO:
 //!   src/bindings/vector/fs.rs).
 
-use super::registry::{p, Function, Signature, Table, Ty};
+use super::registry::{pd, Function, Section, Signature, Table, Ty};
+use super::common::may_write_into;
 use super::vector::table::{self, BindArgs, Rows, TableFn};
 use super::vector::{Args, Out};
 use crate::app::{outdir, params};
@@ -27,7 +28,16 @@ const PARAMS_SQL: Function = Function {
     example: "SELECT trajdb_params_sql('{\"merge_eta\": 0.6}') LIKE '%SET VARIABLE merge_eta = 0.6::DOUBLE;%'; -- true",
     maths: "crates/app/src/params.rs",
     binding: file!(),
-    signatures: &[Signature { params: &[p("values", Ty::Varchar)], arities: &[], returns: Ty::Varchar, kernel: params_sql }],
+    section: Section::Pipeline,
+    see_also: &["trajdb_params", "trajdb_params_script"],
+    signatures: &[Signature {
+        params: &[
+            pd("values", Ty::Varchar, "a JSON object of pipeline parameters and their values, e.g. '{\"merge_eta\": 0.6}' (numbers, booleans, text, or \"auto\" where measured)"),
+        ],
+        arities: &[],
+        returns: Ty::Varchar,
+        kernel: params_sql,
+    }],
     table: None,
 };
 
@@ -44,8 +54,14 @@ fn params_sql(a: &Args<'_>, out: &mut Out<'_>) -> Result<(), Box<dyn Error>> {
 }
 
 const BEGIN_TABLE: Table = Table {
-    params: &[p("out", Ty::Varchar), p("input", Ty::Varchar)],
-    named: &[p("kind", Ty::Varchar), p("views", Ty::Varchar)],
+    params: &[
+        pd("out", Ty::Varchar, "the results folder to claim"),
+        pd("input", Ty::Varchar, "the run's input (a path, glob, file:// URL or view): out may neither be nor contain it"),
+    ],
+    named: &[
+        pd("kind", Ty::Varchar, "'results' (the default) or 'scenario' (trajdb.simulate's folder)"),
+        pd("views", Ty::Varchar, "the caller's views as a JSON list of duckdb_views()' database, schema, name, sql: a view input is followed to its files"),
+    ],
     columns: &[("staging", Ty::Varchar)],
     register: table::register::<Begin>,
 };
@@ -63,6 +79,8 @@ const RESULTS_BEGIN: Function = Function {
     example: "SELECT count(*) FROM trajdb_results_begin('/tmp/trajdb-example-results', 'points.parquet'); -- 1",
     maths: "crates/app/src/outdir.rs",
     binding: file!(),
+    section: Section::Pipeline,
+    see_also: &["trajdb_results_end", "trajdb_stages"],
     signatures: &[],
     table: Some(BEGIN_TABLE),
 };
@@ -91,14 +109,6 @@ fn once(job: &Job, scan: &Once, out: &mut Rows<'_>, run: impl FnOnce(&Job) -> Re
         out.text(0, k, &v);
     }
     Ok(n)
-}
-
-/// `Ok` when the calling connection may write into folder `out`: its readable settings, then
-/// its own file system, which has the last word (src/bindings/vector/fs.rs).
-pub(crate) fn may_write_into(args: &BindArgs<'_>, out: &str) -> Result<(), Box<dyn Error>> {
-    args.file_access().may_write_into(out)?;
-    args.caller_fs()?.may_write_into(&outdir::absolute(out)?)?;
-    Ok(())
 }
 
 struct Begin;
@@ -131,7 +141,10 @@ impl TableFn for Begin {
 }
 
 const END_TABLE: Table = Table {
-    params: &[p("out", Ty::Varchar), p("commit", Ty::Boolean)],
+    params: &[
+        pd("out", Ty::Varchar, "the folder given to trajdb_results_begin, or its staging folder"),
+        pd("commit", Ty::Boolean, "true: the staged files replace the earlier results; false: the staging folder is removed"),
+    ],
     named: &[],
     columns: &[("file", Ty::Varchar)],
     register: table::register::<End>,
@@ -147,6 +160,8 @@ const RESULTS_END: Function = Function {
     example: "SELECT count(*) FROM trajdb_results_end('/tmp/trajdb-example-results', false); -- 0",
     maths: "crates/app/src/outdir.rs",
     binding: file!(),
+    section: Section::Pipeline,
+    see_also: &["trajdb_results_begin"],
     signatures: &[],
     table: Some(END_TABLE),
 };

@@ -11,11 +11,12 @@
 //! Every parameter name and value is checked by crates/app/src/params.rs, once, whichever
 //! host asks; no host splits SQL or resolves a parameter.
 
-use super::registry::{p, Function, Signature, Table, Ty};
+use super::common::{pipeline_param, N_PARAMS};
+use super::registry::{pd, Function, Section, Signature, Table, Ty};
 use super::types::Param;
 use super::vector::table::{self, BindArgs, Rows, TableFn};
 use super::vector::{Args, Out};
-use crate::app::params::{self, Kind, PARAMS};
+use crate::app::params::{self, PARAMS};
 use crate::app::plan::{self, Part, Request, Step};
 use crate::runner::{self, Settings};
 use std::error::Error;
@@ -24,31 +25,19 @@ use std::sync::Mutex;
 
 pub static FUNCTIONS: &[Function] = &[PIPELINE, STAGES, SCRIPT, PARAMS_TABLE, PARAMS_SCRIPT, REFERENCE];
 
-/// The SQL type of a declared parameter kind (the named parameters of trajdb_pipeline and trajdb_archive).
-pub(super) const fn ty_of(k: Kind) -> Ty {
-    match k {
-        Kind::Double => Ty::Double,
-        Kind::Integer => Ty::Bigint,
-        Kind::Boolean => Ty::Boolean,
-        Kind::Text => Ty::Varchar,
-    }
-}
-
-pub(super) const N_PARAMS: usize = PARAMS.len();
-
 /// `out_dir` and every declared pipeline parameter, as named parameters of trajdb_pipeline.
 static PIPELINE_NAMED: [Param; N_PARAMS + 1] = {
-    let mut a = [p("out_dir", Ty::Varchar); N_PARAMS + 1];
+    let mut a = [pd("out_dir", Ty::Varchar, "the results folder, new or holding earlier results of trajdb (required)"); N_PARAMS + 1];
     let mut k = 0;
     while k < N_PARAMS {
-        a[k + 1] = p(PARAMS[k].name, ty_of(PARAMS[k].kind));
+        a[k + 1] = pipeline_param(k);
         k += 1;
     }
     a
 };
 
 const PIPELINE_TABLE: Table = Table {
-    params: &[p("input", Ty::Varchar)],
+    params: &[pd("input", Ty::Varchar, "the points: a file or a glob (never SQL), e.g. 'points.parquet'")],
     named: &PIPELINE_NAMED,
     columns: &[("stage", Ty::Varchar), ("seconds", Ty::Double), ("statements", Ty::Bigint), ("note", Ty::Varchar)],
     register: table::register::<PipelineFn>,
@@ -68,6 +57,8 @@ const PIPELINE: Function = Function {
     example: "SELECT count(*) > 0 FROM trajdb_params(); -- true",
     maths: "crates/app/src/plan.rs, src/runner.rs",
     binding: file!(),
+    section: Section::Pipeline,
+    see_also: &["trajdb_stages", "trajdb_params", "trajdb_archive"],
     signatures: &[],
     table: Some(PIPELINE_TABLE),
 };
@@ -120,7 +111,7 @@ impl TableFn for PipelineFn {
         }
         // the settings DuckDB lets us read, then the caller's own file system, which has the
         // last word (src/runner.rs, "Sandbox, by construction")
-        super::params::may_write_into(args, &out)?;
+        super::common::may_write_into(args, &out)?;
         let out_dir = crate::app::outdir::absolute(&out)?;
         let fs = args.caller_fs()?;
         let mut read_paths = readable_inputs(&fs, &input)?;
@@ -189,8 +180,12 @@ impl TableFn for PipelineFn {
 }
 
 const STAGES_TABLE: Table = Table {
-    params: &[p("input", Ty::Varchar)],
-    named: &[p("out_dir", Ty::Varchar), p("part", Ty::Varchar), p("params", Ty::Varchar)],
+    params: &[pd("input", Ty::Varchar, "the points: a file, a glob or a table name, e.g. 'points.parquet'")],
+    named: &[
+        pd("out_dir", Ty::Varchar, "the results folder: adds the statements that write the result files and report.html; default: none"),
+        pd("part", Ty::Varchar, "'all' (the default), 'site', 'window' or 'day'"),
+        pd("params", Ty::Varchar, "a JSON object of pipeline parameters, e.g. '{\"merge_eta\": 0.6}'; default: every default"),
+    ],
     columns: &[
         ("k", Ty::Bigint),
         ("stage", Ty::Varchar),
@@ -216,6 +211,8 @@ const STAGES: Function = Function {
     example: "SELECT count(DISTINCT stage) >= 9 FROM trajdb_stages('points.parquet'); -- true",
     maths: "crates/app/src/plan.rs",
     binding: file!(),
+    section: Section::Pipeline,
+    see_also: &["trajdb_pipeline", "trajdb_script", "trajdb_params_sql"],
     signatures: &[],
     table: Some(STAGES_TABLE),
 };
@@ -266,7 +263,7 @@ impl TableFn for StagesFn {
 }
 
 const SCRIPT_TABLE: Table = Table {
-    params: &[p("path", Ty::Varchar)],
+    params: &[pd("path", Ty::Varchar, "one of trajdb's embedded SQL files, e.g. 'sql/export.sql'")],
     named: &[],
     columns: STAGES_TABLE.columns,
     register: table::register::<ScriptFn>,
@@ -281,6 +278,8 @@ const SCRIPT: Function = Function {
     example: "SELECT count(*) > 3 FROM trajdb_script('sql/export.sql'); -- true",
     maths: "crates/app/src/plan.rs",
     binding: file!(),
+    section: Section::Pipeline,
+    see_also: &["trajdb_stages"],
     signatures: &[],
     table: Some(SCRIPT_TABLE),
 };
@@ -321,6 +320,8 @@ const PARAMS_TABLE: Function = Function {
     example: "SELECT \"default\" FROM trajdb_params() WHERE name = 'merge_eta'; -- 0.5",
     maths: "crates/app/src/params.rs",
     binding: file!(),
+    section: Section::Pipeline,
+    see_also: &["trajdb_params_script", "trajdb_params_sql", "trajdb_pipeline"],
     signatures: &[],
     table: Some(PARAMS_TABLE_T),
 };
@@ -362,6 +363,8 @@ const PARAMS_SCRIPT: Function = Function {
     example: "SELECT trajdb_params_script() LIKE '%merge_eta%'; -- true",
     maths: "crates/app/src/params.rs",
     binding: file!(),
+    section: Section::Pipeline,
+    see_also: &["trajdb_params", "trajdb_params_sql"],
     signatures: &[Signature { params: &[], arities: &[], returns: Ty::Varchar, kernel: params_script }],
     table: None,
 };
@@ -375,12 +378,21 @@ fn params_script(a: &Args<'_>, out: &mut Out<'_>) -> Result<(), Box<dyn Error>> 
 
 const REFERENCE: Function = Function {
     name: "trajdb_reference",
-    description: "The function reference generated from the registered descriptions: format 'markdown' (docs/functions.md) or 'text' \
-                  (each function's overloads and description).",
+    description: "The function reference generated from the registered descriptions: format 'markdown' (docs/functions.md: the \
+                  sections with an index, each function's overloads, description, arguments, example and related functions), 'text' \
+                  (the same by section, as plain text) or 'families' (per section, where its maths, bindings and functions live: the \
+                  table of docs/development.md).",
     example: "SELECT trajdb_reference('markdown') LIKE '# trajdb function reference%'; -- true",
     maths: "src/bindings/registry.rs",
     binding: file!(),
-    signatures: &[Signature { params: &[p("format", Ty::Varchar)], arities: &[], returns: Ty::Varchar, kernel: reference }],
+    section: Section::Reference,
+    see_also: &["trajdb_functions"],
+    signatures: &[Signature {
+        params: &[pd("format", Ty::Varchar, "'markdown' (docs/functions.md), 'text' or 'families' (the family table of docs/development.md)")],
+        arities: &[],
+        returns: Ty::Varchar,
+        kernel: reference,
+    }],
     table: None,
 };
 
@@ -391,8 +403,9 @@ fn reference(a: &Args<'_>, out: &mut Out<'_>) -> Result<(), Box<dyn Error>> {
         let docs = super::docs();
         Ok(Some(match f.trim().to_ascii_lowercase().as_str() {
             "markdown" => super::registry::markdown(&docs),
-            "text" => docs.iter().map(|d| format!("{}\n    {}\n\n", d.signatures, d.description)).collect(),
-            other => return Err(format!("format must be 'markdown' or 'text', got {other:?}").into()),
+            "text" => super::registry::text(&docs),
+            "families" => super::registry::families(&docs),
+            other => return Err(format!("format must be 'markdown', 'text' or 'families', got {other:?}").into()),
         }))
     })?;
     out.text(&vals);

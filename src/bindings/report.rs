@@ -1,7 +1,7 @@
 //! SQL: `trajdb_report_html(data)`, the pipeline's QA report page. `sql/report.sql` gathers the
 //! data; the drawing is [`crate::app::report::render`].
 
-use super::registry::{p, Function, Signature, Ty};
+use super::registry::{pd, Function, Section, Signature, Ty};
 use super::vector::{Args, Out};
 use crate::app::report;
 use std::error::Error;
@@ -15,7 +15,14 @@ pub static FUNCTIONS: &[Function] = &[Function {
     example: "SELECT left(trajdb_report_html(array_to_string(['meta' || chr(31) || 'xi' || chr(31) || '5', 'meta' || chr(31) || 'eta' || chr(31) || '0.6', 'meta' || chr(31) || 'cluster_camera' || chr(31) || '1', 'meta' || chr(31) || 'step' || chr(31) || '1'], chr(30))), 15); -- <!DOCTYPE html>",
     maths: "crates/app/src/report/mod.rs",
     binding: file!(),
-    signatures: &[Signature { params: &[p("data", Ty::Varchar)], arities: &[], returns: Ty::Varchar, kernel: report_html }],
+    section: Section::Pipeline,
+    see_also: &["trajdb_pipeline"],
+    signatures: &[Signature {
+        params: &[pd("data", Ty::Varchar, "the report's data as sql/report.sql gathers it: sections and cells separated by chr(30) / chr(31)")],
+        arities: &[],
+        returns: Ty::Varchar,
+        kernel: report_html,
+    }],
     table: None,
 }];
 

@@ -1,7 +1,7 @@
 //! SQL: `trajdb_simulate(dir, ...)`, the simulator as a table function, so that stock DuckDB
 //! makes the same scenarios as `trajdb simulate`. The simulator: `crates/app/src/simulate.rs`.
 
-use super::registry::{p, Function, Param, Table, Ty};
+use super::registry::{pd, Function, Param, Section, Table, Ty};
 use super::vector::table::{self, BindArgs, Rows, TableFn};
 use crate::app::simulate::{self, SimParams};
 use std::error::Error;
@@ -11,32 +11,37 @@ const COLUMNS: &[(&str, Ty)] = &[("dir", Ty::Varchar), ("objects", Ty::Bigint), 
 
 /// The named parameters (all optional; defaults of `trajdb simulate`).
 const NAMED: &[Param] = &[
-    p("cameras", Ty::Bigint),
-    p("minutes", Ty::Double),
-    p("seed", Ty::Bigint),
-    p("site_seed", Ty::Bigint),
-    p("rate_hz", Ty::OneOf(&[Ty::Double, Ty::Varchar])),
-    p("traffic", Ty::Double),
-    p("pedestrians", Ty::Double),
-    p("noise_sigma_min", Ty::Double),
-    p("noise_sigma_max", Ty::Double),
-    p("noise_tracks_per_min", Ty::Double),
-    p("clock_offset_max", Ty::Double),
-    p("world_rate_hz", Ty::Double),
-    p("waiting_groups", Ty::Double),
-    p("cyclists", Ty::Double),
-    p("clock_drift_ppm", Ty::Double),
-    p("clock_epoch", Ty::Double),
-    p("time_jitter_s", Ty::Double),
-    p("origin", Ty::Varchar),
-    p("viewpoint_bias_vehicle", Ty::Double),
-    p("viewpoint_bias_vru", Ty::Double),
-    p("ground_plane_scale", Ty::Double),
-    p("ground_plane_perspective", Ty::Double),
-    p("occlusion", Ty::Double),
+    pd("cameras", Ty::Bigint, "how many cameras, >= 1; default 3"),
+    pd("minutes", Ty::Double, "the simulated time (minutes); default 5"),
+    pd("seed", Ty::Bigint, "the random seed of the traffic (and of the cameras without site_seed), >= 0; default 1"),
+    pd("site_seed", Ty::Bigint, "the cameras' seed, >= 0: days of one site share their cameras; default: none (seed)"),
+    pd("rate_hz", Ty::OneOf(&[Ty::Double, Ty::Varchar]), "each camera's sampling rate (Hz): a number, or text with one per camera, cycled ('2,5,7.5,10'); default 10"),
+    pd("traffic", Ty::Double, "a multiplier of the traffic volume; default 1"),
+    pd("pedestrians", Ty::Double, "an extra multiplier of the pedestrians arriving; default 1"),
+    pd("noise_sigma_min", Ty::Double, "each camera's position noise (m per axis) is drawn from noise_sigma_min to noise_sigma_max; default 0.05 (alone: every camera's)"),
+    pd("noise_sigma_max", Ty::Double, "the largest position noise (m per axis); default 0.15"),
+    pd("noise_tracks_per_min", Ty::Double, "spurious tracks per camera and minute; default 1"),
+    pd("clock_offset_max", Ty::Double, "each camera's clock is offset by a draw in +-this (s); default 0"),
+    pd("world_rate_hz", Ty::Double, "the sampling rate of world.csv (Hz; 0: no world.csv); default 10"),
+    pd("waiting_groups", Ty::Double, "groups of pedestrians and cyclists waiting at a crossing's kerb, per minute; default 0"),
+    pd("cyclists", Ty::Double, "an extra multiplier of the cyclists in the bike lanes (2 a minute at 1); default 1"),
+    pd("clock_drift_ppm", Ty::Double, "each camera's clock runs fast or slow by a draw in +-this (ppm); default 0"),
+    pd("clock_epoch", Ty::Double, "seconds added to every clock, e.g. 1.78e9 (Unix time); default 0"),
+    pd("time_jitter_s", Ty::Double, "each time stamp is off the capture time by N(0, this) (s), clipped to 0.45 frame periods; default 0"),
+    pd("origin", Ty::Varchar, "where the cameras' local frames lie: 'none', 'utm' or 'X,Y' (m) added to every local coordinate; default 'none'"),
+    pd("viewpoint_bias_vehicle", Ty::Double, "the largest offset along the line of sight between a camera's point of a car or heavy vehicle and its centre (m); default 0"),
+    pd("viewpoint_bias_vru", Ty::Double, "the same for pedestrians and cyclists (m); default 0"),
+    pd("ground_plane_scale", Ty::Double, "each camera's ground plane is scaled by 1 + a draw in +-this (a fraction); default 0"),
+    pd("ground_plane_perspective", Ty::Double, "a perspective term of each camera's ground plane whose relative error reaches this at 50 m; default 0"),
+    pd("occlusion", Ty::Double, "tracks are cut mid-view at this rate per second and per other road user within 2 m; default 0"),
 ];
 
-const TABLE: Table = Table { params: &[p("dir", Ty::Varchar)], named: NAMED, columns: COLUMNS, register: table::register::<SimulateTable> };
+const TABLE: Table = Table {
+    params: &[pd("dir", Ty::Varchar, "the folder to write the scenario into: new, empty or holding an earlier scenario")],
+    named: NAMED,
+    columns: COLUMNS,
+    register: table::register::<SimulateTable>,
+};
 
 pub static FUNCTIONS: &[Function] = &[Function {
     name: "trajdb_simulate",
@@ -64,6 +69,8 @@ pub static FUNCTIONS: &[Function] = &[Function {
     example: "SELECT objects > 0 FROM trajdb_simulate('/tmp/trajdb-sim-example', cameras := 2, minutes := 1, seed := 3); -- true",
     maths: "crates/app/src/simulate.rs",
     binding: file!(),
+    section: Section::Simulation,
+    see_also: &["trajdb_pipeline"],
     signatures: &[],
     table: Some(TABLE),
 }];
@@ -94,7 +101,7 @@ impl TableFn for SimulateTable {
         // not, so there a statement PREPAREd before SET enable_external_access = false still
         // writes; it was prepared by whoever could write then (the setting cannot be turned
         // back on, so nothing prepared after it escapes).
-        super::params::may_write_into(args, &dir)?;
+        super::common::may_write_into(args, &dir)?;
         let mut p = SimParams::default();
         if let Some(v) = args.named_bigint("cameras")? {
             p.cameras = usize::try_from(v).map_err(|_| format!("cameras must be >= 1, got {v}"))?;

@@ -1,12 +1,15 @@
 //! SQL: trajectory helpers. Maths: `crates/algo/src/traj.rs`.
 
-use super::registry::{p, Function, Signature, Ty, SERIES, TRAJ};
+use super::registry::{pd, Function, Param, Section, Signature, Ty, SERIES, TRAJ};
 use super::vector::{Args, Column, Out, Value};
 use crate::algo::traj;
 use std::error::Error;
 
 type R = Result<(), Box<dyn Error>>;
 const MATHS: &str = "crates/algo/src/traj.rs";
+
+const TRAJ_ARG: Param = pd("traj", TRAJ, "the trajectory: points {t (s), x, y (m)} sorted by t");
+const WITH_TIME: Param = pd("with_time", Ty::Boolean, "true: time as the M coordinate (LINESTRING M / POINT M); default false");
 
 pub static FUNCTIONS: &[Function] = &[
     Function {
@@ -15,7 +18,9 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT traj_num_points([{'t': 0, 'x': 0, 'y': 0}, {'t': 1, 'x': 3, 'y': 4}]); -- 2",
         maths: MATHS,
         binding: file!(),
-        signatures: &[Signature { params: &[p("traj", TRAJ)], arities: &[], returns: Ty::Bigint, kernel: length }],
+        section: Section::Trajectories,
+        see_also: &["traj_length_m", "traj_duration"],
+        signatures: &[Signature { params: &[TRAJ_ARG], arities: &[], returns: Ty::Bigint, kernel: length }],
         table: None,
     },
     Function {
@@ -25,7 +30,9 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT traj_length_m([{'t': 0, 'x': 0, 'y': 0}, {'t': 1, 'x': 3, 'y': 4}, {'t': 2, 'x': 3, 'y': 6}]); -- 7.0",
         maths: MATHS,
         binding: file!(),
-        signatures: &[Signature { params: &[p("traj", TRAJ)], arities: &[], returns: Ty::Double, kernel: length_m }],
+        section: Section::Trajectories,
+        see_also: &["traj_num_points", "traj_duration", "traj_speeds"],
+        signatures: &[Signature { params: &[TRAJ_ARG], arities: &[], returns: Ty::Double, kernel: length_m }],
         table: None,
     },
     Function {
@@ -35,7 +42,9 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT traj_length([{'t': 0, 'x': 0, 'y': 0}, {'t': 1, 'x': 3, 'y': 4}]); -- 2",
         maths: MATHS,
         binding: file!(),
-        signatures: &[Signature { params: &[p("traj", TRAJ)], arities: &[], returns: Ty::Bigint, kernel: length }],
+        section: Section::Trajectories,
+        see_also: &["traj_num_points", "traj_length_m"],
+        signatures: &[Signature { params: &[TRAJ_ARG], arities: &[], returns: Ty::Bigint, kernel: length }],
         table: None,
     },
     Function {
@@ -44,7 +53,9 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT traj_duration([{'t': 0, 'x': 0, 'y': 0}, {'t': 2.5, 'x': 3, 'y': 4}]); -- 2.5",
         maths: MATHS,
         binding: file!(),
-        signatures: &[Signature { params: &[p("traj", TRAJ)], arities: &[], returns: Ty::Double, kernel: duration }],
+        section: Section::Trajectories,
+        see_also: &["traj_time_range", "traj_length_m", "traj_num_points"],
+        signatures: &[Signature { params: &[TRAJ_ARG], arities: &[], returns: Ty::Double, kernel: duration }],
         table: None,
     },
     Function {
@@ -57,7 +68,17 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT traj_stationary([{'t': 0, 'x': 0, 'y': 0}, {'t': 60, 'x': 0.1, 'y': 0}], 'car'); -- true",
         maths: "crates/algo/src/traj/stationary.rs",
         binding: file!(),
-        signatures: &[Signature { params: &[p("traj", TRAJ), p("class", Ty::Varchar)], arities: &[], returns: Ty::Boolean, kernel: stationary }],
+        section: Section::Trajectories,
+        see_also: &["class_length_m", "traj_speeds", "traj_length_m"],
+        signatures: &[Signature {
+            params: &[
+                TRAJ_ARG,
+                pd("class", Ty::Varchar, "the road user's class name, read by its words as class_length_m (e.g. 'car', 'pedestrian')"),
+            ],
+            arities: &[],
+            returns: Ty::Boolean,
+            kernel: stationary,
+        }],
         table: None,
     },
     Function {
@@ -66,8 +87,10 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT traj_time_range([{'t': 1, 'x': 0, 'y': 0}, {'t': 4, 'x': 3, 'y': 4}]); -- {'t_start': 1.0, 't_end': 4.0}",
         maths: MATHS,
         binding: file!(),
+        section: Section::Trajectories,
+        see_also: &["traj_duration"],
         signatures: &[Signature {
-            params: &[p("traj", TRAJ)],
+            params: &[TRAJ_ARG],
             arities: &[],
             returns: Ty::Struct(&[("t_start", Ty::Double), ("t_end", Ty::Double)]),
             kernel: time_range,
@@ -82,7 +105,9 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT traj_speeds([{'t': 0, 'x': 0, 'y': 0}, {'t': 1, 'x': 3, 'y': 4}]); -- [{'t': 1.0, 'v': 5.0}]",
         maths: MATHS,
         binding: file!(),
-        signatures: &[Signature { params: &[p("traj", TRAJ)], arities: &[], returns: SERIES, kernel: speeds }],
+        section: Section::Trajectories,
+        see_also: &["traj_turn_rates", "lcss_series_similarity", "speed_lag"],
+        signatures: &[Signature { params: &[TRAJ_ARG], arities: &[], returns: SERIES, kernel: speeds }],
         table: None,
     },
     Function {
@@ -93,7 +118,14 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT traj_turn_rates([{'t':0,'x':0,'y':0},{'t':1,'x':2,'y':0},{'t':2,'x':2,'y':2}]); -- [{'t': 2.0, 'v': 1.5707963267948966}]",
         maths: MATHS,
         binding: file!(),
-        signatures: &[Signature { params: &[p("traj", TRAJ), p("min_step", Ty::Double)], arities: &[1, 2], returns: SERIES, kernel: turn_rates }],
+        section: Section::Trajectories,
+        see_also: &["traj_speeds", "lcss_series_similarity"],
+        signatures: &[Signature {
+            params: &[TRAJ_ARG, pd("min_step", Ty::Double, "the least chord length (m) a heading is measured over, > 0; default 1.0")],
+            arities: &[1, 2],
+            returns: SERIES,
+            kernel: turn_rates,
+        }],
         table: None,
     },
     Function {
@@ -103,7 +135,9 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT traj_to_wkt([{'t': 0, 'x': 0, 'y': 0}, {'t': 1, 'x': 3, 'y': 4}]); -- LINESTRING (0 0, 3 4)",
         maths: MATHS,
         binding: file!(),
-        signatures: &[Signature { params: &[p("traj", TRAJ)], arities: &[], returns: Ty::Varchar, kernel: to_wkt }],
+        section: Section::Trajectories,
+        see_also: &["traj_to_wkb", "traj_to_geometry", "polygon_to_wkt"],
+        signatures: &[Signature { params: &[TRAJ_ARG], arities: &[], returns: Ty::Varchar, kernel: to_wkt }],
         table: None,
     },
     Function {
@@ -114,7 +148,9 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT octet_length(traj_to_wkb([{'t': 0, 'x': 0, 'y': 0}, {'t': 1, 'x': 3, 'y': 4}])); -- 41",
         maths: MATHS,
         binding: file!(),
-        signatures: &[Signature { params: &[p("traj", TRAJ), p("with_time", Ty::Boolean)], arities: &[1, 2], returns: Ty::Blob, kernel: to_wkb }],
+        section: Section::Trajectories,
+        see_also: &["traj_to_wkt", "traj_to_geometry"],
+        signatures: &[Signature { params: &[TRAJ_ARG, WITH_TIME], arities: &[1, 2], returns: Ty::Blob, kernel: to_wkb }],
         table: None,
     },
     Function {
@@ -125,7 +161,9 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT typeof(traj_to_geometry([{'t': 0, 'x': 0, 'y': 0}, {'t': 1, 'x': 3, 'y': 4}])); -- GEOMETRY",
         maths: MATHS,
         binding: file!(),
-        signatures: &[Signature { params: &[p("traj", TRAJ), p("with_time", Ty::Boolean)], arities: &[1, 2], returns: Ty::Geometry, kernel: to_wkb }],
+        section: Section::Trajectories,
+        see_also: &["traj_to_wkb", "traj_to_wkt", "polygon_to_geometry"],
+        signatures: &[Signature { params: &[TRAJ_ARG, WITH_TIME], arities: &[1, 2], returns: Ty::Geometry, kernel: to_wkb }],
         table: None,
     },
     Function {
@@ -137,8 +175,14 @@ pub static FUNCTIONS: &[Function] = &[
         example: "SELECT traj_resample([{'t': 0.125, 'x': 0, 'y': 0}, {'t': 0.625, 'x': 2, 'y': 0}], 0.25); -- [{'t': 0.25, 'x': 0.5, 'y': 0.0}, {'t': 0.5, 'x': 1.5, 'y': 0.0}]",
         maths: MATHS,
         binding: file!(),
+        section: Section::Trajectories,
+        see_also: &["lcss_similarity", "traj_fuse", "traj_correspond"],
         signatures: &[Signature {
-            params: &[p("traj", TRAJ), p("period", Ty::Double), p("max_gap", Ty::Double)],
+            params: &[
+                TRAJ_ARG,
+                pd("period", Ty::Double, "the sampling period (s), > 0: the points at t = k * period"),
+                pd("max_gap", Ty::Double, "no interpolation across a gap between samples longer than this (s), > 0; default: no limit"),
+            ],
             arities: &[2, 3],
             returns: TRAJ,
             kernel: resample,

@@ -106,18 +106,32 @@ fn quote(name: &str) -> String {
     }
 }
 
-/// A named, typed parameter.
+/// A named, typed, documented parameter.
 #[derive(Clone, Copy, Debug)]
 pub struct Param {
     pub name: &'static str,
     pub ty: Ty,
+    /// What the argument means, in one line for the reference: its unit, and its default and
+    /// range where it has them (a unit test refuses an empty one on any function).
+    pub doc: &'static str,
 }
 
-/// Shorthand for descriptors: `p("epsilon", Ty::Double)`.
+/// A parameter without its doc yet (add it with [`Param::doc`]): `p("epsilon", Ty::Double)`.
 pub const fn p(name: &'static str, ty: Ty) -> Param {
-    Param { name, ty }
+    Param { name, ty, doc: "" }
 }
 
+/// Shorthand for descriptors: `pd("epsilon", Ty::Double, "matching distance (m), > 0")`.
+pub const fn pd(name: &'static str, ty: Ty, doc: &'static str) -> Param {
+    Param { name, ty, doc }
+}
+
+impl Param {
+    /// This parameter with its doc (for shared parameters documented where they are used).
+    pub const fn doc(self, doc: &'static str) -> Param {
+        Param { doc, ..self }
+    }
+}
 
 /// A table function's documented shape: positional and named parameters, result columns; it
 /// registers itself (`vector::table::register::<T>`) under the function's name with the

@@ -10,6 +10,26 @@
 //! is `t − O` and `(1 + 0) · a + b` is `a + b` in IEEE arithmetic, so a recording without drift
 //! gets exactly the numbers of the offset-only model. Each function is O(1).
 
+use std::fmt;
+
+/// A clock that is not one: an offset that is not finite, or a drift that is not finite and
+/// above −1 (a clock must run forwards).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ClockError {
+    pub field: &'static str,
+    pub value: f64,
+}
+
+impl fmt::Display for ClockError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self.field {
+            "drift" => write!(f, "drift must be finite and > -1 (a fraction: 2e-4 is 200 ppm), got {}", self.value),
+            field => write!(f, "{field} must be finite, got {}", self.value),
+        }
+    }
+}
+impl std::error::Error for ClockError {}
+
 /// A clock against a reference: `t = (1 + drift) · t_reference + offset`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Clock {
@@ -25,6 +45,17 @@ impl Clock {
 
     pub fn new(offset: f64, drift: f64) -> Clock {
         Clock { offset, drift }
+    }
+
+    /// A clock, checked: the offset finite, the drift finite and > −1.
+    pub fn checked(offset: f64, drift: f64) -> Result<Clock, ClockError> {
+        if !offset.is_finite() {
+            return Err(ClockError { field: "offset", value: offset });
+        }
+        if !(drift.is_finite() && drift > -1.0) {
+            return Err(ClockError { field: "drift", value: drift });
+        }
+        Ok(Clock { offset, drift })
     }
 
     /// A time of this clock on the reference clock: `(t − O) / (1 + D)`.
@@ -71,6 +102,14 @@ mod tests {
 
     fn close(a: f64, b: f64) -> bool {
         (a - b).abs() <= 1e-9 * (1.0 + a.abs().max(b.abs()))
+    }
+
+    #[test]
+    fn bad_clocks_are_refused() {
+        assert_eq!(Clock::checked(f64::NAN, 0.0).unwrap_err().to_string(), "offset must be finite, got NaN");
+        assert!(Clock::checked(0.0, -1.0).unwrap_err().to_string().starts_with("drift must be finite and > -1"));
+        assert!(Clock::checked(0.0, f64::INFINITY).is_err());
+        assert_eq!(Clock::checked(1.0, -0.5).unwrap(), Clock::new(1.0, -0.5));
     }
 
     #[test]

@@ -63,7 +63,7 @@ WITH c AS (SELECT camera, avg(x) AS mx, avg(y) AS my FROM s_points GROUP BY came
            LATERAL (SELECT transform_compose(transform_invert(tb.tf), ta.tf) AS tt)),
      k AS (SELECT *, e_est + d_b + e_est * d_b - d_a AS rate_err, (c_est - (o_a - o_b)) + e_est * o_b AS err_at_0 FROM e)
 SELECT cam_from, cam_to,
-       abs(((degrees(theta_rad - true_theta) + 540) % 360) - 180) AS rot_deg,
+       abs(angle_wrap_deg(degrees(theta_rad - true_theta))) AS rot_deg,
        sqrt((est.x - tru.x) ** 2 + (est.y - tru.y) ** 2) AS trans_m,
        greatest(abs(w0 * rate_err + err_at_0), abs(w1 * rate_err + err_at_0)) AS clock_err_s,
        abs(drift_est_ppm - drift_true_ppm) AS drift_err_ppm

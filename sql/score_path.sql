@@ -40,7 +40,7 @@ FROM (SELECT * FROM read_csv(getvariable('score_results') || '/transforms.csv', 
       UNION ALL BY NAME SELECT NULL::DOUBLE AS clock_drift_ppm, NULL::DOUBLE AS scale WHERE false)
 WHERE cam_to = (SELECT camera FROM s_ref) AND theta_rad IS NOT NULL
 UNION ALL
-SELECT camera, {'theta': 0.0, 'tx': 0.0, 'ty': 0.0, 'scale': 1.0}, 0.0, 0.0 FROM s_ref;
+SELECT camera, transform_identity(), 0.0, 0.0 FROM s_ref;
 
 -- points to score: the fused paths (source -1, k = position in traj) and every placed camera's
 -- real points of the road user's tracks (source = camera), in world time and frame

@@ -1340,7 +1340,7 @@ CREATE OR REPLACE TEMP TABLE align_best AS FROM align_vote('align_hyp');
 ;
 -- stage: align/refit
 -- reads: calib_camera_order, calib_cameras, calibrated_values(), align_tracks, align_scan, align_hyp, align_best
--- makes: align_support, align_refit(), align_pairs, align_drift, align_offset_se
+-- makes: align_support, align_transform(), align_refit(), align_pairs, align_drift, align_offset_se
 -- work: align_drift_pairs, align_drift_obs, align_drift_fitted, align_drift_kept
 -- changes: align_best
 -- parameters: align_agree_deg, align_agree_m, align_bin_s, align_clock_step_s, align_min_pairs, align_min_support,
@@ -1358,7 +1358,7 @@ FROM align_hyp h JOIN align_best b USING (cam_fixed, cam_moving)
 JOIN align_tracks a ON a.camera = h.cam_fixed AND a.track_id = h.track_fixed
 JOIN align_tracks m ON m.camera = h.cam_moving AND m.track_id = h.track_moving
 WHERE abs(h.dt - b.dt) < 0.5 * getvariable('align_bin_s')
-  AND abs(((degrees(h.theta) - b.theta_deg + 540) % 360) - 180) <= getvariable('align_agree_deg')
+  AND abs(angle_wrap_deg(degrees(h.theta) - b.theta_deg)) <= getvariable('align_agree_deg')
   AND abs(h.qx - b.qx) <= getvariable('align_agree_m') AND abs(h.qy - b.qy) <= getvariable('align_agree_m');
 
 --    refit all their tracks together at every shift within four vote bins of the winner, on a
@@ -1369,6 +1369,10 @@ WHERE abs(h.dt - b.dt) < 0.5 * getvariable('align_bin_s')
 --    each squared residual is weighted by the two cameras' measured noise (calib_cameras) so
 --    that interpolated pairs do not pull the offset towards the half-sample phase. The same
 --    refit (align_refit) runs again after the second pass below, on the kept pairs.
+--    The transform of a fit (rigid_fit_shifted's, register_pair's: dt, theta, tx, ty, scale, ...) as
+--    the transform functions take it: the one place that spells it out.
+CREATE OR REPLACE TEMP MACRO align_transform(fit) AS {'theta': fit.theta, 'tx': fit.tx, 'ty': fit.ty, 'scale': fit.scale};
+
 CREATE OR REPLACE TEMP MACRO align_refit() AS TABLE
 SELECT s.cam_fixed, s.cam_moving,
        rigid_fit_shifted(list(s.traj_fixed ORDER BY s.traj_fixed[1].t, s.traj_moving[1].t, s.track_fixed, s.track_moving),
@@ -1401,13 +1405,13 @@ CREATE OR REPLACE TEMP TABLE align_drift_pairs AS
 WITH cand AS (
     SELECT DISTINCT h.cam_fixed, h.cam_moving, h.track_fixed, h.track_moving
     FROM align_hyp h JOIN align_best b USING (cam_fixed, cam_moving)
-    WHERE abs(((degrees(h.theta) - b.theta_deg + 540) % 360) - 180) <= getvariable('align_agree_deg')
+    WHERE abs(angle_wrap_deg(degrees(h.theta) - b.theta_deg)) <= getvariable('align_agree_deg')
       AND abs(h.qx - b.qx) <= getvariable('align_agree_m') AND abs(h.qy - b.qy) <= getvariable('align_agree_m')
 ),
 coarse AS (
     SELECT c.*, a.traj AS traj_fixed, m.traj AS traj_moving, (a.t0 + a.t1) / 2 AS x, cp.value AS gate,
-           {'theta': p.fit.theta, 'tx': p.fit.tx, 'ty': p.fit.ty, 'scale': p.fit.scale} AS tf,
-           rigid_shift_under(a.traj, m.traj, {'theta': p.fit.theta, 'tx': p.fit.tx, 'ty': p.fit.ty, 'scale': p.fit.scale},
+           align_transform(p.fit) AS tf,
+           rigid_shift_under(a.traj, m.traj, align_transform(p.fit),
                              p.fit.dt, s.max_off, getvariable('align_bin_s'), 0.5, getvariable('align_min_pairs')) AS r
     FROM cand c JOIN align_pairs p USING (cam_fixed, cam_moving)
     JOIN (SELECT cam_fixed, cam_moving, max(max_off) AS max_off FROM align_scan GROUP BY ALL) s USING (cam_fixed, cam_moving)
@@ -1518,7 +1522,7 @@ WHERE d.cam_fixed = b.cam_fixed AND d.cam_moving = b.cam_moving AND d.drift <> 0
 CREATE OR REPLACE TEMP TABLE align_pairs AS FROM align_refit();
 ;
 -- stage: align/register
--- reads: calib_cameras, calib_pairs, calibrated_values(), align_tracks, align_support, align_refit(), align_pairs
+-- reads: calib_cameras, calib_pairs, calibrated_values(), align_tracks, align_support, align_transform(), align_refit(), align_pairs
 -- makes: calib_match
 -- work: align_support_voted, align_residuals(), align_clean(), align_register_pairs, align_register
 -- changes: align_pairs, align_support, calibration
@@ -1541,7 +1545,7 @@ WITH c AS (
     FROM query_table(src) s JOIN align_pairs a USING (cam_fixed, cam_moving)
 )
 SELECT cam_fixed, cam_moving, track_fixed, track_moving, c.fx - q.x AS ex, c.fy - q.y AS ey
-FROM (SELECT *, transform_point({'theta': fit.theta, 'tx': fit.tx, 'ty': fit.ty, 'scale': fit.scale}, c.mx, c.my) AS q FROM c);
+FROM (SELECT *, transform_point(align_transform(fit), c.mx, c.my) AS q FROM c);
 
 --    The voted pairs of src that are kept for a fit: each pair's residuals under its camera pair's
 --    current fit, taken about the pair's OWN mean (issue 38: two cameras see different points of
@@ -1685,7 +1689,7 @@ FROM (SELECT 'camera pair' AS scope, cam_a, cam_b, noise_match_epsilon(sigma_d_m
 ;
 -- stage: align/frames
 -- reads: points, load_ids, calib_camera_order, calib_cameras, calibration, align_centroids, align_pairs, align_drift,
---        align_offset_se, calib_match
+--        align_offset_se, align_transform(), calib_match
 -- makes: align_frames, align_origin, calibration_summary, result_transforms(), result_calibration()
 -- work: align_clock, align_edges
 -- changes: points
@@ -1711,12 +1715,12 @@ JOIN align_centroids mc ON mc.camera = p.cam_moving JOIN align_centroids fc ON f
 
 CREATE OR REPLACE TEMP TABLE align_edges AS
 SELECT p.cam_moving AS src, p.cam_fixed AS dst, p.support,
-       {'theta': p.fit.theta, 'tx': p.fit.tx, 'ty': p.fit.ty, 'scale': p.fit.scale} AS tf,
+       align_transform(p.fit) AS tf,
        {'offset': c.offset, 'drift': c.drift} AS clock, c.drift_se
 FROM align_pairs p JOIN align_clock c USING (cam_fixed, cam_moving)
 UNION ALL
 SELECT p.cam_fixed, p.cam_moving, p.support,
-       transform_invert({'theta': p.fit.theta, 'tx': p.fit.tx, 'ty': p.fit.ty, 'scale': p.fit.scale}),
+       transform_invert(align_transform(p.fit)),
        clock_invert({'offset': c.offset, 'drift': c.drift}), c.drift_se
 FROM align_pairs p JOIN align_clock c USING (cam_fixed, cam_moving);
 
@@ -1731,7 +1735,7 @@ ref AS (
 walk(camera, node, tf, clock, drift_var, bottleneck, hops, visited, ranks) AS (
     -- start at each camera with the identity, walk edges towards the reference; clocks compose
     -- (clock_compose: the camera's clock against the node after the node's against the edge's end)
-    SELECT camera, camera, {'theta': 0.0::DOUBLE, 'tx': 0.0::DOUBLE, 'ty': 0.0::DOUBLE, 'scale': 1.0::DOUBLE},
+    SELECT camera, camera, transform_identity(),
            {'offset': 0.0::DOUBLE, 'drift': 0.0::DOUBLE}, 0.0::DOUBLE,
            1e18::DOUBLE, 0, [camera], [data_rank]
     FROM (SELECT DISTINCT camera FROM points) LEFT JOIN calib_camera_order USING (camera)
@@ -2090,7 +2094,7 @@ SELECT p.camera, p.track_id, p.class, dense_rank() OVER (ORDER BY any_value(r.da
 FROM points p
 CROSS JOIN align_origin o
 LEFT JOIN calib_camera_order r USING (camera)
-JOIN (SELECT c.camera, coalesce(a.to_reference, {'theta': 0.0::DOUBLE, 'tx': 0.0::DOUBLE, 'ty': 0.0::DOUBLE, 'scale': 1.0::DOUBLE}) AS to_reference
+JOIN (SELECT c.camera, coalesce(a.to_reference, transform_identity()) AS to_reference
       FROM (SELECT DISTINCT camera FROM points) c LEFT JOIN align_frames a USING (camera)) f USING (camera)
 WHERE p.estimated = 0
 GROUP BY p.camera, p.track_id, p.class, o.clock_origin;
@@ -2450,7 +2454,7 @@ FROM calib_classes WHERE isfinite(accel_p95);
 -- point of the road user and does not jump where a camera's view begins or ends.
 CREATE OR REPLACE TEMP TABLE fuse_offsets AS
 WITH cam AS (
-    SELECT c.camera, coalesce(a.to_reference, {'theta': 0.0::DOUBLE, 'tx': 0.0::DOUBLE, 'ty': 0.0::DOUBLE, 'scale': 1.0::DOUBLE}) AS to_reference
+    SELECT c.camera, coalesce(a.to_reference, transform_identity()) AS to_reference
     FROM (SELECT DISTINCT camera FROM points) c LEFT JOIN align_frames a USING (camera)
 ),
 src AS (
@@ -2476,7 +2480,7 @@ FROM o, LATERAL (SELECT unnest(cams) AS camera, unnest(tids) AS track_id, unnest
 
 CREATE OR REPLACE TEMP TABLE fuse_paths AS
 WITH cam AS (
-    SELECT c.camera, coalesce(a.to_reference, {'theta': 0.0::DOUBLE, 'tx': 0.0::DOUBLE, 'ty': 0.0::DOUBLE, 'scale': 1.0::DOUBLE}) AS to_reference,
+    SELECT c.camera, coalesce(a.to_reference, transform_identity()) AS to_reference,
            greatest(coalesce(s.sigma_m, (SELECT max(sigma_m) FROM calib_cameras), 0.0), 1e-3) AS sigma
     FROM (SELECT DISTINCT camera FROM points) c
     LEFT JOIN align_frames a USING (camera) LEFT JOIN calib_cameras s USING (camera)

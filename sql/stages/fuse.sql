@@ -71,7 +71,7 @@ FROM calib_classes WHERE isfinite(accel_p95);
 -- point of the road user and does not jump where a camera's view begins or ends.
 CREATE OR REPLACE TEMP TABLE fuse_offsets AS
 WITH cam AS (
-    SELECT c.camera, coalesce(a.to_reference, {'theta': 0.0::DOUBLE, 'tx': 0.0::DOUBLE, 'ty': 0.0::DOUBLE, 'scale': 1.0::DOUBLE}) AS to_reference
+    SELECT c.camera, coalesce(a.to_reference, transform_identity()) AS to_reference
     FROM (SELECT DISTINCT camera FROM points) c LEFT JOIN align_frames a USING (camera)
 ),
 src AS (
@@ -97,7 +97,7 @@ FROM o, LATERAL (SELECT unnest(cams) AS camera, unnest(tids) AS track_id, unnest
 
 CREATE OR REPLACE TEMP TABLE fuse_paths AS
 WITH cam AS (
-    SELECT c.camera, coalesce(a.to_reference, {'theta': 0.0::DOUBLE, 'tx': 0.0::DOUBLE, 'ty': 0.0::DOUBLE, 'scale': 1.0::DOUBLE}) AS to_reference,
+    SELECT c.camera, coalesce(a.to_reference, transform_identity()) AS to_reference,
            greatest(coalesce(s.sigma_m, (SELECT max(sigma_m) FROM calib_cameras), 0.0), 1e-3) AS sigma
     FROM (SELECT DISTINCT camera FROM points) c
     LEFT JOIN align_frames a USING (camera) LEFT JOIN calib_cameras s USING (camera)

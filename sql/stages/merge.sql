@@ -91,7 +91,7 @@ SELECT p.camera, p.track_id, p.class, dense_rank() OVER (ORDER BY any_value(r.da
 FROM points p
 CROSS JOIN align_origin o
 LEFT JOIN calib_camera_order r USING (camera)
-JOIN (SELECT c.camera, coalesce(a.to_reference, {'theta': 0.0::DOUBLE, 'tx': 0.0::DOUBLE, 'ty': 0.0::DOUBLE, 'scale': 1.0::DOUBLE}) AS to_reference
+JOIN (SELECT c.camera, coalesce(a.to_reference, transform_identity()) AS to_reference
       FROM (SELECT DISTINCT camera FROM points) c LEFT JOIN align_frames a USING (camera)) f USING (camera)
 WHERE p.estimated = 0
 GROUP BY p.camera, p.track_id, p.class, o.clock_origin;

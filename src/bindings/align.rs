@@ -548,6 +548,31 @@ pub static FUNCTIONS: &[Function] = &[
         table: None,
     },
     Function {
+        name: "transform_identity",
+        description: "The identity transform {'theta': 0, 'tx': 0, 'ty': 0, 'scale': 1}: a camera's transform into its own frame \
+                      (the reference camera's, and a camera that no camera pair placed). O(1).",
+        example: "SELECT transform_identity(); -- {'theta': 0.0, 'tx': 0.0, 'ty': 0.0, 'scale': 1.0}",
+        maths: RIGID,
+        binding: file!(),
+        section: Section::Alignment,
+        see_also: &["transform_compose", "transform_invert"],
+        signatures: &[Signature { params: &[], arities: &[], returns: TRANSFORM, kernel: transform_identity }],
+        table: None,
+    },
+    Function {
+        name: "angle_wrap_deg",
+        description: "An angle, or the difference of two, in degrees wrapped to [-180, 180): ((a + 540) % 360) - 180 (align.sql's \
+                      agreement of two rotations, the score's rotation error), also right below -540. NULL for NULL; an error for a \
+                      value that is not finite. O(1).",
+        example: "SELECT [angle_wrap_deg(350.0), angle_wrap_deg(-190.0)]; -- [-10.0, 170.0]",
+        maths: RIGID,
+        binding: file!(),
+        section: Section::Alignment,
+        see_also: &["transform_compose"],
+        signatures: &[Signature { params: &[pd("a", Ty::Double, "an angle in degrees")], arities: &[], returns: Ty::Double, kernel: angle_wrap_deg }],
+        table: None,
+    },
+    Function {
         name: "clock_network",
         description: "One value per camera from every camera pair's measurement of their difference (align.sql's clock drift; \
                       crates/algo/src/align/clock_network.rs): each pair says value ≈ x[moving] - x[fixed] with standard error se; with \
@@ -820,6 +845,24 @@ fn transform_compose(a: &Args<'_>, out: &mut Out<'_>) -> R {
         Ok(Some(tf_values(x.compose(&y))))
     })?;
     out.structs(&vals);
+    Ok(())
+}
+
+fn transform_identity(a: &Args<'_>, out: &mut Out<'_>) -> R {
+    out.structs(&vec![Some(tf_values(Transform2::IDENTITY)); a.rows()]);
+    Ok(())
+}
+
+fn angle_wrap_deg(a: &Args<'_>, out: &mut Out<'_>) -> R {
+    let get = a.doubles::<1>();
+    let vals = a.map(|r| {
+        let Some([v]) = get(r) else { return Ok(None) };
+        if !v.is_finite() {
+            return Err(format!("a must be finite, got {v}").into());
+        }
+        Ok(Some(rigid::wrap_deg(v)))
+    })?;
+    out.flat(&vals);
     Ok(())
 }
 

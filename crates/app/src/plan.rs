@@ -43,7 +43,7 @@ pub const SITE_WORK_TABLES: &[&str] = &[
     "align_hyp", "align_best", "align_support", "align_refit", "align_edges", "view_points", "align_keys", "align_activity",
     "align_coarse", "align_clock", "align_drift_obs", "align_drift_pairs", "align_drift_fitted", "align_drift_kept", "align_drift",
     "align_retry", "align_speed_votes", "align_speed", "align_sample", "align_scan_pass", "align_speed_scan",
-    "align_offset_se", "align_support_voted", "align_residuals", "align_clean", "align_register_pairs", "align_register",
+    "align_offset_se", "align_support_voted", "align_residuals", "align_clean", "align_register_pairs", "align_register", "align_transform",
 ];
 
 /// The stages a site's calibration runs (and nothing after them).

@@ -1,6 +1,6 @@
 -- stage: align/frames
 -- reads: points, load_ids, calib_camera_order, calib_cameras, calibration, align_centroids, align_pairs, align_drift,
---        align_offset_se, calib_match
+--        align_offset_se, align_transform(), calib_match
 -- makes: align_frames, align_origin, calibration_summary, result_transforms(), result_calibration()
 -- work: align_clock, align_edges
 -- changes: points
@@ -26,12 +26,12 @@ JOIN align_centroids mc ON mc.camera = p.cam_moving JOIN align_centroids fc ON f
 
 CREATE OR REPLACE TEMP TABLE align_edges AS
 SELECT p.cam_moving AS src, p.cam_fixed AS dst, p.support,
-       {'theta': p.fit.theta, 'tx': p.fit.tx, 'ty': p.fit.ty, 'scale': p.fit.scale} AS tf,
+       align_transform(p.fit) AS tf,
        {'offset': c.offset, 'drift': c.drift} AS clock, c.drift_se
 FROM align_pairs p JOIN align_clock c USING (cam_fixed, cam_moving)
 UNION ALL
 SELECT p.cam_fixed, p.cam_moving, p.support,
-       transform_invert({'theta': p.fit.theta, 'tx': p.fit.tx, 'ty': p.fit.ty, 'scale': p.fit.scale}),
+       transform_invert(align_transform(p.fit)),
        clock_invert({'offset': c.offset, 'drift': c.drift}), c.drift_se
 FROM align_pairs p JOIN align_clock c USING (cam_fixed, cam_moving);
 
@@ -46,7 +46,7 @@ ref AS (
 walk(camera, node, tf, clock, drift_var, bottleneck, hops, visited, ranks) AS (
     -- start at each camera with the identity, walk edges towards the reference; clocks compose
     -- (clock_compose: the camera's clock against the node after the node's against the edge's end)
-    SELECT camera, camera, {'theta': 0.0::DOUBLE, 'tx': 0.0::DOUBLE, 'ty': 0.0::DOUBLE, 'scale': 1.0::DOUBLE},
+    SELECT camera, camera, transform_identity(),
            {'offset': 0.0::DOUBLE, 'drift': 0.0::DOUBLE}, 0.0::DOUBLE,
            1e18::DOUBLE, 0, [camera], [data_rank]
     FROM (SELECT DISTINCT camera FROM points) LEFT JOIN calib_camera_order USING (camera)

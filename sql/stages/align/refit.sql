@@ -1,6 +1,6 @@
 -- stage: align/refit
 -- reads: calib_camera_order, calib_cameras, calibrated_values(), align_tracks, align_scan, align_hyp, align_best
--- makes: align_support, align_refit(), align_pairs, align_drift, align_offset_se
+-- makes: align_support, align_transform(), align_refit(), align_pairs, align_drift, align_offset_se
 -- work: align_drift_pairs, align_drift_obs, align_drift_fitted, align_drift_kept
 -- changes: align_best
 -- parameters: align_agree_deg, align_agree_m, align_bin_s, align_clock_step_s, align_min_pairs, align_min_support,
@@ -18,7 +18,7 @@ FROM align_hyp h JOIN align_best b USING (cam_fixed, cam_moving)
 JOIN align_tracks a ON a.camera = h.cam_fixed AND a.track_id = h.track_fixed
 JOIN align_tracks m ON m.camera = h.cam_moving AND m.track_id = h.track_moving
 WHERE abs(h.dt - b.dt) < 0.5 * getvariable('align_bin_s')
-  AND abs(((degrees(h.theta) - b.theta_deg + 540) % 360) - 180) <= getvariable('align_agree_deg')
+  AND abs(angle_wrap_deg(degrees(h.theta) - b.theta_deg)) <= getvariable('align_agree_deg')
   AND abs(h.qx - b.qx) <= getvariable('align_agree_m') AND abs(h.qy - b.qy) <= getvariable('align_agree_m');
 
 --    refit all their tracks together at every shift within four vote bins of the winner, on a
@@ -29,6 +29,10 @@ WHERE abs(h.dt - b.dt) < 0.5 * getvariable('align_bin_s')
 --    each squared residual is weighted by the two cameras' measured noise (calib_cameras) so
 --    that interpolated pairs do not pull the offset towards the half-sample phase. The same
 --    refit (align_refit) runs again after the second pass below, on the kept pairs.
+--    The transform of a fit (rigid_fit_shifted's, register_pair's: dt, theta, tx, ty, scale, ...) as
+--    the transform functions take it: the one place that spells it out.
+CREATE OR REPLACE TEMP MACRO align_transform(fit) AS {'theta': fit.theta, 'tx': fit.tx, 'ty': fit.ty, 'scale': fit.scale};
+
 CREATE OR REPLACE TEMP MACRO align_refit() AS TABLE
 SELECT s.cam_fixed, s.cam_moving,
        rigid_fit_shifted(list(s.traj_fixed ORDER BY s.traj_fixed[1].t, s.traj_moving[1].t, s.track_fixed, s.track_moving),
@@ -61,13 +65,13 @@ CREATE OR REPLACE TEMP TABLE align_drift_pairs AS
 WITH cand AS (
     SELECT DISTINCT h.cam_fixed, h.cam_moving, h.track_fixed, h.track_moving
     FROM align_hyp h JOIN align_best b USING (cam_fixed, cam_moving)
-    WHERE abs(((degrees(h.theta) - b.theta_deg + 540) % 360) - 180) <= getvariable('align_agree_deg')
+    WHERE abs(angle_wrap_deg(degrees(h.theta) - b.theta_deg)) <= getvariable('align_agree_deg')
       AND abs(h.qx - b.qx) <= getvariable('align_agree_m') AND abs(h.qy - b.qy) <= getvariable('align_agree_m')
 ),
 coarse AS (
     SELECT c.*, a.traj AS traj_fixed, m.traj AS traj_moving, (a.t0 + a.t1) / 2 AS x, cp.value AS gate,
-           {'theta': p.fit.theta, 'tx': p.fit.tx, 'ty': p.fit.ty, 'scale': p.fit.scale} AS tf,
-           rigid_shift_under(a.traj, m.traj, {'theta': p.fit.theta, 'tx': p.fit.tx, 'ty': p.fit.ty, 'scale': p.fit.scale},
+           align_transform(p.fit) AS tf,
+           rigid_shift_under(a.traj, m.traj, align_transform(p.fit),
                              p.fit.dt, s.max_off, getvariable('align_bin_s'), 0.5, getvariable('align_min_pairs')) AS r
     FROM cand c JOIN align_pairs p USING (cam_fixed, cam_moving)
     JOIN (SELECT cam_fixed, cam_moving, max(max_off) AS max_off FROM align_scan GROUP BY ALL) s USING (cam_fixed, cam_moving)

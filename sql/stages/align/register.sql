@@ -1,5 +1,5 @@
 -- stage: align/register
--- reads: calib_cameras, calib_pairs, calibrated_values(), align_tracks, align_support, align_refit(), align_pairs
+-- reads: calib_cameras, calib_pairs, calibrated_values(), align_tracks, align_support, align_transform(), align_refit(), align_pairs
 -- makes: calib_match
 -- work: align_support_voted, align_residuals(), align_clean(), align_register_pairs, align_register
 -- changes: align_pairs, align_support, calibration
@@ -22,7 +22,7 @@ WITH c AS (
     FROM query_table(src) s JOIN align_pairs a USING (cam_fixed, cam_moving)
 )
 SELECT cam_fixed, cam_moving, track_fixed, track_moving, c.fx - q.x AS ex, c.fy - q.y AS ey
-FROM (SELECT *, transform_point({'theta': fit.theta, 'tx': fit.tx, 'ty': fit.ty, 'scale': fit.scale}, c.mx, c.my) AS q FROM c);
+FROM (SELECT *, transform_point(align_transform(fit), c.mx, c.my) AS q FROM c);
 
 --    The voted pairs of src that are kept for a fit: each pair's residuals under its camera pair's
 --    current fit, taken about the pair's OWN mean (issue 38: two cameras see different points of

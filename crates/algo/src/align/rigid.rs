@@ -28,7 +28,7 @@ pub struct Transform2 {
 
 impl Default for Transform2 {
     fn default() -> Self {
-        Transform2 { theta: 0.0, tx: 0.0, ty: 0.0, scale: 1.0 }
+        Transform2::IDENTITY
     }
 }
 
@@ -41,7 +41,23 @@ pub fn wrap_angle(a: f64) -> f64 {
     r
 }
 
+/// An angle (or the difference of two) in degrees, wrapped to [−180, 180):
+/// `((a + 540) mod 360) − 180` with C's `fmod` (SQL's `%` on doubles), so that align.sql's
+/// agreement tests and the score's rotation error get the same doubles as the formula written in
+/// SQL; an `a` below −540 (where `fmod` turns negative) is brought up by one more turn. O(1).
+pub fn wrap_deg(a: f64) -> f64 {
+    let r = ((a + 540.0) % 360.0) - 180.0;
+    if r < -180.0 {
+        r + 360.0
+    } else {
+        r
+    }
+}
+
 impl Transform2 {
+    /// The identity: no rotation, no translation, scale 1.
+    pub const IDENTITY: Transform2 = Transform2 { theta: 0.0, tx: 0.0, ty: 0.0, scale: 1.0 };
+
     pub fn new(theta: f64, tx: f64, ty: f64, scale: f64) -> Self {
         Transform2 { theta, tx, ty, scale }
     }
@@ -264,6 +280,19 @@ pub fn fit_trimmed(fx: &[f64], fy: &[f64], mx: &[f64], my: &[f64], trim: f64, wi
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn wrap_deg_is_the_sql_formula_and_stays_in_range() {
+        for a in [-359.5, -180.0, -0.1, 0.0, 0.1, 179.9, 180.0, 359.99] {
+            let sql = ((a + 540.0f64) % 360.0) - 180.0;
+            assert_eq!(wrap_deg(a).to_bits(), sql.to_bits(), "{a}");
+        }
+        for a in [-1e6, -900.0, -541.0, 725.0, 1e6] {
+            let w = wrap_deg(a);
+            assert!((-180.0..180.0).contains(&w), "{a} -> {w}");
+            assert!(((a - w) / 360.0 - ((a - w) / 360.0).round()).abs() < 1e-9, "{a} -> {w}");
+        }
+    }
     use proptest::prelude::*;
 
     fn close(a: &Transform2, b: &Transform2) -> bool {

@@ -92,7 +92,6 @@ PY="$VENV/bin/python"
 "$PY" tests/test_outputs_doc_python.py "$EXT"
 "$PY" tests/test_export_python.py "$EXT"
 "$PY" tests/test_archive_python.py "$EXT"
-python3 scripts/sql_single_file.py --check
 if ! command -v chromium > /dev/null && ! command -v chromium-browser > /dev/null; then
   SUDO=""; [ "$(id -u)" -ne 0 ] && SUDO="sudo"
   $SUDO apt-get update -qq && DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq chromium > /dev/null

@@ -15,7 +15,7 @@
 - t as TIMESTAMPTZ / TIMESTAMP: t_start and t_end are TIMESTAMPTZ on the reference clock (the same
   instants as with epoch seconds); numeric t keeps DOUBLE;
 - the DuckDB CLI's single file sql/trajdb_pipeline.sql is the expansion of sql/pipeline.sql and
-  sql/warnings.sql (scripts/sql_single_file.py --check), and runs from another folder.
+  sql/warnings.sql (trajdb sql-file, the extension's trajdb_pipeline_sql()), and runs from another folder.
 
 Needs pandas, polars and pyarrow (requirements-test.txt).
 usage: python3 tests/test_inputs_python.py path/to/trajdb.duckdb_extension
@@ -273,9 +273,10 @@ def main():
     check("numeric t: t_start is DOUBLE", types["t_start"] == "DOUBLE", str(types))
 
     # the DuckDB CLI's single file
-    r = subprocess.run([sys.executable, os.path.join(ROOT, "scripts/sql_single_file.py"), "--check"], capture_output=True, text=True)
-    check("sql/trajdb_pipeline.sql is the expansion of sql/pipeline.sql + sql/warnings.sql", r.returncode == 0, r.stdout + r.stderr)
     single = os.path.join(ROOT, "sql/trajdb_pipeline.sql")
+    made = trajdb.connect().execute("SELECT trajdb_pipeline_sql()").fetchall()[0][0]
+    check("sql/trajdb_pipeline.sql is the extension's trajdb_pipeline_sql() (trajdb sql-file)", open(single, encoding="utf-8").read() == made,
+          "run: python -m trajdb sql-file > sql/trajdb_pipeline.sql")
     cli = trajdb.connect()
     cli.execute("SET VARIABLE pipeline_input = ?", [path])
     cwd = os.getcwd()

@@ -123,6 +123,8 @@ def value(fn, name, ty, variant):
         if not is_list:
             if [f for f, _ in fields] == ["theta", "tx", "ty", "scale"]:
                 return "{'theta': 0.1, 'tx': 1.0, 'ty': 2.0, 'scale': 1.0}"
+            if [f for f, _ in fields] == ["offset", "drift"]:  # a clock (clock_compose, ...)
+                return "{'offset': 0.5, 'drift': 1e-4}"
             if [f for f, _ in fields] == ["mx", "my", "sxx", "sxy", "syy", "n"]:  # a bias state (pair_evidence)
                 return "{'mx': 0.5, 'my': 0.0, 'sxx': 0.04, 'sxy': 0.0, 'syy': 0.04, 'n': 10}"
             return None

@@ -411,6 +411,10 @@ def cmd_functions(a):
     verbatim(connect(a).execute("SELECT trajdb_reference(?)", [fmt]).fetchone()[0])
 
 
+def cmd_sql_file(a):
+    verbatim(connect(a).execute("SELECT trajdb_pipeline_sql()").fetchone()[0])
+
+
 def cmd_params(a):
     con = connect(a)
     if a.sql:
@@ -647,6 +651,7 @@ def build_parser():
     how.add_argument("--markdown", action="store_true", help="as docs/functions.md")
     how.add_argument("--families", action="store_true",
                      help="where each section's maths, bindings and functions live (the generated table of docs/development.md)")
+    add("sql-file", cmd_sql_file, "the whole pipeline as one SQL file for the DuckDB CLI (as sql/trajdb_pipeline.sql)")
     p = add("params", cmd_params, "the pipeline parameters")
     p.add_argument("--sql", action="store_true", help="as sql/params.sql")
     p = add("report", cmd_report, "the report.html of a results folder: its file:// address (--open: in the default browser)")

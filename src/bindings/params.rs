@@ -17,7 +17,27 @@ use crate::app::{outdir, params};
 use std::error::Error;
 use std::sync::Mutex;
 
-pub static FUNCTIONS: &[Function] = &[PARAMS_SQL, RESULTS_BEGIN, RESULTS_END];
+pub static FUNCTIONS: &[Function] = &[PARAMS_SQL, PIPELINE_SQL, RESULTS_BEGIN, RESULTS_END];
+
+const PIPELINE_SQL: Function = Function {
+    name: "trajdb_pipeline_sql",
+    description: "The text of sql/trajdb_pipeline.sql as this build makes it: sql/pipeline.sql, sql/warnings.sql and sql/analysis.sql \
+                  with every `.read` line replaced by the file it names (the extension's one `.read` expander), for the DuckDB CLI \
+                  from any folder (`trajdb sql-file > sql/trajdb_pipeline.sql` writes it). O(size of the SQL files).",
+    example: "SELECT trajdb_pipeline_sql() LIKE '%CREATE OR REPLACE TEMP TABLE align_frames%'; -- true",
+    maths: "crates/app/src/sql.rs",
+    binding: file!(),
+    section: Section::Pipeline,
+    see_also: &["trajdb_script", "trajdb_params_sql"],
+    signatures: &[Signature { params: &[], arities: &[], returns: Ty::Varchar, kernel: pipeline_sql }],
+    table: None,
+};
+
+fn pipeline_sql(a: &Args<'_>, out: &mut Out<'_>) -> Result<(), Box<dyn Error>> {
+    let text = crate::app::sql::single_file()?;
+    out.text(&vec![Some(text.as_str()); a.rows()]);
+    Ok(())
+}
 
 const PARAMS_SQL: Function = Function {
     name: "trajdb_params_sql",

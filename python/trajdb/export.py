@@ -18,7 +18,7 @@ and ``t_end_utc`` (ISO 8601, UTC), which QGIS's temporal controller takes.
 
 On a map (docs/maps.md): ``control_points=[(x, y, X, Y), ...]`` (at least two; x, y in the
 reference camera's frame, X, Y in ``crs``) fit a similarity transform (rotation, uniform scale,
-translation; least squares, Umeyama 1991 in complex form) that maps every path into ``crs``:
+translation; least squares: the extension's rigid_fit, Umeyama 1991) that maps every path into ``crs``:
 ``"EPSG:4326"`` (X = longitude, Y = latitude, degrees; fitted in a local east/north tangent
 plane) or a projected CRS (``"EPSG:25832"``, metres). ``fit_map`` returns the fit and its residuals.
 
@@ -87,8 +87,8 @@ class MapFit:
 
 
 def fit_map(control_points, crs):
-    """Least-squares similarity from >= 2 control points (x, y, X, Y); Umeyama (1991) with the plane
-    as complex numbers: a = sum (w - w_) conj(z - z_) / sum |z - z_|^2, b = w_ - a z_. O(n).
+    """Least-squares similarity from >= 2 control points (x, y, X, Y): the extension's rigid_fit
+    with scale (Umeyama 1991; crates/algo/src/align/rigid.rs), as X + iY = a (x + iy) + b. O(n).
     For EPSG:4326 (X = lon, Y = lat) the fit is in metres east/north of the points' mean."""
     epsg = _epsg(crs)
     if epsg is None:
@@ -106,12 +106,16 @@ def fit_map(control_points, crs):
     else:
         w = [complex(p[2], p[3]) for p in pts]
     z = [complex(p[0], p[1]) for p in pts]
-    zm, wm = sum(z) / len(z), sum(w) / len(w)
-    den = sum(abs(v - zm) ** 2 for v in z)
-    if den <= 1e-12:
-        raise ValueError("trajdb.export: the control points coincide in the local frame; give two or more distinct points")
-    a = sum((wi - wm) * (zi - zm).conjugate() for zi, wi in zip(z, w)) / den
-    b = wm - a * zm
+    # the fit is the extension's rigid_fit (Umeyama, with scale): written once, in Rust
+    from . import connect
+
+    pairs = [{"fx": wi.real, "fy": wi.imag, "mx": zi.real, "my": zi.imag} for zi, wi in zip(z, w)]
+    try:
+        f = connect().execute("SELECT rigid_fit(?::STRUCT(fx DOUBLE, fy DOUBLE, mx DOUBLE, my DOUBLE)[], 0.0, true)", [pairs]).fetchall()[0][0]
+    except Exception as e:  # the points coincide: no rotation or scale to find
+        raise ValueError("trajdb.export: the control points coincide in the local frame; give two or more distinct points") from e
+    a = f["scale"] * complex(math.cos(f["theta"]), math.sin(f["theta"]))
+    b = complex(f["tx"], f["ty"])
     residuals = [abs(a * zi + b - wi) for zi, wi in zip(z, w)]
     return MapFit(a, b, epsg, origin, residuals)
 

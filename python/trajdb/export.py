@@ -161,11 +161,17 @@ def _properties(r):
     return p
 
 
-def _wkb_m(xym):
-    """ISO WKB (little endian): LINESTRING M (2002), or POINT M (2001) for one point."""
-    if len(xym) == 1:
-        return struct.pack("<BI3d", 1, 2001, *xym[0])
-    return struct.pack("<BII", 1, 2002, len(xym)) + b"".join(struct.pack("<3d", *p) for p in xym)
+def _wkb_m(feats):
+    """ISO WKB (little endian) of every feature's (X, Y, t) path: LINESTRING M (2002), or POINT M
+    (2001) for one point. The extension's traj_to_wkb(traj, true) writes them (the one WKB
+    writer, crates/algo/src/traj.rs), all in one call."""
+    from . import connect
+
+    trajs = [[{"t": p[2], "x": p[0], "y": p[1]} for p in xym] for _, xym in feats]
+    if not trajs:
+        return []
+    got = connect().execute("SELECT [traj_to_wkb(tr, true) FOR tr IN ?::STRUCT(t DOUBLE, x DOUBLE, y DOUBLE)[][]]", [trajs]).fetchall()[0][0]
+    return [bytes(w) for w in got]
 
 
 def export(source, path, format=None, control_points=None, crs=None, overwrite=False):
@@ -261,7 +267,7 @@ def _gpkg(path, feats, epsg):
                  sources TEXT, t_start REAL, t_end REAL, t_start_utc DATETIME, t_end_utc DATETIME, duration_s REAL, length_m REAL,
                  sigma_m REAL, times TEXT)""")
     xs, ys = [], []
-    for r, xym in feats:
+    for (r, xym), wkb in zip(feats, _wkb_m(feats)):
         bx, by = [p[0] for p in xym], [p[1] for p in xym]
         xs += [min(bx), max(bx)]
         ys += [min(by), max(by)]
@@ -269,7 +275,7 @@ def _gpkg(path, feats, epsg):
         p = _properties(r)
         c.execute("INSERT INTO road_users (geom, road_user, class, n_tracks, sources, t_start, t_end, t_start_utc, t_end_utc, duration_s, "
                   "length_m, sigma_m, times) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
-                  (head + _wkb_m(xym), r["road_user"], r["class"], r["n_tracks"], p["sources"], r["t_start"], r["t_end"],
+                  (head + wkb, r["road_user"], r["class"], r["n_tracks"], p["sources"], r["t_start"], r["t_end"],
                    p.get("t_start_utc"), p.get("t_end_utc"), r["duration_s"], r["length_m"], r.get("sigma_m"), json.dumps(p["times"])))
     c.execute("INSERT INTO gpkg_contents (table_name, data_type, identifier, description, min_x, min_y, max_x, max_y, srs_id) "
               "VALUES ('road_users', 'features', 'road_users', 'trajdb road users (M = t, s)', ?, ?, ?, ?, ?)",
@@ -286,7 +292,7 @@ def _geoparquet(path, feats, epsg):
                 "duration_s DOUBLE, length_m DOUBLE, sigma_m DOUBLE, times DOUBLE[], geometry BLOB)")
     con.executemany("INSERT INTO ru VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
                     [(r["road_user"], r["class"], r["n_tracks"], _properties(r)["sources"], r["t_start"], r["t_end"], r["duration_s"],
-                      r["length_m"], r.get("sigma_m"), [p[2] for p in xym], _wkb_m(xym)) for r, xym in feats])
+                      r["length_m"], r.get("sigma_m"), [p[2] for p in xym], wkb) for (r, xym), wkb in zip(feats, _wkb_m(feats))])
     if epsg is None:
         crs = None
     elif epsg == 4326:

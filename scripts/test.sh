@@ -79,7 +79,7 @@ PY="$VENV/bin/python"
 "$PY" tests/test_crowd_python.py "$EXT"
 "$PY" tests/test_score_python.py "$EXT"
 "$PY" tests/test_readme.py "$EXT"
-"$PY" tests/check_stage_contracts.py
+"$PY" tests/check_stage_contracts.py "$EXT"
 "$PY" tests/check_rust_imports.py
 "$PY" tests/test_stages_python.py "$EXT"
 "$PY" tests/test_cli_python.py "$EXT"

@@ -31,7 +31,12 @@ The check is exact (sets are compared both ways), and every
 arrow points down: no stage names a table or macro made by a later stage, and no stage reads
 one made by nobody before it.
 
-usage: python3 tests/check_stage_contracts.py [--print]   (run from anywhere; exit 1 on a mismatch)
+What a statement creates or changes is read by the extension (trajdb_statement: the runner's own
+reading, crates/app/src/plan.rs statement_action), over the statements the extension embeds
+(trajdb_stages, trajdb_script): no second parser of statements here.
+
+usage: python3 tests/check_stage_contracts.py path/to/trajdb.duckdb_extension [--print]
+  (run from anywhere, with the `duckdb` module; exit 1 on a mismatch)
   --print  prints the contract each file's SQL implies (to write or update a header)
 """
 import os
@@ -41,8 +46,6 @@ import sys
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 FIELDS = ("stage", "reads", "makes", "work", "changes", "parameters")
 
-CREATE = re.compile(r"\bCREATE\s+(?:OR\s+REPLACE\s+)?(?:TEMP\s+|TEMPORARY\s+)?(TABLE|VIEW|MACRO)\s+(?:IF\s+NOT\s+EXISTS\s+)?(\w+)", re.I)
-CHANGE = re.compile(r"\b(?:INSERT\s+INTO|UPDATE|DELETE\s+FROM)\s+(\w+)", re.I)
 GETVAR = re.compile(r"getvariable\(\s*'([^']*)'\s*\)", re.I)
 CALIBRATED = re.compile(r"\bcalibrated(?:_values)?\(\s*'([^']*)'\s*\)", re.I)
 PARAM_DECL = re.compile(r'\b[dibs]\(\s*"(\w+)",\s*"(?:[^"\\]|\\.)*",\s*"(\w+)"')
@@ -111,9 +114,21 @@ def strip_strings(code):
     return re.sub(r"'(?:[^']|'')*'", "''", code)
 
 
-def creates(code):
-    """(name, is_macro) of every CREATE statement, in order."""
-    return [(m.group(2).lower(), m.group(1).upper() == "MACRO") for m in CREATE.finditer(code)]
+def actions(con, statements):
+    """(action, name) of every statement that creates or changes something, in order, as the
+    runner reads it (trajdb_statement): action is table, view, macro, insert, delete or update."""
+    out = []
+    for (sql,) in statements:
+        a = con.execute("SELECT trajdb_statement(?)", [sql]).fetchall()[0][0]
+        if a:
+            action, name = a.split(" ", 1)
+            out.append((action, name))
+    return out
+
+
+def creates(acts):
+    """(name, is_macro) of every CREATE, in order."""
+    return [(n, a == "macro") for a, n in acts if a in ("table", "view", "macro")]
 
 
 ANY_CREATE = re.compile(r"\bCREATE\s+(?:OR\s+REPLACE\s+)?(TEMP\s+|TEMPORARY\s+)?(\w+)\s+(?:IF\s+NOT\s+EXISTS\s+)?([\w.]+)", re.I)
@@ -136,11 +151,10 @@ def persistent_creates():
     return errors
 
 
-def load_objects():
-    """What the load step of sql/pipeline.sql creates (before `.read sql/stages.sql`)."""
-    text = open(os.path.join(ROOT, "sql/pipeline.sql"), encoding="utf-8").read()
-    text = text.split(".read sql/stages.sql")[0]
-    return dict(creates(strip_strings(strip_comments(text))))
+def load_objects(con):
+    """What the load step of sql/pipeline.sql creates (the manifest's stage 'load')."""
+    rows = con.execute("SELECT sql FROM trajdb_stages('x') WHERE stage = 'load' ORDER BY k").fetchall()
+    return dict(creates(actions(con, rows)))
 
 
 def stage_files():
@@ -207,8 +221,17 @@ def fmt(names, macros):
 
 def main():
     show = "--print" in sys.argv[1:]
+    exts = [a for a in sys.argv[1:] if not a.startswith("--")]
+    if len(exts) != 1:
+        print(__doc__.split("usage:")[1].strip())
+        return 2
+    import duckdb
+
+    con = duckdb.connect(config={"allow_unsigned_extensions": "true"})
+    con.execute("LOAD " + "'" + os.path.abspath(exts[0]).replace("'", "''") + "'")
     errors = []
-    made = dict(load_objects())           # name -> is_macro, made so far (load + earlier stages)
+    made = dict(load_objects(con))
+    embedded = con.execute("SELECT trajdb_pipeline_sql()").fetchall()[0][0]           # name -> is_macro, made so far (load + earlier stages)
     files = stage_files()
     # every name each stage creates, to find arrows pointing up
     later = {}
@@ -220,11 +243,16 @@ def main():
         text = open(path, encoding="utf-8").read()
         code = strip_comments(text)
         bare = strip_strings(code)
-        infos.append((rel, text, code, bare, creates(bare)))
-    for rel, _, _, _, cr in infos:
+        # the statements are the extension's embedded copy: it must be this file as it is on disk
+        if text not in embedded:
+            print(f"check_stage_contracts: {rel} differs from the extension's embedded copy: rebuild it (scripts/build_extension.sh)")
+            return 1
+        acts = actions(con, con.execute("SELECT sql FROM trajdb_script(?) ORDER BY k", [rel]).fetchall())
+        infos.append((rel, text, code, bare, creates(acts), acts))
+    for rel, _, _, _, cr, _ in infos:
         for n, mac in cr:
             later.setdefault(n, (rel, mac))
-    for idx, (rel, text, code, bare, cr) in enumerate(infos):
+    for idx, (rel, text, code, bare, cr, acts) in enumerate(infos):
         stem = os.path.splitext(os.path.relpath(rel, "sql/stages"))[0]
         kinds = {}
         for n, mac in cr:
@@ -232,8 +260,7 @@ def main():
         created = list(dict.fromkeys(n for n, _ in cr))
         new = [n for n in created if n not in made]
         changed = [n for n in created if n in made]
-        for m in CHANGE.finditer(bare):
-            n = m.group(1).lower()
+        for n in [n for a, n in acts if a in ("insert", "delete", "update")]:
             if n in made and n not in created and n not in changed:
                 changed.append(n)
             elif n not in made and n not in created:

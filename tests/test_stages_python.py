@@ -287,8 +287,8 @@ def test_quality_braking(ext):
         assert rows(con, "SELECT from_id, to_id FROM quality_reach_links ORDER BY 1") == reach, accel
 
 
-def test_contracts(_ext):
-    r = subprocess.run([sys.executable, os.path.join(ROOT, "tests/check_stage_contracts.py")], capture_output=True, text=True)
+def test_contracts(ext):
+    r = subprocess.run([sys.executable, os.path.join(ROOT, "tests/check_stage_contracts.py"), ext], capture_output=True, text=True)
     assert r.returncode == 0, r.stdout + r.stderr
 
 

@@ -239,15 +239,24 @@ def pipeline(points, window_s=3600.0, halo_s=None, calibrate_s=86400.0, calibrat
             offsets.append((s, int(r["camera"]), float(r["clock_offset_s"] or 0.0), float(r["clock_drift"] or 0.0)))
     off_df = spark.createDataFrame(offsets, "site string, camera int, clock_offset_s double, clock_drift double")
 
-    # 2. every track's span on its site's reference clock ((t - O) / (1 + D), as align.sql does)
+    # 2. every track's span on its site's reference clock, by the extension's clock model
+    # (clock_to_reference, crates/algo/src/align/clock.rs: what align.sql does to every point)
+    def on_reference_clock(table):
+        from pyspark import SparkFiles
+
+        con = W.connect(SparkFiles.get(ext_name), threads_per_task)
+        con.register("trajdb_spans", table)
+        return W._arrow(con.sql(
+            "SELECT site, camera, track_id, clock_to_reference(t0, off, drift) AS t0, clock_to_reference(t1, off, drift) AS t1, "
+            "clock_to_reference(t0_real, off, drift) AS t0_real FROM trajdb_spans"))
+
     tracks = (
         pts.groupBy("site", "camera", "track_id")
         .agg(F.min("t").alias("t0"), F.max("t").alias("t1"), F.min(F.when(F.col("estimated") == 0, F.col("t"))).alias("t0_real"))
         .join(F.broadcast(off_df), ["site", "camera"], "left")
-        .withColumn("off", F.coalesce("clock_offset_s", F.lit(0.0)))
-        .withColumn("rate", F.lit(1.0) + F.coalesce("clock_drift", F.lit(0.0)))
-        .select("site", "camera", "track_id", ((F.col("t0") - F.col("off")) / F.col("rate")).alias("t0"),
-                ((F.col("t1") - F.col("off")) / F.col("rate")).alias("t1"), ((F.col("t0_real") - F.col("off")) / F.col("rate")).alias("t0_real"))
+        .select("site", "camera", "track_id", "t0", "t1", "t0_real", F.coalesce("clock_offset_s", F.lit(0.0)).alias("off"),
+                F.coalesce("clock_drift", F.lit(0.0)).alias("drift"))
+        .groupBy("site").applyInArrow(on_reference_clock, "site string, camera int, track_id long, t0 double, t1 double, t0_real double")
     ).cache()
     if halo_s is None:
         # before: the reach of a candidate link; after: the longest usual track too (p99 per

@@ -23,7 +23,37 @@ use std::error::Error;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;
 
-pub static FUNCTIONS: &[Function] = &[PIPELINE, STAGES, SCRIPT, PARAMS_TABLE, PARAMS_SCRIPT, REFERENCE];
+pub static FUNCTIONS: &[Function] = &[PIPELINE, STAGES, SCRIPT, STATEMENT, PARAMS_TABLE, PARAMS_SCRIPT, REFERENCE];
+
+const STATEMENT: Function = Function {
+    name: "trajdb_statement",
+    description: "What one SQL statement does to which table, view or macro, as the runner reads it (its undo, the manifest's `makes`): \
+                  'ACTION NAME', ACTION one of table, view, macro (a CREATE), insert, delete, update and NAME the lower-case name; \
+                  NULL for any other statement (SELECT, SET, ...). Comment lines before the statement are skipped. \
+                  tests/check_stage_contracts.py reads every stage's statements with it. O(length of the statement's first words).",
+    example: "SELECT trajdb_statement('CREATE OR REPLACE TEMP MACRO m(x) AS x + 1'); -- macro m",
+    maths: "crates/app/src/plan.rs",
+    binding: file!(),
+    section: Section::Pipeline,
+    see_also: &["trajdb_script", "trajdb_stages"],
+    signatures: &[Signature {
+        params: &[pd("sql", Ty::Varchar, "one SQL statement (a row of trajdb_script or trajdb_stages)")],
+        arities: &[],
+        returns: Ty::Varchar,
+        kernel: statement,
+    }],
+    table: None,
+};
+
+fn statement(a: &Args<'_>, out: &mut Out<'_>) -> Result<(), Box<dyn Error>> {
+    let sql = a.text(0);
+    let vals = a.map(|r| {
+        let Some(text) = sql.get(r) else { return Ok(None) };
+        Ok(plan::statement_action(&text).map(|(action, name)| format!("{action} {name}")))
+    })?;
+    out.text(&vals);
+    Ok(())
+}
 
 /// `out_dir` and every declared pipeline parameter, as named parameters of trajdb_pipeline.
 static PIPELINE_NAMED: [Param; N_PARAMS + 1] = {

@@ -108,10 +108,18 @@ pub struct Request {
     pub params: Vec<(String, String)>,
 }
 
-/// The table a statement creates or changes: `CREATE [OR REPLACE] [TEMP|TEMPORARY]
-/// TABLE|VIEW|MACRO [IF NOT EXISTS] name`, `INSERT INTO name`, `DELETE FROM name`, `UPDATE name`
-/// (lower case); `None` for anything else. Comment lines before it are skipped.
+/// The table a statement creates or changes ([`statement_action`]'s name); `None` for anything else.
 pub fn statement_target(stmt: &str) -> Option<String> {
+    statement_action(stmt).map(|(_, name)| name)
+}
+
+/// What a statement does to which table, view or macro: `CREATE [OR REPLACE] [TEMP|TEMPORARY]
+/// TABLE|VIEW|MACRO [IF NOT EXISTS] name` gives ("table" | "view" | "macro", name), `INSERT INTO
+/// name` ("insert", name), `DELETE FROM name` ("delete", name), `UPDATE name` ("update", name),
+/// names in lower case; `None` for anything else. Comment lines before it are skipped. The one
+/// reading of a statement's target: the runner's undo and the stage contract check
+/// (tests/check_stage_contracts.py, through `trajdb_statement`) both use it.
+pub fn statement_action(stmt: &str) -> Option<(&'static str, String)> {
     let code: String = stmt.lines().filter(|l| !l.trim_start().starts_with("--")).collect::<Vec<_>>().join("\n");
     let words: Vec<String> = code.split_whitespace().take(9).map(|w| w.to_ascii_lowercase()).collect();
     let w: Vec<&str> = words.iter().map(String::as_str).collect();
@@ -129,17 +137,21 @@ pub fn statement_target(stmt: &str) -> Option<String> {
             if matches!(w.get(k), Some(&"temp") | Some(&"temporary")) {
                 k += 1;
             }
-            if !matches!(w.get(k), Some(&"table") | Some(&"view") | Some(&"macro")) {
-                return None;
-            }
+            let kind = match w.get(k) {
+                Some(&"table") => "table",
+                Some(&"view") => "view",
+                Some(&"macro") => "macro",
+                _ => return None,
+            };
             k += 1;
             if w.get(k) == Some(&"if") && w.get(k + 1) == Some(&"not") && w.get(k + 2) == Some(&"exists") {
                 k += 3;
             }
-            name_at(k)
+            name_at(k).map(|n| (kind, n))
         }
-        ["insert", "into", ..] | ["delete", "from", ..] => name_at(2),
-        ["update", ..] => name_at(1),
+        ["insert", "into", ..] => name_at(2).map(|n| ("insert", n)),
+        ["delete", "from", ..] => name_at(2).map(|n| ("delete", n)),
+        ["update", ..] => name_at(1).map(|n| ("update", n)),
         _ => None,
     }
 }
@@ -463,6 +475,9 @@ mod tests {
         assert_eq!(statement_target("UPDATE align_frames SET a = 1").as_deref(), Some("align_frames"));
         assert_eq!(statement_target("SELECT 1"), None);
         assert_eq!(statement_target("SET VARIABLE x = 1"), None);
+        assert_eq!(statement_action("CREATE OR REPLACE TEMP MACRO m(x) AS x"), Some(("macro", "m".to_string())));
+        assert_eq!(statement_action("-- c\nUPDATE Points SET t = 1"), Some(("update", "points".to_string())));
+        assert_eq!(statement_action("CREATE INDEX i ON t (a)"), None);
     }
 
     #[test]

@@ -49,8 +49,8 @@ WITH c AS (SELECT camera, avg(x) AS mx, avg(y) AS my FROM s_points GROUP BY came
                   a.clock_offset_s AS o_a, b.clock_offset_s AS o_b, a.clock_drift_ppm * 1e-6 AS d_a, b.clock_drift_ppm * 1e-6 AS d_b,
                   (a.clock_drift_ppm - b.clock_drift_ppm) / (1.0 + b.clock_drift_ppm * 1e-6) AS drift_true_ppm,
                   -- camera b's recorded span in world time
-                  coalesce((s.t0 - b.clock_offset_s) / (1.0 + b.clock_drift_ppm * 1e-6), 0.0) AS w0,
-                  coalesce((s.t1 - b.clock_offset_s) / (1.0 + b.clock_drift_ppm * 1e-6), 0.0) AS w1,
+                  coalesce(clock_to_reference(s.t0, b.clock_offset_s, b.clock_drift_ppm * 1e-6), 0.0) AS w0,
+                  coalesce(clock_to_reference(s.t1, b.clock_offset_s, b.clock_drift_ppm * 1e-6), 0.0) AS w1,
                   -- a pair written without a transform (empty fields) is not placed: NULL errors, not an error
                   CASE WHEN e.theta_rad IS NOT NULL AND e.tx IS NOT NULL AND e.ty IS NOT NULL
                        THEN transform_point({'theta': e.theta_rad, 'tx': e.tx, 'ty': e.ty, 'scale': e.scale}, c.mx, c.my) END AS est,
@@ -72,7 +72,7 @@ FROM k;
 -- world positions and world times of the real points, with the object of each track
 CREATE OR REPLACE TEMP TABLE s_world AS
 SELECT camera, track_id, class, t, object_id, w.x AS wx, w.y AS wy
-FROM (SELECT p.camera, p.track_id, p.class, (p.t - k.clock_offset_s) / (1.0 + k.clock_drift_ppm * 1e-6) AS t, tr.object_id,
+FROM (SELECT p.camera, p.track_id, p.class, clock_to_reference(p.t, k.clock_offset_s, k.clock_drift_ppm * 1e-6) AS t, tr.object_id,
              transform_point(c.tf, p.x, p.y) AS w
       FROM s_points p JOIN s_true c USING (camera) JOIN s_cameras k USING (camera) JOIN s_truth tr USING (camera, track_id)
       WHERE p.estimated = 0 AND tr.is_noise = 0);
@@ -263,6 +263,6 @@ FROM (SELECT max(rot_deg) AS rot_deg, max(trans_m) AS trans_m, max(clock_err_s) 
 -- The demo's targets (`trajdb demo`, scripts/demo.sh and trajdb.demo() read them here, one
 -- place): match F1 >= 0.95 and every camera pair within 0.5 deg and 0.3 m.
 CREATE OR REPLACE TEMP TABLE s_demo AS
-SELECT 0.95 AS target_f1, 0.5 AS target_rot_deg, 0.3 AS target_trans_m,
+SELECT 0.95::DOUBLE AS target_f1, 0.5::DOUBLE AS target_rot_deg, 0.3::DOUBLE AS target_trans_m,
        coalesce(match_f1 >= 0.95 AND rot_deg <= 0.5 AND trans_m <= 0.3, false) AS passed
 FROM s_summary;

@@ -49,7 +49,7 @@ WITH mp AS (SELECT road_user, class, unnest(traj) AS p, generate_subscripts(traj
             FROM read_parquet(getvariable('score_results') || '/merged.parquet')),
      fused AS (SELECT m.road_user, m.class, -1 AS source, m.k, m.p.t AS t_ref, m.p.x, m.p.y FROM mp m),
      src AS (SELECT r.road_user, r.class, p.camera AS source, NULL::BIGINT AS k,
-                    (p.t - c.off) / (1 + c.drift) AS t_ref, tp.w.x AS x, tp.w.y AS y
+                    clock_to_reference(p.t, c.off, c.drift) AS t_ref, tp.w.x AS x, tp.w.y AS y
              FROM s_points p
              JOIN s_ru r ON r.camera = p.camera AND r.track_id = p.track_id
              JOIN s_to_ref c ON c.camera = p.camera,

@@ -244,7 +244,8 @@ def main():
         code = strip_comments(text)
         bare = strip_strings(code)
         # the statements are the extension's embedded copy: it must be this file as it is on disk
-        if text not in embedded:
+        whole = "".join(line + "\n" for line in text.splitlines())
+        if "\n" + whole + "\n;\n" not in embedded:
             print(f"check_stage_contracts: {rel} differs from the extension's embedded copy: rebuild it (scripts/build_extension.sh)")
             return 1
         acts = actions(con, con.execute("SELECT sql FROM trajdb_script(?) ORDER BY k", [rel]).fetchall())

@@ -569,9 +569,10 @@ def demo(out="trajdb-demo", **params):
     s = score(con, out, results)
     ok, tf1, trot, ttrans = con.execute("SELECT passed, target_f1, target_rot_deg, target_trans_m FROM s_demo").fetchall()[0]
     print(f"simulated {row[1]} objects, {row[2]} cameras, {row[3]} tracks, {row[4]} points -> {out}")
+    num = lambda v: "none" if v is None else f"{v:.3f}"  # noqa: E731  (no camera pair placed: NULL)
     print(
-        f"demo {'PASSED' if ok else 'FAILED'}: match F1 {s['match_f1']:.3f} (target >= {tf1}), IDF1 {s['idf1']:.3f}, "
-        f"worst camera pair {s['rot_deg']:.3f} deg / {s['trans_m']:.3f} m (targets {trot} deg / {ttrans} m); results in {results}"
+        f"demo {'PASSED' if ok else 'FAILED'}: match F1 {num(s['match_f1'])} (target >= {tf1}), IDF1 {num(s['idf1'])}, "
+        f"worst camera pair {num(s['rot_deg'])} deg / {num(s['trans_m'])} m (targets {trot} deg / {ttrans} m); results in {results}"
     )
     if not ok:
         raise RuntimeError("demo: the pipeline missed its accuracy targets")

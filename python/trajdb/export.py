@@ -109,11 +109,18 @@ def fit_map(control_points, crs):
     # the fit is the extension's rigid_fit (Umeyama, with scale): written once, in Rust
     from . import connect
 
+    # (a data check, not a fit: points closer than a micrometre tell no rotation or scale)
+    zm = sum(z) / len(z)
+    if sum(abs(v - zm) ** 2 for v in z) <= 1e-12:
+        raise ValueError("trajdb.export: the control points coincide in the local frame; give two or more distinct points")
     pairs = [{"fx": wi.real, "fy": wi.imag, "mx": zi.real, "my": zi.imag} for zi, wi in zip(z, w)]
     try:
         f = connect().execute("SELECT rigid_fit(?::STRUCT(fx DOUBLE, fy DOUBLE, mx DOUBLE, my DOUBLE)[], 0.0, true)", [pairs]).fetchall()[0][0]
-    except Exception as e:  # the points coincide: no rotation or scale to find
-        raise ValueError("trajdb.export: the control points coincide in the local frame; give two or more distinct points") from e
+    except Exception as e:
+        raise ValueError(f"trajdb.export: the control points give no map fit: {e}") from e
+    if not (math.isfinite(f["scale"]) and f["scale"] > 1e-9 and math.isfinite(f["tx"]) and math.isfinite(f["ty"])):
+        raise ValueError(f"trajdb.export: the control points give no usable map fit (scale {f['scale']}): do the map points coincide, "
+                         "or are they beyond the range of doubles? give distinct points in both frames")
     a = f["scale"] * complex(math.cos(f["theta"]), math.sin(f["theta"]))
     b = complex(f["tx"], f["ty"])
     residuals = [abs(a * zi + b - wi) for zi, wi in zip(z, w)]

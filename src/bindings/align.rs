@@ -563,7 +563,7 @@ pub static FUNCTIONS: &[Function] = &[
         name: "angle_wrap_deg",
         description: "An angle, or the difference of two, in degrees wrapped to [-180, 180): ((a + 540) % 360) - 180 (align.sql's \
                       agreement of two rotations, the score's rotation error), also right below -540. NULL for NULL; an error for a \
-                      value that is not finite. O(1).",
+                      value that is not finite or beyond +-1e15 degrees. O(1).",
         example: "SELECT [angle_wrap_deg(350.0), angle_wrap_deg(-190.0)]; -- [-10.0, 170.0]",
         maths: RIGID,
         binding: file!(),
@@ -857,8 +857,8 @@ fn angle_wrap_deg(a: &Args<'_>, out: &mut Out<'_>) -> R {
     let get = a.doubles::<1>();
     let vals = a.map(|r| {
         let Some([v]) = get(r) else { return Ok(None) };
-        if !v.is_finite() {
-            return Err(format!("a must be finite, got {v}").into());
+        if !(v.abs() <= rigid::MAX_WRAP_DEG) {
+            return Err(format!("a must be finite and within +-{:e} degrees (beyond it a double no longer resolves the turn), got {v}", rigid::MAX_WRAP_DEG).into());
         }
         Ok(Some(rigid::wrap_deg(v)))
     })?;

@@ -89,8 +89,12 @@ pub static FUNCTIONS: &[Function] = &[
     },
 ];
 
-fn values(c: Clock) -> Vec<Value> {
-    vec![Value::F64(c.offset), Value::F64(c.drift)]
+/// A result clock, checked like an argument: finite inputs can still overflow (offsets near
+/// 1e308) or reach a drift of -1 by rounding; that is an error, never a clock that the next
+/// call refuses.
+fn values(c: Clock) -> Result<Vec<Value>, Box<dyn Error>> {
+    let c = Clock::checked(c.offset, c.drift).map_err(|e| format!("the result is not a clock: {e}; the inputs are too large or too close to -1"))?;
+    Ok(vec![Value::F64(c.offset), Value::F64(c.drift)])
 }
 
 /// A CLOCK argument, checked (the error names the argument).
@@ -106,7 +110,11 @@ fn clock_to_reference(a: &Args<'_>, out: &mut Out<'_>) -> R {
         if !t.is_finite() {
             return Err(format!("t must be finite, got {t}").into());
         }
-        Ok(Some(c.to_reference(t)))
+        let r = c.to_reference(t);
+        if !r.is_finite() {
+            return Err(format!("the result ({r}) is not finite: t and offset are too large").into());
+        }
+        Ok(Some(r))
     })?;
     out.flat(&vals);
     Ok(())
@@ -116,7 +124,7 @@ fn clock_compose(a: &Args<'_>, out: &mut Out<'_>) -> R {
     let (x, y) = (a.structure(0), a.structure(1));
     let vals = a.map(|r| {
         let (Some(u), Some(v)) = (x.get(r)?, y.get(r)?) else { return Ok(None) };
-        Ok(Some(values(read(a, 0, &u)?.compose(&read(a, 1, &v)?))))
+        Ok(Some(values(read(a, 0, &u)?.compose(&read(a, 1, &v)?))?))
     })?;
     out.structs(&vals);
     Ok(())
@@ -126,7 +134,7 @@ fn clock_invert(a: &Args<'_>, out: &mut Out<'_>) -> R {
     let x = a.structure(0);
     let vals = a.map(|r| {
         let Some(u) = x.get(r)? else { return Ok(None) };
-        Ok(Some(values(read(a, 0, &u)?.invert())))
+        Ok(Some(values(read(a, 0, &u)?.invert())?))
     })?;
     out.structs(&vals);
     Ok(())
@@ -136,7 +144,7 @@ fn clock_between(a: &Args<'_>, out: &mut Out<'_>) -> R {
     let (x, y) = (a.structure(0), a.structure(1));
     let vals = a.map(|r| {
         let (Some(u), Some(v)) = (x.get(r)?, y.get(r)?) else { return Ok(None) };
-        Ok(Some(values(Clock::between(&read(a, 0, &u)?, &read(a, 1, &v)?))))
+        Ok(Some(values(Clock::between(&read(a, 0, &u)?, &read(a, 1, &v)?))?))
     })?;
     out.structs(&vals);
     Ok(())
@@ -152,7 +160,7 @@ fn clock_from_relative(a: &Args<'_>, out: &mut Out<'_>) -> R {
                 return Err(format!("{name} must be finite, got {v}").into());
             }
         }
-        Ok(Some(values(Clock::from_relative(c, d, om, of))))
+        Ok(Some(values(Clock::from_relative(c, d, om, of))?))
     })?;
     out.structs(&vals);
     Ok(())

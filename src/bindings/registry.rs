@@ -157,7 +157,9 @@ impl Section {
             Section::Clocks => {
                 "Bringing two cameras onto one clock: coarse offsets from activity or speed profiles, scans of one track pair's \
                  offset, the offset and transform that fit many track pairs together, one pair's offset under a known transform, \
-                 a camera pair's clock drift, and the cameras' values solved from every pair's difference."
+                 a camera pair's clock drift, and the cameras' values solved from every pair's difference. The clock model itself, \
+                 t_camera = (1 + drift) t_reference + offset, is written once (crates/algo/src/align/clock.rs): clock_to_reference, \
+                 clock_compose, clock_invert, clock_between and clock_from_relative."
             }
             Section::Association => {
                 "Deciding which tracks of two cameras are one road user (docs/association.md): the distance and constant offset of \

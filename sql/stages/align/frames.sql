@@ -9,6 +9,8 @@
 -- trajdb align, the spanning tree of camera pairs to the reference camera (step 4), every camera's frame and clock,
 --        calibration_summary, and `points` on the reference camera's clock (step 5).
 -- Part of the stage align (sql/stages/align.sql: the method, the files in order).
+-- At its end it drops the align work tables no later stage needs (align_tracks, align_keys,
+-- align_support_voted, align_register_pairs: memory), as the stage's last file.
 
 -- 4. spanning tree: widest path from every camera to the reference camera (the one with the
 --    most support; ties: the first in the data order), composing moving -> fixed transforms (inverted when walked backwards).

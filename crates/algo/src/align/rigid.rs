@@ -45,6 +45,10 @@ pub fn wrap_angle(a: f64) -> f64 {
 /// `((a + 540) mod 360) − 180` with C's `fmod` (SQL's `%` on doubles), so that align.sql's
 /// agreement tests and the score's rotation error get the same doubles as the formula written in
 /// SQL; an `a` below −540 (where `fmod` turns negative) is brought up by one more turn. O(1).
+/// The largest |angle| (degrees) [`wrap_deg`] takes: beyond it `a + 540` loses the degrees
+/// that decide the wrap (at 1e19 the result was 180 degrees off). Callers refuse larger values.
+pub const MAX_WRAP_DEG: f64 = 1e15;
+
 pub fn wrap_deg(a: f64) -> f64 {
     let r = ((a + 540.0) % 360.0) - 180.0;
     if r < -180.0 {

@@ -114,16 +114,12 @@ def strip_strings(code):
     return re.sub(r"'(?:[^']|'')*'", "''", code)
 
 
-def actions(con, statements):
-    """(action, name) of every statement that creates or changes something, in order, as the
-    runner reads it (trajdb_statement): action is table, view, macro, insert, delete or update."""
-    out = []
-    for (sql,) in statements:
-        a = con.execute("SELECT trajdb_statement(?)", [sql]).fetchall()[0][0]
-        if a:
-            action, name = a.split(" ", 1)
-            out.append((action, name))
-    return out
+def actions(con, query, args):
+    """(action, name) of every statement of `query` (rows of trajdb_stages or trajdb_script) that
+    creates or changes something, in order, as the runner reads it (trajdb_statement): action
+    is table, view, macro, insert, delete or update. One query per file."""
+    rows = con.execute(f"SELECT trajdb_statement(sql) FROM ({query}) ORDER BY k", args).fetchall()
+    return [tuple(a.split(" ", 1)) for (a,) in rows if a]
 
 
 def creates(acts):
@@ -153,8 +149,7 @@ def persistent_creates():
 
 def load_objects(con):
     """What the load step of sql/pipeline.sql creates (the manifest's stage 'load')."""
-    rows = con.execute("SELECT sql FROM trajdb_stages('x') WHERE stage = 'load' ORDER BY k").fetchall()
-    return dict(creates(actions(con, rows)))
+    return dict(creates(actions(con, "SELECT k, sql FROM trajdb_stages('x') WHERE stage = 'load'", [])))
 
 
 def stage_files():
@@ -248,7 +243,7 @@ def main():
         if "\n" + whole + "\n;\n" not in embedded:
             print(f"check_stage_contracts: {rel} differs from the extension's embedded copy: rebuild it (scripts/build_extension.sh)")
             return 1
-        acts = actions(con, con.execute("SELECT sql FROM trajdb_script(?) ORDER BY k", [rel]).fetchall())
+        acts = actions(con, "SELECT k, sql FROM trajdb_script(?)", [rel])
         infos.append((rel, text, code, bare, creates(acts), acts))
     for rel, _, _, _, cr, _ in infos:
         for n, mac in cr:

@@ -533,10 +533,8 @@ def print_score(con, scenario, results):
     them (the same text; benches/identity_grid.sh and tests/test_cli_python.py read it by
     position). Returns (worst rotation deg, worst translation m, overall match F1); the errors
     are infinite when no camera pair was placed."""
-    trajdb.score(con, scenario, results)
-    rot, trans, clock, drift = con.execute(
-        "SELECT max(rot_deg), max(trans_m), max(clock_err_s), max(drift_err_ppm) FROM s_pair_err WHERE cam_from < cam_to"
-    ).fetchone()
+    s = trajdb.score(con, scenario, results)  # s_summary: the worst camera pair, computed once in sql/score.sql
+    rot, trans, clock, drift = s["rot_deg"], s["trans_m"], s["clock_s"], s["drift_ppm"]
     if None not in (rot, trans, clock, drift):
         # the line ends with the clock error in ms: benches/identity_grid.sh reads it there
         out(f"camera pairs: worst rotation error {_r(_f(rot), 3)} deg, worst translation error {_r(_f(trans), 3)} m, "

@@ -857,10 +857,7 @@ fn angle_wrap_deg(a: &Args<'_>, out: &mut Out<'_>) -> R {
     let get = a.doubles::<1>();
     let vals = a.map(|r| {
         let Some([v]) = get(r) else { return Ok(None) };
-        if !(v.abs() <= rigid::MAX_WRAP_DEG) {
-            return Err(format!("a must be finite and within +-{:e} degrees (beyond it a double no longer resolves the turn), got {v}", rigid::MAX_WRAP_DEG).into());
-        }
-        Ok(Some(rigid::wrap_deg(v)))
+        Ok(Some(rigid::wrap_deg_checked(v)?))
     })?;
     out.flat(&vals);
     Ok(())

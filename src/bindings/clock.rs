@@ -89,11 +89,9 @@ pub static FUNCTIONS: &[Function] = &[
     },
 ];
 
-/// A result clock, checked like an argument: finite inputs can still overflow (offsets near
-/// 1e308) or reach a drift of -1 by rounding; that is an error, never a clock that the next
-/// call refuses.
+/// A computed clock, checked (`Clock::result`: an overflow is an error).
 fn values(c: Clock) -> Result<Vec<Value>, Box<dyn Error>> {
-    let c = Clock::checked(c.offset, c.drift).map_err(|e| format!("the result is not a clock: {e}; the inputs are too large or too close to -1"))?;
+    let c = c.result()?;
     Ok(vec![Value::F64(c.offset), Value::F64(c.drift)])
 }
 
@@ -106,15 +104,7 @@ fn clock_to_reference(a: &Args<'_>, out: &mut Out<'_>) -> R {
     let get = a.doubles::<3>();
     let vals = a.map(|r| {
         let Some([t, o, d]) = get(r) else { return Ok(None) };
-        let c = Clock::checked(o, d)?;
-        if !t.is_finite() {
-            return Err(format!("t must be finite, got {t}").into());
-        }
-        let r = c.to_reference(t);
-        if !r.is_finite() {
-            return Err(format!("the result ({r}) is not finite: t and offset are too large").into());
-        }
-        Ok(Some(r))
+        Ok(Some(Clock::checked(o, d)?.to_reference_checked(t)?))
     })?;
     out.flat(&vals);
     Ok(())
@@ -154,13 +144,7 @@ fn clock_from_relative(a: &Args<'_>, out: &mut Out<'_>) -> R {
     let get = a.doubles::<4>();
     let vals = a.map(|r| {
         let Some([c, d, om, of]) = get(r) else { return Ok(None) };
-        Clock::checked(0.0, d)?;
-        for (name, v) in [("c", c), ("origin_moving", om), ("origin_fixed", of)] {
-            if !v.is_finite() {
-                return Err(format!("{name} must be finite, got {v}").into());
-            }
-        }
-        Ok(Some(values(Clock::from_relative(c, d, om, of))?))
+        Ok(Some(values(Clock::from_relative_checked(c, d, om, of)?)?))
     })?;
     out.structs(&vals);
     Ok(())

@@ -12,23 +12,40 @@
 
 use std::fmt;
 
-/// A clock that is not one: an offset that is not finite, or a drift that is not finite and
-/// above −1 (a clock must run forwards).
+/// A clock that is not one: an input that is not finite, a drift that is not finite and above
+/// −1 (a clock must run forwards), or a result that overflowed (finite inputs near 1e308, or a
+/// drift rounded to −1).
 #[derive(Clone, Debug, PartialEq)]
-pub struct ClockError {
-    pub field: &'static str,
-    pub value: f64,
+pub enum ClockError {
+    /// An argument (`offset`, `t`, `c`, `origin_moving`, ...) that is not finite.
+    NotFinite { field: &'static str, value: f64 },
+    /// A drift that is not finite and > −1.
+    Drift(f64),
+    /// A computed clock that is not one.
+    NotAClock(Box<ClockError>),
+    /// A computed time that is not finite.
+    TimeOverflow(f64),
 }
 
 impl fmt::Display for ClockError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self.field {
-            "drift" => write!(f, "drift must be finite and > -1 (a fraction: 2e-4 is 200 ppm), got {}", self.value),
-            field => write!(f, "{field} must be finite, got {}", self.value),
+        match self {
+            ClockError::NotFinite { field, value } => write!(f, "{field} must be finite, got {value}"),
+            ClockError::Drift(v) => write!(f, "drift must be finite and > -1 (a fraction: 2e-4 is 200 ppm), got {v}"),
+            ClockError::NotAClock(e) => write!(f, "the result is not a clock: {e}; the inputs are too large or too close to -1"),
+            ClockError::TimeOverflow(r) => write!(f, "the result ({r}) is not finite: t and offset are too large"),
         }
     }
 }
 impl std::error::Error for ClockError {}
+
+fn finite(field: &'static str, value: f64) -> Result<f64, ClockError> {
+    if value.is_finite() {
+        Ok(value)
+    } else {
+        Err(ClockError::NotFinite { field, value })
+    }
+}
 
 /// A clock against a reference: `t = (1 + drift) · t_reference + offset`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -49,13 +66,37 @@ impl Clock {
 
     /// A clock, checked: the offset finite, the drift finite and > −1.
     pub fn checked(offset: f64, drift: f64) -> Result<Clock, ClockError> {
-        if !offset.is_finite() {
-            return Err(ClockError { field: "offset", value: offset });
-        }
+        finite("offset", offset)?;
         if !(drift.is_finite() && drift > -1.0) {
-            return Err(ClockError { field: "drift", value: drift });
+            return Err(ClockError::Drift(drift));
         }
         Ok(Clock { offset, drift })
+    }
+
+    /// This clock as the result of a computation, checked like an argument: finite inputs can
+    /// still overflow or round a drift to −1, and that is an error, never a clock that the next
+    /// call refuses.
+    pub fn result(self) -> Result<Clock, ClockError> {
+        Clock::checked(self.offset, self.drift).map_err(|e| ClockError::NotAClock(Box::new(e)))
+    }
+
+    /// [`Clock::to_reference`] of a finite `t`, its result checked to be finite.
+    pub fn to_reference_checked(&self, t: f64) -> Result<f64, ClockError> {
+        let r = self.to_reference(finite("t", t)?);
+        if r.is_finite() {
+            Ok(r)
+        } else {
+            Err(ClockError::TimeOverflow(r))
+        }
+    }
+
+    /// [`Clock::from_relative`] of checked inputs, its result checked.
+    pub fn from_relative_checked(c: f64, drift: f64, origin_moving: f64, origin_fixed: f64) -> Result<Clock, ClockError> {
+        Clock::checked(0.0, drift)?;
+        finite("c", c)?;
+        finite("origin_moving", origin_moving)?;
+        finite("origin_fixed", origin_fixed)?;
+        Clock::from_relative(c, drift, origin_moving, origin_fixed).result()
     }
 
     /// A time of this clock on the reference clock: `(t − O) / (1 + D)`.
@@ -110,6 +151,11 @@ mod tests {
         assert!(Clock::checked(0.0, -1.0).unwrap_err().to_string().starts_with("drift must be finite and > -1"));
         assert!(Clock::checked(0.0, f64::INFINITY).is_err());
         assert_eq!(Clock::checked(1.0, -0.5).unwrap(), Clock::new(1.0, -0.5));
+        assert_eq!(Clock::new(0.0, 1e200).compose(&Clock::new(0.0, 1e200)).result().unwrap_err().to_string(),
+                   "the result is not a clock: drift must be finite and > -1 (a fraction: 2e-4 is 200 ppm), got inf; the inputs are too large or too close to -1");
+        assert_eq!(Clock::new(-1e308, 0.0).to_reference_checked(1e308).unwrap_err(), ClockError::TimeOverflow(f64::INFINITY));
+        assert_eq!(Clock::IDENTITY.to_reference_checked(f64::NAN).unwrap_err().to_string(), "t must be finite, got NaN");
+        assert_eq!(Clock::from_relative_checked(0.0, 0.0, 1.0, f64::NAN).unwrap_err().to_string(), "origin_fixed must be finite, got NaN");
     }
 
     #[test]

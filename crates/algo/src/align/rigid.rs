@@ -49,6 +49,15 @@ pub fn wrap_angle(a: f64) -> f64 {
 /// that decide the wrap (at 1e19 the result was 180 degrees off). Callers refuse larger values.
 pub const MAX_WRAP_DEG: f64 = 1e15;
 
+/// [`wrap_deg`] of an angle that is finite and within ±[`MAX_WRAP_DEG`]; an error naming the
+/// argument otherwise.
+pub fn wrap_deg_checked(a: f64) -> Result<f64, RigidError> {
+    if !(a.abs() <= MAX_WRAP_DEG) {
+        return Err(RigidError::Angle(a));
+    }
+    Ok(wrap_deg(a))
+}
+
 pub fn wrap_deg(a: f64) -> f64 {
     let r = ((a + 540.0) % 360.0) - 180.0;
     if r < -180.0 {
@@ -134,6 +143,8 @@ pub enum RigidError {
     Trim(f64),
     /// A pair holds NaN or infinity (1-based pair, field name, value).
     PairNotFinite { index: usize, field: &'static str, value: f64 },
+    /// An angle (degrees) to wrap that is not finite or beyond ±[`MAX_WRAP_DEG`].
+    Angle(f64),
 }
 
 impl fmt::Display for RigidError {
@@ -145,6 +156,9 @@ impl fmt::Display for RigidError {
             RigidError::Scale(s) => write!(f, "scale must be between 1e-150 and 1e150, got {s:?}"),
             RigidError::Trim(t) => write!(f, "trim must be in [0, 1), got {t}"),
             RigidError::PairNotFinite { index, field, value } => write!(f, "pairs[{index}].{field} must be finite, got {value}"),
+            RigidError::Angle(a) => {
+                write!(f, "a must be finite and within +-{MAX_WRAP_DEG:e} degrees (beyond it a double no longer resolves the turn), got {a}")
+            }
         }
     }
 }

@@ -262,7 +262,70 @@ FROM (SELECT max(rot_deg) AS rot_deg, max(trans_m) AS trans_m, max(clock_err_s) 
 
 -- The demo's targets (`trajdb demo`, scripts/demo.sh and trajdb.demo() read them here, one
 -- place): match F1 >= 0.95 and every camera pair within 0.5 deg and 0.3 m.
+-- `line` is the verdict `trajdb demo` and trajdb.demo() print (none: no camera pair placed).
 CREATE OR REPLACE TEMP TABLE s_demo AS
-SELECT 0.95::DOUBLE AS target_f1, 0.5::DOUBLE AS target_rot_deg, 0.3::DOUBLE AS target_trans_m,
-       coalesce(match_f1 >= 0.95 AND rot_deg <= 0.5 AND trans_m <= 0.3, false) AS passed
-FROM s_summary;
+WITH d AS (SELECT 0.95::DOUBLE AS target_f1, 0.5::DOUBLE AS target_rot_deg, 0.3::DOUBLE AS target_trans_m,
+                  coalesce(match_f1 >= 0.95 AND rot_deg <= 0.5 AND trans_m <= 0.3, false) AS passed, s.*
+           FROM s_summary s)
+SELECT target_f1, target_rot_deg, target_trans_m, passed,
+       format('demo {}: match F1 {} (target >= {}), IDF1 {}, worst camera pair {} deg / {} m (targets {} deg / {} m)',
+              CASE WHEN passed THEN 'PASSED' ELSE 'FAILED' END, coalesce(printf('%.3f', match_f1), 'none'), target_f1,
+              coalesce(printf('%.3f', idf1), 'none'), coalesce(printf('%.3f', rot_deg), 'none'), coalesce(printf('%.3f', trans_m), 'none'),
+              target_rot_deg, target_trans_m) AS line
+FROM d;
+
+-- ---------------------------------------------------------------- the printout
+-- What `trajdb score` (and `trajdb demo`) print, one row per line, in table s_printout
+-- (section, k, line), ORDER BY section, k. Sections 10-20 and 40 are written here; section 30
+-- (the paths, when the scenario has world.csv) by sql/score_path.sql. benches/identity_grid.sh
+-- and tests/test_cli_python.py read the lines by position: change a column, change them too.
+-- Numbers are printed as Rust's `{:.N}` did (the printout of the binary that preceded the
+-- Python command): NULL or NaN as NaN (s_num), an optional figure's NULL as - (s_opt).
+CREATE OR REPLACE TEMP MACRO s_num(v, fmt) AS
+    CASE WHEN v IS NULL OR isnan(v::DOUBLE) THEN 'NaN' ELSE printf(fmt, v::DOUBLE) END;
+CREATE OR REPLACE TEMP MACRO s_opt(v, fmt) AS CASE WHEN v IS NULL THEN '-' ELSE s_num(v, fmt) END;
+CREATE OR REPLACE TEMP MACRO s_pct(v) AS CASE WHEN v IS NULL THEN '-' ELSE s_num(v * 100, '%+.1f') || '%' END;
+CREATE OR REPLACE TEMP MACRO s_class(c) AS printf('%-14s', CASE WHEN c = '*' THEN 'all' ELSE c END);
+CREATE OR REPLACE TEMP MACRO s_int(n, w) AS printf('%' || w || 's', coalesce(n::VARCHAR, '-'));
+
+CREATE OR REPLACE TEMP TABLE s_printout AS
+SELECT 10 AS section, 0::BIGINT AS k,
+       CASE WHEN rot_deg IS NOT NULL AND trans_m IS NOT NULL AND clock_s IS NOT NULL AND drift_ppm IS NOT NULL
+            -- the line ends with the clock error in ms: benches/identity_grid.sh reads it there
+            THEN format('camera pairs: worst rotation error {} deg, worst translation error {} m, worst clock drift error {} ppm, '
+                        || 'worst clock offset error {} ms', s_num(rot_deg, '%.3f'), s_num(trans_m, '%.3f'), s_num(drift_ppm, '%.1f'),
+                        s_num(clock_s * 1e3, '%.1f'))
+            -- a run that placed no camera pair (transforms.csv without values): a score, not an error
+            ELSE 'camera pairs: none placed (transforms.csv has no transform)' END AS line
+FROM s_summary
+UNION ALL
+SELECT 11, row_number() OVER (ORDER BY cam_from, cam_to),
+       CASE WHEN rot_deg IS NOT NULL AND trans_m IS NOT NULL AND clock_err_s IS NOT NULL AND drift_err_ppm IS NOT NULL
+            THEN format('  {} -> {}: rotation {} deg, translation {} m, clock offset {} ms (worst over camera {}''s recording), '
+                        || 'clock drift {} ppm', cam_from, cam_to, s_num(rot_deg, '%.3f'), s_num(trans_m, '%.3f'),
+                        s_num(clock_err_s * 1e3, '%.1f'), cam_to, s_num(drift_err_ppm, '%.1f'))
+            ELSE format('  {} -> {}: not placed', cam_from, cam_to) END
+FROM s_pair_err WHERE cam_from < cam_to
+UNION ALL
+SELECT 20, k, line FROM (VALUES
+    (-2, 'road users (from merged.parquet; IDF1 and HOTA over real points, exact = all of an object''s real tracks and nothing else in one road user):'),
+    (-1, '  class            IDF1   exact  objects  link prec. break recall true breaks    links   HOTA   DetA   AssA')) v(k, line)
+UNION ALL
+SELECT 20, row_number() OVER (ORDER BY class = '*', class),
+       format('  {} {} {} {} {} {} {} {} {} {} {}', s_class(class), printf('%6s', s_num(idf1, '%.3f')),
+              printf('%7s', s_num(coalesce(exact_share, 0), '%.3f')), s_int(objects, 8),
+              printf('%11s', s_num(links_correct::DOUBLE / greatest(links, 1), '%.3f')),
+              printf('%12s', s_num(breaks_found::DOUBLE / greatest(true_breaks, 1), '%.3f')), s_int(true_breaks, 11), s_int(links, 8),
+              printf('%6s', s_num(coalesce(hota, 0), '%.3f')), printf('%6s', s_num(coalesce(deta, 0), '%.3f')),
+              printf('%6s', s_num(coalesce(assa, 0), '%.3f')))
+FROM s_identity
+UNION ALL
+SELECT 40, k, line FROM (VALUES
+    (-3, 'matches (a true pair: same object, >= 1 s together, >= 3 points each in the true overlap; a predicted pair of one'),
+    (-2, 'object that misses that rule is neutral: right, so not against precision, but not a true pair either):'),
+    (-1, '  class          precision  recall     F1 true pairs  predicted  neutral')) v(k, line)
+UNION ALL
+SELECT 40, row_number() OVER (ORDER BY s.class = '*', s.class),
+       format('  {} {} {} {} {} {} {}', s_class(s.class), printf('%9s', s_num(s.precision, '%.3f')), printf('%7s', s_num(s.recall, '%.3f')),
+              printf('%6s', s_num(f.f1, '%.3f')), s_int(s.true_pairs, 10), s_int(s.predicted, 10), s_int(s.neutral, 8))
+FROM s_class_scores s JOIN s_match_f1 f ON f.class IS NOT DISTINCT FROM s.class;

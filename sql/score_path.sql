@@ -137,3 +137,40 @@ SELECT cls.class,
        (SELECT median(ratio) - 1 FROM s_speed_ratio r WHERE cls.class IN ('*', r.class)) AS speed_over_median,
        (SELECT quantile_cont(ratio, 0.95) - 1 FROM s_speed_ratio r WHERE cls.class IN ('*', r.class)) AS speed_over_p95
 FROM cls;
+
+-- The printout's section 30 (sql/score.sql's s_printout: `trajdb score` prints it in order).
+INSERT INTO s_printout
+SELECT 30, k, line FROM (VALUES
+    (-3, 'merged paths against world.csv (each road user''s mapped object, at the same time):'),
+    (-2, '  class             points  median m     p95 m     max m   road users > 1 m')) v(k, line)
+UNION ALL
+SELECT 30, row_number() OVER (ORDER BY class = '*', class),
+       format('  {} {} {} {} {} {}', s_class(class), s_int(points, 9), printf('%9s', s_opt(median_m, '%.3f')),
+              printf('%9s', s_opt(p95_m, '%.3f')), printf('%9s', s_opt(max_m, '%.3f')), s_int(off_1m, 18))
+FROM s_path_summary
+UNION ALL
+SELECT 30, 100 + k, line FROM (VALUES
+    (0, 'fused vs the best single camera (road users seen by >= 2 cameras; each camera mapped by the pipeline''s transforms.csv,'),
+    (1, 'the best = lowest median error, over its time span; ratio = fused / best, target <= 0.6):'),
+    (2, '  class           road users  fused med m     p95 m  best med m     p95 m  ratio median  ratio p95')) v(k, line)
+UNION ALL
+SELECT 30, 110 + row_number() OVER (ORDER BY class = '*', class),
+       format('  {} {} {} {} {} {} {} {}', s_class(class), s_int(road_users, 11), printf('%12s', s_opt(fused_median_m, '%.3f')),
+              printf('%9s', s_opt(fused_p95_m, '%.3f')), printf('%11s', s_opt(best_median_m, '%.3f')), printf('%9s', s_opt(best_p95_m, '%.3f')),
+              printf('%13s', CASE WHEN fused_median_m IS NOT NULL AND best_median_m > 0 THEN s_num(fused_median_m / best_median_m, '%.2f') ELSE '-' END),
+              printf('%10s', CASE WHEN fused_p95_m IS NOT NULL AND best_p95_m > 0 THEN s_num(fused_p95_m / best_p95_m, '%.2f') ELSE '-' END))
+FROM s_fuse_vs_best
+UNION ALL
+SELECT 30, 200 + k, line FROM (VALUES
+    (0, 'fused path steps (jump: consecutive points whose errors differ by > 1 m; mean speed = length_m / duration_s against the'),
+    (1, 'true path''s over the same time, road users seen >= 1 s, as over- (+) or understatement):'),
+    (2, '  class           jumps>1m max jump m   min step s  max speed m/s mean speed median mean speed p95')) v(k, line)
+UNION ALL
+SELECT 30, 210 + row_number() OVER (ORDER BY class = '*', class),
+       format('  {} {} {} {} {} {} {}', s_class(class), s_int(jumps_1m, 9), printf('%10s', s_opt(max_jump_m, '%.3f')),
+              -- Rust's {:.2e} below 1 ms: 1.50e-4 (no plus sign, no zero padding in the exponent)
+              printf('%12s', CASE WHEN min_step_s IS NULL THEN '-'
+                                  WHEN abs(min_step_s) < 1e-3 THEN regexp_replace(replace(printf('%.2e', min_step_s), 'e+', 'e'), 'e(-?)0+(\d)', 'e\1\2')
+                                  ELSE s_num(min_step_s, '%.4f') END),
+              printf('%14s', s_opt(max_speed, '%.3f')), printf('%17s', s_pct(speed_over_median)), printf('%14s', s_pct(speed_over_p95)))
+FROM s_path_quality;

@@ -195,6 +195,15 @@ def test_every_documented_example_runs_and_matches_its_comment():
 def test_params():
     out, _ = ok("params")
     assert out.startswith("name") and "merge_eta" in out and "auto" in out, out[:500]
+    # the extension's table (trajdb_reference('params')): a row per parameter, every number with its range
+    rows = csv_sql("SELECT name, type FROM trajdb_params()").splitlines()[1:]
+    lines = out.splitlines()
+    assert len(lines) == len(rows) + 1, (len(lines), len(rows))
+    for line, row in zip(lines[1:], rows):
+        name, typ = row.split(",")
+        assert line.startswith(name + " ") and f" {typ} " in line, (line, row)
+        assert ("[" in line) == (typ in ("DOUBLE", "BIGINT")), line
+    assert re.search(r"^merge_eta +DOUBLE +0\.5 +\[1e-9, 1\] +merge ", out, re.M), out
     with open(os.path.join(ROOT, "sql", "params.sql")) as f:
         assert ok("params", "--sql")[0] == f.read(), "trajdb params --sql differs from sql/params.sql"
 
@@ -429,6 +438,9 @@ def test_pipeline_on_faulty_input_says_what_is_wrong():
     # a camera whose CLOCK is 100,000 s off shares the time: align finds the offset over every lag
     good, _, err = pipe(make("off.parquet", f"SELECT * REPLACE (CASE WHEN camera = 2 THEN t + 100000 ELSE t END AS t) FROM '{p}'"))
     assert good and "3 of 3 cameras in one frame" in err and "share no consistent" not in err, err
+    # what was found (sql/summary.sql): road users per class, links, results folder
+    assert re.search(r"\[trajdb\] found +\d+ road users \(\w+ \d+.*\); \d+ seen by more than one track", err), err
+    assert re.search(r"\d+ cross-camera links; \d+ tracks joined to an earlier piece in their camera", err), err
     # the clustered camera is measured unless given; a given one must exist
     good, _, err = pipe(p, "--param", "cluster_camera=7")
     assert not good and "cluster_camera 7 is not a camera of the input (cameras: 0, 1, 2)" in err, err

@@ -123,6 +123,9 @@ def value(fn, name, ty, variant):
         if not is_list:
             if [f for f, _ in fields] == ["theta", "tx", "ty", "scale"]:
                 return "{'theta': 0.1, 'tx': 1.0, 'ty': 2.0, 'scale': 1.0}"
+            if [f for f, _ in fields][:5] == ["theta", "tx", "ty", "scale", "lonlat"]:  # a map fit (map_apply, ...)
+                return ("{'theta': 0.1, 'tx': 1.0, 'ty': 2.0, 'scale': 1.0, 'lonlat': true, 'lon0': 11.97, 'lat0': 57.7, "
+                        "'rms_m': 0.0, 'max_residual_m': 0.0, 'points': 2}")
             if [f for f, _ in fields] == ["offset", "drift"]:  # a clock (clock_compose, ...)
                 return "{'offset': 0.5, 'drift': 1e-4}"
             if [f for f, _ in fields] == ["mx", "my", "sxx", "sxy", "syy", "n"]:  # a bias state (pair_evidence)

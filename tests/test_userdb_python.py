@@ -79,9 +79,9 @@ def make_user_db(path):
 
 
 def check_file_database(tmp):
-    # every short name of sql/analysis.sql is one the Python runner recognises (and can leave out)
+    # every short name of sql/analysis.sql is one the runner recognises (trajdb_script's short_name) and can leave out
     con = trajdb.connect()
-    shorts = {trajdb.short_name(sql) for (sql,) in con.execute("SELECT sql FROM trajdb_script('sql/analysis.sql') ORDER BY k").fetchall()}
+    shorts = {s for (s,) in con.execute("SELECT short_name FROM trajdb_script('sql/analysis.sql') ORDER BY k").fetchall()}
     assert shorts - {None} == set(MACROS) | {"gate_from_wkt"}, shorts
     con.close()
     db = os.path.join(tmp, "mine.duckdb")
@@ -214,7 +214,7 @@ def check_params_json(tmp):
 
 
 def load_only(con, input):
-    for stage, file, sql, _ in trajdb.stages(con, input):
+    for stage, file, sql, *_ in trajdb.stages(con, input):
         if stage in ("params", "load"):
             con.execute(sql)
 
@@ -245,7 +245,7 @@ def check_unit_check(tmp):
                 "SELECT NULL::VARCHAR AS scope, NULL::VARCHAR AS quantity, NULL::DOUBLE AS value, NULL::VARCHAR AS unit, NULL::VARCHAR AS how WHERE false")
     con.execute("CREATE OR REPLACE TEMP TABLE align_pairs AS SELECT NULL::INTEGER AS cam_fixed, NULL::INTEGER AS cam_moving, "
                 "NULL::STRUCT(perspective_hx DOUBLE, perspective_hy DOUBLE, perspective_se DOUBLE, perspective_significant BOOLEAN) AS reg WHERE false")
-    for stage, file, sql, _ in trajdb.stages(con, "scene_plus"):
+    for stage, file, sql, *_ in trajdb.stages(con, "scene_plus"):
         if stage == "warnings":
             con.execute(sql)
     msg = [m for (m,) in con.execute("SELECT message FROM pipeline_warnings WHERE k = 8").fetchall()]

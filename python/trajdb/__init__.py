@@ -20,7 +20,6 @@ import glob
 import hashlib
 import json
 import os
-import re
 import shutil
 import sys
 import tempfile
@@ -253,20 +252,9 @@ def _literal(v):
 
 
 def _steps(con, query, args):
-    """The rows (stage, file, sql, undo) of a trajdb_stages / trajdb_script query, in order."""
-    return con.execute(f"SELECT stage, file, sql, undo FROM {query} ORDER BY k", args).fetchall()
-
-
-# A statement that gives one of trajdb's macros its short name (sql/analysis.sql: `routes` is a
-# name for trajdb_routes): left out when the name is already yours.
-_SHORT_NAME = re.compile(r"^\s*CREATE\s+OR\s+REPLACE\s+TEMP\s+MACRO\s+([A-Za-z_][A-Za-z0-9_]*)\s*\(.*?\)\s+AS\s+(?:TABLE\s+FROM\s+)?trajdb_\1\s*\(", re.S | re.I)
-
-
-def short_name(sql):
-    """The name a statement of sql/analysis.sql gives to trajdb_<name> (or None)."""
-    code = "\n".join(line for line in sql.splitlines() if not line.lstrip().startswith("--"))
-    m = _SHORT_NAME.match(code)
-    return m.group(1).lower() if m else None
+    """The rows (stage, file, sql, undo, short_name) of a trajdb_stages / trajdb_script query, in
+    order (short_name: the short name the statement gives one of trajdb's macros, crates/app/src/plan.rs)."""
+    return con.execute(f"SELECT stage, file, sql, undo, short_name FROM {query} ORDER BY k", args).fetchall()
 
 
 def names_taken(con, names):
@@ -311,7 +299,8 @@ def execute_steps(con, steps, progress=False):
     import sys
 
     steps = list(steps)
-    taken = names_taken(con, [n for n in (short_name(s[2]) for s in steps) if n])
+    steps = [tuple(s) + (None,) * (5 - len(s)) for s in steps]  # (stage, file, sql, undo[, short_name])
+    taken = names_taken(con, [s[4] for s in steps if s[4]])
     for name, what in taken.items():
         warnings.warn(
             f"trajdb: {what} is yours and keeps its name; trajdb's macro is trajdb_{name}() "
@@ -319,8 +308,8 @@ def execute_steps(con, steps, progress=False):
             stacklevel=3,
         )
     undo, timings = [], []
-    for stage, file, sql, undo_sql in steps:
-        if taken and short_name(sql) in taken:
+    for stage, file, sql, undo_sql, short in steps:
+        if short in taken:
             continue
         t = time.perf_counter()
         try:
@@ -379,7 +368,7 @@ def _params_json(params, who):
 
 
 def stages(con, input, out=None, part="all", **params):
-    """The statements of one run (rows stage, file, sql, undo of trajdb_stages): the same
+    """The statements of one run (rows stage, file, sql, undo, short_name of trajdb_stages): the same
     manifest `CALL trajdb_pipeline` runs; `execute_steps` runs them."""
     named = ", out_dir := ?" if out is not None else ""
     args = [input] + ([os.fspath(out)] if out is not None else []) + [part, _params_json(params, "trajdb.stages")]
@@ -487,11 +476,7 @@ def simulate(con, out, **params):
         row = con.execute(f"FROM trajdb_simulate(?{args})", [staging, *params.values()]).fetchall()[0]
         con.execute("SET VARIABLE trajdb_sim_csv = ?", [os.path.join(staging, "points.csv")])
         con.execute("SET VARIABLE trajdb_sim_parquet = ?", [os.path.join(staging, "points.parquet")])
-        con.execute(
-            """COPY (SELECT camera::INTEGER AS camera, track_id::BIGINT AS track_id, class::VARCHAR AS class, t::DOUBLE AS t,
-                            x::DOUBLE AS x, y::DOUBLE AS y, speed::DOUBLE AS speed, estimated::INTEGER AS estimated
-                     FROM read_csv(getvariable('trajdb_sim_csv'), header = true)) TO (getvariable('trajdb_sim_parquet')) (FORMAT parquet)"""
-        )
+        read(con, "sql/simulate.sql")  # points.csv -> points.parquet, typed as the shared scenarios
         con.execute("FROM trajdb_results_end(?, true)", [out]).fetchall()
     except BaseException:
         con.execute("FROM trajdb_results_end(?, false)", [out]).fetchall()
@@ -501,14 +486,19 @@ def simulate(con, out, **params):
 
 
 def score(con, scenario, results):
-    """`trajdb score`: the results folder against the scenario's ground truth (sql/score.sql;
-    docs/scoring.md). Returns {'rot_deg', 'trans_m', 'clock_s', 'drift_ppm', 'match_f1', 'idf1',
-    'hota', 'deta', 'assa', 'exact'} (worst camera pair: clock_s the worst clock error over the
-    recording, drift_ppm the worst pairwise drift error; overall match F1, road-user identity and
-    HOTA); the tables s_pair_err, s_identity, s_hota and s_class_scores stay in `con`."""
-    con.execute("SET VARIABLE score_scenario = ?", [os.path.abspath(scenario)])
-    con.execute("SET VARIABLE score_results = ?", [os.path.abspath(results)])
+    """`trajdb score`: the results folder against the scenario's ground truth (sql/score.sql,
+    and sql/score_path.sql when the scenario has world.csv; docs/scoring.md). Returns
+    {'rot_deg', 'trans_m', 'clock_s', 'drift_ppm', 'match_f1', 'idf1', 'hota', 'deta', 'assa',
+    'exact'} (worst camera pair: clock_s the worst clock error over the recording, drift_ppm the
+    worst pairwise drift error; overall match F1, road-user identity and HOTA); the tables
+    s_pair_err, s_identity, s_hota, s_class_scores (s_path_summary, s_fuse_vs_best,
+    s_path_quality with world.csv) and s_printout (what `trajdb score` prints) stay in `con`."""
+    scenario, results = os.path.abspath(scenario), os.path.abspath(results)
+    con.execute("SET VARIABLE score_scenario = ?", [scenario])
+    con.execute("SET VARIABLE score_results = ?", [results])
     read(con, "sql/score.sql")
+    if os.path.exists(os.path.join(scenario, "world.csv")):
+        read(con, "sql/score_path.sql")
     # one row, computed in sql/score.sql (s_summary: the F1 and the worst pair are written there)
     cur = con.execute("FROM s_summary")
     return dict(zip([d[0] for d in cur.description], cur.fetchall()[0]))
@@ -567,13 +557,9 @@ def demo(out="trajdb-demo", **params):
     results = os.path.join(out, "results")
     pipeline(con, os.path.join(out, "points.parquet"), out=results)
     s = score(con, out, results)
-    ok, tf1, trot, ttrans = con.execute("SELECT passed, target_f1, target_rot_deg, target_trans_m FROM s_demo").fetchall()[0]
+    ok, verdict = con.execute("SELECT passed, line FROM s_demo").fetchall()[0]
     print(f"simulated {row[1]} objects, {row[2]} cameras, {row[3]} tracks, {row[4]} points -> {out}")
-    num = lambda v: "none" if v is None else f"{v:.3f}"  # noqa: E731  (no camera pair placed: NULL)
-    print(
-        f"demo {'PASSED' if ok else 'FAILED'}: match F1 {num(s['match_f1'])} (target >= {tf1}), IDF1 {num(s['idf1'])}, "
-        f"worst camera pair {num(s['rot_deg'])} deg / {num(s['trans_m'])} m (targets {trot} deg / {ttrans} m); results in {results}"
-    )
+    print(f"{verdict}; results in {results}")
     if not ok:
         raise RuntimeError("demo: the pipeline missed its accuracy targets")
     return s

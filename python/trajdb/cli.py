@@ -237,28 +237,10 @@ def cmd_sql(a):
     run_sql(connect(a), text, a.format)
 
 
-def _bound(v):
-    """A range bound as the old table printed it (Rust's f64 Display: 0, 0.5, 1000000, inf)."""
-    if v is None:
-        return ""
-    if math.isinf(v):
-        return "inf" if v > 0 else "-inf"
-    return str(int(v)) if float(v).is_integer() else repr(float(v))
-
-
 def params_table(con):
-    """`FROM trajdb_params()` as an aligned table (range: [lo, hi] of a number)."""
-    rows = []
-    for name, typ, default, stage, desc, lo, hi in con.execute(
-        'SELECT name, type, "default", stage, description, lo, hi FROM trajdb_params()'
-    ).fetchall():
-        numeric = typ in ("DOUBLE", "BIGINT", "INTEGER")
-        rng = f"[{_bound(lo)}, {_bound(hi)}]" if numeric and lo is not None and hi is not None else ""
-        rows.append([name, typ, "" if default is None else str(default), rng, stage or "", desc or ""])
-    head = ["name", "type", "default", "range", "stage", "description"]
-    w = [max([len(head[k])] + [len(r[k]) for r in rows]) for k in range(5)]
-    fmt = lambda r: "  ".join(r[k].ljust(w[k]) for k in range(5)) + "  " + r[5]  # noqa: E731
-    return "\n".join([fmt(head)] + [fmt(r) for r in rows])
+    """The parameter table (name, type, default, range, stage, description) as the extension
+    prints it (trajdb_reference('params'), crates/app/src/params.rs)."""
+    return con.execute("SELECT trajdb_reference('params')").fetchall()[0][0].rstrip("\n")
 
 
 def pipeline_epilog():
@@ -287,23 +269,10 @@ def run_pipeline(con, input, out_dir, params):
 
 
 def summary(con, out_dir):
-    """What was found, in a few lines (stderr), from the pipeline's tables in `con`."""
-    users, multi, cams, aligned = con.execute(
-        """SELECT (SELECT count(*) FROM merged), (SELECT count(*) FROM merged WHERE n_tracks > 1),
-                  (SELECT count(DISTINCT camera) FROM points), (SELECT count(*) FROM align_frames)"""
-    ).fetchone()
-    per_class = con.execute(
-        "SELECT coalesce(string_agg(class || ' ' || n, ', ' ORDER BY n DESC, class), '') "
-        "FROM (SELECT class, count(*) AS n FROM merged GROUP BY class)"
-    ).fetchone()[0]
-    links, chains = con.execute(
-        """SELECT (SELECT count(*) FROM merge_links m JOIN merge_groups a ON a.uid = m.uid_a JOIN merge_groups b ON b.uid = m.uid_b
-                   WHERE a.road_user = b.road_user AND m.kind <> 'reach'),
-                  (SELECT count(*) FROM merge_chains WHERE track_id <> linked_id)"""
-    ).fetchone()
-    note(f"[trajdb] found    {users} road users ({per_class}); {multi} seen by more than one track")
-    note(f"[trajdb]          {aligned} of {cams} cameras in one frame; {links} cross-camera links; "
-         f"{chains} tracks joined to an earlier piece in their camera")
+    """What was found, in a few lines (stderr): sql/summary.sql over the pipeline's tables in `con`."""
+    trajdb.read(con, "sql/summary.sql")
+    for (line,) in con.execute("SELECT line FROM pipeline_summary ORDER BY k").fetchall():
+        note(f"[trajdb] {line}")
     note(f"[trajdb]          results in {out_dir}, open {os.path.join(out_dir, 'report.html')} for the report")
 
 
@@ -340,10 +309,9 @@ def cmd_demo(a):
     results = os.path.join(a.out, "results")
     run_pipeline(con, os.path.join(a.out, "points.parquet"), results, {})
     out(f"score of {results} against the simulator's ground truth:")
-    rot, trans, f1 = print_score(con, a.out, results)
-    ok, tf1, trot, ttrans = con.execute("SELECT passed, target_f1, target_rot_deg, target_trans_m FROM s_demo").fetchall()[0]
-    out(f"demo {'PASSED' if ok else 'FAILED'}: match F1 {f1:.3f} (target >= {tf1}), worst camera pair {rot:.3f} deg / {trans:.3f} m "
-        f"(targets {trot} deg / {ttrans} m)")
+    print_score(con, a.out, results)
+    ok, verdict = con.execute("SELECT passed, line FROM s_demo").fetchall()[0]
+    out(verdict)
     out(f"results in {results} (every column: docs/outputs.md):")
     for name in sorted(n for n in os.listdir(results) if not n.startswith(".")):
         size = os.path.getsize(os.path.join(results, name))
@@ -463,119 +431,17 @@ def cmd_install_cli(a):
     out("  duckdb -unsigned -c \"LOAD trajdb; SELECT trajdb_reference('text')\"")
 
 
-# --- trajdb score: the printout of sql/score.sql's tables (benches/identity_grid.sh reads it by position) ---
-
-
-def _f(v):
-    return math.nan if v is None else float(v)
-
-
-def _r(v, prec, sign=False):
-    """A number as Rust's `{:.prec}` prints it (NaN as NaN, inf as inf)."""
-    if math.isnan(v):
-        return "NaN"
-    return f"{v:{'+' if sign else ''}.{prec}f}"
-
-
-def _e(v):
-    """Rust's `{:.2e}`: 1.50e-4 (no zero padding or plus sign in the exponent)."""
-    if not math.isfinite(v):
-        return _r(v, 2)
-    m, ex = f"{v:.2e}".split("e")
-    return f"{m}e{int(ex)}"
-
-
-def _opt(v, fn):
-    return "-" if v is None else fn(float(v))
-
-
-def _class(c):
-    return "all" if c == "*" else c
-
-
-def _score_paths(con):
-    """The merged paths against world.csv (sql/score_path.sql, embedded in the extension; unless
-    trajdb.score made its tables already)."""
-    if not con.execute("SELECT count(*) FROM duckdb_tables() WHERE table_name = 's_path_summary'").fetchone()[0]:
-        trajdb.read(con, "sql/score_path.sql")
-    f3 = lambda v: _opt(v, lambda x: _r(x, 3))  # noqa: E731
-    out("merged paths against world.csv (each road user's mapped object, at the same time):")
-    out(f"  {'class':<14} {'points':>9} {'median m':>9} {'p95 m':>9} {'max m':>9} {'road users > 1 m':>18}")
-    for c, n, med, p95, mx, off in con.execute(
-        "SELECT class, points, median_m, p95_m, max_m, off_1m FROM s_path_summary ORDER BY class = '*', class"
-    ).fetchall():
-        out(f"  {_class(c):<14} {n:>9} {f3(med):>9} {f3(p95):>9} {f3(mx):>9} {off:>18}")
-    out("fused vs the best single camera (road users seen by >= 2 cameras; each camera mapped by the pipeline's transforms.csv,")
-    out("the best = lowest median error, over its time span; ratio = fused / best, target <= 0.6):")
-    out(f"  {'class':<14} {'road users':>11} {'fused med m':>12} {'p95 m':>9} {'best med m':>11} {'p95 m':>9} {'ratio median':>13} {'ratio p95':>10}")
-
-    def ratio(a, b):
-        return _r(float(a) / float(b), 2) if a is not None and b is not None and float(b) > 0 else "-"
-
-    for c, n, fm, fp, bm, bp in con.execute(
-        "SELECT class, road_users, fused_median_m, fused_p95_m, best_median_m, best_p95_m FROM s_fuse_vs_best ORDER BY class = '*', class"
-    ).fetchall():
-        out(f"  {_class(c):<14} {n:>11} {f3(fm):>12} {f3(fp):>9} {f3(bm):>11} {f3(bp):>9} {ratio(fm, bm):>13} {ratio(fp, bp):>10}")
-    out("fused path steps (jump: consecutive points whose errors differ by > 1 m; mean speed = length_m / duration_s against the")
-    out("true path's over the same time, road users seen >= 1 s, as over- (+) or understatement):")
-    out(f"  {'class':<14} {'jumps>1m':>9} {'max jump m':>10} {'min step s':>12} {'max speed m/s':>14} {'mean speed median':>17} {'mean speed p95':>14}")
-    pct = lambda v: _opt(v, lambda x: _r(x * 100.0, 1, sign=True) + "%")  # noqa: E731
-    g = lambda v: _opt(v, lambda x: _e(x) if abs(x) < 1e-3 else _r(x, 4))  # noqa: E731
-    for c, j, mj, ms, mv, om, op in con.execute(
-        "SELECT class, jumps_1m, max_jump_m, min_step_s, max_speed, speed_over_median, speed_over_p95 FROM s_path_quality "
-        "ORDER BY class = '*', class"
-    ).fetchall():
-        out(f"  {_class(c):<14} {j:>9} {f3(mj):>10} {g(ms):>12} {f3(mv):>14} {pct(om):>17} {pct(op):>14}")
+# --- trajdb score: the printout is sql/score.sql's table s_printout -------------------------------------
 
 
 def print_score(con, scenario, results):
-    """`trajdb score`: trajdb.score (sql/score.sql), then its tables, as the trajdb binary printed
-    them (the same text; benches/identity_grid.sh and tests/test_cli_python.py read it by
-    position). Returns (worst rotation deg, worst translation m, overall match F1); the errors
-    are infinite when no camera pair was placed."""
-    s = trajdb.score(con, scenario, results)  # s_summary: the worst camera pair, computed once in sql/score.sql
-    rot, trans, clock, drift = s["rot_deg"], s["trans_m"], s["clock_s"], s["drift_ppm"]
-    if None not in (rot, trans, clock, drift):
-        # the line ends with the clock error in ms: benches/identity_grid.sh reads it there
-        out(f"camera pairs: worst rotation error {_r(_f(rot), 3)} deg, worst translation error {_r(_f(trans), 3)} m, "
-            f"worst clock drift error {_r(_f(drift), 1)} ppm, worst clock offset error {_r(_f(clock) * 1e3, 1)} ms")
-    else:
-        # a run that placed no camera pair (transforms.csv without values): a score, not an error
-        out("camera pairs: none placed (transforms.csv has no transform)")
-    for a, b, rd, tm, ce, de in con.execute(
-        "SELECT cam_from, cam_to, rot_deg, trans_m, clock_err_s, drift_err_ppm FROM s_pair_err WHERE cam_from < cam_to ORDER BY 1, 2"
-    ).fetchall():
-        if None not in (rd, tm, ce, de):
-            out(f"  {a} -> {b}: rotation {_r(_f(rd), 3)} deg, translation {_r(_f(tm), 3)} m, clock offset {_r(_f(ce) * 1e3, 1)} ms "
-                f"(worst over camera {b}'s recording), clock drift {_r(_f(de), 1)} ppm")
-        else:
-            out(f"  {a} -> {b}: not placed")
-    out("road users (from merged.parquet; IDF1 and HOTA over real points, exact = all of an object's real tracks and nothing else in one road user):")
-    out(f"  {'class':<14} {'IDF1':>6} {'exact':>7} {'objects':>8} {'link prec.':>11} {'break recall':>12} {'true breaks':>11} "
-        f"{'links':>8} {'HOTA':>6} {'DetA':>6} {'AssA':>6}")
-    for c, idf1, exact, n, lp, br, nb, nl, hota, deta, assa in con.execute(
-        """SELECT class, idf1, exact_share, objects, links_correct::DOUBLE / greatest(links, 1), breaks_found::DOUBLE / greatest(true_breaks, 1),
-                  true_breaks, links, coalesce(hota, 0), coalesce(deta, 0), coalesce(assa, 0) FROM s_identity ORDER BY class = '*', class"""
-    ).fetchall():
-        r3 = lambda v: _r(_f(v), 3)  # noqa: E731
-        out(f"  {_class(c):<14} {r3(idf1):>6} {_r(0.0 if exact is None else float(exact), 3):>7} {n:>8} {r3(lp):>11} {r3(br):>12} "
-            f"{nb:>11} {nl:>8} {r3(hota):>6} {r3(deta):>6} {r3(assa):>6}")
-    if os.path.exists(os.path.join(scenario, "world.csv")):
-        _score_paths(con)
-    out("matches (a true pair: same object, >= 1 s together, >= 3 points each in the true overlap; a predicted pair of one")
-    out("object that misses that rule is neutral: right, so not against precision, but not a true pair either):")
-    out(f"  {'class':<14} {'precision':>9} {'recall':>7} {'F1':>6} {'true pairs':>10} {'predicted':>10} {'neutral':>8}")
-    all_f1 = 0.0
-    for c, p, rc, f1, nt, npred, nn in con.execute(
-        "SELECT s.class, s.precision, s.recall, f.f1, s.true_pairs, s.predicted, s.neutral FROM s_class_scores s "
-        "JOIN s_match_f1 f ON f.class IS NOT DISTINCT FROM s.class ORDER BY s.class = '*', s.class"
-    ).fetchall():
-        p, rc = _f(p), _f(rc)
-        if c == "*":
-            all_f1 = f1
-        out(f"  {_class(c):<14} {_r(p, 3):>9} {_r(rc, 3):>7} {_r(f1, 3):>6} {nt:>10} {npred:>10} {nn:>8}")
-    inf = math.inf
-    return (inf if rot is None else float(rot), inf if trans is None else float(trans), all_f1)
+    """`trajdb score`: trajdb.score (sql/score.sql, and sql/score_path.sql when the scenario has
+    world.csv), then its printout, written by those files (s_printout; benches/identity_grid.sh
+    and tests/test_cli_python.py read it by position). Returns trajdb.score's summary."""
+    s = trajdb.score(con, scenario, results)
+    for (line,) in con.execute("SELECT line FROM s_printout ORDER BY section, k").fetchall():
+        out(line)
+    return s
 
 
 # --- the parser --------------------------------------------------------------------------------------

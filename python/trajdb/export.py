@@ -35,7 +35,6 @@ import sqlite3
 import struct
 
 FORMATS = {".geojson": "geojson", ".json": "geojson", ".gpkg": "gpkg", ".parquet": "parquet"}
-EARTH_R = 6378137.0  # WGS 84 semi-major axis (m): the local tangent plane of a lon/lat fit
 EPOCH_1990 = 631152000.0
 
 # OGC:CRS84 (lon/lat, WGS 84) as PROJJSON: GeoParquet's default CRS, written out explicitly.
@@ -67,69 +66,63 @@ def _epsg(crs):
 
 
 class MapFit:
-    """A similarity transform local (x, y) -> map (X, Y): X + iY = a (x + iy) + b, a = s e^{i theta}."""
+    """A fitted map: the reference camera's local (x, y) -> map (X, Y), as the extension's
+    map_fit made it (crates/algo/src/align/map.rs: the similarity, through the plane tangent at
+    the control points for EPSG:4326). `fit(x, y)` maps one point (map_apply); `residuals` are
+    the control points' (map_residual_m, metres)."""
 
-    def __init__(self, a, b, epsg, origin, residuals):
-        self.a, self.b, self.epsg, self.origin, self.residuals = a, b, epsg, origin, residuals
-        self.scale, self.theta_rad = abs(a), math.atan2(a.imag, a.real)
-        self.rms_m = math.sqrt(sum(r * r for r in residuals) / len(residuals))
+    def __init__(self, fit, epsg, residuals):
+        self.fit, self.epsg, self.residuals = fit, epsg, residuals
+        self.scale, self.theta_rad, self.rms_m = fit["scale"], fit["theta"], fit["rms_m"]
+        self.origin = (fit["lon0"], fit["lat0"]) if fit["lonlat"] else None
 
     def __call__(self, x, y):
-        w = self.a * complex(x, y) + self.b
-        if self.epsg == 4326:  # tangent plane (east, north m) -> lon, lat
-            lon0, lat0 = self.origin
-            return (lon0 + math.degrees(w.real / (EARTH_R * math.cos(math.radians(lat0)))), lat0 + math.degrees(w.imag / EARTH_R))
-        return (w.real, w.imag)
+        from . import connect
+
+        p = connect().execute("SELECT map_apply([{'t': 0.0, 'x': ?::DOUBLE, 'y': ?::DOUBLE}], ?::" + MAP_FIT_SQL + ")[1]",
+                              [x, y, self.fit]).fetchall()[0][0]
+        return (p["x"], p["y"])
 
     def __repr__(self):
         return (f"MapFit(EPSG:{self.epsg}, scale {self.scale:.6f}, rotation {math.degrees(self.theta_rad):.3f} deg, "
                 f"rms residual {self.rms_m:.3f} m over {len(self.residuals)} control points)")
 
 
+# map_fit's result type (src/bindings/map.rs MAP_FIT), for binding a fit back as a parameter
+MAP_FIT_SQL = ("STRUCT(theta DOUBLE, tx DOUBLE, ty DOUBLE, scale DOUBLE, lonlat BOOLEAN, lon0 DOUBLE, lat0 DOUBLE, rms_m DOUBLE, "
+               "max_residual_m DOUBLE, points BIGINT)")
+
+
 def fit_map(control_points, crs):
-    """Least-squares similarity from >= 2 control points (x, y, X, Y): the extension's rigid_fit
-    with scale (Umeyama 1991; crates/algo/src/align/rigid.rs), as X + iY = a (x + iy) + b. O(n).
-    For EPSG:4326 (X = lon, Y = lat) the fit is in metres east/north of the points' mean."""
+    """The map of the local frame from >= 2 control points (x, y, X, Y): the extension's map_fit
+    (a least-squares similarity, Umeyama 1991, with scale; for EPSG:4326, X = lon and Y = lat,
+    fitted in metres east/north of the points' mean, across the antimeridian too). O(n)."""
     epsg = _epsg(crs)
     if epsg is None:
         raise ValueError("trajdb.export: control_points need a crs, e.g. crs='EPSG:4326'")
-    pts = [tuple(float(v) for v in p) for p in control_points]
-    if len(pts) < 2 or any(len(p) != 4 or not all(math.isfinite(v) for v in p) for p in pts):
+    try:
+        pts = [tuple(float(v) for v in p) for p in control_points]
+    except (TypeError, ValueError):
+        raise ValueError("trajdb.export: control_points must be at least two finite (x, y, X, Y) tuples") from None
+    if any(len(p) != 4 for p in pts):
         raise ValueError("trajdb.export: control_points must be at least two finite (x, y, X, Y) tuples")
-    origin = None
-    if epsg == 4326:
-        if any(not (-180 <= p[2] <= 180 and -90 <= p[3] <= 90) for p in pts):
-            raise ValueError("trajdb.export: EPSG:4326 control points are (x, y, longitude, latitude) in degrees")
-        origin = (sum(p[2] for p in pts) / len(pts), sum(p[3] for p in pts) / len(pts))
-        k = EARTH_R * math.cos(math.radians(origin[1]))
-        w = [complex(math.radians(p[2] - origin[0]) * k, math.radians(p[3] - origin[1]) * EARTH_R) for p in pts]
-    else:
-        w = [complex(p[2], p[3]) for p in pts]
-    z = [complex(p[0], p[1]) for p in pts]
-    # the fit is the extension's rigid_fit (Umeyama, with scale): written once, in Rust
     from . import connect
 
-    # (a data check, not a fit: points closer than a micrometre tell no rotation or scale)
-    zm = sum(z) / len(z)
-    if sum(abs(v - zm) ** 2 for v in z) <= 1e-12:
-        raise ValueError("trajdb.export: the control points coincide in the local frame; give two or more distinct points")
-    pairs = [{"fx": wi.real, "fy": wi.imag, "mx": zi.real, "my": zi.imag} for zi, wi in zip(z, w)]
+    rows = [{"x": p[0], "y": p[1], "map_x": p[2], "map_y": p[3]} for p in pts]
     try:
-        f = connect().execute("SELECT rigid_fit(?::STRUCT(fx DOUBLE, fy DOUBLE, mx DOUBLE, my DOUBLE)[], 0.0, true)", [pairs]).fetchall()[0][0]
-    except Exception as e:
-        raise ValueError(f"trajdb.export: the control points give no map fit: {e}") from e
-    if not (math.isfinite(f["scale"]) and f["scale"] > 1e-9 and math.isfinite(f["tx"]) and math.isfinite(f["ty"])):
-        raise ValueError(f"trajdb.export: the control points give no usable map fit (scale {f['scale']}): do the map points coincide, "
-                         "or are they beyond the range of doubles? give distinct points in both frames")
-    a = f["scale"] * complex(math.cos(f["theta"]), math.sin(f["theta"]))
-    b = complex(f["tx"], f["ty"])
-    residuals = [abs(a * zi + b - wi) for zi, wi in zip(z, w)]
-    return MapFit(a, b, epsg, origin, residuals)
+        f, residuals = connect().execute(
+            "SELECT f, [map_residual_m(f, p.x, p.y, p.map_x, p.map_y) FOR p IN pts] FROM "
+            "(SELECT map_fit(pts, ?) AS f, pts FROM (SELECT ?::STRUCT(x DOUBLE, y DOUBLE, map_x DOUBLE, map_y DOUBLE)[] AS pts))",
+            [epsg == 4326, rows]).fetchall()[0]
+    except Exception as e:  # noqa: BLE001 - the extension's message names what is wrong
+        raise ValueError(f"trajdb.export: {str(e).split(': ', 1)[-1]}") from None
+    return MapFit(f, epsg, residuals)
 
 
-def _road_users(source):
+def _road_users(source, fit=None):
     """Rows of merged.parquet as dicts, from a results folder, a merged.parquet path or a
-    DuckDB connection after the pipeline (its `merged` road users via result_road_users())."""
+    DuckDB connection after the pipeline (its `merged` road users via result_road_users());
+    with a MapFit, each traj on the map (map_apply; t unchanged)."""
     import duckdb
     if isinstance(source, (str, os.PathLike)):
         path = os.fspath(source)
@@ -137,7 +130,9 @@ def _road_users(source):
             path = os.path.join(path, "merged.parquet")
         if not os.path.isfile(path):
             raise FileNotFoundError(f"trajdb.export: {path} not found: give a results folder, its merged.parquet or a connection")
-        con, src, args = duckdb.connect(), "read_parquet(?)", [path]
+        from . import connect
+
+        con, src, args = connect(), "read_parquet(?)", [path]  # with the extension: map_apply
     else:
         con, src, args = source, "result_road_users()", []
     # t_start / t_end are TIMESTAMPTZ when the input's t was a timestamp (merged.parquet keeps the
@@ -146,8 +141,11 @@ def _road_users(source):
     # datetime here was a TypeError in _utc)
     types = dict((r[0], r[1]) for r in con.execute(f"SELECT column_name, column_type FROM (DESCRIBE SELECT * FROM {src})", args).fetchall())
     ts = [k for k in ("t_start", "t_end") if types.get(k, "").startswith("TIMESTAMP")]
-    replace = f" REPLACE ({', '.join(f'epoch({k}) AS {k}' for k in ts)})" if ts else ""
-    cur = con.execute(f"SELECT * EXCLUDE (geometry){replace} FROM {src} ORDER BY road_user", args)
+    repl = [f"epoch({k}) AS {k}" for k in ts] + (["map_apply(traj, $fit::" + MAP_FIT_SQL + ") AS traj"] if fit else [])
+    replace = f" REPLACE ({', '.join(repl)})" if repl else ""
+    named = {f"a{k}": v for k, v in enumerate(args)}
+    src = src.replace("?", "$a0")
+    cur = con.execute(f"SELECT * EXCLUDE (geometry){replace} FROM {src} ORDER BY road_user", {**named, **({"fit": fit.fit} if fit else {})})
     names = [d[0] for d in cur.description]
     return [dict(zip(names, r)) for r in cur.fetchall()]
 
@@ -207,11 +205,8 @@ def export(source, path, format=None, control_points=None, crs=None, overwrite=F
             "or write .gpkg or .parquet, which say they have no CRS"
         )
     epsg = fit.epsg if fit else None
-    rows = _road_users(source)
-    feats = []
-    for r in rows:
-        xym = [(*(fit(q["x"], q["y"]) if fit else (q["x"], q["y"])), q["t"]) for q in r["traj"]]
-        feats.append((r, xym))
+    rows = _road_users(source, fit)
+    feats = [(r, [(q["x"], q["y"], q["t"]) for q in r["traj"]]) for r in rows]
     # a temporary name of this call's own (pid + random), created with O_EXCL: never a file of
     # the user's (a `<path>.partial` of theirs stays as it is), and removed only by this call
     while True:

@@ -10,6 +10,7 @@ The truth of every day stays beside the lake (truth/site=S/date=D/: cameras.csv,
 world.csv), never inside it.
 """
 import datetime
+import math
 import os
 import shutil
 
@@ -46,14 +47,17 @@ def simulate_lake(con, lake, sites=2, days=5, minutes=10.0, cameras=3, move=None
             dst = os.path.join(part, "points.parquet")
             m = move if move and move["site"] == site and d >= move["day"] else None
             if m:
-                th = -float(m.get("deg", 0.0)) * 3.141592653589793 / 180.0
+                # the camera moved by (dx, dy) and turned by deg: a point p of the old frame is
+                # p' = R(-deg) (p - d) in the new one, the inverse of the move (transform_invert)
+                move_tf = {"theta": math.radians(float(m.get("deg", 0.0))), "tx": float(m.get("dx", 0.0)), "ty": float(m.get("dy", 0.0)),
+                           "scale": 1.0}
+                con.execute("SET VARIABLE trajdb_lake_dst = ?", [dst])
                 con.execute(
-                    """COPY (SELECT * REPLACE (CASE WHEN camera = $cam THEN cos($th) * (x - $dx) - sin($th) * (y - $dy) ELSE x END AS x,
-                                               CASE WHEN camera = $cam THEN sin($th) * (x - $dx) + cos($th) * (y - $dy) ELSE y END AS y,
+                    """COPY (SELECT * REPLACE (CASE WHEN camera = $cam THEN transform_point(transform_invert($tf), x, y).x ELSE x END AS x,
+                                               CASE WHEN camera = $cam THEN transform_point(transform_invert($tf), x, y).y ELSE y END AS y,
                                                CASE WHEN camera = $cam THEN t + $dt ELSE t END AS t)
-                             FROM read_parquet($src, hive_partitioning = false)) TO '""" + dst.replace("'", "''") + "' (FORMAT parquet)",
-                    {"cam": int(m["camera"]), "th": th, "dx": float(m.get("dx", 0.0)), "dy": float(m.get("dy", 0.0)),
-                     "dt": float(m.get("dt", 0.0)), "src": src})
+                             FROM read_parquet($src, hive_partitioning = false)) TO (getvariable('trajdb_lake_dst')) (FORMAT parquet)""",
+                    {"cam": int(m["camera"]), "tf": move_tf, "dt": float(m.get("dt", 0.0)), "src": src})
             else:
                 shutil.copyfile(src, dst)
             n = con.execute("SELECT count(*) FROM read_parquet(?)", [dst]).fetchone()[0]

@@ -153,6 +153,12 @@ def _typed(points):
         tcol = F.col("t").cast("double")
     else:
         raise ValueError(f"trajdb.spark.pipeline: column t is {t.simpleString()}, not a number (seconds) or a TIMESTAMP")
+    for c in ("camera", "track_id"):
+        # a text id cast to int would be NULL (or an error, by spark.sql.ansi.enabled): refused
+        # here by name, as trajdb.windows refuses it (trajdb.pipeline on a whole site accepts text ids)
+        if not isinstance(points.schema[c].dataType, T.IntegralType):
+            raise ValueError(f"trajdb.spark.pipeline: {c} must be an integer column (got {points.schema[c].dataType.simpleString()}); "
+                             "number your ids first (trajdb.pipeline on a whole site accepts text ids)")
     est = F.col("estimated").cast("int") if "estimated" in cols else F.lit(0)
     return points.select(
         F.col("site").cast("string").alias("site"), F.col("camera").cast("int").alias("camera"),
@@ -246,9 +252,12 @@ def pipeline(points, window_s=3600.0, halo_s=None, calibrate_s=86400.0, calibrat
 
         con = W.connect(SparkFiles.get(ext_name), threads_per_task)
         con.register("trajdb_spans", table)
+        # the window of the first real observation: clock_window, the k with k*W <= t0_real <
+        # (k+1)*W in the same doubles as each task's [k*W, (k+1)*W) (crates/algo/src/traj/grid.rs)
         return W._arrow(con.sql(
+            "SELECT site, camera, track_id, t0, t1, t0_real, clock_window(t0_real, ?) AS window FROM ("
             "SELECT site, camera, track_id, clock_to_reference(t0, off, drift) AS t0, clock_to_reference(t1, off, drift) AS t1, "
-            "clock_to_reference(t0_real, off, drift) AS t0_real FROM trajdb_spans"))
+            "clock_to_reference(t0_real, off, drift) AS t0_real FROM trajdb_spans)", params=[window_s]))
 
     tracks = (
         pts.groupBy("site", "camera", "track_id")
@@ -256,7 +265,8 @@ def pipeline(points, window_s=3600.0, halo_s=None, calibrate_s=86400.0, calibrat
         .join(F.broadcast(off_df), ["site", "camera"], "left")
         .select("site", "camera", "track_id", "t0", "t1", "t0_real", F.coalesce("clock_offset_s", F.lit(0.0)).alias("off"),
                 F.coalesce("clock_drift", F.lit(0.0)).alias("drift"))
-        .groupBy("site").applyInArrow(on_reference_clock, "site string, camera int, track_id long, t0 double, t1 double, t0_real double")
+        .groupBy("site").applyInArrow(on_reference_clock,
+                                       "site string, camera int, track_id long, t0 double, t1 double, t0_real double, window long")
     ).cache()
     if halo_s is None:
         # before: the reach of a candidate link; after: the longest usual track too (p99 per
@@ -268,11 +278,8 @@ def pipeline(points, window_s=3600.0, halo_s=None, calibrate_s=86400.0, calibrat
     else:
         halos = {s: (max(float(halo_s), reach), max(float(halo_s), reach)) for s in sites}
 
-    # the windows that hold a first real observation: k with k*W <= t0_real < (k+1)*W, computed
-    # with the same doubles as the tasks' test (floor, then corrected by one either way)
-    k0 = F.floor(F.col("t0_real") / window_s)
-    k = F.when(F.col("t0_real") < k0 * window_s, k0 - 1).when(F.col("t0_real") >= (k0 + 1) * window_s, k0 + 1).otherwise(k0)
-    starts = tracks.where(F.col("t0_real").isNotNull()).select("site", k.alias("window")).distinct()
+    # the windows that hold a first real observation (clock_window, above)
+    starts = tracks.where(F.col("t0_real").isNotNull()).select("site", "window").distinct()
 
     def window_task(plan, round_no):
         """plan: {(site, window): (halo_before, halo_after)} -> the task for applyInArrow"""

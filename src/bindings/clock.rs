@@ -4,6 +4,7 @@
 use super::registry::{pd, Function, Section, Signature, Ty};
 use super::vector::{Args, Out, Value};
 use crate::algo::align::clock::Clock;
+use crate::algo::traj::grid::window_index;
 use std::error::Error;
 
 type R = Result<(), Box<dyn Error>>;
@@ -87,6 +88,26 @@ pub static FUNCTIONS: &[Function] = &[
         }],
         table: None,
     },
+    Function {
+        name: "clock_window",
+        section: Section::Clocks,
+        see_also: &["clock_to_reference"],
+        description: "The window of a time on the reference clock: the k with k width <= t < (k + 1) width, each bound \
+                      computed as one product k * width in doubles (floor(t / width) alone can be one off near a bound). \
+                      trajdb.spark assigns each road user to the window of its first observation with it, and a window \
+                      [k width, (k + 1) width) keeps exactly those road users (sql/window.sql). NULL when t or width is NULL; \
+                      an error for a width that is not finite and > 0, a t that is not finite, or |t / width| >= 2^53. O(1).",
+        example: "SELECT clock_window(7199.9, 3600.0); -- 1",
+        maths: "crates/algo/src/traj/grid.rs",
+        binding: file!(),
+        signatures: &[Signature {
+            params: &[pd("t", Ty::Double, "a time on the reference clock (s), finite"), pd("width", Ty::Double, "the windows' width (s), finite and > 0")],
+            arities: &[],
+            returns: Ty::Bigint,
+            kernel: clock_window,
+        }],
+        table: None,
+    },
 ];
 
 /// A computed clock, checked (`Clock::result`: an overflow is an error).
@@ -147,5 +168,24 @@ fn clock_from_relative(a: &Args<'_>, out: &mut Out<'_>) -> R {
         Ok(Some(values(Clock::from_relative_checked(c, d, om, of)?)?))
     })?;
     out.structs(&vals);
+    Ok(())
+}
+
+fn clock_window(a: &Args<'_>, out: &mut Out<'_>) -> R {
+    let get = a.doubles::<2>();
+    let vals = a.map(|r| {
+        let Some([t, w]) = get(r) else { return Ok(None) };
+        if !(w.is_finite() && w > 0.0) {
+            return Err(format!("width must be finite and > 0 (seconds), got {w}").into());
+        }
+        if !t.is_finite() {
+            return Err(format!("t must be finite, got {t}").into());
+        }
+        match window_index(t, w) {
+            Some(k) => Ok(Some(k)),
+            None => Err(format!("t / width ({t} / {w}) must lie within +-2^53 windows: use a wider window").into()),
+        }
+    })?;
+    out.flat(&vals);
     Ok(())
 }

@@ -17,6 +17,7 @@ pub mod events;
 pub mod fuse;
 pub mod geometry;
 pub mod lcss;
+pub mod map;
 pub mod matching;
 pub mod merge;
 pub mod meta;
@@ -36,7 +37,7 @@ use registry::{Doc, Function};
 /// Every function, in registration order (the reference lists them by section, in this order
 /// within each).
 pub fn functions() -> Vec<&'static Function> {
-    [traj::FUNCTIONS, lcss::FUNCTIONS, align::FUNCTIONS, clock::FUNCTIONS, associate::FUNCTIONS, geometry::FUNCTIONS, matching::FUNCTIONS, merge::FUNCTIONS, fuse::FUNCTIONS, cluster::FUNCTIONS, conflict::FUNCTIONS, events::FUNCTIONS, noise::FUNCTIONS, meta::FUNCTIONS, pipeline::FUNCTIONS, params::FUNCTIONS, archive::FUNCTIONS, simulate::FUNCTIONS, report::FUNCTIONS]
+    [traj::FUNCTIONS, lcss::FUNCTIONS, align::FUNCTIONS, clock::FUNCTIONS, associate::FUNCTIONS, geometry::FUNCTIONS, matching::FUNCTIONS, merge::FUNCTIONS, fuse::FUNCTIONS, cluster::FUNCTIONS, conflict::FUNCTIONS, events::FUNCTIONS, noise::FUNCTIONS, map::FUNCTIONS, meta::FUNCTIONS, pipeline::FUNCTIONS, params::FUNCTIONS, archive::FUNCTIONS, simulate::FUNCTIONS, report::FUNCTIONS]
         .into_iter()
         .flatten()
         .collect()

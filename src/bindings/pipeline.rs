@@ -224,6 +224,7 @@ const STAGES_TABLE: Table = Table {
         ("makes", Ty::Varchar),
         ("undo", Ty::Varchar),
         ("shared", Ty::Boolean),
+        ("short_name", Ty::Varchar),
     ],
     register: table::register::<StagesFn>,
 };
@@ -233,7 +234,8 @@ const STAGES: Function = Function {
     description: "The pipeline's manifest: one row per statement of a run, in order (k), with its stage, its file, the statement, the table \
                   or macro it makes, the statement that undoes it when a later one fails (`undo`), and whether `makes` is a site table \
                   shared by the windows of a site (`shared`). A host runs the rows in order on its own connection; after a row succeeds \
-                  it remembers its undo; when a row fails it runs the remembered undos last-first. `out_dir` (optional) adds the result \
+                  it remembers its undo; when a row fails it runs the remembered undos last-first. `short_name` names the short name a row gives one \
+                  of trajdb's macros (sql/analysis.sql: routes for trajdb_routes): a host skips that row when the name is already the user's. `out_dir` (optional) adds the result \
                   files and report.html, the results folder claimed first and committed last; `part` is 'all' (default), 'site' (the \
                   load and the calibration stages of a site) 'window' (one window that reuses a site's tables: sql/window.sql) or 'day' (an archive's day: the whole run, \
                   with out_dir, on a site's tables kept from an earlier day: src/archive/task.rs); \
@@ -261,6 +263,7 @@ fn emit_steps(steps: &[Step], cursor: &Cursor, out: &mut Rows<'_>) -> usize {
         out.opt_text(4, r, s.makes.as_deref());
         out.opt_text(5, r, s.undo.as_deref());
         out.boolean(6, r, s.makes.as_deref().is_some_and(|m| plan::SITE_TABLES.contains(&m)));
+        out.opt_text(7, r, plan::short_name(&s.sql).as_deref());
     }
     rows.len()
 }
@@ -410,15 +413,16 @@ const REFERENCE: Function = Function {
     name: "trajdb_reference",
     description: "The function reference generated from the registered descriptions: format 'markdown' (docs/functions.md: the \
                   sections with an index, each function's overloads, description, arguments, example and related functions), 'text' \
-                  (the same by section, as plain text) or 'families' (per section, where its maths, bindings and functions live: the \
-                  table of docs/development.md).",
+                  (the same by section, as plain text), 'families' (per section, where its maths, bindings and functions live: the \
+                  table of docs/development.md) or 'params' (the pipeline parameters with their type, default, range, stage and \
+                  description, as `trajdb params` prints them).",
     example: "SELECT trajdb_reference('markdown') LIKE '# trajdb function reference%'; -- true",
     maths: "src/bindings/registry.rs",
     binding: file!(),
     section: Section::Reference,
-    see_also: &["trajdb_functions"],
+    see_also: &["trajdb_functions", "trajdb_params"],
     signatures: &[Signature {
-        params: &[pd("format", Ty::Varchar, "'markdown' (docs/functions.md), 'text' or 'families' (the family table of docs/development.md)")],
+        params: &[pd("format", Ty::Varchar, "'markdown' (docs/functions.md), 'text', 'families' (the family table of docs/development.md) or 'params' (the parameter table)")],
         arities: &[],
         returns: Ty::Varchar,
         kernel: reference,
@@ -435,7 +439,8 @@ fn reference(a: &Args<'_>, out: &mut Out<'_>) -> Result<(), Box<dyn Error>> {
             "markdown" => super::registry::markdown(&docs),
             "text" => super::registry::text(&docs),
             "families" => super::registry::families(&docs),
-            other => return Err(format!("format must be 'markdown', 'text' or 'families', got {other:?}").into()),
+            "params" => params::table(),
+            other => return Err(format!("format must be 'markdown', 'text', 'families' or 'params', got {other:?}").into()),
         }))
     })?;
     out.text(&vals);

@@ -80,6 +80,7 @@ pub enum Section {
     Conflicts,
     Classes,
     Noise,
+    Maps,
     Pipeline,
     Archive,
     Simulation,
@@ -88,7 +89,7 @@ pub enum Section {
 
 impl Section {
     /// Every section, in reading order.
-    pub const ALL: [Section; 17] = [
+    pub const ALL: [Section; 18] = [
         Section::Trajectories,
         Section::Geometry,
         Section::Similarity,
@@ -102,6 +103,7 @@ impl Section {
         Section::Conflicts,
         Section::Classes,
         Section::Noise,
+        Section::Maps,
         Section::Pipeline,
         Section::Archive,
         Section::Simulation,
@@ -124,6 +126,7 @@ impl Section {
             Section::Conflicts => "Conflicts",
             Section::Classes => "Road-user classes",
             Section::Noise => "Noise model",
+            Section::Maps => "Maps",
             Section::Pipeline => "Pipeline",
             Section::Archive => "Archive",
             Section::Simulation => "Simulation",
@@ -195,6 +198,11 @@ impl Section {
                 "The noise model's conversions (crates/algo/src/noise.rs): from what the calibrate stage measures (medians and \
                  percentiles of distances) to the sigmas, gates, radii, windows and densities the other stages use; and the gap \
                  that ends a recording session."
+            }
+            Section::Maps => {
+                "Results on a map (docs/maps.md): the similarity from the reference camera's local frame to a map's coordinates, \
+                 fitted on control points (a projected CRS in metres, or longitude/latitude through the plane tangent at the site), \
+                 each control point's residual, and paths mapped with it."
             }
             Section::Pipeline => {
                 "The whole pipeline from SQL: one statement (trajdb_pipeline), or its manifest for hosts that run the statements \

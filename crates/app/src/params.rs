@@ -284,19 +284,37 @@ pub fn params_sql() -> String {
     s
 }
 
-/// A table of the parameters for `trajdb params`: name, stage, default, the range a number must
-/// lie in, description.
+/// The parameters as `trajdb params` prints them (`trajdb_reference('params')`): name, type,
+/// default (`auto`: measured), the closed range of a number, stage and description, the first
+/// five columns padded to their widest value and two spaces apart.
 pub fn table() -> String {
-    let mut s = format!("{:<32} {:<8} {:<10} {:<18} {}\n", "name", "stage", "default", "range", "description");
+    // 0.5, 86400, inf; a small bound as 1e-9 (not 0.000000001)
+    let bound = |v: f64| match v {
+        v if v.is_infinite() => (if v > 0.0 { "inf" } else { "-inf" }).to_string(),
+        v if v != 0.0 && v.abs() < 1e-4 => format!("{v:e}"),
+        v => format!("{v}"),
+    };
+    let mut rows: Vec<[String; 6]> = vec![["name", "type", "default", "range", "stage", "description"].map(String::from)];
     for p in PARAMS {
         let range = match p.kind {
-            Kind::Double | Kind::Integer => {
-                let r = |v: f64| if v.is_infinite() { "inf".to_string() } else { format!("{v}") };
-                format!("[{}, {}]", r(p.lo), r(p.hi))
-            }
-            _ => String::new(),
+            Kind::Double | Kind::Integer => format!("[{}, {}]", bound(p.lo), bound(p.hi)),
+            Kind::Boolean | Kind::Text => String::new(),
         };
-        let _ = writeln!(s, "{:<32} {:<8} {:<10} {:<18} {}", p.name, p.stage, p.default, range, p.description);
+        let default = p.default.trim_matches('\'').to_string();
+        rows.push([p.name.to_string(), kind_sql(p.kind).to_string(), default, range, p.stage.to_string(), p.description.to_string()]);
+    }
+    let mut width = [0usize; 5];
+    for r in &rows {
+        for (w, c) in width.iter_mut().zip(r.iter()) {
+            *w = (*w).max(c.chars().count());
+        }
+    }
+    let mut s = String::new();
+    for r in &rows {
+        for (w, c) in width.iter().zip(r.iter()) {
+            let _ = write!(s, "{c:<w$}  ");
+        }
+        let _ = writeln!(s, "{}", r[5]);
     }
     s
 }
@@ -364,6 +382,21 @@ mod tests {
         for p in PARAMS {
             assert!(p.lo <= p.hi && !p.lo.is_nan(), "{}", p.name);
         }
+    }
+
+    #[test]
+    fn the_table_has_a_row_per_parameter_and_aligned_columns() {
+        let t = table();
+        let lines: Vec<&str> = t.lines().collect();
+        assert_eq!(lines.len(), PARAMS.len() + 1);
+        assert!(lines[0].starts_with("name ") && lines[0].ends_with("  description"), "{}", lines[0]);
+        let col = lines[0].find("type").unwrap();
+        for (l, p) in lines[1..].iter().zip(PARAMS) {
+            assert!(l.starts_with(p.name) && l[col..].starts_with(kind_sql(p.kind)), "{l}");
+            assert!(l.ends_with(p.description), "{l}");
+        }
+        let eta = lines.iter().find(|l| l.starts_with("merge_eta ")).unwrap();
+        assert!(eta.contains("[1e-9, 1]"), "{eta}");
     }
 
     #[test]

@@ -36,15 +36,33 @@ pub const SITE_TABLES: &[&str] = &[
     "align_pairs",
 ];
 
-/// Intermediate tables (and macros) of the site's alignment: made by the site run only, never
-/// shipped, skipped by a window.
-pub const SITE_WORK_TABLES: &[&str] = &[
-    "align_centroids", "align_scan", "align_hypotheses", "align_vote", "align_widen", "align_hyp_wide", "align_best_wide", "align_tracks",
-    "align_hyp", "align_best", "align_support", "align_refit", "align_edges", "view_points", "align_keys", "align_activity",
-    "align_coarse", "align_clock", "align_drift_obs", "align_drift_pairs", "align_drift_fitted", "align_drift_kept", "align_drift",
-    "align_retry", "align_speed_votes", "align_speed", "align_sample", "align_scan_pass", "align_speed_scan",
-    "align_offset_se", "align_support_voted", "align_residuals", "align_clean", "align_register_pairs", "align_register", "align_transform",
-];
+/// The stages a site computes once and a window never recomputes: a window takes their tables
+/// from the site ([`SITE_TABLES`]) and skips their intermediate ones ([`site_work_tables`]); it
+/// keeps only their statements that put `points` into the common frame and clock and their
+/// `result_*()` macros.
+pub const SITE_ONLY_STAGES: &[&str] = &["align", "overlap"];
+
+/// The intermediate tables (and macros) of the [`SITE_ONLY_STAGES`]: everything their files'
+/// contract headers list under `makes:` or `work:` that is not a [`SITE_TABLES`] entry, `points`
+/// or a `result_*()` macro. Made by the site run only, never shipped, skipped by a window. Read
+/// from the headers (checked against the SQL by tests/check_stage_contracts.py), so a table added
+/// to a file is skipped without a second list to keep.
+pub fn site_work_tables() -> Result<Vec<String>, Box<dyn Error>> {
+    let mut out: Vec<String> = Vec::new();
+    for p in sql::parts("sql/pipeline.sql")? {
+        if !SITE_ONLY_STAGES.contains(&p.stage.as_str()) {
+            continue;
+        }
+        for field in ["makes", "work"] {
+            for name in sql::header_list(&p.file, field)? {
+                if !SITE_TABLES.contains(&name.as_str()) && name != "points" && !name.starts_with("result_") && !out.contains(&name) {
+                    out.push(name);
+                }
+            }
+        }
+    }
+    Ok(out)
+}
 
 /// The stages a site's calibration runs (and nothing after them).
 pub const CALIBRATION_STAGES: &[&str] = &["calibrate", "clean", "quality", "align", "overlap"];
@@ -154,6 +172,33 @@ pub fn statement_action(stmt: &str) -> Option<(&'static str, String)> {
         ["update", ..] => name_at(1).map(|n| ("update", n)),
         _ => None,
     }
+}
+
+/// The short name a statement gives one of trajdb's macros (sql/analysis.sql: `CREATE OR REPLACE
+/// TEMP MACRO routes(...) AS TABLE FROM trajdb_routes(...)` names `trajdb_routes` `routes`), or
+/// `None`. A host leaves such a statement out when the name is already the user's (a table, view,
+/// macro or function of theirs: python/trajdb's execute_steps), so that a run never redefines a
+/// user's name; `trajdb_<name>` is always there. `trajdb_stages` and `trajdb_script` give it per
+/// row (column `short_name`).
+pub fn short_name(stmt: &str) -> Option<String> {
+    let ("macro", name) = statement_action(stmt)? else { return None };
+    if name.starts_with("trajdb_") {
+        return None;
+    }
+    let code: String = stmt.lines().filter(|l| !l.trim_start().starts_with("--")).collect::<Vec<_>>().join("\n").to_ascii_lowercase();
+    let words: Vec<&str> = code.split_whitespace().collect();
+    let target = format!("trajdb_{name}");
+    // the body: the words after the first `as` that follows the parameter list's `)`
+    let close = words.iter().position(|w| w.contains(')'))?;
+    let at = close + words[close..].iter().position(|w| *w == "as")? + 1;
+    let body = match words.get(at..)? {
+        ["table", "from", rest @ ..] => rest,
+        rest => rest,
+    };
+    let call = body.first()?;
+    let calls = call.strip_prefix(target.as_str()).is_some_and(|r| r.starts_with('('))
+        || (*call == target && body.get(1).is_some_and(|w| w.starts_with('(')));
+    calls.then_some(name)
 }
 
 /// Why `stmt` could change something outside the session (the caller's database file, an
@@ -310,7 +355,8 @@ pub fn plan(req: &Request) -> Result<Vec<Step>, Box<dyn Error>> {
         push_script(&mut steps, "params", "sql/report_gates.sql", &sql::expand_embedded("sql/report_gates.sql")?);
     }
     // 3. the load and the stages (sql/pipeline.sql: params.sql keeps the values set above)
-    let skip: Vec<&str> = SITE_TABLES.iter().chain(SITE_WORK_TABLES).copied().collect();
+    let work = site_work_tables()?;
+    let skip: Vec<&str> = SITE_TABLES.iter().copied().chain(work.iter().map(String::as_str)).collect();
     let mut timed = String::new();
     for sql::Part { stage: name, file, sql: text } in sql::parts("sql/pipeline.sql")? {
         let stage = if name == "setup" { "load".to_string() } else { name };
@@ -461,6 +507,41 @@ pub fn script(path: &str) -> Result<Vec<Step>, Box<dyn Error>> {
 mod tests {
     use super::*;
 
+    #[test]
+    fn a_window_recomputes_nothing_of_the_site_only_stages() {
+        let work = site_work_tables().unwrap();
+        // the alignment's and the overlap's intermediates, from their headers
+        for name in ["align_vote", "align_hyp", "align_drift_obs", "align_register", "align_transform", "view_points"] {
+            assert!(work.iter().any(|w| w == name), "{name} not in {work:?}");
+        }
+        assert!(!work.iter().any(|w| w == "points" || w.starts_with("result_") || SITE_TABLES.contains(&w.as_str())), "{work:?}");
+        // a window keeps of those stages only the frame and clock of points and the result macros
+        for s in plan(&req(Part::Window, None)).unwrap() {
+            if SITE_ONLY_STAGES.contains(&s.stage.as_str()) {
+                let m = s.makes.as_deref().unwrap_or("");
+                assert!(m.is_empty() || m == "points" || m.starts_with("result_"), "a window runs {m}: {}", s.sql);
+            }
+        }
+    }
+
+    #[test]
+    fn short_names_are_read_from_the_statement() {
+        assert_eq!(short_name("CREATE OR REPLACE TEMP MACRO routes(p := NULL) AS TABLE FROM trajdb_routes(p)").as_deref(), Some("routes"));
+        assert_eq!(short_name("-- a comment\nCREATE OR REPLACE TEMP MACRO Speed(a) AS\n  trajdb_speed (a)").as_deref(), Some("speed"));
+        // not a short name: trajdb's own name, another body, another statement
+        assert_eq!(short_name("CREATE OR REPLACE TEMP MACRO trajdb_routes() AS TABLE FROM merged"), None);
+        assert_eq!(short_name("CREATE OR REPLACE TEMP MACRO routes() AS TABLE FROM trajdb_routes_all()"), None);
+        assert_eq!(short_name("CREATE OR REPLACE TEMP MACRO routes() AS TABLE FROM merged"), None);
+        assert_eq!(short_name("CREATE TEMP TABLE routes AS FROM trajdb_routes()"), None);
+        // every short name of sql/analysis.sql, one per trajdb_ macro it names
+        let file = crate::sql::expand_embedded("sql/analysis.sql").unwrap();
+        let names: Vec<String> = crate::sql::split_statements(&file).iter().filter_map(|st| short_name(st)).collect();
+        assert!(names.len() >= 10 && names.contains(&"routes".to_string()), "{names:?}");
+        for n in &names {
+            assert!(file.contains(&format!("MACRO trajdb_{n}(")), "{n}");
+        }
+    }
+
     fn req(part: Part, out: Option<&str>) -> Request {
         Request { input: "points.parquet".into(), out: out.map(str::to_string), part, params: vec![] }
     }
@@ -584,22 +665,24 @@ mod tests {
 
     #[test]
     fn a_window_skips_site_tables_and_clustering() {
+        let work = site_work_tables().unwrap();
+        let work: Vec<&str> = work.iter().map(String::as_str).collect();
         let site = plan(&req(Part::Site, None)).unwrap();
         let window = plan(&req(Part::Window, None)).unwrap();
         assert!(site.iter().any(|s| s.makes.as_deref() == Some("align_frames")));
         assert!(!site.iter().any(|s| s.stage == "merge" || s.stage == "cluster"));
-        assert!(!window.iter().any(|s| s.makes.as_deref().is_some_and(|m| SITE_TABLES.contains(&m) || SITE_WORK_TABLES.contains(&m))));
+        assert!(!window.iter().any(|s| s.makes.as_deref().is_some_and(|m| SITE_TABLES.contains(&m) || work.contains(&m))));
         assert!(!window.iter().any(|s| s.stage == "cluster"));
         assert!(window.iter().any(|s| s.stage == "merge") && window.iter().any(|s| s.stage == "window"));
         assert!(plan(&Request { out: Some("r".into()), ..req(Part::Site, None) }).is_err());
         // an archive's day: the whole run with its results folder, on the site's tables
         let day = plan(&req(Part::Day, Some("r"))).unwrap();
-        assert!(!day.iter().any(|s| s.makes.as_deref().is_some_and(|m| SITE_TABLES.contains(&m) || SITE_WORK_TABLES.contains(&m))));
+        assert!(!day.iter().any(|s| s.makes.as_deref().is_some_and(|m| SITE_TABLES.contains(&m) || work.contains(&m))));
         assert!(day.iter().any(|s| s.stage == "report") && day.iter().any(|s| s.stage == "commit") && !day.iter().any(|s| s.stage == "window"));
         // every site table and work table is made by a statement of the site run: a renamed
         // table would otherwise be recomputed per window without notice
         let made: Vec<&str> = site.iter().filter_map(|s| s.makes.as_deref()).collect();
-        for t in SITE_TABLES.iter().chain(SITE_WORK_TABLES) {
+        for t in SITE_TABLES.iter().chain(&work) {
             assert!(made.contains(t), "{t} is named a site table but no site statement makes it");
         }
     }

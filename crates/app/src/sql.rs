@@ -135,6 +135,32 @@ fn collect(path: &str, stage: Option<&str>, out: &mut Vec<Part>, depth: usize) -
     Ok(())
 }
 
+/// The names under `field:` in the contract header of an embedded SQL file (its leading comment
+/// lines: `-- makes: a, b, c()`, continued on `--` lines while the list ends with a comma), a
+/// macro's `()` dropped; `-` is none. tests/check_stage_contracts.py checks every header against
+/// the statements below it, so a list read here is the file's truth.
+pub fn header_list(path: &str, field: &str) -> Result<Vec<String>, Box<dyn Error>> {
+    let text = file(path).ok_or_else(|| format!("{path} is not an embedded SQL file"))?;
+    let key = format!("{field}:");
+    let mut names = Vec::new();
+    let mut open = false;
+    for line in text.lines().take_while(|l| l.starts_with("--")) {
+        let body = line.trim_start_matches('-').trim();
+        let list = if let Some(rest) = body.strip_prefix(&key) {
+            rest
+        } else if open {
+            body
+        } else {
+            continue;
+        };
+        // a field's line may carry a second field after it (`reads: ...   makes: ...`)
+        let list = list.split("   ").next().unwrap_or("");
+        names.extend(list.split(',').map(|n| n.trim().trim_end_matches("()").to_string()).filter(|n| !n.is_empty() && n != "-"));
+        open = list.trim_end().ends_with(',');
+    }
+    Ok(names)
+}
+
 /// The stage names of `sql/stages.sql`, in order.
 pub fn stages() -> Vec<String> {
     let mut out: Vec<String> = Vec::new();

@@ -42,11 +42,13 @@ pub fn extension_file() -> Option<std::path::PathBuf> {
     }
 }
 
-/// The storage of a struct field the readers support (8-byte DOUBLE or BIGINT).
+/// The storage of a struct field the readers support (8-byte DOUBLE or BIGINT; BOOLEAN, one
+/// byte, read by `StructCol::get` as 0 or 1).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Kind {
     F64,
     I64,
+    Bool,
 }
 
 /// The fields of a declared `STRUCT` type (or of the element type of a `LIST(STRUCT)`).
@@ -61,7 +63,8 @@ fn struct_fields(ty: &Ty) -> Vec<(&'static str, Kind)> {
         .map(|(name, t)| match t {
             Ty::Double => (*name, Kind::F64),
             Ty::Bigint => (*name, Kind::I64),
-            other => panic!("struct field {name} has type {other:?}; the readers take DOUBLE and BIGINT fields"),
+            Ty::Boolean => (*name, Kind::Bool),
+            other => panic!("struct field {name} has type {other:?}; the readers take DOUBLE, BIGINT and BOOLEAN fields"),
         })
         .collect()
 }

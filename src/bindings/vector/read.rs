@@ -113,9 +113,11 @@ impl<'a> Lists<'a> {
 enum FieldData<'a> {
     F64(&'a [f64]),
     I64(&'a [i64]),
+    /// BOOLEAN: one byte per row, 0 or 1 (read as bytes, never as Rust `bool`)
+    Bool(&'a [u8]),
 }
 
-/// A STRUCT vector of 8-byte fields (DOUBLE or BIGINT), `n` rows.
+/// A STRUCT vector of DOUBLE, BIGINT or BOOLEAN fields, `n` rows.
 struct Fields<'a> {
     validity: Validity,
     data: Vec<(FieldData<'a>, Validity)>,
@@ -134,6 +136,7 @@ impl<'a> Fields<'a> {
                 let d = match kind {
                     Kind::F64 => FieldData::F64(data(fv, n)),
                     Kind::I64 => FieldData::I64(data(fv, n)),
+                    Kind::Bool => FieldData::Bool(data(fv, n)),
                 };
                 (d, Validity::of(fv))
             })
@@ -161,6 +164,7 @@ impl<'a> Fields<'a> {
             .map(|(d, _)| match d {
                 FieldData::F64(s) => FieldData::F64(&s[r.clone()]),
                 FieldData::I64(s) => FieldData::I64(&s[r.clone()]),
+                FieldData::Bool(s) => FieldData::Bool(&s[r.clone()]),
             })
             .collect();
         Rows { data, len }
@@ -188,14 +192,14 @@ impl<'a> Rows<'a> {
     pub fn f64(&self, k: usize) -> &'a [f64] {
         match self.data[k] {
             FieldData::F64(s) => s,
-            FieldData::I64(_) => panic!("field {k} is BIGINT, not DOUBLE (declared type)"),
+            _ => panic!("field {k} is not DOUBLE (declared type)"),
         }
     }
     /// Field `k`, declared BIGINT.
     pub fn i64(&self, k: usize) -> &'a [i64] {
         match self.data[k] {
             FieldData::I64(s) => s,
-            FieldData::F64(_) => panic!("field {k} is DOUBLE, not BIGINT (declared type)"),
+            _ => panic!("field {k} is not BIGINT (declared type)"),
         }
     }
 }
@@ -240,7 +244,7 @@ impl<'a> StructListCol<'a> {
     fn f64_at(&self, k: usize, r: Range<usize>) -> &'a [f64] {
         match self.fields.data[k].0 {
             FieldData::F64(s) => &s[r],
-            FieldData::I64(_) => panic!("field {k} is BIGINT, not DOUBLE (declared type)"),
+            _ => panic!("field {k} is not DOUBLE (declared type)"),
         }
     }
     pub fn get(&self, row: usize) -> Res<Option<Rows<'a>>> {
@@ -382,8 +386,8 @@ impl<'a, T> PrimListCol<'a, T> {
     }
 }
 
-/// A STRUCT argument whose fields are all DOUBLE (a transform). A NULL struct gives `None`; a
-/// NULL field is an error.
+/// A STRUCT argument of DOUBLE, BIGINT or BOOLEAN fields (a transform, a map fit), each read as
+/// an f64 (BOOLEAN as 0 or 1). A NULL struct gives `None`; a NULL field is an error.
 pub struct StructCol<'a> {
     fields: Fields<'a>,
     param: &'static str,
@@ -391,7 +395,7 @@ pub struct StructCol<'a> {
 
 impl<'a> StructCol<'a> {
     pub(super) fn new(chunk: &'a DataChunkHandle, col: usize, param: &'static str, fields: &[(&'static str, Kind)]) -> Self {
-        // SAFETY: the signature declares `col` as STRUCT(fields) of DOUBLEs; the chunk is flat.
+        // SAFETY: the signature declares `col` as STRUCT(fields) of these kinds; the chunk is flat.
         unsafe { StructCol { fields: Fields::of(vector(chunk, col), chunk.len(), fields), param } }
     }
     pub fn get(&self, row: usize) -> Res<Option<Vec<f64>>> {
@@ -406,6 +410,7 @@ impl<'a> StructCol<'a> {
             match d {
                 FieldData::F64(s) => out.push(s[row]),
                 FieldData::I64(s) => out.push(s[row] as f64),
+                FieldData::Bool(s) => out.push(if s[row] != 0 { 1.0 } else { 0.0 }),
             }
         }
         Ok(Some(out))

@@ -15,6 +15,7 @@
 //! | [`shift_under`] | `rigid_shift_under` | the clock offset of one track pair under a known transform (align.sql's drift measurement) |
 //! | [`speed_lag`] | `speed_lag` | the clock offset of one track pair from their speed profiles (frame-free): align.sql's second coarse offset where the activity peak was too far off |
 //! | [`frame_change`] | `frame_change` | has a camera's frame or clock changed since its calibration: the day's registration against the calibration day's, in standard errors (an archive's daily check) |
+//! | [`map`] | `map_fit`, `map_apply`, `map_residual_m` | results on a map: the similarity from the reference camera's frame to a map CRS fitted on control points, through the tangent plane for longitude/latitude |
 //! | [`twin`] | `camera_twin` | is one camera the other exported twice (the load's twin check, sql/pipeline.sql) |
 //! | [`cpd`] | `cpd_align` (2-D) | rigid TimeCPD, thesis eq. 2.7/2.8, Alg. 5–8, sparse time-windowed E-step |
 //! | [`cpd3`] | `cpd_align` (3-D) | the same model in 3-D (rotation by SVD) |
@@ -23,6 +24,7 @@ pub mod clock;
 pub mod clock_network;
 pub mod drift_fit;
 pub mod frame_change;
+pub mod map;
 pub mod correspond;
 pub mod msd;
 pub mod perspective;

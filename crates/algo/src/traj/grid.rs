@@ -1,7 +1,8 @@
 //! One axis of a uniform grid (space or time), for the space-time grids that find the pairs
 //! near each other ([`crate::lcss::sparse`], [`crate::conflict::candidates`]), and the common
 //! clock's ticks `t = k · period` that every resampled path shares ([`clock_ticks`]:
-//! [`crate::traj::resample`] and the fused paths of [`crate::fuse`]).
+//! [`crate::traj::resample`] and the fused paths of [`crate::fuse`]), and the window of a time
+//! ([`window_index`]: which `[k · width, (k + 1) · width)` holds it, as a host computes the bounds).
 
 /// Cells of `size` along one axis; a size that is not finite and > 0 is one cell (index 0).
 #[derive(Clone, Copy, Debug)]
@@ -38,6 +39,31 @@ pub fn clock_ticks(first: f64, last: f64, period: f64) -> impl Iterator<Item = f
     })
 }
 
+/// The k with `k as f64 * width <= t < (k + 1) as f64 * width`, each bound computed as a host
+/// computes a window's start and end from k (one product, rounded once): the window
+/// `[k · width, (k + 1) · width)` that holds `t`. `floor(t / width)` alone can be one off, as
+/// `t / width` and `k · width` round apart; the products decide. The archive's Spark runner
+/// assigns a road user's first observation to its window with this, and each window task keeps
+/// the road users whose first observation lies in its `[start, end)` (sql/window.sql). O(1).
+/// `None` unless `t` is finite, `width` finite and > 0, and `|t / width| < 2^53` (k exact).
+pub fn window_index(t: f64, width: f64) -> Option<i64> {
+    if !(t.is_finite() && width.is_finite() && width > 0.0) {
+        return None;
+    }
+    let q = (t / width).floor();
+    if !(q.abs() < 9_007_199_254_740_992.0) {
+        return None;
+    }
+    let k = q as i64;
+    Some(if t < k as f64 * width {
+        k - 1
+    } else if t >= (k + 1) as f64 * width {
+        k + 1
+    } else {
+        k
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -51,5 +77,25 @@ mod tests {
         assert_eq!(clock_ticks(-0.3, -0.1, 0.1).count(), 2);
         assert_eq!(clock_ticks(1.0, 0.5, 0.1).count(), 0);
         assert_eq!(clock_ticks(0.0, 0.0, 0.1).collect::<Vec<_>>(), vec![0.0]);
+    }
+
+    #[test]
+    fn a_time_lies_in_the_window_of_its_index() {
+        // the rule itself, against the products, over awkward widths and times near the bounds
+        for &w in &[0.1, 0.3, 1.0 / 3.0, 3600.0, 86400.0, 1e-3, 7.7] {
+            for k in -50i64..50 {
+                for &t in &[k as f64 * w, (k as f64 * w).next_up(), (k as f64 * w).next_down(), (k as f64 + 0.5) * w] {
+                    let i = window_index(t, w).unwrap();
+                    assert!(i as f64 * w <= t && t < (i + 1) as f64 * w, "t {t} w {w} -> {i}");
+                }
+            }
+        }
+        // 0.3 / 0.1 is 2.9999999999999996: floor says 2, the products say window 3 holds 0.3
+        assert_eq!((0.3f64 / 0.1).floor(), 2.0);
+        assert_eq!(window_index(0.3, 0.1), Some(if 3.0 * 0.1 <= 0.3 { 3 } else { 2 }));
+        assert_eq!(window_index(1.78e9 + 0.5, 3600.0), Some(494_444));
+        assert_eq!(window_index(f64::NAN, 1.0), None);
+        assert_eq!(window_index(1.0, 0.0), None);
+        assert_eq!(window_index(1e300, 1e-300), None);
     }
 }

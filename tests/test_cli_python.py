@@ -208,6 +208,23 @@ def test_params():
         assert ok("params", "--sql")[0] == f.read(), "trajdb params --sql differs from sql/params.sql"
 
 
+def test_simulate_options_say_the_extensions_defaults():
+    """The simulator's options are trajdb_simulate's named parameters: each default the help
+    shows is the one its descriptor documents (src/bindings/simulate.rs), so the two cannot drift."""
+    from trajdb import cli
+
+    args = csv_sql("SELECT arguments FROM trajdb_functions() WHERE name = 'trajdb_simulate'")
+    docs = {}
+    for line in args.replace('"', "").splitlines()[1:]:
+        name, _, doc = line.partition(" := ")
+        docs[name.strip()] = doc
+    for opt, _, name, default, _ in cli.SIM_OPTIONS:
+        if name is None:  # a CLI shorthand for two parameters (--noise-sigma LO,HI, ...)
+            continue
+        assert name in docs, (opt, name, sorted(docs))
+        assert re.search(r"default:? '?" + re.escape(default) + r"\b", docs[name]), (opt, default, docs[name])
+
+
 def test_simulate_is_deterministic_and_checks_its_options():
     base = os.path.join(TMP, "sim")
 

@@ -123,7 +123,6 @@ def _road_users(source, fit=None):
     """Rows of merged.parquet as dicts, from a results folder, a merged.parquet path or a
     DuckDB connection after the pipeline (its `merged` road users via result_road_users());
     with a MapFit, each traj on the map (map_apply; t unchanged)."""
-    import duckdb
     if isinstance(source, (str, os.PathLike)):
         path = os.fspath(source)
         if os.path.isdir(path):

@@ -144,7 +144,10 @@ def _road_users(source, fit=None):
     replace = f" REPLACE ({', '.join(repl)})" if repl else ""
     named = {f"a{k}": v for k, v in enumerate(args)}
     src = src.replace("?", "$a0")
-    cur = con.execute(f"SELECT * EXCLUDE (geometry){replace} FROM {src} ORDER BY road_user", {**named, **({"fit": fit.fit} if fit else {})})
+    # each path's ISO WKB (LINESTRING M, M = t; POINT M for one point) by the extension's one
+    # WKB writer (traj_to_wkb, crates/algo/src/traj.rs), in the same query: "wkb_m", not a property
+    cur = con.execute(f"SELECT *, traj_to_wkb(traj, true) AS wkb_m FROM (SELECT * EXCLUDE (geometry){replace} FROM {src}) ORDER BY road_user",
+                      {**named, **({"fit": fit.fit} if fit else {})})
     names = [d[0] for d in cur.description]
     return [dict(zip(names, r)) for r in cur.fetchall()]
 
@@ -156,26 +159,13 @@ def _utc(t):
 
 
 def _properties(r):
-    p = {k: v for k, v in r.items() if k not in ("traj", "sigma", "sources")}
+    p = {k: v for k, v in r.items() if k not in ("traj", "sigma", "sources", "wkb_m")}
     p["sources"] = ",".join(f"{s['camera']}:{s['track_id']}" for s in r["sources"] or [])
     p["times"] = [q["t"] for q in r["traj"]]
     p["sigma"] = list(r["sigma"]) if r.get("sigma") is not None else None
     if _utc(r["t_start"]):
         p["t_start_utc"], p["t_end_utc"] = _utc(r["t_start"]), _utc(r["t_end"])
     return p
-
-
-def _wkb_m(feats):
-    """ISO WKB (little endian) of every feature's (X, Y, t) path: LINESTRING M (2002), or POINT M
-    (2001) for one point. The extension's traj_to_wkb(traj, true) writes them (the one WKB
-    writer, crates/algo/src/traj.rs), all in one call."""
-    from . import connect
-
-    trajs = [[{"t": p[2], "x": p[0], "y": p[1]} for p in xym] for _, xym in feats]
-    if not trajs:
-        return []
-    got = connect().execute("SELECT [traj_to_wkb(tr, true) FOR tr IN ?::STRUCT(t DOUBLE, x DOUBLE, y DOUBLE)[][]]", [trajs]).fetchall()[0][0]
-    return [bytes(w) for w in got]
 
 
 def export(source, path, format=None, control_points=None, crs=None, overwrite=False):
@@ -268,7 +258,8 @@ def _gpkg(path, feats, epsg):
                  sources TEXT, t_start REAL, t_end REAL, t_start_utc DATETIME, t_end_utc DATETIME, duration_s REAL, length_m REAL,
                  sigma_m REAL, times TEXT)""")
     xs, ys = [], []
-    for (r, xym), wkb in zip(feats, _wkb_m(feats)):
+    for r, xym in feats:
+        wkb = bytes(r["wkb_m"])
         bx, by = [p[0] for p in xym], [p[1] for p in xym]
         xs += [min(bx), max(bx)]
         ys += [min(by), max(by)]
@@ -293,7 +284,7 @@ def _geoparquet(path, feats, epsg):
                 "duration_s DOUBLE, length_m DOUBLE, sigma_m DOUBLE, times DOUBLE[], geometry BLOB)")
     con.executemany("INSERT INTO ru VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
                     [(r["road_user"], r["class"], r["n_tracks"], _properties(r)["sources"], r["t_start"], r["t_end"], r["duration_s"],
-                      r["length_m"], r.get("sigma_m"), [p[2] for p in xym], wkb) for (r, xym), wkb in zip(feats, _wkb_m(feats))])
+                      r["length_m"], r.get("sigma_m"), [p[2] for p in xym], bytes(r["wkb_m"])) for r, xym in feats])
     if epsg is None:
         crs = None
     elif epsg == 4326:

@@ -285,7 +285,7 @@ CREATE OR REPLACE TEMP MACRO s_num(v, fmt) AS
     CASE WHEN v IS NULL OR isnan(v::DOUBLE) THEN 'NaN' ELSE printf(fmt, v::DOUBLE) END;
 CREATE OR REPLACE TEMP MACRO s_opt(v, fmt) AS CASE WHEN v IS NULL THEN '-' ELSE s_num(v, fmt) END;
 CREATE OR REPLACE TEMP MACRO s_pct(v) AS CASE WHEN v IS NULL THEN '-' ELSE s_num(v * 100, '%+.1f') || '%' END;
-CREATE OR REPLACE TEMP MACRO s_class(c) AS printf('%-14s', CASE WHEN c = '*' THEN 'all' ELSE c END);
+CREATE OR REPLACE TEMP MACRO s_class(c) AS printf('%-14s', CASE WHEN c IS NULL THEN 'NULL' WHEN c = '*' THEN 'all' ELSE c END);
 CREATE OR REPLACE TEMP MACRO s_int(n, w) AS printf('%' || w || 's', coalesce(n::VARCHAR, '-'));
 
 CREATE OR REPLACE TEMP TABLE s_printout AS

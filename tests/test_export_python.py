@@ -22,6 +22,7 @@ import sqlite3
 import struct
 import subprocess
 import sys
+import warnings
 import tempfile
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -166,6 +167,20 @@ def main():
         raises(lambda: fit_map(cps[:1], "EPSG:32632"), ValueError, "one control point")
         raises(lambda: fit_map([(1, 1, 0, 0), (1, 1, 5, 5)], "EPSG:32632"), ValueError, "coincident control points")
         raises(lambda: fit_map(cps, "utm"), ValueError, "a CRS that is not an EPSG code")
+        raises(lambda: fit_map(cps2, "EPSG:4258"), ValueError, "a geographic CRS other than EPSG:4326 (its degrees are no metres)")
+        raises(lambda: fit_map(cps2, "EPSG:32632"), ValueError, "longitude/latitude given for a projected CRS")
+        # the tuples in the wrong order (lon, lat, x, y): a scale far from 1 is said, and paths the
+        # fit puts past a pole are an error, never a file of impossible coordinates
+        swapped = [(p[2], p[3], p[0], p[1]) for p in cps2]
+        with warnings.catch_warnings(record=True) as said:
+            warnings.simplefilter("always")
+            fit_map(swapped, "EPSG:4326")
+        check(any("scale" in str(x.message) for x in said), f"a scale far from 1 is said: {[str(x.message) for x in said]}")
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            raises(lambda: export(w + "/r", w + "/swapped.geojson", control_points=swapped, crs="EPSG:4326"), ValueError,
+                   "control points in the wrong order")
+        check(not os.path.exists(w + "/swapped.geojson"), "nothing written for them")
         raises(lambda: export(w + "/r", w + "/x.shp"), ValueError, "an unknown format")
         raises(lambda: export(w + "/r", w + "/ru.geojson"), FileExistsError, "an existing file")
         raises(lambda: export(w + "/r", w + "/local.geojson"), ValueError, "GeoJSON in the local frame (no control points)")

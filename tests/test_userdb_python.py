@@ -114,6 +114,14 @@ def check_file_database(tmp):
     # a second run in the same session replaces trajdb's own macros, never the user's
     trajdb.pipeline(con, "pts")
     assert user_objects(con) == mine
+    # a TEMP macro of the user's under a short name, even one that calls trajdb's, stays theirs
+    # (trajdb's own is told apart by the definition it gave: temp table trajdb_short_macros)
+    con.execute("CREATE OR REPLACE TEMP MACRO movements(bin_s := 60) AS TABLE SELECT 'mine' AS who, * FROM trajdb_movements(bin_s := bin_s) LIMIT 1")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        trajdb.pipeline(con, "pts")
+    assert con.execute("SELECT who FROM movements()").fetchall() == [("mine",)], "the user's wrapper macro was replaced"
+    assert any("movements is yours" in str(w.message) for w in caught), [str(w.message) for w in caught]
     con.close()
     con = duckdb.connect(db)
     after = catalog(con)

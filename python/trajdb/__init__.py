@@ -260,27 +260,47 @@ def _steps(con, query, args):
 def names_taken(con, names):
     """{name: 'macro main.routes'} for each of `names` that already means something that is not
     trajdb's on `con`: a table, view, macro or function of any database or schema the connection
-    sees (the file's, an attached one's, TEMP ones). trajdb's own short names (an earlier run:
-    a TEMP macro whose body calls trajdb_<name>) are trajdb's and may be defined again."""
+    sees (the file's, an attached one's, TEMP ones). A TEMP macro is trajdb's own (an earlier
+    run's short name, which may be defined again) only when its definition is the one trajdb gave
+    it on this connection (temp table trajdb_short_macros): a macro of yours under that name, even
+    one that calls trajdb_<name>, stays yours."""
     names = sorted({n.lower() for n in names})
     if not names:
         return {}
+    own = _own_short_macros(con)
     rows = con.execute(
-        """SELECT lower(name), kind || ' ' || database_name || '.' || schema_name || '.' || name FROM (
-               SELECT function_name AS name, CASE WHEN function_type LIKE '%macro%' THEN 'macro' ELSE 'function' END AS kind,
-                      database_name, schema_name, coalesce(macro_definition, '') AS body
-               FROM duckdb_functions() WHERE NOT internal
-               UNION ALL SELECT table_name, 'table', database_name, schema_name, '' FROM duckdb_tables()
-               UNION ALL SELECT view_name, 'view', database_name, schema_name, '' FROM duckdb_views() WHERE NOT internal)
+        """SELECT lower(name), kind || ' ' || database_name || '.' || schema_name || '.' || name, database_name = 'temp' AND kind = 'macro', body
+           FROM (SELECT function_name AS name, CASE WHEN function_type LIKE '%macro%' THEN 'macro' ELSE 'function' END AS kind,
+                        database_name, schema_name, coalesce(macro_definition, '') AS body
+                 FROM duckdb_functions() WHERE NOT internal
+                 UNION ALL SELECT table_name, 'table', database_name, schema_name, '' FROM duckdb_tables()
+                 UNION ALL SELECT view_name, 'view', database_name, schema_name, '' FROM duckdb_views() WHERE NOT internal)
            WHERE list_contains(?, lower(name))
-             AND NOT (database_name = 'temp' AND kind = 'macro' AND contains(body, 'trajdb_' || lower(name) || '('))
            ORDER BY ALL""",
         [names],
     ).fetchall()
     taken = {}
-    for name, what in rows:
-        taken.setdefault(name, what)
+    for name, what, temp_macro, body in rows:
+        if not (temp_macro and own.get(name) == body):
+            taken.setdefault(name, what)
     return taken
+
+
+def _own_short_macros(con):
+    """{name: definition} of the short-name macros trajdb defined on `con` (temp table
+    trajdb_short_macros, written by execute_steps; absent: none)."""
+    if not con.execute("SELECT count(*) FROM duckdb_tables() WHERE database_name = 'temp' AND table_name = 'trajdb_short_macros'").fetchall()[0][0]:
+        return {}
+    return dict(con.execute("SELECT name, definition FROM temp.main.trajdb_short_macros").fetchall())
+
+
+def _remember_short_macro(con, name):
+    """Records the definition trajdb just gave its short-name macro `name` (names_taken)."""
+    con.execute("CREATE TEMP TABLE IF NOT EXISTS trajdb_short_macros (name VARCHAR, definition VARCHAR)")
+    con.execute("DELETE FROM temp.main.trajdb_short_macros WHERE name = ?", [name])
+    con.execute("""INSERT INTO temp.main.trajdb_short_macros
+                   SELECT ?, coalesce(any_value(macro_definition), '') FROM duckdb_functions()
+                   WHERE database_name = 'temp' AND lower(function_name) = ?""", [name, name])
 
 
 def execute_steps(con, steps, progress=False):
@@ -331,6 +351,8 @@ def execute_steps(con, steps, progress=False):
                 head = " ".join(line for line in sql.split("\n") if not line.lstrip().startswith("--"))[:160]
                 e.add_note(f"trajdb: in stage '{stage}' ({file}), in the statement: {' '.join(head.split())} ...")
             raise
+        if short:
+            _remember_short_macro(con, short)
         if undo_sql:
             undo.append(undo_sql)
         dt = time.perf_counter() - t
@@ -477,6 +499,8 @@ def simulate(con, out, **params):
         con.execute("SET VARIABLE trajdb_sim_csv = ?", [os.path.join(staging, "points.csv")])
         con.execute("SET VARIABLE trajdb_sim_parquet = ?", [os.path.join(staging, "points.parquet")])
         read(con, "sql/simulate.sql")  # points.csv -> points.parquet, typed as the shared scenarios
+        con.execute("RESET VARIABLE trajdb_sim_csv")
+        con.execute("RESET VARIABLE trajdb_sim_parquet")
         con.execute("FROM trajdb_results_end(?, true)", [out]).fetchall()
     except BaseException:
         con.execute("FROM trajdb_results_end(?, false)", [out]).fetchall()

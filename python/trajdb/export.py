@@ -33,6 +33,7 @@ import os
 import secrets
 import sqlite3
 import struct
+import warnings
 
 FORMATS = {".geojson": "geojson", ".json": "geojson", ".gpkg": "gpkg", ".parquet": "parquet"}
 EPOCH_1990 = 631152000.0
@@ -108,6 +109,11 @@ def fit_map(control_points, crs):
         raise ValueError("trajdb.export: control_points must be at least two finite (x, y, X, Y) tuples")
     from . import connect
 
+    if epsg in GEOGRAPHIC or (epsg != 4326 and _looks_like_degrees(pts)):
+        # a projected CRS's coordinates are metres; a fit of degrees as metres is meaningless
+        raise ValueError(
+            f"trajdb.export: EPSG:{epsg} {'is a geographic CRS (degrees)' if epsg in GEOGRAPHIC else 'is taken for a projected CRS (metres), but the map points look like longitude/latitude degrees'}; "
+            "give longitude/latitude with crs='EPSG:4326' (WGS 84), or the points in a projected CRS (UTM, a national grid)")
     rows = [{"x": p[0], "y": p[1], "map_x": p[2], "map_y": p[3]} for p in pts]
     try:
         f, residuals = connect().execute(
@@ -116,7 +122,23 @@ def fit_map(control_points, crs):
             [epsg == 4326, rows]).fetchall()[0]
     except Exception as e:  # noqa: BLE001 - the extension's message names what is wrong
         raise ValueError(f"trajdb.export: {str(e).split(': ', 1)[-1]}") from None
+    if not 0.5 <= f["scale"] <= 2.0:
+        warnings.warn(f"trajdb.export: the map fit's scale is {f['scale']:.6g}: the local frame is not in metres, or a control point "
+                      "is wrong (is each one (x, y, X, Y) in that order?)", stacklevel=2)
     return MapFit(f, epsg, residuals)
+
+
+# geographic CRSs (degrees) other than EPSG:4326: refused by name, as fitting their degrees as
+# metres is meaningless (ETRS89, NAD83, GDA94, GDA2020, NZGD2000, JGD2000, JGD2011, CGCS2000, SIRGAS 2000)
+GEOGRAPHIC = {4258, 4269, 4283, 7844, 4167, 4612, 6668, 4490, 4674}
+
+
+def _looks_like_degrees(pts):
+    """Map points within a tenth of a degree of each other in longitude/latitude ranges, for local
+    points metres apart: degrees given for a projected CRS."""
+    mx, my, lx, ly = ([p[k] for p in pts] for k in (2, 3, 0, 1))
+    in_range = all(-180 <= v <= 180 for v in mx) and all(-90 <= v <= 90 for v in my)
+    return in_range and max(max(mx) - min(mx), max(my) - min(my)) < 0.1 and max(max(lx) - min(lx), max(ly) - min(ly)) > 10
 
 
 def _road_users(source, fit=None):
@@ -146,8 +168,13 @@ def _road_users(source, fit=None):
     src = src.replace("?", "$a0")
     # each path's ISO WKB (LINESTRING M, M = t; POINT M for one point) by the extension's one
     # WKB writer (traj_to_wkb, crates/algo/src/traj.rs), in the same query: "wkb_m", not a property
-    cur = con.execute(f"SELECT *, traj_to_wkb(traj, true) AS wkb_m FROM (SELECT * EXCLUDE (geometry){replace} FROM {src}) ORDER BY road_user",
-                      {**named, **({"fit": fit.fit} if fit else {})})
+    try:
+        cur = con.execute(f"SELECT *, traj_to_wkb(traj, true) AS wkb_m FROM (SELECT * EXCLUDE (geometry){replace} FROM {src}) ORDER BY road_user",
+                          {**named, **({"fit": fit.fit} if fit else {})})
+    except Exception as e:  # noqa: BLE001 - a path the fit puts off the map (map_apply): the extension says which
+        if fit is None or "map_apply" not in str(e):
+            raise
+        raise ValueError(f"trajdb.export: {str(e).split(': ', 1)[-1]}") from None
     names = [d[0] for d in cur.description]
     return [dict(zip(names, r)) for r in cur.fetchall()]
 

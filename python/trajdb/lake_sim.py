@@ -58,6 +58,7 @@ def simulate_lake(con, lake, sites=2, days=5, minutes=10.0, cameras=3, move=None
                                                CASE WHEN camera = $cam THEN t + $dt ELSE t END AS t)
                              FROM read_parquet($src, hive_partitioning = false)) TO (getvariable('trajdb_lake_dst')) (FORMAT parquet)""",
                     {"cam": int(m["camera"]), "tf": move_tf, "dt": float(m.get("dt", 0.0)), "src": src})
+                con.execute("RESET VARIABLE trajdb_lake_dst")
             else:
                 shutil.copyfile(src, dst)
             n = con.execute("SELECT count(*) FROM read_parquet(?)", [dst]).fetchone()[0]

@@ -175,16 +175,7 @@ fn clock_window(a: &Args<'_>, out: &mut Out<'_>) -> R {
     let get = a.doubles::<2>();
     let vals = a.map(|r| {
         let Some([t, w]) = get(r) else { return Ok(None) };
-        if !(w.is_finite() && w > 0.0) {
-            return Err(format!("width must be finite and > 0 (seconds), got {w}").into());
-        }
-        if !t.is_finite() {
-            return Err(format!("t must be finite, got {t}").into());
-        }
-        match window_index(t, w) {
-            Some(k) => Ok(Some(k)),
-            None => Err(format!("t / width ({t} / {w}) must lie within +-2^53 windows: use a wider window").into()),
-        }
+        Ok(Some(window_index(t, w)?))
     })?;
     out.flat(&vals);
     Ok(())

@@ -59,7 +59,8 @@ pub static FUNCTIONS: &[Function] = &[
         see_also: &["map_fit", "transform_apply", "traj_to_wkb"],
         description: "Every point of a trajectory on the map: (x, y) of the reference camera's frame to the fitted map's \
                       coordinates (longitude/latitude in degrees, in [-180, 180), for a lonlat fit); t unchanged. NULL when an \
-                      argument is NULL. O(n).",
+                      argument is NULL; an error for a point it maps past a pole or beyond the range of doubles (wrong \
+                      control points). O(n).",
         example: "SELECT map_apply([{'t': 0, 'x': 10, 'y': 0}], map_fit([{'x': 0, 'y': 0, 'map_x': 500000, 'map_y': 5700000}, {'x': 10, 'y': 0, 'map_x': 500010, 'map_y': 5700000}], false))[1].x; -- 500010.0",
         maths: MAP_RS,
         binding: file!(),
@@ -131,7 +132,7 @@ fn map_apply(a: &Args<'_>, out: &mut Out<'_>) -> R {
     let (tr, fit) = (a.traj(0), a.structure(1));
     let vals = a.map(|r| {
         let (Some(x), Some(f)) = (tr.get(r)?, fit.get(r)?) else { return Ok(None) };
-        Ok(Some(fit_of(a, 1, &f)?.apply_traj(x)))
+        Ok(Some(fit_of(a, 1, &f)?.apply_traj(x)?))
     })?;
     out.trajs(&vals)?;
     Ok(())
@@ -142,12 +143,7 @@ fn map_residual_m(a: &Args<'_>, out: &mut Out<'_>) -> R {
     let (x, y, mx, my) = (a.double(1), a.double(2), a.double(3), a.double(4));
     let vals = a.map(|r| {
         let (Some(f), Some(x), Some(y), Some(mx), Some(my)) = (fit.get(r)?, x.get(r), y.get(r), mx.get(r), my.get(r)) else { return Ok(None) };
-        for (name, v) in [("x", x), ("y", y), ("map_x", mx), ("map_y", my)] {
-            if !v.is_finite() {
-                return Err(format!("{name} must be finite, got {v}").into());
-            }
-        }
-        Ok(Some(fit_of(a, 0, &f)?.residual_m(x, y, mx, my)))
+        Ok(Some(fit_of(a, 0, &f)?.residual_m_checked(x, y, mx, my)?))
     })?;
     out.flat(&vals);
     Ok(())

@@ -13,7 +13,7 @@
 //!   A site on the antimeridian works: differences of longitude are taken across it, and the
 //!   longitudes returned lie in [-180, 180).
 //!
-//! python/trajdb/export.py (`fit_map`, `export`) calls this through `map_fit` and `map_traj`.
+//! python/trajdb/export.py (`fit_map`, `export`) calls this through `map_fit`, `map_apply` and `map_residual_m`.
 
 use super::rigid::{self, RigidError, Transform2};
 use crate::traj::{OwnedTraj, Traj};
@@ -63,22 +63,38 @@ pub enum MapError {
     Fit(String),
     /// No memory for this many points.
     Memory(usize),
+    /// A single value that must be finite.
+    Value { field: &'static str, value: f64 },
+    /// A map point of a longitude/latitude fit outside [-180, 180] x [-90, 90].
+    MapPoint { lon: f64, lat: f64 },
+    /// A local point the fit maps beyond a pole or the range of doubles.
+    Beyond { x: f64, y: f64, value: String },
 }
 
 impl fmt::Display for MapError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             MapError::TooFew(n) => write!(f, "needs at least two control points (x, y, map_x, map_y), got {n}"),
-            MapError::NotFinite { index, field, value } => write!(f, "points[{index}].{field} must be finite, got {value}"),
+            MapError::NotFinite { index, field, value } => write!(f, "points[{index}].{field} must be finite, got {value:?}"),
             MapError::LonLat { index, lon, lat } => write!(
                 f,
-                "points[{index}] is not a longitude/latitude in degrees (map_x {lon} in [-180, 180], map_y {lat} in [-90, 90]); \
+                "points[{index}] is not a longitude/latitude in degrees (map_x {lon:?} in [-180, 180], map_y {lat:?} in [-90, 90]); \
                  for a projected CRS give lonlat := false"
             ),
             MapError::LocalCoincide => write!(f, "the control points coincide in the local frame; give two or more distinct points"),
             MapError::NoFit(why) => write!(f, "the control points give no map fit: {why}; give distinct points in both frames"),
             MapError::Fit(why) => write!(f, "not a map fit: {why}"),
             MapError::Memory(n) => write!(f, "no memory for {n} points"),
+            MapError::Value { field, value } => write!(f, "{field} must be finite, got {value:?}"),
+            MapError::MapPoint { lon, lat } => write!(
+                f,
+                "(map_x, map_y) = ({lon:?}, {lat:?}) is not a longitude/latitude in degrees (map_x in [-180, 180], map_y in [-90, 90])"
+            ),
+            MapError::Beyond { x, y, value } => write!(
+                f,
+                "the fit maps ({x:?}, {y:?}) to {value}: off the map; are the control points (x, y, longitude, latitude) in that order, \
+                 and the local frame in metres?"
+            ),
         }
     }
 }
@@ -87,12 +103,10 @@ impl std::error::Error for MapError {}
 /// A longitude (or a difference of two) brought into [-180, 180) when it lies outside it;
 /// unchanged (to the bit) inside.
 fn wrap_lon(d: f64) -> f64 {
-    if d < -180.0 {
-        d + 360.0
-    } else if d >= 180.0 {
-        d - 360.0
-    } else {
+    if (-180.0..180.0).contains(&d) {
         d
+    } else {
+        (d + 180.0).rem_euclid(360.0) - 180.0
     }
 }
 
@@ -155,14 +169,18 @@ pub fn fit(x: &[f64], y: &[f64], mx: &[f64], my: &[f64], lonlat: bool) -> Result
     }
     let f = rigid::fit_trimmed(&wx, &wy, x, y, 0.0, true).map_err(|e: RigidError| MapError::NoFit(e.to_string()))?;
     let t = f.transform;
-    if !(t.scale.is_finite() && t.scale > 1e-9 && t.tx.is_finite() && t.ty.is_finite()) {
-        return Err(MapError::NoFit(format!("scale {}: do the map points coincide, or lie beyond the range of doubles?", t.scale)));
+    // the fit must be one map_apply takes back (Transform2::validate), and tell a scale
+    if !(t.scale.is_finite() && t.scale > 1e-9) || t.validate().is_err() {
+        return Err(MapError::NoFit(format!("scale {:?}: do the map points coincide, or lie beyond the range of doubles?", t.scale)));
     }
     let map = t.mapper();
     let mut residuals_m = room(n)?;
     for k in 0..n {
         let (px, py) = map(x[k], y[k]);
         residuals_m.push((px - wx[k]).hypot(py - wy[k]));
+    }
+    if residuals_m.iter().any(|r| !r.is_finite()) {
+        return Err(MapError::NoFit("a residual is beyond the range of doubles".to_string()));
     }
     Ok(MapFit { transform: t, lonlat, lon0, lat0, residuals_m })
 }
@@ -178,23 +196,42 @@ impl MapFit {
     }
 
     /// The map point of a local point: (X, Y) of the CRS, or (longitude, latitude). O(1).
-    pub fn apply(&self, x: f64, y: f64) -> (f64, f64) {
+    /// An error when the point lands off the map: beyond a pole (latitude outside [-90, 90]:
+    /// the tangent plane holds a site, not a hemisphere; wrong control points do this) or beyond
+    /// the range of doubles. Longitudes come back in [-180, 180).
+    pub fn apply(&self, x: f64, y: f64) -> Result<(f64, f64), MapError> {
         let (e, n) = self.transform.apply(x, y);
-        if self.lonlat {
-            from_plane(e, n, self.lon0, self.lat0)
-        } else {
-            (e, n)
+        let (mx, my) = if self.lonlat { from_plane(e, n, self.lon0, self.lat0) } else { (e, n) };
+        if !(mx.is_finite() && my.is_finite()) {
+            return Err(MapError::Beyond { x, y, value: format!("({mx:?}, {my:?})") });
         }
+        if self.lonlat && !(-90.0..=90.0).contains(&my) {
+            return Err(MapError::Beyond { x, y, value: format!("latitude {my:?}") });
+        }
+        Ok((mx, my))
     }
 
     /// Every point of `tr` on the map ([`MapFit::apply`]); t unchanged. O(n).
-    pub fn apply_traj(&self, tr: Traj<'_>) -> OwnedTraj {
+    pub fn apply_traj(&self, tr: Traj<'_>) -> Result<OwnedTraj, MapError> {
         let mut o = OwnedTraj::default();
         for k in 0..tr.len() {
-            let (x, y) = self.apply(tr.x[k], tr.y[k]);
+            let (x, y) = self.apply(tr.x[k], tr.y[k])?;
             o.push(tr.t[k], x, y);
         }
-        o
+        Ok(o)
+    }
+
+    /// [`MapFit::residual_m`] of values that must be finite (an error names the first that is not).
+    pub fn residual_m_checked(&self, x: f64, y: f64, map_x: f64, map_y: f64) -> Result<f64, MapError> {
+        for (field, value) in [("x", x), ("y", y), ("map_x", map_x), ("map_y", map_y)] {
+            if !value.is_finite() {
+                return Err(MapError::Value { field, value });
+            }
+        }
+        if self.lonlat && !((-180.0..=180.0).contains(&map_x) && (-90.0..=90.0).contains(&map_y)) {
+            return Err(MapError::MapPoint { lon: map_x, lat: map_y });
+        }
+        Ok(self.residual_m(x, y, map_x, map_y))
     }
 
     /// How far the fit puts local (x, y) from the map point (map_x, map_y), in metres (the
@@ -223,7 +260,7 @@ mod tests {
         let f = fit(&x, &y, &mx, &my, false).unwrap();
         assert!((f.transform.theta - 0.3).abs() < 1e-9 && (f.transform.scale - 1.0).abs() < 1e-9, "{f:?}");
         assert!(f.rms_m() < 1e-6);
-        let (px, py) = f.apply(5.0, 5.0);
+        let (px, py) = f.apply(5.0, 5.0).unwrap();
         let (qx, qy) = t.apply(5.0, 5.0);
         assert!((px - qx).abs() < 1e-6 && (py - qy).abs() < 1e-6);
     }
@@ -252,7 +289,7 @@ mod tests {
         assert!(mx.iter().any(|&v| v > 179.0) && mx.iter().any(|&v| v < -179.0), "{mx:?}");
         let f = fit(&x, &y, &mx, &my, true).unwrap();
         assert!(f.rms_m() < 1e-6 && (f.transform.scale - 1.0).abs() < 1e-9, "{f:?}");
-        let (lon, lat) = f.apply(100.0, 100.0);
+        let (lon, lat) = f.apply(100.0, 100.0).unwrap();
         assert!((lon - mx[2]).abs() < 1e-9 && (lat - my[2]).abs() < 1e-9);
     }
 
@@ -265,6 +302,13 @@ mod tests {
         assert!(e(&[1.0, 1.0], &[1.0, 1.0], &[0.0, 5.0], &[0.0, 5.0], false).contains("coincide in the local frame"));
         assert!(e(&[0.0, 10.0], &[0.0, 0.0], &[5.0, 5.0], &[5.0, 5.0], false).contains("no map fit"));
         assert!(MapFit::checked(Transform2::IDENTITY, true, 0.0, 90.0).is_err());
+        // a fit map_apply would refuse is no fit; a point mapped past a pole is an error
+        assert!(e(&[0.0, 10.0], &[0.0, 0.0], &[1e200, 2e200], &[0.0, 0.0], false).contains("no map fit"));
+        let f = MapFit::checked(Transform2::IDENTITY, true, 0.0, 89.9999).unwrap();
+        assert!(f.apply(0.0, 1000.0).unwrap_err().to_string().contains("off the map"));
+        let (lon, _) = f.apply(1000.0, 0.0).unwrap();
+        assert!((-180.0..180.0).contains(&lon), "{lon}");
+        assert!(f.residual_m_checked(0.0, 0.0, 720.0, 0.0).is_err());
         assert!(MapFit::checked(Transform2::new(0.0, 0.0, 0.0, -1.0), false, 0.0, 0.0).is_err());
     }
 }

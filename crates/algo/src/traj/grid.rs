@@ -39,23 +39,46 @@ pub fn clock_ticks(first: f64, last: f64, period: f64) -> impl Iterator<Item = f
     })
 }
 
+/// Why [`window_index`] has no answer.
+#[derive(Clone, Debug, PartialEq)]
+pub enum WindowError {
+    Width(f64),
+    Time(f64),
+    /// `t / width` beyond ±2^53: k would not be exact.
+    TooFar { t: f64, width: f64 },
+}
+
+impl std::fmt::Display for WindowError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            WindowError::Width(w) => write!(f, "width must be finite and > 0 (seconds), got {w:?}"),
+            WindowError::Time(t) => write!(f, "t must be finite, got {t:?}"),
+            WindowError::TooFar { t, width } => write!(f, "t / width ({t:?} / {width:?}) must lie within +-2^53 windows: use a wider window"),
+        }
+    }
+}
+impl std::error::Error for WindowError {}
+
 /// The k with `k as f64 * width <= t < (k + 1) as f64 * width`, each bound computed as a host
 /// computes a window's start and end from k (one product, rounded once): the window
 /// `[k · width, (k + 1) · width)` that holds `t`. `floor(t / width)` alone can be one off, as
 /// `t / width` and `k · width` round apart; the products decide. The archive's Spark runner
 /// assigns a road user's first observation to its window with this, and each window task keeps
 /// the road users whose first observation lies in its `[start, end)` (sql/window.sql). O(1).
-/// `None` unless `t` is finite, `width` finite and > 0, and `|t / width| < 2^53` (k exact).
-pub fn window_index(t: f64, width: f64) -> Option<i64> {
-    if !(t.is_finite() && width.is_finite() && width > 0.0) {
-        return None;
+/// An error unless `t` is finite, `width` finite and > 0, and `|t / width| < 2^53` (k exact).
+pub fn window_index(t: f64, width: f64) -> Result<i64, WindowError> {
+    if !(width.is_finite() && width > 0.0) {
+        return Err(WindowError::Width(width));
+    }
+    if !t.is_finite() {
+        return Err(WindowError::Time(t));
     }
     let q = (t / width).floor();
     if !(q.abs() < 9_007_199_254_740_992.0) {
-        return None;
+        return Err(WindowError::TooFar { t, width });
     }
     let k = q as i64;
-    Some(if t < k as f64 * width {
+    Ok(if t < k as f64 * width {
         k - 1
     } else if t >= (k + 1) as f64 * width {
         k + 1
@@ -90,12 +113,16 @@ mod tests {
                 }
             }
         }
-        // 0.3 / 0.1 is 2.9999999999999996: floor says 2, the products say window 3 holds 0.3
-        assert_eq!((0.3f64 / 0.1).floor(), 2.0);
-        assert_eq!(window_index(0.3, 0.1), Some(if 3.0 * 0.1 <= 0.3 { 3 } else { 2 }));
-        assert_eq!(window_index(1.78e9 + 0.5, 3600.0), Some(494_444));
-        assert_eq!(window_index(f64::NAN, 1.0), None);
-        assert_eq!(window_index(1.0, 0.0), None);
-        assert_eq!(window_index(1e300, 1e-300), None);
+        // just below -36 · 0.1 (-3.6000000000000005): floor(t / 0.1) says -36, but -36 · 0.1 lies
+        // above t, so window -37 holds it
+        let t = (-36.0f64 * 0.1).next_down();
+        assert_eq!((t / 0.1f64).floor(), -36.0);
+        assert_eq!(window_index(t, 0.1), Ok(-37));
+        // 3 · 0.1 is 0.30000000000000004: 0.3 lies in window 2
+        assert_eq!(window_index(0.3, 0.1), Ok(2));
+        assert_eq!(window_index(1.78e9 + 0.5, 3600.0), Ok(494_444));
+        assert!(matches!(window_index(f64::NAN, 1.0), Err(WindowError::Time(_))));
+        assert_eq!(window_index(1.0, 0.0), Err(WindowError::Width(0.0)));
+        assert_eq!(window_index(1e300, 1e-300), Err(WindowError::TooFar { t: 1e300, width: 1e-300 }));
     }
 }

@@ -314,8 +314,10 @@ UNION ALL
 SELECT 20, row_number() OVER (ORDER BY class = '*', class),
        format('  {} {} {} {} {} {} {} {} {} {} {}', s_class(class), printf('%6s', s_num(idf1, '%.3f')),
               printf('%7s', s_num(coalesce(exact_share, 0), '%.3f')), s_int(objects, 8),
-              printf('%11s', s_num(links_correct::DOUBLE / greatest(links, 1), '%.3f')),
-              printf('%12s', s_num(breaks_found::DOUBLE / greatest(true_breaks, 1), '%.3f')), s_int(true_breaks, 11), s_int(links, 8),
+              -- nothing to measure (no link made, no true break): -, not 0.000
+              printf('%11s', CASE WHEN links > 0 THEN s_num(links_correct::DOUBLE / links, '%.3f') ELSE '-' END),
+              printf('%12s', CASE WHEN true_breaks > 0 THEN s_num(breaks_found::DOUBLE / true_breaks, '%.3f') ELSE '-' END),
+              s_int(true_breaks, 11), s_int(links, 8),
               printf('%6s', s_num(coalesce(hota, 0), '%.3f')), printf('%6s', s_num(coalesce(deta, 0), '%.3f')),
               printf('%6s', s_num(coalesce(assa, 0), '%.3f')))
 FROM s_identity

@@ -516,7 +516,9 @@ def score(con, scenario, results):
     'exact'} (worst camera pair: clock_s the worst clock error over the recording, drift_ppm the
     worst pairwise drift error; overall match F1, road-user identity and HOTA); the tables
     s_pair_err, s_identity, s_hota, s_class_scores (s_path_summary, s_fuse_vs_best,
-    s_path_quality with world.csv) and s_printout (what `trajdb score` prints) stay in `con`."""
+    s_path_quality with world.csv) and s_printout (what `trajdb score` prints) stay in `con`: the
+    scorer's TEMP tables and macros are all named s_* (a TEMP object of yours of such a name is
+    replaced; score on a connection of its own, as `trajdb score` does, to keep yours)."""
     scenario, results = os.path.abspath(scenario), os.path.abspath(results)
     con.execute("SET VARIABLE score_scenario = ?", [scenario])
     con.execute("SET VARIABLE score_results = ?", [results])

@@ -20,12 +20,16 @@ CREATE OR REPLACE TEMP TABLE s_truth AS SELECT * FROM read_csv(getvariable('scor
 -- read as text and typed here: a run that placed no camera pair writes empty transform columns, and
 -- results older than the clock drift lack clock_drift_ppm (drift 0), older than issue 38 scale (1). transforms.csv's clock model:
 -- t_from = (1 + clock_drift_ppm 1e-6) t_to + clock_offset_s.
+-- The cameras are named as in cameras.csv, with its type: integer ids stay integers, text ids
+-- ('north') text; the camera columns of the other files are matched to them by their text.
 CREATE OR REPLACE TEMP TABLE s_tf AS
-SELECT cam_from::INTEGER AS cam_from, cam_to::INTEGER AS cam_to, theta_rad::DOUBLE AS theta_rad, tx::DOUBLE AS tx, ty::DOUBLE AS ty,
+SELECT a.camera AS cam_from, b.camera AS cam_to, theta_rad::DOUBLE AS theta_rad, tx::DOUBLE AS tx, ty::DOUBLE AS ty,
        clock_offset_s::DOUBLE AS clock_offset_s, coalesce(clock_drift_ppm::DOUBLE, 0.0) AS clock_drift_ppm,
        coalesce(scale::DOUBLE, 1.0) AS scale
 FROM (FROM read_csv(getvariable('score_results') || '/transforms.csv', header = true, all_varchar = true)
-      UNION ALL BY NAME (SELECT NULL::VARCHAR AS clock_drift_ppm, NULL::VARCHAR AS scale WHERE false));
+      UNION ALL BY NAME (SELECT NULL::VARCHAR AS clock_drift_ppm, NULL::VARCHAR AS scale WHERE false)) t
+JOIN (SELECT DISTINCT camera FROM s_cameras) a ON a.camera::VARCHAR = t.cam_from
+JOIN (SELECT DISTINCT camera FROM s_cameras) b ON b.camera::VARCHAR = t.cam_to;
 CREATE OR REPLACE TEMP TABLE s_matches AS SELECT * FROM read_csv(getvariable('score_results') || '/matches.csv');
 CREATE OR REPLACE TEMP TABLE s_links AS SELECT * FROM read_csv(getvariable('score_results') || '/links.csv');
 

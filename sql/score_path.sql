@@ -23,31 +23,32 @@ CREATE OR REPLACE TEMP TABLE s_cam_clock AS
 SELECT camera, coalesce(clock_offset_s, 0.0) AS off, coalesce(clock_drift_ppm, 0.0) * 1e-6 AS drift
 FROM (SELECT * FROM s_cameras UNION ALL BY NAME SELECT NULL::DOUBLE AS clock_drift_ppm WHERE false);
 
+-- the reference camera: calibration.csv's value is the stage's camera number; a text id is named
+-- at the end of its `how`, (camera 'north') (docs/outputs.md). Matched to cameras.csv by its text.
 CREATE OR REPLACE TEMP TABLE s_ref AS
-SELECT r.camera, t.tf, c.off, c.drift
-FROM (SELECT value::INTEGER AS camera FROM read_csv(getvariable('score_results') || '/calibration.csv')
+SELECT k.camera, t.tf, c.off, c.drift
+FROM (SELECT coalesce(nullif(regexp_extract(how, '\(camera ''(.*)''\)$', 1), ''), value::BIGINT::VARCHAR) AS name
+      FROM read_csv(getvariable('score_results') || '/calibration.csv', types = {'value': 'DOUBLE', 'how': 'VARCHAR'})
       WHERE scope = 'pipeline' AND quantity = 'reference camera') r
-JOIN s_true t USING (camera) JOIN s_cam_clock c USING (camera);
+JOIN (SELECT DISTINCT camera FROM s_cameras) k ON k.camera::VARCHAR = r.name
+JOIN s_true t ON t.camera = k.camera JOIN s_cam_clock c ON c.camera = k.camera;
 
 -- the pipeline's camera -> reference transforms and clocks: t_cam = (1 + d) t_ref + off
 CREATE OR REPLACE TEMP TABLE s_to_ref AS
-SELECT cam_from AS camera, {'theta': theta_rad, 'tx': tx, 'ty': ty, 'scale': coalesce(TRY_CAST(scale AS DOUBLE), 1.0)} AS tf,
-       coalesce(clock_offset_s, 0.0) AS off,
-       -- an empty transforms.csv (no camera pair placed) sniffs the column as VARCHAR
-       coalesce(TRY_CAST(clock_drift_ppm AS DOUBLE), 0.0) * 1e-6 AS drift
-FROM (SELECT * FROM read_csv(getvariable('score_results') || '/transforms.csv', header = true,
-                             types = {'cam_from': 'INTEGER', 'cam_to': 'INTEGER', 'theta_rad': 'DOUBLE', 'tx': 'DOUBLE', 'ty': 'DOUBLE', 'clock_offset_s': 'DOUBLE'})
-      UNION ALL BY NAME SELECT NULL::DOUBLE AS clock_drift_ppm, NULL::DOUBLE AS scale WHERE false)
-WHERE cam_to = (SELECT camera FROM s_ref) AND theta_rad IS NOT NULL
+SELECT cam_from AS camera, {'theta': theta_rad, 'tx': tx, 'ty': ty, 'scale': scale} AS tf,
+       coalesce(clock_offset_s, 0.0) AS off, clock_drift_ppm * 1e-6 AS drift
+FROM s_tf
+WHERE cam_to = (SELECT camera FROM s_ref) AND theta_rad IS NOT NULL AND tx IS NOT NULL AND ty IS NOT NULL
 UNION ALL
 SELECT camera, transform_identity(), 0.0, 0.0 FROM s_ref;
 
--- points to score: the fused paths (source -1, k = position in traj) and every placed camera's
+-- points to score: the fused paths (source NULL, k = position in traj) and every placed camera's
 -- real points of the road user's tracks (source = camera), in world time and frame
 CREATE OR REPLACE TEMP TABLE s_eval AS
 WITH mp AS (SELECT road_user, class, unnest(traj) AS p, generate_subscripts(traj, 1) AS k
             FROM read_parquet(getvariable('score_results') || '/merged.parquet')),
-     fused AS (SELECT m.road_user, m.class, -1 AS source, m.k, m.p.t AS t_ref, m.p.x, m.p.y FROM mp m),
+     -- source: NULL for the fused path, else the camera (whatever the type of its ids)
+     fused AS (SELECT m.road_user, m.class, NULL AS source, m.k, m.p.t AS t_ref, m.p.x, m.p.y FROM mp m),
      src AS (SELECT r.road_user, r.class, p.camera AS source, NULL::BIGINT AS k,
                     clock_to_reference(p.t, c.off, c.drift) AS t_ref, tp.w.x AS x, tp.w.y AS y
              FROM s_points p
@@ -71,9 +72,9 @@ SELECT road_user, class, object_id, source, k, t_ref, t, w.x AS x, w.y AS y,
 FROM e;
 
 CREATE OR REPLACE TEMP TABLE s_path_err AS
-SELECT road_user, class, object_id, t, err_m FROM s_eval_err WHERE source = -1;
+SELECT road_user, class, object_id, t, err_m FROM s_eval_err WHERE source IS NULL;
 CREATE OR REPLACE TEMP TABLE s_src_err AS
-SELECT road_user, class, object_id, source AS camera, t, err_m FROM s_eval_err WHERE source >= 0;
+SELECT road_user, class, object_id, source AS camera, t, err_m FROM s_eval_err WHERE source IS NOT NULL;
 
 CREATE OR REPLACE TEMP TABLE s_path_summary AS
 WITH cls AS (SELECT DISTINCT class FROM s_path_err UNION SELECT '*')
@@ -109,7 +110,7 @@ CREATE OR REPLACE TEMP TABLE s_path_steps AS
 SELECT road_user, class, object_id, t, t_ref - lag(t_ref) OVER w AS dt,
        sqrt((x - lag(x) OVER w) ** 2 + (y - lag(y) OVER w) ** 2) AS step_m,
        sqrt((ex - lag(ex) OVER w) ** 2 + (ey - lag(ey) OVER w) ** 2) AS jump_m
-FROM s_eval_err WHERE source = -1
+FROM s_eval_err WHERE source IS NULL
 WINDOW w AS (PARTITION BY road_user ORDER BY k);
 
 CREATE OR REPLACE TEMP TABLE s_speed_ratio AS

@@ -105,6 +105,34 @@ def main():
         # the noise track is in no road user: no FP; everything else in its object's one road user
         assert close(s["hota"], 1.0) and s["drift_ppm"] == 0.0 and s["clock_s"] == 0.0, s
         print("ok   old formats (no clock columns): drift 0, clock 0, a perfect result scores HOTA 1")
+
+        # metamorphic: the same scenario with TEXT camera ids (points, cameras.csv, truth.csv)
+        # scores the same, line for line, its names put back
+        d = os.path.join(w, "sim")
+        trajdb.simulate(con, d, cameras=3, minutes=1, seed=4)
+        names = {0: "cam-a", 1: "cam-b", 2: "cam-c"}
+        t = os.path.join(w, "text")
+        os.makedirs(t)
+        case = "CASE camera WHEN 0 THEN 'cam-a' WHEN 1 THEN 'cam-b' WHEN 2 THEN 'cam-c' END"
+        for f, how in (("points.parquet", "(FORMAT parquet)"), ("cameras.csv", "(HEADER)"), ("truth.csv", "(HEADER)"), ("world.csv", "(HEADER)")):
+            src = os.path.join(d, f)
+            cols = con.execute("SELECT column_name FROM (DESCRIBE SELECT * FROM read_csv(?))" if f.endswith(".csv")
+                               else "SELECT column_name FROM (DESCRIBE SELECT * FROM read_parquet(?))", [src]).fetchall()
+            rel = f"SELECT * REPLACE ({case} AS camera) FROM " if ("camera",) in cols else "SELECT * FROM "
+            con.execute("SET VARIABLE score_test_dst = ?", [os.path.join(t, f)])
+            con.execute(f"COPY ({rel}{'read_csv' if f.endswith('.csv') else 'read_parquet'}(?)) TO (getvariable('score_test_dst')) {how}", [src])
+        lines = {}
+        for scen in (d, t):
+            trajdb.pipeline(con, os.path.join(scen, "points.parquet"), out=os.path.join(scen, "r"))
+            summary = trajdb.score(con, scen, os.path.join(scen, "r"))
+            text = [r[0] for r in con.execute("SELECT line FROM s_printout ORDER BY section, k").fetchall()]
+            for k, v in names.items():
+                text = [x.replace(f" {v} -> ", f" {k} -> ").replace(f" -> {v}: ", f" -> {k}: ").replace(f"camera {v}'s", f"camera {k}'s")
+                        for x in text]
+            lines[scen] = (summary, text)
+        assert lines[d][0] == lines[t][0], (lines[d][0], lines[t][0])
+        assert lines[d][1] == lines[t][1], "\n".join(a + "  |  " + b for a, b in zip(*[x[1] for x in lines.values()]) if a != b)
+        print(f"ok   text camera ids score as integer ids, line for line ({len(lines[d][1])} lines; match F1 {lines[d][0]['match_f1']:.3f})")
     print("test_score_python: OK")
 
 

@@ -28,9 +28,10 @@ pub static FUNCTIONS: &[Function] = &[PIPELINE, STAGES, SCRIPT, STATEMENT, PARAM
 const STATEMENT: Function = Function {
     name: "trajdb_statement",
     description: "What one SQL statement does to which table, view or macro, as the runner reads it (its undo, the manifest's `makes`): \
-                  'ACTION NAME', ACTION one of table, view, macro (a CREATE), insert, delete, update and NAME the lower-case name; \
-                  NULL for any other statement (SELECT, SET, ...). Comment lines before the statement are skipped. \
-                  tests/check_stage_contracts.py reads every stage's statements with it. O(length of the statement's first words).",
+                  'ACTION NAME', ACTION one of table, view, macro (a CREATE), insert, delete, update and NAME the lower-case name \
+                  without its schema (quoted names unquoted: temp.main.\"My T\" is my t); NULL for any other statement (SELECT, SET, \
+                  ...). Comments (-- and /* */) are skipped, and a leading WITH clause: WITH x AS (...) INSERT INTO t is insert t. \
+                  tests/check_stage_contracts.py reads every stage's statements with it. O(length of the statement).",
     example: "SELECT trajdb_statement('CREATE OR REPLACE TEMP MACRO m(x) AS x + 1'); -- macro m",
     maths: "crates/app/src/plan.rs",
     binding: file!(),

@@ -131,21 +131,122 @@ pub fn statement_target(stmt: &str) -> Option<String> {
     statement_action(stmt).map(|(_, name)| name)
 }
 
-/// What a statement does to which table, view or macro: `CREATE [OR REPLACE] [TEMP|TEMPORARY]
-/// TABLE|VIEW|MACRO [IF NOT EXISTS] name` gives ("table" | "view" | "macro", name), `INSERT INTO
-/// name` ("insert", name), `DELETE FROM name` ("delete", name), `UPDATE name` ("update", name),
-/// names in lower case; `None` for anything else. Comment lines before it are skipped. The one
-/// reading of a statement's target: the runner's undo and the stage contract check
-/// (tests/check_stage_contracts.py, through `trajdb_statement`) both use it.
-pub fn statement_action(stmt: &str) -> Option<(&'static str, String)> {
-    let code: String = stmt.lines().filter(|l| !l.trim_start().starts_with("--")).collect::<Vec<_>>().join("\n");
-    let words: Vec<String> = code.split_whitespace().take(9).map(|w| w.to_ascii_lowercase()).collect();
-    let w: Vec<&str> = words.iter().map(String::as_str).collect();
-    let name_at = |k: usize| -> Option<String> {
-        let raw = w.get(k)?;
-        let name: String = raw.chars().take_while(|c| c.is_alphanumeric() || *c == '_').collect();
-        (!name.is_empty()).then_some(name)
+/// The tokens of a statement, lower case, for the readers below: a name is one token, dotted
+/// parts and quoted parts included (`temp.main."My T"` is `temp.main.my t`); a string literal is
+/// the token `'`; any other character is a token of its own (`(`, `,`, `;`, ...). Comments (`--`
+/// to the end of the line, `/* */`) are skipped. O(length).
+fn tokens(stmt: &str) -> Vec<String> {
+    let c: Vec<char> = stmt.chars().collect();
+    let (mut out, mut k) = (Vec::new(), 0);
+    let word = |ch: char| ch.is_alphanumeric() || ch == '_' || ch == '$';
+    while k < c.len() {
+        let ch = c[k];
+        if ch.is_whitespace() {
+            k += 1;
+        } else if ch == '-' && c.get(k + 1) == Some(&'-') {
+            while k < c.len() && c[k] != '\n' {
+                k += 1;
+            }
+        } else if ch == '/' && c.get(k + 1) == Some(&'*') {
+            k += 2;
+            while k < c.len() && !(c[k] == '*' && c.get(k + 1) == Some(&'/')) {
+                k += 1;
+            }
+            k += 2;
+        } else if ch == '\'' {
+            k += 1;
+            while k < c.len() && !(c[k] == '\'' && c.get(k + 1) != Some(&'\'')) {
+                k += if c[k] == '\'' { 2 } else { 1 };
+            }
+            k += 1;
+            out.push("'".to_string());
+        } else if ch == '"' || word(ch) {
+            // a name: parts, quoted or not, joined by dots
+            let mut name = String::new();
+            loop {
+                if c.get(k) == Some(&'"') {
+                    k += 1;
+                    while k < c.len() && !(c[k] == '"' && c.get(k + 1) != Some(&'"')) {
+                        name.push(c[k]);
+                        k += if c[k] == '"' { 2 } else { 1 };
+                    }
+                    k += 1;
+                } else {
+                    while k < c.len() && word(c[k]) {
+                        name.push(c[k]);
+                        k += 1;
+                    }
+                }
+                if c.get(k) == Some(&'.') && c.get(k + 1).is_some_and(|&n| n == '"' || word(n)) {
+                    name.push('.');
+                    k += 1;
+                } else {
+                    break;
+                }
+            }
+            out.push(name.to_lowercase());
+        } else {
+            out.push(ch.to_string());
+            k += 1;
+        }
+    }
+    out
+}
+
+/// The tokens of the main statement: after a leading `WITH [RECURSIVE] name [(cols)] AS [[NOT]
+/// MATERIALIZED] (...), ...`, so that `WITH x AS (...) INSERT INTO t ...` reads as the INSERT.
+fn main_statement(t: &[String]) -> &[String] {
+    if t.first().map(String::as_str) != Some("with") {
+        return t;
+    }
+    let mut k = 1 + usize::from(t.get(1).map(String::as_str) == Some("recursive"));
+    // the token after the balanced parentheses that open at k
+    let past = |mut k: usize| -> usize {
+        let mut depth = 0usize;
+        while k < t.len() {
+            match t[k].as_str() {
+                "(" => depth += 1,
+                ")" => {
+                    depth = depth.saturating_sub(1);
+                    if depth == 0 {
+                        return k + 1;
+                    }
+                }
+                _ => {}
+            }
+            k += 1;
+        }
+        k
     };
+    loop {
+        k += 1; // the CTE's name
+        if t.get(k).map(String::as_str) == Some("(") {
+            k = past(k);
+        }
+        if t.get(k).map(String::as_str) == Some("as") {
+            k += 1;
+        }
+        if t.get(k).map(String::as_str) == Some("not") {
+            k += 1;
+        }
+        if t.get(k).map(String::as_str) == Some("materialized") {
+            k += 1;
+        }
+        if t.get(k).map(String::as_str) == Some("(") {
+            k = past(k);
+        }
+        if t.get(k).map(String::as_str) == Some(",") {
+            k += 1;
+        } else {
+            return t.get(k..).unwrap_or(&[]);
+        }
+    }
+}
+
+/// The object a main statement creates or changes, as (action, qualified name), from its tokens.
+fn action_of(w: &[String]) -> Option<(&'static str, String)> {
+    let w: Vec<&str> = w.iter().map(String::as_str).collect();
+    let name_at = |k: usize| -> Option<String> { w.get(k).filter(|n| !n.is_empty() && !n.starts_with(|c: char| !(c.is_alphanumeric() || c == '_' || c == '$'))).map(|n| n.to_string()) };
     match w.as_slice() {
         ["create", rest @ ..] => {
             let mut k = 1;
@@ -167,11 +268,28 @@ pub fn statement_action(stmt: &str) -> Option<(&'static str, String)> {
             }
             name_at(k).map(|n| (kind, n))
         }
+        ["insert", "or", _, "into", ..] => name_at(4).map(|n| ("insert", n)),
         ["insert", "into", ..] => name_at(2).map(|n| ("insert", n)),
         ["delete", "from", ..] => name_at(2).map(|n| ("delete", n)),
         ["update", ..] => name_at(1).map(|n| ("update", n)),
         _ => None,
     }
+}
+
+/// The last part of a dotted name (`temp.main.points` is `points`).
+fn bare(name: &str) -> String {
+    name.rsplit('.').next().unwrap_or(name).to_string()
+}
+
+/// What a statement does to which table, view or macro: `CREATE [OR REPLACE] [TEMP|TEMPORARY]
+/// TABLE|VIEW|MACRO [IF NOT EXISTS] name` gives ("table" | "view" | "macro", name), `INSERT [OR
+/// REPLACE|IGNORE] INTO name` ("insert", name), `DELETE FROM name` ("delete", name), `UPDATE
+/// name` ("update", name), also after a `WITH` clause; names in lower case, without their schema
+/// (`temp.main."Points"` is `points`); `None` for anything else. Comments are skipped. The one
+/// reading of a statement's target: the runner's undo and the stage contract check
+/// (tests/check_stage_contracts.py, through `trajdb_statement`) both use it.
+pub fn statement_action(stmt: &str) -> Option<(&'static str, String)> {
+    action_of(main_statement(&tokens(stmt))).map(|(a, n)| (a, bare(&n)))
 }
 
 /// The short name a statement gives one of trajdb's macros (sql/analysis.sql: `CREATE OR REPLACE
@@ -210,31 +328,31 @@ pub fn short_name(stmt: &str) -> Option<String> {
 /// ALTER, COMMENT, CHECKPOINT, SET other than SET VARIABLE, ...). Statements that only read, or
 /// write files (COPY ... TO: the results folder's rules, outdir.rs), pass.
 pub fn leaves_the_session(stmt: &str, made: &[String]) -> Option<String> {
-    let code: String = stmt.lines().filter(|l| !l.trim_start().starts_with("--")).collect::<Vec<_>>().join("\n");
-    let words: Vec<String> = code.split_whitespace().take(8).map(|w| w.to_ascii_lowercase()).collect();
-    let w: Vec<&str> = words.iter().map(String::as_str).collect();
-    let first = w.first().copied().unwrap_or("");
-    let head = first.split('(').next().unwrap_or("");
-    let temp_made = |name: Option<String>| name.is_some_and(|n| made.contains(&n));
-    match head {
+    let all = tokens(stmt);
+    let w = main_statement(&all);
+    let at = |k: usize| w.get(k).map(String::as_str).unwrap_or("");
+    // an unqualified name the run made TEMP (a qualified one must say temp.: main.points is the user's)
+    let temp_made = |name: &str| !name.contains('.') && made.iter().any(|m| m == name);
+    match at(0) {
         "create" => {
-            let k = if w.get(1) == Some(&"or") && w.get(2) == Some(&"replace") { 3 } else { 1 };
-            (!matches!(w.get(k), Some(&"temp") | Some(&"temporary"))).then(|| "it creates an object that is not TEMP".to_string())
+            let k = if at(1) == "or" && at(2) == "replace" { 3 } else { 1 };
+            (!matches!(at(k), "temp" | "temporary")).then(|| "it creates an object that is not TEMP".to_string())
         }
         "insert" | "delete" | "update" => {
-            let raw = if head == "update" { w.get(1) } else { w.get(2) };
-            let qualified_temp = raw.is_some_and(|r| r.starts_with("temp."));
-            (!qualified_temp && !temp_made(statement_target(stmt))).then(|| "it changes a table the run did not create TEMP".to_string())
+            // the full name as written: temp.… is the session's own
+            let raw = action_of(w).map(|(_, n)| n).unwrap_or_default();
+            (!raw.starts_with("temp.") && !temp_made(&raw)).then(|| "it changes a table the run did not create TEMP".to_string())
         }
         "drop" => {
-            let k = if w.get(2) == Some(&"if") && w.get(3) == Some(&"exists") { 4 } else { 2 };
-            (!w.get(k).is_some_and(|n| n.starts_with("temp."))).then(|| "it drops an object not named temp.…".to_string())
+            let k = if at(2) == "if" && at(3) == "exists" { 4 } else { 2 };
+            (!at(k).starts_with("temp.")).then(|| "it drops an object not named temp.…".to_string())
         }
-        "set" => (w.get(1) != Some(&"variable")).then(|| "it changes a setting (only SET VARIABLE is the session's own)".to_string()),
+        "set" => (at(1) != "variable").then(|| "it changes a setting (only SET VARIABLE is the session's own)".to_string()),
         // COPY (query) TO file only: COPY table FROM file would fill a table
-        "copy" => (!(first.starts_with("copy(") || w.get(1).is_some_and(|x| x.starts_with('('))))
-            .then(|| "only COPY (query) TO is part of a run".to_string()),
-        "select" | "from" | "with" | "values" | "" => None,
+        "copy" => (at(1) != "(").then(|| "only COPY (query) TO is part of a run".to_string()),
+        "select" | "from" | "values" | "" => None,
+        // a WITH clause before anything else (a CTE list that never ends): not read, so refused
+        "with" => Some("a WITH clause whose statement cannot be read".to_string()),
         other => Some(format!("{other} statements are not part of a run")),
     }
 }
@@ -559,6 +677,13 @@ mod tests {
         assert_eq!(statement_action("CREATE OR REPLACE TEMP MACRO m(x) AS x"), Some(("macro", "m".to_string())));
         assert_eq!(statement_action("-- c\nUPDATE Points SET t = 1"), Some(("update", "points".to_string())));
         assert_eq!(statement_action("CREATE INDEX i ON t (a)"), None);
+        // quoted and qualified names, block comments, a WITH clause, INSERT OR REPLACE
+        assert_eq!(statement_action("CREATE TEMP TABLE temp.main.\"My T\" AS SELECT 1"), Some(("table", "my t".to_string())));
+        assert_eq!(statement_action("/* x */ INSERT INTO main.points SELECT 1"), Some(("insert", "points".to_string())));
+        assert_eq!(statement_action("WITH a AS (SELECT '(' AS p), b(x) AS (SELECT 1) INSERT INTO t SELECT 1"), Some(("insert", "t".to_string())));
+        assert_eq!(statement_action("INSERT OR REPLACE INTO t VALUES (1)"), Some(("insert", "t".to_string())));
+        assert_eq!(statement_action("WITH a AS (SELECT 1) SELECT * FROM a"), None);
+        assert_eq!(statement_action("CREATE TEMP TABLE \"a\"\"b\" AS SELECT 1"), Some(("table", "a\"b".to_string())));
     }
 
     #[test]
@@ -639,6 +764,14 @@ mod tests {
             "COPY points FROM 'x.csv'",
             "COPY user_table TO 'x.csv'",
             "CALL pragma_version()",
+            // what the word reader missed: a WITH before the DML, quotes, qualified names, comments
+            "WITH x AS (SELECT 1 AS a) INSERT INTO user_table SELECT a FROM x",
+            "WITH RECURSIVE x(a) AS (SELECT 1), y AS MATERIALIZED (SELECT 2) DELETE FROM main.points",
+            "INSERT INTO main.points SELECT 1",
+            "INSERT OR REPLACE INTO user_table SELECT 1",
+            "/* a comment */ CREATE MACRO m() AS 1",
+            "CREATE /* TEMP */ TABLE t AS SELECT 1",
+            "UPDATE \"User Table\" SET a = 1",
         ] {
             assert!(leaves_the_session(bad, &made).is_some(), "{bad}");
         }
@@ -655,6 +788,10 @@ mod tests {
             "FROM trajdb_results_end('r', true)",
             "COPY (SELECT 1) TO 'x.csv'",
             "COPY\n(FROM result_transforms() ORDER BY cam_from) TO 'x' (HEADER)",
+            "WITH x AS (SELECT 1) SELECT * FROM x",
+            "WITH x AS (SELECT ')' AS p) INSERT INTO points SELECT 1 FROM x",
+            "INSERT INTO temp.main.\"Points\" SELECT 1",
+            "/* c */ -- c\nCREATE TEMP TABLE x AS SELECT 1",
         ] {
             assert_eq!(leaves_the_session(good, &made), None, "{good}");
         }

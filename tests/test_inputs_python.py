@@ -81,6 +81,12 @@ def main():
 
     tmp = tempfile.mkdtemp(prefix="trajdb-inputs-")
     con = trajdb.connect()
+    if duckdb.__version__.startswith("1."):
+        # DuckDB 1.5.5's parallel window operator now and then raises "INTERNAL Error: Attempted to
+        # access index 0 within vector of size 0" (WindowLocalSourceState::Finalize), here in 2 of
+        # 8 runs (issue 41's closing note), an upstream race also met by tests/test_userdb_python.py:
+        # one thread in 1.x, so that this test tests the inputs. DuckDB 2.0 runs it with all threads.
+        con.execute("SET threads = 1")
     trajdb.simulate(con, os.path.join(tmp, "scene"), cameras=3, minutes=1, seed=3)
     path = os.path.join(tmp, "scene", "points.parquet")
     print(f"duckdb {duckdb.__version__}; scene: {con.execute('SELECT count(*) FROM read_parquet(?)', [path]).fetchall()[0][0]} points")
